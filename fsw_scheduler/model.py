@@ -1,0 +1,447 @@
+"""Problem model: tasks, resources and precedences (CONTRACT section 1).
+
+Every structure is an immutable :class:`msgspec.Struct`. :func:`decode_problem`
+turns JSON bytes into a validated :class:`Problem`; anything wrong is raised
+as :class:`~fsw_scheduler.errors.InputError` listing every field path and
+reason. This module is pure: no solver, no bus, no clock.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable, Iterator
+from typing import Literal, TypeVar
+
+import msgspec
+
+from .errors import FieldIssue, InputError
+
+Preemption = Literal["none", "from_start", "from_interrupt", "delete"]
+WindowReading = Literal["task", "start"]
+PrecedenceKind = Literal["tight", "lax"]
+PrecedenceScope = Literal["both", "at_least_first"]
+ResourceKind = Literal["binary", "multiple", "consumable"]
+T = TypeVar("T")
+
+MIN_COST, MAX_COST = 0, 5
+MIN_DELAY_COST, MAX_DELAY_COST = 1, 5
+
+
+class Task(msgspec.Struct, frozen=True, omit_defaults=True):
+    """One activity to schedule.
+
+    Attributes
+    ----------
+    id
+        Unique task name.
+    length
+        Duration in time units, > 0.
+    delay_cost
+        Cost per time unit of starting later than the problem start, 1..5.
+    schedule_cost
+        Cost of leaving the task out, 0..5; 0 means mandatory.
+    preemption
+        What happens if a replan finds the task running: ``none`` (keeps
+        running), ``from_start`` (rescheduled in full), ``from_interrupt``
+        (remaining part rescheduled) or ``delete`` (dropped).
+    feasible_interval
+        ``[a, b]`` or None for the whole horizon; read per
+        :attr:`feasible_interval_applies_to` or the problem-wide default.
+    uses
+        Amount per time unit of each resource; a negative consumable amount
+        is generation.
+    feasible_interval_applies_to
+        Per-task override of the problem's window reading.
+    fixed_start
+        Extension: the task must start exactly here and is mandatory. Used
+        by replanning for a running task that cannot be preempted.
+    """
+
+    id: str
+    length: int
+    delay_cost: int
+    schedule_cost: int
+    preemption: Preemption = "none"
+    feasible_interval: tuple[int, int] | None = None
+    uses: dict[str, float] = {}
+    feasible_interval_applies_to: WindowReading | None = None
+    fixed_start: int | None = None
+
+    @property
+    def mandatory(self) -> bool:
+        """True if the task must be scheduled (schedule cost 0 or fixed)."""
+        return self.schedule_cost == 0 or self.fixed_start is not None
+
+
+class Precedence(msgspec.Struct, frozen=True, omit_defaults=True):
+    """An ordering between two tasks.
+
+    ``tight``: ``s_after = s_before + l_before + offset``; ``lax``:
+    ``s_after >= s_before + l_before + offset``. ``both``: both tasks are
+    scheduled or neither; ``at_least_first``: ``after`` needs ``before``.
+    """
+
+    before: str
+    after: str
+    kind: PrecedenceKind
+    scope: PrecedenceScope = "both"
+    offset: int = 0
+
+
+class Resources(msgspec.Struct, frozen=True, omit_defaults=True):
+    """The three resource kinds and their capacities / initial levels."""
+
+    binary: tuple[str, ...] = ()
+    multiple: dict[str, float] = {}
+    consumable: dict[str, float] = {}
+
+    def kind_of(self, name: str) -> ResourceKind | None:
+        """Return the kind of resource ``name``, or None if unknown."""
+        if name in self.binary:
+            return "binary"
+        if name in self.multiple:
+            return "multiple"
+        if name in self.consumable:
+            return "consumable"
+        return None
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """All resource names: binary, then multiple, then consumable."""
+        return (*self.binary, *self.multiple, *self.consumable)
+
+
+class Problem(msgspec.Struct, frozen=True, omit_defaults=True):
+    """A scheduling problem over ``[start, start + horizon)``."""
+
+    horizon: int
+    tasks: tuple[Task, ...]
+    start: int = 0
+    feasible_interval_applies_to: WindowReading = "task"
+    resources: Resources = Resources()
+    precedences: tuple[Precedence, ...] = ()
+
+    @property
+    def end(self) -> int:
+        """First time unit after the horizon; every task ends by it."""
+        return self.start + self.horizon
+
+    @property
+    def num_tasks(self) -> int:
+        """Number of tasks."""
+        return len(self.tasks)
+
+    def task(self, task_id: str) -> Task:
+        """Return the task named ``task_id`` (KeyError if absent)."""
+        for task in self.tasks:
+            if task.id == task_id:
+                return task
+        raise KeyError(task_id)
+
+    def window_reading(self, task: Task) -> WindowReading:
+        """How ``task``'s feasible interval is read."""
+        return task.feasible_interval_applies_to or (
+            self.feasible_interval_applies_to
+        )
+
+    def start_bounds(self, task: Task) -> tuple[int, int]:
+        """Earliest and latest start allowed by horizon, window and pin.
+
+        The range is empty (first > second) when the task cannot be placed.
+        """
+        earliest, latest = self.start, self.end - task.length
+        if task.feasible_interval is not None:
+            low, high = task.feasible_interval
+            if self.window_reading(task) == "task":
+                high -= task.length
+            earliest, latest = max(earliest, low), min(latest, high)
+        if task.fixed_start is not None:
+            earliest = max(earliest, task.fixed_start)
+            latest = min(latest, task.fixed_start)
+        return earliest, latest
+
+    def replace(self, **changes: object) -> Problem:
+        """Return a copy with ``changes`` applied (fields by name)."""
+        return msgspec.structs.replace(self, **changes)
+
+
+_PATH_RE = re.compile(r"- at `\$(?P<path>[^`]*)`")
+
+
+def _msgspec_issue(error: Exception) -> FieldIssue:
+    """Turn a msgspec decode error into a FieldIssue with a clean path."""
+    text = str(error)
+    match = _PATH_RE.search(text)
+    path = match.group("path").lstrip(".") if match else ""
+    reason = _PATH_RE.sub("", text).strip()
+    return FieldIssue(path, reason)
+
+
+def decode_strict(data: bytes | str, kind: type[T], what: str) -> T:
+    """Decode JSON into ``kind``, raising InputError naming the field."""
+    try:
+        return msgspec.json.decode(data, type=kind)
+    except (msgspec.ValidationError, msgspec.DecodeError) as error:
+        raise InputError([_msgspec_issue(error)], what) from None
+
+
+def decode_problem(data: bytes | str) -> Problem:
+    """Decode and validate a problem document.
+
+    Parameters
+    ----------
+    data
+        The JSON text of CONTRACT section 1.
+
+    Returns
+    -------
+    Problem
+        A problem that passed :func:`validate_problem`.
+
+    Raises
+    ------
+    InputError
+        With one :class:`FieldIssue` per problem found.
+    """
+    problem = decode_strict(data, Problem, "problem")
+    issues = validate_problem(problem)
+    if issues:
+        raise InputError(issues, "problem")
+    return problem
+
+
+def encode(value: object) -> bytes:
+    """Encode a model or plan structure as compact JSON."""
+    return msgspec.json.encode(value)
+
+
+# --------------------------------------------------------------------------
+# Validation. Each rule is a generator of FieldIssue; validate_problem runs
+# them all so a user sees every mistake at once.
+
+
+def validate_problem(problem: Problem) -> list[FieldIssue]:
+    """Return every validation issue of ``problem`` (empty when valid)."""
+    issues = [
+        *_check_horizon(problem),
+        *_check_resources(problem.resources),
+    ]
+    issues += _check_tasks(problem)
+    issues += _check_precedences(problem)
+    if not issues:
+        issues += _check_tight_cycles(problem)
+    return issues
+
+
+def _check_horizon(problem: Problem) -> Iterator[FieldIssue]:
+    if problem.horizon <= 0:
+        yield FieldIssue("horizon", f"must be > 0, got {problem.horizon}")
+    if problem.start < 0:
+        yield FieldIssue("start", f"must be >= 0, got {problem.start}")
+
+
+def _check_resources(resources: Resources) -> Iterator[FieldIssue]:
+    seen: dict[str, str] = {}
+    named = [
+        *(("binary", i, n) for i, n in enumerate(resources.binary)),
+        *(("multiple", n, n) for n in resources.multiple),
+        *(("consumable", n, n) for n in resources.consumable),
+    ]
+    for kind, key, name in named:
+        path = (
+            f"resources.{kind}[{key}]"
+            if kind == "binary"
+            else f"resources.{kind}.{key}"
+        )
+        if not name:
+            yield FieldIssue(path, "resource name must not be empty")
+        if name in seen:
+            yield FieldIssue(
+                path, f"resource {name!r} is already declared as {seen[name]}"
+            )
+        seen[name] = kind
+    for name, capacity in resources.multiple.items():
+        if capacity < 0:
+            yield FieldIssue(
+                f"resources.multiple.{name}",
+                f"capacity must be >= 0, got {capacity}",
+            )
+    for name, level in resources.consumable.items():
+        if level < 0:
+            yield FieldIssue(
+                f"resources.consumable.{name}",
+                f"initial level must be >= 0, got {level}",
+            )
+
+
+def _check_tasks(problem: Problem) -> list[FieldIssue]:
+    issues: list[FieldIssue] = []
+    if not problem.tasks:
+        issues.append(FieldIssue("tasks", "at least one task is required"))
+    seen: dict[str, int] = {}
+    for idx, task in enumerate(problem.tasks):
+        path = f"tasks[{idx}]"
+        if task.id in seen:
+            issues.append(
+                FieldIssue(
+                    f"{path}.id",
+                    f"duplicate task id {task.id!r} "
+                    f"(first at tasks[{seen[task.id]}])",
+                )
+            )
+        seen.setdefault(task.id, idx)
+        issues += _check_task(problem, task, path)
+    return issues
+
+
+def _check_task(problem: Problem, task: Task, path: str) -> list[FieldIssue]:
+    issues: list[FieldIssue] = []
+    if not task.id:
+        issues.append(FieldIssue(f"{path}.id", "must not be empty"))
+    if task.length <= 0:
+        issues.append(
+            FieldIssue(f"{path}.length", f"must be > 0, got {task.length}")
+        )
+    if not MIN_DELAY_COST <= task.delay_cost <= MAX_DELAY_COST:
+        issues.append(
+            FieldIssue(
+                f"{path}.delay_cost",
+                f"must be in {MIN_DELAY_COST}..{MAX_DELAY_COST}, "
+                f"got {task.delay_cost}",
+            )
+        )
+    if not MIN_COST <= task.schedule_cost <= MAX_COST:
+        issues.append(
+            FieldIssue(
+                f"{path}.schedule_cost",
+                f"must be in {MIN_COST}..{MAX_COST} (0 = mandatory), "
+                f"got {task.schedule_cost}",
+            )
+        )
+    for name, amount in sorted(task.uses.items()):
+        issues += _check_use(problem.resources, name, amount, path)
+    if task.length > 0:
+        issues += _check_window(problem, task, path)
+    return issues
+
+
+def _check_use(
+    resources: Resources, name: str, amount: float, path: str
+) -> Iterable[FieldIssue]:
+    kind = resources.kind_of(name)
+    where = f"{path}.uses.{name}"
+    if kind is None:
+        known = ", ".join(resources.names) or "none declared"
+        return [FieldIssue(where, f"unknown resource (known: {known})")]
+    if kind == "binary" and amount != 1:
+        return [
+            FieldIssue(where, f"binary resource amount must be 1, got {amount}")
+        ]
+    if kind == "multiple" and amount < 0:
+        return [
+            FieldIssue(where, f"multiple resource amount must be >= 0, "
+                       f"got {amount}")
+        ]
+    return []
+
+
+def _check_window(
+    problem: Problem, task: Task, path: str
+) -> Iterable[FieldIssue]:
+    if task.length > problem.horizon:
+        return [
+            FieldIssue(
+                f"{path}.length",
+                f"length {task.length} exceeds the horizon {problem.horizon}",
+            )
+        ]
+    if task.fixed_start is not None:
+        low, high = problem.start, problem.end - task.length
+        if not low <= task.fixed_start <= high:
+            return [
+                FieldIssue(
+                    f"{path}.fixed_start",
+                    f"must be in [{low}, {high}] to fit the horizon",
+                )
+            ]
+    if task.feasible_interval is None:
+        return []
+    where = f"{path}.feasible_interval"
+    low, high = task.feasible_interval
+    if low > high:
+        return [FieldIssue(where, f"start {low} is after end {high}")]
+    reading = problem.window_reading(task)
+    if reading == "task" and high - low < task.length:
+        return [
+            FieldIssue(
+                where,
+                f"[{low}, {high}] is {high - low} units long and cannot "
+                f"hold the task's length {task.length}",
+            )
+        ]
+    earliest, latest = problem.start_bounds(task)
+    if earliest > latest:
+        return [
+            FieldIssue(
+                where,
+                f"[{low}, {high}] leaves no start time inside the horizon "
+                f"[{problem.start}, {problem.end}) for length {task.length}",
+            )
+        ]
+    return []
+
+
+def _check_precedences(problem: Problem) -> Iterator[FieldIssue]:
+    ids = {task.id for task in problem.tasks}
+    for idx, prec in enumerate(problem.precedences):
+        path = f"precedences[{idx}]"
+        for end in ("before", "after"):
+            name = getattr(prec, end)
+            if name not in ids:
+                yield FieldIssue(f"{path}.{end}", f"unknown task {name!r}")
+        if prec.before == prec.after:
+            yield FieldIssue(
+                f"{path}.after", f"task {prec.after!r} cannot precede itself"
+            )
+
+
+def _check_tight_cycles(problem: Problem) -> list[FieldIssue]:
+    """Tight precedences fix start differences; a cycle must sum to zero.
+
+    A weighted union-find keeps, for each task, its start offset relative to
+    the root of its tight group; a new tight edge inside a group must agree
+    with the offset already implied.
+    """
+    length = {task.id: task.length for task in problem.tasks}
+    parent: dict[str, str] = {}
+    shift: dict[str, int] = {}  # s_task - s_parent
+
+    def find(name: str) -> tuple[str, int]:
+        total = 0
+        while parent.get(name, name) != name:
+            total += shift[name]
+            name = parent[name]
+        return name, total
+
+    issues = []
+    for idx, prec in enumerate(problem.precedences):
+        if prec.kind != "tight":
+            continue
+        gap = length[prec.before] + prec.offset  # s_after - s_before
+        root_b, off_b = find(prec.before)
+        root_a, off_a = find(prec.after)
+        if root_b == root_a:
+            implied = off_a - off_b
+            if implied != gap:
+                issues.append(
+                    FieldIssue(
+                        f"precedences[{idx}]",
+                        f"tight precedences contradict each other: this one "
+                        f"needs start({prec.after}) - start({prec.before}) = "
+                        f"{gap}, others imply {implied}",
+                    )
+                )
+            continue
+        parent[root_a] = root_b
+        shift[root_a] = off_b + gap - off_a
+    return issues

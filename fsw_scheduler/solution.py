@@ -1,0 +1,109 @@
+"""Plans: what a solve returns (CONTRACT section 2). Pure data."""
+
+from __future__ import annotations
+
+import enum
+
+import msgspec
+
+
+class SolveStatus(str, enum.Enum):
+    """Outcome of a solve, read from the solver's own solution status.
+
+    ``optimal``: proven optimal. ``feasible``: a limit was hit and the best
+    plan found is returned. ``infeasible``: proven that mandatory tasks
+    cannot all be placed. ``unknown``: no plan found within the limit.
+    """
+
+    OPTIMAL = "optimal"
+    FEASIBLE = "feasible"
+    INFEASIBLE = "infeasible"
+    UNKNOWN = "unknown"
+
+    @property
+    def has_plan(self) -> bool:
+        """True when the status comes with a usable plan."""
+        return self in (SolveStatus.OPTIMAL, SolveStatus.FEASIBLE)
+
+
+class Activity(msgspec.Struct, frozen=True):
+    """A scheduled task: runs over ``[start, end)``."""
+
+    task: str
+    start: int
+    end: int
+
+
+class Objective(msgspec.Struct, frozen=True):
+    """The lexicographic objective, reported as its two parts.
+
+    ``total = W * unscheduled_cost + delay_cost`` with
+    ``W = 1 + sum(delay_cost_i) * horizon``.
+    """
+
+    unscheduled_cost: int
+    delay_cost: int
+    total: int
+
+
+class Blocker(msgspec.Struct, frozen=True):
+    """Why a task is not in the plan.
+
+    ``cause`` is one of ``window``, ``precedence``, ``binary``,
+    ``multiple``, ``consumable``, ``cost`` (placing it costs more than
+    leaving it out), ``combination`` or ``not_analysed``.
+    """
+
+    task: str
+    cause: str
+    detail: str
+
+
+class SolverStats(msgspec.Struct, frozen=True, omit_defaults=True):
+    """How the solve went; figures in seconds."""
+
+    solver: str
+    build_s: float = 0.0
+    solve_s: float = 0.0
+    wall_s: float = 0.0
+    num_variables: int = 0
+    num_constraints: int = 0
+    bound: float | None = None
+    solver_status: str = ""
+    time_limit_s: float | None = None
+
+
+class Plan(msgspec.Struct, frozen=True, omit_defaults=True):
+    """A solve result: status, objective, activities and what was left out.
+
+    Every task of the problem appears once, in ``activities`` or in
+    ``unscheduled``; ``why`` explains each left-out task (and, when the
+    status is ``infeasible``, the mandatory tasks that cannot be placed).
+    """
+
+    status: SolveStatus
+    objective: Objective | None
+    activities: tuple[Activity, ...] = ()
+    unscheduled: tuple[str, ...] = ()
+    why: tuple[Blocker, ...] = ()
+    stats: SolverStats | None = None
+
+    def activity(self, task_id: str) -> Activity | None:
+        """The activity of ``task_id``, or None if it is not scheduled."""
+        for activity in self.activities:
+            if activity.task == task_id:
+                return activity
+        return None
+
+    def starts(self) -> dict[str, int]:
+        """Map task id to start time for scheduled tasks."""
+        return {a.task: a.start for a in self.activities}
+
+    def replace(self, **changes: object) -> Plan:
+        """Return a copy with ``changes`` applied."""
+        return msgspec.structs.replace(self, **changes)
+
+
+def objective_weight(delay_costs: list[int], horizon: int) -> int:
+    """W of CONTRACT section 1: one unscheduled cost beats any delay."""
+    return 1 + sum(delay_costs) * horizon

@@ -1,0 +1,133 @@
+"""Tests of problem decoding and validation (fsw_scheduler.model)."""
+
+from __future__ import annotations
+
+import copy
+
+import pytest
+
+from fsw_scheduler.errors import InputError
+from fsw_scheduler.model import decode_problem
+
+from .conftest import problem_from
+
+
+def _task(**over: object) -> dict:
+    task = {"id": "a", "length": 2, "delay_cost": 1, "schedule_cost": 1}
+    task.update(over)
+    return task
+
+
+def _doc(tasks: list[dict], **over: object) -> dict:
+    doc = {
+        "horizon": 10,
+        "resources": {
+            "binary": ["cam"],
+            "multiple": {"power": 10},
+            "consumable": {"battery": 5},
+        },
+        "tasks": tasks,
+        "precedences": [],
+    }
+    doc.update(over)
+    return doc
+
+
+def _issues(doc: dict) -> list[tuple[str, str]]:
+    with pytest.raises(InputError) as info:
+        problem_from(doc)
+    return [(i.path, i.reason) for i in info.value.issues]
+
+
+def test_table1_decodes(table1_doc: dict) -> None:
+    """Tests that the paper's Table 1 file decodes with its nine tasks."""
+    problem = problem_from(table1_doc)
+    assert problem.num_tasks == 9
+    assert problem.feasible_interval_applies_to == "start"
+    assert problem.start_bounds(problem.task("BatteryCharge")) == (0, 15)
+
+
+def test_window_readings() -> None:
+    """Tests that the task reading keeps the whole task inside [a, b]."""
+    whole = problem_from(_doc([_task(feasible_interval=[2, 6])]))
+    assert whole.start_bounds(whole.tasks[0]) == (2, 4)
+    start = problem_from(
+        _doc([_task(feasible_interval=[2, 6])],
+             feasible_interval_applies_to="start")
+    )
+    assert start.start_bounds(start.tasks[0]) == (2, 6)
+
+
+@pytest.mark.parametrize(
+    ("tasks", "over", "path", "words"),
+    [
+        ([_task(), _task()], {}, "tasks[1].id", "duplicate"),
+        ([_task(uses={"laser": 1})], {}, "tasks[0].uses.laser", "unknown"),
+        ([_task(uses={"cam": 2})], {}, "tasks[0].uses.cam", "must be 1"),
+        ([_task(uses={"power": -1})], {}, "tasks[0].uses.power", ">= 0"),
+        ([_task(length=0)], {}, "tasks[0].length", "> 0"),
+        ([_task(length=11)], {}, "tasks[0].length", "exceeds the horizon"),
+        ([_task(delay_cost=0)], {}, "tasks[0].delay_cost", "1..5"),
+        ([_task(schedule_cost=6)], {}, "tasks[0].schedule_cost", "0..5"),
+        ([_task(feasible_interval=[3, 4])], {},
+         "tasks[0].feasible_interval", "cannot hold"),
+        ([_task(feasible_interval=[5, 3])], {},
+         "tasks[0].feasible_interval", "after end"),
+        ([_task(feasible_interval=[20, 30])], {},
+         "tasks[0].feasible_interval", "no start time"),
+        ([_task()], {"horizon": 0}, "horizon", "> 0"),
+        ([_task()], {"precedences": [
+            {"before": "a", "after": "zz", "kind": "lax"}]},
+         "precedences[0].after", "unknown task"),
+        ([_task()], {"precedences": [
+            {"before": "a", "after": "a", "kind": "lax"}]},
+         "precedences[0].after", "itself"),
+        ([_task(id="a"), _task(id="b")], {"precedences": [
+            {"before": "a", "after": "b", "kind": "tight"},
+            {"before": "b", "after": "a", "kind": "tight"}]},
+         "precedences[1]", "contradict"),
+        ([_task()], {"resources": {"consumable": {"battery": -1}}},
+         "resources.consumable.battery", ">= 0"),
+        ([_task()], {"resources": {"binary": ["x"], "multiple": {"x": 1}}},
+         "resources.multiple.x", "already declared"),
+        ([], {}, "tasks", "at least one"),
+    ],
+)
+def test_validation_rules(
+    tasks: list[dict], over: dict, path: str, words: str
+) -> None:
+    """Tests that each validation rule names the field path and reason."""
+    issues = _issues(_doc(copy.deepcopy(tasks), **over))
+    assert any(p == path and words in r for p, r in issues), issues
+
+
+def test_tight_cycle_that_holds_is_accepted() -> None:
+    """Tests that a tight cycle whose offsets sum to zero is accepted."""
+    doc = _doc(
+        [_task(id="a"), _task(id="b")],
+        precedences=[
+            {"before": "a", "after": "b", "kind": "tight", "offset": -2},
+            {"before": "b", "after": "a", "kind": "tight", "offset": -2},
+        ],
+    )
+    assert problem_from(doc).num_tasks == 2
+
+
+@pytest.mark.parametrize(
+    ("text", "path"),
+    [
+        (b'{"horizon": "ten", "tasks": []}', "horizon"),
+        (b'{"tasks": []}', ""),
+        (b'{"horizon": 5, "tasks": [{"id": "a", "length": 1}]}', "tasks[0]"),
+        (b'{"horizon": 5, "tasks": [{"id": "a", "length": 1, '
+         b'"delay_cost": 1, "schedule_cost": 1, "preemption": "maybe"}]}',
+         "tasks[0].preemption"),
+        (b"{not json", ""),
+    ],
+)
+def test_type_errors_name_the_field(text: bytes, path: str) -> None:
+    """Tests that wrong types and missing fields name their path."""
+    with pytest.raises(InputError) as info:
+        decode_problem(text)
+    assert info.value.issues[0].path == path
+    assert info.value.issues[0].reason
