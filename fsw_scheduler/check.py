@@ -213,7 +213,8 @@ def format_report(report: CheckReport) -> str:
     if report.ok:
         return f"plan is valid; {head}"
     count = len(report.violations)
-    lines = [f"plan has {count} violation{"s" * (count != 1)}; {head}"]
+    plural = "s" * (count != 1)
+    lines = [f"plan has {count} violation{plural}; {head}"]
     for v in report.violations:
         where = "".join(
             (
