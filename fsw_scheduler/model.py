@@ -9,12 +9,14 @@ reason. This module is pure: no solver, no bus, no clock.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable, Iterator
-from typing import Literal, TypeVar
+from typing import TYPE_CHECKING, Literal, TypeVar
 
 import msgspec
 
 from .errors import FieldIssue, InputError
+
+if TYPE_CHECKING:
+    from collections.abc import Iterable, Iterator
 
 Preemption = Literal["none", "from_start", "from_interrupt", "delete"]
 WindowReading = Literal["task", "start"]
@@ -335,12 +337,15 @@ def _check_use(
         return [FieldIssue(where, f"unknown resource (known: {known})")]
     if kind == "binary" and amount != 1:
         return [
-            FieldIssue(where, f"binary resource amount must be 1, got {amount}")
+            FieldIssue(
+                where, f"binary resource amount must be 1, got {amount}"
+            )
         ]
     if kind == "multiple" and amount < 0:
         return [
-            FieldIssue(where, f"multiple resource amount must be >= 0, "
-                       f"got {amount}")
+            FieldIssue(
+                where, f"multiple resource amount must be >= 0, got {amount}"
+            )
         ]
     return []
 

@@ -65,6 +65,7 @@ class SolverStats(msgspec.Struct, frozen=True, omit_defaults=True):
     solver: str
     build_s: float = 0.0
     solve_s: float = 0.0
+    overhead_s: float = 0.0
     wall_s: float = 0.0
     num_variables: int = 0
     num_constraints: int = 0

@@ -52,8 +52,10 @@ def test_window_readings() -> None:
     whole = problem_from(_doc([_task(feasible_interval=[2, 6])]))
     assert whole.start_bounds(whole.tasks[0]) == (2, 4)
     start = problem_from(
-        _doc([_task(feasible_interval=[2, 6])],
-             feasible_interval_applies_to="start")
+        _doc(
+            [_task(feasible_interval=[2, 6])],
+            feasible_interval_applies_to="start",
+        )
     )
     assert start.start_bounds(start.tasks[0]) == (2, 6)
 
@@ -69,27 +71,60 @@ def test_window_readings() -> None:
         ([_task(length=11)], {}, "tasks[0].length", "exceeds the horizon"),
         ([_task(delay_cost=0)], {}, "tasks[0].delay_cost", "1..5"),
         ([_task(schedule_cost=6)], {}, "tasks[0].schedule_cost", "0..5"),
-        ([_task(feasible_interval=[3, 4])], {},
-         "tasks[0].feasible_interval", "cannot hold"),
-        ([_task(feasible_interval=[5, 3])], {},
-         "tasks[0].feasible_interval", "after end"),
-        ([_task(feasible_interval=[20, 30])], {},
-         "tasks[0].feasible_interval", "no start time"),
+        (
+            [_task(feasible_interval=[3, 4])],
+            {},
+            "tasks[0].feasible_interval",
+            "cannot hold",
+        ),
+        (
+            [_task(feasible_interval=[5, 3])],
+            {},
+            "tasks[0].feasible_interval",
+            "after end",
+        ),
+        (
+            [_task(feasible_interval=[20, 30])],
+            {},
+            "tasks[0].feasible_interval",
+            "no start time",
+        ),
         ([_task()], {"horizon": 0}, "horizon", "> 0"),
-        ([_task()], {"precedences": [
-            {"before": "a", "after": "zz", "kind": "lax"}]},
-         "precedences[0].after", "unknown task"),
-        ([_task()], {"precedences": [
-            {"before": "a", "after": "a", "kind": "lax"}]},
-         "precedences[0].after", "itself"),
-        ([_task(id="a"), _task(id="b")], {"precedences": [
-            {"before": "a", "after": "b", "kind": "tight"},
-            {"before": "b", "after": "a", "kind": "tight"}]},
-         "precedences[1]", "contradict"),
-        ([_task()], {"resources": {"consumable": {"battery": -1}}},
-         "resources.consumable.battery", ">= 0"),
-        ([_task()], {"resources": {"binary": ["x"], "multiple": {"x": 1}}},
-         "resources.multiple.x", "already declared"),
+        (
+            [_task()],
+            {"precedences": [{"before": "a", "after": "zz", "kind": "lax"}]},
+            "precedences[0].after",
+            "unknown task",
+        ),
+        (
+            [_task()],
+            {"precedences": [{"before": "a", "after": "a", "kind": "lax"}]},
+            "precedences[0].after",
+            "itself",
+        ),
+        (
+            [_task(id="a"), _task(id="b")],
+            {
+                "precedences": [
+                    {"before": "a", "after": "b", "kind": "tight"},
+                    {"before": "b", "after": "a", "kind": "tight"},
+                ]
+            },
+            "precedences[1]",
+            "contradict",
+        ),
+        (
+            [_task()],
+            {"resources": {"consumable": {"battery": -1}}},
+            "resources.consumable.battery",
+            ">= 0",
+        ),
+        (
+            [_task()],
+            {"resources": {"binary": ["x"], "multiple": {"x": 1}}},
+            "resources.multiple.x",
+            "already declared",
+        ),
         ([], {}, "tasks", "at least one"),
     ],
 )
@@ -119,9 +154,11 @@ def test_tight_cycle_that_holds_is_accepted() -> None:
         (b'{"horizon": "ten", "tasks": []}', "horizon"),
         (b'{"tasks": []}', ""),
         (b'{"horizon": 5, "tasks": [{"id": "a", "length": 1}]}', "tasks[0]"),
-        (b'{"horizon": 5, "tasks": [{"id": "a", "length": 1, '
-         b'"delay_cost": 1, "schedule_cost": 1, "preemption": "maybe"}]}',
-         "tasks[0].preemption"),
+        (
+            b'{"horizon": 5, "tasks": [{"id": "a", "length": 1, '
+            b'"delay_cost": 1, "schedule_cost": 1, "preemption": "maybe"}]}',
+            "tasks[0].preemption",
+        ),
         (b"{not json", ""),
     ],
 )

@@ -1,0 +1,1 @@
+"""Solver backends. Only :mod:`fsw_scheduler.solvers.ilp` imports PuLP."""

@@ -1,0 +1,181 @@
+"""Constraint families of the ILP, one method each.
+
+The rows are written over the step variables of :mod:`.variables`:
+``Z(i, t)`` is "task ``i`` scheduled and started by ``t``" and
+``R(i, t) = Z(i, t) - Z(i, t - length_i)`` is "task ``i`` runs at ``t``".
+Rows that can never bind (one possible user, total demand under the
+capacity) are skipped rather than handed to the solver.
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import TYPE_CHECKING
+
+import pulp
+
+if TYPE_CHECKING:
+    from ...model import Precedence, Problem, Task
+    from .variables import Terms, Variables
+
+
+class Constraints:
+    """Adds every constraint family of ``problem`` to ``lp``.
+
+    Parameters
+    ----------
+    lp
+        The PuLP problem being built.
+    problem
+        The scheduling problem.
+    variables
+        The step variables.
+    """
+
+    def __init__(
+        self, lp: pulp.LpProblem, problem: Problem, variables: Variables
+    ) -> None:
+        self.lp = lp
+        self.problem = problem
+        self.vars = variables
+        self._count = 0
+
+    def add_all(self) -> None:
+        """Add every family, in a fixed order (stable row numbering)."""
+        self._monotone_steps()
+        self._binary_resources()
+        self._multiple_resources()
+        self._consumable_resources()
+        for prec in self.problem.precedences:
+            self._precedence(prec)
+
+    # -- helpers ------------------------------------------------------------
+
+    def _row(self, terms: Terms, sense: int, rhs: float) -> None:
+        """Add ``terms (sense) rhs``, dropping zero coefficients."""
+        clean = {v: c for v, c in terms.items() if c != 0}
+        if not clean:
+            return  # constant row: validated elsewhere
+        self._count += 1
+        self.lp.addConstraint(
+            pulp.LpConstraint(
+                pulp.LpAffineExpression(clean), sense=sense, rhs=rhs
+            ),
+            name=f"c{self._count}",
+        )
+
+    def _users(self, resource: str) -> list[tuple[Task, float]]:
+        return [
+            (task, task.uses[resource])
+            for task in self.problem.tasks
+            if task.uses.get(resource, 0) != 0 and self.vars.placeable(task.id)
+        ]
+
+    # -- families -------------------------------------------------------------
+
+    def _monotone_steps(self) -> None:
+        """Steps never go back: ``z[i, t-1] <= z[i, t]``."""
+        for steps in self.vars.steps.values():
+            for before, after in itertools.pairwise(steps):
+                self._row({before: 1.0, after: -1.0}, pulp.LpConstraintLE, 0)
+
+    def _capacity_rows(self, resource: str, capacity: float) -> None:
+        """``sum_i amount_i * R(i, t) <= capacity`` for every time unit."""
+        users = self._users(resource)
+        for time in range(self.problem.start, self.problem.end):
+            running = [(t, a) for t, a in users if self.vars.may_run(t, time)]
+            if sum(a for _, a in running) <= capacity:
+                continue
+            terms: Terms = {}
+            for task, amount in running:
+                self.vars.add_running(terms, task, time, amount)
+            self._row(terms, pulp.LpConstraintLE, capacity)
+
+    def _binary_resources(self) -> None:
+        """Paper eq. (1): at most one running user per time unit."""
+        for resource in self.problem.resources.binary:
+            self._capacity_rows(resource, 1.0)
+
+    def _multiple_resources(self) -> None:
+        """Paper eq. (2): running users' amounts within the capacity."""
+        for resource, capacity in self.problem.resources.multiple.items():
+            self._capacity_rows(resource, capacity)
+
+    def _consumable_resources(self) -> None:
+        """Paper eq. (3): the level never goes below zero.
+
+        The level at the end of unit ``t`` is the initial level minus every
+        amount times the units run up to and including ``t``. Writing it as
+        ``sum_i amount_i * (units of i run by t) <= initial`` needs
+        ``length_i`` non-zeros per task and row; a running sum of ``R``
+        needs two. So a continuous level variable ``L[t] >= 0`` carries it:
+        ``L[t] = L[t-1] - sum_i amount_i * R(i, t)``, ``L[start-1]`` being
+        the initial level. A resource whose consumers cannot exhaust it
+        even if all are scheduled gets no rows at all.
+        """
+        consumables = self.problem.resources.consumable.items()
+        for idx, (resource, initial) in enumerate(consumables):
+            users = self._users(resource)
+            worst = sum(a * t.length for t, a in users if a > 0)
+            if worst <= initial:
+                continue
+            previous: pulp.LpVariable | None = None
+            for time in range(self.problem.start, self.problem.end):
+                level = pulp.LpVariable(f"L{idx}_{time}", lowBound=0)
+                # level - previous + sum amount * R = 0 (initial if first)
+                terms: Terms = {level: 1.0}
+                if previous is not None:
+                    terms[previous] = -1.0
+                for task, amount in users:
+                    if self.vars.may_run(task, time):
+                        self.vars.add_running(terms, task, time, amount)
+                rhs = initial if previous is None else 0.0
+                self._row(terms, pulp.LpConstraintEQ, rhs)
+                previous = level
+
+    def _precedence(self, prec: Precedence) -> None:
+        """Tight/lax x both/at_least_first, on the steps.
+
+        With ``g = length_before + offset`` and ``i -> j``:
+
+        * every kind: ``Z(j, t) <= Z(i, t - g)`` (``j`` cannot have started
+          by ``t`` unless ``i`` had by ``t - g``; at the last step it also
+          says ``j`` scheduled needs ``i`` scheduled);
+        * tight: also ``Z(i, t - g) - Z(j, t) <= y_i - y_j``: when both are
+          scheduled the steps coincide, so ``s_j = s_i + g`` exactly, and
+          when only ``i`` is (``at_least_first``) the row is slack;
+        * both: ``y_i = y_j``.
+        """
+        i, j = prec.before, prec.after
+        vars_ = self.vars
+        gap = self.problem.task(i).length + prec.offset
+        if not vars_.placeable(j):
+            if prec.scope == "both" and vars_.placeable(i):
+                self._row({vars_.scheduled(i): 1.0}, pulp.LpConstraintLE, 0)
+            return
+        if not vars_.placeable(i):
+            self._row({vars_.scheduled(j): 1.0}, pulp.LpConstraintLE, 0)
+            return
+        dom_i, dom_j = vars_.domains[i], vars_.domains[j]
+        first = min(dom_j.earliest, dom_i.earliest + gap)
+        last = max(dom_j.latest, dom_i.latest + gap)
+        y_i, y_j = vars_.scheduled(i), vars_.scheduled(j)
+        for time in range(first, last + 1):
+            follows: Terms = {}
+            vars_.add_step(follows, j, time, 1.0)
+            vars_.add_step(follows, i, time - gap, -1.0)
+            self._row(follows, pulp.LpConstraintLE, 0)
+            if prec.kind == "tight" and prec.scope == "at_least_first":
+                # Z(i, t-g) - Z(j, t) - y_i + y_j <= 0
+                leads = {v: -c for v, c in follows.items()}
+                leads[y_i] = leads.get(y_i, 0.0) - 1.0
+                leads[y_j] = leads.get(y_j, 0.0) + 1.0
+                self._row(leads, pulp.LpConstraintLE, 0)
+            elif prec.kind == "tight":
+                self._row(
+                    {v: -c for v, c in follows.items()},
+                    pulp.LpConstraintLE,
+                    0,
+                )
+        if prec.scope == "both":
+            self._row({y_i: 1.0, y_j: -1.0}, pulp.LpConstraintEQ, 0)

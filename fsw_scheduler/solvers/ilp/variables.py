@@ -1,0 +1,132 @@
+"""Decision variables: one step variable per task and allowed start time.
+
+For task ``i`` with start domain ``[e, l]``, ``z[i, t] = 1`` iff the task is
+scheduled and has started by time ``t`` (``t in [e, l]``). The steps are
+monotone, ``z[i, l]`` is "scheduled", and expressions outside the domain
+are constants: 0 before ``e`` and ``z[i, l]`` from ``l`` on. The start
+indicator is ``z[i, t] - z[i, t-1]`` and the task runs at ``t`` iff
+``z[i, t] - z[i, t - length] = 1``, so each resource row has two non-zeros
+per task instead of ``length`` (this is the step, or "aggregated", form of
+the classic time-indexed model, with the same LP bound).
+
+Feasible intervals (both readings), horizon and pins are enforced here, by
+the domain: :func:`fsw_scheduler.domains.start_domains`.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import pulp
+
+if TYPE_CHECKING:
+    from collections.abc import Iterator
+
+    from ...domains import Domain
+    from ...model import Problem, Task
+
+Terms = dict[pulp.LpVariable, float]
+
+
+class Variables:
+    """Step variables of every task with a non-empty start domain.
+
+    Parameters
+    ----------
+    problem
+        The problem being modelled.
+    domains
+        Start domains from :func:`~fsw_scheduler.domains.start_domains`.
+    """
+
+    def __init__(self, problem: Problem, domains: dict[str, Domain]) -> None:
+        self.problem = problem
+        self.domains = domains
+        self.tasks: list[Task] = list(problem.tasks)
+        self.steps: dict[str, list[pulp.LpVariable]] = {}
+        for idx, task in enumerate(self.tasks):
+            domain = domains[task.id]
+            if domain.empty:
+                continue
+            self.steps[task.id] = [
+                pulp.LpVariable(f"z{idx}_{t}", cat=pulp.LpBinary)
+                for t in range(domain.earliest, domain.latest + 1)
+            ]
+            if task.mandatory:
+                self.scheduled(task.id).lowBound = 1
+
+    @property
+    def all(self) -> Iterator[pulp.LpVariable]:
+        """Every variable, in a stable order."""
+        for steps in self.steps.values():
+            yield from steps
+
+    def placeable(self, task_id: str) -> bool:
+        """True if the task has at least one allowed start time."""
+        return task_id in self.steps
+
+    def scheduled(self, task_id: str) -> pulp.LpVariable:
+        """The variable that is 1 iff the task is scheduled."""
+        return self.steps[task_id][-1]
+
+    def step(self, task_id: str, time: int) -> pulp.LpVariable | None:
+        """``z[task, time]`` as a variable, or None where it is 0."""
+        steps = self.steps.get(task_id)
+        if steps is None:
+            return None
+        first = self.domains[task_id].earliest
+        if time < first:
+            return None
+        return steps[min(time - first, len(steps) - 1)]
+
+    def add_step(
+        self, terms: Terms, task_id: str, time: int, coef: float
+    ) -> None:
+        """Add ``coef * z[task, time]`` to ``terms`` (skipping zeros)."""
+        var = self.step(task_id, time)
+        if var is not None:
+            terms[var] = terms.get(var, 0.0) + coef
+
+    def add_running(
+        self, terms: Terms, task: Task, time: int, coef: float
+    ) -> None:
+        """Add ``coef * running(task, time)`` to ``terms``."""
+        self.add_step(terms, task.id, time, coef)
+        self.add_step(terms, task.id, time - task.length, -coef)
+
+    def may_run(self, task: Task, time: int) -> bool:
+        """True if some allowed start makes the task run at ``time``."""
+        domain = self.domains[task.id]
+        return (
+            not domain.empty
+            and domain.earliest <= time <= domain.latest + task.length - 1
+        )
+
+    def start_of(self, task_id: str) -> int | None:
+        """The start time in the solver's solution, None if unscheduled."""
+        steps = self.steps.get(task_id)
+        if steps is None or (steps[-1].varValue or 0.0) < 0.5:
+            return None
+        first = self.domains[task_id].earliest
+        for offset, var in enumerate(steps):
+            if (var.varValue or 0.0) >= 0.5:
+                return first + offset
+        return None  # unreachable: the last step is 1
+
+    def set_initial(self, starts: dict[str, int]) -> int:
+        """Set a warm start from ``starts``; return how many tasks took it.
+
+        Tasks absent from ``starts`` start as unscheduled; starts outside a
+        task's domain are ignored (the task starts as unscheduled).
+        """
+        taken = 0
+        for task_id, steps in self.steps.items():
+            first = self.domains[task_id].earliest
+            start = starts.get(task_id)
+            valid = start is not None and first <= start < first + len(steps)
+            for offset, var in enumerate(steps):
+                var.setInitialValue(
+                    1 if valid and first + offset >= start else 0
+                )
+            taken += valid
+        return taken
