@@ -1,0 +1,356 @@
+"""Record bus traffic to MCAP and replay it onto the bus.
+
+:func:`record` subscribes with a bounded FIFO channel, so Zenoh's network
+thread only enqueues samples and never runs our code; a single loop in the
+calling thread drains the channel and writes to a
+:class:`~fsw_scheduler.recording.Recorder`. :func:`replay` publishes a
+recording back in log-time order, re-creating the recorded gaps (scaled by
+``rate``) from an injectable clock and sleep function.
+
+Key-expression pitfall: ``fsw/**`` never matches keys starting with ``@``
+(admin space, liveliness); record those with their own key expression.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import zenoh
+
+from ..recording import PathLike, iter_messages
+from ..recording import info as recording_info
+
+if TYPE_CHECKING:
+    import threading
+    from collections.abc import Callable, Iterable, Sequence
+
+    from ..recording import RecordedMessage, Recorder
+
+__all__ = ["KeyFilter", "RecordStats", "record", "replay"]
+
+#: Default capacity of the recording channel; a full FIFO channel makes the
+#: Zenoh network thread wait, so it is sized for bursts, not for steady
+#: overload.
+DEFAULT_CAPACITY = 4096
+JSON_ENCODING = "application/json"
+
+
+@dataclass
+class RecordStats:
+    """Counters of one :func:`record` run, updated while it runs.
+
+    Attributes
+    ----------
+    received
+        Samples taken from the channel.
+    written
+        Samples written to the recording.
+    deletes
+        DELETE samples seen (not recorded: they carry no JSON payload).
+    errors
+        Samples that could not be written.
+    by_key
+        Samples written per key expression.
+    """
+
+    received: int = 0
+    written: int = 0
+    deletes: int = 0
+    errors: int = 0
+    by_key: dict[str, int] = field(default_factory=dict)
+
+
+def _timestamp_ns(sample: zenoh.Sample) -> int | None:
+    stamp = sample.timestamp
+    if stamp is None:
+        return None
+    # NTP64 seconds count from the Unix epoch in Zenoh, so as_nanos() is
+    # directly comparable with time.time_ns().
+    return stamp.get_time_as_ntp64().as_nanos()
+
+
+def record(
+    session: zenoh.Session,
+    key_expr: str,
+    recorder: Recorder,
+    stop: threading.Event,
+    *,
+    clock_ns: Callable[[], int] = time.time_ns,
+    capacity: int = DEFAULT_CAPACITY,
+    poll_interval_s: float = 0.01,
+    ready: threading.Event | None = None,
+    stats: RecordStats | None = None,
+) -> RecordStats:
+    """Record every sample on ``key_expr`` until ``stop`` is set.
+
+    Each PUT sample becomes one MCAP message: topic = its key expression,
+    payload = its bytes, ``log_time`` = ``clock_ns()`` at reception,
+    ``publish_time`` = its Zenoh timestamp when it has one. While idle the
+    loop calls :meth:`Recorder.tick` so that the last messages are flushed
+    within the recorder's flush interval. The recorder is flushed, not
+    closed, on return.
+
+    Parameters
+    ----------
+    session
+        Open Zenoh session.
+    key_expr
+        What to record, e.g. ``fsw/sat1/**``.
+    recorder
+        Destination.
+    stop
+        Set it (from any thread) to end the recording; samples already
+        received are still written.
+    clock_ns
+        Reception clock in ns since the Unix epoch.
+    capacity
+        Size of the FIFO channel between Zenoh and this loop.
+    poll_interval_s
+        Longest wait on ``stop`` when the channel is empty.
+    ready
+        Set once the subscriber is declared.
+    stats
+        Counters to update in place (lets another thread watch progress);
+        a new object when omitted.
+
+    Returns
+    -------
+    RecordStats
+        The counters.
+    """
+    stats = RecordStats() if stats is None else stats
+    subscriber = session.declare_subscriber(
+        key_expr, zenoh.handlers.FifoChannel(capacity)
+    )
+    try:
+        if ready is not None:
+            ready.set()
+        while True:
+            stopping = stop.is_set()
+            drained = _drain(subscriber, recorder, stats, clock_ns)
+            if stopping:
+                break
+            recorder.tick(clock_ns())
+            if not drained:
+                stop.wait(poll_interval_s)
+    finally:
+        subscriber.undeclare()
+        recorder.flush()
+    return stats
+
+
+def _drain(
+    subscriber: zenoh.Subscriber,
+    recorder: Recorder,
+    stats: RecordStats,
+    clock_ns: Callable[[], int],
+) -> int:
+    count = 0
+    while (sample := subscriber.try_recv()) is not None:
+        count += 1
+        stats.received += 1
+        if sample.kind == zenoh.SampleKind.DELETE:
+            stats.deletes += 1
+            continue
+        topic = str(sample.key_expr)
+        try:
+            recorder.write(
+                topic,
+                sample.payload.to_bytes(),
+                log_time_ns=clock_ns(),
+                publish_time_ns=_timestamp_ns(sample),
+            )
+        except (OSError, ValueError):
+            # Keep recording the rest: one bad write must not end a
+            # session-long recording.
+            stats.errors += 1
+            continue
+        stats.written += 1
+        stats.by_key[topic] = stats.by_key.get(topic, 0) + 1
+    return count
+
+
+class KeyFilter:
+    """Include/exclude filter on recorded topics, by key expression.
+
+    A topic passes when it intersects at least one ``include`` expression
+    (or ``include`` is empty) and no ``exclude`` expression. Matching is
+    Zenoh's own :meth:`zenoh.KeyExpr.intersects`, so ``*``, ``**`` and
+    ``$*`` mean on replay what they mean on the bus; for recorded topics,
+    which are concrete keys, "intersects" is the same as "includes".
+    Decisions are cached per topic.
+
+    Parameters
+    ----------
+    include
+        Key expressions to keep; empty keeps everything.
+    exclude
+        Key expressions to drop; they win over ``include``.
+    """
+
+    def __init__(
+        self, include: Iterable[str] = (), exclude: Iterable[str] = ()
+    ) -> None:
+        self._include = [zenoh.KeyExpr(k) for k in include]
+        self._exclude = [zenoh.KeyExpr(k) for k in exclude]
+        self._cache: dict[str, bool] = {}
+
+    def __call__(self, topic: str) -> bool:
+        """Return whether ``topic`` passes the filter."""
+        verdict = self._cache.get(topic)
+        if verdict is None:
+            key = zenoh.KeyExpr(topic)
+            verdict = (
+                not self._include
+                or any(k.intersects(key) for k in self._include)
+            ) and not any(k.intersects(key) for k in self._exclude)
+            self._cache[topic] = verdict
+        return verdict
+
+
+def replay(
+    session: zenoh.Session,
+    path: PathLike | Sequence[PathLike],
+    *,
+    rate: float = 1.0,
+    burst: bool = False,
+    start_offset_s: float = 0.0,
+    until_s: float | None = None,
+    loop: bool = False,
+    include: Iterable[str] = (),
+    exclude: Iterable[str] = (),
+    clock: Callable[[], float] = time.monotonic,
+    sleep: Callable[[float], object] = time.sleep,
+    stop: threading.Event | None = None,
+    encoding: str = JSON_ENCODING,
+) -> int:
+    """Publish a recording back onto the bus, in log-time order.
+
+    Each message is put on its recorded key with ``encoding``. Timing is
+    scheduled from the start of the pass, not from the previous message,
+    so sleeping late does not accumulate drift: message ``i`` is due
+    ``(log_time_i - log_time_0) / rate`` seconds after the first one.
+
+    Parameters
+    ----------
+    session
+        Open Zenoh session to publish from.
+    path
+        A recording, or the parts of a split recording.
+    rate
+        Speed factor: 2.0 replays twice as fast, 0.5 half as fast.
+    burst
+        Publish as fast as possible (order kept, no sleeping).
+    start_offset_s
+        Skip messages logged less than this many seconds after the first
+        message of the recording.
+    until_s
+        Stop before messages logged this many seconds or more after the
+        first message of the recording.
+    loop
+        Start again from the beginning after the end, until ``stop`` is
+        set. A pass that publishes nothing ends the loop.
+    include, exclude
+        Key-expression filters, see :class:`KeyFilter`.
+    clock
+        Monotonic clock in seconds (injectable for tests).
+    sleep
+        Sleep function in seconds (injectable for tests). It is called
+        only with positive durations.
+    stop
+        Set it to end the replay early.
+    encoding
+        Zenoh encoding of the published payloads.
+
+    Returns
+    -------
+    int
+        Number of messages published.
+
+    Raises
+    ------
+    ValueError
+        If ``rate`` is not positive.
+    """
+    if rate <= 0:
+        raise ValueError(f"rate must be > 0, not {rate}")
+    paths = (
+        [path] if isinstance(path, str | os.PathLike) else list(path)
+    )
+    starts = [
+        d.start_ns
+        for d in (recording_info(p) for p in paths)
+        if d.message_count
+    ]
+    if not starts:
+        return 0
+    origin_ns = min(starts)
+    start_ns = origin_ns + round(start_offset_s * 1e9)
+    end_ns = None if until_s is None else origin_ns + round(until_s * 1e9)
+    keep = KeyFilter(include, exclude)
+    publishers: dict[str, zenoh.Publisher] = {}
+    published = 0
+    try:
+        while stop is None or not stop.is_set():
+            messages = iter_messages(
+                paths if len(paths) > 1 else paths[0],
+                start_ns=start_ns,
+                end_ns=end_ns,
+            )
+            count = _replay_pass(
+                session,
+                (m for m in messages if keep(m.topic)),
+                publishers,
+                rate=rate,
+                burst=burst,
+                clock=clock,
+                sleep=sleep,
+                stop=stop,
+                encoding=encoding,
+            )
+            published += count
+            if not loop or count == 0:
+                break
+    finally:
+        for publisher in publishers.values():
+            publisher.undeclare()
+    return published
+
+
+def _replay_pass(
+    session: zenoh.Session,
+    messages: Iterable[RecordedMessage],
+    publishers: dict[str, zenoh.Publisher],
+    *,
+    rate: float,
+    burst: bool,
+    clock: Callable[[], float],
+    sleep: Callable[[float], object],
+    stop: threading.Event | None,
+    encoding: str,
+) -> int:
+    count = 0
+    first_ns: int | None = None
+    wall0 = 0.0
+    for message in messages:
+        if stop is not None and stop.is_set():
+            break
+        if not burst:
+            if first_ns is None:
+                first_ns, wall0 = message.log_time_ns, clock()
+            due = wall0 + (message.log_time_ns - first_ns) / 1e9 / rate
+            delay = due - clock()
+            if delay > 0:
+                sleep(delay)
+        publisher = publishers.get(message.topic)
+        if publisher is None:
+            publisher = session.declare_publisher(
+                message.topic, encoding=encoding
+            )
+            publishers[message.topic] = publisher
+        publisher.put(message.payload)
+        count += 1
+    return count
