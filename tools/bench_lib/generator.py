@@ -1,0 +1,573 @@
+"""Seeded generator of benchmark problems (CONTRACT section 1 documents).
+
+Two suites:
+
+``campaign``
+    The paper's test campaign: 5, 10 and 15 tasks x four resource classes
+    (``none``, ``binary``, ``multiple``, ``consumable``) x 7 problems, with a
+    horizon of 336 time units.
+``scaling``
+    30, 60, 100 and 200 tasks at H = 336 and H = 1440 with every resource
+    kind present (class ``mixed``).
+
+Every problem is built around a *witness*: start times for every task that
+satisfy all windows and all precedences at once (resources ignored), so the
+precedences never contradict each other or the windows. Mandatory tasks
+(``schedule_cost`` 0) take part in no precedence that could force another
+task in, get disjoint witness slots, fit the multiple-resource capacities
+and are covered by the consumables' initial levels; the plan holding only
+the mandatory tasks at their witness starts is therefore always valid.
+
+Each problem has its own integer seed (``BenchProblem.seed``), and
+``generate_problem(num_tasks, resource_class, horizon, seed)`` rebuilds it
+alone, byte for byte. All randomness comes from :class:`random.Random`
+seeded with integers; no set or hash ordering is involved.
+"""
+
+from __future__ import annotations
+
+import json
+import random
+import zlib
+from dataclasses import dataclass
+from typing import Any
+
+from fsw_scheduler.model import Problem, decode_problem
+
+CLASSES: tuple[str, ...] = ("none", "binary", "multiple", "consumable")
+CAMPAIGN_SIZES: tuple[int, ...] = (5, 10, 15)
+CAMPAIGN_PER_CELL = 7
+CAMPAIGN_HORIZON = 336
+SCALING_SIZES: tuple[int, ...] = (30, 60, 100, 200)
+SCALING_HORIZONS: tuple[int, ...] = (336, 1440)
+SCALING_PER_POINT = 3
+
+MAX_LENGTH = 20
+MANDATORY_SHARE = 0.2
+WINDOW_SHARE = 0.4
+
+BINARY_NAMES = ("camera", "antenna", "position")
+MULTIPLE_CAPACITY = {"power": 100, "data_rate": 60}
+CONSUMABLE_NAMES = ("battery", "propellant")
+
+
+@dataclass(frozen=True)
+class BenchProblem:
+    """One generated benchmark problem.
+
+    Attributes
+    ----------
+    name
+        Unique name inside its suite, e.g. ``c10-binary-3``.
+    suite
+        ``campaign``, ``scaling`` or ``quick``.
+    num_tasks
+        Number of tasks.
+    resource_class
+        ``none``, ``binary``, ``multiple``, ``consumable`` or ``mixed``.
+    horizon
+        Horizon length in time units.
+    seed
+        The problem's own seed: ``generate_problem(num_tasks,
+        resource_class, horizon, seed)`` returns the same document.
+    doc
+        The problem document (CONTRACT section 1) as a dict.
+    """
+
+    name: str
+    suite: str
+    num_tasks: int
+    resource_class: str
+    horizon: int
+    seed: int
+    doc: dict[str, Any]
+
+    def to_json(self) -> bytes:
+        """Return the problem document as deterministic JSON bytes."""
+        return dump_json(self.doc)
+
+    def problem(self) -> Problem:
+        """Return the decoded and validated problem."""
+        return decode_problem(self.to_json())
+
+
+def dump_json(doc: dict[str, Any]) -> bytes:
+    """Serialise ``doc`` deterministically (two-space indent, newline)."""
+    return (json.dumps(doc, indent=2) + "\n").encode()
+
+
+def problem_seed(seed: int, name: str) -> int:
+    """Derive a problem's own seed from the suite seed and its name."""
+    return zlib.crc32(f"{seed}/{name}".encode())
+
+
+def campaign(seed: int = 0) -> list[BenchProblem]:
+    """Return the paper's campaign: sizes x classes x 7 problems, H = 336.
+
+    Parameters
+    ----------
+    seed
+        Suite seed; the same seed always gives the same problems.
+
+    Returns
+    -------
+    list of BenchProblem
+        84 problems, ordered by size, then class, then index.
+    """
+    problems = []
+    for size in CAMPAIGN_SIZES:
+        for cls in CLASSES:
+            for index in range(CAMPAIGN_PER_CELL):
+                name = f"c{size:02d}-{cls}-{index}"
+                problems.append(
+                    _make(name, "campaign", size, cls, CAMPAIGN_HORIZON, seed)
+                )
+    return problems
+
+
+def scaling(
+    seed: int = 0, per_point: int = SCALING_PER_POINT
+) -> list[BenchProblem]:
+    """Return the scaling set: 30..200 tasks at H = 336 and 1440, mixed.
+
+    Parameters
+    ----------
+    seed
+        Suite seed.
+    per_point
+        Problems per (size, horizon) point.
+
+    Returns
+    -------
+    list of BenchProblem
+        Ordered by horizon, then size, then index.
+    """
+    problems = []
+    for horizon in SCALING_HORIZONS:
+        for size in SCALING_SIZES:
+            for index in range(per_point):
+                name = f"s{size:03d}-h{horizon}-{index}"
+                problems.append(
+                    _make(name, "scaling", size, "mixed", horizon, seed)
+                )
+    return problems
+
+
+def quick(seed: int = 0) -> list[BenchProblem]:
+    """Return a small smoke subset: one 5-task problem per class."""
+    return [
+        _make(f"q05-{cls}-0", "quick", 5, cls, CAMPAIGN_HORIZON, seed)
+        for cls in CLASSES
+    ]
+
+
+def suite(name: str, seed: int = 0) -> list[BenchProblem]:
+    """Return the problems of suite ``name`` (campaign/scaling/all/quick)."""
+    if name == "campaign":
+        return campaign(seed)
+    if name == "scaling":
+        return scaling(seed)
+    if name == "all":
+        return campaign(seed) + scaling(seed)
+    if name == "quick":
+        return quick(seed)
+    raise ValueError(f"unknown suite {name!r}")
+
+
+def _make(
+    name: str, suite_name: str, size: int, cls: str, horizon: int, seed: int
+) -> BenchProblem:
+    own_seed = problem_seed(seed, name)
+    doc = generate_problem(size, cls, horizon, own_seed)
+    return BenchProblem(name, suite_name, size, cls, horizon, own_seed, doc)
+
+
+# --------------------------------------------------------------------------
+# One problem.
+
+
+@dataclass
+class _Task:
+    index: int
+    length: int
+    delay_cost: int
+    schedule_cost: int
+    preemption: str
+    rank: float = 0.0
+    start: int = 0  # witness start
+    window: tuple[int, int] | None = None
+    reading: str | None = None  # per-task override of the window reading
+    uses: dict[str, int] | None = None
+
+    @property
+    def id(self) -> str:
+        return f"T{self.index:03d}"
+
+    @property
+    def mandatory(self) -> bool:
+        return self.schedule_cost == 0
+
+
+@dataclass
+class _Edge:
+    before: int
+    after: int
+    kind: str
+    scope: str
+    offset: int
+
+
+def generate_problem(
+    num_tasks: int, resource_class: str, horizon: int, seed: int
+) -> dict[str, Any]:
+    """Generate one problem document.
+
+    Parameters
+    ----------
+    num_tasks
+        Number of tasks (>= 1).
+    resource_class
+        ``none``, ``binary``, ``multiple``, ``consumable`` or ``mixed``.
+    horizon
+        Horizon length; task lengths are 1..20.
+    seed
+        Integer seed; the same arguments give the same document.
+
+    Returns
+    -------
+    dict
+        A CONTRACT section 1 problem that passes ``decode_problem``.
+    """
+    if resource_class not in (*CLASSES, "mixed"):
+        raise ValueError(f"unknown resource class {resource_class!r}")
+    rng = random.Random(seed)
+    reading = rng.choice(("task", "start"))
+    tasks = _make_tasks(rng, num_tasks, horizon)
+    _place_mandatory(rng, tasks, horizon)
+    edges = _make_edges(rng, tasks)
+    edges = _place_witness(rng, tasks, edges, horizon)
+    _make_windows(rng, tasks, reading, horizon)
+    resources = _make_resources(rng, tasks, edges, resource_class)
+    return {
+        "horizon": horizon,
+        "start": 0,
+        "feasible_interval_applies_to": reading,
+        "resources": resources,
+        "tasks": [_task_doc(task) for task in tasks],
+        "precedences": [
+            {
+                "before": tasks[edge.before].id,
+                "after": tasks[edge.after].id,
+                "kind": edge.kind,
+                "scope": edge.scope,
+                "offset": edge.offset,
+            }
+            for edge in edges
+        ],
+    }
+
+
+def _make_tasks(
+    rng: random.Random, num_tasks: int, horizon: int
+) -> list[_Task]:
+    max_length = min(MAX_LENGTH, horizon)
+    tasks = [
+        _Task(
+            index=i,
+            length=rng.randint(1, max_length),
+            delay_cost=rng.randint(1, 5),
+            schedule_cost=rng.randint(1, 5),
+            preemption=rng.choice(
+                ("none", "from_start", "from_interrupt", "delete")
+            ),
+            rank=rng.random(),
+        )
+        for i in range(num_tasks)
+    ]
+    # Mandatory tasks: about a fifth, at least one, their total length at
+    # most half the horizon so that disjoint witness slots exist.
+    wanted = max(1, round(MANDATORY_SHARE * num_tasks))
+    budget = horizon // 2
+    for index in rng.sample(range(num_tasks), wanted):
+        if tasks[index].length <= budget:
+            tasks[index].schedule_cost = 0
+            budget -= tasks[index].length
+    return tasks
+
+
+def _place_mandatory(
+    rng: random.Random, tasks: list[_Task], horizon: int
+) -> None:
+    """Give mandatory tasks disjoint witness slots in random order."""
+    mandatory = [task for task in tasks if task.mandatory]
+    rng.shuffle(mandatory)
+    free = horizon - sum(task.length for task in mandatory)
+    cuts = sorted(rng.randint(0, free) for _ in mandatory)
+    time, used = 0, 0
+    for task, cut in zip(mandatory, cuts, strict=True):
+        time += cut - used
+        used = cut
+        task.start = time
+        time += task.length
+
+
+def _tight_offset(rng: random.Random, before: _Task) -> int:
+    roll = rng.random()
+    if roll < 0.4:
+        return 0
+    if roll < 0.7 or before.length == 1:
+        return rng.randint(1, 5)
+    return -rng.randint(1, before.length - 1)  # the two tasks overlap
+
+
+def _lax_offset(rng: random.Random, before: _Task) -> int:
+    roll = rng.random()
+    if roll < 0.4:
+        return 0
+    if roll < 0.7:
+        return rng.randint(1, 10)
+    return -rng.randint(1, before.length)
+
+
+def _make_edges(rng: random.Random, tasks: list[_Task]) -> list[_Edge]:
+    """Tight chains and lax edges, all following increasing rank.
+
+    Mandatory tasks appear only as ``before`` of lax ``at_least_first``
+    edges, which never force another task into the plan.
+    """
+    optional = [task for task in tasks if not task.mandatory]
+    rng.shuffle(optional)
+    edges: list[_Edge] = []
+    # Tight chains of 2-3 tasks, built forward in rank order; each task is
+    # in at most one chain, so tight offsets can never contradict.
+    pos = 0
+    for _ in range(max(1, len(tasks) // 5)):
+        size = rng.randint(2, 3)
+        chain = optional[pos : pos + size]
+        if len(chain) < 2:
+            break
+        pos += size
+        chain.sort(key=lambda task: task.rank)
+        for before, after in zip(chain, chain[1:], strict=False):
+            edges.append(
+                _Edge(
+                    before.index,
+                    after.index,
+                    "tight",
+                    rng.choice(("both", "at_least_first")),
+                    _tight_offset(rng, before),
+                )
+            )
+    # Lax edges between any two tasks, in rank order.
+    seen = {(edge.before, edge.after) for edge in edges}
+    for _ in range(max(1, len(tasks) // 4)):
+        first, second = rng.sample(tasks, 2)
+        if first.rank > second.rank:
+            first, second = second, first
+        if second.mandatory or (first.index, second.index) in seen:
+            continue
+        scope = (
+            "at_least_first"
+            if first.mandatory
+            else rng.choice(("both", "at_least_first"))
+        )
+        seen.add((first.index, second.index))
+        edges.append(
+            _Edge(
+                first.index,
+                second.index,
+                "lax",
+                scope,
+                _lax_offset(rng, first),
+            )
+        )
+    return edges
+
+
+def _place_witness(
+    rng: random.Random, tasks: list[_Task], edges: list[_Edge], horizon: int
+) -> list[_Edge]:
+    """Choose witness starts for optional tasks; drop edges that cannot hold.
+
+    Tasks are visited in rank order, so every predecessor is placed first.
+    Returns the kept edges, in their original order.
+    """
+    incoming: dict[int, list[_Edge]] = {}
+    for edge in edges:
+        incoming.setdefault(edge.after, []).append(edge)
+    dropped: list[_Edge] = []
+    for task in sorted(tasks, key=lambda t: t.rank):
+        if task.mandatory:
+            continue
+        latest = horizon - task.length
+        preds = incoming.get(task.index, [])
+
+        def bound(edge: _Edge) -> int:
+            before = tasks[edge.before]
+            return before.start + before.length + edge.offset
+
+        tight = [edge for edge in preds if edge.kind == "tight"]
+        lax = sorted(
+            (edge for edge in preds if edge.kind == "lax"),
+            key=lambda e: (bound(e), e.before),
+        )
+        if tight and not 0 <= bound(tight[0]) <= latest:
+            dropped.append(tight[0])
+            tight = []
+        if tight:
+            task.start = bound(tight[0])
+            for edge in lax:
+                if bound(edge) > task.start:
+                    dropped.append(edge)
+            continue
+        while lax and bound(lax[-1]) > latest:
+            dropped.append(lax.pop())
+        if lax:
+            earliest = max(0, bound(lax[-1]))
+            task.start = rng.randint(earliest, min(latest, earliest + 40))
+        else:
+            task.start = rng.randint(0, latest)
+    return [edge for edge in edges if all(edge is not d for d in dropped)]
+
+
+def _make_windows(
+    rng: random.Random, tasks: list[_Task], reading: str, horizon: int
+) -> None:
+    """Windows around the witness placement, in either reading."""
+    other = "start" if reading == "task" else "task"
+    for task in tasks:
+        if rng.random() >= WINDOW_SHARE:
+            continue
+        own = reading
+        if rng.random() < 0.2:
+            own = other
+            task.reading = other
+        slack = 3 * task.length + 20
+        low = max(0, task.start - rng.randint(0, slack))
+        if own == "task":
+            high = min(horizon, task.start + task.length + rng.randint(0, slack))
+        else:
+            high = min(horizon, task.start + rng.randint(0, slack))
+        task.window = (low, high)
+
+
+def _make_resources(
+    rng: random.Random,
+    tasks: list[_Task],
+    edges: list[_Edge],
+    resource_class: str,
+) -> dict[str, Any]:
+    for task in tasks:
+        task.uses = {}
+    resources: dict[str, Any] = {}
+    mixed = resource_class == "mixed"
+    if mixed or resource_class == "binary":
+        names = BINARY_NAMES[: rng.randint(2, 3)]
+        resources["binary"] = list(names)
+        _use_binary(rng, tasks, edges, names)
+    if mixed or resource_class == "multiple":
+        names = tuple(MULTIPLE_CAPACITY)[: rng.randint(1, 2)]
+        resources["multiple"] = {name: MULTIPLE_CAPACITY[name] for name in names}
+        _use_multiple(rng, tasks, edges, names)
+    if mixed or resource_class == "consumable":
+        names = CONSUMABLE_NAMES[: rng.randint(1, 2)]
+        resources["consumable"] = _use_consumable(rng, tasks, names)
+    return resources
+
+
+def _overlapping_pairs(
+    tasks: list[_Task], edges: list[_Edge]
+) -> list[tuple[_Task, _Task]]:
+    """Tight pairs with a negative offset: they always run together."""
+    return [
+        (tasks[edge.before], tasks[edge.after])
+        for edge in edges
+        if edge.kind == "tight" and edge.offset < 0
+    ]
+
+
+def _use_binary(
+    rng: random.Random,
+    tasks: list[_Task],
+    edges: list[_Edge],
+    names: tuple[str, ...],
+) -> None:
+    for task in tasks:
+        assert task.uses is not None
+        for name in names:
+            if rng.random() < 0.4:
+                task.uses[name] = 1
+    for before, after in _overlapping_pairs(tasks, edges):
+        assert before.uses is not None and after.uses is not None
+        for name in names:
+            if name in before.uses:
+                after.uses.pop(name, None)
+
+
+def _use_multiple(
+    rng: random.Random,
+    tasks: list[_Task],
+    edges: list[_Edge],
+    names: tuple[str, ...],
+) -> None:
+    for task in tasks:
+        assert task.uses is not None
+        for name in names:
+            if rng.random() < 0.7:
+                cap = MULTIPLE_CAPACITY[name]
+                task.uses[name] = rng.randint(cap // 10, 3 * cap // 5)
+    for before, after in _overlapping_pairs(tasks, edges):
+        assert before.uses is not None and after.uses is not None
+        for name in names:
+            room = MULTIPLE_CAPACITY[name] - before.uses.get(name, 0)
+            if after.uses.get(name, 0) > room:
+                after.uses[name] = room
+
+
+def _use_consumable(
+    rng: random.Random, tasks: list[_Task], names: tuple[str, ...]
+) -> dict[str, int]:
+    """Consumers, charging tasks (negative amounts) and initial levels.
+
+    The initial level covers every mandatory consumer in full plus a random
+    share of the optional consumption, so the resource binds but the
+    mandatory tasks always fit.
+    """
+    levels: dict[str, int] = {}
+    chargers = {
+        task.index for task in tasks if rng.random() < 0.2
+    } or {rng.randrange(len(tasks))}
+    for position, name in enumerate(names):
+        mandatory_need = optional_need = 0
+        for task in tasks:
+            assert task.uses is not None
+            if position == 0 and task.index in chargers:
+                task.uses[name] = -rng.randint(5, 10)
+                continue
+            share = 0.7 if position == 0 else 0.3
+            if rng.random() < share:
+                amount = rng.randint(1, 5 if position == 0 else 3)
+                task.uses[name] = amount
+                if task.mandatory:
+                    mandatory_need += amount * task.length
+                else:
+                    optional_need += amount * task.length
+        levels[name] = mandatory_need + round(
+            optional_need * rng.uniform(0.25, 0.6)
+        )
+    return levels
+
+
+def _task_doc(task: _Task) -> dict[str, Any]:
+    doc: dict[str, Any] = {
+        "id": task.id,
+        "length": task.length,
+        "delay_cost": task.delay_cost,
+        "schedule_cost": task.schedule_cost,
+        "preemption": task.preemption,
+        "feasible_interval": list(task.window) if task.window else None,
+        "uses": task.uses or {},
+    }
+    if task.reading is not None:
+        doc["feasible_interval_applies_to"] = task.reading
+    return doc
