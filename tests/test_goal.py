@@ -1,0 +1,90 @@
+"""Tests of goal decoding and checking (fsw_scheduler.goal)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from fsw_scheduler.errors import InputError
+from fsw_scheduler.goal import Goal, GoalTask, decode_goal
+from fsw_scheduler.model import Task
+
+
+def _task(**over: object) -> dict:
+    task = {"id": "a", "length": 2, "delay_cost": 1, "schedule_cost": 1}
+    task.update(over)
+    return task
+
+
+def _paths(doc: dict) -> list[str]:
+    with pytest.raises(InputError) as info:
+        decode_goal(json.dumps(doc))
+    assert info.value.what == "goal"
+    return [issue.path for issue in info.value.issues]
+
+
+def test_table2_goal_decodes(table2_goal_doc: dict) -> None:
+    """Tests that the paper's Table 2 goal decodes with its obsoletes."""
+    goal = decode_goal(json.dumps(table2_goal_doc))
+    assert goal.goal_id == "monitor-target-lf"
+    assert goal.issued_at == 15
+    assert [t.id for t in goal.tasks] == [
+        "AcquisitionLF",
+        "SetLFOption",
+        "SetPositionZ",
+    ]
+    assert goal.obsoleted == ("AcquisitionHF", "SetHFOption")
+    assert len(goal.precedences) == 2
+
+
+def test_goal_task_converts_to_plain_task() -> None:
+    """Tests that to_task drops obsoletes and keeps every task field."""
+    gtask = GoalTask("a", 3, 2, 1, uses={"cam": 1}, obsoletes=("b",))
+    task = gtask.to_task()
+    assert type(task) is Task
+    assert task == Task("a", 3, 2, 1, uses={"cam": 1})
+
+
+def test_goal_defaults() -> None:
+    """Tests that precedences and issued_at are optional."""
+    goal = decode_goal(json.dumps({"goal_id": "g", "tasks": [_task()]}))
+    assert goal == Goal("g", (GoalTask("a", 2, 1, 1),))
+
+
+@pytest.mark.parametrize(
+    ("task", "path"),
+    [
+        (_task(length=0), "tasks[0].length"),
+        (_task(delay_cost=9), "tasks[0].delay_cost"),
+        (_task(schedule_cost=-1), "tasks[0].schedule_cost"),
+        (_task(id=""), "tasks[0].id"),
+        (_task(feasible_interval=[5, 2]), "tasks[0].feasible_interval"),
+        (_task(obsoletes=["a"]), "tasks[0].obsoletes[0]"),
+    ],
+)
+def test_bad_task_field_is_named(task: dict, path: str) -> None:
+    """Tests that a bad task field is reported with its path."""
+    assert _paths({"goal_id": "g", "tasks": [task]}) == [path]
+
+
+def test_wrong_type_is_named() -> None:
+    """Tests that a type error names the field through decode_strict."""
+    doc = {"goal_id": "g", "tasks": [_task(length="x")]}
+    assert _paths(doc) == ["tasks[0].length"]
+
+
+def test_duplicate_ids_and_self_precedence() -> None:
+    """Tests that duplicate ids and a self precedence are both reported."""
+    doc = {
+        "goal_id": "",
+        "tasks": [_task(), _task()],
+        "precedences": [{"before": "a", "after": "a", "kind": "lax"}],
+    }
+    assert _paths(doc) == ["goal_id", "tasks[1].id", "precedences[0].after"]
+
+
+def test_resources_are_left_to_the_merge() -> None:
+    """Tests that unknown resource names are not judged without a problem."""
+    doc = {"goal_id": "g", "tasks": [_task(uses={"whatever": -3})]}
+    assert decode_goal(json.dumps(doc)).tasks[0].uses == {"whatever": -3}
