@@ -121,7 +121,7 @@ class Constraints:
                 continue
             previous: pulp.LpVariable | None = None
             for time in range(self.problem.start, self.problem.end):
-                level = pulp.LpVariable(f"L{idx}_{time}", lowBound=0)
+                level = self.lp.add_variable(f"L{idx}_{time}", lowBound=0)
                 # level - previous + sum amount * R = 0 (initial if first)
                 terms: Terms = {level: 1.0}
                 if previous is not None:

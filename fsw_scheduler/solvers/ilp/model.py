@@ -7,8 +7,11 @@ optimality from "best found at the limit", so that is what is mapped.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
+import shutil
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -30,6 +33,8 @@ from .objective import objective, weight
 from .variables import Variables
 
 if TYPE_CHECKING:
+    from collections.abc import Iterator
+
     from ...model import Problem
 
 SOLVERS = ("cbc", "highs")
@@ -48,6 +53,18 @@ _STATUS = {
 }
 
 
+def _read_status(lp: pulp.LpProblem) -> SolveStatus:
+    """The solve's status, from the solution status first.
+
+    CBC's "Integer infeasible" result sets PuLP's ``status`` to infeasible
+    but leaves ``sol_status`` at "no solution found", so a proven
+    infeasibility is read from ``status``.
+    """
+    if lp.status == pulp.LpStatusInfeasible:
+        return SolveStatus.INFEASIBLE
+    return _STATUS.get(lp.sol_status, SolveStatus.UNKNOWN)
+
+
 class BuiltModel:
     """A problem's ILP: PuLP problem plus the variables that decode it."""
 
@@ -55,7 +72,7 @@ class BuiltModel:
         self.problem = problem
         self.domains = start_domains(problem)
         self.lp = pulp.LpProblem("schedule", pulp.LpMinimize)
-        self.vars = Variables(problem, self.domains)
+        self.vars = Variables(self.lp, problem, self.domains)
         self.constraints = Constraints(self.lp, problem, self.vars)
         self.constraints.add_all()
         self.lp.setObjective(objective(problem, self.vars))
@@ -68,7 +85,7 @@ class BuiltModel:
     @property
     def num_constraints(self) -> int:
         """Number of rows handed to the solver."""
-        return len(self.lp.constraints)
+        return self.lp.numConstraints()
 
     def decode(self, status: SolveStatus) -> Plan:
         """Read the solution into a Plan with the objective recomputed."""
@@ -92,6 +109,27 @@ class BuiltModel:
         )
 
 
+def cbc_path() -> str:
+    """The CBC executable: PuLP's bundled binary, else ``cbc`` on PATH.
+
+    ``PULP_CBC_CMD`` (which uses the bundled binary) is deprecated in favour
+    of ``COIN_CMD``, which only looks on PATH; pointing ``COIN_CMD`` at the
+    bundled binary keeps a plain ``pip install`` self-sufficient.
+    """
+    from pulp.apis import coin_api
+
+    bundled = Path(coin_api.pulp_cbc_path)
+    if bundled.is_file() and os.access(bundled, os.X_OK):
+        return str(bundled.resolve())
+    found = shutil.which("cbc")
+    if found is None:
+        raise SolverError(
+            "no CBC executable: PuLP's bundled one is missing and 'cbc' is "
+            "not on PATH (pip install 'pulp[cbc]' or apt install coinor-cbc)"
+        )
+    return found
+
+
 def _backend(
     solver: str,
     time_limit: float | None,
@@ -101,7 +139,8 @@ def _backend(
     log_path: str,
 ) -> pulp.LpSolver:
     if solver == "cbc":
-        return pulp.PULP_CBC_CMD(
+        return pulp.COIN_CMD(
+            path=cbc_path(),
             msg=False,
             threads=threads,
             timeLimit=time_limit,
@@ -126,6 +165,28 @@ def _backend(
             random_seed=seed,
         )
     raise SolverError(f"unknown solver {solver!r} (choose from {SOLVERS})")
+
+
+@contextlib.contextmanager
+def _stdout_to_stderr(active: bool) -> Iterator[None]:
+    """Send fd 1 to stderr while active.
+
+    The HiGHS library prints its banner from C++ when the solver object is
+    created, before any option can silence it; on stdout it would corrupt
+    the plan JSON that ``fsw-scheduler solve`` prints.
+    """
+    if not active:
+        yield
+        return
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        os.dup2(2, 1)
+        yield
+    finally:
+        sys.stdout.flush()
+        os.dup2(saved, 1)
+        os.close(saved)
 
 
 _CBC_SECONDS = re.compile(r"Time \(Wallclock seconds\):\s+([0-9.eE+-]+)")
@@ -225,7 +286,8 @@ def solve_ilp(
             solver, time_limit, threads, seed, bool(warm), log_path
         )
         try:
-            built.lp.solve(backend)
+            with _stdout_to_stderr(solver == "highs"):
+                built.lp.solve(backend)
         except pulp.PulpSolverError as error:
             raise SolverError(f"{solver} failed: {error}") from error
         solved_at = time.perf_counter()
@@ -236,7 +298,7 @@ def solve_ilp(
         Path(log_path).unlink(missing_ok=True)
     if solver == "highs":
         bound = _highs_bound(built.lp)
-    status = _STATUS.get(built.lp.sol_status, SolveStatus.UNKNOWN)
+    status = _read_status(built.lp)
     call = solved_at - built_at
     solve_s = solver_seconds if solver_seconds is not None else call
     stats.update(

@@ -33,13 +33,20 @@ class Variables:
 
     Parameters
     ----------
+    lp
+        The PuLP problem that owns the variables.
     problem
         The problem being modelled.
     domains
         Start domains from :func:`~fsw_scheduler.domains.start_domains`.
     """
 
-    def __init__(self, problem: Problem, domains: dict[str, Domain]) -> None:
+    def __init__(
+        self,
+        lp: pulp.LpProblem,
+        problem: Problem,
+        domains: dict[str, Domain],
+    ) -> None:
         self.problem = problem
         self.domains = domains
         self.tasks: list[Task] = list(problem.tasks)
@@ -49,7 +56,7 @@ class Variables:
             if domain.empty:
                 continue
             self.steps[task.id] = [
-                pulp.LpVariable(f"z{idx}_{t}", cat=pulp.LpBinary)
+                lp.add_variable(f"z{idx}_{t}", 0, 1, cat=pulp.LpBinary)
                 for t in range(domain.earliest, domain.latest + 1)
             ]
             if task.mandatory:

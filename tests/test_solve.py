@@ -1,0 +1,392 @@
+"""Tests of the ILP through ``fsw_scheduler.solve`` (CBC and HiGHS)."""
+
+from __future__ import annotations
+
+import copy
+import subprocess
+import sys
+
+import pytest
+
+from fsw_scheduler.solution import SolveStatus
+from fsw_scheduler.solve import solve
+
+from .conftest import problem_from
+
+SOLVERS = ["cbc", "highs"]
+
+
+def _task(name: str, length: int = 1, **over: object) -> dict:
+    task = {
+        "id": name,
+        "length": length,
+        "delay_cost": 1,
+        "schedule_cost": 1,
+    }
+    task.update(over)
+    return task
+
+
+def _problem(tasks: list[dict], horizon: int = 10, **over: object) -> dict:
+    doc = {"horizon": horizon, "tasks": tasks, "precedences": []}
+    doc.update(over)
+    return doc
+
+
+def _starts(doc: dict, solver: str = "cbc", **kwargs: object) -> dict:
+    plan = solve(problem_from(doc), solver, **kwargs)
+    assert plan.status is SolveStatus.OPTIMAL, plan
+    return plan.starts()
+
+
+# -- the paper's Table 1 -----------------------------------------------------
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_table1_start_reading(table1_doc: dict, solver: str) -> None:
+    """Tests that Table 1 schedules all nine tasks as the paper describes."""
+    plan = solve(problem_from(table1_doc), solver)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.unscheduled == ()
+    assert plan.objective is not None
+    assert plan.objective.unscheduled_cost == 0
+    assert plan.objective.delay_cost == 359
+    starts = plan.starts()
+    assert starts["SetHFOption"] == starts["SetPositionX"] == 0
+    assert starts["DownlinkSat2Sat"] == 1
+    charge = plan.activity("BatteryCharge")
+    assert charge is not None
+    assert charge.start < starts["AcquisitionHF"]
+    assert charge.start <= 15 < charge.end
+
+
+def test_table1_whole_task_reading(table1_doc: dict) -> None:
+    """Tests that the whole-task window reading leaves exactly two out."""
+    doc = copy.deepcopy(table1_doc)
+    doc["feasible_interval_applies_to"] = "task"
+    plan = solve(problem_from(doc), explain=True)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert sorted(plan.unscheduled) == ["DownlinkSat2Sat", "SetPositionX"]
+    assert plan.objective is not None
+    assert plan.objective.unscheduled_cost == 6
+    assert plan.objective.delay_cost == 246
+    assert {b.task for b in plan.why} == {"DownlinkSat2Sat", "SetPositionX"}
+    assert all(b.cause == "cost" for b in plan.why)
+
+
+def test_same_input_same_plan(table1_doc: dict) -> None:
+    """Tests that solving twice gives byte-identical plans (no stats)."""
+    first = solve(problem_from(table1_doc)).replace(stats=None)
+    second = solve(problem_from(table1_doc)).replace(stats=None)
+    assert first == second
+
+
+# -- one test per constraint family -------------------------------------------
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_binary_resource(solver: str) -> None:
+    """Tests that two users of a binary resource never overlap."""
+    doc = _problem(
+        [
+            _task("a", 3, delay_cost=5, uses={"cam": 1}),
+            _task("b", 2, delay_cost=1, uses={"cam": 1}),
+        ],
+        resources={"binary": ["cam"]},
+    )
+    assert _starts(doc, solver) == {"a": 0, "b": 3}
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_multiple_resource(solver: str) -> None:
+    """Tests that concurrent use stays within a multiple capacity."""
+    doc = _problem(
+        [
+            _task("a", 2, delay_cost=3, uses={"power": 30}),
+            _task("b", 2, delay_cost=2, uses={"power": 30}),
+            _task("c", 2, delay_cost=1, uses={"power": 40}),
+        ],
+        resources={"multiple": {"power": 60}},
+    )
+    # a and b fit together (60); c must wait until both end.
+    assert _starts(doc, solver) == {"a": 0, "b": 0, "c": 2}
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_consumable_with_generation(solver: str) -> None:
+    """Tests that a consumer waits for generation to refill the level."""
+    doc = _problem(
+        [
+            _task("use", 2, delay_cost=5, uses={"battery": 2}),
+            _task("charge", 4, delay_cost=1, uses={"battery": -1}),
+        ],
+        resources={"consumable": {"battery": 0}},
+    )
+    # Empty battery, charging 1 per unit: the consumer (2 per unit) can
+    # only run once 4 units are in, so it starts at 2 and ends with 0.
+    assert _starts(doc, solver) == {"charge": 0, "use": 2}
+
+
+def test_consumable_level_counts_partial_units() -> None:
+    """Tests that the level is checked at every unit, not only at ends."""
+    doc = _problem(
+        [
+            # Charges 1/unit from t=0 while running; the consumer takes 2/unit.
+            _task("charge", 4, delay_cost=1, uses={"battery": -1}),
+            _task("use", 2, delay_cost=5, uses={"battery": 2}),
+        ],
+        resources={"consumable": {"battery": 1}},
+    )
+    starts = _starts(doc)
+    # Overlapping from t: level(t) = 1 + (t+1) - 2 >= 0 holds from t = 0,
+    # but unit t+1 needs 1 + (t+2) - 4 >= 0, so use starts at 1 at best.
+    assert starts == {"charge": 0, "use": 1}
+
+
+@pytest.mark.parametrize("offset", [-1, 0, 2])
+def test_tight_both_offsets(offset: int) -> None:
+    """Tests tight precedences with negative, zero and positive offsets."""
+    doc = _problem(
+        [_task("a", 3, delay_cost=1), _task("b", 2, delay_cost=5)],
+        precedences=[
+            {"before": "a", "after": "b", "kind": "tight", "offset": offset}
+        ],
+    )
+    starts = _starts(doc)
+    assert starts["b"] == starts["a"] + 3 + offset
+    assert starts["a"] == 0
+
+
+def test_tight_both_drops_both() -> None:
+    """Tests that tight-both leaves both out when the follower can't fit."""
+    doc = _problem(
+        [_task("a", 3, schedule_cost=1), _task("b", 8, schedule_cost=1)],
+        precedences=[{"before": "a", "after": "b", "kind": "tight"}],
+    )
+    plan = solve(problem_from(doc), explain=True)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert sorted(plan.unscheduled) == ["a", "b"]
+    assert {b.cause for b in plan.why} == {"precedence"}
+
+
+def test_tight_at_least_first_keeps_first() -> None:
+    """Tests that tight at_least_first may schedule the first alone."""
+    doc = _problem(
+        [_task("a", 3), _task("b", 8)],
+        precedences=[
+            {
+                "before": "a",
+                "after": "b",
+                "kind": "tight",
+                "scope": "at_least_first",
+            }
+        ],
+    )
+    plan = solve(problem_from(doc))
+    assert plan.unscheduled == ("b",)
+    assert plan.starts() == {"a": 0}
+
+
+def test_tight_at_least_first_is_exact_when_both() -> None:
+    """Tests that tight at_least_first fixes the gap when both run."""
+    doc = _problem(
+        [
+            _task("a", 2, delay_cost=5, uses={"cam": 1}),
+            _task("b", 2, delay_cost=1),
+            _task("c", 2, delay_cost=5, uses={"cam": 1}),
+        ],
+        resources={"binary": ["cam"]},
+        precedences=[
+            {
+                "before": "a",
+                "after": "b",
+                "kind": "tight",
+                "scope": "at_least_first",
+                "offset": 1,
+            }
+        ],
+    )
+    starts = _starts(doc)
+    assert starts["b"] == starts["a"] + 3
+
+
+@pytest.mark.parametrize("scope", ["both", "at_least_first"])
+def test_lax(scope: str) -> None:
+    """Tests that lax precedences order tasks with an offset gap."""
+    doc = _problem(
+        [_task("a", 2, delay_cost=1), _task("b", 2, delay_cost=5)],
+        precedences=[
+            {
+                "before": "a",
+                "after": "b",
+                "kind": "lax",
+                "scope": scope,
+                "offset": 1,
+            }
+        ],
+    )
+    starts = _starts(doc)
+    assert starts == {"a": 0, "b": 3}
+
+
+def test_lax_both_versus_at_least_first() -> None:
+    """Tests the scopes when the follower cannot be placed."""
+    tasks = [_task("a", 2, schedule_cost=5), _task("b", 9, schedule_cost=1)]
+    for scope, expected in [("both", ["a", "b"]), ("at_least_first", ["b"])]:
+        doc = _problem(
+            copy.deepcopy(tasks),
+            precedences=[
+                {"before": "a", "after": "b", "kind": "lax", "scope": scope}
+            ],
+        )
+        plan = solve(problem_from(doc))
+        assert sorted(plan.unscheduled) == expected, scope
+
+
+def test_lax_negative_offset_allows_overlap() -> None:
+    """Tests that a negative lax offset lets the follower overlap."""
+    doc = _problem(
+        [_task("a", 4, delay_cost=1), _task("b", 1, delay_cost=5)],
+        precedences=[
+            {"before": "a", "after": "b", "kind": "lax", "offset": -3}
+        ],
+    )
+    assert _starts(doc) == {"a": 0, "b": 1}
+
+
+def test_windows_both_readings() -> None:
+    """Tests that windows bound the start or the whole task."""
+    assert _starts(_problem([_task("a", 3, feasible_interval=[4, 8])])) == {
+        "a": 4
+    }
+    for reading, expected in [("task", None), ("start", 6)]:
+        doc = _problem(
+            [
+                _task("block", 2, fixed_start=4, uses={"r": 1}),
+                _task("a", 3, feasible_interval=[4, 8], uses={"r": 1}),
+            ],
+            horizon=14,
+            resources={"binary": ["r"]},
+            feasible_interval_applies_to=reading,
+        )
+        plan = solve(problem_from(doc))
+        # block holds r over [4, 6): with the task reading a must start in
+        # [4, 5] and cannot run; with the start reading it starts at 6.
+        assert plan.starts().get("a") == expected, reading
+
+
+def test_fixed_start_is_mandatory_and_exact() -> None:
+    """Tests that a fixed start is honoured even when delay costs more."""
+    doc = _problem([_task("a", 2, delay_cost=5, fixed_start=6)])
+    assert _starts(doc) == {"a": 6}
+
+
+def test_mandatory_infeasible_says_why() -> None:
+    """Tests that an infeasible problem names the blocked mandatory task."""
+    doc = _problem(
+        [
+            _task("a", 6, schedule_cost=0, uses={"cam": 1}),
+            _task("b", 6, schedule_cost=0, uses={"cam": 1}),
+        ],
+        resources={"binary": ["cam"]},
+    )
+    plan = solve(problem_from(doc), explain=True)
+    assert plan.status is SolveStatus.INFEASIBLE
+    assert plan.objective is None
+    assert sorted(plan.unscheduled) == ["a", "b"]
+    assert len(plan.why) == 1
+    assert plan.why[0].task in {"a", "b"}
+    assert plan.why[0].cause == "combination"
+
+
+def test_mandatory_blocked_by_consumable() -> None:
+    """Tests that a consumable shortfall is named as the blocker."""
+    doc = _problem(
+        [
+            _task("a", 3, schedule_cost=0, uses={"fuel": 2}),
+            _task("b", 1, schedule_cost=1),
+        ],
+        resources={"consumable": {"fuel": 5}},
+    )
+    plan = solve(problem_from(doc), explain=True)
+    assert plan.status is SolveStatus.INFEASIBLE
+    assert [(b.task, b.cause) for b in plan.why] == [("a", "consumable")]
+
+
+def test_unscheduled_reason_names_resource() -> None:
+    """Tests that an optional task kept out by a resource says which."""
+    doc = _problem(
+        [
+            _task("a", 8, schedule_cost=5, uses={"power": 5}),
+            _task("b", 4, schedule_cost=1, uses={"power": 6}),
+        ],
+        resources={"multiple": {"power": 10}},
+    )
+    plan = solve(problem_from(doc), explain=True)
+    assert plan.unscheduled == ("b",)
+    assert [(b.task, b.cause) for b in plan.why] == [("b", "cost")]
+    assert "push out a" in plan.why[0].detail
+    doc["tasks"][0]["schedule_cost"] = 0  # a can no longer make way
+    plan = solve(problem_from(doc), explain=True)
+    assert [(b.task, b.cause) for b in plan.why] == [("b", "multiple")]
+
+
+def test_time_limit_status_is_honest() -> None:
+    """Tests that a limited solve never claims more than it proved."""
+    tasks = [
+        _task(
+            f"t{i}",
+            1 + (i * 7) % 5,
+            delay_cost=1 + i % 5,
+            schedule_cost=1 + i % 5,
+            uses={"cam": 1},
+        )
+        for i in range(25)
+    ]
+    doc = _problem(tasks, horizon=60, resources={"binary": ["cam"]})
+    plan = solve(problem_from(doc), time_limit=1)
+    assert plan.status in {
+        SolveStatus.OPTIMAL,
+        SolveStatus.FEASIBLE,
+        SolveStatus.UNKNOWN,
+    }
+    assert plan.stats is not None
+    if plan.status is SolveStatus.FEASIBLE:
+        assert plan.objective is not None
+        assert plan.stats.bound is None or (
+            plan.stats.bound <= plan.objective.total
+        )
+
+
+def test_status_mapping_reads_solution_status() -> None:
+    """Tests that PuLP's solution status, not its status, is mapped."""
+    import pulp
+
+    from fsw_scheduler.solvers.ilp.model import _STATUS
+
+    assert _STATUS[pulp.LpSolutionIntegerFeasible] is SolveStatus.FEASIBLE
+    assert _STATUS[pulp.LpSolutionOptimal] is SolveStatus.OPTIMAL
+    assert _STATUS[pulp.LpSolutionNoSolutionFound] is SolveStatus.UNKNOWN
+    assert _STATUS[pulp.LpSolutionInfeasible] is SolveStatus.INFEASIBLE
+
+
+def test_warm_start_keeps_optimum(table1_doc: dict) -> None:
+    """Tests that a warm start from a plan gives the same optimum."""
+    problem = problem_from(table1_doc)
+    cold = solve(problem)
+    warm = solve(problem, warm=cold)
+    assert warm.objective == cold.objective
+
+
+def test_core_does_not_import_solver_or_bus() -> None:
+    """Tests that importing the package pulls in neither PuLP nor Zenoh."""
+    code = (
+        "import sys, fsw_scheduler, fsw_scheduler.model, "
+        "fsw_scheduler.domains, fsw_scheduler.explain;"
+        "bad = [m for m in ('pulp', 'zenoh', 'matplotlib', 'mcap') "
+        "if m in sys.modules]; print(bad); sys.exit(bool(bad))"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
