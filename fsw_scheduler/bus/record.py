@@ -223,7 +223,7 @@ def replay(
     include: Iterable[str] = (),
     exclude: Iterable[str] = (),
     clock: Callable[[], float] = time.monotonic,
-    sleep: Callable[[float], object] = time.sleep,
+    sleep: Callable[[float], object] | None = None,
     stop: threading.Event | None = None,
     encoding: str = JSON_ENCODING,
 ) -> int:
@@ -258,8 +258,9 @@ def replay(
     clock
         Monotonic clock in seconds (injectable for tests).
     sleep
-        Sleep function in seconds (injectable for tests). It is called
-        only with positive durations.
+        Sleep function in seconds (injectable for tests), called only with
+        positive durations. Default: ``stop.wait`` when ``stop`` is given
+        (so setting it interrupts a long gap), else :func:`time.sleep`.
     stop
         Set it to end the replay early.
     encoding
@@ -291,6 +292,8 @@ def replay(
     start_ns = origin_ns + round(start_offset_s * 1e9)
     end_ns = None if until_s is None else origin_ns + round(until_s * 1e9)
     keep = KeyFilter(include, exclude)
+    if sleep is None:
+        sleep = time.sleep if stop is None else stop.wait
     publishers: dict[str, zenoh.Publisher] = {}
     published = 0
     try:
@@ -345,6 +348,8 @@ def _replay_pass(
             delay = due - clock()
             if delay > 0:
                 sleep(delay)
+                if stop is not None and stop.is_set():
+                    break
         publisher = publishers.get(message.topic)
         if publisher is None:
             publisher = session.declare_publisher(

@@ -167,8 +167,11 @@ def loopback_config(
     """Return an isolated peer configuration for tests and demos.
 
     Multicast scouting and gossip are off, so the session only talks to the
-    endpoints it is given; the admin space is enabled read-only so that
-    :func:`listening_endpoints` can report the port the OS picked.
+    endpoints it is given, and the open-time scouting delay is zero, so
+    :func:`zenoh.open` returns at once (wait for peers with
+    :func:`wait_connected` or :func:`wait_matching`); the admin space is
+    enabled read-only so that :func:`listening_endpoints` can report the
+    port the OS picked.
 
     Parameters
     ----------
@@ -191,6 +194,10 @@ def loopback_config(
     config.insert_json5("connect/endpoints", json.dumps(list(connect)))
     config.insert_json5("scouting/multicast/enabled", "false")
     config.insert_json5("scouting/gossip/enabled", "false")
+    # zenoh.open() may otherwise wait up to the scouting delay (500 ms) for
+    # peers to show up; callers here wait explicitly instead
+    # (wait_connected, wait_matching), so opening returns at once.
+    config.insert_json5("scouting/delay", "0")
     config.insert_json5("adminspace/enabled", "true")
     config.insert_json5(
         "adminspace/permissions", '{"read": true, "write": false}'
