@@ -119,7 +119,7 @@ def solve_cpsat(
             terms.append(weight * task.schedule_cost * (1 - lit))
         if lit is None:
             continue
-        earliest, latest = problem.start_bounds(task)
+        latest = problem.start_bounds(task)[1]
         delay = model.new_int_var(0, latest - problem.start, f"d_{task.id}")
         model.add(delay == starts[task.id] - problem.start).only_enforce_if(
             lit
@@ -170,9 +170,7 @@ def solve_cpsat(
         wall_s=wall_s,
         num_variables=len(proto.variables),
         num_constraints=len(proto.constraints),
-        bound=(
-            solver.best_objective_bound if status.has_plan else None
-        ),
+        bound=(solver.best_objective_bound if status.has_plan else None),
         solver_status=solver.status_name(code),
         time_limit_s=time_limit,
     )
@@ -198,7 +196,9 @@ def _objective(
         problem.task(a.task).delay_cost * (a.start - problem.start)
         for a in activities
     )
-    return Objective(unscheduled_cost, delay, weight * unscheduled_cost + delay)
+    return Objective(
+        unscheduled_cost, delay, weight * unscheduled_cost + delay
+    )
 
 
 def _tasks(
@@ -304,5 +304,7 @@ def _precedences(
         gap = problem.task(prec.before).length + prec.offset
         lhs = starts[prec.after]
         rhs = starts[prec.before] + gap
-        constraint = model.add(lhs == rhs if prec.kind == "tight" else lhs >= rhs)
+        constraint = model.add(
+            lhs == rhs if prec.kind == "tight" else lhs >= rhs
+        )
         constraint.only_enforce_if([before, after])

@@ -26,6 +26,7 @@ seeded with integers; no set or hash ordering is involved.
 
 from __future__ import annotations
 
+import itertools
 import json
 import random
 import zlib
@@ -348,7 +349,7 @@ def _make_edges(rng: random.Random, tasks: list[_Task]) -> list[_Edge]:
             break
         pos += size
         chain.sort(key=lambda task: task.rank)
-        for before, after in zip(chain, chain[1:], strict=False):
+        for before, after in itertools.pairwise(chain):
             edges.append(
                 _Edge(
                     before.index,
@@ -445,7 +446,9 @@ def _make_windows(
         slack = 3 * task.length + 20
         low = max(0, task.start - rng.randint(0, slack))
         if own == "task":
-            high = min(horizon, task.start + task.length + rng.randint(0, slack))
+            high = min(
+                horizon, task.start + task.length + rng.randint(0, slack)
+            )
         else:
             high = min(horizon, task.start + rng.randint(0, slack))
         task.window = (low, high)
@@ -467,7 +470,9 @@ def _make_resources(
         _use_binary(rng, tasks, edges, names)
     if mixed or resource_class == "multiple":
         names = tuple(MULTIPLE_CAPACITY)[: rng.randint(1, 2)]
-        resources["multiple"] = {name: MULTIPLE_CAPACITY[name] for name in names}
+        resources["multiple"] = {
+            name: MULTIPLE_CAPACITY[name] for name in names
+        }
         _use_multiple(rng, tasks, edges, names)
     if mixed or resource_class == "consumable":
         names = CONSUMABLE_NAMES[: rng.randint(1, 2)]
@@ -534,9 +539,9 @@ def _use_consumable(
     mandatory tasks always fit.
     """
     levels: dict[str, int] = {}
-    chargers = {
-        task.index for task in tasks if rng.random() < 0.2
-    } or {rng.randrange(len(tasks))}
+    chargers = {task.index for task in tasks if rng.random() < 0.2} or {
+        rng.randrange(len(tasks))
+    }
     for position, name in enumerate(names):
         mandatory_need = optional_need = 0
         for task in tasks:

@@ -1,0 +1,399 @@
+"""Tables, CSV and box plots of benchmark runs.
+
+Tables give, per solver and group, the median / p90 / mean of the end-to-end
+wall time and the medians of its three parts (model build, solver overhead,
+solve), the number of time-outs and of check failures, and the paper's
+average beside it (its Table 3 and the text about Figure 3). The paper
+reports averages on another machine; compare orders of magnitude.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+import statistics
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from .generator import CAMPAIGN_SIZES, CLASSES
+
+if TYPE_CHECKING:
+    from collections.abc import Callable, Sequence
+    from pathlib import Path
+
+    from .runner import Outcome, Run
+
+PAPER_PROPOSED_BY_SIZE: dict[int, float] = {5: 0.2, 10: 0.6, 15: 0.9}
+PAPER_PROPOSED_BY_CLASS: dict[str, float] = {
+    "none": 0.8,
+    "binary": 0.8,
+    "multiple": 0.3,
+    "consumable": 0.3,
+}
+PAPER_ORTOOLS_BY_CLASS: dict[str, float] = {
+    "none": 0.6,
+    "binary": 1.1,
+    "multiple": 1.5,
+    "consumable": 11.0,
+}
+SLOWEST_SHOWN = 12
+
+
+def percentile(values: Sequence[float], q: float) -> float:
+    """Linear-interpolation percentile (``q`` in 0..100) of ``values``."""
+    ordered = sorted(values)
+    if not ordered:
+        return math.nan
+    pos = (len(ordered) - 1) * q / 100
+    low = math.floor(pos)
+    high = min(low + 1, len(ordered) - 1)
+    return ordered[low] + (ordered[high] - ordered[low]) * (pos - low)
+
+
+@dataclass
+class Row:
+    """One line of a summary table; times in seconds."""
+
+    solver: str
+    group: str
+    runs: int
+    median: float
+    p90: float
+    mean: float
+    build: float
+    overhead: float
+    solve: float
+    timeouts: int
+    check_failures: int
+    paper: float | None
+
+
+def _paper(solver: str, size: int | None, cls: str | None) -> float | None:
+    ortools = solver.startswith("cpsat")
+    if cls is not None:
+        table = PAPER_ORTOOLS_BY_CLASS if ortools else PAPER_PROPOSED_BY_CLASS
+        return table.get(cls)
+    if size is not None and not ortools:
+        return PAPER_PROPOSED_BY_SIZE.get(size)
+    return None
+
+
+def _row(solver: str, group: str, runs: list[Run], paper: float | None) -> Row:
+    walls = [r.wall_s for r in runs]
+    return Row(
+        solver=solver,
+        group=group,
+        runs=len(runs),
+        median=statistics.median(walls),
+        p90=percentile(walls, 90),
+        mean=statistics.fmean(walls),
+        build=statistics.median(r.build_s for r in runs),
+        overhead=statistics.median(r.overhead_s for r in runs),
+        solve=statistics.median(r.solve_s for r in runs),
+        timeouts=sum(r.timeout for r in runs),
+        check_failures=sum(r.check_failed for r in runs),
+        paper=paper,
+    )
+
+
+def _solvers(runs: Sequence[Run]) -> list[str]:
+    return list(dict.fromkeys(r.solver for r in runs))
+
+
+def _grouped(
+    runs: Sequence[Run],
+    keys: Sequence[object],
+    key_of: Callable[[Run], object],
+    label: Callable[[object], str],
+    paper: Callable[[str, object], float | None],
+) -> list[Row]:
+    rows = []
+    for solver in _solvers(runs):
+        for key in keys:
+            mine = [r for r in runs if r.solver == solver and key_of(r) == key]
+            if mine:
+                rows.append(_row(solver, label(key), mine, paper(solver, key)))
+    return rows
+
+
+def summarize(runs: Sequence[Run]) -> list[tuple[str, list[Row]]]:
+    """Return titled tables: campaign by size, by class, scaling points.
+
+    Parameters
+    ----------
+    runs
+        Every run of the benchmark.
+
+    Returns
+    -------
+    list of (title, rows)
+        Only tables with at least one row.
+    """
+    camp = [r for r in runs if r.suite in ("campaign", "quick")]
+    sections = [
+        (
+            "by number of tasks (H=336; paper Figure 3, proposed: "
+            "0.2/0.6/0.9 s)",
+            _grouped(
+                camp,
+                CAMPAIGN_SIZES,
+                lambda r: r.num_tasks,
+                lambda k: f"{k} tasks",
+                lambda s, k: _paper(s, int(str(k)), None),
+            ),
+        ),
+        (
+            "by resource class, all sizes (paper Table 3)",
+            _grouped(
+                camp,
+                CLASSES,
+                lambda r: r.resource_class,
+                str,
+                lambda s, k: _paper(s, None, str(k)),
+            ),
+        ),
+        (
+            "by resource class, 10 tasks (paper Figure 4)",
+            _grouped(
+                [r for r in camp if r.num_tasks == 10],
+                CLASSES,
+                lambda r: r.resource_class,
+                str,
+                lambda s, k: _paper(s, None, str(k)),
+            ),
+        ),
+    ]
+    scale = [r for r in runs if r.suite == "scaling"]
+    points = sorted({(r.horizon, r.num_tasks) for r in scale})
+    sections.append(
+        (
+            "scaling (mixed resources)",
+            _grouped(
+                scale,
+                points,
+                lambda r: (r.horizon, r.num_tasks),
+                lambda k: "H={} n={}".format(*k),  # type: ignore[misc]
+                lambda s, k: None,
+            ),
+        )
+    )
+    return [(title, rows) for title, rows in sections if rows]
+
+
+def _fmt(value: float | None) -> str:
+    if value is None or math.isnan(value):
+        return "-"
+    return f"{value:.3f}"
+
+
+HEADER = (
+    "solver",
+    "group",
+    "runs",
+    "median",
+    "p90",
+    "mean",
+    "build",
+    "overhd",
+    "solve",
+    "t/o",
+    "chkfail",
+    "paper",
+)
+
+
+def format_table(title: str, rows: Sequence[Row]) -> str:
+    """Render one summary table as aligned text."""
+    cells = [HEADER] + [
+        (
+            row.solver,
+            row.group,
+            str(row.runs),
+            _fmt(row.median),
+            _fmt(row.p90),
+            _fmt(row.mean),
+            _fmt(row.build),
+            _fmt(row.overhead),
+            _fmt(row.solve),
+            str(row.timeouts),
+            str(row.check_failures),
+            _fmt(row.paper) if row.paper is not None else "-",
+        )
+        for row in rows
+    ]
+    widths = [max(len(c[i]) for c in cells) for i in range(len(HEADER))]
+    lines = [f"== {title}"]
+    for cell in cells:
+        lines.append(
+            "  ".join(
+                c.ljust(w) if i < 2 else c.rjust(w)
+                for i, (c, w) in enumerate(zip(cell, widths, strict=True))
+            )
+        )
+    return "\n".join(lines)
+
+
+def format_report(outcome: Outcome, *, time_limit: float | None) -> str:
+    """Render the whole benchmark report.
+
+    Parameters
+    ----------
+    outcome
+        Runs and disagreements.
+    time_limit
+        The per-solve limit used, shown in the legend.
+
+    Returns
+    -------
+    str
+        Tables, the slowest runs, check failures and disagreements.
+    """
+    runs = outcome.runs
+    limit = "none" if time_limit is None else f"{time_limit:g} s"
+    parts = [
+        "Wall time per solve in seconds (end to end: model build + solver "
+        "overhead + solve); build/overhd/solve are medians. "
+        f"t/o = no optimality proof within the limit ({limit}); "
+        "chkfail = plans rejected by check_plan or solves that raised; "
+        "paper = the paper's average (proposed ILP for cbc/highs, "
+        "OR-Tools for cpsat*), on another machine.",
+    ]
+    parts += [format_table(title, rows) for title, rows in summarize(runs)]
+    slowest = sorted(runs, key=lambda r: r.wall_s, reverse=True)
+    lines = ["== slowest solves"]
+    lines += [
+        f"{r.wall_s:8.3f} s  {r.solver:<7} {r.status:<10} {r.problem:<22} "
+        f"seed {r.seed}  build {r.build_s:.3f} solve {r.solve_s:.3f}"
+        for r in slowest[:SLOWEST_SHOWN]
+    ]
+    parts.append("\n".join(lines))
+    failed = [r for r in runs if r.check_failed]
+    lines = [f"== check failures: {len(failed)}"]
+    lines += [
+        f"{r.problem} (seed {r.seed}) {r.solver} {r.status}: "
+        f"{r.error or r.check_detail}"
+        for r in failed
+    ]
+    parts.append("\n".join(lines))
+    lines = [f"== solver disagreements: {len(outcome.disagreements)}"]
+    lines += [
+        f"!!! {d.problem} (seed {d.seed}): {d.detail}"
+        + (f"  [{d.path}]" if d.path else "")
+        for d in outcome.disagreements
+    ]
+    parts.append("\n".join(lines))
+    proven = {r.problem for r in runs if r.status == "optimal"}
+    parts.append(
+        f"{len(runs)} solves of {len({r.problem for r in runs})} problems; "
+        f"{len(proven)} problems proven optimal by at least one solver."
+    )
+    return "\n\n".join(parts)
+
+
+def write_csv(runs: Sequence[Run], path: Path) -> None:
+    """Write one CSV line per run (all :class:`Run` fields)."""
+    if not runs:
+        return
+    names = [f.name for f in dataclasses.fields(runs[0])]
+    with path.open("w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=names)
+        writer.writeheader()
+        for run in runs:
+            writer.writerow(dataclasses.asdict(run))
+
+
+def plot(runs: Sequence[Run], out_dir: Path) -> list[Path]:
+    """Box plots like the paper's Figures 3 and 4 (and scaling).
+
+    Parameters
+    ----------
+    runs
+        Every run.
+    out_dir
+        Where the PNG files go.
+
+    Returns
+    -------
+    list of Path
+        The files written; empty when matplotlib is not installed.
+    """
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return []
+    camp = [r for r in runs if r.suite in ("campaign", "quick")]
+    figures = [
+        (
+            "fig3_by_tasks.png",
+            "Execution time by number of tasks (H = 336)",
+            camp,
+            [(s, f"{s}") for s in CAMPAIGN_SIZES],
+            lambda r: r.num_tasks,
+        ),
+        (
+            "fig4_by_class.png",
+            "Execution time by resource class (10 tasks, H = 336)",
+            [r for r in camp if r.num_tasks == 10],
+            [(c, c) for c in CLASSES],
+            lambda r: r.resource_class,
+        ),
+    ]
+    scale = [r for r in runs if r.suite == "scaling"]
+    points = sorted({(r.horizon, r.num_tasks) for r in scale})
+    figures.append(
+        (
+            "scaling.png",
+            "Execution time, mixed resources (scaling set)",
+            scale,
+            [(p, f"H{p[0]}\nn{p[1]}") for p in points],
+            lambda r: (r.horizon, r.num_tasks),
+        )
+    )
+    written = []
+    for filename, title, subset, groups, key_of in figures:
+        solvers = _solvers(subset)
+        if not subset or not solvers:
+            continue
+        fig, ax = plt.subplots(figsize=(max(6, 1.6 * len(groups) + 2), 4.5))
+        step = 0.8 / len(solvers)
+        for si, solver in enumerate(solvers):
+            data, positions = [], []
+            for gi, (key, _) in enumerate(groups):
+                walls = [
+                    r.wall_s
+                    for r in subset
+                    if r.solver == solver and key_of(r) == key
+                ]
+                if walls:
+                    data.append(walls)
+                    positions.append(gi + (si - (len(solvers) - 1) / 2) * step)
+            if not data:
+                continue
+            box = ax.boxplot(
+                data,
+                positions=positions,
+                widths=step * 0.9,
+                patch_artist=True,
+                manage_ticks=False,
+            )
+            color = f"C{si}"
+            for patch in box["boxes"]:
+                patch.set_facecolor(color)
+                patch.set_alpha(0.6)
+            ax.plot([], [], color=color, linewidth=8, alpha=0.6, label=solver)
+        ax.set_xticks(range(len(groups)), [label for _, label in groups])
+        ax.set_ylabel("wall time [s]")
+        ax.set_yscale("log")
+        ax.set_title(title)
+        ax.legend()
+        ax.grid(axis="y", alpha=0.3)
+        fig.tight_layout()
+        path = out_dir / filename
+        fig.savefig(path, dpi=120)
+        plt.close(fig)
+        written.append(path)
+    return written
