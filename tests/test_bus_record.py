@@ -20,8 +20,8 @@ from fsw_scheduler.bus.session import (
     wait_until,
     zenoh_config,
 )
-from fsw_scheduler.errors import ConfigError
-from fsw_scheduler.recording import Recorder, iter_messages
+from fsw_scheduler.errors import BusError, ConfigError
+from fsw_scheduler.recording import Recorder, info, iter_messages
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -176,6 +176,60 @@ def test_record_keeps_publisher_timestamp(tmp_path: Path) -> None:
     assert first.publish_time_ns == stamp.get_time_as_ntp64().as_nanos()
     assert first.log_time_ns == second.log_time_ns == T0
     assert second.publish_time_ns == T0  # unstamped: falls back to log time
+
+
+def test_record_flushes_while_idle(tmp_path: Path) -> None:
+    """Tests that an idle recording loop still flushes within the interval."""
+    path = tmp_path / "idle.mcap"
+    now = [T0]
+    stop = threading.Event()
+    ready = threading.Event()
+    stats = RecordStats()
+    session = zenoh.open(loopback_config(listen=None))
+    try:
+        with Recorder(path, flush_interval_ns=1_000_000_000) as recorder:
+            worker = threading.Thread(
+                target=record,
+                args=(session, "fsw/sat1/**", recorder, stop),
+                kwargs={
+                    "ready": ready,
+                    "stats": stats,
+                    "clock_ns": lambda: now[0],
+                },
+            )
+            worker.start()
+            try:
+                assert ready.wait(TIMEOUT_S)
+                session.put(KEYS[2], b'{"now": 1}')
+                wait_until(
+                    lambda: stats.written == 1, TIMEOUT_S, what="1 sample"
+                )
+                assert info(path).message_count == 0  # still in memory
+                now[0] += 1_000_000_000  # no new sample, only time passes
+                wait_until(
+                    lambda: info(path).message_count == 1,
+                    TIMEOUT_S,
+                    what="idle flush",
+                )
+                assert not info(path).finished
+            finally:
+                stop.set()
+                worker.join(TIMEOUT_S)
+    finally:
+        session.close()
+    assert info(path).finished
+
+
+def test_record_bad_key_raises_bus_error(tmp_path: Path) -> None:
+    """Tests that an invalid key expression surfaces as BusError."""
+    session = zenoh.open(loopback_config(listen=None))
+    try:
+        with Recorder(tmp_path / "x.mcap") as recorder, pytest.raises(
+            BusError
+        ):
+            record(session, "fsw//bad", recorder, threading.Event())
+    finally:
+        session.close()
 
 
 def test_replay_filters_and_burst(tmp_path: Path) -> None:

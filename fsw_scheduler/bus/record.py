@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 
 import zenoh
 
+from ..errors import BusError
 from ..recording import PathLike, iter_messages
 from ..recording import info as recording_info
 
@@ -120,11 +121,20 @@ def record(
     -------
     RecordStats
         The counters.
+
+    Raises
+    ------
+    BusError
+        If the subscriber cannot be declared (bad key expression, closed
+        session).
     """
     stats = RecordStats() if stats is None else stats
-    subscriber = session.declare_subscriber(
-        key_expr, zenoh.handlers.FifoChannel(capacity)
-    )
+    try:
+        subscriber = session.declare_subscriber(
+            key_expr, zenoh.handlers.FifoChannel(capacity)
+        )
+    except zenoh.ZError as exc:
+        raise BusError(f"cannot subscribe to {key_expr}: {exc}") from exc
     try:
         if ready is not None:
             ready.set()
