@@ -161,6 +161,36 @@ def _cmd_check(args: argparse.Namespace) -> int:
     return EXIT_OK if report.ok else EXIT_NO_PLAN
 
 
+# -- replan ------------------------------------------------------------------
+
+
+def _cmd_replan(args: argparse.Namespace) -> int:
+    from .reschedule import decode_change, format_diff, replan_files
+
+    problem = load_problem(args.problem)
+    plan = load_plan(args.plan)
+    change = decode_change(_read_bytes(args.change))
+    new_problem, new_plan, diff = replan_files(
+        problem,
+        plan,
+        change,
+        args.now,
+        solver=args.solver,
+        time_limit=args.time_limit,
+    )
+    if args.problem_out:
+        _write_json(new_problem, args.problem_out)
+    _write_json(new_plan, args.out)
+    log.info("%s", _summary(new_plan))
+    print(format_diff(diff, new_plan), file=sys.stderr)
+    if args.gantt and new_plan.status.has_plan:
+        from .plot import gantt
+
+        gantt(new_problem, new_plan, Path(args.gantt), now=args.now)
+        log.info("wrote %s", args.gantt)
+    return EXIT_OK if new_plan.status.has_plan else EXIT_NO_PLAN
+
+
 # -- parser ------------------------------------------------------------------
 
 Command = Callable[[argparse.Namespace], int]
@@ -228,6 +258,47 @@ def build_parser() -> argparse.ArgumentParser:
     )
     check.add_argument("problem", help="problem JSON file")
     check.add_argument("plan", help="plan JSON file")
+
+    replan = add(
+        "replan",
+        _cmd_replan,
+        "apply a goal or event to a running plan at time --now",
+        """\
+        Apply a goal (CONTRACT section 3) or an event to a running plan at
+        time T, by the paper's online rescheduling rules: finished tasks
+        leave, running tasks follow their preemption policy, obsolete tasks
+        and their tight followers go, lax links to them are dropped. The new
+        plan covers [T, T + horizon) and is printed on stdout; the diff
+        (kept, moved, added, removed with the rule that removed each) goes
+        to stderr.
+
+        An event is {"event": "activity_failed", "task": ..., "at": T} or
+        {"event": "levels", "levels": {"battery": 5.0}, "at": T}.
+
+        example:
+          fsw-scheduler replan table1.json plan.json goal.json --now 15
+        """,
+    )
+    replan.add_argument("problem", help="the running problem JSON")
+    replan.add_argument("plan", help="its plan JSON")
+    replan.add_argument("change", help="goal or event JSON")
+    replan.add_argument(
+        "--now",
+        type=int,
+        required=True,
+        metavar="T",
+        help="time unit of the replan",
+    )
+    replan.add_argument("--out", metavar="PLAN.json", help="write plan here")
+    replan.add_argument(
+        "--problem-out",
+        metavar="PROBLEM.json",
+        help="also write the new problem (to chain replans or check)",
+    )
+    replan.add_argument(
+        "--gantt", metavar="PNG", help="draw the new plan with a 'now' line"
+    )
+    _add_solver_arguments(replan)
     return parser
 
 
