@@ -1,0 +1,436 @@
+"""Property tests: solvers against the checker and a brute-force oracle.
+
+Random small problems are generated valid by construction (every window
+holds at least one start inside the horizon, pins sit on such a start);
+only contradictory tight-precedence cycles are filtered out. Three oracles
+judge the solvers: :func:`fsw_scheduler.check.check_plan`, the other
+backend, and an exhaustive enumeration written here from CONTRACT
+section 1 alone (it shares no code with either the checker or the ILP).
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+from typing import TYPE_CHECKING
+
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from fsw_scheduler.check import check_plan, format_report
+from fsw_scheduler.errors import InputError
+from fsw_scheduler.model import decode_problem
+from fsw_scheduler.solution import Activity, Objective, Plan, SolveStatus
+from fsw_scheduler.solve import solve
+
+if TYPE_CHECKING:
+    from fsw_scheduler.model import Problem, Task
+
+TOLERANCE = 1e-9
+Assignment = dict[str, int | None]
+
+# Binary fractions only: the solvers' feasibility tolerances (~1e-7) must
+# not turn a rounding error into a reported "bug".
+CAPACITIES = (0, 1, 2, 3, 4.5, 6, 10)
+MULTIPLE_USES = (0, 1, 2, 2.5, 3, 5)
+LEVELS = (0, 1, 2, 4, 6, 8, 12.5)
+CONSUMABLE_USES = (-3, -1, -0.5, 1, 1.5, 2, 4)
+
+COMMON = settings(
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+
+
+# --------------------------------------------------------------------------
+# Problem generation
+
+
+@st.composite
+def problem_docs(
+    draw: st.DrawFn, max_tasks: int = 6, max_horizon: int = 20
+) -> dict:
+    """Draw a problem document that passes validation (up to tight cycles).
+
+    Parameters
+    ----------
+    draw
+        Hypothesis' draw function.
+    max_tasks
+        At most this many tasks (at least one).
+    max_horizon
+        At most this many time units (at least one).
+
+    Returns
+    -------
+    dict
+        A problem document of CONTRACT section 1.
+    """
+    horizon = draw(st.integers(1, max_horizon))
+    start = draw(st.integers(0, 3))
+    end = start + horizon
+    names = st.sampled_from
+    binary = draw(st.lists(names(["b0", "b1"]), unique=True, max_size=2))
+    multiple = draw(
+        st.dictionaries(names(["m0", "m1"]), names(CAPACITIES), max_size=2)
+    )
+    consumable = draw(
+        st.dictionaries(names(["c0", "c1"]), names(LEVELS), max_size=2)
+    )
+    reading = draw(names(["task", "start"]))
+    # Hypothesis favours the first choice; more tasks exercise more rules.
+    num_tasks = draw(names(range(max_tasks, 0, -1)))
+    tasks = []
+    for idx in range(num_tasks):
+        length = draw(st.integers(1, min(horizon, 5)))
+        # A start that every generated constraint of this task admits.
+        anchor = draw(st.integers(start, end - length))
+        task: dict = {
+            "id": f"t{idx}",
+            "length": length,
+            "delay_cost": draw(st.integers(1, 5)),
+            "schedule_cost": draw(names([3, 1, 2, 4, 5, 0])),
+            "preemption": draw(
+                names(["none", "from_start", "from_interrupt", "delete"])
+            ),
+        }
+        uses: dict[str, float] = {}
+        for name in binary:
+            if draw(st.booleans()):
+                uses[name] = 1
+        for name in multiple:
+            if draw(st.booleans()):
+                uses[name] = draw(names(MULTIPLE_USES))
+        for name in consumable:
+            if draw(st.booleans()):
+                uses[name] = draw(names(CONSUMABLE_USES))
+        if uses:
+            task["uses"] = uses
+        window = draw(names([None, "inherit", "task", "start"]))
+        if window is not None:
+            own = reading if window == "inherit" else window
+            low = draw(st.integers(max(0, anchor - 3), anchor))
+            first_end = anchor + length if own == "task" else anchor
+            high = draw(st.integers(first_end, first_end + 3))
+            task["feasible_interval"] = [low, high]
+            if window != "inherit":
+                task["feasible_interval_applies_to"] = own
+        if draw(st.integers(0, 9)) == 0:
+            task["fixed_start"] = anchor
+        tasks.append(task)
+    precedences = []
+    if num_tasks >= 2:
+        num_precedences = draw(names([2, 3, 4, 1, 0]))
+        for _ in range(min(num_precedences, num_tasks + 1)):
+            before, after = draw(
+                st.lists(
+                    st.integers(0, num_tasks - 1),
+                    min_size=2,
+                    max_size=2,
+                    unique=True,
+                )
+            )
+            precedences.append(
+                {
+                    "before": f"t{before}",
+                    "after": f"t{after}",
+                    "kind": draw(names(["tight", "lax"])),
+                    "scope": draw(names(["both", "at_least_first"])),
+                    "offset": draw(st.integers(-3, 3)),
+                }
+            )
+    return {
+        "horizon": horizon,
+        "start": start,
+        "feasible_interval_applies_to": reading,
+        "resources": {
+            "binary": binary,
+            "multiple": multiple,
+            "consumable": consumable,
+        },
+        "tasks": tasks,
+        "precedences": precedences,
+    }
+
+
+def _decode(doc: dict) -> Problem:
+    """Decode ``doc``, discarding the example if validation rejects it."""
+    try:
+        return decode_problem(json.dumps(doc))
+    except InputError:
+        assume(False)
+        raise  # unreachable: assume(False) raises
+
+
+# --------------------------------------------------------------------------
+# Brute force, from CONTRACT section 1 only
+
+
+def _reading(problem: Problem, task: Task) -> str:
+    return task.feasible_interval_applies_to or (
+        problem.feasible_interval_applies_to
+    )
+
+
+def _start_ok(problem: Problem, task: Task, start: int) -> bool:
+    """Horizon, feasible interval and pin for one task on its own."""
+    if start < problem.start:
+        return False
+    if start + task.length > problem.start + problem.horizon:
+        return False
+    if task.fixed_start is not None and start != task.fixed_start:
+        return False
+    if task.feasible_interval is None:
+        return True
+    low, high = task.feasible_interval
+    if _reading(problem, task) == "task":
+        return low <= start and start + task.length <= high
+    return low <= start <= high
+
+
+def _joint_ok(problem: Problem, starts: Assignment) -> bool:
+    """Precedences, scopes and the three resource kinds together."""
+    lengths = {task.id: task.length for task in problem.tasks}
+    for prec in problem.precedences:
+        before, after = starts[prec.before], starts[prec.after]
+        if prec.scope == "both" and (before is None) != (after is None):
+            return False
+        if after is not None and before is None:
+            return False  # at_least_first (both is covered above)
+        if before is None or after is None:
+            continue
+        target = before + lengths[prec.before] + prec.offset
+        if prec.kind == "tight" and after != target:
+            return False
+        if prec.kind == "lax" and after < target:
+            return False
+    resources = problem.resources
+    levels = dict(resources.consumable)
+    for t in range(problem.start, problem.start + problem.horizon):
+        use: dict[str, float] = {}
+        for task in problem.tasks:
+            start = starts[task.id]
+            if start is None or not start <= t < start + task.length:
+                continue
+            for name, amount in task.uses.items():
+                use[name] = use.get(name, 0) + amount
+        for name in resources.binary:
+            if use.get(name, 0) > 1:
+                return False
+        for name, capacity in resources.multiple.items():
+            if use.get(name, 0) > capacity + TOLERANCE:
+                return False
+        for name in levels:
+            levels[name] -= use.get(name, 0)
+            if levels[name] < -TOLERANCE:
+                return False
+    return True
+
+
+def _feasible(problem: Problem, starts: Assignment) -> bool:
+    """Whether ``starts`` (task id to start, None = left out) is valid."""
+    for task in problem.tasks:
+        start = starts[task.id]
+        if start is None:
+            if task.schedule_cost == 0 or task.fixed_start is not None:
+                return False
+        elif not _start_ok(problem, task, start):
+            return False
+    return _joint_ok(problem, starts)
+
+
+def _objective(problem: Problem, starts: Assignment) -> Objective:
+    weight = 1 + problem.horizon * sum(t.delay_cost for t in problem.tasks)
+    left_out = sum(
+        t.schedule_cost for t in problem.tasks if starts[t.id] is None
+    )
+    delay = sum(
+        t.delay_cost * (starts[t.id] - problem.start)  # type: ignore[operator]
+        for t in problem.tasks
+        if starts[t.id] is not None
+    )
+    return Objective(left_out, delay, weight * left_out + delay)
+
+
+def brute_force(problem: Problem) -> tuple[Objective, Assignment] | None:
+    """Enumerate every selection and start; return the best, if any.
+
+    Parameters
+    ----------
+    problem
+        A small problem (the enumeration is exponential in its tasks).
+
+    Returns
+    -------
+    tuple of Objective and dict, or None
+        The optimal objective and one optimal assignment (task id to start,
+        None for left out), or None when no assignment is feasible.
+    """
+    options = []
+    for task in problem.tasks:
+        starts: list[int | None] = [
+            s
+            for s in range(problem.start, problem.start + problem.horizon)
+            if _start_ok(problem, task, s)
+        ]
+        if task.schedule_cost != 0 and task.fixed_start is None:
+            starts.append(None)
+        options.append(starts)
+    ids = [task.id for task in problem.tasks]
+    best: tuple[Objective, Assignment] | None = None
+    for combo in itertools.product(*options):
+        starts_of = dict(zip(ids, combo, strict=True))
+        objective = _objective(problem, starts_of)
+        if best is not None and objective.total >= best[0].total:
+            continue  # cheap bound before the costly feasibility walk
+        if _joint_ok(problem, starts_of):
+            best = (objective, starts_of)
+    return best
+
+
+def _plan_of(problem: Problem, starts: Assignment) -> Plan:
+    lengths = {task.id: task.length for task in problem.tasks}
+    return Plan(
+        SolveStatus.OPTIMAL,
+        _objective(problem, starts),
+        tuple(
+            Activity(name, s, s + lengths[name])
+            for name, s in starts.items()
+            if s is not None
+        ),
+        tuple(name for name, s in starts.items() if s is None),
+    )
+
+
+def _starts_of(problem: Problem, plan: Plan) -> Assignment:
+    placed = {a.task: a.start for a in plan.activities}
+    return {task.id: placed.get(task.id) for task in problem.tasks}
+
+
+def _show(doc: dict, *plans: Plan) -> str:
+    text = [json.dumps(doc)]
+    text += [json.dumps(_plain(plan)) for plan in plans]
+    return "\n".join(text)
+
+
+def _plain(plan: Plan) -> dict:
+    return {
+        "status": plan.status.value,
+        "objective": None
+        if plan.objective is None
+        else {
+            "unscheduled_cost": plan.objective.unscheduled_cost,
+            "delay_cost": plan.objective.delay_cost,
+            "total": plan.objective.total,
+        },
+        "activities": [[a.task, a.start, a.end] for a in plan.activities],
+        "unscheduled": list(plan.unscheduled),
+    }
+
+
+# --------------------------------------------------------------------------
+# Properties that need no solver: the two oracles agree with each other
+
+
+@settings(COMMON, max_examples=300)
+@given(doc=problem_docs(max_tasks=4, max_horizon=8), data=st.data())
+def test_checker_agrees_with_brute_force_feasibility(
+    doc: dict, data: st.DataObject
+) -> None:
+    """Tests that check_plan accepts exactly the feasible assignments."""
+    problem = _decode(doc)
+    starts: Assignment = {}
+    for task in problem.tasks:
+        last = problem.start + problem.horizon - task.length
+        # Mostly starts the task admits on its own, so that precedences and
+        # resources decide; sometimes anything around the horizon.
+        admitted = [
+            s
+            for s in range(problem.start, last + 1)
+            if _start_ok(problem, task, s)
+        ]
+        starts[task.id] = data.draw(
+            st.none()
+            | st.sampled_from(admitted)
+            | st.integers(problem.start - 1, last + 1),
+            label=task.id,
+        )
+    report = check_plan(problem, _plan_of(problem, starts))
+    assert report.ok == _feasible(problem, starts), format_report(report)
+    assert report.objective == _objective(problem, starts)
+
+
+@settings(COMMON, max_examples=150)
+@given(doc=problem_docs(max_tasks=4, max_horizon=8))
+def test_brute_force_optimum_passes_checker(doc: dict) -> None:
+    """Tests that the brute-force optimum is a valid plan for check_plan."""
+    problem = _decode(doc)
+    best = brute_force(problem)
+    assume(best is not None)
+    assert best is not None
+    objective, starts = best
+    report = check_plan(problem, _plan_of(problem, starts))
+    assert report.ok, format_report(report)
+    assert report.objective == objective
+
+
+# --------------------------------------------------------------------------
+# Solver properties
+
+
+@settings(COMMON, max_examples=150)
+@given(doc=problem_docs())
+def test_cbc_plans_pass_the_checker(doc: dict) -> None:
+    """Tests that every optimal CBC plan passes check_plan exactly."""
+    problem = _decode(doc)
+    plan = solve(problem, solver="cbc")
+    assert plan.status in (SolveStatus.OPTIMAL, SolveStatus.INFEASIBLE), _show(
+        doc, plan
+    )
+    report = check_plan(problem, plan)
+    assert report.ok, f"{format_report(report)}\n{_show(doc, plan)}"
+    if plan.status is SolveStatus.OPTIMAL:
+        assert plan.objective == report.objective, _show(doc, plan)
+
+
+@settings(COMMON, max_examples=100)
+@given(doc=problem_docs())
+def test_cbc_and_highs_agree(doc: dict) -> None:
+    """Tests that CBC and HiGHS agree on status and objective total."""
+    problem = _decode(doc)
+    cbc = solve(problem, solver="cbc")
+    highs = solve(problem, solver="highs")
+    assert cbc.status == highs.status, _show(doc, cbc, highs)
+    if cbc.objective is not None or highs.objective is not None:
+        assert cbc.objective is not None, _show(doc, cbc, highs)
+        assert highs.objective is not None, _show(doc, cbc, highs)
+        assert cbc.objective.total == highs.objective.total, _show(
+            doc, cbc, highs
+        )
+    report = check_plan(problem, highs)
+    assert report.ok, f"{format_report(report)}\n{_show(doc, highs)}"
+
+
+@settings(COMMON, max_examples=200)
+@given(doc=problem_docs(max_tasks=4, max_horizon=8))
+def test_cbc_matches_brute_force(doc: dict) -> None:
+    """Tests that CBC's optimum and infeasibility match exhaustive search."""
+    problem = _decode(doc)
+    plan = solve(problem, solver="cbc")
+    best = brute_force(problem)
+    if best is None:
+        assert plan.status is SolveStatus.INFEASIBLE, _show(doc, plan)
+        return
+    objective, starts = best
+    assert plan.status is SolveStatus.OPTIMAL, (
+        f"{_show(doc, plan)}\nbrute force: {objective} {starts}"
+    )
+    assert plan.objective is not None
+    assert plan.objective.total == objective.total, (
+        f"{_show(doc, plan)}\nbrute force: {objective} {starts}"
+    )
+    assert plan.objective == objective, (
+        f"{_show(doc, plan)}\nbrute force: {objective} {starts}"
+    )
+    assert _feasible(problem, _starts_of(problem, plan)), _show(doc, plan)
