@@ -126,14 +126,6 @@ def validate_goal(goal: Goal) -> list[FieldIssue]:
                         f"start {low} is after end {high}",
                     )
                 )
-        for jdx, name in enumerate(task.obsoletes):
-            if name == task.id:
-                issues.append(
-                    FieldIssue(
-                        f"{path}.obsoletes[{jdx}]",
-                        f"task {name!r} cannot make itself obsolete",
-                    )
-                )
     for idx, prec in enumerate(goal.precedences):
         if prec.before == prec.after:
             issues.append(

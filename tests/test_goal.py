@@ -60,7 +60,6 @@ def test_goal_defaults() -> None:
         (_task(schedule_cost=-1), "tasks[0].schedule_cost"),
         (_task(id=""), "tasks[0].id"),
         (_task(feasible_interval=[5, 2]), "tasks[0].feasible_interval"),
-        (_task(obsoletes=["a"]), "tasks[0].obsoletes[0]"),
     ],
 )
 def test_bad_task_field_is_named(task: dict, path: str) -> None:
@@ -82,6 +81,12 @@ def test_duplicate_ids_and_self_precedence() -> None:
         "precedences": [{"before": "a", "after": "a", "kind": "lax"}],
     }
     assert _paths(doc) == ["goal_id", "tasks[1].id", "precedences[0].after"]
+
+
+def test_task_may_obsolete_its_own_id() -> None:
+    """Tests that a task may replace the live task of the same id."""
+    doc = {"goal_id": "g", "tasks": [_task(obsoletes=["a"])]}
+    assert decode_goal(json.dumps(doc)).obsoleted == ("a",)
 
 
 def test_resources_are_left_to_the_merge() -> None:
