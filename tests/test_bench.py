@@ -187,7 +187,7 @@ def test_compare_flags_contradictions() -> None:
     )
 
 
-TINY = [(3, cls, 8, seed) for cls in generator.CLASSES for seed in (1, 2, 3)]
+TINY = [(4, cls, 8, seed) for cls in generator.CLASSES for seed in range(1, 6)]
 
 
 @pytest.mark.parametrize(("size", "cls", "horizon", "seed"), TINY)
