@@ -1,0 +1,100 @@
+"""Every key expression of the bus, in one place (CONTRACT section 5).
+
+Keys are ``fsw/<spacecraft>/<suffix>``; the suffixes below are the public
+names. Recording, replay and the scheduler node all derive their keys here.
+"""
+
+from __future__ import annotations
+
+import msgspec
+
+PREFIX = "fsw"
+DEFAULT_SPACECRAFT = "sat1"
+
+# Inputs
+GOALS = "scheduler/goals"
+CLOCK = "clock"
+TELEMETRY = "telemetry/**"
+ACTIVITY_REPORTS = "telemetry/activities"
+RESOURCE_LEVELS = "telemetry/resources"
+
+# Outputs
+PLAN = "scheduler/plan"
+DISPATCH = "scheduler/dispatch"
+STATUS = "scheduler/status"
+SOLVES = "scheduler/solves"
+NODE_INFO = "scheduler/config"
+ALIVE = "scheduler/alive"
+#: Recorded only (never published): the ticks of the scheduler's own clock.
+TICKS = "scheduler/ticks"
+
+#: Output suffixes, compared by ``replay --verify``.
+OUTPUTS = (PLAN, DISPATCH, STATUS)
+
+
+class Topics(msgspec.Struct, frozen=True):
+    """The keys of one spacecraft.
+
+    Parameters
+    ----------
+    spacecraft
+        Spacecraft id, the second key chunk (default ``sat1``).
+    """
+
+    spacecraft: str = DEFAULT_SPACECRAFT
+
+    @property
+    def root(self) -> str:
+        """``fsw/<sc>``."""
+        return f"{PREFIX}/{self.spacecraft}"
+
+    def key(self, suffix: str) -> str:
+        """``fsw/<sc>/<suffix>``."""
+        return f"{self.root}/{suffix}"
+
+    @property
+    def everything(self) -> str:
+        """``fsw/<sc>/**``: the whole tree (what ``record`` takes)."""
+        return self.key("**")
+
+    def dispatch(self, task: str) -> str:
+        """The dispatch key of ``task``."""
+        return self.key(f"{DISPATCH}/{task}")
+
+    def activity_report(self, task: str) -> str:
+        """The execution report key of ``task``."""
+        return self.key(f"{ACTIVITY_REPORTS}/{task}")
+
+    def resource_level(self, resource: str) -> str:
+        """The level telemetry key of ``resource``."""
+        return self.key(f"{RESOURCE_LEVELS}/{resource}")
+
+    def suffix(self, key: str) -> str | None:
+        """The part of ``key`` after ``fsw/<sc>/``, None if outside."""
+        head = self.root + "/"
+        return key[len(head) :] if key.startswith(head) else None
+
+    def schema_kind(self, key: str) -> str | None:
+        """Which message kind (see ``messages.SCHEMA_TYPES``) ``key`` has."""
+        suffix = self.suffix(key)
+        if suffix is None:
+            return None
+        exact = {
+            CLOCK: "clock",
+            GOALS: "goal",
+            PLAN: "plan",
+            STATUS: "status",
+            SOLVES: "solve_record",
+            NODE_INFO: "node_info",
+            TICKS: "clock",
+        }
+        if suffix in exact:
+            return exact[suffix]
+        for prefix, kind in (
+            (DISPATCH + "/", "dispatch"),
+            (ACTIVITY_REPORTS + "/", "activity_report"),
+            (RESOURCE_LEVELS + "/", "resource_level"),
+        ):
+            if suffix.startswith(prefix):
+                return kind
+        return None

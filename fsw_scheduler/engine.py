@@ -1,0 +1,857 @@
+"""The scheduler's functional core: events in, commands out.
+
+:class:`Engine` holds every piece of the scheduler's state and changes it
+only in :meth:`Engine.step`, which takes one event and the current time
+unit and returns the commands for the shell to carry out: publish a
+message, start a solve, log a line. It never solves, publishes, decodes or
+reads a clock, so the same sequence of events always gives the same
+commands; the bus node (:mod:`fsw_scheduler.bus.node`) and deterministic
+replay (:mod:`fsw_scheduler.replay`) both drive it.
+
+The lifecycle of an activity is ``planned -> dispatched -> running ->
+completed | failed``, or ``preempted`` / ``obsolete`` when a replan takes
+it away. Replans are triggered by a goal, a failure report, a dispatch
+with no report within ``report_timeout`` units (a failure), or a measured
+consumable level departing from the plan's prediction. One solve runs at a
+time: goals arriving meanwhile are coalesced into the next solve, other
+triggers are queued. A solve that yields no plan leaves the current plan
+in place and the status says why.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from typing import Literal
+
+import msgspec
+
+from .errors import FieldIssue, InputError
+from .goal import Goal
+from .messages import (
+    ActivityReport,
+    Counters,
+    Dispatch,
+    PlanMessage,
+    ResourceLevel,
+    SolveRecord,
+    SolveSummary,
+    Status,
+)
+from .model import Problem
+from .reschedule import (
+    ExecutionReport,
+    Removal,
+    Replan,
+    Schedule,
+    Tolerance,
+    apply_failure,
+    apply_goal,
+    apply_levels,
+    drift,
+    empty_plan,
+)
+from .solution import Plan, SolverStats, SolveStatus
+
+# -- events ------------------------------------------------------------------
+
+
+class Tick(msgspec.Struct, frozen=True, tag=True):
+    """Time advanced to ``now`` (bus clock or the node's own clock)."""
+
+    now: int
+
+
+class GoalArrived(msgspec.Struct, frozen=True, tag=True):
+    """A decoded goal from ``scheduler/goals``."""
+
+    goal: Goal
+
+
+class ReportArrived(msgspec.Struct, frozen=True, tag=True):
+    """An execution report from ``telemetry/activities/<task>``."""
+
+    report: ActivityReport
+
+
+class LevelArrived(msgspec.Struct, frozen=True, tag=True):
+    """A consumable level from ``telemetry/resources/<name>``."""
+
+    level: ResourceLevel
+
+
+class InputRejected(msgspec.Struct, frozen=True, tag=True):
+    """An input the shell could not decode; reported, never fatal."""
+
+    key: str
+    kind: str
+    errors: tuple[FieldIssue, ...]
+    goal_id: str | None = None
+
+
+class SolveDone(msgspec.Struct, frozen=True, tag=True):
+    """The result of a :class:`StartSolve`."""
+
+    solve_id: int
+    plan: Plan
+
+
+class SolveFailed(msgspec.Struct, frozen=True, tag=True):
+    """A :class:`StartSolve` raised (solver missing, crashed)."""
+
+    solve_id: int
+    error: str
+
+
+Event = (
+    Tick
+    | GoalArrived
+    | ReportArrived
+    | LevelArrived
+    | InputRejected
+    | SolveDone
+    | SolveFailed
+)
+
+# -- commands ----------------------------------------------------------------
+
+
+class Publish(msgspec.Struct, frozen=True):
+    """Publish ``message`` on ``fsw/<sc>/<suffix>``."""
+
+    suffix: str
+    message: msgspec.Struct
+
+
+class StartSolve(msgspec.Struct, frozen=True):
+    """Solve ``problem`` (warm-started from ``warm``); reply with SolveDone.
+
+    ``inputs_seen`` is for the solve record the shell publishes.
+    """
+
+    solve_id: int
+    trigger: str
+    problem: Problem
+    warm: Plan | None = None
+
+
+class Log(msgspec.Struct, frozen=True):
+    """A line for the component's log."""
+
+    level: Literal["debug", "info", "warning", "error"]
+    text: str
+
+
+Command = Publish | StartSolve | Log
+
+# -- configuration -----------------------------------------------------------
+
+
+class EngineConfig(msgspec.Struct, frozen=True):
+    """Settings of the functional core.
+
+    Attributes
+    ----------
+    report_timeout
+        Units after a dispatch without any execution report before the
+        activity counts as failed; None waits forever.
+    tolerance
+        How far a measured level may depart from the prediction before a
+        replan.
+    heartbeat
+        Units between periodic status messages (0: none).
+    """
+
+    report_timeout: int | None = None
+    tolerance: Tolerance = Tolerance(absolute=0.5)
+    heartbeat: int = 0
+
+
+# -- the engine -------------------------------------------------------------
+
+Lifecycle = Literal[
+    "planned",
+    "dispatched",
+    "running",
+    "completed",
+    "failed",
+    "preempted",
+    "obsolete",
+]
+
+
+class _Pending(msgspec.Struct):
+    """A solve in flight."""
+
+    solve_id: int
+    trigger: str
+    replan: Replan | None
+    goals: tuple[str, ...]
+    started_at: int
+    dispatches_at_start: int
+
+
+class _Change(msgspec.Struct, frozen=True):
+    """A queued trigger: a goal, a failure or measured levels."""
+
+    kind: Literal["goal", "failure", "levels"]
+    goal: Goal | None = None
+    task: str = ""
+    at: int = 0
+    levels: dict[str, float] = {}
+
+
+def problem_hash(problem: Problem) -> str:
+    """SHA-256 of the compact JSON of ``problem`` (solve records)."""
+    return hashlib.sha256(msgspec.json.encode(problem)).hexdigest()
+
+
+class Engine:
+    """The scheduler's state machine.
+
+    Parameters
+    ----------
+    config
+        Engine settings.
+    initial
+        The initial problem: its resources and horizon length, and any
+        initial tasks. Solved at the first tick (re-based to start at that
+        tick if the clock is already past its start).
+    """
+
+    def __init__(self, config: EngineConfig, initial: Problem) -> None:
+        self.config = config
+        self._initial: Problem | None = initial
+        self.schedule: Schedule | None = None
+        self.plan_id: int | None = None
+        self.now: int | None = None
+        self._solve_id = 0
+        self._pending: _Pending | None = None
+        self._queue: list[_Change] = []
+        self._dispatched: dict[str, int] = {}  # task -> unit of dispatch
+        self._lifecycle: dict[str, Lifecycle] = {}
+        self._counters = Counters()
+        self._last_solve: SolveSummary | None = None
+        self._inputs = 0
+        self._health: Literal["ok", "degraded", "error"] = "ok"
+        self._health_detail = ""
+        self._plan_message: PlanMessage | None = None
+        self._initial_problem: Problem = initial
+
+    # -- read-only views (for queryables) ---------------------------------
+
+    @property
+    def busy(self) -> bool:
+        """True while a solve is in flight."""
+        return self._pending is not None
+
+    @property
+    def inputs_seen(self) -> int:
+        """Number of events processed so far."""
+        return self._inputs
+
+    @property
+    def plan_message(self) -> PlanMessage | None:
+        """The current plan as published (None before the first plan)."""
+        return self._plan_message
+
+    def status(self, event: str = "heartbeat", **extra: object) -> Status:
+        """The current status message, reporting ``event``."""
+        return Status(
+            state=self._health,
+            plan_id=self.plan_id,
+            now=self.now,
+            event=event,
+            detail=str(extra.pop("detail", self._health_detail)),
+            busy=self.busy,
+            activities=dict(sorted(self._lifecycle.items())),
+            counters=self._counters,
+            last_solve=self._last_solve,
+            **extra,  # type: ignore[arg-type]
+        )
+
+    def count_dropped(self, dropped: int) -> None:
+        """Record inputs the shell dropped because its queue was full."""
+        self._count(inputs_dropped=dropped - self._counters.inputs_dropped)
+
+    # -- the step ------------------------------------------------------------
+
+    def step(self, event: Event, now: int) -> list[Command]:
+        """Process one event at time unit ``now``.
+
+        Parameters
+        ----------
+        event
+            What happened.
+        now
+            The current time unit (never earlier than in a previous step;
+            an earlier value is treated as the latest one).
+
+        Returns
+        -------
+        list of Command
+            What the shell must do, in order.
+        """
+        self._inputs += 1
+        if self.now is None or now > self.now:
+            self.now = now
+        out: list[Command] = []
+        if isinstance(event, Tick):
+            self._on_tick(out)
+        elif isinstance(event, GoalArrived):
+            self._on_goal(event.goal, out)
+        elif isinstance(event, ReportArrived):
+            self._on_report(event.report, out)
+        elif isinstance(event, LevelArrived):
+            self._on_level(event.level, out)
+        elif isinstance(event, InputRejected):
+            self._on_rejected(event, out)
+        elif isinstance(event, SolveDone):
+            self._on_solve_done(event, out)
+        elif isinstance(event, SolveFailed):
+            self._on_solve_failed(event, out)
+        if self._pending is None:
+            self._start_queued(out)
+        self._dispatch_due(out)
+        return out
+
+    # -- event handlers ------------------------------------------------------
+
+    def _on_tick(self, out: list[Command]) -> None:
+        if self._initial is not None and self._pending is None:
+            self._start_initial(out)
+        self._check_report_timeouts(out)
+        beat = self.config.heartbeat
+        if beat and self.now is not None and self.now % beat == 0:
+            out.append(Publish("scheduler/status", self.status()))
+
+    def _start_initial(self, out: list[Command]) -> None:
+        problem = self._initial
+        assert problem is not None and self.now is not None
+        self._initial = None
+        if self.now > problem.start:
+            problem = problem.replace(start=self.now)
+        if not problem.tasks:
+            self.schedule = Schedule.begin(problem, empty_plan())
+            self._adopt(empty_plan(), "initial", (), (), out)
+            return
+        self._start_solve("initial", problem, None, None, (), out)
+
+    def _on_goal(self, goal: Goal, out: list[Command]) -> None:
+        if self.schedule is None and self._pending is None:
+            self._reject_goal(
+                goal.goal_id,
+                [FieldIssue("", "no plan yet: the scheduler has not started")],
+                out,
+            )
+            return
+        # Validate against the live state now so a bad goal is rejected at
+        # once, even when it has to wait for a solve in flight.
+        if self.schedule is not None:
+            try:
+                apply_goal(self.schedule, goal, self._clock())
+            except InputError as error:
+                self._reject_goal(goal.goal_id, error.issues, out)
+                return
+        self._queue.append(_Change("goal", goal=goal))
+        if self._pending is not None:
+            out.append(
+                Log("info", f"goal {goal.goal_id} queued behind a solve")
+            )
+
+    def _on_report(self, report: ActivityReport, out: list[Command]) -> None:
+        schedule = self.schedule
+        if (
+            schedule is not None
+            and report.task not in {t.id for t in schedule.problem.tasks}
+            and report.task in {t.id for t in schedule.catalog}
+        ):
+            # A late report on a task that already left the problem (for
+            # instance finished by the plan's prediction): note it only.
+            self._lifecycle[report.task] = report.state
+            return
+        if schedule is None or report.task not in {
+            t.id for t in schedule.problem.tasks
+        }:
+            self._reject_input(
+                f"telemetry/activities/{report.task}",
+                "activity_report",
+                [FieldIssue("task", f"no live task {report.task!r}")],
+                out,
+            )
+            return
+        self._count(reports=self._counters.reports + 1)
+        self._dispatched.pop(report.task, None)
+        at = min(report.at, self._clock())
+        self.schedule = schedule.with_report(
+            ExecutionReport(report.task, report.state, at)
+        )
+        self._lifecycle[report.task] = report.state
+        out.append(
+            Publish(
+                "scheduler/status",
+                self.status(
+                    "activity",
+                    detail=f"{report.task} {report.state} at {report.at}",
+                ),
+            )
+        )
+        if report.state == "failed":
+            self._queue.append(_Change("failure", task=report.task, at=at))
+
+    def _on_level(self, level: ResourceLevel, out: list[Command]) -> None:
+        schedule = self.schedule
+        if schedule is None:
+            return
+        consumables = schedule.problem.resources.consumable
+        if level.resource not in consumables:
+            self._reject_input(
+                f"telemetry/resources/{level.resource}",
+                "resource_level",
+                [
+                    FieldIssue(
+                        "resource",
+                        f"{level.resource!r} is not a consumable resource",
+                    )
+                ],
+                out,
+            )
+            return
+        at = max(min(level.at, self._clock()), schedule.problem.start)
+        departed = drift(
+            schedule.problem,
+            schedule.plan,
+            at,
+            {level.resource: level.level},
+            self.config.tolerance,
+        )
+        if not departed:
+            return
+        d = departed[0]
+        out.append(
+            Publish(
+                "scheduler/status",
+                self.status(
+                    "drift",
+                    detail=f"{d.resource} measured {d.measured:g} at {at}, "
+                    f"plan predicted {d.predicted:g}",
+                ),
+            )
+        )
+        self._queue.append(
+            _Change("levels", at=at, levels={level.resource: level.level})
+        )
+
+    def _on_rejected(self, event: InputRejected, out: list[Command]) -> None:
+        if event.kind == "goal":
+            self._reject_goal(event.goal_id, event.errors, out)
+        else:
+            self._reject_input(event.key, event.kind, event.errors, out)
+
+    def _on_solve_done(self, event: SolveDone, out: list[Command]) -> None:
+        pending = self._pending
+        if pending is None or event.solve_id != pending.solve_id:
+            out.append(Log("warning", f"stray solve {event.solve_id}"))
+            return
+        self._pending = None
+        plan = event.plan
+        stats = plan.stats or SolverStats(solver="?")
+        self._count(solves=self._counters.solves + 1)
+        adopted = plan.status.has_plan
+        reason = "" if adopted else _no_plan_reason(plan)
+        self._last_solve = SolveSummary(
+            solve_id=event.solve_id,
+            trigger=pending.trigger,
+            status=plan.status,
+            objective=plan.objective,
+            wall_s=stats.wall_s,
+            adopted=adopted,
+            reason=reason,
+        )
+        out.append(self._solve_record(pending, plan))
+        if not adopted:
+            self._solve_without_plan(pending, reason, out)
+            return
+        if pending.replan is None:
+            assert self._plan_message is None
+            problem = self._initial_problem
+            self.schedule = Schedule.begin(problem, plan)
+            self._adopt(plan, pending.trigger, pending.goals, (), out)
+        else:
+            self.schedule = pending.replan.adopt(plan)
+            self._adopt(
+                plan,
+                pending.trigger,
+                pending.goals,
+                pending.replan.removed,
+                out,
+            )
+        if (
+            pending.dispatches_at_start != self._counters.dispatches
+            and self._clock() > pending.started_at
+        ):
+            # The old plan dispatched while this one was being computed for
+            # an earlier time: replan from what really happened.
+            self._queue.append(_Change("levels", at=self._clock()))
+
+    def _on_solve_failed(self, event: SolveFailed, out: list[Command]) -> None:
+        pending = self._pending
+        if pending is None or event.solve_id != pending.solve_id:
+            return
+        self._pending = None
+        self._count(
+            solves=self._counters.solves + 1,
+            solves_failed=self._counters.solves_failed + 1,
+        )
+        self._last_solve = SolveSummary(
+            solve_id=event.solve_id,
+            trigger=pending.trigger,
+            status=SolveStatus.UNKNOWN,
+            reason=event.error,
+        )
+        self._solve_without_plan(pending, event.error, out)
+
+    # -- solving -------------------------------------------------------------
+
+    def _start_queued(self, out: list[Command]) -> None:
+        """Start the next solve: failures first, then goals, then levels."""
+        while self._queue and self._pending is None:
+            schedule = self.schedule
+            if schedule is None:
+                return
+            now = max(self._clock(), schedule.problem.start)
+            failures = [c for c in self._queue if c.kind == "failure"]
+            goals = [c for c in self._queue if c.kind == "goal"]
+            if failures:
+                change = failures[0]
+                self._queue.remove(change)
+                try:
+                    replan = apply_failure(
+                        schedule, change.task, min(change.at, now), now=now
+                    )
+                except InputError as error:
+                    out.append(Log("warning", f"failure ignored: {error}"))
+                    continue
+                self._start_solve(
+                    "failure", replan.problem, replan, replan.warm, (), out
+                )
+            elif goals:
+                self._start_goals(schedule, goals, now, out)
+            else:
+                levels: dict[str, float] = {}
+                at = now
+                for change in self._queue:
+                    levels.update(change.levels)
+                    at = min(at, change.at)
+                trigger = "drift" if levels else "stale"
+                self._queue.clear()
+                try:
+                    replan = apply_levels(schedule, levels, now, at=at)
+                except InputError as error:
+                    out.append(Log("warning", f"levels ignored: {error}"))
+                    continue
+                self._start_solve(
+                    trigger, replan.problem, replan, replan.warm, (), out
+                )
+
+    def _start_goals(
+        self,
+        schedule: Schedule,
+        changes: list[_Change],
+        now: int,
+        out: list[Command],
+    ) -> None:
+        """Coalesce queued goals into one replan; reject any that clash."""
+        accepted: list[Goal] = []
+        replan: Replan | None = None
+        for change in changes:
+            self._queue.remove(change)
+            assert change.goal is not None
+            candidate = _merge_goals([*accepted, change.goal])
+            try:
+                replan = apply_goal(schedule, candidate, now)
+            except InputError as error:
+                self._reject_goal(change.goal.goal_id, error.issues, out)
+                continue
+            accepted.append(change.goal)
+        if not accepted:
+            return
+        replan = apply_goal(schedule, _merge_goals(accepted), now)
+        self._start_solve(
+            "goal",
+            replan.problem,
+            replan,
+            replan.warm,
+            tuple(g.goal_id for g in accepted),
+            out,
+        )
+
+    def _start_solve(
+        self,
+        trigger: str,
+        problem: Problem,
+        replan: Replan | None,
+        warm: Plan | None,
+        goals: tuple[str, ...],
+        out: list[Command],
+    ) -> None:
+        if replan is not None and not problem.tasks:
+            # Nothing left to schedule: adopt the empty plan without solving.
+            self.schedule = replan.adopt(empty_plan())
+            self._adopt(empty_plan(), trigger, goals, replan.removed, out)
+            return
+        self._solve_id += 1
+        self._pending = _Pending(
+            solve_id=self._solve_id,
+            trigger=trigger,
+            replan=replan,
+            goals=goals,
+            started_at=self._clock(),
+            dispatches_at_start=self._counters.dispatches,
+        )
+        if replan is None:
+            self._initial_problem = problem
+        out.append(
+            Log(
+                "info",
+                f"solve {self._solve_id} ({trigger}): "
+                f"{problem.num_tasks} tasks over "
+                f"[{problem.start}, {problem.end})",
+            )
+        )
+        out.append(StartSolve(self._solve_id, trigger, problem, warm))
+
+    def _solve_without_plan(
+        self, pending: _Pending, reason: str, out: list[Command]
+    ) -> None:
+        """Keep the last good plan; say why; reject goals that caused it."""
+        self._count(solves_failed=self._counters.solves_failed + 1)
+        detail = (
+            f"solve {pending.solve_id} ({pending.trigger}) gave no plan: "
+            f"{reason}; keeping plan {self.plan_id}"
+        )
+        self._set_health("degraded", detail)
+        out.append(Log("warning", detail))
+        for goal_id in pending.goals:
+            self._reject_goal(
+                goal_id,
+                [FieldIssue("", f"no plan with this goal: {reason}")],
+                out,
+            )
+        if not pending.goals:
+            out.append(
+                Publish("scheduler/status", self.status("solve_failed"))
+            )
+
+    def _solve_record(self, pending: _Pending, plan: Plan) -> Publish:
+        problem = (
+            pending.replan.problem
+            if pending.replan is not None
+            else self._initial_problem
+        )
+        stats = plan.stats or SolverStats(solver="?")
+        record = SolveRecord(
+            solve_id=pending.solve_id,
+            trigger=pending.trigger,
+            input_hash=problem_hash(problem),
+            problem=problem,
+            status=plan.status,
+            objective=plan.objective,
+            plan_id=(self.plan_id or 0) + 1 if plan.status.has_plan else None,
+            num_variables=stats.num_variables,
+            num_constraints=stats.num_constraints,
+            build_s=stats.build_s,
+            solve_s=stats.solve_s,
+            wall_s=stats.wall_s,
+            inputs_seen=self._inputs,
+        )
+        return Publish("scheduler/solves", record)
+
+    # -- adopting and dispatching --------------------------------------------
+
+    def _adopt(
+        self,
+        plan: Plan,
+        trigger: str,
+        goals: tuple[str, ...],
+        removed: tuple[Removal, ...],
+        out: list[Command],
+    ) -> None:
+        schedule = self.schedule
+        assert schedule is not None
+        self.plan_id = (self.plan_id or 0) + 1
+        for removal in removed:
+            if removal.rule in ("obsolete", "tight_cascade"):
+                self._lifecycle[removal.task] = "obsolete"
+            elif removal.rule != "finished":
+                self._lifecycle.setdefault(removal.task, "preempted")
+                if self._lifecycle[removal.task] in ("running", "dispatched"):
+                    self._lifecycle[removal.task] = "preempted"
+        continuing = set(schedule.continuing)
+        for activity in plan.activities:
+            if activity.task in continuing:
+                continue
+            state = self._lifecycle.get(activity.task)
+            if state in ("running", "dispatched"):
+                self._lifecycle[activity.task] = "preempted"
+            self._lifecycle[activity.task] = "planned"
+            self._dispatched.pop(activity.task, None)
+        self._plan_message = PlanMessage(
+            plan_id=self.plan_id,
+            issued_at=self._clock(),
+            horizon_start=schedule.problem.start,
+            horizon_end=schedule.problem.end,
+            status=plan.status,
+            objective=plan.objective,
+            activities=plan.activities,
+            unscheduled=plan.unscheduled,
+            why=plan.why,
+            continuing=schedule.continuing,
+            removed=removed,
+            trigger=trigger,
+            goals=goals,
+            stats=plan.stats,
+        )
+        self._set_health("ok", "")
+        out.append(Publish("scheduler/plan", self._plan_message))
+        out.append(
+            Log(
+                "info",
+                f"plan {self.plan_id} ({trigger}, {plan.status.value}): "
+                f"{len(plan.activities)} activities, "
+                f"{len(plan.unscheduled)} unscheduled",
+            )
+        )
+        for goal_id in goals:
+            self._count(goals_accepted=self._counters.goals_accepted + 1)
+            out.append(
+                Publish(
+                    "scheduler/status",
+                    self.status("goal_accepted", goal_id=goal_id),
+                )
+            )
+        out.append(Publish("scheduler/status", self.status("plan")))
+
+    def _dispatch_due(self, out: list[Command]) -> None:
+        schedule = self.schedule
+        if schedule is None or self.now is None or self.plan_id is None:
+            return
+        continuing = set(schedule.continuing)
+        for activity in schedule.plan.activities:
+            if activity.start > self.now:
+                break  # activities are sorted by start
+            if (
+                activity.task in continuing
+                or self._lifecycle.get(activity.task) != "planned"
+            ):
+                continue
+            late = activity.start < self.now
+            task = schedule.problem.task(activity.task)
+            self._lifecycle[activity.task] = "dispatched"
+            self._dispatched[activity.task] = self.now
+            self._count(
+                dispatches=self._counters.dispatches + 1,
+                late_dispatches=self._counters.late_dispatches + late,
+            )
+            out.append(
+                Publish(
+                    f"scheduler/dispatch/{activity.task}",
+                    Dispatch(
+                        task=activity.task,
+                        plan_id=self.plan_id,
+                        start=activity.start,
+                        end=activity.end,
+                        uses=dict(sorted(task.uses.items())),
+                        dispatched_at=self.now,
+                        late=late,
+                    ),
+                )
+            )
+
+    def _check_report_timeouts(self, out: list[Command]) -> None:
+        timeout = self.config.report_timeout
+        if timeout is None or self.now is None:
+            return
+        for task, since in sorted(self._dispatched.items()):
+            if self.now - since > timeout:
+                del self._dispatched[task]
+                self._lifecycle[task] = "failed"
+                out.append(
+                    Log(
+                        "warning",
+                        f"{task}: no report {timeout} units "
+                        "after dispatch; counted as failed",
+                    )
+                )
+                self._queue.append(_Change("failure", task=task, at=since))
+
+    # -- status helpers ------------------------------------------------------
+
+    def _reject_goal(
+        self,
+        goal_id: str | None,
+        errors: list[FieldIssue] | tuple[FieldIssue, ...],
+        out: list[Command],
+    ) -> None:
+        self._count(goals_rejected=self._counters.goals_rejected + 1)
+        text = "; ".join(str(e) for e in errors)
+        out.append(Log("warning", f"goal {goal_id} rejected: {text}"))
+        out.append(
+            Publish(
+                "scheduler/status",
+                self.status(
+                    "goal_rejected", goal_id=goal_id, errors=tuple(errors)
+                ),
+            )
+        )
+
+    def _reject_input(
+        self,
+        key: str,
+        kind: str,
+        errors: list[FieldIssue] | tuple[FieldIssue, ...],
+        out: list[Command],
+    ) -> None:
+        self._count(inputs_rejected=self._counters.inputs_rejected + 1)
+        text = "; ".join(str(e) for e in errors)
+        out.append(Log("warning", f"{kind} on {key} ignored: {text}"))
+        out.append(
+            Publish(
+                "scheduler/status",
+                self.status(
+                    "input_rejected",
+                    errors=tuple(errors),
+                    detail=f"{kind} on {key} ignored",
+                ),
+            )
+        )
+
+    def _set_health(
+        self, state: Literal["ok", "degraded", "error"], detail: str
+    ) -> None:
+        self._health, self._health_detail = state, detail
+
+    def _count(self, **changes: int) -> None:
+        self._counters = msgspec.structs.replace(self._counters, **changes)
+
+    def _clock(self) -> int:
+        return self.now if self.now is not None else 0
+
+
+def _merge_goals(goals: list[Goal]) -> Goal:
+    """One goal carrying every task and precedence of ``goals``."""
+    if len(goals) == 1:
+        return goals[0]
+    return Goal(
+        goal_id="+".join(g.goal_id for g in goals),
+        tasks=tuple(t for g in goals for t in g.tasks),
+        precedences=tuple(p for g in goals for p in g.precedences),
+    )
+
+
+def _no_plan_reason(plan: Plan) -> str:
+    if plan.status is SolveStatus.INFEASIBLE:
+        blocked = ", ".join(
+            f"{b.task} ({b.cause}: {b.detail})" for b in plan.why
+        )
+        return "infeasible" + (f": {blocked}" if blocked else "")
+    return f"{plan.status.value}: no plan found within the time limit"

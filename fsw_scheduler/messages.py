@@ -1,0 +1,280 @@
+"""Bus messages (CONTRACT section 5): msgspec Structs, codecs and schemas.
+
+Evolution rules: a new field always has a default and a field's type
+never changes, so older recordings still decode. Unknown fields are
+ignored on input (no ``forbid_unknown_fields``), which keeps replays of
+newer recordings possible. :func:`json_schemas` is the source of the files
+in ``schemas/``; a test keeps them identical.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+import msgspec
+
+from .errors import FieldIssue, InputError
+from .goal import Goal
+from .model import Problem, decode_strict
+from .reschedule import Removal
+from .solution import (
+    Activity,
+    Blocker,
+    Objective,
+    SolverStats,
+    SolveStatus,
+)
+
+#: Largest payload accepted on an input key; bigger ones are rejected
+#: before decoding so a huge message cannot stall the event loop.
+MAX_PAYLOAD_BYTES = 1 << 20
+
+
+class Clock(msgspec.Struct, frozen=True):
+    """``clock``: bus time in time units."""
+
+    now: int
+
+
+class ActivityReport(msgspec.Struct, frozen=True, omit_defaults=True):
+    """``telemetry/activities/<task>``: an execution report."""
+
+    task: str
+    state: Literal["running", "completed", "failed"]
+    at: int
+    detail: str = ""
+
+
+class ResourceLevel(msgspec.Struct, frozen=True):
+    """``telemetry/resources/<name>``: a measured consumable level.
+
+    ``level`` is the level at the start of time unit ``at``.
+    """
+
+    resource: str
+    level: float
+    at: int
+
+
+class PlanMessage(msgspec.Struct, frozen=True, omit_defaults=True):
+    """``scheduler/plan``: the plan being executed (CONTRACT section 2).
+
+    Attributes
+    ----------
+    plan_id
+        Strictly increasing over a run.
+    issued_at
+        Time unit at which the plan was adopted.
+    horizon_start, horizon_end
+        The window ``[start, end)`` the plan covers.
+    status, objective, activities, unscheduled
+        As in CONTRACT section 2.
+    why
+        Why each unscheduled task is out.
+    continuing
+        Activities that were already running and continue; they are not
+        dispatched again.
+    removed
+        Tasks that left the pending list at this replan, with the rule.
+    trigger
+        What caused the plan: ``initial``, ``goal``, ``failure``,
+        ``drift``, ``timeout`` or ``stale``.
+    goals
+        Goal ids adopted by this plan.
+    stats
+        Solver statistics (timings vary between runs).
+    """
+
+    plan_id: int
+    issued_at: int
+    horizon_start: int
+    horizon_end: int
+    status: SolveStatus
+    objective: Objective | None
+    activities: tuple[Activity, ...] = ()
+    unscheduled: tuple[str, ...] = ()
+    why: tuple[Blocker, ...] = ()
+    continuing: tuple[str, ...] = ()
+    removed: tuple[Removal, ...] = ()
+    trigger: str = ""
+    goals: tuple[str, ...] = ()
+    stats: SolverStats | None = None
+
+
+class Dispatch(msgspec.Struct, frozen=True, omit_defaults=True):
+    """``scheduler/dispatch/<task>``: start this activity now."""
+
+    task: str
+    plan_id: int
+    start: int
+    end: int
+    uses: dict[str, float]
+    dispatched_at: int = 0
+    late: bool = False
+
+
+class SolveSummary(msgspec.Struct, frozen=True, omit_defaults=True):
+    """The last solve, as reported in status."""
+
+    solve_id: int
+    trigger: str
+    status: SolveStatus
+    objective: Objective | None = None
+    wall_s: float = 0.0
+    adopted: bool = False
+    reason: str = ""
+
+
+class Counters(msgspec.Struct, frozen=True, omit_defaults=True):
+    """Running totals since start."""
+
+    goals_accepted: int = 0
+    goals_rejected: int = 0
+    solves: int = 0
+    solves_failed: int = 0
+    dispatches: int = 0
+    late_dispatches: int = 0
+    reports: int = 0
+    inputs_rejected: int = 0
+    inputs_dropped: int = 0
+
+
+class Status(msgspec.Struct, frozen=True, omit_defaults=True):
+    """``scheduler/status``: health, counters and the latest event.
+
+    ``event`` names what this message reports (``started``, ``plan``,
+    ``goal_accepted``, ``goal_rejected``, ``solve_failed``,
+    ``input_rejected``, ``activity``, ``drift``, ``heartbeat``); with
+    ``goal_id`` and ``errors`` (``path`` + ``reason``) for rejections.
+    """
+
+    state: Literal["ok", "degraded", "error"]
+    plan_id: int | None
+    now: int | None = None
+    event: str = ""
+    goal_id: str | None = None
+    errors: tuple[FieldIssue, ...] = ()
+    detail: str = ""
+    busy: bool = False
+    activities: dict[str, str] = {}
+    counters: Counters = Counters()
+    last_solve: SolveSummary | None = None
+
+
+class SolveRecord(msgspec.Struct, frozen=True, omit_defaults=True):
+    """``scheduler/solves``: one record per solve, to re-solve offline.
+
+    ``problem`` is the exact input, ``input_hash`` its SHA-256 (over the
+    compact JSON), ``inputs_seen`` how many inputs the scheduler had
+    processed when the result came back (used by deterministic replay).
+    """
+
+    solve_id: int
+    trigger: str
+    input_hash: str
+    problem: Problem
+    status: SolveStatus
+    objective: Objective | None = None
+    plan_id: int | None = None
+    num_variables: int = 0
+    num_constraints: int = 0
+    build_s: float = 0.0
+    solve_s: float = 0.0
+    wall_s: float = 0.0
+    inputs_seen: int = 0
+    error: str = ""
+
+
+class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
+    """``scheduler/config``: settings a recording needs to be replayed."""
+
+    spacecraft: str
+    solver: str
+    time_limit_s: float | None
+    seed: int
+    explain: bool
+    clock: str
+    report_timeout: int | None = None
+    drift_absolute: float = 0.0
+    drift_relative: float = 0.0
+    heartbeat: int = 0
+    version: str = ""
+
+
+#: Message types of each key (relative to ``fsw/<sc>/``), for schemas.
+SCHEMA_TYPES: dict[str, Any] = {
+    "clock": Clock,
+    "goal": Goal,
+    "activity_report": ActivityReport,
+    "resource_level": ResourceLevel,
+    "plan": PlanMessage,
+    "dispatch": Dispatch,
+    "status": Status,
+    "solve_record": SolveRecord,
+    "node_info": NodeInfo,
+    "problem": Problem,
+}
+
+_encoder = msgspec.json.Encoder()
+
+
+def encode(message: object) -> bytes:
+    """Encode any message as compact JSON (one shared encoder)."""
+    return _encoder.encode(message)
+
+
+def decode_input(kind: str, payload: bytes) -> Any:
+    """Decode an input payload of ``kind`` (clock, activity_report, ...).
+
+    Raises
+    ------
+    InputError
+        Oversized payload, malformed JSON, wrong types, missing fields.
+    """
+    if len(payload) > MAX_PAYLOAD_BYTES:
+        raise InputError(
+            [
+                FieldIssue(
+                    "",
+                    f"payload of {len(payload)} bytes exceeds the "
+                    f"{MAX_PAYLOAD_BYTES}-byte limit",
+                )
+            ],
+            kind,
+        )
+    if kind == "goal":
+        from .goal import decode_goal
+
+        return decode_goal(payload)
+    return decode_strict(payload, SCHEMA_TYPES[kind], kind)
+
+
+def json_schemas() -> dict[str, dict]:
+    """One JSON Schema per message kind, self-contained (``$defs``).
+
+    Returns
+    -------
+    dict[str, dict]
+        Kind name to schema; each has ``title`` and ``$id``.
+    """
+    schemas = {}
+    for name, kind in SCHEMA_TYPES.items():
+        (ref,), defs = msgspec.json.schema_components([kind])
+        schema: dict[str, Any] = {
+            "$schema": "https://json-schema.org/draft/2020-12/schema",
+            "$id": f"fsw_scheduler/{name}.schema.json",
+            "title": f"fsw_scheduler.{name}",
+            **ref,
+            "$defs": defs,
+        }
+        schemas[name] = _rewrite_refs(schema)
+    return schemas
+
+
+def _rewrite_refs(node: Any) -> Any:
+    """msgspec writes ``#/$defs/X`` refs already; keep them, sorted."""
+    if isinstance(node, dict):
+        return {k: _rewrite_refs(node[k]) for k in sorted(node)}
+    if isinstance(node, list):
+        return [_rewrite_refs(v) for v in node]
+    return node
