@@ -809,7 +809,7 @@ def rule_tight_chain(work: _Work) -> None:
             present.add(prec)
 
 
-def rule_settled_precedences(work: _Work) -> list[str]:
+def rule_settled_precedences(work: _Work) -> tuple[list[str], list[str]]:
     """Precedences touching a finished task are dropped.
 
     Paper, "Online rescheduling": only tasks "not already executed" are
@@ -818,19 +818,22 @@ def rule_settled_precedences(work: _Work) -> list[str]:
     predecessor ran). The start bound it put on a successor still waiting
     is kept, as the successor's window (``start`` reading): ``start ==
     end_before + offset`` for tight, ``>=`` for lax, where ``end_before``
-    is when the predecessor really finished. A tight successor whose
+    is when the predecessor really finished. A successor left with no
+    start is removed (rule ``window_passed``). A tight successor whose
     required start has already passed can no longer follow its
     precondition: it is handed to :func:`rule_tight_chain`, which runs the
     precondition again. A precedence whose ``after`` is pinned (already
-    started) is settled the same way.
+    started) is settled and dropped.
 
     Returns
     -------
-    list of str
-        Successors that need their tight chain run again.
+    tuple of two lists of str
+        Successors that need their tight chain run again, and seeds for
+        the removal cascade.
     """
     keep = []
     redo = []
+    seeds: dict[str, str] = {}
     for prec in work.precedences:
         before_live = prec.before in work.tasks
         after_live = prec.after in work.tasks
@@ -841,15 +844,23 @@ def rule_settled_precedences(work: _Work) -> list[str]:
         if run is None or not after_live or prec.after in work.pinned:
             continue
         bound = run[1] + prec.offset
-        task = work.tasks[prec.after]
         if prec.kind == "tight" and bound < work.now:
             redo.append(prec.after)
-            keep.append(prec)
             continue
         high = None if prec.kind == "lax" else bound
-        work.tasks[prec.after] = _bounded(work, task, bound, high)
+        task = _bounded(work, work.tasks[prec.after], bound, high)
+        if task is None:
+            seeds.setdefault(
+                prec.after,
+                f"no start left after {prec.before} (ended {run[1]})",
+            )
+        else:
+            work.tasks[prec.after] = task
     work.precedences = keep
-    return redo
+    # Removed only now, so that the cascade still sees their constraints.
+    for name, detail in seeds.items():
+        work.remove(name, "window_passed", detail)
+    return [n for n in redo if n in work.tasks], list(seeds)
 
 
 def rule_window_passed(work: _Work) -> list[str]:
@@ -937,18 +948,22 @@ def _latest_start(frame: Problem, task: Task) -> int:
     return open_ended.start_bounds(task)[1]
 
 
-def _bounded(work: _Work, task: Task, low: int, high: int | None) -> Task:
-    """``task`` with its start also kept in ``[low, high]``."""
+def _bounded(
+    work: _Work, task: Task, low: int, high: int | None
+) -> Task | None:
+    """``task`` with its start also kept in ``[low, high]``, None if empty."""
     open_ended = work.frame().replace(horizon=10**9)
     earliest, latest = open_ended.start_bounds(task)
     earliest = max(earliest, low)
     if high is not None:
         latest = min(latest, high)
+    if earliest > latest or latest < work.now:
+        return None
     if earliest <= work.now and latest >= 10**9 - task.length:
         return task  # the bound is already met by any start in the horizon
     return msgspec.structs.replace(
         task,
-        feasible_interval=(earliest, max(latest, earliest - 1)),
+        feasible_interval=(earliest, latest),
         feasible_interval_applies_to="start",
     )
 
@@ -1120,7 +1135,7 @@ def apply_failure(
     if issues:
         raise InputError(issues, "event")
     schedule = schedule.with_report(ExecutionReport(task, "failed", at))
-    return _replan(schedule, now, failed=task, measured=measured)
+    return _replan(schedule, now, measured=measured)
 
 
 def apply_levels(
@@ -1253,15 +1268,16 @@ def _replan(
     now: int,
     *,
     goal: Goal | None = None,
-    failed: str | None = None,
     measured: Mapping[str, float] | None = None,
 ) -> Replan:
     state = schedule.state(now, measured)
     work = _start_work(schedule, now)
     rule_finished_leave(work, state)
     seeds = []
-    if failed is not None and failed in work.tasks:
-        seeds += rule_failed_activity(work, state, failed)
+    # Every failure reported so far, not only the one that triggered.
+    for ts in state.tasks:
+        if ts.phase == "failed" and ts.task in work.tasks:
+            seeds += rule_failed_activity(work, state, ts.task)
     seeds += rule_running_preemption(work, state)
     if goal is not None:
         seeds += rule_obsolete(work, goal)
@@ -1269,11 +1285,19 @@ def _replan(
     if goal is not None:
         _merge_goal(work, goal)
     rule_tight_chain(work)
-    redo = rule_settled_precedences(work)
+    redo, seeds = rule_settled_precedences(work)
     if redo:
         work.rescheduled = redo
         rule_tight_chain(work)
-        rule_settled_precedences(work)
+        redo, more = rule_settled_precedences(work)
+        seeds += more
+        # The precondition could not be brought back (obsolete, unknown).
+        for name in redo:
+            work.remove(
+                name, "window_passed", "its tight precondition has passed"
+            )
+            seeds.append(name)
+    rule_removal_cascade(work, seeds)
     rule_removal_cascade(work, rule_window_passed(work))
     rule_defer_beyond_horizon(work)
     return _finish(schedule, work, state, goal)

@@ -389,6 +389,34 @@ def test_rule_settled_precedences_anchor_successors() -> None:
     assert check_plan(replan.problem, plan).violations == ()
 
 
+def test_rule_settled_precedences_rerun_passed_precondition() -> None:
+    """Tests that a successor late for its precondition runs it again."""
+    problem = small(
+        [task("a"), task("t")], [tight("a", "t", "at_least_first")]
+    )
+    schedule = Schedule.begin(problem, plan_of(problem, {"a": 0}))
+    replan = apply_levels(schedule, {}, 5)
+    assert replan.readded == ("a",)
+    assert replan.problem.precedences == problem.precedences
+    plan = solve(replan.problem)
+    assert plan.activity("a").end == plan.activity("t").start
+
+
+def test_rule_settled_precedences_without_start_left() -> None:
+    """Tests that an anchored successor with no start left is removed."""
+    problem = small(
+        [task("a"), task("t", feasible_interval=[0, 3]), task("u")],
+        [{**lax("a", "t"), "offset": 2}, tight("t", "u")],
+    )
+    schedule = Schedule.begin(problem, plan_of(problem, {"a": 0}))
+    replan = apply_levels(schedule, {}, 2)
+    assert rules(replan) == {
+        "a": "finished",
+        "t": "window_passed",
+        "u": "tight_cascade",
+    }
+
+
 def test_rule_window_passed() -> None:
     """Tests that a task whose window has passed leaves with its follower."""
     problem = small(
@@ -522,6 +550,16 @@ def test_failure_delete_drops_tight_chain() -> None:
     assert ids(replan) == ["c"]
 
 
+def test_reported_failure_is_handled_by_any_trigger() -> None:
+    """Tests that a failure report kept in the schedule is applied."""
+    problem = small([task("a", 5, "from_interrupt"), task("b")])
+    schedule = Schedule.begin(problem, plan_of(problem, {"a": 0}))
+    schedule = schedule.with_report(ExecutionReport("a", "failed", 2))
+    replan = apply_goal(schedule, goal(task("n")), 3)
+    assert replan.problem.task("a").length == 3
+    assert replan.adopt(empty_plan()).reports == ()
+
+
 def test_failure_event_errors() -> None:
     """Tests that unknown tasks and out-of-order times name the field."""
     problem = small([task("a")])
@@ -626,6 +664,16 @@ def test_replan_files_with_injected_solver(
     )
 
 
+def test_replan_files_table2(
+    table1: Problem, table1_plan: Plan, table2_goal_doc: dict
+) -> None:
+    """Tests the CLI helper end to end on Table 2 with CBC."""
+    change = decode_change(json.dumps(table2_goal_doc))
+    problem, plan, diff = replan_files(table1, table1_plan, change, 15)
+    assert check_plan(problem, plan).violations == ()
+    assert diff.continued == ("BatteryCharge",)
+
+
 # --------------------------------------------------------------------------
 # Properties over random sessions
 
@@ -728,7 +776,7 @@ def _outcome(session: list[tuple[Replan, Plan]]) -> list:
 
 
 @settings(
-    max_examples=12,
+    max_examples=40,
     derandomize=True,
     deadline=None,
     suppress_health_check=[HealthCheck.too_slow],
