@@ -1106,7 +1106,8 @@ def apply_failure(
     task
         The failed task; it must be in the current problem.
     at
-        Time unit of the failure.
+        Time unit of the failure; a time before the current problem's
+        start (a late report) counts as that start.
     now
         Time unit of the replan (default ``at``); ``>= at``.
     measured
@@ -1122,16 +1123,14 @@ def apply_failure(
         Unknown task (path ``task``) or times out of order (``at``).
     """
     now = at if now is None else now
+    # A report that arrives after a replan refers to the previous window;
+    # the current version of the task then failed as it began.
+    at = max(at, schedule.problem.start)
     issues = []
     if all(t.id != task for t in schedule.problem.tasks):
         issues.append(FieldIssue("task", f"unknown task {task!r}"))
-    if not schedule.problem.start <= at <= now:
-        issues.append(
-            FieldIssue(
-                "at",
-                f"{at} is not in [{schedule.problem.start}, now = {now}]",
-            )
-        )
+    if at > now:
+        issues.append(FieldIssue("at", f"{at} is after now = {now}"))
     if issues:
         raise InputError(issues, "event")
     schedule = schedule.with_report(ExecutionReport(task, "failed", at))

@@ -560,6 +560,16 @@ def test_reported_failure_is_handled_by_any_trigger() -> None:
     assert replan.adopt(empty_plan()).reports == ()
 
 
+def test_late_failure_report_counts_from_window_start() -> None:
+    """Tests that a failure dated before the current window is kept."""
+    problem = small([task("a", 6, "from_interrupt")])
+    schedule = Schedule.begin(problem, plan_of(problem, {"a": 0}))
+    first = apply_levels(schedule, {}, 2)
+    kept = first.adopt(plan_of(first.problem, {"a": 2}))
+    replan = apply_failure(kept, "a", 1, now=3)
+    assert replan.problem.task("a").length == 4
+
+
 def test_failure_event_errors() -> None:
     """Tests that unknown tasks and out-of-order times name the field."""
     problem = small([task("a")])
