@@ -368,7 +368,7 @@ def test_consumable_reports_each_dip() -> None:
     ],
 )
 def test_precedence(kind: str, offset: int, b_start: int, ok: bool) -> None:
-    """Tests tight (==) and lax (>=) precedences with any offset sign."""
+    """Tests that tight (==) and lax (>=) precedences hold for any offset."""
     problem = _problem(
         [_task("a"), _task("b")],
         precedences=[
@@ -409,7 +409,7 @@ def test_precedence_uses_task_length() -> None:
     ],
 )
 def test_scope(scope: str, scheduled: str, ok: bool) -> None:
-    """Tests both and at_least_first scopes on every selection."""
+    """Tests that both and at_least_first scopes hold on every selection."""
     problem = _problem(
         [_task("a"), _task("b")],
         precedences=[
@@ -429,7 +429,7 @@ def test_scope(scope: str, scheduled: str, ok: bool) -> None:
 
 
 def test_objective_recomputed() -> None:
-    """Tests the recomputed objective and W of CONTRACT section 1."""
+    """Tests that the objective and W are recomputed per CONTRACT §1."""
     problem = _problem(
         [
             _task("a", delay_cost=2, schedule_cost=4),
