@@ -94,7 +94,7 @@ def _summary(plan: Plan) -> str:
     return "; ".join(parts)
 
 
-# -- solve -------------------------------------------------------------------
+# -- solve ------------------------------------------------------------------
 
 
 def _add_solver_arguments(parser: argparse.ArgumentParser) -> None:
@@ -148,7 +148,7 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     return EXIT_OK if plan.status.has_plan else EXIT_NO_PLAN
 
 
-# -- check -------------------------------------------------------------------
+# -- check ------------------------------------------------------------------
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
@@ -161,7 +161,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
     return EXIT_OK if report.ok else EXIT_NO_PLAN
 
 
-# -- replan ------------------------------------------------------------------
+# -- replan -----------------------------------------------------------------
 
 
 def _cmd_replan(args: argparse.Namespace) -> int:
@@ -191,7 +191,186 @@ def _cmd_replan(args: argparse.Namespace) -> int:
     return EXIT_OK if new_plan.status.has_plan else EXIT_NO_PLAN
 
 
-# -- parser ------------------------------------------------------------------
+# -- demo --------------------------------------------------------------------
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from .demo import SCENARIOS, run_demo
+
+    out = Path(args.out)
+    log.info("demo (%s scenario): output in %s", args.scenario, out)
+    result = run_demo(
+        out,
+        scenario=SCENARIOS[args.scenario](),
+        spacecraft=args.spacecraft,
+        verify=not args.no_verify,
+        quiet=args.quiet,
+    )
+    final = result.plans[-1] if result.plans else None
+    print()
+    if final is not None:
+        text = out / f"plan-{final.plan_id}.txt"
+        if text.exists():
+            print(f"final plan {final.plan_id}:")
+            print(text.read_text())
+    print("executed:")
+    for activity in sorted(result.executed, key=lambda a: (a.start, a.task)):
+        print(
+            f"  {activity.task:<20} [{activity.start:>3}, {activity.end:>3})"
+        )
+    print(f"\njournal (MCAP): {result.journal}")
+    for picture in result.pictures:
+        print(f"picture: {picture}")
+    print(f"replay it:  fsw-scheduler replay {result.journal} --verify")
+    if result.verified is False:
+        return EXIT_NO_PLAN
+    return EXIT_OK
+
+
+# -- run ---------------------------------------------------------------------
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    import signal
+    import threading
+
+    import zenoh
+
+    from .bus.node import SchedulerNode
+    from .bus.session import toml_config_file, zenoh_config
+    from .config import load_config
+    from .messages import schema_lookup
+    from .model import Problem
+    from .recording import Recorder
+
+    config = load_config(toml_config_file(args)).replace(
+        spacecraft=args.spacecraft,
+        clock=args.clock,
+        time_unit=args.time_unit,
+        solver=args.solver,
+        time_limit=args.time_limit,
+        horizon=args.horizon,
+    )
+    if args.problem:
+        problem = decode_problem(_read_bytes(args.problem), allow_empty=True)
+    else:
+        if config.horizon is None:
+            raise InputError(
+                [FieldIssue("horizon", "give --problem or --horizon")],
+                "arguments",
+            )
+        problem = Problem(horizon=config.horizon, tasks=())
+    journal = None
+    if args.record:
+        journal = Recorder(
+            args.record, schemas=schema_lookup(config.spacecraft)
+        )
+    stop = threading.Event()
+
+    def on_signal(signum: int, _frame: object) -> None:
+        log.info("signal %d: stopping", signum)
+        stop.set()
+
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
+    with zenoh.open(zenoh_config(args)) as session:
+        node = SchedulerNode(session, problem, config, journal=journal)
+        node.start()
+        try:
+            while not stop.wait(0.5):
+                pass
+        finally:
+            node.close()
+    return EXIT_OK
+
+
+# -- record / replay / recover / info ----------------------------------------
+
+
+def _cmd_record(args: argparse.Namespace) -> int:
+    import signal
+    import threading
+
+    import zenoh
+
+    from .bus.record import record
+    from .bus.session import zenoh_config
+    from .bus.topics import Topics
+    from .messages import schema_lookup
+    from .recording import Recorder
+
+    key = args.key or Topics(args.spacecraft).everything
+    stop = threading.Event()
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    recorder = Recorder(
+        args.out,
+        compression=args.compression,
+        split_size=args.split_size,
+        split_duration_ns=(
+            int(args.split_duration * 1e9) if args.split_duration else None
+        ),
+        flush_interval_ns=int(args.flush_interval * 1e9),
+        schemas=schema_lookup(args.spacecraft),
+    )
+    with zenoh.open(zenoh_config(args)) as session, recorder:
+        log.info("recording %s to %s (Ctrl-C to stop)", key, args.out)
+        stats = record(session, key, recorder, stop)
+    log.info(
+        "recorded %d messages on %d keys into %s",
+        stats.written,
+        len(stats.by_key),
+        ", ".join(map(str, recorder.paths)),
+    )
+    return EXIT_OK
+
+
+def _cmd_replay(args: argparse.Namespace) -> int:
+    if args.verify:
+        from .replay import verify
+
+        report = verify(args.files, progress=lambda line: log.info("%s", line))
+        print(report.summary())
+        return EXIT_OK if report.identical else EXIT_NO_PLAN
+    import zenoh
+
+    from .bus.record import replay
+    from .bus.session import zenoh_config
+
+    with zenoh.open(zenoh_config(args)) as session:
+        count = replay(
+            session,
+            args.files,
+            rate=args.rate,
+            burst=args.burst,
+            start_offset_s=args.start_offset,
+            until_s=args.until,
+            loop=args.loop,
+            include=args.include,
+            exclude=args.exclude,
+        )
+    log.info("published %d messages", count)
+    return EXIT_OK
+
+
+def _cmd_recover(args: argparse.Namespace) -> int:
+    from .recording import recover
+
+    kept = recover(args.file, args.out)
+    print(f"recovered {sum(kept.values())} messages into {args.out}")
+    for topic, count in sorted(kept.items()):
+        print(f"  {count:>7}  {topic}")
+    return EXIT_OK
+
+
+def _cmd_info(args: argparse.Namespace) -> int:
+    from .recording import format_info, info
+
+    print(format_info(info(args.file)))
+    return EXIT_OK
+
+
+# -- parser -----------------------------------------------------------------
 
 Command = Callable[[argparse.Namespace], int]
 
@@ -299,6 +478,154 @@ def build_parser() -> argparse.ArgumentParser:
         "--gantt", metavar="PNG", help="draw the new plan with a 'now' line"
     )
     _add_solver_arguments(replan)
+
+    demo = add(
+        "demo",
+        _cmd_demo,
+        "the paper scenario end to end on an in-process bus",
+        """\
+        Run the paper's scenario on an in-process Zenoh bus: the scheduler,
+        a simulated executor that runs dispatched activities and reports
+        battery levels, the Table 1 problem at t=0 and the Table 2 goal at
+        t=15, on a fast clock. Prints a live timeline, then writes the MCAP
+        journal, one Gantt picture per plan and the final timeline to --out,
+        and replays the journal to prove the decisions are reproduced.
+        """,
+    )
+    demo.add_argument(
+        "--out", default="out/demo", help="output folder (%(default)s)"
+    )
+    demo.add_argument(
+        "--scenario",
+        choices=("paper", "failure"),
+        default="paper",
+        help="paper: Table 1 then the Table 2 goal; failure: also a failed "
+        "activity and a draining battery (default: %(default)s)",
+    )
+    demo.add_argument("--spacecraft", default="sat1", help="key prefix id")
+    demo.add_argument(
+        "--no-verify", action="store_true", help="skip the replay check"
+    )
+    demo.add_argument("--quiet", action="store_true", help="no live timeline")
+
+    from .bus.session import add_zenoh_arguments
+
+    run = add(
+        "run",
+        _cmd_run,
+        "run the scheduler as a component on a Zenoh bus",
+        """\
+        Run the scheduler on the bus. It listens for goals on
+        fsw/<sc>/scheduler/goals and telemetry on fsw/<sc>/telemetry/**,
+        publishes the plan (also a queryable), a dispatch per activity when
+        its start time comes, and status; it holds a liveliness token while
+        it runs. Stop it with Ctrl-C or SIGTERM.
+
+        examples:
+          fsw-scheduler run --problem resources.json --clock wall --time-unit 1
+          fsw-scheduler run --problem p.json --clock bus -e tcp/10.0.0.2:7447
+          fsw-scheduler run --config scheduler.toml --record session.mcap
+        """,
+    )
+    run.add_argument(
+        "--problem",
+        metavar="PROBLEM.json",
+        help="resources, horizon length and any initial tasks",
+    )
+    run.add_argument("--spacecraft", help="key prefix id (default sat1)")
+    run.add_argument(
+        "--clock",
+        choices=("bus", "wall"),
+        help="time from fsw/<sc>/clock, or the node's own clock",
+    )
+    run.add_argument(
+        "--time-unit",
+        type=float,
+        metavar="S",
+        help="seconds per time unit with --clock wall",
+    )
+    run.add_argument("--horizon", type=int, help="horizon length override")
+    run.add_argument(
+        "--record",
+        metavar="FILE.mcap",
+        help="journal every input and output (for replay --verify)",
+    )
+    run.add_argument("--solver", choices=("cbc", "highs"), help="MILP solver")
+    run.add_argument(
+        "--time-limit", type=float, metavar="S", help="seconds per solve"
+    )
+    add_zenoh_arguments(run)
+
+    rec = add(
+        "record",
+        _cmd_record,
+        "record bus traffic to MCAP",
+        """\
+        Subscribe to a key expression (default fsw/<sc>/**) and write each
+        sample as an MCAP message: one channel per key, JSON encoding with
+        the JSON Schema of the key where there is one. Small chunks and a
+        periodic flush keep a killed recorder's file recoverable.
+        """,
+    )
+    rec.add_argument("--out", required=True, metavar="FILE.mcap")
+    rec.add_argument("--key", help="key expression (default fsw/<sc>/**)")
+    rec.add_argument("--spacecraft", default="sat1")
+    rec.add_argument(
+        "--compression", choices=("zstd", "lz4", "none"), default="zstd"
+    )
+    rec.add_argument("--split-size", type=int, metavar="BYTES")
+    rec.add_argument("--split-duration", type=float, metavar="S")
+    rec.add_argument(
+        "--flush-interval",
+        type=float,
+        default=1.0,
+        metavar="S",
+        help="most a crash can lose (default %(default)s s)",
+    )
+    add_zenoh_arguments(rec)
+
+    rep = add(
+        "replay",
+        _cmd_replay,
+        "publish a recording back on the bus, or --verify it",
+        """\
+        Publish recorded messages back on the bus in log-time order, or with
+        --verify re-run a scheduler journal through a fresh scheduler and
+        compare every plan, dispatch and status with the recording (exit 0
+        if identical, 1 with the first divergence otherwise).
+        """,
+    )
+    rep.add_argument("files", nargs="+", metavar="FILE.mcap")
+    rep.add_argument(
+        "--verify",
+        action="store_true",
+        help="replay through a fresh scheduler and compare decisions",
+    )
+    rep.add_argument("--rate", type=float, default=1.0)
+    rep.add_argument(
+        "--burst", action="store_true", help="as fast as possible, in order"
+    )
+    rep.add_argument("--start-offset", type=float, default=0.0, metavar="S")
+    rep.add_argument("--until", type=float, metavar="S")
+    rep.add_argument("--loop", action="store_true")
+    rep.add_argument(
+        "--include", action="append", default=[], metavar="KEYEXPR"
+    )
+    rep.add_argument(
+        "--exclude", action="append", default=[], metavar="KEYEXPR"
+    )
+    add_zenoh_arguments(rep)
+
+    recov = add(
+        "recover",
+        _cmd_recover,
+        "rewrite a truncated MCAP file into a readable one",
+    )
+    recov.add_argument("file")
+    recov.add_argument("--out", required=True, metavar="FILE.mcap")
+
+    inf = add("info", _cmd_info, "summarise an MCAP file")
+    inf.add_argument("file")
     return parser
 
 

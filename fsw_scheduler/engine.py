@@ -236,6 +236,7 @@ class Engine:
         self._health_detail = ""
         self._plan_message: PlanMessage | None = None
         self._initial_problem: Problem = initial
+        self.initial = initial
 
     # -- read-only views (for queryables) ---------------------------------
 

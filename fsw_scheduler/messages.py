@@ -199,6 +199,7 @@ class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     drift_relative: float = 0.0
     heartbeat: int = 0
     version: str = ""
+    problem: Problem | None = None
 
 
 #: Message types of each key (relative to ``fsw/<sc>/``), for schemas.
@@ -278,3 +279,17 @@ def _rewrite_refs(node: Any) -> Any:
     if isinstance(node, list):
         return [_rewrite_refs(v) for v in node]
     return node
+
+
+def schema_lookup(spacecraft: str) -> Any:
+    """Topic -> JSON Schema (or None) for MCAP channels of a spacecraft."""
+    from .bus.topics import Topics
+
+    topics = Topics(spacecraft)
+    schemas = json_schemas()
+
+    def lookup(topic: str) -> dict | None:
+        kind = topics.schema_kind(topic)
+        return schemas.get(kind) if kind else None
+
+    return lookup

@@ -187,13 +187,16 @@ def decode_strict(data: bytes | str, kind: type[T], what: str) -> T:
         raise InputError([_msgspec_issue(error)], what) from None
 
 
-def decode_problem(data: bytes | str) -> Problem:
+def decode_problem(data: bytes | str, *, allow_empty: bool = False) -> Problem:
     """Decode and validate a problem document.
 
     Parameters
     ----------
     data
         The JSON text of CONTRACT section 1.
+    allow_empty
+        Accept a problem with no task (``fsw-scheduler run``: the problem
+        gives resources and horizon, goals bring the tasks).
 
     Returns
     -------
@@ -206,7 +209,7 @@ def decode_problem(data: bytes | str) -> Problem:
         With one :class:`FieldIssue` per problem found.
     """
     problem = decode_strict(data, Problem, "problem")
-    issues = validate_problem(problem)
+    issues = validate_problem(problem, allow_empty=allow_empty)
     if issues:
         raise InputError(issues, "problem")
     return problem
@@ -222,13 +225,15 @@ def encode(value: object) -> bytes:
 # them all so a user sees every mistake at once.
 
 
-def validate_problem(problem: Problem) -> list[FieldIssue]:
+def validate_problem(
+    problem: Problem, *, allow_empty: bool = False
+) -> list[FieldIssue]:
     """Return every validation issue of ``problem`` (empty when valid)."""
     issues = [
         *_check_horizon(problem),
         *_check_resources(problem.resources),
     ]
-    issues += _check_tasks(problem)
+    issues += _check_tasks(problem, allow_empty)
     issues += _check_precedences(problem)
     if not issues:
         issues += _check_tight_cycles(problem)
@@ -276,9 +281,9 @@ def _check_resources(resources: Resources) -> Iterator[FieldIssue]:
             )
 
 
-def _check_tasks(problem: Problem) -> list[FieldIssue]:
+def _check_tasks(problem: Problem, allow_empty: bool) -> list[FieldIssue]:
     issues: list[FieldIssue] = []
-    if not problem.tasks:
+    if not problem.tasks and not allow_empty:
         issues.append(FieldIssue("tasks", "at least one task is required"))
     seen: dict[str, int] = {}
     for idx, task in enumerate(problem.tasks):

@@ -20,7 +20,6 @@ import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-import msgspec
 import zenoh
 
 from .. import messages
@@ -30,18 +29,14 @@ from ..engine import (
     Engine,
     EngineConfig,
     Event,
-    GoalArrived,
-    InputRejected,
-    LevelArrived,
     Log,
     Publish,
-    ReportArrived,
     SolveDone,
     SolveFailed,
     StartSolve,
     Tick,
 )
-from ..errors import FieldIssue, InputError
+from ..inputs import InputDecoder
 from . import topics
 
 if TYPE_CHECKING:
@@ -66,7 +61,7 @@ def engine_config(config: NodeConfig) -> EngineConfig:
     )
 
 
-def node_info(config: NodeConfig) -> messages.NodeInfo:
+def node_info(config: NodeConfig, problem: Problem) -> messages.NodeInfo:
     """What a recording needs to replay this node's decisions."""
     from .. import __version__
 
@@ -82,6 +77,7 @@ def node_info(config: NodeConfig) -> messages.NodeInfo:
         drift_relative=config.drift_relative,
         heartbeat=config.heartbeat,
         version=__version__,
+        problem=problem,
     )
 
 
@@ -173,7 +169,7 @@ class SchedulerNode:
             max_workers=1, thread_name_prefix="fsw-solve"
         )
         self._clock: UnitClock | None = None
-        self._bus_now: int | None = None
+        self._decoder = InputDecoder(self.topics, config.clock)
         self._last_tick: int | None = None
         self._declared: list[Any] = []
         self._publishers: dict[str, zenoh.Publisher] = {}
@@ -184,9 +180,6 @@ class SchedulerNode:
         """Declare subscribers, publishers, queryables; start the loop."""
         key = self.topics.key
         session = self.session
-        self._journal.write(
-            key(topics.NODE_INFO), messages.encode(node_info(self.config))
-        )
         for suffix in (
             topics.PLAN,
             topics.STATUS,
@@ -224,7 +217,8 @@ class SchedulerNode:
         )
         self._thread.start()
         self._publish_raw(
-            topics.NODE_INFO, messages.encode(node_info(self.config))
+            topics.NODE_INFO,
+            messages.encode(node_info(self.config, self.engine.initial)),
         )
         log.info(
             "scheduler up on %s (clock %s, solver %s)",
@@ -345,65 +339,14 @@ class SchedulerNode:
     def _now(self) -> int:
         if self._clock is not None:
             return self._last_tick if self._last_tick is not None else 0
-        return self._bus_now if self._bus_now is not None else 0
+        bus_now = self._decoder.bus_now
+        return bus_now if bus_now is not None else 0
 
     def _on_sample(self, kind: str, key: str, payload: bytes) -> None:
         self._journal.write(key, payload)
-        try:
-            message = messages.decode_input(kind, payload)
-            event = self._event(kind, key, message)
-        except InputError as error:
-            event = InputRejected(
-                key, kind, tuple(error.issues), _goal_id(kind, payload)
-            )
+        event = self._decoder.event(key, payload)
         if event is not None:
             self._step(event)
-
-    def _event(self, kind: str, key: str, message: Any) -> Event | None:
-        if kind == "clock":
-            if self._clock is not None:
-                return None  # the node keeps its own time
-            if self._bus_now is not None and message.now < self._bus_now:
-                raise InputError(
-                    [
-                        FieldIssue(
-                            "now",
-                            f"clock went back from "
-                            f"{self._bus_now} to {message.now}",
-                        )
-                    ],
-                    "clock",
-                )
-            self._bus_now = message.now
-            return Tick(message.now)
-        if kind == "goal":
-            return GoalArrived(message)
-        name = key.rsplit("/", 1)[-1]
-        if kind == "activity_report":
-            if message.task != name:
-                raise InputError(
-                    [
-                        FieldIssue(
-                            "task",
-                            f"{message.task!r} reported on the "
-                            f"key of {name!r}",
-                        )
-                    ],
-                    kind,
-                )
-            return ReportArrived(message)
-        if message.resource != name:
-            raise InputError(
-                [
-                    FieldIssue(
-                        "resource",
-                        f"{message.resource!r} reported on "
-                        f"the key of {name!r}",
-                    )
-                ],
-                kind,
-            )
-        return LevelArrived(message)
 
     def _step(self, event: Event) -> None:
         if self._dropped != self.engine._counters.inputs_dropped:
@@ -468,16 +411,3 @@ class SchedulerNode:
             log.warning("query reply failed: %s", error)
         finally:
             query.drop()
-
-
-def _goal_id(kind: str, payload: bytes) -> str | None:
-    """Best-effort goal id of a goal that failed to decode."""
-    if kind != "goal":
-        return None
-    try:
-        head = msgspec.json.decode(payload)
-    except msgspec.DecodeError:
-        return None
-    if isinstance(head, dict) and isinstance(head.get("goal_id"), str):
-        return head["goal_id"]
-    return None

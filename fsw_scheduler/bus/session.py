@@ -83,8 +83,13 @@ def add_zenoh_arguments(parser: argparse.ArgumentParser) -> None:
     )
     group.add_argument(
         "--config",
-        metavar="FILE.json5",
-        help="A Zenoh configuration file.",
+        metavar="FILE",
+        action="append",
+        default=[],
+        help=(
+            "A Zenoh configuration file (JSON5). A file ending in .toml is "
+            "not Zenoh's: 'run' reads it as the scheduler's settings."
+        ),
     )
     group.add_argument(
         "--cfg",
@@ -103,6 +108,24 @@ def add_zenoh_arguments(parser: argparse.ArgumentParser) -> None:
         default=False,
         help="Disable multicast scouting.",
     )
+
+
+def zenoh_config_file(args: argparse.Namespace) -> str | None:
+    """The last ``--config`` file that is not a ``.toml`` file."""
+    files = getattr(args, "config", None) or []
+    if isinstance(files, str):
+        files = [files]
+    zenoh_files = [f for f in files if not str(f).endswith(".toml")]
+    return zenoh_files[-1] if zenoh_files else None
+
+
+def toml_config_file(args: argparse.Namespace) -> str | None:
+    """The last ``--config`` file ending in ``.toml``, if any."""
+    files = getattr(args, "config", None) or []
+    if isinstance(files, str):
+        files = [files]
+    tomls = [f for f in files if str(f).endswith(".toml")]
+    return tomls[-1] if tomls else None
 
 
 def zenoh_config(args: argparse.Namespace) -> zenoh.Config:
@@ -129,7 +152,7 @@ def zenoh_config(args: argparse.Namespace) -> zenoh.Config:
         If the file cannot be read or a ``--cfg`` entry is malformed or
         rejected by Zenoh.
     """
-    path = getattr(args, "config", None)
+    path = zenoh_config_file(args)
     try:
         config = (
             zenoh.Config.from_file(path) if path else zenoh.Config()

@@ -98,3 +98,29 @@ class Topics(msgspec.Struct, frozen=True):
             if suffix.startswith(prefix):
                 return kind
         return None
+
+
+def input_kind(topics: Topics, key: str, clock: str) -> str | None:
+    """The input kind of ``key`` for a node with this clock source.
+
+    Returns ``goal``, ``clock`` (bus clock only), ``tick`` (the journal's
+    record of the node's own clock, wall clock only), ``activity_report``,
+    ``resource_level``, or None for keys that are not scheduler inputs.
+    """
+    suffix = topics.suffix(key)
+    if suffix is None:
+        return None
+    if suffix == GOALS:
+        return "goal"
+    if suffix == CLOCK:
+        return "clock" if clock == "bus" else None
+    if suffix == TICKS:
+        return "tick" if clock == "wall" else None
+    head, _, name = suffix.rpartition("/")
+    if not name:
+        return None
+    if head == ACTIVITY_REPORTS:
+        return "activity_report"
+    if head == RESOURCE_LEVELS:
+        return "resource_level"
+    return None

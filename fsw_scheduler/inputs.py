@@ -1,0 +1,108 @@
+"""From bus samples to engine events (shared by the node and replay).
+
+The node and deterministic replay must turn the same bytes into the same
+events, so the decoding rules live here once: oversized or malformed
+payloads, wrong types, a report on another task's key, a clock going back
+all become :class:`~fsw_scheduler.engine.InputRejected` events, which the
+engine reports on the status key; nothing here raises.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import msgspec
+
+from . import messages
+from .bus.topics import Topics, input_kind
+from .engine import (
+    Event,
+    GoalArrived,
+    InputRejected,
+    LevelArrived,
+    ReportArrived,
+    Tick,
+)
+from .errors import FieldIssue, InputError
+
+
+class InputDecoder:
+    """Decodes input samples into events, keeping the bus clock's state.
+
+    Parameters
+    ----------
+    topics
+        The spacecraft's keys.
+    clock
+        ``bus``: clock messages are ticks; ``wall``: the node keeps its own
+        time, clock messages are ignored and its ticks come from the
+        ``scheduler/ticks`` journal channel.
+    """
+
+    def __init__(self, topics: Topics, clock: str) -> None:
+        self.topics = topics
+        self.clock = clock
+        self.bus_now: int | None = None
+
+    def event(self, key: str, payload: bytes) -> Event | None:
+        """The event for a sample on ``key`` (None: not an input)."""
+        kind = input_kind(self.topics, key, self.clock)
+        if kind is None:
+            return None
+        try:
+            message = messages.decode_input(
+                "clock" if kind == "tick" else kind, payload
+            )
+            return self._event(kind, key, message)
+        except InputError as error:
+            return InputRejected(
+                key, kind, tuple(error.issues), _goal_id(kind, payload)
+            )
+
+    def _event(self, kind: str, key: str, message: Any) -> Event | None:
+        if kind == "tick":
+            return Tick(message.now)
+        if kind == "clock":
+            if self.bus_now is not None and message.now < self.bus_now:
+                raise InputError(
+                    [
+                        FieldIssue(
+                            "now",
+                            f"clock went back from {self.bus_now} to "
+                            f"{message.now}",
+                        )
+                    ],
+                    "clock",
+                )
+            self.bus_now = message.now
+            return Tick(message.now)
+        if kind == "goal":
+            return GoalArrived(message)
+        name = key.rsplit("/", 1)[-1]
+        field = "task" if kind == "activity_report" else "resource"
+        value = getattr(message, field)
+        if value != name:
+            raise InputError(
+                [
+                    FieldIssue(
+                        field, f"{value!r} reported on the key of {name!r}"
+                    )
+                ],
+                kind,
+            )
+        if kind == "activity_report":
+            return ReportArrived(message)
+        return LevelArrived(message)
+
+
+def _goal_id(kind: str, payload: bytes) -> str | None:
+    """Best-effort goal id of a goal that failed to decode."""
+    if kind != "goal":
+        return None
+    try:
+        head = msgspec.json.decode(payload)
+    except msgspec.DecodeError:
+        return None
+    if isinstance(head, dict) and isinstance(head.get("goal_id"), str):
+        return head["goal_id"]
+    return None
