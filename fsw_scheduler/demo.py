@@ -70,6 +70,8 @@ class Scenario:
         Units between battery level reports.
     until
         Last time unit of the session.
+    drift_absolute
+        Level departure (units) that makes the scheduler replan.
     """
 
     goals: dict[int, bytes] = field(default_factory=dict)
@@ -77,6 +79,7 @@ class Scenario:
     battery_drift: float = 0.0
     level_every: int = 5
     until: int = 66
+    drift_absolute: float = 0.5
 
 
 def paper_scenario() -> Scenario:
@@ -88,8 +91,9 @@ def failure_scenario() -> Scenario:
     """The paper scenario plus a failed downlink and a draining battery."""
     return Scenario(
         goals={15: scenario_file("paper_table2_goal.json")},
-        failures={"SetPositionZ": 0},
-        battery_drift=1.0,
+        failures={"DownlinkSat2Ground": 4},
+        battery_drift=0.2,
+        drift_absolute=1.5,
         until=80,
     )
 
@@ -347,6 +351,7 @@ def run_demo(
         time_limit=30.0,
         report_timeout=None,
         heartbeat=0,
+        drift_absolute=scenario.drift_absolute,
     )
     journal_path = out_dir / "session.mcap"
     journal = Recorder(

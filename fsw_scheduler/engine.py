@@ -546,7 +546,9 @@ class Engine:
                 trigger = "drift" if levels else "stale"
                 self._queue.clear()
                 try:
-                    replan = apply_levels(schedule, levels, now, at=at)
+                    replan = apply_levels(
+                        schedule, levels, now, at=at, keep_running=True
+                    )
                 except InputError as error:
                     out.append(Log("warning", f"levels ignored: {error}"))
                     continue

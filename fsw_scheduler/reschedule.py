@@ -495,6 +495,7 @@ class _Work:
     readded: list[str] = field(default_factory=list)
     deferred: list[str] = field(default_factory=list)
     runs: dict[str, tuple[int, int]] = field(default_factory=dict)
+    keep_running: bool = False
 
     def remove(self, task_id: str, rule: str, detail: str) -> None:
         """Take ``task_id`` out of the live set and record why."""
@@ -622,6 +623,11 @@ def rule_running_preemption(work: _Work, state: ExecutionState) -> list[str]:
     * ``from_interrupt``: "only the remaining part must be rescheduled".
     * ``delete``: "deleted from the schedule" (rule ``preemption_delete``).
 
+    A replan that only corrects the world (measured levels, a stale plan)
+    sets ``keep_running``: nothing new competes for the running tasks, so
+    they all continue as if non-preemptible rather than being interrupted,
+    with their tight chains, on every telemetry update.
+
     Returns
     -------
     list of str
@@ -633,7 +639,7 @@ def rule_running_preemption(work: _Work, state: ExecutionState) -> list[str]:
             continue
         task = work.tasks[ts.task]
         remaining = task.length - ts.done
-        if task.preemption == "none":
+        if task.preemption == "none" or work.keep_running:
             work.tasks[ts.task] = msgspec.structs.replace(
                 task,
                 length=remaining,
@@ -1143,6 +1149,7 @@ def apply_levels(
     now: int,
     *,
     at: int | None = None,
+    keep_running: bool = False,
 ) -> Replan:
     """Replan from measured consumable levels.
 
@@ -1157,6 +1164,9 @@ def apply_levels(
     at
         When the levels were measured (default ``now``). Earlier readings
         are carried to ``now`` with the plan's predicted use in between.
+    keep_running
+        Let every running task continue (pinned) whatever its preemption
+        policy; see :func:`rule_running_preemption`.
 
     Returns
     -------
@@ -1169,7 +1179,9 @@ def apply_levels(
         (path ``levels.<name>``), or ``at`` after ``now``.
     """
     levels = _levels_at(schedule, measured, now, now if at is None else at)
-    return _replan(schedule, now, measured=levels)
+    return _replan(
+        schedule, now, measured=levels, keep_running=keep_running
+    )
 
 
 class Tolerance(msgspec.Struct, frozen=True):
@@ -1268,9 +1280,11 @@ def _replan(
     *,
     goal: Goal | None = None,
     measured: Mapping[str, float] | None = None,
+    keep_running: bool = False,
 ) -> Replan:
     state = schedule.state(now, measured)
     work = _start_work(schedule, now)
+    work.keep_running = keep_running
     rule_finished_leave(work, state)
     seeds = []
     # Every failure reported so far, not only the one that triggered.
