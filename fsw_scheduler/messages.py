@@ -56,7 +56,7 @@ class ResourceLevel(msgspec.Struct, frozen=True):
     at: int
 
 
-class PlanMessage(msgspec.Struct, frozen=True, omit_defaults=True):
+class PlanMessage(msgspec.Struct, frozen=True):
     """``scheduler/plan``: the plan being executed (CONTRACT section 2).
 
     Attributes

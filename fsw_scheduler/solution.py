@@ -74,7 +74,7 @@ class SolverStats(msgspec.Struct, frozen=True, omit_defaults=True):
     time_limit_s: float | None = None
 
 
-class Plan(msgspec.Struct, frozen=True, omit_defaults=True):
+class Plan(msgspec.Struct, frozen=True):
     """A solve result: status, objective, activities and what was left out.
 
     Every task of the problem appears once, in ``activities`` or in
