@@ -205,6 +205,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         spacecraft=args.spacecraft,
         verify=not args.no_verify,
         quiet=args.quiet,
+        time_unit=args.time_unit,
     )
     final = result.plans[-1] if result.plans else None
     print()

@@ -319,6 +319,7 @@ def run_demo(
     quiet: bool = False,
     pictures: bool = True,
     stream: TextIO = sys.stdout,
+    time_unit: float = 0.0,
 ) -> DemoResult:
     """Run the paper scenario on an in-process bus.
 
@@ -340,6 +341,9 @@ def run_demo(
         Draw the Gantt pictures (needs matplotlib).
     stream
         Where the live timeline goes.
+    time_unit
+        Shortest wall time of one time unit, in seconds, so the timeline
+        can be watched; the clock never outruns the scheduler anyway.
     """
     scenario = scenario or paper_scenario()
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -367,6 +371,7 @@ def run_demo(
             wait_matching(bus_b, topics.key(keys.CLOCK))
             wait_matching(bus_b, topics.key(keys.GOALS))
             for now in range(scenario.until + 1):
+                began = time.monotonic()
                 printer.now = now
                 world.put(topics.key(keys.CLOCK), messages.Clock(now))
                 world.settle(now)
@@ -383,6 +388,8 @@ def run_demo(
                     printer.line(f"goal      {name} sent")
                     world.put(topics.key(keys.GOALS), goal)
                 world.settle(now)
+                # Pacing only; every wait for the scheduler is on a query.
+                time.sleep(max(time_unit - (time.monotonic() - began), 0.0))
         finally:
             world.close()
             node.close()
