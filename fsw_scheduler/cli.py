@@ -508,6 +508,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--no-verify", action="store_true", help="skip the replay check"
     )
     demo.add_argument("--quiet", action="store_true", help="no live timeline")
+    demo.add_argument(
+        "--time-unit",
+        type=float,
+        default=0.05,
+        metavar="S",
+        help="wall seconds per time unit, at least (default %(default)s)",
+    )
 
     from .bus.session import add_zenoh_arguments
 
