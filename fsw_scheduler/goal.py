@@ -100,18 +100,9 @@ def validate_goal(goal: Goal) -> list[FieldIssue]:
         tasks=(),
         resources=Resources(consumable=used),
     )
-    seen: dict[str, int] = {}
+    issues += model.duplicate_ids(goal.tasks)
     for idx, task in enumerate(goal.tasks):
         path = f"tasks[{idx}]"
-        if task.id in seen:
-            issues.append(
-                FieldIssue(
-                    f"{path}.id",
-                    f"duplicate task id {task.id!r} "
-                    f"(first at tasks[{seen[task.id]}])",
-                )
-            )
-        seen.setdefault(task.id, idx)
         issues += [
             issue
             for issue in model._check_task(stand_in, task.to_task(), path)

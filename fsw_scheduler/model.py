@@ -285,19 +285,26 @@ def _check_tasks(problem: Problem, allow_empty: bool) -> list[FieldIssue]:
     issues: list[FieldIssue] = []
     if not problem.tasks and not allow_empty:
         issues.append(FieldIssue("tasks", "at least one task is required"))
-    seen: dict[str, int] = {}
+    issues += duplicate_ids(problem.tasks)
     for idx, task in enumerate(problem.tasks):
-        path = f"tasks[{idx}]"
+        issues += _check_task(problem, task, f"tasks[{idx}]")
+    return issues
+
+
+def duplicate_ids(tasks: Iterable[Task]) -> list[FieldIssue]:
+    """One issue per task whose id an earlier task already has."""
+    issues = []
+    seen: dict[str, int] = {}
+    for idx, task in enumerate(tasks):
         if task.id in seen:
             issues.append(
                 FieldIssue(
-                    f"{path}.id",
+                    f"tasks[{idx}].id",
                     f"duplicate task id {task.id!r} "
                     f"(first at tasks[{seen[task.id]}])",
                 )
             )
         seen.setdefault(task.id, idx)
-        issues += _check_task(problem, task, path)
     return issues
 
 
