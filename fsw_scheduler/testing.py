@@ -101,9 +101,7 @@ def harness_config(**changes: Any) -> NodeConfig:
     **changes
         Any :class:`~fsw_scheduler.config.NodeConfig` field.
     """
-    base = NodeConfig(
-        clock="bus", heartbeat=0, explain=False, time_limit=30.0
-    )
+    base = NodeConfig(clock="bus", heartbeat=0, explain=False, time_limit=30.0)
     return msgspec.structs.replace(base, **changes)
 
 
@@ -420,9 +418,7 @@ class SchedulerHarness:
         self._await_outputs(status, deadline)
         return status
 
-    def _await_outputs(
-        self, status: messages.Status, deadline: float
-    ) -> None:
+    def _await_outputs(self, status: messages.Status, deadline: float) -> None:
         """Wait until the client has every plan and dispatch counted."""
 
         def caught_up() -> bool:
@@ -477,8 +473,9 @@ class SchedulerHarness:
         """The newest received dispatch of ``task`` (of ``plan_id``)."""
         return self._wait_for(
             self.dispatches,
-            lambda d: d.task == task
-            and (plan_id is None or d.plan_id == plan_id),
+            lambda d: (
+                d.task == task and (plan_id is None or d.plan_id == plan_id)
+            ),
             timeout,
             since,
             f"dispatch of {task}",
