@@ -16,6 +16,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import msgspec
+from mcap.exceptions import McapError
 
 from .errors import FieldIssue, InputError, SchedulerError
 from .model import Problem, decode_problem, decode_strict
@@ -649,6 +650,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         return args.func(args)
     except InputError as error:
         print(f"fsw-scheduler: {error}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except (OSError, McapError) as error:
+        # Unreadable or non-MCAP recordings are bad input, not crashes.
+        where = (
+            getattr(error, "filename", None)
+            or " ".join(
+                map(
+                    str,
+                    [
+                        getattr(args, "file", None) or "",
+                        *getattr(args, "files", []),
+                    ],
+                )
+            ).strip()
+        )
+        print(f"fsw-scheduler: {where}: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except SchedulerError as error:
         print(f"fsw-scheduler: error: {error}", file=sys.stderr)

@@ -182,7 +182,12 @@ class World:
         self.plans: list[messages.PlanMessage] = []
         self._sub = session.declare_subscriber(
             topics.key("scheduler/**"),
-            lambda s: self.inbox.put((str(s.key_expr), s.payload.to_bytes())),
+            zenoh.handlers.Callback(
+                lambda s: self.inbox.put(
+                    (str(s.key_expr), s.payload.to_bytes())
+                ),
+                indirect=False,  # keep arrival order (see bus.node._direct)
+            ),
         )
 
     def close(self) -> None:

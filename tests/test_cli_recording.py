@@ -345,12 +345,6 @@ def test_replay_burst_publishes_included_in_order(
     assert received == expected
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="cli.main lets mcap.exceptions.McapError escape: a file that is "
-    "not MCAP ends recover/info/replay --verify with a traceback and exit "
-    "1 instead of a one-line message and exit 2 (bad input)",
-)
 @pytest.mark.parametrize(
     "args",
     [

@@ -96,6 +96,18 @@ def run_solve(config: NodeConfig, command: StartSolve) -> Plan:
     )
 
 
+def _direct(callback: Callable[[Any], None]) -> zenoh.handlers.Callback:
+    """Run ``callback`` on the Zenoh network thread itself.
+
+    By default zenoh-python hands every callback to a thread of its own, so
+    samples of different keys (a clock tick, then a goal, then a status
+    query) could reach the inbox out of their arrival order, and the loop
+    would see another order than the bus did. Our callbacks only enqueue,
+    so running them directly is cheap and keeps the order.
+    """
+    return zenoh.handlers.Callback(callback, indirect=False)
+
+
 class _Journal:
     """Writes inputs and outputs in processing order, log times rising."""
 
@@ -198,13 +210,13 @@ class SchedulerNode:
         for suffix, kind in inputs:
             self._declared.append(
                 session.declare_subscriber(
-                    key(suffix), self._sample_callback(kind)
+                    key(suffix), _direct(self._sample_callback(kind))
                 )
             )
         for suffix in (topics.PLAN, topics.STATUS):
             self._declared.append(
                 session.declare_queryable(
-                    key(suffix), self._query_callback(suffix)
+                    key(suffix), _direct(self._query_callback(suffix))
                 )
             )
         self._declared.append(
