@@ -291,14 +291,22 @@ def format_report(outcome: Outcome, *, time_limit: float | None) -> str:
     return "\n\n".join(parts)
 
 
-def write_csv(runs: Sequence[Run], path: Path) -> None:
-    """Write one CSV line per run (all :class:`Run` fields)."""
+def write_csv(
+    runs: Sequence[Run], path: Path, *, append: bool = False
+) -> None:
+    """Write one CSV line per run (all :class:`Run` fields).
+
+    With ``append``, add the lines to ``path`` (the header only when the
+    file is new or empty).
+    """
     if not runs:
         return
     names = [f.name for f in dataclasses.fields(runs[0])]
-    with path.open("w", newline="") as handle:
+    fresh = not append or not path.exists() or path.stat().st_size == 0
+    with path.open("w" if not append else "a", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=names)
-        writer.writeheader()
+        if fresh:
+            writer.writeheader()
         for run in runs:
             writer.writerow(dataclasses.asdict(run))
 

@@ -268,6 +268,7 @@ def run_suite(
     seed: int = 0,
     progress: TextIO | None = None,
     on_disagreement: Callable[[BenchProblem], str] | None = None,
+    on_runs: Callable[[list[Run]], None] | None = None,
 ) -> Outcome:
     """Run every problem with every solver ``repeat`` times.
 
@@ -288,6 +289,9 @@ def run_suite(
     on_disagreement
         Called with a problem whose solvers disagree; returns the path of
         its saved JSON.
+    on_runs
+        Called with each problem's runs as soon as they are done (e.g. to
+        append them to a CSV file, so an interrupted benchmark keeps them).
 
     Returns
     -------
@@ -305,6 +309,8 @@ def run_suite(
             for solver in solvers
         ]
         outcome.runs += runs
+        if on_runs is not None:
+            on_runs(runs)
         cells = []
         for solver in solvers:
             mine = [r for r in runs if r.solver == solver]
