@@ -7,6 +7,9 @@ on the first and gives the test the second as a *client*: the place where
 a test, or a component under test, publishes clock ticks, goals and
 telemetry and receives plans, dispatches and status messages.
 
+:class:`SchedulerClient` is that client side on its own, for a scheduler
+running elsewhere (another process, ``fsw-scheduler run``).
+
 Every wait is on received samples or query answers, with a deadline; the
 harness never sleeps for a fixed time. :meth:`SchedulerHarness.tick`
 moves the bus clock in lockstep: it returns once the scheduler has
@@ -61,6 +64,7 @@ if TYPE_CHECKING:
     from .solution import Plan
 
 __all__ = [
+    "SchedulerClient",
     "SchedulerHarness",
     "harness_config",
     "paper_goal",
@@ -120,50 +124,45 @@ def _payload(message: object) -> bytes:
     return json.dumps(message).encode()
 
 
-class SchedulerHarness:
-    """A scheduler node and a client peer on an isolated loopback bus.
+class SchedulerClient:
+    """The rest of the spacecraft, as the scheduler sees it, on a session.
+
+    Publishes clock ticks, goals and telemetry; records every plan,
+    dispatch, status and solve record the scheduler publishes; asks its
+    queryables. Works with any scheduler reachable from ``session``: the
+    in-process one of :class:`SchedulerHarness` or a separate process.
 
     Parameters
     ----------
-    problem
-        The node's problem: a :class:`~fsw_scheduler.model.Problem`, its
-        JSON (bytes or str), a path to a JSON file, or None for the paper's
-        Table 1.
-    config
-        Node settings; default :func:`harness_config`. The clock is forced
-        to ``bus``.
-    solve_fn
-        Replaces the solver (``solve_fn(config, StartSolve) -> Plan``),
-        e.g. to make solves slow or failing.
+    session
+        An open Zenoh session (the caller owns it).
+    spacecraft
+        The spacecraft id of the scheduler's keys.
     timeout
         Default deadline of every wait, in seconds.
 
     Attributes
     ----------
     plans, dispatches, statuses, solves
-        Every message received by the client on ``scheduler/plan``,
+        Every message received on ``scheduler/plan``,
         ``scheduler/dispatch/*``, ``scheduler/status`` and
-        ``scheduler/solves``, in arrival order. Read them while holding
-        no lock: the lists only grow.
+        ``scheduler/solves``, in arrival order (the lists only grow).
     samples
         Every ``(key, payload)`` received under ``fsw/<sc>/scheduler/**``.
     decode_errors
-        Samples the harness could not decode, as ``(key, error)``.
+        Samples that could not be decoded, as ``(key, error)``.
     """
 
     def __init__(
         self,
-        problem: Problem | bytes | str | Path | None = None,
-        config: NodeConfig | None = None,
+        session: zenoh.Session,
+        spacecraft: str = keys.DEFAULT_SPACECRAFT,
         *,
-        solve_fn: Callable[[NodeConfig, StartSolve], Plan] | None = None,
         timeout: float = WAIT_S,
     ) -> None:
-        self.problem = _load_problem(problem)
-        self.config = (config or harness_config()).replace(clock="bus")
-        self.topics = keys.Topics(self.config.spacecraft)
+        self.client = session
+        self.topics = keys.Topics(spacecraft)
         self.timeout = timeout
-        self._solve_fn = solve_fn or run_solve
         self._cond = threading.Condition()
         self.plans: list[messages.PlanMessage] = []
         self.dispatches: list[messages.Dispatch] = []
@@ -171,104 +170,40 @@ class SchedulerHarness:
         self.solves: list[messages.SolveRecord] = []
         self.samples: list[tuple[str, bytes]] = []
         self.decode_errors: list[tuple[str, str]] = []
-        self._stack: contextlib.ExitStack | None = None
-        self._node: SchedulerNode | None = None
-        self._server: zenoh.Session | None = None
-        self._client: zenoh.Session | None = None
-        self._node_closed = False
-
-    # -- lifecycle -----------------------------------------------------------
-
-    def open(self) -> SchedulerHarness:
-        """Open the peers, start the node and wait until all is wired.
-
-        Returns once the client's subscriber is known to the node's
-        session and the node's subscribers and queryables are known to the
-        client, so nothing published from then on is lost.
-        """
-        stack = contextlib.ExitStack()
-        try:
-            server, client = stack.enter_context(
-                open_peer_pair(DEFAULT_TIMEOUT_S)
-            )
-            self._server, self._client = server, client
-            subscriber = client.declare_subscriber(
-                self.topics.key("scheduler/**"), self._on_sample
-            )
-            stack.callback(_undeclare, subscriber)
-            for key in (
-                self.topics.key(keys.PLAN),
-                self.topics.key(keys.STATUS),
-                self.topics.dispatch("probe"),
-            ):
-                wait_matching(server, key, self.timeout)
-            node = SchedulerNode(
-                server, self.problem, self.config, solve_fn=self._solve_fn
-            )
-            node.start()
-            self._node = node
-            stack.callback(self.close_node)
-            for key in (
-                self.topics.key(keys.CLOCK),
-                self.topics.key(keys.GOALS),
-                self.topics.activity_report("probe"),
-                self.topics.resource_level("probe"),
-            ):
-                wait_matching(client, key, self.timeout)
-            for suffix in (keys.STATUS, keys.PLAN):
-                self._wait_queryable(self.topics.key(suffix))
-        except BaseException:
-            stack.close()
-            raise
-        self._stack = stack
-        return self
+        self._subscriber: Any = session.declare_subscriber(
+            self.topics.key("scheduler/**"), self._on_sample
+        )
 
     def close(self) -> None:
-        """Stop the node and close both sessions (idempotent)."""
-        stack, self._stack = self._stack, None
-        if stack is not None:
-            stack.close()
+        """Stop listening (idempotent); the session stays open."""
+        subscriber, self._subscriber = self._subscriber, None
+        if subscriber is not None:
+            _undeclare(subscriber)
 
-    def close_node(self) -> None:
-        """Stop the node only; the sessions stay open (idempotent).
-
-        Useful to watch, from the client, what happens when the scheduler
-        goes away (its liveliness token disappears).
-        """
-        if self._node is not None and not self._node_closed:
-            self._node_closed = True
-            self._node.close()
-
-    def __enter__(self) -> SchedulerHarness:
-        return self.open()
+    def __enter__(self) -> SchedulerClient:
+        return self
 
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    @property
-    def node(self) -> SchedulerNode:
-        """The scheduler node under test."""
-        if self._node is None:
-            raise RuntimeError("the harness is not open")
-        return self._node
+    def wait_scheduler(self, timeout: float | None = None) -> None:
+        """Wait until a scheduler's inputs and queryables are reachable.
 
-    @property
-    def server(self) -> zenoh.Session:
-        """The node's session (it listens on the loopback endpoint)."""
-        if self._server is None:
-            raise RuntimeError("the harness is not open")
-        return self._server
-
-    @property
-    def client(self) -> zenoh.Session:
-        """The test's session, connected to the node's."""
-        if self._client is None:
-            raise RuntimeError("the harness is not open")
-        return self._client
-
-    def endpoints(self) -> list[str]:
-        """Locators other processes can connect to, e.g. ``tcp/...``."""
-        return listening_endpoints(self.server)
+        Raises
+        ------
+        TimeoutError
+            If no scheduler shows up in time.
+        """
+        timeout = timeout or self.timeout
+        for key in (
+            self.topics.key(keys.CLOCK),
+            self.topics.key(keys.GOALS),
+            self.topics.activity_report("probe"),
+            self.topics.resource_level("probe"),
+        ):
+            wait_matching(self.client, key, timeout)
+        for suffix in (keys.STATUS, keys.PLAN):
+            self._wait_queryable(self.topics.key(suffix), timeout)
 
     # -- publishing ----------------------------------------------------------
 
@@ -515,12 +450,12 @@ class SchedulerHarness:
             f"(received {len(items) - since})"
         )
 
-    def _wait_queryable(self, key: str) -> None:
+    def _wait_queryable(self, key: str, timeout: float) -> None:
         querier = self.client.declare_querier(key)
         try:
             wait_until(
                 lambda: _matching(querier.matching_status),
-                self.timeout,
+                timeout,
                 what=f"a queryable on {key}",
             )
         finally:
@@ -551,6 +486,123 @@ class SchedulerHarness:
                 target.append(decoded)
             self.samples.append((key, payload))
             self._cond.notify_all()
+
+
+class SchedulerHarness(SchedulerClient):
+    """A scheduler node and a client peer on an isolated loopback bus.
+
+    The client side is a :class:`SchedulerClient` (all its helpers work
+    here); the harness owns both sessions and the node.
+
+    Parameters
+    ----------
+    problem
+        The node's problem: a :class:`~fsw_scheduler.model.Problem`, its
+        JSON (bytes or str), a path to a JSON file, or None for the paper's
+        Table 1.
+    config
+        Node settings; default :func:`harness_config`. The clock is forced
+        to ``bus``.
+    solve_fn
+        Replaces the solver (``solve_fn(config, StartSolve) -> Plan``),
+        e.g. to make solves slow or failing.
+    timeout
+        Default deadline of every wait, in seconds.
+    """
+
+    def __init__(
+        self,
+        problem: Problem | bytes | str | Path | None = None,
+        config: NodeConfig | None = None,
+        *,
+        solve_fn: Callable[[NodeConfig, StartSolve], Plan] | None = None,
+        timeout: float = WAIT_S,
+    ) -> None:
+        # SchedulerClient.__init__ runs in open(), once the session exists.
+        self.problem = _load_problem(problem)
+        self.config = (config or harness_config()).replace(clock="bus")
+        self.timeout = timeout
+        self._solve_fn = solve_fn or run_solve
+        self._stack: contextlib.ExitStack | None = None
+        self._node: SchedulerNode | None = None
+        self._server: zenoh.Session | None = None
+        self._node_closed = False
+
+    def open(self) -> SchedulerHarness:
+        """Open the peers, start the node and wait until all is wired.
+
+        Returns once the client's subscriber is known to the node's
+        session and the node's subscribers and queryables are known to the
+        client, so nothing published from then on is lost.
+        """
+        stack = contextlib.ExitStack()
+        try:
+            server, client = stack.enter_context(
+                open_peer_pair(DEFAULT_TIMEOUT_S)
+            )
+            self._server = server
+            SchedulerClient.__init__(
+                self, client, self.config.spacecraft, timeout=self.timeout
+            )
+            stack.callback(SchedulerClient.close, self)
+            for key in (
+                self.topics.key(keys.PLAN),
+                self.topics.key(keys.STATUS),
+                self.topics.dispatch("probe"),
+            ):
+                wait_matching(server, key, self.timeout)
+            node = SchedulerNode(
+                server, self.problem, self.config, solve_fn=self._solve_fn
+            )
+            node.start()
+            self._node = node
+            stack.callback(self.close_node)
+            self.wait_scheduler()
+        except BaseException:
+            stack.close()
+            raise
+        self._stack = stack
+        return self
+
+    def close(self) -> None:
+        """Stop the node and close both sessions (idempotent)."""
+        stack, self._stack = self._stack, None
+        if stack is not None:
+            stack.close()
+
+    def close_node(self) -> None:
+        """Stop the node only; the sessions stay open (idempotent).
+
+        Useful to watch, from the client, what happens when the scheduler
+        goes away (its liveliness token disappears).
+        """
+        if self._node is not None and not self._node_closed:
+            self._node_closed = True
+            self._node.close()
+
+    def __enter__(self) -> SchedulerHarness:
+        return self.open()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    @property
+    def node(self) -> SchedulerNode:
+        """The scheduler node under test."""
+        if self._node is None:
+            raise RuntimeError("the harness is not open")
+        return self._node
+
+    @property
+    def server(self) -> zenoh.Session:
+        """The node's session (it listens on the loopback endpoint)."""
+        if self._server is None:
+            raise RuntimeError("the harness is not open")
+        return self._server
+
+    def endpoints(self) -> list[str]:
+        """Locators other processes can connect to, e.g. ``tcp/...``."""
+        return listening_endpoints(self.server)
 
 
 _KINDS: dict[str, tuple[str, type]] = {
