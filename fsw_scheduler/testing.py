@@ -20,7 +20,10 @@ The module does not import pytest. Used as a pytest plugin
 (``pytest_plugins = ["fsw_scheduler.testing"]``) it provides the fixtures
 ``scheduler_problem`` (the paper's Table 1), ``scheduler_config`` and
 ``scheduler_harness``; override the first two in a ``conftest.py`` to run
-the harness on your own problem or settings.
+the harness on your own problem or settings. The marker
+PYTEST_DONT_REWRITE keeps pytest from warning when a test module imports
+this module before naming it in ``pytest_plugins``: it holds no assertions
+for pytest to rewrite.
 
 Examples
 --------
