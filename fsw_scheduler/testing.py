@@ -134,6 +134,9 @@ class SchedulerClient:
     dispatch, status and solve record the scheduler publishes; asks its
     queryables. Works with any scheduler reachable from ``session``: the
     in-process one of :class:`SchedulerHarness` or a separate process.
+    Create it before the scheduler publishes anything: :meth:`settle`
+    waits until every plan and dispatch the scheduler has counted since
+    its start has been received.
 
     Parameters
     ----------
@@ -237,6 +240,10 @@ class SchedulerClient:
 
     def tick(self, now: int, timeout: float | None = None) -> messages.Status:
         """Move the bus clock to ``now`` and wait until the node is idle.
+
+        A clock going back is rejected by the scheduler, so ``tick`` would
+        time out; send such a tick with :meth:`clock` and call
+        :meth:`settle` without ``now``.
 
         Returns
         -------

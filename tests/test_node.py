@@ -319,6 +319,7 @@ def test_bad_input_is_reported_and_plan_kept(
     h.tick(1)
     h.tick(2)
     before = h.query_plan()
+    assert before is not None
     seen = len(h.statuses)
     h.put(suffix, payload)
     status = h.wait_status(lambda s: s.event == event, since=seen)
@@ -343,6 +344,7 @@ def test_inbox_overflow_is_counted(
     """Tests that a flood beyond the inbox is dropped, counted, survived."""
     h = started
     before = h.query_plan()
+    assert before is not None
     publisher = h.client.declare_publisher(
         h.topics.key(keys.CLOCK),
         encoding=zenoh.Encoding.APPLICATION_JSON,
