@@ -272,7 +272,7 @@ class Engine:
 
     def count_dropped(self, dropped: int) -> None:
         """Record inputs the shell dropped because its queue was full."""
-        self._count(inputs_dropped=dropped - self._counters.inputs_dropped)
+        self._count(inputs_dropped=dropped)
 
     # -- the step ------------------------------------------------------------
 
@@ -525,6 +525,9 @@ class Engine:
             if failures:
                 change = failures[0]
                 self._queue.remove(change)
+                if change.task not in {t.id for t in schedule.problem.tasks}:
+                    # Already handled by an earlier failure replan.
+                    continue
                 try:
                     replan = apply_failure(
                         schedule, change.task, min(change.at, now), now=now
@@ -785,6 +788,12 @@ class Engine:
                         "after dispatch; counted as failed",
                     )
                 )
+                if self.schedule is not None:
+                    # Recorded in the schedule too, so that whichever
+                    # failure is replanned first accounts for all of them.
+                    self.schedule = self.schedule.with_report(
+                        ExecutionReport(task, "failed", since)
+                    )
                 self._queue.append(_Change("failure", task=task, at=since))
 
     # -- status helpers ------------------------------------------------------

@@ -373,11 +373,6 @@ def test_goal_making_mandatory_task_infeasible() -> None:
     assert records[-1].plan_id is None
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="solvers/ilp/variables.py set_initial gives a new mandatory "
-    "task warm value 0 below its lowBound 1; PuLP raises ValueError",
-)
 def test_goal_with_mandatory_task_accepted(started: Driver) -> None:
     """Tests that a feasible goal with a mandatory task is accepted."""
     goal = small_goal("must", "MustDo")
@@ -462,12 +457,6 @@ def test_report_timeout_counts_as_failure() -> None:
     assert redispatch and redispatch[0].plan_id == plan.plan_id
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="engine.py _start_queued: with two failures queued the first "
-    "replan removes the other task as 'finished' (plan prediction), then "
-    "the second failure is dropped as an unknown task",
-)
 def test_two_report_timeouts_both_count() -> None:
     """Tests that two activities timing out together are both failures."""
     driver = Driver(config=EngineConfig(report_timeout=2))
@@ -560,11 +549,6 @@ def test_input_rejected_reported_in_status(
     )
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="engine.py Engine.count_dropped stores dropped minus the "
-    "previous count instead of the running total the shell passes",
-)
 def test_dropped_inputs_count_is_a_total(started: Driver) -> None:
     """Tests that the dropped-input counter follows the shell's total."""
     started.engine.count_dropped(3)

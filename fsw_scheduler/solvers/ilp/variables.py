@@ -123,14 +123,18 @@ class Variables:
     def set_initial(self, starts: dict[str, int]) -> int:
         """Set a warm start from ``starts``; return how many tasks took it.
 
-        Tasks absent from ``starts`` start as unscheduled; starts outside a
-        task's domain are ignored (the task starts as unscheduled).
+        Tasks absent from ``starts`` start as unscheduled (mandatory ones at
+        their earliest start); starts outside a task's domain are ignored.
         """
         taken = 0
         for task_id, steps in self.steps.items():
             first = self.domains[task_id].earliest
             start = starts.get(task_id)
             valid = start is not None and first <= start < first + len(steps)
+            if not valid and steps[-1].lowBound == 1:
+                # A mandatory task new to this problem: suggest its earliest
+                # start rather than an unscheduled value below its bound.
+                start, valid = first, True
             for offset, var in enumerate(steps):
                 var.setInitialValue(
                     1 if valid and first + offset >= start else 0
