@@ -5,11 +5,15 @@ from __future__ import annotations
 import functools
 from typing import TYPE_CHECKING
 
+import msgspec
+
+from .check import check_plan
 from .explain import explain as explain_plan
+from .greedy import greedy_plan
+from .solution import Plan, SolveStatus
 
 if TYPE_CHECKING:
     from .model import Problem
-    from .solution import Plan
 
 
 def solve(
@@ -41,7 +45,7 @@ def solve(
         Also say why each left-out task is out (and, when infeasible, which
         mandatory tasks cannot be placed); costs extra solves.
     warm
-        A previous plan used as a MIP start (CBC).
+        A previous plan, a candidate MIP start (see :func:`best_start`).
 
     Returns
     -------
@@ -59,7 +63,58 @@ def solve(
         threads=threads,
         seed=seed,
     )
-    plan = run(problem, warm=warm.starts() if warm else None)
+    start = best_start(problem, warm)
+    plan = _keep_better(
+        run(problem, warm=start.starts() if start else None), start
+    )
     if explain and (plan.unscheduled or not plan.status.has_plan):
         plan = plan.replace(why=explain_plan(problem, plan, run))
     return plan
+
+
+def best_start(problem: Problem, warm: Plan | None) -> Plan | None:
+    """The better valid plan of ``warm`` and the greedy heuristic's.
+
+    Only plans the independent checker accepts are used, with their
+    objective recomputed on ``problem``; None when neither is valid.
+    """
+    candidates = []
+    for plan in (warm, greedy_plan(problem)):
+        if plan is None:
+            continue
+        report = check_plan(problem, plan)
+        if report.ok:
+            candidates.append(
+                plan.replace(
+                    status=SolveStatus.FEASIBLE, objective=report.objective
+                )
+            )
+    if not candidates:
+        return None
+    return min(candidates, key=lambda p: p.objective.total)
+
+
+def _keep_better(plan: Plan, start: Plan | None) -> Plan:
+    """The solver's plan, unless it stopped with nothing better.
+
+    At a time limit CBC may return no plan, or a worse one than its own MIP
+    start; the start is a valid plan, so it is kept, with status
+    ``feasible``, the solver's statistics and a note saying so.
+    """
+    if start is None or plan.status in (
+        SolveStatus.OPTIMAL,
+        SolveStatus.INFEASIBLE,
+    ):
+        return plan
+    if (
+        plan.objective is not None
+        and start.objective is not None
+        and plan.objective.total <= start.objective.total
+    ):
+        return plan
+    stats = plan.stats
+    if stats is not None:
+        stats = msgspec.structs.replace(
+            stats, solver_status=f"{stats.solver_status}; start plan kept"
+        )
+    return start.replace(status=SolveStatus.FEASIBLE, stats=stats, why=())

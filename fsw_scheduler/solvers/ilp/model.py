@@ -28,6 +28,7 @@ from ...solution import (
     SolverStats,
     SolveStatus,
 )
+from .cbc import GRACE_S, HardLimitCBC
 from .constraints import Constraints
 from .objective import objective, weight
 from .variables import Variables
@@ -139,7 +140,8 @@ def _backend(
     log_path: str,
 ) -> pulp.LpSolver:
     if solver == "cbc":
-        return pulp.COIN_CMD(
+        return HardLimitCBC(
+            deadline_s=None if time_limit is None else time_limit + GRACE_S,
             path=cbc_path(),
             msg=False,
             threads=threads,
