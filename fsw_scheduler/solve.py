@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 import msgspec
 
 from .check import check_plan
+from .domains import start_domains
 from .explain import explain as explain_plan
 from .greedy import greedy_plan
 from .solution import Plan, SolveStatus
@@ -64,12 +65,32 @@ def solve(
         seed=seed,
     )
     start = best_start(problem, warm)
-    plan = _keep_better(
-        run(problem, warm=start.starts() if start else None), start
-    )
+    if start is not None and at_lower_bound(problem, start):
+        plan = start.replace(status=SolveStatus.OPTIMAL)
+    else:
+        plan = _keep_better(
+            run(problem, warm=start.starts() if start else None), start
+        )
     if explain and (plan.unscheduled or not plan.status.has_plan):
         plan = plan.replace(why=explain_plan(problem, plan, run))
     return plan
+
+
+def at_lower_bound(problem: Problem, plan: Plan) -> bool:
+    """True if ``plan`` is optimal by a bound that needs no solver.
+
+    When every task is scheduled at the earliest start its domain allows
+    (windows, horizon and precedences: :func:`start_domains`), no plan can
+    leave less out or start anything sooner, so the plan is optimal.
+    """
+    if plan.unscheduled:
+        return False
+    domains = start_domains(problem)
+    starts = plan.starts()
+    return all(
+        starts.get(task.id) == domains[task.id].earliest
+        for task in problem.tasks
+    )
 
 
 def best_start(problem: Problem, warm: Plan | None) -> Plan | None:
