@@ -15,6 +15,7 @@ Two things in PuLP's ``COIN_CMD`` are not good enough on board:
 
 from __future__ import annotations
 
+import logging
 import os
 import signal
 import subprocess
@@ -24,6 +25,21 @@ import pulp
 
 #: Wall-clock seconds allowed past the time limit before SIGINT, then kill.
 GRACE_S = 2.0
+
+#: An option that speeds CBC up but can crash it; dropped on a retry.
+FRAGILE = "preprocess off"
+
+log = logging.getLogger("fsw_scheduler.solver")
+
+
+def _flags(options: list[str]) -> list[str]:
+    return [word for option in options for word in ("-" + option).split()]
+
+
+def _failed(code: int, solution: str, interrupted: bool) -> bool:
+    """No usable solution file (crash, or killed at the deadline)."""
+    empty = not os.path.exists(solution) or os.path.getsize(solution) == 0
+    return empty or (code != 0 and not interrupted)
 
 
 class HardLimitCBC(pulp.COIN_CMD):
@@ -51,27 +67,31 @@ class HardLimitCBC(pulp.COIN_CMD):
             lp.name, "lp", "mps", "sol", "mst"
         )
         variables, var_names, con_names, _ = lp.writeMPS(tmp_mps, rename=1)
-        args = [self.path, tmp_mps]
+        head = [self.path, tmp_mps]
         if self.optionsDict.get("warmStart", False):
             self.writesol(tmp_mst, lp, variables, var_names, con_names)
-            args += ["-mips", tmp_mst]
+            head += ["-mips", tmp_mst]
         if self.timeLimit is not None:
-            args += ["-sec", str(self.timeLimit)]
-        for option in [*self.options, *self.getOptions()]:
-            args += ("-" + option).split()
-        args += ["-solve", "-printingOptions", "all", "-solution", tmp_sol]
-        log_path = self.optionsDict.get("logPath")
-        with open(log_path or os.devnull, "w") as log:
-            process = subprocess.Popen(
-                args, stdout=log, stderr=log, stdin=subprocess.DEVNULL
-            )
-            self._wait(process)
+            head += ["-sec", str(self.timeLimit)]
+        options = [*self.options, *self.getOptions()]
+        tail = ["-solve", "-printingOptions", "all", "-solution", tmp_sol]
         try:
-            if not os.path.exists(tmp_sol):
-                if not self.interrupted and process.returncode != 0:
-                    raise pulp.PulpSolverError(
-                        f"cbc exited with code {process.returncode}"
-                    )
+            code = self._run(head + _flags(options) + tail)
+            if (
+                _failed(code, tmp_sol, self.interrupted)
+                and not self.interrupted
+                and FRAGILE in options
+            ):
+                # CBC 2.10 can crash without preprocessing on some
+                # infeasible models: retry once with its defaults.
+                log.warning(
+                    "cbc exited with %s; retrying with preprocessing", code
+                )
+                options = [o for o in options if o != FRAGILE]
+                code = self._run(head + _flags(options) + tail)
+            if _failed(code, tmp_sol, self.interrupted):
+                if not self.interrupted:
+                    raise pulp.PulpSolverError(f"cbc exited with code {code}")
                 lp.assignStatus(
                     pulp.LpStatusNotSolved, pulp.LpSolutionNoSolutionFound
                 )
@@ -84,6 +104,15 @@ class HardLimitCBC(pulp.COIN_CMD):
             return status
         finally:
             self.delete_tmp_files(tmp_mps, tmp_lp, tmp_sol, tmp_mst)
+
+    def _run(self, args: list[str]) -> int:
+        log_path = self.optionsDict.get("logPath")
+        with open(log_path or os.devnull, "w") as out:
+            process = subprocess.Popen(
+                args, stdout=out, stderr=out, stdin=subprocess.DEVNULL
+            )
+            self._wait(process)
+        return process.returncode
 
     def _wait(self, process: subprocess.Popen) -> None:
         if self.deadline_s is None:
