@@ -85,32 +85,46 @@ class _Board:
         }
         self.lowest = {name: list(v) for name, v in self.level.items()}
 
-    def fits(self, task: Task, start: int) -> bool:
-        base = start - self.problem.start
-        for name, amount in task.uses.items():
-            if amount == 0:
-                continue
+    def fits(self, items: list[tuple[Task, int]]) -> bool:
+        """True if tasks ``(task, start)`` can all be added together.
+
+        Nothing is changed; only the units the tasks touch are read, plus
+        one look-up of the lowest later level per consumable (the drop is
+        constant after the last of them ends).
+        """
+        base = self.problem.start
+        demand: dict[str, dict[int, float]] = defaultdict(dict)
+        for task, start in items:
+            for name, amount in task.uses.items():
+                if amount == 0 or (name in self.level and amount < 0):
+                    continue
+                if name in self.used or name in self.level:
+                    units = demand[name]
+                    for t in range(start - base, start - base + task.length):
+                        units[t] = units.get(t, 0.0) + amount
+        for name, units in demand.items():
             if name in self.used:
                 used, cap = self.used[name], self.capacity[name]
-                if any(
-                    used[t] + amount > cap + 1e-9
-                    for t in range(base, base + task.length)
-                ):
+                if any(used[t] + a > cap + 1e-9 for t, a in units.items()):
                     return False
-            elif name in self.level and amount > 0:
-                level = self.level[name]
-                last = min(base + task.length - 1, len(level) - 1)
-                for t in range(base, last):
-                    if level[t] - amount * (t - base + 1) < -1e-9:
-                        return False
-                # From the task's last unit on, the drop is constant.
-                if self.lowest[name][last] - amount * task.length < -1e-9:
+                continue
+            level = self.level[name]
+            drop, last = 0.0, max(units)
+            for t in range(min(units), last + 1):
+                drop += units.get(t, 0.0)
+                if level[t] - drop < -1e-9:
                     return False
+            if last + 1 < len(level) and (
+                self.lowest[name][last + 1] - drop < -1e-9
+            ):
+                return False
         return True
 
-    def add(self, task: Task, start: int) -> None:
+    def add(self, task: Task, start: int, sign: float = 1.0) -> None:
+        """Book ``task`` at ``start`` (``sign=-1`` takes it back)."""
         base = start - self.problem.start
-        for name, amount in task.uses.items():
+        for name, use in task.uses.items():
+            amount = sign * use
             if name in self.used:
                 for t in range(base, base + task.length):
                     self.used[name][t] += amount
@@ -132,6 +146,11 @@ class _Board:
 def greedy_plan(problem: Problem) -> Plan | None:
     """A valid plan found by list scheduling, or None.
 
+    Tasks that end up alone in a ``both`` precedence are dropped after the
+    pass; since dropping a generator can starve a consumer placed after
+    it, the pass is then run again with those tasks left out from the
+    start, until nothing needs dropping (at most once per task).
+
     Parameters
     ----------
     problem
@@ -143,6 +162,21 @@ def greedy_plan(problem: Problem) -> Plan | None:
         Status ``feasible``, objective computed; None when the heuristic
         cannot place every mandatory task or its plan fails the checker.
     """
+    excluded: set[str] = set()
+    for _ in range(problem.num_tasks + 1):
+        starts = _list_schedule(problem, excluded)
+        dropped = _drop_unsupported(problem, starts)
+        if any(t.mandatory and t.id not in starts for t in problem.tasks):
+            return None
+        if not dropped:
+            break
+        excluded |= dropped
+    plan = _as_plan(problem, starts)
+    return plan if check_plan(problem, plan).ok else None
+
+
+def _list_schedule(problem: Problem, excluded: set[str]) -> dict[str, int]:
+    """One pass: each group in turn at its earliest fitting start."""
     domains = start_domains(problem)
     tasks = {t.id: t for t in problem.tasks}
     groups = _tight_groups(problem)
@@ -163,6 +197,8 @@ def greedy_plan(problem: Problem) -> Plan | None:
         chosen = max(ready, key=lambda g: _value(groups[g], tasks))
         remaining.discard(chosen)
         decided.add(chosen)
+        if excluded & groups[chosen].keys():
+            continue
         anchor = _earliest(
             problem, groups[chosen], tasks, domains, board, starts
         )
@@ -171,11 +207,7 @@ def greedy_plan(problem: Problem) -> Plan | None:
         for name, shift in groups[chosen].items():
             starts[name] = anchor + shift
             board.add(tasks[name], anchor + shift)
-    _drop_unsupported(problem, starts)
-    if any(t.mandatory and t.id not in starts for t in problem.tasks):
-        return None
-    plan = _as_plan(problem, starts)
-    return plan if check_plan(problem, plan).ok else None
+    return starts
 
 
 def _value(group: dict[str, int], tasks: dict[str, Task]) -> tuple:
@@ -216,20 +248,27 @@ def _earliest(
         if prec.kind == "tight":
             high = min(high, bound)
     for anchor in range(low, high + 1):
-        if all(
-            board.fits(tasks[name], anchor + shift)
-            for name, shift in group.items()
-        ):
+        if _fits_together(board, group, tasks, anchor):
             return anchor
     return None
 
 
-def _drop_unsupported(problem: Problem, starts: dict[str, int]) -> None:
-    """Unschedule ``before`` tasks of ``both`` precedences left alone.
+def _fits_together(
+    board: _Board, group: dict[str, int], tasks: dict[str, Task], anchor: int
+) -> bool:
+    """True if every member of ``group`` fits with the anchor at ``anchor``."""
+    return board.fits(
+        [(tasks[name], anchor + shift) for name, shift in group.items()]
+    )
 
-    Dropping a task only frees resources, except that a dropped generator
-    can lower a level; the checker catches that and the plan is refused.
+
+def _drop_unsupported(problem: Problem, starts: dict[str, int]) -> set[str]:
+    """Unschedule tasks whose precedence partner is missing; return them.
+
+    A ``before`` task of a ``both`` precedence needs its ``after`` task;
+    any ``after`` task needs its ``before`` task.
     """
+    dropped: set[str] = set()
     changed = True
     while changed:
         changed = False
@@ -240,10 +279,13 @@ def _drop_unsupported(problem: Problem, starts: dict[str, int]) -> None:
                 and prec.after not in starts
             ):
                 del starts[prec.before]
+                dropped.add(prec.before)
                 changed = True
             elif prec.after in starts and prec.before not in starts:
                 del starts[prec.after]
+                dropped.add(prec.after)
                 changed = True
+    return dropped
 
 
 def _as_plan(problem: Problem, starts: dict[str, int]) -> Plan:

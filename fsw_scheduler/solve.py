@@ -69,7 +69,10 @@ def solve(
         plan = start.replace(status=SolveStatus.OPTIMAL)
     else:
         plan = _keep_better(
-            run(problem, warm=start.starts() if start else None), start
+            _checked(
+                problem, run(problem, warm=start.starts() if start else None)
+            ),
+            start,
         )
     if explain and (plan.unscheduled or not plan.status.has_plan):
         plan = plan.replace(why=explain_plan(problem, plan, run))
@@ -113,6 +116,33 @@ def best_start(problem: Problem, warm: Plan | None) -> Plan | None:
     if not candidates:
         return None
     return min(candidates, key=lambda p: p.objective.total)
+
+
+def _checked(problem: Problem, plan: Plan) -> Plan:
+    """The solver's plan if the independent checker accepts it.
+
+    CBC stopped by its time limit before any integer solution can hand back
+    the values of its last relaxation; read as a plan they break
+    constraints. Such a plan is refused (status ``unknown``), never flown.
+    """
+    if not plan.status.has_plan:
+        return plan
+    report = check_plan(problem, plan)
+    if report.ok:
+        return plan
+    rules = ", ".join(sorted(report.rules))
+    stats = plan.stats
+    if stats is not None:
+        stats = msgspec.structs.replace(
+            stats,
+            solver_status=f"{stats.solver_status}; refused: breaks {rules}",
+        )
+    return Plan(
+        status=SolveStatus.UNKNOWN,
+        objective=None,
+        unscheduled=tuple(t.id for t in problem.tasks),
+        stats=stats,
+    )
 
 
 def _keep_better(plan: Plan, start: Plan | None) -> Plan:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import copy
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -391,3 +392,35 @@ def test_core_does_not_import_solver_or_bus() -> None:
         [sys.executable, "-c", code], capture_output=True, text=True
     )
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def _large_problem() -> dict:
+    """A 100-task mixed problem from the benchmark generator (hard)."""
+    root = Path(__file__).resolve().parents[1] / "tools"
+    if str(root) not in sys.path:
+        sys.path.insert(0, str(root))
+    from bench_lib.generator import generate_problem
+
+    return generate_problem(100, "mixed", 336, 1096946284)
+
+
+def test_time_limit_returns_a_valid_plan_on_a_hard_problem() -> None:
+    """Tests that a hard problem under a short limit still gets a plan."""
+    from fsw_scheduler.check import check_plan
+
+    problem = problem_from(_large_problem())
+    plan = solve(problem, time_limit=1)
+    assert plan.status in {SolveStatus.FEASIBLE, SolveStatus.OPTIMAL}
+    assert check_plan(problem, plan).ok
+    assert plan.stats is not None and plan.stats.time_limit_s == 1
+
+
+def test_cbc_is_interrupted_at_its_deadline() -> None:
+    """Tests that CBC past its wall-clock deadline is stopped, not awaited."""
+    from fsw_scheduler.solvers.ilp.cbc import HardLimitCBC
+    from fsw_scheduler.solvers.ilp.model import BuiltModel, cbc_path
+
+    built = BuiltModel(problem_from(_large_problem()))
+    backend = HardLimitCBC(deadline_s=0.05, path=cbc_path(), msg=False)
+    built.lp.solve(backend)
+    assert backend.interrupted
