@@ -1,0 +1,104 @@
+"""Tests of the list-scheduling heuristic (fsw_scheduler.greedy)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from hypothesis import given, settings
+
+from fsw_scheduler.check import check_plan
+from fsw_scheduler.greedy import greedy_plan
+from fsw_scheduler.solution import SolveStatus
+from fsw_scheduler.solve import at_lower_bound, best_start, solve
+
+from .conftest import problem_from
+from .test_properties import COMMON, _decode, brute_force, problem_docs
+
+if TYPE_CHECKING:
+    from fsw_scheduler.model import Problem
+
+
+def test_table1_greedy_is_valid(table1: Problem) -> None:
+    """Tests that the heuristic finds a valid Table 1 plan quickly."""
+    plan = greedy_plan(table1)
+    assert plan is not None
+    assert plan.status is SolveStatus.FEASIBLE
+    assert check_plan(table1, plan).ok
+    assert plan.unscheduled == ()
+
+
+def test_tight_group_members_share_a_consumable() -> None:
+    """Tests that tight partners are checked together on a consumable."""
+    doc = {
+        "horizon": 10,
+        "resources": {"consumable": {"fuel": 5}},
+        "tasks": [
+            {"id": "a", "length": 2, "delay_cost": 1, "schedule_cost": 1,
+             "uses": {"fuel": 2}},
+            {"id": "b", "length": 2, "delay_cost": 1, "schedule_cost": 1,
+             "uses": {"fuel": 2}},
+        ],
+        "precedences": [{"before": "a", "after": "b", "kind": "tight"}],
+    }
+    problem = problem_from(doc)
+    plan = greedy_plan(problem)
+    # Each alone fits (4 <= 5) but not both (8 > 5): both stay out.
+    assert plan is not None
+    assert sorted(plan.unscheduled) == ["a", "b"]
+
+
+def test_impossible_mandatory_gives_none() -> None:
+    """Tests that the heuristic gives up when a mandatory task can't fit."""
+    doc = {
+        "horizon": 4,
+        "resources": {"binary": ["cam"]},
+        "tasks": [
+            {"id": n, "length": 3, "delay_cost": 1, "schedule_cost": 0,
+             "uses": {"cam": 1}}
+            for n in ("a", "b")
+        ],
+    }
+    assert greedy_plan(problem_from(doc)) is None
+
+
+def test_lower_bound_shortcut_is_optimal() -> None:
+    """Tests that a plan at every earliest start is reported optimal."""
+    doc = {
+        "horizon": 10,
+        "tasks": [
+            {"id": "a", "length": 2, "delay_cost": 3, "schedule_cost": 1,
+             "feasible_interval": [3, 9]},
+        ],
+    }
+    problem = problem_from(doc)
+    start = best_start(problem, None)
+    assert start is not None and at_lower_bound(problem, start)
+    plan = solve(problem)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.starts() == {"a": 3}
+
+
+@settings(COMMON, max_examples=300)
+@given(doc=problem_docs())
+def test_greedy_plans_pass_the_checker(doc: dict) -> None:
+    """Tests that every heuristic plan passes the independent checker."""
+    problem = _decode(doc)
+    plan = greedy_plan(problem)
+    if plan is not None:
+        report = check_plan(problem, plan)
+        assert report.ok, report
+        assert plan.objective == report.objective
+
+
+@settings(COMMON, max_examples=150)
+@given(doc=problem_docs(max_tasks=4, max_horizon=8))
+def test_lower_bound_shortcut_agrees_with_brute_force(doc: dict) -> None:
+    """Tests that the no-solver optimality shortcut is never wrong."""
+    problem = _decode(doc)
+    start = best_start(problem, None)
+    if start is None or not at_lower_bound(problem, start):
+        return
+    best = brute_force(problem)
+    assert best is not None
+    assert start.objective is not None
+    assert start.objective.total == best[0].total
