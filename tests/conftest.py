@@ -11,6 +11,19 @@ from fsw_scheduler.model import Problem, decode_problem
 
 DATA = Path(__file__).resolve().parents[1] / "fsw_scheduler" / "data"
 
+#: The optimal Table 1 plan (task, start, end): delay cost 359.
+TABLE1_PLAN = (
+    ("SetHFOption", 0, 1),
+    ("SetPositionX", 0, 1),
+    ("DownlinkSat2Sat", 1, 6),
+    ("SetPositionK", 6, 7),
+    ("BatteryCharge", 7, 17),
+    ("SetPositionZ", 17, 18),
+    ("AcquisitionHF", 18, 38),
+    ("SetPositionY", 38, 39),
+    ("DownlinkSat2Ground", 39, 49),
+)
+
 
 def problem_from(doc: dict) -> Problem:
     """Decode a problem from a Python dict (validating it)."""

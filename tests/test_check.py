@@ -18,22 +18,11 @@ from fsw_scheduler.solution import (
     objective_weight,
 )
 
-from .conftest import problem_from
+from .conftest import TABLE1_PLAN, problem_from
 
 if TYPE_CHECKING:
     from fsw_scheduler.model import Problem
 
-TABLE1_PLAN = (
-    ("SetHFOption", 0, 1),
-    ("SetPositionX", 0, 1),
-    ("DownlinkSat2Sat", 1, 6),
-    ("SetPositionK", 6, 7),
-    ("BatteryCharge", 7, 17),
-    ("SetPositionZ", 17, 18),
-    ("AcquisitionHF", 18, 38),
-    ("SetPositionY", 38, 39),
-    ("DownlinkSat2Ground", 39, 49),
-)
 
 
 def _task(name: str, **over: object) -> dict:

@@ -18,19 +18,10 @@ from fsw_scheduler.solution import (
     SolveStatus,
 )
 
+from .conftest import TABLE1_PLAN
+
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
-TABLE1_PLAN = (
-    ("SetHFOption", 0, 1),
-    ("SetPositionX", 0, 1),
-    ("DownlinkSat2Sat", 1, 6),
-    ("SetPositionK", 6, 7),
-    ("BatteryCharge", 7, 17),
-    ("SetPositionZ", 17, 18),
-    ("AcquisitionHF", 18, 38),
-    ("SetPositionY", 38, 39),
-    ("DownlinkSat2Ground", 39, 49),
-)
 
 
 def _plan(
