@@ -171,21 +171,38 @@ def _forced(
             detail += f" (it would push out {', '.join(lost)})"
         return Blocker(task_id, "cost", detail)
     if attempt.status is SolveStatus.UNKNOWN:
-        return Blocker(task_id, "not_analysed", "analysis hit the limit")
+        return _not_analysed(task_id)
     task = problem.task(task_id)
-    for name in sorted(task.uses, key=problem.resources.names.index):
-        kind = problem.resources.kind_of(name) or "resource"
-        if solve(_without_resource(forced, name)).status.has_plan:
-            return Blocker(task_id, kind, _resource_detail(problem, name))
-    if solve(_without_precedences(forced, task_id)).status.has_plan:
-        return Blocker(
-            task_id, "precedence", "its precedences cannot all be met"
+    relaxations = [
+        (
+            problem.resources.kind_of(name) or "resource",
+            _resource_detail(problem, name),
+            _without_resource(forced, name),
         )
+        for name in sorted(task.uses, key=problem.resources.names.index)
+    ]
+    relaxations.append(
+        (
+            "precedence",
+            "its precedences cannot all be met",
+            _without_precedences(forced, task_id),
+        )
+    )
+    for cause, detail, relaxed in relaxations:
+        outcome = solve(relaxed).status
+        if outcome is SolveStatus.UNKNOWN:
+            return _not_analysed(task_id)
+        if outcome.has_plan:
+            return Blocker(task_id, cause, detail)
     return Blocker(
         task_id,
         "combination",
         "no single resource or precedence relaxation lets it in",
     )
+
+
+def _not_analysed(task_id: str) -> Blocker:
+    return Blocker(task_id, "not_analysed", "the analysis ran out of time")
 
 
 def _resource_detail(problem: Problem, name: str) -> str:

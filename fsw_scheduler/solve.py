@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import time
 from typing import TYPE_CHECKING
 
 import msgspec
@@ -14,7 +15,16 @@ from .greedy import greedy_plan
 from .solution import Plan, SolveStatus
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from .model import Problem
+
+
+#: Seconds all explanation solves may take together when the solve itself
+#: has no time limit (with one, they share that much again).
+EXPLAIN_BUDGET_S = 10.0
+#: Below this much budget left, an explanation solve is not started.
+MIN_SOLVE_S = 0.05
 
 
 def solve(
@@ -75,8 +85,35 @@ def solve(
             start,
         )
     if explain and (plan.unscheduled or not plan.status.has_plan):
-        plan = plan.replace(why=explain_plan(problem, plan, run))
+        budget = EXPLAIN_BUDGET_S if time_limit is None else time_limit
+        plan = plan.replace(
+            why=explain_plan(problem, plan, _budgeted(run, budget))
+        )
     return plan
+
+
+def _budgeted(
+    run: Callable[..., Plan], budget_s: float
+) -> Callable[[Problem], Plan]:
+    """``run`` sharing one time budget over all its calls.
+
+    Explanations take several solves per left-out task; on board they must
+    not hold a new plan back for long. Once the budget is spent, a call
+    answers ``unknown`` at once and the task is reported ``not_analysed``.
+    """
+    deadline = time.monotonic() + budget_s
+
+    def attempt(problem: Problem) -> Plan:
+        left = deadline - time.monotonic()
+        if left <= MIN_SOLVE_S:
+            return Plan(
+                status=SolveStatus.UNKNOWN,
+                objective=None,
+                unscheduled=tuple(t.id for t in problem.tasks),
+            )
+        return run(problem, time_limit=left)
+
+    return attempt
 
 
 def at_lower_bound(problem: Problem, plan: Plan) -> bool:

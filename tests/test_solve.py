@@ -424,3 +424,20 @@ def test_cbc_is_interrupted_at_its_deadline() -> None:
     backend = HardLimitCBC(deadline_s=0.05, path=cbc_path(), msg=False)
     built.lp.solve(backend)
     assert backend.interrupted
+
+
+def test_explanations_share_a_time_budget(table1_doc: dict) -> None:
+    """Tests that spent explanation budget gives not_analysed, not guesses."""
+    from fsw_scheduler.explain import explain
+    from fsw_scheduler.solve import _budgeted
+    from fsw_scheduler.solvers.ilp import solve_ilp
+
+    doc = copy.deepcopy(table1_doc)
+    doc["feasible_interval_applies_to"] = "task"
+    problem = problem_from(doc)
+    plan = solve(problem)
+    spent = _budgeted(solve_ilp, 0.0)
+    assert spent(problem).status is SolveStatus.UNKNOWN
+    why = explain(problem, plan, spent)
+    assert {b.task for b in why} == set(plan.unscheduled)
+    assert {b.cause for b in why} == {"not_analysed"}
