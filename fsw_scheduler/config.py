@@ -14,6 +14,7 @@ Example ``scheduler.toml``::
     time-unit = 1.0         # seconds per time unit with the wall clock
     report-timeout = 5      # units after a dispatch without a report
     drift-absolute = 0.5    # level departure that triggers a replan
+    replan-lead = 1         # units a solve may take before its plan starts
 """
 
 from __future__ import annotations
@@ -58,6 +59,11 @@ class NodeConfig(
         Inputs waiting for the event loop; more are dropped and counted.
     heartbeat
         Units between periodic status messages (0: none).
+    replan_lead
+        Units between a trigger (goal, failure, drift) and the start of the
+        plan it causes, so that a solve may take that long without the new
+        plan's first activities being late. Default: 1 with the wall clock,
+        0 with the bus clock (which can wait for the scheduler).
     """
 
     spacecraft: str = "sat1"
@@ -74,6 +80,7 @@ class NodeConfig(
     drift_relative: float = 0.0
     inbox_capacity: int = 1024
     heartbeat: int = 10
+    replan_lead: int | None = None
 
     def __post_init__(self) -> None:
         problems = []
@@ -83,10 +90,19 @@ class NodeConfig(
             problems.append("time-limit must be > 0")
         if self.horizon is not None and self.horizon <= 0:
             problems.append("horizon must be > 0")
+        if self.replan_lead is not None and self.replan_lead < 0:
+            problems.append("replan-lead must be >= 0")
         if self.inbox_capacity < 1:
             problems.append("inbox-capacity must be >= 1")
         if problems:
             raise ValueError("; ".join(problems))
+
+    @property
+    def lead(self) -> int:
+        """The replan lead in units, with its clock-dependent default."""
+        if self.replan_lead is not None:
+            return self.replan_lead
+        return 1 if self.clock == "wall" else 0
 
     @property
     def tolerance(self) -> Tolerance:

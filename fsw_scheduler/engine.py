@@ -159,11 +159,15 @@ class EngineConfig(msgspec.Struct, frozen=True):
         replan.
     heartbeat
         Units between periodic status messages (0: none).
+    replan_lead
+        Units between a trigger and the start of the plan it causes: the
+        time a solve may take without its first activities being late.
     """
 
     report_timeout: int | None = None
     tolerance: Tolerance = Tolerance(absolute=0.5)
     heartbeat: int = 0
+    replan_lead: int = 0
 
 
 # -- the engine -------------------------------------------------------------
@@ -519,7 +523,12 @@ class Engine:
             schedule = self.schedule
             if schedule is None:
                 return
-            now = max(self._clock(), schedule.problem.start)
+            # A replan governs time from ``now + replan_lead`` on: until
+            # its plan is ready, the current one keeps dispatching.
+            now = max(
+                self._clock() + self.config.replan_lead,
+                schedule.problem.start,
+            )
             failures = [c for c in self._queue if c.kind == "failure"]
             goals = [c for c in self._queue if c.kind == "goal"]
             if failures:

@@ -198,6 +198,7 @@ class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     drift_absolute: float = 0.0
     drift_relative: float = 0.0
     heartbeat: int = 0
+    replan_lead: int = 0
     version: str = ""
     problem: Problem | None = None
 

@@ -145,6 +145,7 @@ def config_from_info(info: messages.NodeInfo) -> NodeConfig:
         drift_absolute=info.drift_absolute,
         drift_relative=info.drift_relative,
         heartbeat=info.heartbeat,
+        replan_lead=info.replan_lead,
     )
 
 

@@ -646,3 +646,16 @@ def test_paper_story() -> None:
     z = next(a for a in plan.activities if a.task == "SetPositionZ")
     assert lf.start == z.end  # tight precedence of the goal
     assert statuses(out, "goal_accepted")[0].goal_id == "monitor-target-lf"
+
+
+def test_replan_lead_starts_the_new_plan_later() -> None:
+    """Tests that a goal's plan starts replan_lead units after it arrives."""
+    driver = Driver(config=EngineConfig(replan_lead=2))
+    for now in range(16):
+        driver.tick(now)
+    out = driver.goal(paper_goal(), 15)
+    (plan,) = published(out, messages.PlanMessage)
+    assert plan.horizon_start == 17
+    assert all(a.start >= 17 for a in plan.activities)
+    # The old plan kept its dispatch at 15..16 meanwhile.
+    assert plan.issued_at == 15

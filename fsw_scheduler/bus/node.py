@@ -58,6 +58,7 @@ def engine_config(config: NodeConfig) -> EngineConfig:
         report_timeout=config.report_timeout,
         tolerance=config.tolerance,
         heartbeat=config.heartbeat,
+        replan_lead=config.lead,
     )
 
 
@@ -76,6 +77,7 @@ def node_info(config: NodeConfig, problem: Problem) -> messages.NodeInfo:
         drift_absolute=config.drift_absolute,
         drift_relative=config.drift_relative,
         heartbeat=config.heartbeat,
+        replan_lead=config.lead,
         version=__version__,
         problem=problem,
     )
