@@ -182,7 +182,7 @@ class World:
         self.plans: list[messages.PlanMessage] = []
         self._sub = session.declare_subscriber(
             topics.key("scheduler/**"),
-            zenoh.handlers.Callback(
+            zenoh.handlers.Callback(  # type: ignore[arg-type]
                 lambda s: self.inbox.put(
                     (str(s.key_expr), s.payload.to_bytes())
                 ),

@@ -173,7 +173,7 @@ def _forced(
     if attempt.status is SolveStatus.UNKNOWN:
         return _not_analysed(task_id)
     task = problem.task(task_id)
-    relaxations = [
+    relaxations: list[tuple[str, str, Problem]] = [
         (
             problem.resources.kind_of(name) or "resource",
             _resource_detail(problem, name),

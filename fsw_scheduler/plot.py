@@ -47,8 +47,7 @@ def _known_activities(
         task = tasks.get(activity.task)
         if task is None:
             raise ValueError(
-                f"plan activity {activity.task!r} is not a task of the "
-                f"problem"
+                f"plan activity {activity.task!r} is not a task of the problem"
             )
         pairs.append((activity, task))
     return pairs
@@ -144,9 +143,7 @@ def _left_out(plan: Plan) -> list[tuple[str, list[Blocker]]]:
     return [(name, reasons.get(name, [])) for name in names]
 
 
-def _bar(
-    start: int, end: int, origin: int, horizon: int, cells: int
-) -> str:
+def _bar(start: int, end: int, origin: int, horizon: int, cells: int) -> str:
     """ASCII bar of ``[start, end)`` on ``cells`` characters.
 
     Cell ``c`` stands for the time ``origin + (c + 1/2) * horizon / cells``
@@ -165,8 +162,13 @@ def _bar(
     return "".join("#" if f else "." for f in filled)
 
 
-_ANSI = {"bold": "\x1b[1m", "dim": "\x1b[2m", "red": "\x1b[31m",
-         "green": "\x1b[32m", "off": "\x1b[0m"}
+_ANSI = {
+    "bold": "\x1b[1m",
+    "dim": "\x1b[2m",
+    "red": "\x1b[31m",
+    "green": "\x1b[32m",
+    "off": "\x1b[0m",
+}
 
 
 def timeline_text(
@@ -223,9 +225,11 @@ def timeline_text(
     lines.append(f"{'task':<{id_w}}  {'time':<{span_w}}  |{ruler}|")
     for act in activities:
         bar = _bar(act.start, act.end, origin, horizon, cells)
-        bar = bar.replace("#", f"{paint['green']}#{paint['off']}") if (
-            color
-        ) else bar
+        bar = (
+            bar.replace("#", f"{paint['green']}#{paint['off']}")
+            if (color)
+            else bar
+        )
         span = f"{act.start}-{act.end}"
         lines.append(f"{act.task:<{id_w}}  {span:<{span_w}}  |{bar}|")
 
@@ -309,8 +313,18 @@ def _load_matplotlib() -> tuple[Any, Any, Any]:
 
 # Colour-blind friendly (Okabe-Ito), then tab10 for long resource lists.
 _PALETTE = (
-    "#0072B2", "#E69F00", "#009E73", "#CC79A7", "#56B4E9", "#D55E00",
-    "#F0E442", "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
+    "#0072B2",
+    "#E69F00",
+    "#009E73",
+    "#CC79A7",
+    "#56B4E9",
+    "#D55E00",
+    "#F0E442",
+    "#1f77b4",
+    "#ff7f0e",
+    "#2ca02c",
+    "#d62728",
+    "#9467bd",
 )
 _NO_BINARY = "#7f7f7f"
 _UNSCHEDULED = "#d9d9d9"
@@ -406,7 +420,10 @@ def gantt(
     fig = Figure(figsize=(11, sum(heights) + 0.9), layout="constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(
-        len(heights), 1, sharex=True, squeeze=False,
+        len(heights),
+        1,
+        sharex=True,
+        squeeze=False,
         gridspec_kw={"height_ratios": heights},
     )[:, 0]
 
@@ -427,19 +444,25 @@ def gantt(
         for side in ("top", "right"):
             ax.spines[side].set_visible(False)
         if now is not None:
-            ax.axvline(now, color=_NOW, linewidth=1.4, linestyle="-",
-                       zorder=5)
+            ax.axvline(now, color=_NOW, linewidth=1.4, linestyle="-", zorder=5)
     if now is not None:
         axes[0].annotate(
-            f"now = {now}", xy=(now, 1), xycoords=("data", "axes fraction"),
-            xytext=(3, 2), textcoords="offset points", color=_NOW,
-            fontsize=9, va="bottom",
+            f"now = {now}",
+            xy=(now, 1),
+            xycoords=("data", "axes fraction"),
+            xytext=(3, 2),
+            textcoords="offset points",
+            color=_NOW,
+            fontsize=9,
+            va="bottom",
         )
     axes[-1].set_xlabel("time (units)")
     heading = _objective_line(plan)
     fig.suptitle(
         f"{title}\n{heading}" if title else f"Plan: {heading}",
-        fontsize=12, x=0.02, ha="left",
+        fontsize=12,
+        x=0.02,
+        ha="left",
     )
     fig.savefig(path, format="png", dpi=110)
     return path
@@ -465,33 +488,68 @@ def _draw_tasks(
         if stop <= activity.start:
             continue
         ax.barh(
-            y_of[activity.task], stop - activity.start, left=activity.start,
-            height=bar_h, color=_colour_of(problem, tasks.get(activity.task)),
-            alpha=0.3, edgecolor="#555555", linewidth=0.6, linestyle=":",
+            y_of[activity.task],
+            stop - activity.start,
+            left=activity.start,
+            height=bar_h,
+            color=_colour_of(problem, tasks.get(activity.task)),
+            alpha=0.3,
+            edgecolor="#555555",
+            linewidth=0.6,
+            linestyle=":",
         )
 
     for activity in plan.activities:
         y = y_of[activity.task]
         length = activity.end - activity.start
         ax.barh(
-            y, length, left=activity.start, height=bar_h,
+            y,
+            length,
+            left=activity.start,
+            height=bar_h,
             color=_colour_of(problem, tasks.get(activity.task)),
-            edgecolor="#333333", linewidth=0.6, zorder=3,
+            edgecolor="#333333",
+            linewidth=0.6,
+            zorder=3,
         )
         span = f"{activity.start}\u2013{activity.end}"
         # Inside the bar when it is wide enough, else beside it (before
         # it when the bar ends near the right edge, so it is not cut).
         pad = 0.005 * problem.horizon + 0.2
         if length >= 0.08 * problem.horizon:
-            ax.text(activity.start + length / 2, y, span, ha="center",
-                    va="center", fontsize=8, color="white",
-                    fontweight="bold", zorder=4)
+            ax.text(
+                activity.start + length / 2,
+                y,
+                span,
+                ha="center",
+                va="center",
+                fontsize=8,
+                color="white",
+                fontweight="bold",
+                zorder=4,
+            )
         elif activity.end > problem.end - 0.06 * problem.horizon:
-            ax.text(activity.start - pad, y, span, ha="right",
-                    va="center", fontsize=8, color="#333333", zorder=4)
+            ax.text(
+                activity.start - pad,
+                y,
+                span,
+                ha="right",
+                va="center",
+                fontsize=8,
+                color="#333333",
+                zorder=4,
+            )
         else:
-            ax.text(activity.end + pad, y, span, ha="left", va="center",
-                    fontsize=8, color="#333333", zorder=4)
+            ax.text(
+                activity.end + pad,
+                y,
+                span,
+                ha="left",
+                va="center",
+                fontsize=8,
+                color="#333333",
+                zorder=4,
+            )
 
     scheduled = {a.task for a in plan.activities}
     for name in rows:
@@ -499,9 +557,15 @@ def _draw_tasks(
             continue
         y = y_of[name]
         ax.barh(
-            y, problem.horizon, left=problem.start, height=bar_h,
-            color="none", edgecolor=_UNSCHEDULED, hatch="///",
-            linewidth=0.0, zorder=1,
+            y,
+            problem.horizon,
+            left=problem.start,
+            height=bar_h,
+            color="none",
+            edgecolor=_UNSCHEDULED,
+            hatch="///",
+            linewidth=0.0,
+            zorder=1,
         )
         why = reasons[name]
         note = "unscheduled"
@@ -510,10 +574,21 @@ def _draw_tasks(
             if len(note) > 90:
                 note = note[:89] + "\u2026"
         ax.text(
-            problem.start + 0.01 * problem.horizon, y, note, ha="left",
-            va="center", fontsize=8, style="italic", color="#555555",
-            zorder=4, bbox={"facecolor": "white", "edgecolor": "none",
-                            "pad": 1.0, "alpha": 0.85},
+            problem.start + 0.01 * problem.horizon,
+            y,
+            note,
+            ha="left",
+            va="center",
+            fontsize=8,
+            style="italic",
+            color="#555555",
+            zorder=4,
+            bbox={
+                "facecolor": "white",
+                "edgecolor": "none",
+                "pad": 1.0,
+                "alpha": 0.85,
+            },
         )
 
     ax.set_yticks(range(len(rows)), rows, fontsize=9)
@@ -525,25 +600,49 @@ def _draw_tasks(
     ax.tick_params(axis="y", length=0)
 
     handles = [
-        Patch(facecolor=_PALETTE[idx % len(_PALETTE)], edgecolor="#333333",
-              linewidth=0.6, label=name)
+        Patch(
+            facecolor=_PALETTE[idx % len(_PALETTE)],
+            edgecolor="#333333",
+            linewidth=0.6,
+            label=name,
+        )
         for idx, name in enumerate(problem.resources.binary)
-        if any(_colour_of(problem, t) == _PALETTE[idx % len(_PALETTE)]
-               for t in problem.tasks)
+        if any(
+            _colour_of(problem, t) == _PALETTE[idx % len(_PALETTE)]
+            for t in problem.tasks
+        )
     ]
     if any(_colour_of(problem, t) == _NO_BINARY for t in problem.tasks):
         handles.append(Patch(facecolor=_NO_BINARY, label="no binary"))
     if history:
-        handles.append(Patch(facecolor="#999999", alpha=0.3,
-                             edgecolor="#555555", linestyle=":",
-                             label="executed"))
+        handles.append(
+            Patch(
+                facecolor="#999999",
+                alpha=0.3,
+                edgecolor="#555555",
+                linestyle=":",
+                label="executed",
+            )
+        )
     if any(name not in scheduled for name in reasons):
-        handles.append(Patch(facecolor="none", edgecolor=_UNSCHEDULED,
-                             hatch="///", label="unscheduled"))
+        handles.append(
+            Patch(
+                facecolor="none",
+                edgecolor=_UNSCHEDULED,
+                hatch="///",
+                label="unscheduled",
+            )
+        )
     if handles:
-        ax.legend(handles=handles, title="first binary resource",
-                  title_fontsize=8, fontsize=8, loc="upper left",
-                  bbox_to_anchor=(1.01, 1.0), frameon=False)
+        ax.legend(
+            handles=handles,
+            title="first binary resource",
+            title_fontsize=8,
+            fontsize=8,
+            loc="upper left",
+            bbox_to_anchor=(1.01, 1.0),
+            frameon=False,
+        )
 
 
 def _edges(problem: Problem) -> list[int]:
@@ -552,9 +651,18 @@ def _edges(problem: Problem) -> list[int]:
 
 
 def _label(ax: Any, text: str) -> None:
-    ax.text(0.005, 0.97, text, transform=ax.transAxes, ha="left", va="top",
-            fontsize=9, fontweight="bold", zorder=6,
-            bbox={"facecolor": "white", "edgecolor": "none", "pad": 1.5})
+    ax.text(
+        0.005,
+        0.97,
+        text,
+        transform=ax.transAxes,
+        ha="left",
+        va="top",
+        fontsize=9,
+        fontweight="bold",
+        zorder=6,
+        bbox={"facecolor": "white", "edgecolor": "none", "pad": 1.5},
+    )
 
 
 def _draw_multiple(
@@ -568,13 +676,22 @@ def _draw_multiple(
     ax.axhline(capacity, color="#333333", linestyle="--", linewidth=1.0)
     over = [max(0.0, u - capacity) for u in usage]
     if any(over):
-        ax.stairs([capacity + o for o in over], edges, baseline=capacity,
-                  fill=True, color="#d62728", alpha=0.5)
+        ax.stairs(
+            [capacity + o for o in over],
+            edges,
+            baseline=capacity,
+            fill=True,
+            color="#d62728",
+            alpha=0.5,
+        )
     top = max([capacity, *usage])
     ax.set_ylim(0, top * 1.3 if top > 0 else 1)
     ax.set_ylabel("use", fontsize=8)
-    _label(ax, f"{name}  (capacity {_fmt(capacity)}, "
-               f"peak {_fmt(max(usage, default=0.0))})")
+    _label(
+        ax,
+        f"{name}  (capacity {_fmt(capacity)}, "
+        f"peak {_fmt(max(usage, default=0.0))})",
+    )
 
 
 def _draw_consumable(
@@ -589,15 +706,27 @@ def _draw_consumable(
     initial = float(problem.resources.consumable[name])
     edges = _edges(problem)
     ax.stairs(levels, edges, baseline=None, color="#2a9d8f", linewidth=1.4)
-    ax.plot([problem.start, problem.start], [initial, levels[0]],
-            color="#2a9d8f", linewidth=1.4)
-    ax.plot([problem.start], [initial], "o", color="#2a9d8f", markersize=4,
-            clip_on=False, zorder=4)
+    ax.plot(
+        [problem.start, problem.start],
+        [initial, levels[0]],
+        color="#2a9d8f",
+        linewidth=1.4,
+    )
+    ax.plot(
+        [problem.start],
+        [initial],
+        "o",
+        color="#2a9d8f",
+        markersize=4,
+        clip_on=False,
+        zorder=4,
+    )
     ax.axhline(0, color="#333333", linewidth=0.9)
     below = [min(0.0, v) for v in levels]
     if any(below):
-        ax.stairs(below, edges, baseline=0, fill=True, color="#d62728",
-                  alpha=0.45)
+        ax.stairs(
+            below, edges, baseline=0, fill=True, color="#d62728", alpha=0.45
+        )
     low = min([0.0, *levels])
     high = max([initial, *levels])
     pad = 0.3 * (high - low or 1.0)
@@ -605,5 +734,8 @@ def _draw_consumable(
     ax.set_ylabel("level", fontsize=8)
     low_level = min(levels, default=initial)
     flag = "  BELOW ZERO" if low_level < 0 else ""
-    _label(ax, f"{name}  (initial {_fmt(initial)}, "
-               f"min {_fmt(min(low_level, initial))}){flag}")
+    _label(
+        ax,
+        f"{name}  (initial {_fmt(initial)}, "
+        f"min {_fmt(min(low_level, initial))}){flag}",
+    )

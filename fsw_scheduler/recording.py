@@ -74,8 +74,7 @@ __all__ = [
 Compression = Literal["zstd", "lz4", "none"]
 #: A JSON Schema (as a dict) per exact topic, or a function of the topic.
 SchemaSource = (
-    Mapping[str, Mapping[str, Any]]
-    | Callable[[str], Mapping[str, Any] | None]
+    Mapping[str, Mapping[str, Any]] | Callable[[str], Mapping[str, Any] | None]
 )
 PathLike = str | os.PathLike[str]
 
@@ -770,9 +769,7 @@ def format_info(description: McapInfo) -> str:
     width = max((len(c.topic) for c in d.channels), default=0)
     for ch in d.channels:
         schema = ch.schema_name or "(no schema)"
-        lines.append(
-            f"  {ch.topic:<{width}}  {ch.message_count:>8}  {schema}"
-        )
+        lines.append(f"  {ch.topic:<{width}}  {ch.message_count:>8}  {schema}")
     return "\n".join(lines)
 
 

@@ -244,9 +244,9 @@ def execution_state(
     for task in problem.tasks:
         act = plan.activity(task.id)
         state = _planned_state(task, act, now, task.id in continuing)
-        report = latest.get(task.id)
-        if report is not None:
-            state = _reported_state(task, act, now, report, problem.start)
+        reported = latest.get(task.id)
+        if reported is not None:
+            state = _reported_state(task, act, now, reported, problem.start)
         states.append(state)
     runs = {
         s.task: (s.until if s.until is not None else now) - s.since
@@ -1179,9 +1179,7 @@ def apply_levels(
         (path ``levels.<name>``), or ``at`` after ``now``.
     """
     levels = _levels_at(schedule, measured, now, now if at is None else at)
-    return _replan(
-        schedule, now, measured=levels, keep_running=keep_running
-    )
+    return _replan(schedule, now, measured=levels, keep_running=keep_running)
 
 
 class Tolerance(msgspec.Struct, frozen=True):
@@ -1474,7 +1472,7 @@ def decode_change(data: bytes | str) -> Change:
     """
     head = decode_strict(data, dict, "change")
     if "event" in head:
-        return decode_strict(data, Event, "event")
+        return decode_strict(data, Event, "event")  # type: ignore[arg-type]
     return decode_goal(data)
 
 
@@ -1648,7 +1646,9 @@ def replan_files(
         The change is rejected; nothing was solved.
     """
     if solve_fn is None:
-        from .solve import solve as solve_fn
+        from .solve import solve as default_solve
+
+        solve_fn = default_solve
     replan = apply_change(Schedule.begin(problem, plan), change, now)
     if replan.problem.tasks:
         new_plan = solve_fn(

@@ -152,7 +152,10 @@ def best_start(problem: Problem, warm: Plan | None) -> Plan | None:
             )
     if not candidates:
         return None
-    return min(candidates, key=lambda p: p.objective.total)
+    return min(
+        candidates,
+        key=lambda p: p.objective.total if p.objective else float("inf"),
+    )
 
 
 def _checked(problem: Problem, plan: Plan) -> Plan:

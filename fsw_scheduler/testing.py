@@ -357,7 +357,7 @@ class SchedulerClient:
             # and re-ask at least every 50 ms anyway.
             with self._cond:
                 self._cond.wait_for(
-                    lambda seen=seen: len(self.samples) > seen,
+                    lambda seen=seen: len(self.samples) > seen,  # type: ignore[misc]
                     min(0.05, max(deadline - time.monotonic(), 0.0)),
                 )
         self._await_outputs(status, deadline)
@@ -647,7 +647,10 @@ def _load_problem(problem: Problem | bytes | str | Path | None) -> Problem:
         return decode_problem(problem, allow_empty=True)
     from pathlib import Path
 
-    return decode_problem(Path(problem).read_bytes(), allow_empty=True)
+    return decode_problem(
+        Path(problem).read_bytes(),  # type: ignore[arg-type]
+        allow_empty=True,
+    )
 
 
 # -- pytest plugin -----------------------------------------------------------

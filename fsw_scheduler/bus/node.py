@@ -40,6 +40,8 @@ from ..inputs import InputDecoder
 from . import topics
 
 if TYPE_CHECKING:
+    import msgspec
+
     from ..config import NodeConfig
     from ..model import Problem
     from ..recording import Recorder
@@ -408,10 +410,11 @@ class SchedulerNode:
             log.error("publish on %s failed: %s", key, error)
 
     def _answer(self, suffix: str, query: zenoh.Query) -> None:
-        if suffix == topics.PLAN:
-            message = self.engine.plan_message
-        else:
-            message = self.engine.status("query")
+        message: msgspec.Struct | None = (
+            self.engine.plan_message
+            if suffix == topics.PLAN
+            else self.engine.status("query")
+        )
         try:
             if message is None:
                 query.reply_err(b'{"error": "no plan yet"}', encoding=JSON)

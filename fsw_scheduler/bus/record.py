@@ -288,9 +288,7 @@ def replay(
     """
     if rate <= 0:
         raise ValueError(f"rate must be > 0, not {rate}")
-    paths = (
-        [path] if isinstance(path, str | os.PathLike) else list(path)
-    )
+    paths = [path] if isinstance(path, str | os.PathLike) else list(path)
     starts = [
         d.start_ns
         for d in (recording_info(p) for p in paths)

@@ -154,9 +154,7 @@ def zenoh_config(args: argparse.Namespace) -> zenoh.Config:
     """
     path = zenoh_config_file(args)
     try:
-        config = (
-            zenoh.Config.from_file(path) if path else zenoh.Config()
-        )
+        config = zenoh.Config.from_file(path) if path else zenoh.Config()
     except (zenoh.ZError, OSError) as exc:
         raise ConfigError(f"--config {path}: {exc}") from exc
     settings: list[tuple[str, str]] = []
@@ -364,7 +362,8 @@ def wait_matching(
     publisher = session.declare_publisher(key_expr)
     try:
         wait_until(
-            lambda: publisher.matching_status.matching,
+            # The stub says bool; zenoh 1.x returns a MatchingStatus.
+            lambda: publisher.matching_status.matching,  # type: ignore[attr-defined]
             timeout_s,
             what=f"a subscriber matching {key_expr}",
         )

@@ -15,7 +15,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import pulp
 
@@ -269,7 +269,7 @@ def solve_ilp(
         for task in problem.tasks
         if task.mandatory and not built.vars.placeable(task.id)
     ]
-    stats = dict(
+    stats: dict[str, Any] = dict(
         solver=solver,
         build_s=built_at - began,
         num_variables=built.num_variables,
@@ -329,7 +329,10 @@ def solve_ilp(
 
 
 def _without_plan(
-    problem: Problem, status: SolveStatus, stats: dict, began: float
+    problem: Problem,
+    status: SolveStatus,
+    stats: dict[str, Any],
+    began: float,
 ) -> Plan:
     return Plan(
         status=status,

@@ -136,8 +136,7 @@ class Variables:
                 # start rather than an unscheduled value below its bound.
                 start, valid = first, True
             for offset, var in enumerate(steps):
-                var.setInitialValue(
-                    1 if valid and first + offset >= start else 0
-                )
+                on = valid and start is not None and first + offset >= start
+                var.setInitialValue(1 if on else 0)
             taken += valid
         return taken
