@@ -79,6 +79,17 @@ def _write_json(value: object, out: str | None) -> None:
         sys.stdout.flush()
 
 
+def _prog() -> str:
+    """How the user can run this command again (e.g. .venv/bin/...)."""
+    launched = Path(sys.argv[0])
+    if launched.name == "fsw-scheduler" and launched.is_file():
+        try:
+            return str(launched.resolve().relative_to(Path.cwd()))
+        except ValueError:
+            return str(launched)
+    return "fsw-scheduler"
+
+
 def _summary(plan: Plan) -> str:
     objective = plan.objective
     parts = [f"status {plan.status.value}"]
@@ -223,7 +234,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     print(f"\njournal (MCAP): {result.journal}")
     for picture in result.pictures:
         print(f"picture: {picture}")
-    print(f"replay it:  fsw-scheduler replay {result.journal} --verify")
+    print(f"replay it:  {_prog()} replay {result.journal} --verify")
     if result.verified is False:
         return EXIT_NO_PLAN
     return EXIT_OK
