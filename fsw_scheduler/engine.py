@@ -25,6 +25,7 @@ from typing import Literal
 
 import msgspec
 
+from .bus import topics
 from .errors import FieldIssue, InputError
 from .goal import Goal
 from .messages import (
@@ -327,7 +328,7 @@ class Engine:
         self._check_report_timeouts(out)
         beat = self.config.heartbeat
         if beat and self.now is not None and self.now % beat == 0:
-            out.append(Publish("scheduler/status", self.status()))
+            out.append(Publish(topics.STATUS, self.status()))
 
     def _start_initial(self, out: list[Command]) -> None:
         problem = self._initial
@@ -393,7 +394,7 @@ class Engine:
         self._lifecycle[report.task] = report.state
         out.append(
             Publish(
-                "scheduler/status",
+                topics.STATUS,
                 self.status(
                     "activity",
                     detail=f"{report.task} {report.state} at {report.at}",
@@ -434,7 +435,7 @@ class Engine:
         d = departed[0]
         out.append(
             Publish(
-                "scheduler/status",
+                topics.STATUS,
                 self.status(
                     "drift",
                     detail=f"{d.resource} measured {d.measured:g} at {at}, "
@@ -653,9 +654,7 @@ class Engine:
                 out,
             )
         if not pending.goals:
-            out.append(
-                Publish("scheduler/status", self.status("solve_failed"))
-            )
+            out.append(Publish(topics.STATUS, self.status("solve_failed")))
 
     def _solve_record(self, pending: _Pending, plan: Plan) -> Publish:
         problem = (
@@ -679,7 +678,7 @@ class Engine:
             wall_s=stats.wall_s,
             inputs_seen=self._inputs,
         )
-        return Publish("scheduler/solves", record)
+        return Publish(topics.SOLVES, record)
 
     # -- adopting and dispatching --------------------------------------------
 
@@ -727,7 +726,7 @@ class Engine:
             stats=plan.stats,
         )
         self._set_health("ok", "")
-        out.append(Publish("scheduler/plan", self._plan_message))
+        out.append(Publish(topics.PLAN, self._plan_message))
         out.append(
             Log(
                 "info",
@@ -740,11 +739,11 @@ class Engine:
             self._count(goals_accepted=self._counters.goals_accepted + 1)
             out.append(
                 Publish(
-                    "scheduler/status",
+                    topics.STATUS,
                     self.status("goal_accepted", goal_id=goal_id),
                 )
             )
-        out.append(Publish("scheduler/status", self.status("plan")))
+        out.append(Publish(topics.STATUS, self.status("plan")))
 
     def _dispatch_due(self, out: list[Command]) -> None:
         schedule = self.schedule
@@ -769,7 +768,7 @@ class Engine:
             )
             out.append(
                 Publish(
-                    f"scheduler/dispatch/{activity.task}",
+                    f"{topics.DISPATCH}/{activity.task}",
                     Dispatch(
                         task=activity.task,
                         plan_id=self.plan_id,
@@ -814,15 +813,12 @@ class Engine:
         out: list[Command],
     ) -> None:
         self._count(goals_rejected=self._counters.goals_rejected + 1)
-        text = "; ".join(str(e) for e in errors)
-        out.append(Log("warning", f"goal {goal_id} rejected: {text}"))
-        out.append(
-            Publish(
-                "scheduler/status",
-                self.status(
-                    "goal_rejected", goal_id=goal_id, errors=tuple(errors)
-                ),
-            )
+        self._report_rejection(
+            f"goal {goal_id} rejected",
+            errors,
+            out,
+            event="goal_rejected",
+            goal_id=goal_id,
         )
 
     def _reject_input(
@@ -833,16 +829,26 @@ class Engine:
         out: list[Command],
     ) -> None:
         self._count(inputs_rejected=self._counters.inputs_rejected + 1)
+        what = f"{kind} on {key} ignored"
+        self._report_rejection(
+            what, errors, out, event="input_rejected", detail=what
+        )
+
+    def _report_rejection(
+        self,
+        what: str,
+        errors: list[FieldIssue] | tuple[FieldIssue, ...],
+        out: list[Command],
+        event: str,
+        **fields: object,
+    ) -> None:
+        """Log a rejection and publish it on the status key."""
         text = "; ".join(str(e) for e in errors)
-        out.append(Log("warning", f"{kind} on {key} ignored: {text}"))
+        out.append(Log("warning", f"{what}: {text}"))
         out.append(
             Publish(
-                "scheduler/status",
-                self.status(
-                    "input_rejected",
-                    errors=tuple(errors),
-                    detail=f"{kind} on {key} ignored",
-                ),
+                topics.STATUS,
+                self.status(event, errors=tuple(errors), **fields),
             )
         )
 
