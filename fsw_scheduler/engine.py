@@ -203,6 +203,7 @@ class _Change(msgspec.Struct, frozen=True):
     task: str = ""
     at: int = 0
     levels: dict[str, float] = {}
+    trigger: str = ""
 
 
 def problem_hash(problem: Problem) -> str:
@@ -326,9 +327,29 @@ class Engine:
         if self._initial is not None and self._pending is None:
             self._start_initial(out)
         self._check_report_timeouts(out)
+        if self._deferred_due() and not any(
+            c.trigger == "horizon" for c in self._queue
+        ):
+            self._queue.append(
+                _Change("levels", at=self._clock(), trigger="horizon")
+            )
         beat = self.config.heartbeat
         if beat and self.now is not None and self.now % beat == 0:
             out.append(Publish(topics.STATUS, self.status()))
+
+    def _deferred_due(self) -> bool:
+        """True when the rolling horizon now reaches a deferred task."""
+        schedule = self.schedule
+        if schedule is None or not schedule.deferred or self.now is None:
+            return False
+        frame = schedule.problem.replace(
+            start=self.now + self.config.replan_lead
+        )
+        for task in schedule.deferred:
+            earliest, latest = frame.start_bounds(task)
+            if earliest <= latest:
+                return True
+        return False
 
     def _start_initial(self, out: list[Command]) -> None:
         problem = self._initial
@@ -557,6 +578,10 @@ class Engine:
                     levels.update(change.levels)
                     at = min(at, change.at)
                 trigger = "drift" if levels else "stale"
+                if not levels and any(
+                    c.trigger == "horizon" for c in self._queue
+                ):
+                    trigger = "horizon"
                 self._queue.clear()
                 try:
                     replan = apply_levels(
@@ -720,6 +745,7 @@ class Engine:
             unscheduled=plan.unscheduled,
             why=plan.why,
             continuing=schedule.continuing,
+            deferred=tuple(t.id for t in schedule.deferred),
             removed=removed,
             trigger=trigger,
             goals=goals,

@@ -74,11 +74,15 @@ class PlanMessage(msgspec.Struct, frozen=True):
     continuing
         Activities that were already running and continue; they are not
         dispatched again.
+    deferred
+        Accepted tasks whose window opens beyond this horizon; they enter a
+        plan (trigger ``horizon``) when the rolling horizon reaches them.
     removed
         Tasks that left the pending list at this replan, with the rule.
     trigger
         What caused the plan: ``initial``, ``goal``, ``failure``,
-        ``drift``, ``timeout`` or ``stale``.
+        ``drift``, ``stale`` (the plan came late) or ``horizon`` (the
+        rolling horizon reached a deferred task).
     goals
         Goal ids adopted by this plan.
     stats
@@ -95,6 +99,7 @@ class PlanMessage(msgspec.Struct, frozen=True):
     unscheduled: tuple[str, ...] = ()
     why: tuple[Blocker, ...] = ()
     continuing: tuple[str, ...] = ()
+    deferred: tuple[str, ...] = ()
     removed: tuple[Removal, ...] = ()
     trigger: str = ""
     goals: tuple[str, ...] = ()

@@ -659,3 +659,32 @@ def test_replan_lead_starts_the_new_plan_later() -> None:
     assert all(a.start >= 17 for a in plan.activities)
     # The old plan kept its dispatch at 15..16 meanwhile.
     assert plan.issued_at == 15
+
+
+def test_deferred_goal_task_enters_when_the_horizon_reaches_it() -> None:
+    """Tests that a task beyond the horizon waits, then gets planned."""
+    driver = Driver()
+    for now in range(3):
+        driver.tick(now)
+    goal = {
+        "goal_id": "late-pass",
+        "tasks": [
+            {"id": "Pass", "length": 2, "delay_cost": 1, "schedule_cost": 3,
+             "feasible_interval": [60, 70]},
+        ],
+    }
+    (plan,) = published(driver.goal(goal, 3), messages.PlanMessage)
+    assert plan.deferred == ("Pass",)
+    assert "Pass" not in {a.task for a in plan.activities}
+    planned = None
+    for now in range(4, 30):
+        for message in published(driver.tick(now), messages.PlanMessage):
+            planned = (now, message)
+        if planned:
+            break
+    assert planned is not None
+    when, later = planned
+    assert later.trigger == "horizon"
+    starts = {a.task: a.start for a in later.activities}
+    assert starts["Pass"] == 60
+    assert when + 50 > 60  # the horizon [when, when + 50) now holds it
