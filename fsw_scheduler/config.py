@@ -44,6 +44,9 @@ class NodeConfig(
         Passed to every solve; ``threads = 1`` keeps plans reproducible.
     explain
         Say why tasks are left out (extra solves after each plan).
+    explain_budget
+        Seconds those extra solves may take per plan; the plan waits for
+        them, so keep it well under a time unit with the wall clock.
     clock
         ``bus`` (time from ``fsw/<sc>/clock``) or ``wall`` (the node's
         monotonic clock, ``time_unit`` seconds per unit).
@@ -73,6 +76,7 @@ class NodeConfig(
     seed: int = 0
     threads: int = 1
     explain: bool = True
+    explain_budget: float = 2.0
     clock: Literal["bus", "wall"] = "wall"
     time_unit: float = 1.0
     report_timeout: int | None = None
@@ -86,6 +90,8 @@ class NodeConfig(
         problems = []
         if self.time_unit <= 0:
             problems.append("time-unit must be > 0")
+        if self.explain_budget < 0:
+            problems.append("explain-budget must be >= 0")
         if self.time_limit is not None and self.time_limit <= 0:
             problems.append("time-limit must be > 0")
         if self.horizon is not None and self.horizon <= 0:

@@ -199,6 +199,7 @@ class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     seed: int
     explain: bool
     clock: str
+    explain_budget: float = 2.0
     report_timeout: int | None = None
     drift_absolute: float = 0.0
     drift_relative: float = 0.0

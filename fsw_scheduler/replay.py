@@ -142,6 +142,7 @@ def config_from_info(info: messages.NodeInfo) -> NodeConfig:
         time_limit=info.time_limit_s,
         seed=info.seed,
         explain=info.explain,
+        explain_budget=info.explain_budget,
         clock=info.clock,  # type: ignore[arg-type]
         report_timeout=info.report_timeout,
         drift_absolute=info.drift_absolute,

@@ -36,6 +36,7 @@ def solve(
     seed: int = 0,
     explain: bool = False,
     warm: Plan | None = None,
+    explain_budget: float | None = None,
 ) -> Plan:
     """Solve ``problem`` and return its plan with an honest status.
 
@@ -57,6 +58,9 @@ def solve(
         mandatory tasks cannot be placed); costs extra solves.
     warm
         A previous plan, a candidate MIP start (see :func:`best_start`).
+    explain_budget
+        Seconds all explanation solves may take together (default: the
+        time limit, else :data:`EXPLAIN_BUDGET_S`).
 
     Returns
     -------
@@ -85,7 +89,9 @@ def solve(
             start,
         )
     if explain and (plan.unscheduled or not plan.status.has_plan):
-        budget = EXPLAIN_BUDGET_S if time_limit is None else time_limit
+        budget = explain_budget
+        if budget is None:
+            budget = EXPLAIN_BUDGET_S if time_limit is None else time_limit
         plan = plan.replace(
             why=explain_plan(problem, plan, _budgeted(run, budget))
         )

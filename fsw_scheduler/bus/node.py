@@ -74,6 +74,7 @@ def node_info(config: NodeConfig, problem: Problem) -> messages.NodeInfo:
         time_limit_s=config.time_limit,
         seed=config.seed,
         explain=config.explain,
+        explain_budget=config.explain_budget,
         clock=config.clock,
         report_timeout=config.report_timeout,
         drift_absolute=config.drift_absolute,
@@ -97,6 +98,7 @@ def run_solve(config: NodeConfig, command: StartSolve) -> Plan:
         seed=config.seed,
         explain=config.explain,
         warm=command.warm,
+        explain_budget=config.explain_budget,
     )
 
 
