@@ -351,6 +351,12 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     from .bus.session import zenoh_config
 
     with zenoh.open(zenoh_config(args)) as session:
+        if args.wait_matching:
+            from .bus.session import wait_matching
+
+            key = args.wait_key or "fsw/**"
+            log.info("waiting for a subscriber on %s", key)
+            wait_matching(session, key, args.wait_matching)
         count = replay(
             session,
             args.files,
@@ -634,6 +640,17 @@ def build_parser() -> argparse.ArgumentParser:
     rep.add_argument("--until", type=float, metavar="S")
     rep.add_argument("--loop", action="store_true")
     rep.add_argument(
+        "--wait-matching",
+        type=float,
+        metavar="S",
+        help="first wait up to S seconds for a subscriber on --wait-key",
+    )
+    rep.add_argument(
+        "--wait-key",
+        metavar="KEYEXPR",
+        help="key expression to wait on (default fsw/**)",
+    )
+    rep.add_argument(
         "--include", action="append", default=[], metavar="KEYEXPR"
     )
     rep.add_argument(
@@ -667,6 +684,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except InputError as error:
         print(f"fsw-scheduler: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except TimeoutError as error:  # an OSError, but not bad input
+        print(f"fsw-scheduler: error: {error}", file=sys.stderr)
+        return EXIT_NO_PLAN
     except (OSError, McapError) as error:
         # Unreadable or non-MCAP recordings are bad input, not crashes.
         where = (

@@ -167,3 +167,16 @@ def test_replan_rejects_colliding_goal(tmp_path: Path) -> None:
     )
     assert result.returncode == 2
     assert "tasks[2].id" in result.stderr
+
+
+def test_replay_wait_matching_times_out_cleanly() -> None:
+    """Tests that replay --wait-matching with no subscriber exits 1."""
+    golden = Path(__file__).resolve().parents[1] / "replay" / "paper.mcap"
+    result = cli(
+        "replay", str(golden), "--burst", "--wait-matching", "0.3",
+        "--wait-key", "fsw/nobody/**", "--no-multicast-scouting",
+        "--listen", "tcp/127.0.0.1:0",
+    )
+    assert result.returncode == 1, result.stderr
+    assert "timed out" in result.stderr
+    assert "Traceback" not in result.stderr
