@@ -189,6 +189,7 @@ class _Pending(msgspec.Struct):
 
     solve_id: int
     trigger: str
+    problem: Problem
     replan: Replan | None
     goals: tuple[str, ...]
     started_at: int
@@ -226,7 +227,7 @@ class Engine:
 
     def __init__(self, config: EngineConfig, initial: Problem) -> None:
         self.config = config
-        self._initial: Problem | None = initial
+        self._unsolved_initial: Problem | None = initial
         self.schedule: Schedule | None = None
         self.plan_id: int | None = None
         self.now: int | None = None
@@ -241,7 +242,6 @@ class Engine:
         self._health: Literal["ok", "degraded", "error"] = "ok"
         self._health_detail = ""
         self._plan_message: PlanMessage | None = None
-        self._initial_problem: Problem = initial
         self.initial = initial
 
     # -- read-only views (for queryables) ---------------------------------
@@ -324,7 +324,7 @@ class Engine:
     # -- event handlers ------------------------------------------------------
 
     def _on_tick(self, out: list[Command]) -> None:
-        if self._initial is not None and self._pending is None:
+        if self._unsolved_initial is not None and self._pending is None:
             self._start_initial(out)
         self._check_report_timeouts(out)
         if self._deferred_due() and not any(
@@ -352,9 +352,9 @@ class Engine:
         return False
 
     def _start_initial(self, out: list[Command]) -> None:
-        problem = self._initial
+        problem = self._unsolved_initial
         assert problem is not None and self.now is not None
-        self._initial = None
+        self._unsolved_initial = None
         if self.now > problem.start:
             problem = problem.replace(start=self.now)
         if not problem.tasks:
@@ -500,8 +500,7 @@ class Engine:
             return
         if pending.replan is None:
             assert self._plan_message is None
-            problem = self._initial_problem
-            self.schedule = Schedule.begin(problem, plan)
+            self.schedule = Schedule.begin(pending.problem, plan)
             self._adopt(plan, pending.trigger, pending.goals, (), out)
         else:
             self.schedule = pending.replan.adopt(plan)
@@ -644,13 +643,12 @@ class Engine:
         self._pending = _Pending(
             solve_id=self._solve_id,
             trigger=trigger,
+            problem=problem,
             replan=replan,
             goals=goals,
             started_at=self._clock(),
             dispatches_at_start=self._counters.dispatches,
         )
-        if replan is None:
-            self._initial_problem = problem
         out.append(
             Log(
                 "info",
@@ -682,11 +680,7 @@ class Engine:
             out.append(Publish(topics.STATUS, self.status("solve_failed")))
 
     def _solve_record(self, pending: _Pending, plan: Plan) -> Publish:
-        problem = (
-            pending.replan.problem
-            if pending.replan is not None
-            else self._initial_problem
-        )
+        problem = pending.problem
         stats = plan.stats or SolverStats(solver="?")
         record = SolveRecord(
             solve_id=pending.solve_id,
