@@ -12,7 +12,7 @@ from .check import check_plan
 from .domains import start_domains
 from .explain import explain as explain_plan
 from .greedy import greedy_plan
-from .solution import Plan, SolveStatus
+from .solution import Plan, SolverStats, SolveStatus
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -78,9 +78,19 @@ def solve(
         threads=threads,
         seed=seed,
     )
+    began = time.perf_counter()
     start = best_start(problem, warm)
     if start is not None and at_lower_bound(problem, start):
-        plan = start.replace(status=SolveStatus.OPTIMAL)
+        plan = start.replace(
+            status=SolveStatus.OPTIMAL,
+            stats=SolverStats(
+                solver="greedy",
+                wall_s=time.perf_counter() - began,
+                bound=start.objective.total if start.objective else None,
+                solver_status="every task at its earliest start: no solve",
+                time_limit_s=time_limit,
+            ),
+        )
     else:
         plan = _keep_better(
             _checked(

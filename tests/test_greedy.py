@@ -76,6 +76,7 @@ def test_lower_bound_shortcut_is_optimal() -> None:
     plan = solve(problem)
     assert plan.status is SolveStatus.OPTIMAL
     assert plan.starts() == {"a": 3}
+    assert plan.stats is not None and plan.stats.solver == "greedy"
 
 
 @settings(COMMON, max_examples=300)
