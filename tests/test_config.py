@@ -1,0 +1,70 @@
+"""Tests of the node settings file (fsw_scheduler.config)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import pytest
+
+from fsw_scheduler.config import NodeConfig, load_config
+from fsw_scheduler.errors import ConfigError
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+
+def test_defaults_without_a_file() -> None:
+    """Tests that no file gives the documented defaults."""
+    config = load_config(None)
+    assert config == NodeConfig()
+    assert config.solver == "cbc" and config.threads == 1
+    assert config.lead == 1  # wall clock: one unit of lead
+    assert NodeConfig(clock="bus").lead == 0
+
+
+def test_kebab_case_keys_are_read(tmp_path: Path) -> None:
+    """Tests that a TOML file with kebab-case keys is read."""
+    path = tmp_path / "scheduler.toml"
+    path.write_text(
+        'spacecraft = "sat7"\nclock = "bus"\ntime-limit = 3.5\n'
+        "report-timeout = 4\ndrift-absolute = 2.0\nreplan-lead = 2\n"
+    )
+    config = load_config(path)
+    assert config.spacecraft == "sat7"
+    assert config.time_limit == 3.5
+    assert config.report_timeout == 4
+    assert config.tolerance.absolute == 2.0
+    assert config.lead == 2
+
+
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [
+        ("time-limitt = 3\n", "time-limitt"),
+        ('solver = "gurobi"\n', "solver"),
+        ("time-unit = 0\n", "time-unit"),
+        ("inbox-capacity = 0\n", "inbox-capacity"),
+        ("this is not toml", "scheduler.toml"),
+    ],
+)
+def test_bad_settings_name_the_key(
+    tmp_path: Path, text: str, words: str
+) -> None:
+    """Tests that typos and bad values are errors naming the key."""
+    path = tmp_path / "scheduler.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError) as info:
+        load_config(path)
+    assert words in str(info.value)
+
+
+def test_missing_file_is_a_config_error(tmp_path: Path) -> None:
+    """Tests that an unreadable settings file is reported, not raised."""
+    with pytest.raises(ConfigError, match="cannot read"):
+        load_config(tmp_path / "absent.toml")
+
+
+def test_command_line_overrides_keep_unset_values() -> None:
+    """Tests that replace() ignores options the user did not give."""
+    config = NodeConfig(solver="highs").replace(solver=None, seed=3)
+    assert config.solver == "highs" and config.seed == 3
