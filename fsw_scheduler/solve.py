@@ -152,20 +152,23 @@ def at_lower_bound(problem: Problem, plan: Plan) -> bool:
 def best_start(problem: Problem, warm: Plan | None) -> Plan | None:
     """The better valid plan of ``warm`` and the greedy heuristic's.
 
-    Only plans the independent checker accepts are used, with their
-    objective recomputed on ``problem``; None when neither is valid.
+    The greedy plan is valid by construction (:func:`greedy_plan` returns
+    only plans the checker accepts); ``warm`` is used only if the checker
+    accepts it on ``problem``, with its objective recomputed there. None
+    when neither is valid.
     """
     candidates = []
-    for plan in (warm, greedy_plan(problem)):
-        if plan is None:
-            continue
-        report = check_plan(problem, plan)
+    if warm is not None:
+        report = check_plan(problem, warm)
         if report.ok:
             candidates.append(
-                plan.replace(
+                warm.replace(
                     status=SolveStatus.FEASIBLE, objective=report.objective
                 )
             )
+    greedy = greedy_plan(problem)
+    if greedy is not None:
+        candidates.append(greedy)  # on a tie, the previous plan is kept
     if not candidates:
         return None
     return min(
