@@ -35,7 +35,7 @@ import msgspec
 from . import messages
 from .bus import topics as keys
 from .config import NodeConfig
-from .engine import Engine, EngineConfig, Publish, SolveDone, StartSolve
+from .engine import Engine, Publish, SolveDone, StartSolve
 from .inputs import InputDecoder
 from .recording import PathLike, RecordedMessage, iter_messages
 from .solution import Plan
@@ -209,12 +209,7 @@ def verify(
         raise ValueError("the journal's scheduler/config has no problem")
     config = config_from_info(info)
     topics = keys.Topics(config.spacecraft)
-    engine = Engine(
-        msgspec.convert(
-            msgspec.to_builtins(engine_config(config)), EngineConfig
-        ),
-        info.problem,
-    )
+    engine = Engine(engine_config(config), info.problem)
     decoder = InputDecoder(topics, config.clock)
     solve = solve_fn or run_solve
     report = VerifyReport()
