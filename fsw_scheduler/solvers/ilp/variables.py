@@ -20,7 +20,6 @@ from typing import TYPE_CHECKING
 import pulp
 
 if TYPE_CHECKING:
-    from collections.abc import Iterator
 
     from ...domains import Domain
     from ...model import Problem, Task
@@ -61,12 +60,6 @@ class Variables:
             ]
             if task.mandatory:
                 self.scheduled(task.id).lowBound = 1
-
-    @property
-    def all(self) -> Iterator[pulp.LpVariable]:
-        """Every variable, in a stable order."""
-        for steps in self.steps.values():
-            yield from steps
 
     def placeable(self, task_id: str) -> bool:
         """True if the task has at least one allowed start time."""
