@@ -359,16 +359,38 @@ def test_time_limit_status_is_honest() -> None:
         )
 
 
-def test_status_mapping_reads_solution_status() -> None:
-    """Tests that PuLP's solution status, not its status, is mapped."""
-    import pulp
+@pytest.mark.parametrize(
+    ("first_line", "status", "has_values"),
+    [
+        ("Optimal - objective value 12.0", SolveStatus.OPTIMAL, True),
+        (
+            "Stopped on time - objective value 40.0",
+            SolveStatus.FEASIBLE,
+            True,
+        ),
+        (
+            "Stopped on ctrl-c - objective value 40.0",
+            SolveStatus.FEASIBLE,
+            True,
+        ),
+        ("Stopped on time - no solution", SolveStatus.UNKNOWN, False),
+        ("Infeasible - objective value 0", SolveStatus.INFEASIBLE, False),
+        (
+            "Integer infeasible - objective value 0",
+            SolveStatus.INFEASIBLE,
+            False,
+        ),
+        ("Unbounded - objective value 0", SolveStatus.UNKNOWN, False),
+        ("", SolveStatus.UNKNOWN, False),
+    ],
+)
+def test_cbc_status_line_is_read_honestly(
+    first_line: str, status: SolveStatus, has_values: bool
+) -> None:
+    """Tests that a plan found at a limit is feasible, not optimal."""
+    from fsw_scheduler.solvers.ilp.cbc import read_status
 
-    from fsw_scheduler.solvers.ilp.model import _STATUS
-
-    assert _STATUS[pulp.LpSolutionIntegerFeasible] is SolveStatus.FEASIBLE
-    assert _STATUS[pulp.LpSolutionOptimal] is SolveStatus.OPTIMAL
-    assert _STATUS[pulp.LpSolutionNoSolutionFound] is SolveStatus.UNKNOWN
-    assert _STATUS[pulp.LpSolutionInfeasible] is SolveStatus.INFEASIBLE
+    assert read_status(first_line) == (status, has_values)
 
 
 def test_warm_start_keeps_optimum(table1_doc: dict) -> None:
@@ -417,13 +439,13 @@ def test_time_limit_returns_a_valid_plan_on_a_hard_problem() -> None:
 
 def test_cbc_is_interrupted_at_its_deadline() -> None:
     """Tests that CBC past its wall-clock deadline is stopped, not awaited."""
-    from fsw_scheduler.solvers.ilp.cbc import HardLimitCBC
-    from fsw_scheduler.solvers.ilp.model import BuiltModel, cbc_path
+    from fsw_scheduler.solvers.ilp.cbc import CbcRun
+    from fsw_scheduler.solvers.ilp.model import BuiltModel
 
     built = BuiltModel(problem_from(_large_problem()))
-    backend = HardLimitCBC(deadline_s=0.05, path=cbc_path(), msg=False)
-    built.lp.solve(backend)
-    assert backend.interrupted
+    run = CbcRun(deadline_s=0.05)
+    result = run.solve(built.program)
+    assert result.interrupted and run.interrupted
 
 
 def test_explanations_share_a_time_budget(table1_doc: dict) -> None:

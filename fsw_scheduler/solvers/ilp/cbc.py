@@ -1,27 +1,43 @@
-"""Running CBC with a time limit it cannot overrun.
+"""Running the CBC executable with a time limit it cannot overrun.
 
-Two things in PuLP's ``COIN_CMD`` are not good enough on board:
+The program is written as MPS (:meth:`Program.mps`), CBC runs as a child
+process, and its solution file is read back. A separate process is what
+makes the limit enforceable on board:
 
 * CBC's ``-sec`` is honoured during the root LP only when the time is
-  counted in CPU seconds: with ``-timeMode elapsed`` (PuLP's default) CBC
-  prints "Problem is stopped" and then carries on, and large models were
-  seen running four times past their limit. The limit is therefore given in
-  CPU time (one thread, so close to wall time on an idle core).
-* Nothing stops a CBC process that hangs or starves. Here the process runs
-  under a wall-clock deadline of ``limit + grace``; past it CBC gets
-  SIGINT (it then stops as at a limit and writes its best solution), and
-  past a second grace it is killed, which reads as "no solution found".
+  counted in CPU seconds: with ``-timeMode elapsed`` CBC prints "Problem is
+  stopped" and then carries on, and large models were seen running four
+  times past their limit. The limit is therefore given in CPU time (one
+  thread, so close to wall time on an idle core).
+* Nothing stops a CBC that hangs or starves. Here the process runs under
+  a wall-clock deadline of ``limit + grace``; past it CBC gets SIGINT (it
+  then stops as at a limit and writes its best solution), and past a
+  second grace it is killed, which reads as "no solution found".
+
+Starting the process costs about 10 ms; writing and reading the files a
+few more (tools/bench reports both as solver overhead).
 """
 
 from __future__ import annotations
 
+import functools
 import logging
 import os
+import re
 import signal
 import subprocess
-from typing import Any
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
 
-import pulp
+from ...errors import SolverError
+from ...solution import SolveStatus
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from .program import Program
 
 #: Wall-clock seconds allowed past the time limit before SIGINT, then kill.
 GRACE_S = 2.0
@@ -29,85 +45,233 @@ GRACE_S = 2.0
 #: An option that speeds CBC up but can crash it; dropped on a retry.
 FRAGILE = "preprocess off"
 
+# Every objective coefficient is an integer, so an absolute gap below one
+# already proves the optimum; a relative gap would stop early on the big
+# weight of the lexicographic objective.
+ABS_GAP = 0.5
+
 log = logging.getLogger("fsw_scheduler.solver")
 
-
-def _flags(options: list[str]) -> list[str]:
-    return [word for option in options for word in ("-" + option).split()]
-
-
-def _failed(code: int, solution: str, interrupted: bool) -> bool:
-    """No usable solution file (crash, or killed at the deadline)."""
-    empty = not os.path.exists(solution) or os.path.getsize(solution) == 0
-    return empty or (code != 0 and not interrupted)
+_SECONDS = re.compile(r"Time \(Wallclock seconds\):\s+([0-9.eE+-]+)")
+_BOUND = re.compile(r"Lower bound:\s+([0-9.eE+-]+)")
 
 
-class HardLimitCBC(pulp.COIN_CMD):
-    """``COIN_CMD`` with CPU-time limits and a wall-clock deadline.
+@functools.cache
+def cbc_path() -> str:
+    """The CBC executable: PuLP's bundled binary, else ``cbc`` on PATH.
+
+    Looked up once per process: finding the bundled binary imports PuLP.
+    """
+    import shutil
+
+    from pulp.apis import coin_api
+
+    bundled = Path(coin_api.pulp_cbc_path)
+    if bundled.is_file() and os.access(bundled, os.X_OK):
+        return str(bundled.resolve())
+    found = shutil.which("cbc")
+    if found is None:
+        raise SolverError(
+            "no CBC executable: PuLP's bundled one is missing and 'cbc' is "
+            "not on PATH (pip install 'pulp[cbc]' or apt install coinor-cbc)"
+        )
+    return found
+
+
+@dataclass
+class CbcResult:
+    """What one CBC run gave.
+
+    Attributes
+    ----------
+    status
+        Read from the first line of CBC's solution file.
+    values
+        Column values when CBC wrote a solution (``has_plan`` statuses).
+    seconds
+        CBC's own wall-clock time, from its log.
+    bound
+        CBC's lower bound on the objective, constant included.
+    interrupted
+        True when the deadline passed and CBC was interrupted.
+    retried
+        True when CBC crashed and was run again with its defaults.
+    """
+
+    status: SolveStatus
+    values: list[float] | None
+    seconds: float | None = None
+    bound: float | None = None
+    interrupted: bool = False
+    retried: bool = False
+    solver_status: str = ""
+
+
+def read_status(first_line: str) -> tuple[SolveStatus, bool]:
+    """(status, has values) from the first line of a CBC solution file.
+
+    "Stopped on time - objective value 12" is a plan found at a limit;
+    "Stopped on time - no solution" has none; "Integer infeasible" is a
+    proven infeasibility like "Infeasible".
+    """
+    words = first_line.split()
+    head = words[0] if words else ""
+    if head == "Optimal":
+        return SolveStatus.OPTIMAL, True
+    if head in ("Infeasible", "Integer"):
+        return SolveStatus.INFEASIBLE, False
+    if head == "Stopped" and len(words) >= 5 and words[4] == "objective":
+        return SolveStatus.FEASIBLE, True
+    return SolveStatus.UNKNOWN, False
+
+
+def _read_solution(path: str, columns: int) -> tuple[str, list[float]]:
+    values = [0.0] * columns
+    with open(path) as lines:
+        first = lines.readline()
+        for line in lines:
+            words = line.split()
+            if len(words) < 3:
+                break
+            if words[0] == "**":  # marks a value breaking its bounds
+                words = words[1:]
+            name = words[1]
+            if name.startswith("X"):
+                values[int(name[1:])] = float(words[2])
+    return first, values
+
+
+def _read_log(path: str) -> tuple[float | None, float | None]:
+    """(solve seconds, lower bound) from a CBC log, when it states them."""
+    try:
+        text = Path(path).read_text(errors="replace")
+    except OSError:
+        return None, None
+    seconds = _SECONDS.findall(text)
+    bound = _BOUND.findall(text)
+    return (
+        float(seconds[-1]) if seconds else None,
+        float(bound[-1]) if bound else None,
+    )
+
+
+class CbcRun:
+    """One configured CBC: options, seed, time limit and deadline.
 
     Parameters
     ----------
+    time_limit
+        CPU seconds for CBC (``-sec``), None for no limit.
     deadline_s
         Wall-clock seconds after which the process is interrupted; None
-        waits for CBC however long it takes.
-    **options
-        As for :class:`pulp.COIN_CMD`.
+        waits for CBC however long it takes. Defaults to
+        ``time_limit + GRACE_S``.
+    threads
+        CBC threads; 1 keeps results reproducible.
+    seed
+        Seed of CBC's random choices.
+    path
+        The executable (default :func:`cbc_path`).
     """
 
-    def __init__(self, *, deadline_s: float | None, **options: Any) -> None:
-        options.setdefault("timeMode", "cpu")
-        super().__init__(**options)
+    def __init__(
+        self,
+        *,
+        time_limit: float | None = None,
+        deadline_s: float | None = None,
+        threads: int = 1,
+        seed: int = 0,
+        path: str | None = None,
+    ) -> None:
+        self.path = path or cbc_path()
+        self.time_limit = time_limit
+        if deadline_s is None and time_limit is not None:
+            deadline_s = time_limit + GRACE_S
         self.deadline_s = deadline_s
+        self.options = [
+            # CBC's own seeds: the same input gives the same plan.
+            f"randomSeed {seed + 1}",
+            f"randomCbcSeed {seed + 1}",
+            # CGL preprocessing costs more than it saves on these models:
+            # half the median time on the paper's campaign (tools/bench,
+            # 15 tasks: 0.67 s -> 0.31 s).
+            FRAGILE,
+            "timeMode cpu",
+            "ratio 0",
+            f"allow {ABS_GAP}",
+            f"threads {threads}",
+        ]
         self.interrupted = False
-        self.killed = False
 
-    def solve_CBC(self, lp: pulp.LpProblem, use_mps: bool = True) -> int:
-        """Write the MPS, run CBC under the deadline, read the solution."""
-        tmp_lp, tmp_mps, tmp_sol, tmp_mst = self.create_tmp_files(
-            lp.name, "lp", "mps", "sol", "mst"
-        )
-        variables, var_names, con_names, _ = lp.writeMPS(tmp_mps, rename=1)
-        head = [self.path, tmp_mps]
-        if self.optionsDict.get("warmStart", False):
-            self.writesol(tmp_mst, lp, variables, var_names, con_names)
-            head += ["-mips", tmp_mst]
-        if self.timeLimit is not None:
-            head += ["-sec", str(self.timeLimit)]
-        options = [*self.options, *self.getOptions()]
-        tail = ["-solve", "-printingOptions", "all", "-solution", tmp_sol]
-        try:
-            code = self._run(head + _flags(options) + tail)
-            if (
-                _failed(code, tmp_sol, self.interrupted)
-                and not self.interrupted
-                and FRAGILE in options
-            ):
+    def solve(
+        self, program: Program, warm: Sequence[float] | None = None
+    ) -> CbcResult:
+        """Solve ``program``, starting from ``warm`` column values if given.
+
+        Raises
+        ------
+        SolverError
+            When CBC fails without being interrupted, even on a retry.
+        """
+        with tempfile.TemporaryDirectory(prefix="fsw-cbc-") as tmp:
+            files = {
+                kind: os.path.join(tmp, f"model.{kind}")
+                for kind in ("mps", "mst", "sol", "log")
+            }
+            Path(files["mps"]).write_text(program.mps())
+            head = [self.path, files["mps"]]
+            if warm is not None:
+                _write_start(files["mst"], program, warm)
+                head += ["-mips", files["mst"]]
+            if self.time_limit is not None:
+                head += ["-sec", str(self.time_limit)]
+            tail = ["-solve", "-solution", files["sol"]]
+            options = list(self.options)
+            code = self._run(head + _flags(options) + tail, files["log"])
+            retried = False
+            if self._failed(code, files["sol"]) and not self.interrupted:
                 # CBC 2.10 can crash without preprocessing on some
                 # infeasible models: retry once with its defaults.
                 log.warning(
                     "cbc exited with %s; retrying with preprocessing", code
                 )
-                options = [o for o in options if o != FRAGILE]
-                code = self._run(head + _flags(options) + tail)
-            if _failed(code, tmp_sol, self.interrupted):
+                options.remove(FRAGILE)
+                retried = True
+                code = self._run(head + _flags(options) + tail, files["log"])
+            seconds, bound = _read_log(files["log"])
+            if bound is not None:
+                bound += program.constant
+            if self._failed(code, files["sol"]):
                 if not self.interrupted:
-                    raise pulp.PulpSolverError(f"cbc exited with code {code}")
-                lp.assignStatus(
-                    pulp.LpStatusNotSolved, pulp.LpSolutionNoSolutionFound
+                    raise SolverError(f"cbc exited with code {code}")
+                return CbcResult(
+                    SolveStatus.UNKNOWN,
+                    None,
+                    seconds,
+                    bound,
+                    interrupted=True,
+                    retried=retried,
+                    solver_status="killed at the deadline",
                 )
-                return pulp.LpStatusNotSolved
-            status, values, _, _, _, sol_status = self.readsol_MPS(
-                tmp_sol, lp, variables, var_names, con_names
-            )
-            lp.assignVarsVals(values)
-            lp.assignStatus(status, sol_status)
-            return status
-        finally:
-            self.delete_tmp_files(tmp_mps, tmp_lp, tmp_sol, tmp_mst)
+            first, values = _read_solution(files["sol"], program.num_columns)
+        status, has_values = read_status(first)
+        return CbcResult(
+            status,
+            values if has_values else None,
+            seconds,
+            bound,
+            interrupted=self.interrupted,
+            retried=retried,
+            solver_status=" ".join(first.split()[:4]).rstrip(" -"),
+        )
 
-    def _run(self, args: list[str]) -> int:
-        log_path = self.optionsDict.get("logPath")
-        with open(log_path or os.devnull, "w") as out:
+    def _failed(self, code: int, solution: str) -> bool:
+        """No usable solution file (crash, or killed at the deadline)."""
+        empty = not os.path.exists(solution) or os.path.getsize(solution) == 0
+        return empty or (code != 0 and not self.interrupted)
+
+    def _run(self, args: list[str], log_path: str) -> int:
+        with open(log_path, "w") as out:
             process = subprocess.Popen(
                 args, stdout=out, stderr=out, stdin=subprocess.DEVNULL
             )
@@ -127,6 +291,19 @@ class HardLimitCBC(pulp.COIN_CMD):
         try:
             process.wait(GRACE_S)
         except subprocess.TimeoutExpired:
-            self.killed = True
             process.kill()
             process.wait()
+
+
+def _flags(options: list[str]) -> list[str]:
+    return [word for option in options for word in ("-" + option).split()]
+
+
+def _write_start(path: str, program: Program, values: Sequence[float]) -> None:
+    """A MIP start in CBC's solution-file format (read by ``-mips``)."""
+    lines = ["Stopped on time - objective value 0\n"]
+    lines += [
+        f"{col:>7} {program.column_name(col)} {value:>15g} {0:>23}\n"
+        for col, value in enumerate(values)
+    ]
+    Path(path).write_text("".join(lines))

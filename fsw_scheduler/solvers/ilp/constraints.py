@@ -12,20 +12,21 @@ from __future__ import annotations
 import itertools
 from typing import TYPE_CHECKING
 
-import pulp
+from .program import EQ, LE
 
 if TYPE_CHECKING:
     from ...model import Precedence, Problem, Task
-    from .variables import Terms, Variables
+    from .program import Program, Terms
+    from .variables import Variables
 
 
 class Constraints:
-    """Adds every constraint family of ``problem`` to ``lp``.
+    """Adds every constraint family of ``problem`` to ``program``.
 
     Parameters
     ----------
-    lp
-        The PuLP problem being built.
+    program
+        The program being built.
     problem
         The scheduling problem.
     variables
@@ -33,12 +34,11 @@ class Constraints:
     """
 
     def __init__(
-        self, lp: pulp.LpProblem, problem: Problem, variables: Variables
+        self, program: Program, problem: Problem, variables: Variables
     ) -> None:
-        self.lp = lp
+        self.program = program
         self.problem = problem
         self.vars = variables
-        self._count = 0
 
     def add_all(self) -> None:
         """Add every family, in a fixed order (stable row numbering)."""
@@ -51,18 +51,9 @@ class Constraints:
 
     # -- helpers ------------------------------------------------------------
 
-    def _row(self, terms: Terms, sense: int, rhs: float) -> None:
-        """Add ``terms (sense) rhs``, dropping zero coefficients."""
-        clean = {v: c for v, c in terms.items() if c != 0}
-        if not clean:
-            return  # constant row: validated elsewhere
-        self._count += 1
-        self.lp.addConstraint(
-            pulp.LpConstraint(
-                pulp.LpAffineExpression(clean), sense=sense, rhs=rhs
-            ),
-            name=f"c{self._count}",
-        )
+    def _row(self, terms: Terms, sense: str, rhs: float) -> None:
+        """Add ``terms (sense) rhs``; a constant row is validated elsewhere."""
+        self.program.add_row(terms, sense, rhs)
 
     def _users(self, resource: str) -> list[tuple[Task, float]]:
         return [
@@ -77,7 +68,7 @@ class Constraints:
         """Steps never go back: ``z[i, t-1] <= z[i, t]``."""
         for steps in self.vars.steps.values():
             for before, after in itertools.pairwise(steps):
-                self._row({before: 1.0, after: -1.0}, pulp.LpConstraintLE, 0)
+                self._row({before: 1.0, after: -1.0}, LE, 0)
 
     def _capacity_rows(self, resource: str, capacity: float) -> None:
         """``sum_i amount_i * R(i, t) <= capacity`` for every time unit."""
@@ -89,7 +80,7 @@ class Constraints:
             terms: Terms = {}
             for task, amount in running:
                 self.vars.add_running(terms, task, time, amount)
-            self._row(terms, pulp.LpConstraintLE, capacity)
+            self._row(terms, LE, capacity)
 
     def _binary_resources(self) -> None:
         """Paper eq. (1): at most one running user per time unit."""
@@ -114,14 +105,14 @@ class Constraints:
         even if all are scheduled gets no rows at all.
         """
         consumables = self.problem.resources.consumable.items()
-        for idx, (resource, initial) in enumerate(consumables):
+        for resource, initial in consumables:
             users = self._users(resource)
             worst = sum(a * t.length for t, a in users if a > 0)
             if worst <= initial:
                 continue
-            previous: pulp.LpVariable | None = None
+            previous: int | None = None
             for time in range(self.problem.start, self.problem.end):
-                level = self.lp.add_variable(f"L{idx}_{time}", lowBound=0)
+                level = self.program.add_column(0)
                 # level - previous + sum amount * R = 0 (initial if first)
                 terms: Terms = {level: 1.0}
                 if previous is not None:
@@ -130,7 +121,7 @@ class Constraints:
                     if self.vars.may_run(task, time):
                         self.vars.add_running(terms, task, time, amount)
                 rhs = initial if previous is None else 0.0
-                self._row(terms, pulp.LpConstraintEQ, rhs)
+                self._row(terms, EQ, rhs)
                 previous = level
 
     def _precedence(self, prec: Precedence) -> None:
@@ -151,10 +142,10 @@ class Constraints:
         gap = self.problem.task(i).length + prec.offset
         if not vars_.placeable(j):
             if prec.scope == "both" and vars_.placeable(i):
-                self._row({vars_.scheduled(i): 1.0}, pulp.LpConstraintLE, 0)
+                self._row({vars_.scheduled(i): 1.0}, LE, 0)
             return
         if not vars_.placeable(i):
-            self._row({vars_.scheduled(j): 1.0}, pulp.LpConstraintLE, 0)
+            self._row({vars_.scheduled(j): 1.0}, LE, 0)
             return
         dom_i, dom_j = vars_.domains[i], vars_.domains[j]
         first = min(dom_j.earliest, dom_i.earliest + gap)
@@ -164,18 +155,18 @@ class Constraints:
             follows: Terms = {}
             vars_.add_step(follows, j, time, 1.0)
             vars_.add_step(follows, i, time - gap, -1.0)
-            self._row(follows, pulp.LpConstraintLE, 0)
+            self._row(follows, LE, 0)
             if prec.kind == "tight" and prec.scope == "at_least_first":
                 # Z(i, t-g) - Z(j, t) - y_i + y_j <= 0
                 leads = {v: -c for v, c in follows.items()}
                 leads[y_i] = leads.get(y_i, 0.0) - 1.0
                 leads[y_j] = leads.get(y_j, 0.0) + 1.0
-                self._row(leads, pulp.LpConstraintLE, 0)
+                self._row(leads, LE, 0)
             elif prec.kind == "tight":
                 self._row(
                     {v: -c for v, c in follows.items()},
-                    pulp.LpConstraintLE,
+                    LE,
                     0,
                 )
         if prec.scope == "both":
-            self._row({y_i: 1.0, y_j: -1.0}, pulp.LpConstraintEQ, 0)
+            self._row({y_i: 1.0, y_j: -1.0}, EQ, 0)

@@ -1,23 +1,20 @@
 """Build the ILP, run CBC or HiGHS, and read the solver's own status.
 
-PuLP's ``status`` says "Optimal" whenever an integer solution was found,
-even when a time limit stopped the search; ``sol_status`` tells proven
-optimality from "best found at the limit", so that is what is mapped.
+CBC runs as a child process on an MPS file (:mod:`.cbc`); HiGHS is reached
+through PuLP, whose ``sol_status`` (not its ``status``, which says
+"Optimal" whenever an integer solution was found, even when a time limit
+stopped the search) tells proven optimality from "best found at the
+limit".
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
-import re
-import shutil
 import sys
-import tempfile
 import time
-from pathlib import Path
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
-
-import pulp
 
 from ...domains import start_domains
 from ...errors import SolverError
@@ -28,72 +25,81 @@ from ...solution import (
     SolverStats,
     SolveStatus,
 )
-from .cbc import GRACE_S, HardLimitCBC
+from .cbc import ABS_GAP, CbcRun
 from .constraints import Constraints
 from .objective import objective, weight
+from .program import Program
 from .variables import Variables
 
 if TYPE_CHECKING:
-    from collections.abc import Iterator
+    from collections.abc import Iterator, Sequence
 
+    import pulp
+
+    from ...domains import Domain
     from ...model import Problem
 
 SOLVERS = ("cbc", "highs")
 
-# Every objective coefficient is an integer, so an absolute gap below one
-# already proves the optimum; a relative gap would stop early on the big
-# weight of the lexicographic objective.
-_ABS_GAP = 0.5
 
-_STATUS = {
-    pulp.LpSolutionOptimal: SolveStatus.OPTIMAL,
-    pulp.LpSolutionIntegerFeasible: SolveStatus.FEASIBLE,
-    pulp.LpSolutionInfeasible: SolveStatus.INFEASIBLE,
-    pulp.LpSolutionNoSolutionFound: SolveStatus.UNKNOWN,
-    pulp.LpSolutionUnbounded: SolveStatus.UNKNOWN,
-}
+def _pulp_status(lp: pulp.LpProblem) -> SolveStatus:
+    """The status of a solve through PuLP, from the solution status first.
 
-
-def _read_status(lp: pulp.LpProblem) -> SolveStatus:
-    """The solve's status, from the solution status first.
-
-    CBC's "Integer infeasible" result sets PuLP's ``status`` to infeasible
-    but leaves ``sol_status`` at "no solution found", so a proven
-    infeasibility is read from ``status``.
+    A proven infeasibility can leave ``sol_status`` at "no solution found"
+    with ``status`` infeasible, so that is read from ``status``.
     """
+    import pulp
+
     if lp.status == pulp.LpStatusInfeasible:
         return SolveStatus.INFEASIBLE
-    return _STATUS.get(lp.sol_status, SolveStatus.UNKNOWN)
+    return {
+        pulp.LpSolutionOptimal: SolveStatus.OPTIMAL,
+        pulp.LpSolutionIntegerFeasible: SolveStatus.FEASIBLE,
+        pulp.LpSolutionInfeasible: SolveStatus.INFEASIBLE,
+    }.get(lp.sol_status, SolveStatus.UNKNOWN)
 
 
 class BuiltModel:
-    """A problem's ILP: PuLP problem plus the variables that decode it."""
+    """A problem's ILP: the program plus the variables that decode it.
 
-    def __init__(self, problem: Problem) -> None:
+    Parameters
+    ----------
+    problem
+        A validated problem.
+    domains
+        Start domains to model (default :func:`start_domains`); narrower
+        ones, such as those of :func:`fsw_scheduler.domains.cost_caps`,
+        give a smaller model with the same optimum.
+    """
+
+    def __init__(
+        self, problem: Problem, domains: dict[str, Domain] | None = None
+    ) -> None:
         self.problem = problem
-        self.domains = start_domains(problem)
-        self.lp = pulp.LpProblem("schedule", pulp.LpMinimize)
-        self.vars = Variables(self.lp, problem, self.domains)
-        self.constraints = Constraints(self.lp, problem, self.vars)
-        self.constraints.add_all()
-        self.lp.setObjective(objective(problem, self.vars))
+        self.domains = (
+            domains if domains is not None else start_domains(problem)
+        )
+        self.program = Program()
+        self.vars = Variables(self.program, problem, self.domains)
+        Constraints(self.program, problem, self.vars).add_all()
+        self.program.set_objective(*objective(problem, self.vars))
 
     @property
     def num_variables(self) -> int:
         """Number of variables handed to the solver."""
-        return len(self.lp.variables())
+        return self.program.num_columns
 
     @property
     def num_constraints(self) -> int:
         """Number of rows handed to the solver."""
-        return self.lp.numConstraints()
+        return self.program.num_rows
 
-    def decode(self, status: SolveStatus) -> Plan:
-        """Read the solution into a Plan with the objective recomputed."""
+    def decode(self, status: SolveStatus, values: Sequence[float]) -> Plan:
+        """Read solution ``values`` into a Plan, objective recomputed."""
         activities, unscheduled = [], []
         delay = unscheduled_cost = 0
         for task in self.problem.tasks:
-            start = self.vars.start_of(task.id)
+            start = self.vars.start_of(task.id, values)
             if start is None:
                 unscheduled.append(task.id)
                 unscheduled_cost += task.schedule_cost
@@ -108,72 +114,6 @@ class BuiltModel:
             activities=tuple(activities),
             unscheduled=tuple(unscheduled),
         )
-
-
-def cbc_path() -> str:
-    """The CBC executable: PuLP's bundled binary, else ``cbc`` on PATH.
-
-    ``PULP_CBC_CMD`` (which uses the bundled binary) is deprecated in favour
-    of ``COIN_CMD``, which only looks on PATH; pointing ``COIN_CMD`` at the
-    bundled binary keeps a plain ``pip install`` self-sufficient.
-    """
-    from pulp.apis import coin_api
-
-    bundled = Path(coin_api.pulp_cbc_path)
-    if bundled.is_file() and os.access(bundled, os.X_OK):
-        return str(bundled.resolve())
-    found = shutil.which("cbc")
-    if found is None:
-        raise SolverError(
-            "no CBC executable: PuLP's bundled one is missing and 'cbc' is "
-            "not on PATH (pip install 'pulp[cbc]' or apt install coinor-cbc)"
-        )
-    return found
-
-
-def _backend(
-    solver: str,
-    time_limit: float | None,
-    threads: int,
-    seed: int,
-    warm: bool,
-    log_path: str,
-) -> pulp.LpSolver:
-    if solver == "cbc":
-        return HardLimitCBC(
-            deadline_s=None if time_limit is None else time_limit + GRACE_S,
-            path=cbc_path(),
-            msg=False,
-            threads=threads,
-            timeLimit=time_limit,
-            gapRel=0.0,
-            gapAbs=_ABS_GAP,
-            warmStart=warm,
-            logPath=log_path,
-            options=[
-                # CBC's own seeds: the same input gives the same plan.
-                f"randomSeed {seed + 1}",
-                f"randomCbcSeed {seed + 1}",
-                # CGL preprocessing costs more than it saves on these
-                # models: half the median time on the paper's campaign
-                # (tools/bench, 15 tasks: 0.67 s -> 0.31 s).
-                "preprocess off",
-            ],
-        )
-    if solver == "highs":
-        if not pulp.HiGHS().available():
-            raise SolverError(
-                "HiGHS is not installed: pip install 'fsw-scheduler[highs]'"
-            )
-        return pulp.HiGHS(
-            msg=False,
-            threads=threads,
-            timeLimit=time_limit,
-            gapRel=0.0,
-            gapAbs=_ABS_GAP,
-            random_seed=seed,
-        )
-    raise SolverError(f"unknown solver {solver!r} (choose from {SOLVERS})")
 
 
 @contextlib.contextmanager
@@ -198,24 +138,6 @@ def _stdout_to_stderr(active: bool) -> Iterator[None]:
         os.close(saved)
 
 
-_CBC_SECONDS = re.compile(r"Time \(Wallclock seconds\):\s+([0-9.eE+-]+)")
-_CBC_BOUND = re.compile(r"Lower bound:\s+([0-9.eE+-]+)")
-
-
-def _read_cbc_log(path: str) -> tuple[float | None, float | None]:
-    """(solve seconds, lower bound) from a CBC log, when it states them."""
-    try:
-        text = Path(path).read_text(errors="replace")
-    except OSError:
-        return None, None
-    seconds = _CBC_SECONDS.findall(text)
-    bound = _CBC_BOUND.findall(text)
-    return (
-        float(seconds[-1]) if seconds else None,
-        float(bound[-1]) if bound else None,
-    )
-
-
 def _highs_bound(lp: pulp.LpProblem) -> float | None:
     model = getattr(lp, "solverModel", None)
     if model is None:
@@ -226,6 +148,78 @@ def _highs_bound(lp: pulp.LpProblem) -> float | None:
         return None
 
 
+@dataclass
+class _Outcome:
+    status: SolveStatus
+    values: Sequence[float] | None
+    seconds: float | None
+    bound: float | None
+    solver_status: str
+
+
+def _run_cbc(
+    built: BuiltModel,
+    time_limit: float | None,
+    threads: int,
+    seed: int,
+    warm: dict[str, int] | None,
+) -> _Outcome:
+    start = None
+    if warm:
+        start, _ = built.vars.initial(warm, built.program.num_columns)
+    run = CbcRun(time_limit=time_limit, threads=threads, seed=seed)
+    result = run.solve(built.program, start)
+    notes = [result.solver_status]
+    if result.retried:
+        notes.append("retried with preprocessing")
+    if result.interrupted:
+        notes.append("interrupted at the deadline")
+    return _Outcome(
+        result.status,
+        result.values,
+        result.seconds,
+        result.bound,
+        "; ".join(notes),
+    )
+
+
+def _run_highs(
+    built: BuiltModel, time_limit: float | None, threads: int, seed: int
+) -> _Outcome:
+    import pulp
+
+    if not pulp.HiGHS().available():
+        raise SolverError(
+            "HiGHS is not installed: pip install 'fsw-scheduler[highs]'"
+        )
+    lp, columns = built.program.to_pulp()
+    backend = pulp.HiGHS(
+        msg=False,
+        threads=threads,
+        timeLimit=time_limit,
+        gapRel=0.0,
+        gapAbs=ABS_GAP,
+        random_seed=seed,
+    )
+    began = time.perf_counter()
+    try:
+        with _stdout_to_stderr(True):
+            lp.solve(backend)
+    except pulp.PulpSolverError as error:
+        raise SolverError(f"highs failed: {error}") from error
+    status = _pulp_status(lp)
+    values = None
+    if status.has_plan:
+        values = [column.varValue or 0.0 for column in columns]
+    return _Outcome(
+        status,
+        values,
+        time.perf_counter() - began,
+        _highs_bound(lp),
+        pulp.LpStatus.get(lp.status, "?") + f"/{lp.sol_status}",
+    )
+
+
 def solve_ilp(
     problem: Problem,
     solver: str = "cbc",
@@ -234,6 +228,7 @@ def solve_ilp(
     threads: int = 1,
     seed: int = 0,
     warm: dict[str, int] | None = None,
+    domains: dict[str, Domain] | None = None,
 ) -> Plan:
     """Build and solve the ILP of ``problem``.
 
@@ -251,7 +246,10 @@ def solve_ilp(
     seed
         Solver random seed.
     warm
-        Task id to start time of a known plan, used as a MIP start.
+        Task id to start time of a known plan, used as a MIP start (CBC).
+    domains
+        Start domains to model (default: :func:`start_domains`). Narrower
+        domains must keep at least one optimal plan.
 
     Returns
     -------
@@ -259,10 +257,10 @@ def solve_ilp(
         With ``stats`` filled; without ``why`` (see
         :mod:`fsw_scheduler.explain`).
     """
+    if solver not in SOLVERS:
+        raise SolverError(f"unknown solver {solver!r} (choose from {SOLVERS})")
     began = time.perf_counter()
-    built = BuiltModel(problem)
-    if warm:
-        built.vars.set_initial(warm)
+    built = BuiltModel(problem, domains)
     built_at = time.perf_counter()
     impossible = [
         task.id
@@ -280,7 +278,7 @@ def solve_ilp(
         # No need to ask the solver: a mandatory task has no start time.
         return _without_plan(problem, SolveStatus.INFEASIBLE, stats, began)
     if not built.vars.steps:
-        plan = built.decode(SolveStatus.OPTIMAL)
+        plan = built.decode(SolveStatus.OPTIMAL, [])
         return plan.replace(
             stats=SolverStats(
                 **stats,
@@ -288,39 +286,26 @@ def solve_ilp(
                 solver_status="trivial",
             )
         )
-    handle, log_path = tempfile.mkstemp(prefix="fsw-cbc-", suffix=".log")
-    os.close(handle)
-    try:
-        backend = _backend(
-            solver, time_limit, threads, seed, bool(warm), log_path
-        )
-        try:
-            with _stdout_to_stderr(solver == "highs"):
-                built.lp.solve(backend)
-        except pulp.PulpSolverError as error:
-            raise SolverError(f"{solver} failed: {error}") from error
-        solved_at = time.perf_counter()
-        solver_seconds, bound = (
-            _read_cbc_log(log_path) if solver == "cbc" else (None, None)
-        )
-    finally:
-        Path(log_path).unlink(missing_ok=True)
-    if solver == "highs":
-        bound = _highs_bound(built.lp)
-    status = _read_status(built.lp)
-    call = solved_at - built_at
-    solve_s = solver_seconds if solver_seconds is not None else call
+    if solver == "cbc":
+        outcome = _run_cbc(built, time_limit, threads, seed, warm)
+    else:
+        outcome = _run_highs(built, time_limit, threads, seed)
+    call = time.perf_counter() - built_at
+    solve_s = outcome.seconds if outcome.seconds is not None else call
     stats.update(
         solve_s=solve_s,
         overhead_s=max(call - solve_s, 0.0),
-        solver_status=pulp.LpStatus.get(built.lp.status, "?")
-        + f"/{built.lp.sol_status}",
+        solver_status=outcome.solver_status,
     )
-    if not status.has_plan:
+    if not outcome.status.has_plan or outcome.values is None:
+        status = outcome.status
+        if status.has_plan:
+            status = SolveStatus.UNKNOWN
         return _without_plan(problem, status, stats, began)
-    plan = built.decode(status)
-    if status is SolveStatus.OPTIMAL:
-        bound = plan.objective.total if plan.objective else bound
+    plan = built.decode(outcome.status, outcome.values)
+    bound = outcome.bound
+    if outcome.status is SolveStatus.OPTIMAL and plan.objective:
+        bound = plan.objective.total
     return plan.replace(
         stats=SolverStats(
             **stats, bound=bound, wall_s=time.perf_counter() - began

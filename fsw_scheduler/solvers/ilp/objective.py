@@ -12,13 +12,12 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import pulp
-
 from ...solution import objective_weight
 
 if TYPE_CHECKING:
     from ...model import Problem
-    from .variables import Terms, Variables
+    from .program import Terms
+    from .variables import Variables
 
 
 def weight(problem: Problem) -> int:
@@ -28,10 +27,8 @@ def weight(problem: Problem) -> int:
     )
 
 
-def objective(
-    problem: Problem, variables: Variables
-) -> pulp.LpAffineExpression:
-    """The objective expression (constant part included)."""
+def objective(problem: Problem, variables: Variables) -> tuple[Terms, float]:
+    """The objective's terms and its constant part."""
     big = weight(problem)
     terms: Terms = {}
     constant = 0.0
@@ -47,4 +44,4 @@ def objective(
         )
         for var in steps[:-1]:
             terms[var] = -float(task.delay_cost)
-    return pulp.LpAffineExpression(terms, constant=constant)
+    return terms, constant

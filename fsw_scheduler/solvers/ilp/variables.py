@@ -17,14 +17,12 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import pulp
-
 if TYPE_CHECKING:
+    from collections.abc import Sequence
 
     from ...domains import Domain
     from ...model import Problem, Task
-
-Terms = dict[pulp.LpVariable, float]
+    from .program import Program, Terms
 
 
 class Variables:
@@ -32,8 +30,8 @@ class Variables:
 
     Parameters
     ----------
-    lp
-        The PuLP problem that owns the variables.
+    program
+        The program that owns the columns.
     problem
         The problem being modelled.
     domains
@@ -42,35 +40,35 @@ class Variables:
 
     def __init__(
         self,
-        lp: pulp.LpProblem,
+        program: Program,
         problem: Problem,
         domains: dict[str, Domain],
     ) -> None:
         self.problem = problem
         self.domains = domains
         self.tasks: list[Task] = list(problem.tasks)
-        self.steps: dict[str, list[pulp.LpVariable]] = {}
-        for idx, task in enumerate(self.tasks):
+        self.steps: dict[str, list[int]] = {}
+        for task in self.tasks:
             domain = domains[task.id]
             if domain.empty:
                 continue
             self.steps[task.id] = [
-                lp.add_variable(f"z{idx}_{t}", 0, 1, cat=pulp.LpBinary)
-                for t in range(domain.earliest, domain.latest + 1)
+                program.add_column(0, 1, integer=True)
+                for _ in range(domain.earliest, domain.latest + 1)
             ]
             if task.mandatory:
-                self.scheduled(task.id).lowBound = 1
+                program.lower[self.scheduled(task.id)] = 1
 
     def placeable(self, task_id: str) -> bool:
         """True if the task has at least one allowed start time."""
         return task_id in self.steps
 
-    def scheduled(self, task_id: str) -> pulp.LpVariable:
-        """The variable that is 1 iff the task is scheduled."""
+    def scheduled(self, task_id: str) -> int:
+        """The column that is 1 iff the task is scheduled."""
         return self.steps[task_id][-1]
 
-    def step(self, task_id: str, time: int) -> pulp.LpVariable | None:
-        """``z[task, time]`` as a variable, or None where it is 0."""
+    def step(self, task_id: str, time: int) -> int | None:
+        """``z[task, time]`` as a column, or None where it is 0."""
         steps = self.steps.get(task_id)
         if steps is None:
             return None
@@ -102,34 +100,41 @@ class Variables:
             and domain.earliest <= time <= domain.latest + task.length - 1
         )
 
-    def start_of(self, task_id: str) -> int | None:
-        """The start time in the solver's solution, None if unscheduled."""
+    def start_of(self, task_id: str, values: Sequence[float]) -> int | None:
+        """The start time in solution ``values``, None if unscheduled."""
         steps = self.steps.get(task_id)
-        if steps is None or (steps[-1].varValue or 0.0) < 0.5:
+        if steps is None or values[steps[-1]] < 0.5:
             return None
         first = self.domains[task_id].earliest
-        for offset, var in enumerate(steps):
-            if (var.varValue or 0.0) >= 0.5:
+        for offset, col in enumerate(steps):
+            if values[col] >= 0.5:
                 return first + offset
         return None  # unreachable: the last step is 1
 
-    def set_initial(self, starts: dict[str, int]) -> int:
-        """Set a warm start from ``starts``; return how many tasks took it.
+    def initial(
+        self, starts: dict[str, int], columns: int
+    ) -> tuple[list[float], int]:
+        """A warm start from ``starts`` and how many tasks took it.
 
         Tasks absent from ``starts`` start as unscheduled (mandatory ones at
         their earliest start); starts outside a task's domain are ignored.
+        Columns other than steps are left at 0 for the solver to fill.
         """
+        values = [0.0] * columns
         taken = 0
-        for task_id, steps in self.steps.items():
-            first = self.domains[task_id].earliest
-            start = starts.get(task_id)
-            valid = start is not None and first <= start < first + len(steps)
-            if not valid and steps[-1].lowBound == 1:
+        for task in self.tasks:
+            steps = self.steps.get(task.id)
+            if steps is None:
+                continue
+            first = self.domains[task.id].earliest
+            start = starts.get(task.id)
+            if start is None or not first <= start < first + len(steps):
+                if not task.mandatory:
+                    continue
                 # A mandatory task new to this problem: suggest its earliest
                 # start rather than an unscheduled value below its bound.
-                start, valid = first, True
-            for offset, var in enumerate(steps):
-                on = valid and start is not None and first + offset >= start
-                var.setInitialValue(1 if on else 0)
-            taken += valid
-        return taken
+                start = first
+            for col in steps[start - first :]:
+                values[col] = 1.0
+            taken += 1
+        return values, taken

@@ -1,0 +1,221 @@
+"""A sparse integer program, written straight to MPS for CBC.
+
+The scheduling ILP has thousands of two-non-zero rows; building it as PuLP
+expression objects and writing it with PuLP's generic MPS writer took more
+time than CBC needed to solve it (tools/bench, 15 tasks: 0.12 s building
+and 0.1 s writing against 0.15 s in CBC). Here columns and rows are plain
+lists and the MPS file is formatted in one pass; :meth:`Program.to_pulp`
+still hands the same program to PuLP for the solvers reached through it.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    import pulp
+
+#: Row senses, as in MPS.
+LE, EQ, GE = "L", "E", "G"
+
+Terms = dict[int, float]
+
+
+def _format(value: float) -> str:
+    """A float as MPS text, exact for the integers the model mostly has."""
+    if value == int(value) and abs(value) < 1e15:
+        return str(int(value))
+    return repr(value)
+
+
+class _Numbers(dict[float, str]):
+    """Memoised :func:`_format`: a model repeats a handful of values."""
+
+    def __missing__(self, value: float) -> str:
+        text = self[value] = _format(value)
+        return text
+
+
+class Program:
+    """Columns, rows and a minimised objective of an integer program.
+
+    Columns and rows are numbered in the order they are added, which is
+    also the order they are written in: the same model always gives the
+    same file, and so the same solver run.
+    """
+
+    def __init__(self) -> None:
+        self.lower: list[float] = []
+        self.upper: list[float | None] = []
+        self.integer: list[bool] = []
+        self.cost: list[float] = []
+        self.constant = 0.0
+        self.rows: list[tuple[Terms, str, float]] = []
+
+    @property
+    def num_columns(self) -> int:
+        """Number of columns (variables)."""
+        return len(self.lower)
+
+    @property
+    def num_rows(self) -> int:
+        """Number of rows (constraints)."""
+        return len(self.rows)
+
+    def add_column(
+        self,
+        lower: float = 0.0,
+        upper: float | None = None,
+        *,
+        integer: bool = False,
+    ) -> int:
+        """Add a column with bounds; return its index."""
+        self.lower.append(lower)
+        self.upper.append(upper)
+        self.integer.append(integer)
+        self.cost.append(0.0)
+        return len(self.lower) - 1
+
+    def add_row(self, terms: Terms, sense: str, rhs: float) -> bool:
+        """Add ``terms (sense) rhs`` without its zero coefficients.
+
+        Returns False, adding nothing, when no coefficient is left: a
+        constant row is the caller's to validate.
+        """
+        clean = {col: coef for col, coef in terms.items() if coef != 0}
+        if not clean:
+            return False
+        self.rows.append((clean, sense, rhs))
+        return True
+
+    def set_objective(self, terms: Terms, constant: float = 0.0) -> None:
+        """Set the minimised objective ``sum terms + constant``."""
+        self.cost = [0.0] * self.num_columns
+        for col, coef in terms.items():
+            self.cost[col] = coef
+        self.constant = constant
+
+    def value(self, values: Sequence[float]) -> float:
+        """The objective at ``values``, constant included."""
+        return self.constant + sum(
+            coef * values[col] for col, coef in enumerate(self.cost) if coef
+        )
+
+    # -- MPS -----------------------------------------------------------------
+
+    @staticmethod
+    def column_name(col: int) -> str:
+        """The column's name in files handed to the solver."""
+        return f"X{col:07d}"
+
+    def mps(self) -> str:
+        """The program as fixed-format MPS text (8-character names).
+
+        The objective constant is left out (solvers disagree on the sign
+        convention of an objective right-hand side): add :attr:`constant`
+        to any objective value or bound the solver reports.
+        """
+        number = _Numbers()
+        entries: list[list[str]] = [[] for _ in self.lower]
+        row_lines = [" N  OBJ\n"]
+        rhs_lines = []
+        for index, (terms, sense, rhs) in enumerate(self.rows):
+            row = f"C{index:07d}"
+            row_lines.append(f" {sense}  {row}\n")
+            if rhs:
+                rhs_lines.append(f"    RHS       {row}  {number[rhs]}\n")
+            for col, coef in terms.items():
+                entries[col].append(f"  {row}  {number[coef]}\n")
+        column_lines = []
+        bound_lines = []
+        in_integers = False
+        for col, lines in enumerate(entries):
+            name = self.column_name(col)
+            if self.integer[col] != in_integers:
+                in_integers = self.integer[col]
+                marker = "INTORG" if in_integers else "INTEND"
+                column_lines.append(
+                    f"    MARK      'MARKER'                 '{marker}'\n"
+                )
+            prefix = f"    {name}"
+            if self.cost[col]:
+                column_lines.append(
+                    f"{prefix}  OBJ       {number[self.cost[col]]}\n"
+                )
+            column_lines.extend(prefix + line for line in lines)
+            if not lines and not self.cost[col]:
+                # A column in no row still has to be declared.
+                column_lines.append(f"{prefix}  OBJ       0\n")
+            bound_lines.extend(self._bound_lines(col, name))
+        if in_integers:
+            column_lines.append(
+                "    MARK      'MARKER'                 'INTEND'\n"
+            )
+        return "".join(
+            [
+                "NAME          MODEL\nROWS\n",
+                *row_lines,
+                "COLUMNS\n",
+                *column_lines,
+                "RHS\n",
+                *rhs_lines,
+                "BOUNDS\n",
+                *bound_lines,
+                "ENDATA\n",
+            ]
+        )
+
+    def _bound_lines(self, col: int, name: str) -> list[str]:
+        lower, upper = self.lower[col], self.upper[col]
+        if upper is not None and lower == upper:
+            return [f" FX BND       {name}  {_format(lower)}\n"]
+        lines = []
+        if lower != 0 or (self.integer[col] and upper is None):
+            # An integer column without bounds would read as binary.
+            lines.append(f" LO BND       {name}  {_format(lower)}\n")
+        if upper is not None:
+            lines.append(f" UP BND       {name}  {_format(upper)}\n")
+        return lines
+
+    # -- PuLP ----------------------------------------------------------------
+
+    def to_pulp(self) -> tuple[pulp.LpProblem, list[pulp.LpVariable]]:
+        """The same program as a PuLP problem, with its variables by column."""
+        import pulp
+
+        lp = pulp.LpProblem("schedule", pulp.LpMinimize)
+        columns = [
+            lp.add_variable(
+                self.column_name(col),
+                self.lower[col],
+                self.upper[col],
+                cat=pulp.LpInteger if self.integer[col] else pulp.LpContinuous,
+            )
+            for col in range(self.num_columns)
+        ]
+        senses = {
+            LE: pulp.LpConstraintLE,
+            EQ: pulp.LpConstraintEQ,
+            GE: pulp.LpConstraintGE,
+        }
+        for index, (terms, sense, rhs) in enumerate(self.rows):
+            expression = pulp.LpAffineExpression(
+                {columns[col]: coef for col, coef in terms.items()}
+            )
+            lp.addConstraint(
+                pulp.LpConstraint(expression, sense=senses[sense], rhs=rhs),
+                name=f"C{index:07d}",
+            )
+        lp.setObjective(
+            pulp.LpAffineExpression(
+                {
+                    columns[col]: coef
+                    for col, coef in enumerate(self.cost)
+                    if coef
+                },
+                constant=self.constant,
+            )
+        )
+        return lp, columns
