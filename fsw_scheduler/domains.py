@@ -16,6 +16,10 @@ precedence ``i -> j`` with gap ``g = length_i + offset``:
 
 A task whose range becomes empty can never be scheduled; with scope
 ``both`` that empties its partner too.
+
+:func:`cost_caps` adds a bound of another kind: once a plan that leaves
+nothing out is known, no better plan can start a task later than the delay
+that plan leaves to spare (see there).
 """
 
 from __future__ import annotations
@@ -25,7 +29,10 @@ from typing import TYPE_CHECKING
 import msgspec
 
 if TYPE_CHECKING:
+    from collections.abc import Mapping
+
     from .model import Problem
+    from .solution import Plan
 
 
 class Domain(msgspec.Struct, frozen=True):
@@ -46,13 +53,18 @@ class Domain(msgspec.Struct, frozen=True):
         return self.earliest > self.latest
 
 
-def start_domains(problem: Problem) -> dict[str, Domain]:
+def start_domains(
+    problem: Problem, caps: Mapping[str, int] | None = None
+) -> dict[str, Domain]:
     """Return each task's start domain after precedence propagation.
 
     Parameters
     ----------
     problem
         A validated problem.
+    caps
+        Extra latest starts by task id (see :func:`cost_caps`), propagated
+        like the windows.
 
     Returns
     -------
@@ -65,6 +77,8 @@ def start_domains(problem: Problem) -> dict[str, Domain]:
     cause: dict[str, tuple[str, str]] = {}
     for task in problem.tasks:
         low[task.id], high[task.id] = problem.start_bounds(task)
+        if caps is not None and task.id in caps:
+            high[task.id] = min(high[task.id], caps[task.id])
         if low[task.id] > high[task.id]:
             cause[task.id] = (
                 "window",
@@ -121,4 +135,57 @@ def start_domains(problem: Problem) -> dict[str, Domain]:
     return {
         name: Domain(low[name], high[name], *cause.get(name, ("", "")))
         for name in length
+    }
+
+
+def cost_caps(
+    problem: Problem, domains: Mapping[str, Domain], plan: Plan
+) -> dict[str, int] | None:
+    """Latest starts that every plan at least as good as ``plan`` keeps.
+
+    Only for a ``plan`` that leaves no cost out (else None). Any plan as
+    good must then leave nothing of cost out either, so it schedules every
+    task of positive schedule cost, and every mandatory one, at or after
+    its earliest start ``e``; that already costs ``D_min = sum d (e -
+    start)`` in delay. Whatever ``plan``'s delay ``D`` has beyond that,
+    ``slack = D - D_min``, bounds how late any one task may start: ``e +
+    slack // d`` for a task that must be scheduled, ``start + slack // d``
+    for one that may be left out. Tasks without delay cost get no cap.
+
+    Parameters
+    ----------
+    problem
+        A validated problem.
+    domains
+        Its :func:`start_domains`.
+    plan
+        A valid plan of ``problem`` with its objective.
+
+    Returns
+    -------
+    dict[str, int] | None
+        Task id to latest start, for tasks with a delay cost.
+    """
+    objective = plan.objective
+    if objective is None or objective.unscheduled_cost != 0:
+        return None
+
+    def must(task_id: str) -> bool:
+        task = problem.task(task_id)
+        return task.mandatory or task.schedule_cost > 0
+
+    floor = {
+        task.id: domains[task.id].earliest - problem.start
+        if must(task.id) and not domains[task.id].empty
+        else 0
+        for task in problem.tasks
+    }
+    least = sum(task.delay_cost * floor[task.id] for task in problem.tasks)
+    slack = objective.delay_cost - least
+    if slack < 0:
+        return None  # not a valid plan of this problem
+    return {
+        task.id: problem.start + floor[task.id] + slack // task.delay_cost
+        for task in problem.tasks
+        if task.delay_cost > 0
     }

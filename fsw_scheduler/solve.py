@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 import msgspec
 
 from .check import check_plan
-from .domains import start_domains
+from .domains import cost_caps, start_domains
 from .explain import explain as explain_plan
 from .greedy import greedy_plan
 from .solution import Plan, SolverStats, SolveStatus
@@ -17,6 +17,7 @@ from .solution import Plan, SolverStats, SolveStatus
 if TYPE_CHECKING:
     from collections.abc import Callable
 
+    from .domains import Domain
     from .model import Problem
 
 
@@ -94,7 +95,12 @@ def solve(
     else:
         plan = _keep_better(
             _checked(
-                problem, run(problem, warm=start.starts() if start else None)
+                problem,
+                run(
+                    problem,
+                    warm=start.starts() if start else None,
+                    domains=_narrowed(problem, start),
+                ),
             ),
             start,
         )
@@ -147,6 +153,22 @@ def at_lower_bound(problem: Problem, plan: Plan) -> bool:
         starts.get(task.id) == domains[task.id].earliest
         for task in problem.tasks
     )
+
+
+def _narrowed(
+    problem: Problem, start: Plan | None
+) -> dict[str, Domain] | None:
+    """Start domains cut by what ``start`` already achieves, if it can.
+
+    Every plan at least as good as ``start`` fits in them
+    (:func:`cost_caps`), so the model gets smaller and keeps its optimum.
+    """
+    if start is None:
+        return None
+    caps = cost_caps(problem, start_domains(problem), start)
+    if caps is None:
+        return None
+    return start_domains(problem, caps)
 
 
 def best_start(problem: Problem, warm: Plan | None) -> Plan | None:

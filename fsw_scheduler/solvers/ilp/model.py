@@ -210,7 +210,13 @@ def _run_highs(
     status = _pulp_status(lp)
     values = None
     if status.has_plan:
-        values = [column.varValue or 0.0 for column in columns]
+        # PuLP leaves out a column in no row and not in the objective:
+        # any value in its bounds is optimal, and the lower one is valid.
+        program = built.program
+        values = [
+            program.lower[col] if column.varValue is None else column.varValue
+            for col, column in enumerate(columns)
+        ]
     return _Outcome(
         status,
         values,

@@ -1,0 +1,181 @@
+"""Tests of the ILP's program, its MPS text and the cost-based domains."""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from pathlib import Path
+
+import pytest
+
+from fsw_scheduler.check import check_plan
+from fsw_scheduler.domains import cost_caps, start_domains
+from fsw_scheduler.solution import Objective, Plan, SolveStatus
+from fsw_scheduler.solve import best_start, solve
+from fsw_scheduler.solvers.ilp.cbc import CbcRun
+from fsw_scheduler.solvers.ilp.model import solve_ilp
+from fsw_scheduler.solvers.ilp.program import EQ, GE, LE, Program
+
+from .conftest import problem_from
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT / "tools") not in sys.path:
+    sys.path.insert(0, str(ROOT / "tools"))
+generator = importlib.import_module("bench_lib.generator")
+
+
+def _small_program() -> Program:
+    """min -x - 2y + 0.5z + 3  s.t.  x + y <= 1.5, y - z = 0, x + z >= 0.
+
+    x, y integer in [0, 1]; z continuous in [0, 0.75]; w (in no row)
+    fixed at 2.
+    """
+    program = Program()
+    x = program.add_column(0, 1, integer=True)
+    y = program.add_column(0, 1, integer=True)
+    z = program.add_column(0, 0.75)
+    w = program.add_column(2, 2, integer=True)
+    program.add_row({x: 1, y: 1}, LE, 1.5)
+    program.add_row({y: 1.0, z: -1.0}, EQ, 0)
+    program.add_row({x: 1, z: 1, w: 0}, GE, 0)
+    program.set_objective({x: -1, y: -2, z: 0.5}, constant=3)
+    assert w == 3
+    return program
+
+
+def test_program_drops_zero_coefficients_and_constant_rows() -> None:
+    """Tests that zero terms vanish and an all-zero row is not added."""
+    program = _small_program()
+    assert program.rows[2][0] == {0: 1, 2: 1}
+    assert not program.add_row({0: 0.0}, LE, 1)
+    assert program.num_rows == 3
+
+
+def test_program_mps_solves_in_cbc() -> None:
+    """Tests that CBC reads the MPS text and finds the known optimum."""
+    program = _small_program()
+    result = CbcRun().solve(program)
+    assert result.status is SolveStatus.OPTIMAL
+    assert result.values is not None
+    # y = 1 forces z = 1 > 0.75, so y = 0, z = 0 and x = 1.
+    assert result.values == [1.0, 0.0, 0.0, 2.0]
+    assert program.value(result.values) == pytest.approx(2.0)
+
+
+def test_program_to_pulp_has_the_same_optimum() -> None:
+    """Tests that the PuLP copy of a program solves to the same point."""
+    import pulp
+
+    program = _small_program()
+    lp, columns = program.to_pulp()
+    lp.solve(pulp.COIN_CMD(path=CbcRun().path, msg=False))
+    # PuLP drops the column that is in no row (w): it keeps no value.
+    assert [c.varValue for c in columns[:3]] == [1.0, 0.0, 0.0]
+    assert pulp.value(lp.objective) == pytest.approx(2.0)
+
+
+def test_highs_reads_a_column_in_no_row_at_its_bound() -> None:
+    """Tests that HiGHS plans decode a column PuLP dropped (no crash)."""
+    # One start only, at the origin, and no schedule cost: the column of
+    # "a scheduled" has a zero objective coefficient and no row.
+    problem = problem_from(_doc([_task("a", schedule_cost=0)], horizon=2))
+    plan = solve_ilp(problem, solver="highs")
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.objective == Objective(0, 0, 0)
+
+
+def test_mps_text_is_fixed_format_and_stable() -> None:
+    """Tests the MPS layout: markers, 8-character fields, bounds."""
+    text = _small_program().mps()
+    assert text == _small_program().mps()
+    lines = text.splitlines()
+    assert lines[:3] == ["NAME          MODEL", "ROWS", " N  OBJ"]
+    assert "    MARK      'MARKER'                 'INTORG'" in lines
+    assert "    X0000000  OBJ       -1" in lines
+    assert "    X0000002  C0000001  -1" in lines
+    assert " FX BND       X0000003  2" in lines
+    assert " UP BND       X0000002  0.75" in lines
+    assert "    RHS       C0000000  1.5" in lines
+    assert lines[-1] == "ENDATA"
+
+
+def _doc(tasks: list[dict], horizon: int = 20) -> dict:
+    return {"horizon": horizon, "resources": {}, "tasks": tasks}
+
+
+def _task(name: str, **over: object) -> dict:
+    task: dict = {
+        "id": name,
+        "length": 2,
+        "delay_cost": 1,
+        "schedule_cost": 1,
+    }
+    task.update(over)
+    return task
+
+
+def test_cost_caps_bound_starts_by_the_spare_delay() -> None:
+    """Tests the caps on a plan with 4 units of delay to spare."""
+    problem = problem_from(
+        _doc(
+            [
+                _task("a", feasible_interval=[3, 20]),
+                _task("b", delay_cost=2),
+                _task("opt", schedule_cost=0, delay_cost=4),
+            ]
+        )
+    )
+    domains = start_domains(problem)
+    # a at 3 (its earliest), b at 2, opt left out: delay 3 + 2 * 2 = 7,
+    # of which 3 is unavoidable (a's window): 4 to spare.
+    plan = Plan(
+        status=SolveStatus.FEASIBLE,
+        objective=Objective(0, 7, 7),
+        activities=(),
+    )
+    caps = cost_caps(problem, domains, plan)
+    assert caps == {"a": 3 + 4, "b": 0 + 2, "opt": 0 + 1}
+    left_out = plan.replace(objective=Objective(1, 7, 99))
+    assert cost_caps(problem, domains, left_out) is None
+
+
+def test_capped_domains_propagate_through_precedences() -> None:
+    """Tests that a cap on a tight predecessor also caps its successor."""
+    doc = _doc([_task("a"), _task("b")])
+    doc["precedences"] = [
+        {"before": "a", "after": "b", "kind": "tight", "offset": 1}
+    ]
+    problem = problem_from(doc)
+    domains = start_domains(problem, {"a": 4})
+    assert (domains["a"].earliest, domains["a"].latest) == (0, 4)
+    assert (domains["b"].earliest, domains["b"].latest) == (3, 7)
+
+
+@pytest.mark.parametrize(
+    "problem", generator.suite("campaign")[:28], ids=lambda p: p.name
+)
+def test_cost_capped_model_keeps_the_optimum(problem: object) -> None:
+    """Tests that solve() (with caps) and the full model agree.
+
+    Every 5-task problem of the campaign is solved both ways; where the
+    start plan leaves nothing out, the capped model is smaller.
+    """
+    prob = problem.problem()  # type: ignore[attr-defined]
+    capped = solve(prob)
+    full = solve_ilp(prob)
+    assert capped.status is SolveStatus.OPTIMAL
+    assert full.status is SolveStatus.OPTIMAL
+    assert capped.objective == full.objective
+    assert check_plan(prob, capped).ok
+    start = best_start(prob, None)
+    if (
+        start is not None
+        and start.objective is not None
+        and not start.objective.unscheduled_cost
+        and capped.stats is not None
+        and capped.stats.solver == "cbc"
+    ):
+        assert capped.stats.num_variables is not None
+        assert full.stats is not None
+        assert full.stats.num_variables is not None
+        assert capped.stats.num_variables <= full.stats.num_variables
