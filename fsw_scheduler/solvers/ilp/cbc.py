@@ -300,10 +300,15 @@ def _flags(options: list[str]) -> list[str]:
 
 
 def _write_start(path: str, program: Program, values: Sequence[float]) -> None:
-    """A MIP start in CBC's solution-file format (read by ``-mips``)."""
+    """A MIP start in CBC's solution-file format (read by ``-mips``).
+
+    Only the integer columns are given: CBC fixes them and computes the
+    continuous ones (consumable levels) itself.
+    """
     lines = ["Stopped on time - objective value 0\n"]
     lines += [
-        f"{col:>7} {program.column_name(col)} {value:>15g} {0:>23}\n"
+        f"{col} {program.column_name(col)} {value:g}\n"
         for col, value in enumerate(values)
+        if program.integer[col]
     ]
     Path(path).write_text("".join(lines))

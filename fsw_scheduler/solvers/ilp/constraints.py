@@ -66,9 +66,13 @@ class Constraints:
 
     def _monotone_steps(self) -> None:
         """Steps never go back: ``z[i, t-1] <= z[i, t]``."""
+        rows = self.program.rows
         for steps in self.vars.steps.values():
-            for before, after in itertools.pairwise(steps):
-                self._row({before: 1.0, after: -1.0}, LE, 0)
+            # Two distinct columns with non-zero coefficients: no cleaning.
+            rows.extend(
+                ({before: 1.0, after: -1.0}, LE, 0.0)
+                for before, after in itertools.pairwise(steps)
+            )
 
     def _capacity_rows(self, resource: str, capacity: float) -> None:
         """``sum_i amount_i * R(i, t) <= capacity`` for every time unit."""

@@ -84,10 +84,11 @@ class Program:
         Returns False, adding nothing, when no coefficient is left: a
         constant row is the caller's to validate.
         """
-        clean = {col: coef for col, coef in terms.items() if coef != 0}
-        if not clean:
+        if 0 in terms.values():  # a C-level scan; zeros are rare
+            terms = {col: coef for col, coef in terms.items() if coef != 0}
+        if not terms:
             return False
-        self.rows.append((clean, sense, rhs))
+        self.rows.append((terms, sense, rhs))
         return True
 
     def set_objective(self, terms: Terms, constant: float = 0.0) -> None:
@@ -118,54 +119,49 @@ class Program:
         to any objective value or bound the solver reports.
         """
         number = _Numbers()
+        row_names = [f"C{index:07d}" for index in range(len(self.rows))]
+        # Each column's entries as "ROWNAME  value", gathered row by row
+        # and joined per column: the one string operation per non-zero.
         entries: list[list[str]] = [[] for _ in self.lower]
-        row_lines = [" N  OBJ\n"]
-        rhs_lines = []
-        for index, (terms, sense, rhs) in enumerate(self.rows):
-            row = f"C{index:07d}"
-            row_lines.append(f" {sense}  {row}\n")
-            if rhs:
-                rhs_lines.append(f"    RHS       {row}  {number[rhs]}\n")
+        for name, (terms, _, _) in zip(row_names, self.rows, strict=True):
+            field = name + "  "
             for col, coef in terms.items():
-                entries[col].append(f"  {row}  {number[coef]}\n")
-        column_lines = []
+                entries[col].append(field + number[coef])
+        out = ["NAME          MODEL\nROWS\n N  OBJ\n"]
+        out += [
+            f" {sense}  {name}\n"
+            for name, (_, sense, _) in zip(row_names, self.rows, strict=True)
+        ]
+        out.append("COLUMNS\n")
         bound_lines = []
         in_integers = False
         for col, lines in enumerate(entries):
-            name = self.column_name(col)
             if self.integer[col] != in_integers:
                 in_integers = self.integer[col]
                 marker = "INTORG" if in_integers else "INTEND"
-                column_lines.append(
+                out.append(
                     f"    MARK      'MARKER'                 '{marker}'\n"
                 )
-            prefix = f"    {name}"
-            if self.cost[col]:
-                column_lines.append(
-                    f"{prefix}  OBJ       {number[self.cost[col]]}\n"
-                )
-            column_lines.extend(prefix + line for line in lines)
-            if not lines and not self.cost[col]:
+            name = self.column_name(col)
+            cost = self.cost[col]
+            if cost or not lines:
                 # A column in no row still has to be declared.
-                column_lines.append(f"{prefix}  OBJ       0\n")
+                lines.insert(0, "OBJ       " + number[cost])
+            prefix = f"    {name}  "
+            out.append(prefix + ("\n" + prefix).join(lines) + "\n")
             bound_lines.extend(self._bound_lines(col, name))
         if in_integers:
-            column_lines.append(
-                "    MARK      'MARKER'                 'INTEND'\n"
-            )
-        return "".join(
-            [
-                "NAME          MODEL\nROWS\n",
-                *row_lines,
-                "COLUMNS\n",
-                *column_lines,
-                "RHS\n",
-                *rhs_lines,
-                "BOUNDS\n",
-                *bound_lines,
-                "ENDATA\n",
-            ]
-        )
+            out.append("    MARK      'MARKER'                 'INTEND'\n")
+        out.append("RHS\n")
+        out += [
+            f"    RHS       {name}  {number[rhs]}\n"
+            for name, (_, _, rhs) in zip(row_names, self.rows, strict=True)
+            if rhs
+        ]
+        out.append("BOUNDS\n")
+        out += bound_lines
+        out.append("ENDATA\n")
+        return "".join(out)
 
     def _bound_lines(self, col: int, name: str) -> list[str]:
         lower, upper = self.lower[col], self.upper[col]

@@ -58,6 +58,14 @@ class Variables:
             ]
             if task.mandatory:
                 program.lower[self.scheduled(task.id)] = 1
+        self._spans = {
+            task_id: (
+                domains[task_id].earliest,
+                steps[0],
+                domains[task_id].latest,
+            )
+            for task_id, steps in self.steps.items()
+        }
 
     def placeable(self, task_id: str) -> bool:
         """True if the task has at least one allowed start time."""
@@ -69,13 +77,12 @@ class Variables:
 
     def step(self, task_id: str, time: int) -> int | None:
         """``z[task, time]`` as a column, or None where it is 0."""
-        steps = self.steps.get(task_id)
-        if steps is None:
+        span = self._spans.get(task_id)
+        if span is None or time < span[0]:
             return None
-        first = self.domains[task_id].earliest
-        if time < first:
-            return None
-        return steps[min(time - first, len(steps) - 1)]
+        first, column, last = span
+        # A task's steps are consecutive columns.
+        return column + (min(time, last) - first)
 
     def add_step(
         self, terms: Terms, task_id: str, time: int, coef: float
