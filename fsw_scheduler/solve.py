@@ -48,8 +48,9 @@ def solve(
     solver
         ``cbc`` (default, through PuLP) or ``highs``.
     time_limit
-        Seconds for the solver. At the limit the best plan found is returned
-        with status ``feasible``, or ``unknown`` when none was found.
+        Seconds for the solve, start plan and model building included. At
+        the limit the best plan found is returned with status ``feasible``,
+        or ``unknown`` when none was found.
     threads
         Solver threads; keep 1 for reproducible plans.
     seed
@@ -100,10 +101,23 @@ def solve(
                     problem,
                     warm=start.starts() if start else None,
                     domains=_narrowed(problem, start),
+                    # The start plan's time counts against the limit.
+                    time_limit=None
+                    if time_limit is None
+                    else time_limit - (time.perf_counter() - began),
                 ),
             ),
             start,
         )
+        if plan.stats is not None:
+            # Report the limit the caller set, and the whole call's time.
+            plan = plan.replace(
+                stats=msgspec.structs.replace(
+                    plan.stats,
+                    time_limit_s=time_limit,
+                    wall_s=time.perf_counter() - began,
+                )
+            )
     if explain and (plan.unscheduled or not plan.status.has_plan):
         budget = explain_budget
         if budget is None:

@@ -41,6 +41,9 @@ if TYPE_CHECKING:
 
 SOLVERS = ("cbc", "highs")
 
+#: Seconds a solver gets at least, however much of the limit building took.
+MIN_SOLVER_S = 0.1
+
 
 def _pulp_status(lp: pulp.LpProblem) -> SolveStatus:
     """The status of a solve through PuLP, from the solution status first.
@@ -245,8 +248,10 @@ def solve_ilp(
     solver
         ``cbc`` (default) or ``highs``.
     time_limit
-        Seconds; at the limit the best plan found is returned with status
-        ``feasible``, or status ``unknown`` if none was found.
+        Seconds for the whole call, model building included (the solver
+        gets what is left, at least :data:`MIN_SOLVER_S`); at the limit the
+        best plan found is returned with status ``feasible``, or status
+        ``unknown`` if none was found.
     threads
         Solver threads; 1 keeps results reproducible.
     seed
@@ -292,10 +297,14 @@ def solve_ilp(
                 solver_status="trivial",
             )
         )
+    solver_limit = time_limit
+    if time_limit is not None:
+        # The limit is the whole call's: building took some of it.
+        solver_limit = max(time_limit - (built_at - began), MIN_SOLVER_S)
     if solver == "cbc":
-        outcome = _run_cbc(built, time_limit, threads, seed, warm)
+        outcome = _run_cbc(built, solver_limit, threads, seed, warm)
     else:
-        outcome = _run_highs(built, time_limit, threads, seed)
+        outcome = _run_highs(built, solver_limit, threads, seed)
     call = time.perf_counter() - built_at
     solve_s = outcome.seconds if outcome.seconds is not None else call
     stats.update(
