@@ -114,6 +114,7 @@ class Constraints:
             worst = sum(a * t.length for t, a in users if a > 0)
             if worst <= initial:
                 continue
+            self._consumable_total(resource, initial, users)
             previous: int | None = None
             for time in range(self.problem.start, self.problem.end):
                 level = self.program.add_column(0)
@@ -127,6 +128,26 @@ class Constraints:
                 rhs = initial if previous is None else 0.0
                 self._row(terms, EQ, rhs)
                 previous = level
+
+    def _consumable_total(
+        self, resource: str, initial: float, users: list[tuple[Task, float]]
+    ) -> None:
+        """The level rows summed up to the horizon's end, on "scheduled".
+
+        Implied by the level rows, but over binaries only: a knapsack row
+        that CBC's cover cuts can work on. A consumer counts the units it
+        runs in the horizon at least (starting at its latest), a generator
+        the units it can run at most (starting at its earliest).
+        """
+        end = self.problem.end
+        terms: Terms = {}
+        for task, amount in users:
+            domain = self.vars.domains[task.id]
+            start = domain.latest if amount > 0 else domain.earliest
+            units = max(0, min(task.length, end - start))
+            column = self.vars.scheduled(task.id)
+            terms[column] = terms.get(column, 0.0) + amount * units
+        self._row(terms, LE, initial)
 
     def _precedence(self, prec: Precedence) -> None:
         """Tight/lax x both/at_least_first, on the steps.
