@@ -179,3 +179,78 @@ def test_cost_capped_model_keeps_the_optimum(problem: object) -> None:
         assert full.stats is not None
         assert full.stats.num_variables is not None
         assert capped.stats.num_variables <= full.stats.num_variables
+
+
+def _twins_doc() -> dict:
+    """Five identical downlinks on one antenna, and one other task."""
+    tasks = [
+        _task(f"dl{k}", length=3, delay_cost=2, uses={"antenna": 1})
+        for k in range(5)
+    ]
+    tasks.append(_task("other", length=3, uses={"antenna": 1}))
+    return {
+        "horizon": 18,
+        "resources": {"binary": ["antenna"]},
+        "tasks": tasks,
+    }
+
+
+def test_identical_tasks_are_found() -> None:
+    """Tests that only tasks alike in everything form a class."""
+    from fsw_scheduler.solvers.ilp.constraints import identical_tasks
+
+    problem = problem_from(_twins_doc())
+    classes = identical_tasks(problem, start_domains(problem))
+    assert classes == [[f"dl{k}" for k in range(5)]]
+
+
+@pytest.mark.parametrize("solver", ["cbc", "highs"])
+def test_identical_tasks_start_in_problem_order(solver: str) -> None:
+    """Tests the symmetry rows: same optimum, twins in problem order."""
+    problem = problem_from(_twins_doc())
+    plan = solve_ilp(problem, solver=solver)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert check_plan(problem, plan).ok
+    # 18 units hold all six back to back, the cheaper-delay task last.
+    assert plan.objective == Objective(0, 2 * (0 + 3 + 6 + 9 + 12) + 15, 75)
+    starts = plan.starts()
+    assert [starts[f"dl{k}"] for k in range(5)] == [0, 3, 6, 9, 12]
+
+
+def test_warm_start_is_put_in_symmetry_order() -> None:
+    """Tests that a start breaking the order is permuted, not refused."""
+    from fsw_scheduler.solvers.ilp.model import in_symmetry_order
+
+    problem = problem_from(_twins_doc())
+    domains = start_domains(problem)
+    starts = {"dl4": 0, "dl2": 3, "other": 6, "dl0": 9}
+    assert in_symmetry_order(problem, domains, starts) == {
+        "other": 6,
+        "dl0": 0,
+        "dl1": 3,
+        "dl2": 9,
+    }
+    plan = solve_ilp(problem, warm=starts)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.objective is not None and plan.objective.total == 75
+
+
+def test_symmetry_rows_keep_the_brute_force_optimum() -> None:
+    """Tests twins against every plan the checker accepts."""
+    from .test_bench import brute_force
+
+    doc = {
+        "horizon": 7,
+        "resources": {"binary": ["antenna"], "consumable": {"battery": 5}},
+        "tasks": [
+            *(
+                _task(f"dl{k}", uses={"antenna": 1, "battery": 1})
+                for k in range(3)
+            ),
+            _task("other", length=1, schedule_cost=5, uses={"antenna": 1}),
+        ],
+    }
+    problem = problem_from(doc)
+    plan = solve_ilp(problem)
+    assert plan.objective is not None
+    assert plan.objective.total == brute_force(problem)

@@ -26,7 +26,7 @@ from ...solution import (
     SolveStatus,
 )
 from .cbc import ABS_GAP, CbcRun
-from .constraints import Constraints
+from .constraints import Constraints, identical_tasks
 from .objective import objective, weight
 from .program import Program
 from .variables import Variables
@@ -151,6 +151,27 @@ def _highs_bound(lp: pulp.LpProblem) -> float | None:
         return None
 
 
+def in_symmetry_order(
+    problem: Problem, domains: dict[str, Domain], starts: dict[str, int]
+) -> dict[str, int]:
+    """``starts`` with identical tasks' starts sorted into problem order.
+
+    The symmetry rows want the first of identical tasks to start first; a
+    MIP start breaking them would be refused. Swapping the starts of
+    identical tasks changes nothing else, so the start is kept as good.
+    """
+    reordered = dict(starts)
+    for group in identical_tasks(problem, domains):
+        placed = [name for name in group if name in starts]
+        times = sorted(starts[name] for name in placed)
+        # The first len(placed) tasks of the class get the starts.
+        for name in group:
+            reordered.pop(name, None)
+        for name, time_ in zip(group, times, strict=False):
+            reordered[name] = time_
+    return reordered
+
+
 @dataclass
 class _Outcome:
     status: SolveStatus
@@ -169,6 +190,7 @@ def _run_cbc(
 ) -> _Outcome:
     start = None
     if warm:
+        warm = in_symmetry_order(built.problem, built.domains, warm)
         start, _ = built.vars.initial(warm, built.program.num_columns)
     run = CbcRun(time_limit=time_limit, threads=threads, seed=seed)
     result = run.solve(built.program, start)
