@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import logging
 import time
 from typing import TYPE_CHECKING
 
@@ -20,6 +21,8 @@ if TYPE_CHECKING:
     from .domains import Domain
     from .model import Problem
 
+
+log = logging.getLogger("fsw_scheduler.solver")
 
 #: Seconds all explanation solves may take together when the solve itself
 #: has no time limit (with one, they share that much again).
@@ -241,26 +244,32 @@ def _checked(problem: Problem, plan: Plan) -> Plan:
 
 
 def _keep_better(plan: Plan, start: Plan | None) -> Plan:
-    """The solver's plan, unless it stopped with nothing better.
+    """The solver's plan, unless the start plan is better or contradicts it.
 
     At a time limit CBC may return no plan, or a worse one than its own MIP
     start; the start is a valid plan, so it is kept, with status
-    ``feasible``, the solver's statistics and a note saying so.
+    ``feasible``, the solver's statistics and a note saying so. The same
+    holds when CBC's claim cannot be true: "infeasible" although the start
+    plan is valid, or "optimal" for a plan worse than the start (both seen
+    when numerical trouble in root cuts cut off every solution).
     """
-    if start is None or plan.status in (
-        SolveStatus.OPTIMAL,
-        SolveStatus.INFEASIBLE,
+    if start is None or start.objective is None:
+        return plan
+    if plan.objective is not None and (
+        plan.objective.total <= start.objective.total
     ):
         return plan
-    if (
-        plan.objective is not None
-        and start.objective is not None
-        and plan.objective.total <= start.objective.total
-    ):
-        return plan
+    if plan.status is SolveStatus.INFEASIBLE:
+        note = "solver said infeasible, but the start plan is valid"
+    elif plan.status is SolveStatus.OPTIMAL:
+        note = "solver's optimum is worse than the start plan"
+    else:
+        note = "start plan kept"
+    if plan.status in (SolveStatus.OPTIMAL, SolveStatus.INFEASIBLE):
+        log.warning("%s; keeping the start plan as feasible", note)
     stats = plan.stats
     if stats is not None:
         stats = msgspec.structs.replace(
-            stats, solver_status=f"{stats.solver_status}; start plan kept"
+            stats, solver_status=f"{stats.solver_status}; {note}"
         )
     return start.replace(status=SolveStatus.FEASIBLE, stats=stats, why=())

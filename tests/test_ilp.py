@@ -254,3 +254,48 @@ def test_symmetry_rows_keep_the_brute_force_optimum() -> None:
     plan = solve_ilp(problem)
     assert plan.objective is not None
     assert plan.objective.total == brute_force(problem)
+
+
+def _plan(status: SolveStatus, total: int | None) -> Plan:
+    objective = None if total is None else Objective(0, total, total)
+    return Plan(status=status, objective=objective, activities=())
+
+
+@pytest.mark.parametrize(
+    ("claim", "total", "kept"),
+    [
+        (SolveStatus.OPTIMAL, 10, "solver"),
+        (SolveStatus.OPTIMAL, 12, "start"),  # an "optimum" worse than start
+        (SolveStatus.INFEASIBLE, None, "start"),  # but the start is valid
+        (SolveStatus.FEASIBLE, 11, "solver"),
+        (SolveStatus.UNKNOWN, None, "start"),
+    ],
+)
+def test_solver_claims_contradicting_the_start_are_not_trusted(
+    claim: SolveStatus, total: int | None, kept: str
+) -> None:
+    """Tests that the start plan wins over an impossible solver claim."""
+    from fsw_scheduler.solution import SolverStats
+    from fsw_scheduler.solve import _keep_better
+
+    start = _plan(SolveStatus.FEASIBLE, 11)
+    solver = _plan(claim, total).replace(stats=SolverStats(solver="cbc"))
+    result = _keep_better(solver, start)
+    if kept == "solver":
+        assert result is solver
+    else:
+        assert result.objective == start.objective
+        assert result.status is SolveStatus.FEASIBLE
+        assert result.stats is not None and result.stats.solver == "cbc"
+
+
+def test_fractional_cbc_values_are_refused() -> None:
+    """Tests that relaxation values called optimal are never decoded."""
+    from fsw_scheduler.solvers.ilp.cbc import CbcResult
+    from fsw_scheduler.solvers.ilp.model import _integral
+
+    program = _small_program()
+    whole = CbcResult(SolveStatus.OPTIMAL, [1.0, 0.0, 0.3, 2.0])
+    assert _integral(program, whole)  # column 2 is continuous
+    relaxed = CbcResult(SolveStatus.OPTIMAL, [0.5, 0.0, 0.0, 2.0])
+    assert not _integral(program, relaxed)

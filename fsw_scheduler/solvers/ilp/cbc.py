@@ -20,6 +20,7 @@ few more (tools/bench reports both as solver overhead).
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import logging
 import os
@@ -255,6 +256,12 @@ class CbcRun:
                 )
             first, values = _read_solution(files["sol"], program.num_columns)
         status, has_values = read_status(first)
+        line, _, value = first.strip().partition(" - objective value ")
+        if bound is None and "continuous used" in line and value:
+            # Stopped before any integer solution: the value is that of
+            # the LP relaxation, still a valid lower bound.
+            with contextlib.suppress(ValueError):
+                bound = float(value) + program.constant
         return CbcResult(
             status,
             values if has_values else None,
@@ -262,7 +269,7 @@ class CbcRun:
             bound,
             interrupted=self.interrupted,
             retried=retried,
-            solver_status=" ".join(first.split()[:4]).rstrip(" -"),
+            solver_status=line,
         )
 
     def _failed(self, code: int, solution: str) -> bool:

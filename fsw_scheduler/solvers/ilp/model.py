@@ -25,7 +25,7 @@ from ...solution import (
     SolverStats,
     SolveStatus,
 )
-from .cbc import ABS_GAP, CbcRun
+from .cbc import ABS_GAP, CbcResult, CbcRun
 from .constraints import Constraints, identical_tasks
 from .objective import objective, weight
 from .program import Program
@@ -195,6 +195,11 @@ def _run_cbc(
     run = CbcRun(time_limit=time_limit, threads=threads, seed=seed)
     result = run.solve(built.program, start)
     notes = [result.solver_status]
+    if result.values is not None and not _integral(built.program, result):
+        # Seen on large models stopped during root cuts: CBC wrote its LP
+        # relaxation and called it optimal. Not a solution; never decoded.
+        notes.append("fractional values refused")
+        result.status, result.values = SolveStatus.UNKNOWN, None
     if result.retried:
         notes.append("retried with preprocessing")
     if result.interrupted:
@@ -205,6 +210,16 @@ def _run_cbc(
         result.seconds,
         result.bound,
         "; ".join(notes),
+    )
+
+
+def _integral(program: Program, result: CbcResult) -> bool:
+    """True if every integer column of the result has an integer value."""
+    values = result.values or []
+    return all(
+        abs(value - round(value)) <= 1e-6
+        for value, integer in zip(values, program.integer, strict=True)
+        if integer
     )
 
 
@@ -321,8 +336,10 @@ def solve_ilp(
         )
     solver_limit = time_limit
     if time_limit is not None:
-        # The limit is the whole call's: building took some of it.
-        solver_limit = max(time_limit - (built_at - began), MIN_SOLVER_S)
+        # The limit is the whole call's: building took some of it, and
+        # reading the solution back and CBC's coarse clock need a margin.
+        left = time_limit - (built_at - began)
+        solver_limit = max(left - min(0.25, 0.1 * left), MIN_SOLVER_S)
     if solver == "cbc":
         outcome = _run_cbc(built, solver_limit, threads, seed, warm)
     else:
@@ -335,6 +352,7 @@ def solve_ilp(
         solver_status=outcome.solver_status,
     )
     if not outcome.status.has_plan or outcome.values is None:
+        stats.update(bound=outcome.bound)
         status = outcome.status
         if status.has_plan:
             status = SolveStatus.UNKNOWN
