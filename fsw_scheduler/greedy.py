@@ -255,17 +255,59 @@ def _list_schedule(
         )
         remaining.discard(chosen)
         decided.add(chosen)
-        if excluded & groups[chosen].keys():
-            continue
-        anchor = _earliest(
-            problem, groups[chosen], tasks, domains, board, starts
-        )
+        members = _without(problem, groups[chosen], excluded)
+        anchor = None
+        while members:
+            anchor = _earliest(problem, members, tasks, domains, board, starts)
+            if anchor is not None:
+                break
+            # The whole group does not fit: shed its optional followers
+            # (tight "at_least_first" successors) and try the rest.
+            optional = {
+                prec.after
+                for prec in problem.precedences
+                if prec.kind == "tight"
+                and prec.scope == "at_least_first"
+                and prec.before in members
+                and prec.after in members
+            }
+            if not optional:
+                break
+            members = _without(problem, members, optional)
         if anchor is None:
             continue
-        for name, shift in groups[chosen].items():
+        for name, shift in members.items():
             starts[name] = anchor + shift
             board.add(tasks[name], anchor + shift)
     return starts
+
+
+def _without(
+    problem: Problem, members: dict[str, int], drop: set[str]
+) -> dict[str, int]:
+    """``members`` less ``drop`` and every member that cannot go without it.
+
+    A member goes when a precedence makes it follow a dropped task, or
+    when it is the first of a ``both`` precedence whose second is dropped.
+    """
+    gone = drop & members.keys()
+    if not gone:
+        return members
+    changed = True
+    while changed:
+        changed = False
+        for prec in problem.precedences:
+            if prec.before in gone and prec.after in members:
+                changed |= prec.after not in gone
+                gone.add(prec.after)
+            if (
+                prec.scope == "both"
+                and prec.after in gone
+                and prec.before in members
+            ):
+                changed |= prec.before not in gone
+                gone.add(prec.before)
+    return {n: s for n, s in members.items() if n not in gone}
 
 
 def _by_value(problem: Problem) -> Callable[[dict[str, int]], tuple]:

@@ -47,6 +47,55 @@ def test_tight_group_members_share_a_consumable() -> None:
     assert sorted(plan.unscheduled) == ["a", "b"]
 
 
+def test_optional_follower_is_shed_when_the_group_cannot_fit() -> None:
+    """Tests that a tight at_least_first successor does not sink its lead.
+
+    ``a`` fits alone, but its tight successor ``b`` would need fuel that
+    is not there: ``a`` is placed without it.
+    """
+    doc = {
+        "horizon": 10,
+        "resources": {"consumable": {"fuel": 5}},
+        "tasks": [
+            {"id": "a", "length": 2, "delay_cost": 1, "schedule_cost": 5,
+             "uses": {"fuel": 2}},
+            {"id": "b", "length": 2, "delay_cost": 1, "schedule_cost": 1,
+             "uses": {"fuel": 2}},
+        ],
+        "precedences": [
+            {"before": "a", "after": "b", "kind": "tight",
+             "scope": "at_least_first"}
+        ],
+    }
+    problem = problem_from(doc)
+    plan = greedy_plan(problem)
+    assert plan is not None
+    assert plan.unscheduled == ("b",)
+    assert check_plan(problem, plan).ok
+
+
+def test_density_rule_spends_a_consumable_on_value() -> None:
+    """Tests that the best of the priority rules is kept.
+
+    By value the big consumer ``big`` (cost 5) goes first and uses all the
+    fuel; by value per fuel share the two small ones (cost 4 each) fit.
+    """
+    def task(name: str, cost: int, fuel: int) -> dict:
+        return {"id": name, "length": 1, "delay_cost": 1,
+                "schedule_cost": cost, "uses": {"fuel": fuel}}
+
+    doc = {
+        "horizon": 10,
+        "resources": {"consumable": {"fuel": 6}},
+        "tasks": [task("big", 5, 6), task("s1", 4, 3), task("s2", 4, 3)],
+    }
+    problem = problem_from(doc)
+    plan = greedy_plan(problem)
+    assert plan is not None and plan.objective is not None
+    assert plan.unscheduled == ("big",)
+    assert plan.objective.unscheduled_cost == 5
+
+
 def test_impossible_mandatory_gives_none() -> None:
     """Tests that the heuristic gives up when a mandatory task can't fit."""
     doc = {
