@@ -114,11 +114,21 @@ def solve(
         )
         if plan.stats is not None:
             # Report the limit the caller set, and the whole call's time.
+            bound = plan.stats.bound
+            if (
+                bound is not None
+                and plan.objective is not None
+                and bound > plan.objective.total + 0.5
+            ):
+                # A stopped CBC can report the value of an LP that is not
+                # the root's; above a valid plan, it bounds nothing.
+                bound = None
             plan = plan.replace(
                 stats=msgspec.structs.replace(
                     plan.stats,
                     time_limit_s=time_limit,
                     wall_s=time.perf_counter() - began,
+                    bound=bound,
                 )
             )
     if explain and (plan.unscheduled or not plan.status.has_plan):

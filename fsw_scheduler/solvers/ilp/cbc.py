@@ -28,6 +28,7 @@ import re
 import signal
 import subprocess
 import tempfile
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -42,6 +43,9 @@ if TYPE_CHECKING:
 
 #: Wall-clock seconds allowed past the time limit before SIGINT, then kill.
 GRACE_S = 2.0
+
+#: CPU seconds CBC gets at least, however long writing its input took.
+MIN_CBC_S = 0.05
 
 #: An option that speeds CBC up but can crash it; dropped on a retry.
 FRAGILE = "preprocess off"
@@ -162,11 +166,12 @@ class CbcRun:
     Parameters
     ----------
     time_limit
-        CPU seconds for CBC (``-sec``), None for no limit.
+        Seconds for :meth:`solve`, None for no limit. Writing the files
+        comes out of it; CBC gets the rest as CPU seconds (``-sec``).
     deadline_s
-        Wall-clock seconds after which the process is interrupted; None
-        waits for CBC however long it takes. Defaults to
-        ``time_limit + GRACE_S``.
+        Wall-clock seconds after CBC starts at which it is interrupted;
+        None waits for CBC however long it takes. Defaults to CBC's share
+        of the limit plus ``GRACE_S``.
     threads
         CBC threads; 1 keeps results reproducible.
     seed
@@ -186,8 +191,6 @@ class CbcRun:
     ) -> None:
         self.path = path or cbc_path()
         self.time_limit = time_limit
-        if deadline_s is None and time_limit is not None:
-            deadline_s = time_limit + GRACE_S
         self.deadline_s = deadline_s
         self.options = [
             # CBC's own seeds: the same input gives the same plan.
@@ -214,6 +217,7 @@ class CbcRun:
         SolverError
             When CBC fails without being interrupted, even on a retry.
         """
+        began = time.monotonic()
         with tempfile.TemporaryDirectory(prefix="fsw-cbc-") as tmp:
             files = {
                 kind: os.path.join(tmp, f"model.{kind}")
@@ -225,7 +229,12 @@ class CbcRun:
                 _write_start(files["mst"], program, warm)
                 head += ["-mips", files["mst"]]
             if self.time_limit is not None:
-                head += ["-sec", str(self.time_limit)]
+                # Large models take a while to write: CBC gets the rest.
+                left = self.time_limit - (time.monotonic() - began)
+                cpu_limit = round(max(left, MIN_CBC_S), 3)
+                head += ["-sec", str(cpu_limit)]
+                if self.deadline_s is None:
+                    self.deadline_s = cpu_limit + GRACE_S
             tail = ["-solve", "-solution", files["sol"]]
             options = list(self.options)
             code = self._run(head + _flags(options) + tail, files["log"])
