@@ -299,3 +299,31 @@ def test_fractional_cbc_values_are_refused() -> None:
     assert _integral(program, whole)  # column 2 is continuous
     relaxed = CbcResult(SolveStatus.OPTIMAL, [0.5, 0.0, 0.0, 2.0])
     assert not _integral(program, relaxed)
+
+
+def test_consumable_models_branch_on_scheduled_first(tmp_path: Path) -> None:
+    """Tests that a consumable budget gives "scheduled" a priority file."""
+    from fsw_scheduler.solvers.ilp.cbc import _write_priorities
+    from fsw_scheduler.solvers.ilp.model import BuiltModel
+
+    doc = {
+        "horizon": 10,
+        "resources": {"consumable": {"fuel": 6}},
+        "tasks": [
+            _task(name, length=1, uses={"fuel": 4}) for name in ("a", "b")
+        ],
+    }
+    built = BuiltModel(problem_from(doc))
+    scheduled = {built.vars.scheduled(n) for n in ("a", "b")}
+    assert built.program.priorities == dict.fromkeys(scheduled, 1)
+    path = tmp_path / "prio.csv"
+    _write_priorities(str(path), built.program)
+    lines = path.read_text().splitlines()
+    assert lines[0] == "name,priority"
+    assert len(lines) == 3
+    plan = solve_ilp(problem_from(doc))
+    assert plan.status is SolveStatus.OPTIMAL
+    assert len(plan.unscheduled) == 1
+    # No budget to choose within: no priorities.
+    doc["resources"]["consumable"]["fuel"] = 8
+    assert BuiltModel(problem_from(doc)).program.priorities == {}

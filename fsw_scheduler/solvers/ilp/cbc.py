@@ -221,13 +221,16 @@ class CbcRun:
         with tempfile.TemporaryDirectory(prefix="fsw-cbc-") as tmp:
             files = {
                 kind: os.path.join(tmp, f"model.{kind}")
-                for kind in ("mps", "mst", "sol", "log")
+                for kind in ("mps", "mst", "prio", "sol", "log")
             }
             Path(files["mps"]).write_text(program.mps())
             head = [self.path, files["mps"]]
             if warm is not None:
                 _write_start(files["mst"], program, warm)
                 head += ["-mips", files["mst"]]
+            if program.priorities:
+                _write_priorities(files["prio"], program)
+                head += ["-priorityIn", files["prio"]]
             if self.time_limit is not None:
                 # Large models take a while to write: CBC gets the rest.
                 left = self.time_limit - (time.monotonic() - began)
@@ -326,5 +329,15 @@ def _write_start(path: str, program: Program, values: Sequence[float]) -> None:
         f"{col} {program.column_name(col)} {value:g}\n"
         for col, value in enumerate(values)
         if program.integer[col]
+    ]
+    Path(path).write_text("".join(lines))
+
+
+def _write_priorities(path: str, program: Program) -> None:
+    """Branching priorities in CBC's CSV format (read by ``-priorityIn``)."""
+    lines = ["name,priority\n"]
+    lines += [
+        f"{program.column_name(col)},{priority}\n"
+        for col, priority in sorted(program.priorities.items())
     ]
     Path(path).write_text("".join(lines))

@@ -150,6 +150,11 @@ class Constraints:
             if worst <= initial:
                 continue
             self._consumable_total(resource, initial, users)
+            # Which tasks fit the budget is the hard part here: branch on
+            # "scheduled" first (consumable class of the campaign: total
+            # CBC time -23 %; on resource-only models it was slower).
+            for task, _ in users:
+                self.program.priorities[self.vars.scheduled(task.id)] = 1
             previous: int | None = None
             for time in range(self.problem.start, self.problem.end):
                 level = self.program.add_column(0)

@@ -53,6 +53,8 @@ class Program:
         self.cost: list[float] = []
         self.constant = 0.0
         self.rows: list[tuple[Terms, str, float]] = []
+        #: Branching priorities by column, lower first (others come last).
+        self.priorities: dict[int, int] = {}
 
     @property
     def num_columns(self) -> int:
