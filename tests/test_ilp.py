@@ -327,3 +327,19 @@ def test_consumable_models_branch_on_scheduled_first(tmp_path: Path) -> None:
     # No budget to choose within: no priorities.
     doc["resources"]["consumable"]["fuel"] = 8
     assert BuiltModel(problem_from(doc)).program.priorities == {}
+
+
+def test_one_column_rows_implied_by_bounds_are_dropped() -> None:
+    """Tests that rows the bounds already satisfy are not written."""
+    program = Program()
+    z = program.add_column(0, 1, integer=True)
+    level = program.add_column(0)  # no upper bound
+    assert not program.add_row({z: -1.0}, LE, 0)  # -z <= 0
+    assert not program.add_row({z: 1.0}, LE, 1)
+    assert not program.add_row({level: 1.0}, GE, 0)
+    assert not program.add_row({level: -2.0}, LE, 0)
+    assert program.num_rows == 0
+    assert program.add_row({z: 1.0}, LE, 0)  # fixes z at 0: kept
+    assert program.add_row({level: 1.0}, LE, 5)
+    assert program.add_row({z: 1.0}, EQ, 1)
+    assert program.num_rows == 3

@@ -234,22 +234,34 @@ class Constraints:
         first = min(dom_j.earliest, dom_i.earliest + gap)
         last = max(dom_j.latest, dom_i.latest + gap)
         y_i, y_j = vars_.scheduled(i), vars_.scheduled(j)
+        # Past its domain a task's step is its "scheduled" column, so many
+        # rows repeat or are implied by one other row and the monotone
+        # steps; only the strongest of each kind is written (see below).
+        i_done = dom_i.latest + gap  # from here Z(i, t - g) is y_i
+        j_done = dom_j.latest  # from here Z(j, t) is y_j
+        tight = prec.kind == "tight"
         for time in range(first, last + 1):
             follows: Terms = {}
             vars_.add_step(follows, j, time, 1.0)
             vars_.add_step(follows, i, time - gap, -1.0)
-            self._row(follows, LE, 0)
-            if prec.kind == "tight" and prec.scope == "at_least_first":
+            # Z(j, t) <= Z(i, t-g): once either side is clamped, the row
+            # at t = j_done (y_j <= Z(i, j_done - g)) implies the rest.
+            if time <= j_done and (time < i_done or time == j_done):
+                self._row(follows, LE, 0)
+            if not tight or time > i_done:
+                # Z(i, t-g) <= Z(j, t) is strongest at t = i_done once
+                # Z(i) is clamped (y_i <= Z(j, i_done)).
+                continue
+            if prec.scope == "at_least_first":
+                if time >= j_done and time != i_done:
+                    continue  # reduces to Z(i, t-g) <= y_i: monotone
                 # Z(i, t-g) - Z(j, t) - y_i + y_j <= 0
                 leads = {v: -c for v, c in follows.items()}
                 leads[y_i] = leads.get(y_i, 0.0) - 1.0
                 leads[y_j] = leads.get(y_j, 0.0) + 1.0
                 self._row(leads, LE, 0)
-            elif prec.kind == "tight":
-                self._row(
-                    {v: -c for v, c in follows.items()},
-                    LE,
-                    0,
-                )
+            elif time < j_done or time == i_done:
+                # Z(i, t-g) <= y_j for t >= j_done: implied at i_done.
+                self._row({v: -c for v, c in follows.items()}, LE, 0)
         if prec.scope == "both":
             self._row({y_i: 1.0, y_j: -1.0}, EQ, 0)

@@ -83,15 +83,31 @@ class Program:
     def add_row(self, terms: Terms, sense: str, rhs: float) -> bool:
         """Add ``terms (sense) rhs`` without its zero coefficients.
 
-        Returns False, adding nothing, when no coefficient is left: a
-        constant row is the caller's to validate.
+        Returns False, adding nothing, when no coefficient is left (a
+        constant row is the caller's to validate) or when the row is one
+        column's and its bounds already satisfy it.
         """
         if 0 in terms.values():  # a C-level scan; zeros are rare
             terms = {col: coef for col, coef in terms.items() if coef != 0}
-        if not terms:
+        if not terms or (len(terms) == 1 and self._holds(terms, sense, rhs)):
             return False
         self.rows.append((terms, sense, rhs))
         return True
+
+    def _holds(self, terms: Terms, sense: str, rhs: float) -> bool:
+        """True if a one-column row holds for every value in its bounds."""
+        ((col, coef),) = terms.items()
+        ends = [self.lower[col], self.upper[col]]
+        values = [coef * end for end in ends if end is not None]
+        if len(values) < 2:  # unbounded above: only the lower end is known
+            return sense == (GE if coef > 0 else LE) and (
+                values[0] >= rhs if coef > 0 else values[0] <= rhs
+            )
+        if sense == LE:
+            return max(values) <= rhs
+        if sense == GE:
+            return min(values) >= rhs
+        return False
 
     def set_objective(self, terms: Terms, constant: float = 0.0) -> None:
         """Set the minimised objective ``sum terms + constant``."""
