@@ -172,21 +172,20 @@ def greedy_plan(problem: Problem) -> Plan | None:
         every mandatory task in a plan the checker accepts.
     """
     domains = start_domains(problem)
-    best: Plan | None = None
+    candidates: list[Plan] = []
     for rule in RULES.values():
-        plan = rule_plan(problem, rule(problem), domains)
-        if plan is None or plan.objective is None:
+        plan = _unchecked_plan(problem, rule(problem), domains)
+        if plan is None:
             continue
-        if best is None or (
-            best.objective is not None
-            and plan.objective.total < best.objective.total
-        ):
-            best = plan
+        candidates.append(plan)
         if not plan.unscheduled and all(
             a.start == domains[a.task].earliest for a in plan.activities
         ):
             break
-    return best
+    # The checker runs on the best candidate only, then the next ones if
+    # it refuses (it never has: it is the heuristic's safety net).
+    candidates.sort(key=lambda p: p.objective.total if p.objective else 0)
+    return next((p for p in candidates if check_plan(problem, p).ok), None)
 
 
 def rule_plan(
@@ -211,6 +210,16 @@ def rule_plan(
     domains
         The problem's :func:`start_domains` (computed if not given).
     """
+    plan = _unchecked_plan(problem, priority, domains)
+    return plan if plan is not None and check_plan(problem, plan).ok else None
+
+
+def _unchecked_plan(
+    problem: Problem,
+    priority: Callable[[dict[str, int]], tuple[Any, ...]],
+    domains: dict[str, Domain] | None,
+) -> Plan | None:
+    """:func:`rule_plan` before the checker has seen the plan."""
     if domains is None:
         domains = start_domains(problem)
     excluded: set[str] = set()
@@ -222,8 +231,7 @@ def rule_plan(
         if not dropped:
             break
         excluded |= dropped
-    plan = _as_plan(problem, starts)
-    return plan if check_plan(problem, plan).ok else None
+    return _as_plan(problem, starts)
 
 
 def _list_schedule(
