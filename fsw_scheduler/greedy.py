@@ -318,19 +318,33 @@ def _without(
     return {n: s for n, s in members.items() if n not in gone}
 
 
-def _by_value(problem: Problem) -> Callable[[dict[str, int]], tuple]:
-    """Mandatory first, then schedule cost, then delay cost."""
+def _mandatory_first(
+    problem: Problem, rest: Callable[[list[Task]], tuple]
+) -> Callable[[dict[str, int]], tuple]:
+    """A group's key: mandatory groups first, then ``rest`` of members."""
     tasks = {t.id: t for t in problem.tasks}
 
     def key(group: dict[str, int]) -> tuple:
         members = [tasks[n] for n in group]
-        return (
-            any(t.mandatory for t in members),
-            sum(t.schedule_cost for t in members),
-            sum(t.delay_cost for t in members),
-        )
+        return (any(t.mandatory for t in members), *rest(members))
 
     return key
+
+
+def _value(members: list[Task]) -> float:
+    """Schedule cost, with delay cost as a tie-break."""
+    return sum(t.schedule_cost + 0.01 * t.delay_cost for t in members)
+
+
+def _by_value(problem: Problem) -> Callable[[dict[str, int]], tuple]:
+    """Mandatory first, then schedule cost, then delay cost."""
+    return _mandatory_first(
+        problem,
+        lambda members: (
+            sum(t.schedule_cost for t in members),
+            sum(t.delay_cost for t in members),
+        ),
+    )
 
 
 def _by_density(problem: Problem) -> Callable[[dict[str, int]], tuple]:
@@ -339,7 +353,6 @@ def _by_density(problem: Problem) -> Callable[[dict[str, int]], tuple]:
     A task's share is what it takes of each consumable's initial level
     (amount x length / initial); a knapsack's greedy order.
     """
-    tasks = {t.id: t for t in problem.tasks}
     initial = problem.resources.consumable
 
     def share(task: Task) -> float:
@@ -349,48 +362,31 @@ def _by_density(problem: Problem) -> Callable[[dict[str, int]], tuple]:
             if name in initial
         )
 
-    def key(group: dict[str, int]) -> tuple:
-        members = [tasks[n] for n in group]
+    def rest(members: list[Task]) -> tuple:
         net = sum(share(t) for t in members)
-        value = sum(t.schedule_cost + 0.01 * t.delay_cost for t in members)
-        return (
-            any(t.mandatory for t in members),
-            net < 0,
-            value / (1.0 + max(net, 0.0)),
-        )
+        return (net < 0, _value(members) / (1.0 + max(net, 0.0)))
 
-    return key
+    return _mandatory_first(problem, rest)
 
 
 def _by_delay_rate(problem: Problem) -> Callable[[dict[str, int]], tuple]:
     """Schedule cost, then delay cost per unit of length (Smith's rule)."""
-    tasks = {t.id: t for t in problem.tasks}
-
-    def key(group: dict[str, int]) -> tuple:
-        members = [tasks[n] for n in group]
-        return (
-            any(t.mandatory for t in members),
+    return _mandatory_first(
+        problem,
+        lambda members: (
             sum(t.schedule_cost for t in members),
             sum(t.delay_cost for t in members)
             / sum(t.length for t in members),
-        )
-
-    return key
+        ),
+    )
 
 
 def _by_value_rate(problem: Problem) -> Callable[[dict[str, int]], tuple]:
     """Value per unit of length: many short tasks before one long one."""
-    tasks = {t.id: t for t in problem.tasks}
-
-    def key(group: dict[str, int]) -> tuple:
-        members = [tasks[n] for n in group]
-        value = sum(t.schedule_cost + 0.01 * t.delay_cost for t in members)
-        return (
-            any(t.mandatory for t in members),
-            value / sum(t.length for t in members),
-        )
-
-    return key
+    return _mandatory_first(
+        problem,
+        lambda members: (_value(members) / sum(t.length for t in members),),
+    )
 
 
 #: Priority rules, tried in this order.

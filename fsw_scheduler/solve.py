@@ -96,6 +96,20 @@ def solve(
                 time_limit_s=time_limit,
             ),
         )
+    elif (
+        start is not None
+        and time_limit is not None
+        and time.perf_counter() - began >= time_limit
+    ):
+        # The start plan took the whole limit (hundreds of tasks).
+        plan = start.replace(
+            stats=SolverStats(
+                solver="greedy",
+                wall_s=time.perf_counter() - began,
+                solver_status="time limit spent on the start plan: no solve",
+                time_limit_s=time_limit,
+            )
+        )
     else:
         plan = _keep_better(
             _checked(

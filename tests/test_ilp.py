@@ -343,3 +343,16 @@ def test_one_column_rows_implied_by_bounds_are_dropped() -> None:
     assert program.add_row({level: 1.0}, LE, 5)
     assert program.add_row({z: 1.0}, EQ, 1)
     assert program.num_rows == 3
+
+
+def test_no_solver_is_started_without_time_left() -> None:
+    """Tests that a spent limit gives the start plan, not a late solve."""
+    problem = problem_from(_twins_doc())
+    plan = solve_ilp(problem, time_limit=0.0)
+    assert plan.status is SolveStatus.UNKNOWN
+    assert plan.stats is not None
+    assert "before the solver started" in plan.stats.solver_status
+    assert CbcRun(time_limit=0.01).solve(_small_program()).values is None
+    kept = solve(problem, time_limit=1e-9)
+    assert kept.status is SolveStatus.FEASIBLE
+    assert check_plan(problem, kept).ok

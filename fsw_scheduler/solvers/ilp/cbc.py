@@ -45,7 +45,7 @@ if TYPE_CHECKING:
 #: Wall-clock seconds allowed past the time limit before SIGINT, then kill.
 GRACE_S = 2.0
 
-#: CPU seconds CBC gets at least, however long writing its input took.
+#: CBC is not started with less time than this left of its limit.
 MIN_CBC_S = 0.05
 
 #: An option that speeds CBC up but can crash it; dropped on a retry.
@@ -219,6 +219,8 @@ class CbcRun:
             When CBC fails without being interrupted, even on a retry.
         """
         began = time.monotonic()
+        if self.time_limit is not None and self.time_limit < MIN_CBC_S:
+            return _not_started()
         with tempfile.TemporaryDirectory(prefix="fsw-cbc-") as tmp:
             files = {
                 kind: os.path.join(tmp, f"model.{kind}")
@@ -235,7 +237,10 @@ class CbcRun:
             if self.time_limit is not None:
                 # Large models take a while to write: CBC gets the rest.
                 left = self.time_limit - (time.monotonic() - began)
-                cpu_limit = round(max(left, MIN_CBC_S), 3)
+                if left < MIN_CBC_S:
+                    # CBC would only read the model and stop.
+                    return _not_started()
+                cpu_limit = round(left, 3)
                 head += ["-sec", str(cpu_limit)]
                 if self.deadline_s is None:
                     self.deadline_s = cpu_limit + GRACE_S
@@ -326,6 +331,15 @@ class CbcRun:
             process.wait(GRACE_S)
         except subprocess.TimeoutExpired:
             process.kill()
+
+
+def _not_started() -> CbcResult:
+    return CbcResult(
+        SolveStatus.UNKNOWN,
+        None,
+        solver_status="time limit spent before CBC started",
+    )
+
 
 def _flags(options: list[str]) -> list[str]:
     return [word for option in options for word in ("-" + option).split()]

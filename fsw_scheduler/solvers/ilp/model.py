@@ -25,7 +25,7 @@ from ...solution import (
     SolverStats,
     SolveStatus,
 )
-from .cbc import ABS_GAP, CbcResult, CbcRun
+from .cbc import ABS_GAP, MIN_CBC_S, CbcResult, CbcRun
 from .constraints import Constraints, identical_tasks
 from .objective import objective, weight
 from .program import Program
@@ -40,9 +40,6 @@ if TYPE_CHECKING:
     from ...model import Problem
 
 SOLVERS = ("cbc", "highs")
-
-#: Seconds a solver gets at least, however much of the limit building took.
-MIN_SOLVER_S = 0.1
 
 
 def _pulp_status(lp: pulp.LpProblem) -> SolveStatus:
@@ -286,7 +283,7 @@ def solve_ilp(
         ``cbc`` (default) or ``highs``.
     time_limit
         Seconds for the whole call, model building included (the solver
-        gets what is left, at least :data:`MIN_SOLVER_S`); at the limit the
+        gets what is left, and is not started when nothing is); at the
         best plan found is returned with status ``feasible``, or status
         ``unknown`` if none was found.
     threads
@@ -339,8 +336,16 @@ def solve_ilp(
         # The limit is the whole call's: building took some of it, and
         # reading the solution back and CBC's coarse clock need a margin.
         left = time_limit - (built_at - began)
-        solver_limit = max(left - min(0.25, 0.1 * left), MIN_SOLVER_S)
-    if solver == "cbc":
+        solver_limit = max(left - min(0.25, 0.1 * left), 0.0)
+    if solver_limit is not None and solver_limit < MIN_CBC_S:
+        outcome = _Outcome(
+            SolveStatus.UNKNOWN,
+            None,
+            0.0,
+            None,
+            "time limit spent before the solver started",
+        )
+    elif solver == "cbc":
         outcome = _run_cbc(built, solver_limit, threads, seed, warm)
     else:
         outcome = _run_highs(built, solver_limit, threads, seed)
