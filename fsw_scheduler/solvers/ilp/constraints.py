@@ -111,15 +111,24 @@ class Constraints:
 
     def _capacity_rows(self, resource: str, capacity: float) -> None:
         """``sum_i amount_i * R(i, t) <= capacity`` for every time unit."""
-        users = self._users(resource)
-        for time in range(self.problem.start, self.problem.end):
-            running = [(t, a) for t, a in users if self.vars.may_run(t, time)]
-            if sum(a for _, a in running) <= capacity:
-                continue
-            terms: Terms = {}
-            for task, amount in running:
-                self.vars.add_running(terms, task, time, amount)
-            self._row(terms, LE, capacity)
+        start, end = self.problem.start, self.problem.end
+        demand = [0.0] * (end - start)  # most the users may need at t
+        rows: list[Terms] = [{} for _ in range(end - start)]
+        for task, amount in self._users(resource):
+            first, column, last = self.vars.span(task.id)
+            # R(i, t) = Z(i, t) - Z(i, t - length), the steps being the
+            # consecutive columns of [first, last], clamped at the ends.
+            for time in range(first, min(last + task.length, end)):
+                demand[time - start] += amount
+                terms = rows[time - start]
+                on = column + min(time, last) - first
+                terms[on] = terms.get(on, 0.0) + amount
+                if time - task.length >= first:
+                    off = column + min(time - task.length, last) - first
+                    terms[off] = terms.get(off, 0.0) - amount
+        for need, terms in zip(demand, rows, strict=True):
+            if need > capacity:
+                self._row(terms, LE, capacity)
 
     def _binary_resources(self) -> None:
         """Paper eq. (1): at most one running user per time unit."""

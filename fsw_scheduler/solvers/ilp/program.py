@@ -66,6 +66,15 @@ class Program:
         """Number of rows (constraints)."""
         return len(self.rows)
 
+    def add_binaries(self, count: int) -> range:
+        """Add ``count`` binary columns; return their indices."""
+        first = len(self.lower)
+        self.lower.extend([0.0] * count)
+        self.upper.extend([1.0] * count)
+        self.integer.extend([True] * count)
+        self.cost.extend([0.0] * count)
+        return range(first, first + count)
+
     def add_column(
         self,
         lower: float = 0.0,
@@ -167,7 +176,10 @@ class Program:
                 lines.insert(0, "OBJ       " + number[cost])
             prefix = f"    {name}  "
             out.append(prefix + ("\n" + prefix).join(lines) + "\n")
-            bound_lines.extend(self._bound_lines(col, name))
+            if in_integers and self.lower[col] == 0 and self.upper[col] == 1:
+                bound_lines.append(f" UP BND       {name}  1\n")
+            else:
+                bound_lines.extend(self._bound_lines(col, name))
         if in_integers:
             out.append("    MARK      'MARKER'                 'INTEND'\n")
         out.append("RHS\n")

@@ -52,10 +52,9 @@ class Variables:
             domain = domains[task.id]
             if domain.empty:
                 continue
-            self.steps[task.id] = [
-                program.add_column(0, 1, integer=True)
-                for _ in range(domain.earliest, domain.latest + 1)
-            ]
+            self.steps[task.id] = list(
+                program.add_binaries(domain.latest - domain.earliest + 1)
+            )
             if task.mandatory:
                 program.lower[self.scheduled(task.id)] = 1
         self._spans = {
@@ -74,6 +73,10 @@ class Variables:
     def scheduled(self, task_id: str) -> int:
         """The column that is 1 iff the task is scheduled."""
         return self.steps[task_id][-1]
+
+    def span(self, task_id: str) -> tuple[int, int, int]:
+        """(earliest start, first step column, latest start) of a task."""
+        return self._spans[task_id]
 
     def step(self, task_id: str, time: int) -> int | None:
         """``z[task, time]`` as a column, or None where it is 0."""
