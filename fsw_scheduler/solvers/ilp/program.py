@@ -62,6 +62,11 @@ class Program:
         return len(self.lower)
 
     @property
+    def num_entries(self) -> int:
+        """Number of non-zero matrix entries."""
+        return sum(len(terms) for terms, _, _ in self.rows)
+
+    @property
     def num_rows(self) -> int:
         """Number of rows (constraints)."""
         return len(self.rows)
