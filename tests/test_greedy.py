@@ -96,6 +96,31 @@ def test_density_rule_spends_a_consumable_on_value() -> None:
     assert plan.objective.unscheduled_cost == 5
 
 
+def test_deadline_rule_keeps_narrow_windows_free() -> None:
+    """Tests that a wide-window task does not take a narrow one's slot.
+
+    By value ``wide`` (cost 5) goes first, at 0, and ``narrow`` (which
+    must start at 0) is out; earliest deadline first fits both.
+    """
+    doc = {
+        "horizon": 4,
+        "resources": {"binary": ["cam"]},
+        "tasks": [
+            {"id": "wide", "length": 2, "delay_cost": 1, "schedule_cost": 5,
+             "uses": {"cam": 1}},
+            {"id": "narrow", "length": 2, "delay_cost": 1,
+             "schedule_cost": 4, "uses": {"cam": 1},
+             "feasible_interval": [0, 0],
+             "feasible_interval_applies_to": "start"},
+        ],
+    }
+    problem = problem_from(doc)
+    plan = greedy_plan(problem)
+    assert plan is not None
+    assert plan.unscheduled == ()
+    assert plan.starts() == {"narrow": 0, "wide": 2}
+
+
 def test_impossible_mandatory_gives_none() -> None:
     """Tests that the heuristic gives up when a mandatory task can't fit."""
     doc = {
