@@ -15,7 +15,9 @@ precedence ``i -> j`` with gap ``g = length_i + offset``:
   ``earliest_i >= earliest_j - g``.
 
 A task whose range becomes empty can never be scheduled; with scope
-``both`` that empties its partner too.
+``both`` that empties its partner too. So does a consumer that alone needs
+more of a consumable than the initial level plus everything the other
+tasks could generate before it ends (:func:`_over_budget`).
 
 :func:`cost_caps` adds a bound of another kind: once a plan that leaves
 nothing out is known, no better plan can start a task later than the delay
@@ -31,7 +33,7 @@ import msgspec
 if TYPE_CHECKING:
     from collections.abc import Mapping
 
-    from .model import Problem
+    from .model import Problem, Task
     from .solution import Plan
 
 
@@ -88,12 +90,18 @@ def start_domains(
     def empty(name: str) -> bool:
         return low[name] > high[name]
 
-    def kill(name: str, why: str) -> bool:
+    def kill(name: str, why: str, kind: str = "precedence") -> bool:
         if empty(name):
             return False
         high[name] = low[name] - 1
-        cause[name] = ("precedence", why)
+        cause[name] = (kind, why)
         return True
+
+    for task in problem.tasks:
+        if not empty(task.id):
+            why = _over_budget(problem, task, high[task.id])
+            if why:
+                kill(task.id, why, "consumable")
 
     # Each pass only shrinks ranges, so this terminates; the cap bounds
     # the work on long positive lax cycles, where any intermediate state
@@ -189,3 +197,53 @@ def cost_caps(
         for task in problem.tasks
         if task.delay_cost > 0
     }
+
+
+def _over_budget(problem: Problem, task: Task, latest: int) -> str:
+    """Why ``task`` alone exhausts a consumable, or "" if it does not.
+
+    Started at ``latest`` it runs the fewest units inside the horizon; by
+    its end the level is at most the initial level plus all generation by
+    tasks that can run before it ends, minus what it took. Tasks that
+    follow it through precedences starting no earlier than its end (the
+    first link with offset >= 0, later links with gap >= 0) cannot help.
+    """
+    after = _after_end(problem, task.id)
+    for resource, initial in problem.resources.consumable.items():
+        amount = task.uses.get(resource, 0)
+        if amount <= 0:
+            continue
+        need = amount * max(0, min(task.length, problem.end - latest))
+        supply = initial + sum(
+            -other.uses.get(resource, 0) * other.length
+            for other in problem.tasks
+            if other.uses.get(resource, 0) < 0 and other.id not in after
+        )
+        if need > supply + 1e-9:
+            return (
+                f"needs {need:g} {resource} on its own; at most {supply:g} "
+                "can be there (initial level and generation before it ends)"
+            )
+    return ""
+
+
+def _after_end(problem: Problem, task_id: str) -> set[str]:
+    """Tasks that can only start once ``task_id`` has ended."""
+    length = {t.id: t.length for t in problem.tasks}
+    found: set[str] = set()
+    frontier = [
+        prec.after
+        for prec in problem.precedences
+        if prec.before == task_id and prec.offset >= 0
+    ]
+    while frontier:
+        name = frontier.pop()
+        if name in found or name == task_id:
+            continue
+        found.add(name)
+        frontier += [
+            prec.after
+            for prec in problem.precedences
+            if prec.before == name and length[name] + prec.offset >= 0
+        ]
+    return found

@@ -356,3 +356,43 @@ def test_no_solver_is_started_without_time_left() -> None:
     kept = solve(problem, time_limit=1e-9)
     assert kept.status is SolveStatus.FEASIBLE
     assert check_plan(problem, kept).ok
+
+
+def _budget_doc(offset: int) -> dict:
+    """``big`` needs 6 fuel of 4; ``gen`` makes 3 but follows ``big``."""
+    return {
+        "horizon": 10,
+        "resources": {"consumable": {"fuel": 4}},
+        "tasks": [
+            _task("big", length=2, uses={"fuel": 3}),
+            _task("gen", length=3, uses={"fuel": -1}),
+            _task("small", length=1, uses={"fuel": 2}),
+        ],
+        "precedences": [
+            {"before": "big", "after": "gen", "kind": "lax",
+             "offset": offset}
+        ],
+    }
+
+
+def test_consumer_over_its_budget_is_never_placed() -> None:
+    """Tests the budget rule: generation after its end cannot help it."""
+    problem = problem_from(_budget_doc(offset=0))
+    domains = start_domains(problem)
+    assert domains["big"].empty
+    assert domains["big"].cause == "consumable"
+    assert "needs 6 fuel" in domains["big"].detail
+    # gen needs big (at_least_first): it goes too, by precedence.
+    assert domains["gen"].empty and domains["gen"].cause == "precedence"
+    assert not domains["small"].empty
+
+
+def test_overlapping_generation_still_counts() -> None:
+    """Tests that a follower starting before the end may supply it."""
+    from .test_bench import brute_force
+
+    problem = problem_from(_budget_doc(offset=-1))
+    assert not start_domains(problem)["big"].empty
+    plan = solve(problem)
+    assert plan.objective is not None
+    assert plan.objective.total == brute_force(problem)
