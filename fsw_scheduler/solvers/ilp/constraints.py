@@ -111,21 +111,12 @@ class Constraints:
 
     def _capacity_rows(self, resource: str, capacity: float) -> None:
         """``sum_i amount_i * R(i, t) <= capacity`` for every time unit."""
-        start, end = self.problem.start, self.problem.end
-        demand = [0.0] * (end - start)  # most the users may need at t
-        rows: list[Terms] = [{} for _ in range(end - start)]
+        start = self.problem.start
+        demand = [0.0] * self.problem.horizon  # most the users may need
+        rows: list[Terms] = [{} for _ in range(self.problem.horizon)]
         for task, amount in self._users(resource):
-            first, column, last = self.vars.span(task.id)
-            # R(i, t) = Z(i, t) - Z(i, t - length), the steps being the
-            # consecutive columns of [first, last], clamped at the ends.
-            for time in range(first, min(last + task.length, end)):
+            for time in self.vars.add_running(rows, task, amount, start):
                 demand[time - start] += amount
-                terms = rows[time - start]
-                on = column + min(time, last) - first
-                terms[on] = terms.get(on, 0.0) + amount
-                if time - task.length >= first:
-                    off = column + min(time - task.length, last) - first
-                    terms[off] = terms.get(off, 0.0) - amount
         for need, terms in zip(demand, rows, strict=True):
             if need > capacity:
                 self._row(terms, LE, capacity)
@@ -164,16 +155,19 @@ class Constraints:
             # CBC time -23 %; on resource-only models it was slower).
             for task, _ in users:
                 self.program.priorities[self.vars.scheduled(task.id)] = 1
+            running: list[Terms] = [{} for _ in range(self.problem.horizon)]
+            for task, amount in users:
+                self.vars.add_running(
+                    running, task, amount, self.problem.start
+                )
             previous: int | None = None
-            for time in range(self.problem.start, self.problem.end):
+            for used in running:
                 level = self.program.add_column(0)
                 # level - previous + sum amount * R = 0 (initial if first)
                 terms: Terms = {level: 1.0}
                 if previous is not None:
                     terms[previous] = -1.0
-                for task, amount in users:
-                    if self.vars.may_run(task, time):
-                        self.vars.add_running(terms, task, time, amount)
+                terms.update(used)
                 rhs = initial if previous is None else 0.0
                 self._row(terms, EQ, rhs)
                 previous = level

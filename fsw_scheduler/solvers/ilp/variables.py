@@ -74,10 +74,6 @@ class Variables:
         """The column that is 1 iff the task is scheduled."""
         return self.steps[task_id][-1]
 
-    def span(self, task_id: str) -> tuple[int, int, int]:
-        """(earliest start, first step column, latest start) of a task."""
-        return self._spans[task_id]
-
     def step(self, task_id: str, time: int) -> int | None:
         """``z[task, time]`` as a column, or None where it is 0."""
         span = self._spans.get(task_id)
@@ -96,19 +92,28 @@ class Variables:
             terms[var] = terms.get(var, 0.0) + coef
 
     def add_running(
-        self, terms: Terms, task: Task, time: int, coef: float
-    ) -> None:
-        """Add ``coef * running(task, time)`` to ``terms``."""
-        self.add_step(terms, task.id, time, coef)
-        self.add_step(terms, task.id, time - task.length, -coef)
+        self, rows: list[Terms], task: Task, amount: float, origin: int
+    ) -> range:
+        """Add ``amount * R(task, t)`` to ``rows[t - origin]`` for every t.
 
-    def may_run(self, task: Task, time: int) -> bool:
-        """True if some allowed start makes the task run at ``time``."""
-        domain = self.domains[task.id]
-        return (
-            not domain.empty
-            and domain.earliest <= time <= domain.latest + task.length - 1
+        ``R(i, t) = Z(i, t) - Z(i, t - length)`` is "runs at t"; only the
+        units at which some allowed start makes the task run get terms.
+        Returns those units (within the rows).
+        """
+        first, column, last = self._spans[task.id]
+        times = range(
+            max(first, origin), min(last + task.length, origin + len(rows))
         )
+        for time in times:
+            terms = rows[time - origin]
+            # The steps are the consecutive columns of [first, last],
+            # clamped at the ends.
+            on = column + min(time, last) - first
+            terms[on] = terms.get(on, 0.0) + amount
+            if time - task.length >= first:
+                off = column + min(time - task.length, last) - first
+                terms[off] = terms.get(off, 0.0) - amount
+        return times
 
     def start_of(self, task_id: str, values: Sequence[float]) -> int | None:
         """The start time in solution ``values``, None if unscheduled."""
