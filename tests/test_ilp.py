@@ -219,12 +219,13 @@ def test_identical_tasks_start_in_problem_order(solver: str) -> None:
 
 def test_warm_start_is_put_in_symmetry_order() -> None:
     """Tests that a start breaking the order is permuted, not refused."""
+    from fsw_scheduler.solvers.ilp.constraints import identical_tasks
     from fsw_scheduler.solvers.ilp.model import in_symmetry_order
 
     problem = problem_from(_twins_doc())
-    domains = start_domains(problem)
+    twins = identical_tasks(problem, start_domains(problem))
     starts = {"dl4": 0, "dl2": 3, "other": 6, "dl0": 9}
-    assert in_symmetry_order(problem, domains, starts) == {
+    assert in_symmetry_order(twins, starts) == {
         "other": 6,
         "dl0": 0,
         "dl1": 3,

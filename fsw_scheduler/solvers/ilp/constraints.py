@@ -73,6 +73,8 @@ class Constraints:
         self.program = program
         self.problem = problem
         self.vars = variables
+        #: Classes of identical tasks, ordered by :meth:`_identical_tasks`.
+        self.twins = identical_tasks(problem, variables.domains)
 
     def add_all(self) -> None:
         """Add every family, in a fixed order (stable row numbering)."""
@@ -202,7 +204,7 @@ class Constraints:
         (``a`` has started whenever ``b`` has; ``b`` scheduled needs ``a``
         scheduled). Without these rows CBC explores every permutation.
         """
-        for group in identical_tasks(self.problem, self.vars.domains):
+        for group in self.twins:
             steps = [self.vars.steps[name] for name in group]
             for first, second in itertools.pairwise(steps):
                 self.program.rows.extend(

@@ -26,7 +26,7 @@ from ...solution import (
     SolveStatus,
 )
 from .cbc import ABS_GAP, MIN_CBC_S, CbcResult, CbcRun
-from .constraints import Constraints, identical_tasks
+from .constraints import Constraints
 from .objective import objective, weight
 from .program import Program
 from .variables import Variables
@@ -81,7 +81,8 @@ class BuiltModel:
         )
         self.program = Program()
         self.vars = Variables(self.program, problem, self.domains)
-        Constraints(self.program, problem, self.vars).add_all()
+        self.constraints = Constraints(self.program, problem, self.vars)
+        self.constraints.add_all()
         self.program.set_objective(*objective(problem, self.vars))
 
     @property
@@ -117,16 +118,13 @@ class BuiltModel:
 
 
 @contextlib.contextmanager
-def _stdout_to_stderr(active: bool) -> Iterator[None]:
-    """Send fd 1 to stderr while active.
+def _stdout_to_stderr() -> Iterator[None]:
+    """Send fd 1 to stderr meanwhile.
 
     The HiGHS library prints its banner from C++ when the solver object is
     created, before any option can silence it; on stdout it would corrupt
     the plan JSON that ``fsw-scheduler solve`` prints.
     """
-    if not active:
-        yield
-        return
     sys.stdout.flush()
     saved = os.dup(1)
     try:
@@ -149,16 +147,17 @@ def _highs_bound(lp: pulp.LpProblem) -> float | None:
 
 
 def in_symmetry_order(
-    problem: Problem, domains: dict[str, Domain], starts: dict[str, int]
+    twins: list[list[str]], starts: dict[str, int]
 ) -> dict[str, int]:
     """``starts`` with identical tasks' starts sorted into problem order.
 
-    The symmetry rows want the first of identical tasks to start first; a
-    MIP start breaking them would be refused. Swapping the starts of
-    identical tasks changes nothing else, so the start is kept as good.
+    The symmetry rows want the first of identical tasks (``twins``, from
+    :func:`identical_tasks`) to start first; a MIP start breaking them
+    would be refused. Swapping the starts of identical tasks changes
+    nothing else, so the start is kept as good.
     """
     reordered = dict(starts)
-    for group in identical_tasks(problem, domains):
+    for group in twins:
         placed = [name for name in group if name in starts]
         times = sorted(starts[name] for name in placed)
         # The first len(placed) tasks of the class get the starts.
@@ -187,8 +186,8 @@ def _run_cbc(
 ) -> _Outcome:
     start = None
     if warm:
-        warm = in_symmetry_order(built.problem, built.domains, warm)
-        start, _ = built.vars.initial(warm, built.program.num_columns)
+        warm = in_symmetry_order(built.constraints.twins, warm)
+        start = built.vars.initial(warm, built.program.num_columns)
     run = CbcRun(time_limit=time_limit, threads=threads, seed=seed)
     result = run.solve(built.program, start)
     notes = [result.solver_status]
@@ -240,7 +239,7 @@ def _run_highs(
     )
     began = time.perf_counter()
     try:
-        with _stdout_to_stderr(True):
+        with _stdout_to_stderr():
             lp.solve(backend)
     except pulp.PulpSolverError as error:
         raise SolverError(f"highs failed: {error}") from error

@@ -126,17 +126,14 @@ class Variables:
                 return first + offset
         return None  # unreachable: the last step is 1
 
-    def initial(
-        self, starts: dict[str, int], columns: int
-    ) -> tuple[list[float], int]:
-        """A warm start from ``starts`` and how many tasks took it.
+    def initial(self, starts: dict[str, int], columns: int) -> list[float]:
+        """Column values of a warm start from ``starts``.
 
         Tasks absent from ``starts`` start as unscheduled (mandatory ones at
         their earliest start); starts outside a task's domain are ignored.
         Columns other than steps are left at 0 for the solver to fill.
         """
         values = [0.0] * columns
-        taken = 0
         for task in self.tasks:
             steps = self.steps.get(task.id)
             if steps is None:
@@ -151,5 +148,4 @@ class Variables:
                 start = first
             for col in steps[start - first :]:
                 values[col] = 1.0
-            taken += 1
-        return values, taken
+        return values
