@@ -97,11 +97,17 @@ def start_domains(
         cause[name] = (kind, why)
         return True
 
-    for task in problem.tasks:
-        if not empty(task.id):
-            why = _over_budget(problem, task, high[task.id])
-            if why:
-                kill(task.id, why, "consumable")
+    if problem.resources.consumable:
+        following: dict[str, list[tuple[str, int, int]]] = {}
+        for prec in problem.precedences:
+            following.setdefault(prec.before, []).append(
+                (prec.after, prec.offset, length[prec.before] + prec.offset)
+            )
+        for task in problem.tasks:
+            if not empty(task.id):
+                why = _over_budget(problem, task, high[task.id], following)
+                if why:
+                    kill(task.id, why, "consumable")
 
     # Each pass only shrinks ranges, so this terminates; the cap bounds
     # the work on long positive lax cycles, where any intermediate state
@@ -199,20 +205,28 @@ def cost_caps(
     }
 
 
-def _over_budget(problem: Problem, task: Task, latest: int) -> str:
+def _over_budget(
+    problem: Problem,
+    task: Task,
+    latest: int,
+    following: Mapping[str, list[tuple[str, int, int]]],
+) -> str:
     """Why ``task`` alone exhausts a consumable, or "" if it does not.
 
     Started at ``latest`` it runs the fewest units inside the horizon; by
     its end the level is at most the initial level plus all generation by
     tasks that can run before it ends, minus what it took. Tasks that
     follow it through precedences starting no earlier than its end (the
-    first link with offset >= 0, later links with gap >= 0) cannot help.
+    first link with offset >= 0, later links with gap >= 0) cannot help;
+    ``following`` maps a task to its ``(successor, offset, gap)`` links.
     """
-    after = _after_end(problem, task.id)
+    after: set[str] | None = None
     for resource, initial in problem.resources.consumable.items():
         amount = task.uses.get(resource, 0)
         if amount <= 0:
             continue
+        if after is None:
+            after = _after_end(task.id, following)
         need = amount * max(0, min(task.length, problem.end - latest))
         supply = initial + sum(
             -other.uses.get(resource, 0) * other.length
@@ -227,14 +241,13 @@ def _over_budget(problem: Problem, task: Task, latest: int) -> str:
     return ""
 
 
-def _after_end(problem: Problem, task_id: str) -> set[str]:
+def _after_end(
+    task_id: str, following: Mapping[str, list[tuple[str, int, int]]]
+) -> set[str]:
     """Tasks that can only start once ``task_id`` has ended."""
-    length = {t.id: t.length for t in problem.tasks}
     found: set[str] = set()
     frontier = [
-        prec.after
-        for prec in problem.precedences
-        if prec.before == task_id and prec.offset >= 0
+        after for after, offset, _ in following.get(task_id, ()) if offset >= 0
     ]
     while frontier:
         name = frontier.pop()
@@ -242,8 +255,6 @@ def _after_end(problem: Problem, task_id: str) -> set[str]:
             continue
         found.add(name)
         frontier += [
-            prec.after
-            for prec in problem.precedences
-            if prec.before == name and length[name] + prec.offset >= 0
+            after for after, _, gap in following.get(name, ()) if gap >= 0
         ]
     return found
