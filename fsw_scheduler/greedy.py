@@ -157,7 +157,7 @@ class _Board:
 def greedy_plan(problem: Problem) -> Plan | None:
     """The best valid plan list scheduling finds, or None.
 
-    Each rule of :data:`RULES` gives one plan (see :func:`rule_plan`); the
+    Each rule of :data:`RULES` gives one plan (see :func:`_rule_plan`); the
     one with the lowest objective is returned, the earliest rule on a
     tie. A plan with every task at its earliest start cannot be beaten,
     so the remaining rules are then skipped.
@@ -176,7 +176,7 @@ def greedy_plan(problem: Problem) -> Plan | None:
     domains = start_domains(problem)
     candidates: list[Plan] = []
     for rule in RULES.values():
-        plan = _unchecked_plan(problem, rule(problem), domains)
+        plan = _rule_plan(problem, rule(problem, domains), domains)
         if plan is None:
             continue
         candidates.append(plan)
@@ -190,17 +190,18 @@ def greedy_plan(problem: Problem) -> Plan | None:
     return next((p for p in candidates if check_plan(problem, p).ok), None)
 
 
-def rule_plan(
+def _rule_plan(
     problem: Problem,
     priority: Callable[[dict[str, int]], tuple[Any, ...]],
-    domains: dict[str, Domain] | None = None,
+    domains: dict[str, Domain],
 ) -> Plan | None:
-    """A valid plan by list scheduling in ``priority`` order, or None.
+    """A plan by list scheduling in ``priority`` order, not yet checked.
 
     Tasks that end up alone in a ``both`` precedence are dropped after the
     pass; since dropping a generator can starve a consumer placed after
     it, the pass is then run again with those tasks left out from the
-    start, until nothing needs dropping (at most once per task).
+    start, until nothing needs dropping (at most once per task). None when
+    a mandatory task cannot be placed.
 
     Parameters
     ----------
@@ -210,20 +211,8 @@ def rule_plan(
         Key of a group (member id to start offset); the ready group with
         the highest key is placed next.
     domains
-        The problem's :func:`start_domains` (computed if not given).
+        The problem's :func:`start_domains`.
     """
-    plan = _unchecked_plan(problem, priority, domains)
-    return plan if plan is not None and check_plan(problem, plan).ok else None
-
-
-def _unchecked_plan(
-    problem: Problem,
-    priority: Callable[[dict[str, int]], tuple[Any, ...]],
-    domains: dict[str, Domain] | None,
-) -> Plan | None:
-    """:func:`rule_plan` before the checker has seen the plan."""
-    if domains is None:
-        domains = start_domains(problem)
     excluded: set[str] = set()
     for _ in range(problem.num_tasks + 1):
         starts = _list_schedule(problem, excluded, priority, domains)
@@ -338,7 +327,9 @@ def _value(members: list[Task]) -> float:
     return sum(t.schedule_cost + 0.01 * t.delay_cost for t in members)
 
 
-def _by_value(problem: Problem) -> Callable[[dict[str, int]], tuple]:
+def _by_value(
+    problem: Problem, domains: dict[str, Domain]
+) -> Callable[[dict[str, int]], tuple]:
     """Mandatory first, then schedule cost, then delay cost."""
     return _mandatory_first(
         problem,
@@ -349,7 +340,9 @@ def _by_value(problem: Problem) -> Callable[[dict[str, int]], tuple]:
     )
 
 
-def _by_density(problem: Problem) -> Callable[[dict[str, int]], tuple]:
+def _by_density(
+    problem: Problem, domains: dict[str, Domain]
+) -> Callable[[dict[str, int]], tuple]:
     """Mandatory, then net generators, then value per consumable share.
 
     A task's share is what it takes of each consumable's initial level
@@ -371,7 +364,9 @@ def _by_density(problem: Problem) -> Callable[[dict[str, int]], tuple]:
     return _mandatory_first(problem, rest)
 
 
-def _by_delay_rate(problem: Problem) -> Callable[[dict[str, int]], tuple]:
+def _by_delay_rate(
+    problem: Problem, domains: dict[str, Domain]
+) -> Callable[[dict[str, int]], tuple]:
     """Schedule cost, then delay cost per unit of length (Smith's rule)."""
     return _mandatory_first(
         problem,
@@ -383,7 +378,9 @@ def _by_delay_rate(problem: Problem) -> Callable[[dict[str, int]], tuple]:
     )
 
 
-def _by_value_rate(problem: Problem) -> Callable[[dict[str, int]], tuple]:
+def _by_value_rate(
+    problem: Problem, domains: dict[str, Domain]
+) -> Callable[[dict[str, int]], tuple]:
     """Value per unit of length: many short tasks before one long one."""
     return _mandatory_first(
         problem,
@@ -391,7 +388,9 @@ def _by_value_rate(problem: Problem) -> Callable[[dict[str, int]], tuple]:
     )
 
 
-def _by_deadline(problem: Problem) -> Callable[[dict[str, int]], tuple]:
+def _by_deadline(
+    problem: Problem, domains: dict[str, Domain]
+) -> Callable[[dict[str, int]], tuple]:
     """Latest start soonest first (earliest deadline), then schedule cost.
 
     Placing every task at its earliest start lets tasks with wide windows
@@ -399,7 +398,6 @@ def _by_deadline(problem: Problem) -> Callable[[dict[str, int]], tuple]:
     set this rule gave the best plan for 11 of the 24 problems (at 30
     tasks, H = 336, as little left out as CP-SAT's optimum).
     """
-    domains = start_domains(problem)
     return _mandatory_first(
         problem,
         lambda members: (
@@ -410,7 +408,10 @@ def _by_deadline(problem: Problem) -> Callable[[dict[str, int]], tuple]:
 
 
 #: Priority rules, tried in this order.
-RULES: dict[str, Callable[[Problem], Callable[[dict[str, int]], tuple]]] = {
+RULES: dict[
+    str,
+    Callable[[Problem, dict[str, Domain]], Callable[[dict[str, int]], tuple]],
+] = {
     "value": _by_value,
     "density": _by_density,
     "delay-rate": _by_delay_rate,
