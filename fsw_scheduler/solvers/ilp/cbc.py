@@ -248,6 +248,7 @@ class CbcRun:
             if program.priorities:
                 _write_priorities(files["prio"], program)
                 head += ["-priorityIn", files["prio"]]
+            deadline = self.deadline_s
             if self.time_limit is not None:
                 # Large models take a while to write, and CBC to read:
                 # it gets the rest as CPU time, and SIGINT a little before
@@ -259,11 +260,13 @@ class CbcRun:
                     # CBC would only read the model and stop.
                     return _not_started()
                 head += ["-sec", str(cpu_limit)]
-                if self.deadline_s is None:
-                    self.deadline_s = left - STOP_MARGIN_S
+                if deadline is None:
+                    deadline = left - STOP_MARGIN_S
             tail = ["-solve", "-solution", files["sol"]]
             options = list(self.options)
-            code = self._run(head + _flags(options) + tail, files["log"])
+            code = self._run(
+                head + _flags(options) + tail, files["log"], deadline
+            )
             retried = False
             if self._failed(code, files["sol"]) and not self.interrupted:
                 # CBC 2.10 can crash without preprocessing on some
@@ -273,7 +276,9 @@ class CbcRun:
                 )
                 options.remove(FRAGILE)
                 retried = True
-                code = self._run(head + _flags(options) + tail, files["log"])
+                code = self._run(
+                    head + _flags(options) + tail, files["log"], deadline
+                )
             seconds, bound = _read_log(files["log"])
             if bound is not None:
                 bound += program.constant
@@ -312,25 +317,27 @@ class CbcRun:
         empty = not os.path.exists(solution) or os.path.getsize(solution) == 0
         return empty or (code != 0 and not self.interrupted)
 
-    def _run(self, args: list[str], log_path: str) -> int:
+    def _run(
+        self, args: list[str], log_path: str, deadline: float | None
+    ) -> int:
         with open(log_path, "w") as out:
             process = subprocess.Popen(
                 args, stdout=out, stderr=out, stdin=subprocess.DEVNULL
             )
-            self._wait(process)
+            self._wait(process, deadline)
         return process.returncode
 
-    def _wait(self, process: subprocess.Popen) -> None:
+    def _wait(self, process: subprocess.Popen, deadline: float | None) -> None:
         """Wait for CBC; past the deadline interrupt it, then kill it.
 
         The wait itself blocks in ``waitpid``: ``Popen.wait(timeout)``
         polls with sleeps of up to 50 ms, which added about 20 ms to every
         small solve. A timer thread enforces the deadline instead.
         """
-        if self.deadline_s is None:
+        if deadline is None:
             process.wait()
             return
-        timer = threading.Timer(self.deadline_s, self._stop, (process,))
+        timer = threading.Timer(deadline, self._stop, (process,))
         timer.daemon = True
         timer.start()
         try:
