@@ -10,6 +10,7 @@ still hands the same program to PuLP for the solvers reached through it.
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -111,16 +112,17 @@ class Program:
     def _holds(self, terms: Terms, sense: str, rhs: float) -> bool:
         """True if a one-column row holds for every value in its bounds."""
         ((col, coef),) = terms.items()
-        ends = [self.lower[col], self.upper[col]]
-        values = [coef * end for end in ends if end is not None]
-        if len(values) < 2:  # unbounded above: only the lower end is known
-            return sense == (GE if coef > 0 else LE) and (
-                values[0] >= rhs if coef > 0 else values[0] <= rhs
+        upper = self.upper[col]
+        low, high = sorted(
+            (
+                coef * self.lower[col],
+                coef * (math.inf if upper is None else upper),
             )
+        )
         if sense == LE:
-            return max(values) <= rhs
+            return high <= rhs
         if sense == GE:
-            return min(values) >= rhs
+            return low >= rhs
         return False
 
     def set_objective(self, terms: Terms, constant: float = 0.0) -> None:
