@@ -84,8 +84,9 @@ def solve(
         seed=seed,
     )
     began = time.perf_counter()
+    domains = start_domains(problem)
     start = best_start(problem, warm)
-    if start is not None and at_lower_bound(problem, start):
+    if start is not None and at_lower_bound(problem, start, domains):
         plan = start.replace(
             status=SolveStatus.OPTIMAL,
             stats=SolverStats(
@@ -117,7 +118,7 @@ def solve(
                 run(
                     problem,
                     warm=start.starts() if start else None,
-                    domains=_narrowed(problem, start),
+                    domains=_narrowed(problem, start, domains),
                     # The start plan's time counts against the limit.
                     time_limit=None
                     if time_limit is None
@@ -179,16 +180,22 @@ def _budgeted(
     return attempt
 
 
-def at_lower_bound(problem: Problem, plan: Plan) -> bool:
+def at_lower_bound(
+    problem: Problem,
+    plan: Plan,
+    domains: dict[str, Domain] | None = None,
+) -> bool:
     """True if ``plan`` is optimal by a bound that needs no solver.
 
     When every task is scheduled at the earliest start its domain allows
-    (windows, horizon and precedences: :func:`start_domains`), no plan can
-    leave less out or start anything sooner, so the plan is optimal.
+    (windows, horizon and precedences: :func:`start_domains`, computed
+    unless given as ``domains``), no plan can leave less out or start
+    anything sooner, so the plan is optimal.
     """
     if plan.unscheduled:
         return False
-    domains = start_domains(problem)
+    if domains is None:
+        domains = start_domains(problem)
     starts = plan.starts()
     return all(
         starts.get(task.id) == domains[task.id].earliest
@@ -197,19 +204,15 @@ def at_lower_bound(problem: Problem, plan: Plan) -> bool:
 
 
 def _narrowed(
-    problem: Problem, start: Plan | None
-) -> dict[str, Domain] | None:
-    """Start domains cut by what ``start`` already achieves, if it can.
+    problem: Problem, start: Plan | None, domains: dict[str, Domain]
+) -> dict[str, Domain]:
+    """``domains`` cut by what ``start`` already achieves, if it can.
 
     Every plan at least as good as ``start`` fits in them
     (:func:`cost_caps`), so the model gets smaller and keeps its optimum.
     """
-    if start is None:
-        return None
-    caps = cost_caps(problem, start_domains(problem), start)
-    if caps is None:
-        return None
-    return start_domains(problem, caps)
+    caps = None if start is None else cost_caps(problem, domains, start)
+    return domains if caps is None else start_domains(problem, caps)
 
 
 def best_start(problem: Problem, warm: Plan | None) -> Plan | None:
