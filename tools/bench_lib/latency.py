@@ -20,8 +20,6 @@ solver wall time; the remainder is reported as bus + engine overhead.
 
 from __future__ import annotations
 
-import csv
-import dataclasses
 import statistics
 import time
 from dataclasses import dataclass
@@ -35,11 +33,10 @@ from fsw_scheduler.testing import (
     paper_problem,
 )
 
-from .report import percentile
+from .report import aligned, fmt, percentile
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Sequence
-    from pathlib import Path
 
 SCENARIOS: tuple[str, ...] = ("paper-goal", "ping-goal")
 
@@ -172,10 +169,6 @@ def measure(
     return runs
 
 
-def _fmt(value: float | None) -> str:
-    return "-" if value is None else f"{value:.3f}"
-
-
 def _median(values: Sequence[float | None]) -> float | None:
     known = [v for v in values if v is not None]
     return statistics.median(known) if known else None
@@ -214,47 +207,17 @@ def format_latency(runs: Sequence[LatencyRun]) -> str:
             (
                 name,
                 str(len(mine)),
-                _fmt(statistics.median(latencies)),
-                _fmt(percentile(latencies, 90)),
-                _fmt(max(latencies)),
-                _fmt(_median([r.solver_wall_s for r in mine])),
-                _fmt(_median([r.overhead_s for r in mine])),
+                fmt(statistics.median(latencies)),
+                fmt(percentile(latencies, 90)),
+                fmt(max(latencies)),
+                fmt(_median([r.solver_wall_s for r in mine])),
+                fmt(_median([r.overhead_s for r in mine])),
             )
         )
-    widths = [max(len(c[i]) for c in cells) for i in range(len(HEADER))]
-    lines = [
+    legend = (
         "Replan latency in seconds, client side on an in-process loopback "
         "bus: goal published to plan received (median/p90/max); solver = "
         "median of the plan's solver wall time; overhd = median of latency "
-        "minus solver wall (bus, node, engine, publication).",
-        "== replan latency",
-    ]
-    for cell in cells:
-        lines.append(
-            "  ".join(
-                c.ljust(w) if i == 0 else c.rjust(w)
-                for i, (c, w) in enumerate(zip(cell, widths, strict=True))
-            )
-        )
-    return "\n".join(lines)
-
-
-def write_csv(runs: Sequence[LatencyRun], path: Path) -> None:
-    """Write one CSV line per run (all :class:`LatencyRun` fields).
-
-    Parameters
-    ----------
-    runs
-        The measured runs.
-    path
-        The file to (over)write; nothing is written when ``runs`` is
-        empty.
-    """
-    if not runs:
-        return
-    names = [f.name for f in dataclasses.fields(LatencyRun)]
-    with path.open("w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=names)
-        writer.writeheader()
-        for run in runs:
-            writer.writerow(dataclasses.asdict(run))
+        "minus solver wall (bus, node, engine, publication)."
+    )
+    return "\n".join([legend, "== replan latency", *aligned(cells, 1)])

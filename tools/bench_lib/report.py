@@ -14,7 +14,7 @@ import dataclasses
 import math
 import statistics
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from .generator import CAMPAIGN_SIZES, CLASSES
 
@@ -181,10 +181,23 @@ def summarize(runs: Sequence[Run]) -> list[tuple[str, list[Row]]]:
     return [(title, rows) for title, rows in sections if rows]
 
 
-def _fmt(value: float | None) -> str:
+def fmt(value: float | None) -> str:
+    """Seconds with three decimals; "-" for a missing value."""
     if value is None or math.isnan(value):
         return "-"
     return f"{value:.3f}"
+
+
+def aligned(cells: Sequence[Sequence[str]], left: int) -> list[str]:
+    """Table rows with columns padded; the first ``left`` ones flush left."""
+    widths = [max(len(c[i]) for c in cells) for i in range(len(cells[0]))]
+    return [
+        "  ".join(
+            c.ljust(w) if i < left else c.rjust(w)
+            for i, (c, w) in enumerate(zip(cell, widths, strict=True))
+        )
+        for cell in cells
+    ]
 
 
 HEADER = (
@@ -210,28 +223,19 @@ def format_table(title: str, rows: Sequence[Row]) -> str:
             row.solver,
             row.group,
             str(row.runs),
-            _fmt(row.median),
-            _fmt(row.p90),
-            _fmt(row.mean),
-            _fmt(row.build),
-            _fmt(row.overhead),
-            _fmt(row.solve),
+            fmt(row.median),
+            fmt(row.p90),
+            fmt(row.mean),
+            fmt(row.build),
+            fmt(row.overhead),
+            fmt(row.solve),
             str(row.timeouts),
             str(row.check_failures),
-            _fmt(row.paper) if row.paper is not None else "-",
+            fmt(row.paper) if row.paper is not None else "-",
         )
         for row in rows
     ]
-    widths = [max(len(c[i]) for c in cells) for i in range(len(HEADER))]
-    lines = [f"== {title}"]
-    for cell in cells:
-        lines.append(
-            "  ".join(
-                c.ljust(w) if i < 2 else c.rjust(w)
-                for i, (c, w) in enumerate(zip(cell, widths, strict=True))
-            )
-        )
-    return "\n".join(lines)
+    return "\n".join([f"== {title}", *aligned(cells, 2)])
 
 
 def format_report(outcome: Outcome, *, time_limit: float | None) -> str:
@@ -292,9 +296,9 @@ def format_report(outcome: Outcome, *, time_limit: float | None) -> str:
 
 
 def write_csv(
-    runs: Sequence[Run], path: Path, *, append: bool = False
+    runs: Sequence[Any], path: Path, *, append: bool = False
 ) -> None:
-    """Write one CSV line per run (all :class:`Run` fields).
+    """Write one CSV line per run (all fields of the runs' dataclass).
 
     With ``append``, add the lines to ``path`` (the header only when the
     file is new or empty).
