@@ -9,6 +9,8 @@ in ``schemas/``; a test keeps them identical.
 
 from __future__ import annotations
 
+import inspect
+import json
 from typing import Any, Literal
 
 import msgspec
@@ -275,17 +277,34 @@ def json_schemas() -> dict[str, dict]:
             **ref,
             "$defs": defs,
         }
-        schemas[name] = _rewrite_refs(schema)
+        schemas[name] = _normalise(schema)
     return schemas
 
 
-def _rewrite_refs(node: Any) -> Any:
-    """msgspec writes ``#/$defs/X`` refs already; keep them, sorted."""
+def _normalise(node: Any, key: str | None = None) -> Any:
+    """Make a generated schema independent of the msgspec version.
+
+    msgspec's output changes between releases (0.23 dedents docstrings,
+    releases before 0.22 order ``anyOf`` differently). The same code must
+    write the same files under every version ``pyproject.toml`` allows, so
+    descriptions are cleaned with ``inspect.cleandoc``, keys are sorted, and
+    the members of unordered lists (``anyOf``, ``required``) are sorted by
+    their canonical JSON text.
+    """
     if isinstance(node, dict):
-        return {k: _rewrite_refs(node[k]) for k in sorted(node)}
+        return {k: _normalise(node[k], k) for k in sorted(node)}
     if isinstance(node, list):
-        return [_rewrite_refs(v) for v in node]
+        items = [_normalise(v) for v in node]
+        if key in _UNORDERED_KEYWORDS:
+            items.sort(key=lambda v: json.dumps(v, sort_keys=True))
+        return items
+    if isinstance(node, str) and key == "description":
+        return inspect.cleandoc(node)
     return node
+
+
+# JSON Schema keywords whose list order carries no meaning.
+_UNORDERED_KEYWORDS = frozenset({"anyOf", "oneOf", "required"})
 
 
 def schema_lookup(spacecraft: str) -> Any:

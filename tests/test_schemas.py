@@ -96,3 +96,25 @@ def test_oversized_payload_is_rejected() -> None:
     with pytest.raises(messages.InputError) as info:
         messages.decode_input("clock", huge)
     assert "exceeds" in info.value.issues[0].reason
+
+
+def test_normalise_makes_schemas_independent_of_msgspec_formatting() -> None:
+    """Tests that descriptions are dedented and unordered lists sorted."""
+    indented = {
+        "description": "Title.\n\n    Attributes\n    ----------\n    x : int",
+        "anyOf": [{"type": "null"}, {"type": "integer"}],
+        "required": ["b", "a"],
+        "enum": ["z", "a"],
+    }
+    dedented = {
+        "enum": ["z", "a"],
+        "required": ["a", "b"],
+        "anyOf": [{"type": "integer"}, {"type": "null"}],
+        "description": "Title.\n\nAttributes\n----------\nx : int",
+    }
+    assert messages._normalise(indented) == messages._normalise(dedented)
+    out = messages._normalise(indented)
+    assert out["description"] == dedented["description"]
+    # enum order is meaningful to readers and kept as written
+    assert out["enum"] == ["z", "a"]
+    assert list(out) == sorted(out)

@@ -1,5 +1,11 @@
-# Sourced by tools/test and tools/demo: create .venv with Python >= 3.11
-# and install the package with its test and plot extras when needed.
+# Sourced by tools/test and tools/demo: create the virtual environment (once
+# per lock) and install the package into it.
+#
+# Locked mode (default): every dependency comes from requirements-lock.txt,
+# pinned and hash-checked, so every machine runs the same versions.
+# Drift mode (FSW_LATEST=1, or `tools/test --latest`): a separate
+# environment, .venv-latest, gets the newest versions pyproject.toml allows,
+# so a break in a new release shows up before users hit it.
 PYTHON=${PYTHON:-}
 if [ -z "$PYTHON" ]; then
     for candidate in python3.11 python3.12 python3.13 python3; do
@@ -14,12 +20,29 @@ if [ -z "$PYTHON" ]; then
     echo "fsw-scheduler needs Python >= 3.11" >&2
     exit 2
 fi
-VENV=${VENV:-.venv}
-stamp="$VENV/.installed-$(cksum pyproject.toml | cut -d' ' -f1)"
-if [ ! -e "$stamp" ]; then
-    echo "setting up $VENV with $PYTHON (first run only)..." >&2
-    "$PYTHON" -m venv "$VENV"
+if [ "${FSW_LATEST:-0}" = 1 ]; then
+    VENV=${VENV:-.venv-latest}
+    echo "drift mode: installing the newest allowed versions into $VENV..." >&2
+    [ -x "$VENV/bin/python" ] || "$PYTHON" -m venv "$VENV"
     "$VENV/bin/python" -m pip install --quiet --upgrade pip >&2
-    "$VENV/bin/python" -m pip install --quiet -e '.[all]' >&2
-    touch "$stamp"
+    "$VENV/bin/python" -m pip install --quiet --upgrade \
+        --upgrade-strategy eager -e '.[all]' >&2
+    "$VENV/bin/python" -m pip freeze --exclude-editable >&2
+else
+    VENV=${VENV:-.venv}
+    stamp="$VENV/.installed-$(cat pyproject.toml requirements-lock.txt |
+        cksum | cut -d' ' -f1)"
+    if [ ! -e "$stamp" ]; then
+        echo "setting up $VENV with $PYTHON from requirements-lock.txt" \
+            "(first run only)..." >&2
+        rm -rf "$VENV"
+        "$PYTHON" -m venv "$VENV"
+        "$VENV/bin/python" -m pip install --quiet --require-hashes \
+            --no-deps -r requirements-lock.txt >&2
+        # The package itself, with the locked setuptools and nothing else.
+        "$VENV/bin/python" -m pip install --quiet --no-deps \
+            --no-build-isolation -e . >&2
+        "$VENV/bin/python" -m pip check >&2
+        touch "$stamp"
+    fi
 fi
