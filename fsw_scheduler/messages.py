@@ -1,4 +1,4 @@
-"""Bus messages (CONTRACT section 5): msgspec Structs, codecs and schemas.
+"""Bus messages (the bus keys): msgspec Structs, codecs and schemas.
 
 Evolution rules: a new field always has a default and a field's type
 never changes, so older recordings still decode. Unknown fields are
@@ -59,7 +59,7 @@ class ResourceLevel(msgspec.Struct, frozen=True):
 
 
 class PlanMessage(msgspec.Struct, frozen=True):
-    """``scheduler/plan``: the plan being executed (CONTRACT section 2).
+    """``scheduler/plan``: the plan being executed (the plan format).
 
     Attributes
     ----------
@@ -70,7 +70,7 @@ class PlanMessage(msgspec.Struct, frozen=True):
     horizon_start, horizon_end
         The window ``[start, end)`` the plan covers.
     status, objective, activities, unscheduled
-        As in CONTRACT section 2.
+        As in the plan format.
     why
         Why each unscheduled task is out.
     continuing
@@ -279,6 +279,22 @@ def json_schemas() -> dict[str, dict]:
         }
         schemas[name] = _normalise(schema)
     return schemas
+
+
+def schema_files() -> dict[str, str]:
+    """File name -> text of every schema, as ``schemas/`` holds them.
+
+    Returns
+    -------
+    dict[str, str]
+        ``<kind>.schema.json`` -> indented JSON with sorted keys and a
+        final newline.
+    """
+    return {
+        f"{name}.schema.json": json.dumps(schema, indent=2, sort_keys=True)
+        + "\n"
+        for name, schema in json_schemas().items()
+    }
 
 
 def _normalise(node: Any, key: str | None = None) -> Any:

@@ -1,4 +1,4 @@
-"""Problem model: tasks, resources and precedences (CONTRACT section 1).
+"""Problem model: tasks, resources and precedences (problem format).
 
 Every structure is an immutable :class:`msgspec.Struct`. :func:`decode_problem`
 turns JSON bytes into a validated :class:`Problem`; anything wrong is raised
@@ -193,7 +193,7 @@ def decode_problem(data: bytes | str, *, allow_empty: bool = False) -> Problem:
     Parameters
     ----------
     data
-        The JSON text of CONTRACT section 1.
+        The JSON text of the problem format.
     allow_empty
         Accept a problem with no task (``fsw-scheduler run``: the problem
         gives resources and horizon, goals bring the tasks).

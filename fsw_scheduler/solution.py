@@ -1,4 +1,4 @@
-"""Plans: what a solve returns (CONTRACT section 2). Pure data."""
+"""Plans: what a solve returns (the plan format). Pure data."""
 
 from __future__ import annotations
 
@@ -106,5 +106,5 @@ class Plan(msgspec.Struct, frozen=True):
 
 
 def objective_weight(delay_costs: list[int], horizon: int) -> int:
-    """W of CONTRACT section 1: one unscheduled cost beats any delay."""
+    """W of the problem format: one unscheduled cost beats any delay."""
     return 1 + sum(delay_costs) * horizon

@@ -418,7 +418,7 @@ def test_scope(scope: str, scheduled: str, ok: bool) -> None:
 
 
 def test_objective_recomputed() -> None:
-    """Tests that the objective and W are recomputed per CONTRACT §1."""
+    """Tests that the objective and W are recomputed per the problem format."""
     problem = _problem(
         [
             _task("a", delay_cost=2, schedule_cost=4),

@@ -1,4 +1,4 @@
-"""Every key expression of the bus, in one place (CONTRACT section 5).
+"""Every key expression of the bus, in one place (the bus keys).
 
 Keys are ``fsw/<spacecraft>/<suffix>``; the suffixes below are the public
 names. Recording, replay and the scheduler node all derive their keys here.
