@@ -51,6 +51,12 @@ from .reschedule import (
     drift,
     empty_plan,
 )
+from .shed import (
+    shed_blockers,
+    shed_tasks,
+    shedding_problem,
+    without_tasks,
+)
 from .solution import Plan, SolverStats, SolveStatus
 
 # -- events ------------------------------------------------------------------
@@ -126,13 +132,15 @@ class Publish(msgspec.Struct, frozen=True):
 class StartSolve(msgspec.Struct, frozen=True):
     """Solve ``problem`` (warm-started from ``warm``); reply with SolveDone.
 
-    ``inputs_seen`` is for the solve record the shell publishes.
+    ``explain`` asks for the reasons of left-out tasks whatever the node's
+    settings (the shedding solve: an alarm must say why).
     """
 
     solve_id: int
     trigger: str
     problem: Problem
     warm: Plan | None = None
+    explain: bool = False
 
 
 class Log(msgspec.Struct, frozen=True):
@@ -185,7 +193,14 @@ Lifecycle = Literal[
 
 
 class _Pending(msgspec.Struct):
-    """A solve in flight."""
+    """A solve in flight.
+
+    ``stage`` is ``plan`` for an ordinary solve; when a replan the world
+    forced (not a goal) is infeasible, ``shed`` finds which mandatory
+    tasks to keep, then ``degraded`` solves without the others (see
+    :mod:`fsw_scheduler.shed`); ``infeasible`` keeps the plan that
+    started it.
+    """
 
     solve_id: int
     trigger: str
@@ -194,6 +209,8 @@ class _Pending(msgspec.Struct):
     goals: tuple[str, ...]
     started_at: int
     dispatches_at_start: int
+    stage: Literal["plan", "shed", "degraded"] = "plan"
+    infeasible: Plan | None = None
 
 
 class _Change(msgspec.Struct, frozen=True):
@@ -483,8 +500,8 @@ class Engine:
         plan = event.plan
         stats = plan.stats or SolverStats(solver="?")
         self._count(solves=self._counters.solves + 1)
-        adopted = plan.status.has_plan
-        reason = "" if adopted else _no_plan_reason(plan)
+        adopted = plan.status.has_plan and pending.stage != "shed"
+        reason = "" if plan.status.has_plan else _no_plan_reason(plan)
         self._last_solve = SolveSummary(
             solve_id=event.solve_id,
             trigger=pending.trigger,
@@ -495,9 +512,29 @@ class Engine:
             reason=reason,
         )
         out.append(self._solve_record(pending, plan))
+        if (
+            plan.status is SolveStatus.INFEASIBLE
+            and pending.stage == "plan"
+            and pending.replan is not None
+            and not pending.goals
+        ):
+            # The world, not a goal, made the plan impossible: do not keep
+            # flying it; find the best plan still possible.
+            self._start_shedding(pending, plan, out)
+            return
+        if pending.stage == "shed" and plan.status.has_plan:
+            self._start_degraded(pending, plan, out)
+            return
         if not adopted:
             self._solve_without_plan(pending, reason, out)
             return
+        if pending.stage == "degraded":
+            assert pending.replan is not None
+            assert pending.infeasible is not None
+            shed = shed_blockers(pending.replan.removed, pending.infeasible)
+            plan = plan.replace(
+                status=SolveStatus.DEGRADED, why=(*shed, *plan.why)
+            )
         if pending.replan is None:
             assert self._plan_message is None
             self.schedule = Schedule.begin(pending.problem, plan)
@@ -511,6 +548,8 @@ class Engine:
                 pending.replan.removed,
                 out,
             )
+        if pending.stage == "degraded":
+            self._raise_alarm(plan, out)
         if (
             pending.dispatches_at_start != self._counters.dispatches
             and self._clock() > pending.started_at
@@ -625,6 +664,62 @@ class Engine:
             out,
         )
 
+    def _start_shedding(
+        self, pending: _Pending, infeasible: Plan, out: list[Command]
+    ) -> None:
+        """Solve which mandatory tasks to keep (see :mod:`.shed`)."""
+        assert pending.replan is not None
+        reason = _no_plan_reason(infeasible)
+        out.append(
+            Log(
+                "warning",
+                f"solve {pending.solve_id} ({pending.trigger}) is "
+                f"{reason}; shedding mandatory tasks",
+            )
+        )
+        self._start_solve(
+            pending.trigger,
+            shedding_problem(pending.replan.problem),
+            pending.replan,
+            None,
+            (),
+            out,
+            stage="shed",
+            infeasible=infeasible,
+        )
+
+    def _start_degraded(
+        self, pending: _Pending, shedding: Plan, out: list[Command]
+    ) -> None:
+        """Solve the replan without the mandatory tasks it cannot keep."""
+        assert pending.replan is not None
+        assert pending.infeasible is not None
+        dropped = shed_tasks(pending.replan.problem, shedding)
+        replan = without_tasks(
+            pending.replan,
+            dropped,
+            f"{pending.trigger} at t={pending.started_at} left no room",
+        )
+        self._start_solve(
+            pending.trigger,
+            replan.problem,
+            replan,
+            replan.warm,
+            (),
+            out,
+            stage="degraded",
+            # The shedding solve explains its left-out tasks with the
+            # constraint that really blocks each; those reasons win.
+            infeasible=pending.infeasible.replace(
+                why=(*pending.infeasible.why, *shedding.why)
+            ),
+        )
+
+    def _raise_alarm(self, plan: Plan, out: list[Command]) -> None:
+        """Say loudly that mandatory tasks were dropped, and why."""
+        out.append(Log("error", _degraded_detail(self.plan_id, plan)))
+        out.append(Publish(topics.STATUS, self.status("alarm")))
+
     def _start_solve(
         self,
         trigger: str,
@@ -633,6 +728,9 @@ class Engine:
         warm: Plan | None,
         goals: tuple[str, ...],
         out: list[Command],
+        *,
+        stage: Literal["plan", "shed", "degraded"] = "plan",
+        infeasible: Plan | None = None,
     ) -> None:
         if replan is not None and not problem.tasks:
             # Nothing left to schedule: adopt the empty plan without solving.
@@ -648,16 +746,27 @@ class Engine:
             goals=goals,
             started_at=self._clock(),
             dispatches_at_start=self._counters.dispatches,
+            stage=stage,
+            infeasible=infeasible,
         )
         out.append(
             Log(
                 "info",
-                f"solve {self._solve_id} ({trigger}): "
+                f"solve {self._solve_id} ({trigger}"
+                f"{'' if stage == 'plan' else ', ' + stage}): "
                 f"{problem.num_tasks} tasks over "
                 f"[{problem.start}, {problem.end})",
             )
         )
-        out.append(StartSolve(self._solve_id, trigger, problem, warm))
+        out.append(
+            StartSolve(
+                self._solve_id,
+                trigger,
+                problem,
+                warm,
+                explain=stage == "shed",
+            )
+        )
 
     def _solve_without_plan(
         self, pending: _Pending, reason: str, out: list[Command]
@@ -689,7 +798,11 @@ class Engine:
             problem=problem,
             status=plan.status,
             objective=plan.objective,
-            plan_id=(self.plan_id or 0) + 1 if plan.status.has_plan else None,
+            plan_id=(
+                (self.plan_id or 0) + 1
+                if plan.status.has_plan and pending.stage != "shed"
+                else None
+            ),
             num_variables=stats.num_variables,
             num_constraints=stats.num_constraints,
             build_s=stats.build_s,
@@ -745,7 +858,10 @@ class Engine:
             goals=goals,
             stats=plan.stats,
         )
-        self._set_health("ok", "")
+        if plan.status is SolveStatus.DEGRADED:
+            self._set_health("degraded", _degraded_detail(self.plan_id, plan))
+        else:
+            self._set_health("ok", "")
         out.append(Publish(topics.PLAN, self._plan_message))
         out.append(
             Log(
@@ -892,6 +1008,13 @@ def _merge_goals(goals: list[Goal]) -> Goal:
         goal_id="+".join(g.goal_id for g in goals),
         tasks=tuple(t for g in goals for t in g.tasks),
         precedences=tuple(p for g in goals for p in g.precedences),
+    )
+
+
+def _degraded_detail(plan_id: int | None, plan: Plan) -> str:
+    """The alarm text of a degraded plan: each shed task and why."""
+    return f"plan {plan_id} is degraded: " + "; ".join(
+        f"{b.task} shed ({b.detail})" for b in plan.why if b.cause == "shed"
     )
 
 

@@ -13,17 +13,25 @@ class SolveStatus(str, enum.Enum):
     ``optimal``: proven optimal. ``feasible``: a limit was hit and the best
     plan found is returned. ``infeasible``: proven that mandatory tasks
     cannot all be placed. ``unknown``: no plan found within the limit.
+    ``degraded`` (bus plans only): the mandatory tasks no longer fitted
+    together, and this is the best plan without the ones that had to be
+    shed; ``why`` names each.
     """
 
     OPTIMAL = "optimal"
     FEASIBLE = "feasible"
     INFEASIBLE = "infeasible"
     UNKNOWN = "unknown"
+    DEGRADED = "degraded"
 
     @property
     def has_plan(self) -> bool:
         """True when the status comes with a usable plan."""
-        return self in (SolveStatus.OPTIMAL, SolveStatus.FEASIBLE)
+        return self in (
+            SolveStatus.OPTIMAL,
+            SolveStatus.FEASIBLE,
+            SolveStatus.DEGRADED,
+        )
 
 
 class Activity(msgspec.Struct, frozen=True):

@@ -96,7 +96,7 @@ def run_solve(config: NodeConfig, command: StartSolve) -> Plan:
         time_limit=config.time_limit,
         threads=config.threads,
         seed=config.seed,
-        explain=config.explain,
+        explain=config.explain or command.explain,
         warm=command.warm,
         explain_budget=config.explain_budget,
     )
