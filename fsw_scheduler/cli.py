@@ -320,14 +320,17 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from .model import Problem
     from .recording import Recorder
 
-    config = load_config(toml_config_file(args)).replace(
-        spacecraft=args.spacecraft,
-        clock=args.clock,
-        time_unit=args.time_unit,
-        solver=args.solver,
-        time_limit=args.time_limit,
-        horizon=args.horizon,
-    )
+    try:
+        config = load_config(toml_config_file(args)).replace(
+            spacecraft=args.spacecraft,
+            clock=args.clock,
+            time_unit=args.time_unit,
+            solver=args.solver,
+            time_limit=args.time_limit,
+            horizon=args.horizon,
+        )
+    except ValueError as error:  # a bad value given as a flag
+        raise InputError([FieldIssue("", str(error))], "arguments") from None
     if args.problem:
         problem = decode_problem(_read_bytes(args.problem), allow_empty=True)
     else:
