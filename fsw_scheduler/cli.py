@@ -340,6 +340,31 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 "arguments",
             )
         problem = Problem(horizon=config.horizon, tasks=())
+    from .bus.security import assess
+
+    zenoh_settings = zenoh_config(args)
+    security = assess(zenoh_settings, acknowledged=args.insecure)
+    if security.warnings and args.require_secure:
+        for warning in security.warnings:
+            print(f"fsw-scheduler: insecure bus: {warning}", file=sys.stderr)
+        print(
+            "fsw-scheduler: --require-secure: not starting (see 'fsw-"
+            "scheduler config --profile secure' and the README, 'Deploying "
+            "securely')",
+            file=sys.stderr,
+        )
+        return EXIT_BAD_INPUT
+    for warning in security.warnings:
+        if args.insecure:
+            log.info("running open (--insecure): %s", warning)
+        else:
+            log.warning("INSECURE: %s", warning)
+    if security.warnings and not args.insecure:
+        log.warning(
+            "INSECURE: anyone who reaches this bus can command the "
+            "scheduler; use a secure profile ('fsw-scheduler config "
+            "--profile secure'), or pass --insecure to acknowledge"
+        )
     journal = None
     if args.record:
         journal = Recorder(
@@ -353,14 +378,53 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
-    with zenoh.open(zenoh_config(args)) as session:
-        node = SchedulerNode(session, problem, config, journal=journal)
+    with zenoh.open(zenoh_settings) as session:
+        node = SchedulerNode(
+            session, problem, config, journal=journal, security=security
+        )
         node.start()
         try:
             while not stop.wait(0.5):
                 pass
         finally:
             node.close()
+    return EXIT_OK
+
+
+# -- config ------------------------------------------------------------------
+
+
+def _cmd_config(args: argparse.Namespace) -> int:
+    from .bus.security import write_profile
+    from .errors import ConfigError
+
+    names: dict[str, list[str]] = {}
+    for entry in args.cn:
+        role, sep, value = entry.partition("=")
+        if not sep:
+            print(
+                f"fsw-scheduler: --cn {entry!r}: expected ROLE=NAME[,NAME]",
+                file=sys.stderr,
+            )
+            return EXIT_BAD_INPUT
+        names.setdefault(role.strip(), []).extend(
+            v.strip() for v in value.split(",")
+        )
+    try:
+        written = write_profile(
+            args.out,
+            profile=args.profile,
+            spacecraft=args.spacecraft,
+            certs=args.certs,
+            endpoint=args.endpoint,
+            listen=args.listen,
+            names=names,
+        )
+    except ConfigError as error:
+        print(f"fsw-scheduler: {error}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    for path in written:
+        print(path)
     return EXIT_OK
 
 
@@ -645,6 +709,12 @@ def build_parser() -> argparse.ArgumentParser:
           fsw-scheduler run --problem resources.json --clock wall --time-unit 1
           fsw-scheduler run --problem p.json --clock bus -e tcp/10.0.0.2:7447
           fsw-scheduler run --config scheduler.toml --record session.mcap
+          fsw-scheduler run --problem p.json --config deploy/scheduler.json5 \
+              --require-secure
+
+        A bus reachable beyond loopback without TLS or access control is
+        reported at start (and in scheduler/config): --insecure accepts
+        it, --require-secure refuses to start (exit 2).
         """,
     )
     run.add_argument(
@@ -682,7 +752,102 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="S",
         help="seconds per solve (> 0; default 10)",
     )
+    safety = run.add_mutually_exclusive_group()
+    safety.add_argument(
+        "--insecure",
+        action="store_true",
+        help="acknowledge a bus reachable beyond loopback without TLS or "
+        "access control (recorded in scheduler/config)",
+    )
+    safety.add_argument(
+        "--require-secure",
+        action="store_true",
+        help="refuse to start (exit 2) unless the bus is loopback only, or "
+        "has mutual TLS on every endpoint and access control",
+    )
     add_zenoh_arguments(run)
+
+    from .bus.security import DEFAULT_PORT, PROFILES, ROLES
+
+    conf = add(
+        "config",
+        _cmd_config,
+        "write the Zenoh configurations of a deployment profile",
+        textwrap.dedent(
+            """\
+            Write one Zenoh configuration (JSON5) per role of a deployment
+            profile, and make-certs.sh, which makes a CA and a certificate
+            per role with openssl. The secure profile has mutual TLS on
+            every link and access control (default deny) by certificate
+            common name. The scheduler listens; every other role connects
+            to it.
+
+            roles (configuration <role>.json5, certificate <role>.pem):
+            """
+        )
+        + "\n".join(
+            textwrap.fill(
+                r.summary,
+                width=76,
+                initial_indent=f"  {r.name:<10} ",
+                subsequent_indent=" " * 13,
+            )
+            for r in ROLES.values()
+        ),
+    )
+    conf.epilog = f"""\
+example:
+  fsw-scheduler config --profile secure --out deploy \\
+      --endpoint tls/10.0.0.2:{DEFAULT_PORT}
+  sh deploy/make-certs.sh
+  fsw-scheduler run --problem p.json --config deploy/scheduler.json5 \\
+      --require-secure
+  fsw-scheduler record --config deploy/monitor.json5 --out bus.mcap
+"""
+    conf.add_argument(
+        "--profile",
+        choices=PROFILES,
+        default="secure",
+        help="deployment profile (default: %(default)s)",
+    )
+    conf.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="folder for <role>.json5 and make-certs.sh",
+    )
+    conf.add_argument(
+        "--spacecraft",
+        default="sat1",
+        help="key prefix id (default: %(default)s)",
+    )
+    conf.add_argument(
+        "--certs",
+        metavar="DIR",
+        help="where the certificates are on the nodes: ca.pem, "
+        "<role>.pem, <role>.key (default: DIR/certs)",
+    )
+    conf.add_argument(
+        "--endpoint",
+        default=f"tls/localhost:{DEFAULT_PORT}",
+        metavar="tls/HOST:PORT",
+        help="where the roles reach the scheduler; HOST goes into the "
+        "scheduler's certificate (default: %(default)s)",
+    )
+    conf.add_argument(
+        "--listen",
+        metavar="ENDPOINT",
+        help="where the scheduler listens (default: every interface, "
+        "--endpoint's port)",
+    )
+    conf.add_argument(
+        "--cn",
+        action="append",
+        default=[],
+        metavar="ROLE=NAME[,NAME]",
+        help="certificate common names of a role (default: the role's "
+        "name), e.g. --cn goals=ground,autonomy (repeatable)",
+    )
 
     rec = add(
         "record",

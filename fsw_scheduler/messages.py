@@ -192,6 +192,23 @@ class SolveRecord(msgspec.Struct, frozen=True, omit_defaults=True):
     error: str = ""
 
 
+class SecurityInfo(msgspec.Struct, frozen=True, omit_defaults=True):
+    """How the node's bus was protected when it started.
+
+    ``exposed``: an endpoint reaches beyond loopback, or multicast
+    scouting is on. ``warnings`` says what an exposed bus lacks (TLS,
+    mutual authentication, access control); ``acknowledged``: the operator
+    started it so anyway (``run --insecure``).
+    """
+
+    exposed: bool = False
+    tls: bool = False
+    mutual_tls: bool = False
+    access_control: bool = False
+    acknowledged: bool = False
+    warnings: tuple[str, ...] = ()
+
+
 class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     """``scheduler/config``: settings a recording needs to be replayed."""
 
@@ -209,6 +226,7 @@ class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     replan_lead: int = 0
     version: str = ""
     problem: Problem | None = None
+    security: SecurityInfo | None = None
 
 
 #: Message types of each key (relative to ``fsw/<sc>/``), for schemas.

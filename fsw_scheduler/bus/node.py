@@ -64,7 +64,11 @@ def engine_config(config: NodeConfig) -> EngineConfig:
     )
 
 
-def node_info(config: NodeConfig, problem: Problem) -> messages.NodeInfo:
+def node_info(
+    config: NodeConfig,
+    problem: Problem,
+    security: messages.SecurityInfo | None = None,
+) -> messages.NodeInfo:
     """What a recording needs to replay this node's decisions."""
     from .. import __version__
 
@@ -83,6 +87,7 @@ def node_info(config: NodeConfig, problem: Problem) -> messages.NodeInfo:
         replan_lead=config.lead,
         version=__version__,
         problem=problem,
+        security=security,
     )
 
 
@@ -150,6 +155,9 @@ class SchedulerNode:
         Monotonic clock in seconds for the wall time source.
     wall_ns
         Wall clock in nanoseconds for journal log times.
+    security
+        How the bus is protected (:func:`~fsw_scheduler.bus.security.
+        assess`), published in ``scheduler/config``.
 
     Examples
     --------
@@ -168,6 +176,7 @@ class SchedulerNode:
         seconds: Callable[[], float] = time.monotonic,
         wall_ns: Callable[[], int] = time.time_ns,
         solve_fn: Callable[[NodeConfig, StartSolve], Plan] = run_solve,
+        security: messages.SecurityInfo | None = None,
     ) -> None:
         if config.horizon is not None:
             problem = problem.replace(horizon=config.horizon)
@@ -191,6 +200,7 @@ class SchedulerNode:
         self._last_tick: int | None = None
         self._declared: list[Any] = []
         self._publishers: dict[str, zenoh.Publisher] = {}
+        self._security = security
 
     # -- lifecycle -----------------------------------------------------------
 
@@ -236,7 +246,9 @@ class SchedulerNode:
         self._thread.start()
         self._publish_raw(
             topics.NODE_INFO,
-            messages.encode(node_info(self.config, self.engine.initial)),
+            messages.encode(
+                node_info(self.config, self.engine.initial, self._security)
+            ),
         )
         log.info(
             "scheduler up on %s (clock %s, solver %s)",
