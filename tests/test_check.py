@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import ast
+import importlib
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import pytest
 
-from fsw_scheduler import check
 from fsw_scheduler.check import CheckReport, check_plan, format_report
 from fsw_scheduler.solution import (
     Activity,
@@ -19,6 +19,9 @@ from fsw_scheduler.solution import (
 )
 
 from .conftest import TABLE1_PLAN, problem_from
+
+# The module, not the package's `check` function that shadows its name.
+check = importlib.import_module("fsw_scheduler.check")
 
 if TYPE_CHECKING:
     from fsw_scheduler.model import Problem
