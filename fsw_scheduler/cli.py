@@ -14,6 +14,7 @@ import sys
 import textwrap
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import msgspec
 from mcap.exceptions import McapError
@@ -366,7 +367,20 @@ def _cmd_run(args: argparse.Namespace) -> int:
             "--profile secure'), or pass --insecure to acknowledge"
         )
     journal = None
-    if args.record:
+    resume: dict[str, Any] = {}
+    if args.state:
+        if args.record:
+            raise InputError(
+                [
+                    FieldIssue(
+                        "--record",
+                        "--state keeps its own journal; give one of them",
+                    )
+                ],
+                "arguments",
+            )
+        journal, resume = _open_state(args, config)
+    elif args.record:
         journal = Recorder(
             args.record, schemas=schema_lookup(config.spacecraft)
         )
@@ -380,7 +394,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     with zenoh.open(zenoh_settings) as session:
         node = SchedulerNode(
-            session, problem, config, journal=journal, security=security
+            session,
+            problem,
+            config,
+            journal=journal,
+            security=security,
+            **resume,
         )
         node.start()
         try:
@@ -426,6 +445,63 @@ def _cmd_config(args: argparse.Namespace) -> int:
     for path in written:
         print(path)
     return EXIT_OK
+
+
+def _open_state(
+    args: argparse.Namespace, config: Any
+) -> tuple[Any, dict[str, Any]]:
+    """Open ``--state DIR``: rebuild from its journal, start a new file.
+
+    Returns the recorder and the resume arguments of the node.
+    """
+    import time
+
+    from .messages import schema_lookup
+    from .recording import Recorder
+    from .state import open_state
+
+    start = open_state(Path(args.state), keep_runs=args.keep_runs)
+    for path in start.recovered:
+        log.warning("recovered truncated journal %s", path)
+    journal = Recorder(
+        start.next_journal, schemas=schema_lookup(config.spacecraft)
+    )
+    resume: dict[str, Any] = {
+        "durable": True,
+        "journal_max_bytes": args.journal_max_size,
+    }
+    rebuilt = start.rebuilt
+    if rebuilt is not None:
+        engine = rebuilt.engine
+        if rebuilt.config.spacecraft != config.spacecraft:
+            raise InputError(
+                [
+                    FieldIssue(
+                        "--state",
+                        f"holds the journal of spacecraft "
+                        f"{rebuilt.config.spacecraft!r}, not "
+                        f"{config.spacecraft!r}",
+                    )
+                ],
+                "arguments",
+            )
+        resume["engine"] = engine
+        if config.clock == "wall" and rebuilt.last_tick is not None:
+            # Time went on while the node was down.
+            down_s = max(time.time_ns() - rebuilt.last_log_time_ns, 0) / 1e9
+            resume["clock_start"] = rebuilt.last_tick + int(
+                down_s // config.time_unit
+            )
+        log.info(
+            "resuming from %s: plan %s at t=%s (%d journal messages read)",
+            args.state,
+            engine.plan_id,
+            engine.now,
+            rebuilt.messages,
+        )
+    else:
+        log.info("new state folder %s", args.state)
+    return journal, resume
 
 
 # -- record / replay / recover / info ----------------------------------------
@@ -744,6 +820,29 @@ def build_parser() -> argparse.ArgumentParser:
         "--record",
         metavar="FILE.mcap",
         help="journal every input and output (for replay --verify)",
+    )
+    run.add_argument(
+        "--state",
+        metavar="DIR",
+        help="keep the node's state in DIR: a durable journal that a "
+        "restarted node resumes from (plan ids, accepted goals, activity "
+        "states, a solve in flight); implies journaling",
+    )
+    run.add_argument(
+        "--journal-max-size",
+        type=positive_int,
+        default=64 * 1024 * 1024,
+        metavar="BYTES",
+        help="with --state: start a new journal file, opened by a state "
+        "snapshot, past this size (default %(default)s)",
+    )
+    run.add_argument(
+        "--keep-runs",
+        type=_number(int, minimum=2, strict=False),
+        default=20,
+        metavar="N",
+        help="with --state: journal files of the last N starts are kept "
+        "(default %(default)s; at least 2)",
     )
     run.add_argument("--solver", choices=("cbc", "highs"), help="MILP solver")
     run.add_argument(

@@ -57,6 +57,12 @@ from .shed import (
     shedding_problem,
     without_tasks,
 )
+from .snapshot import (
+    EngineSnapshot,
+    Lifecycle,
+    PendingSolve,
+    QueuedChange,
+)
 from .solution import Plan, SolverStats, SolveStatus
 
 # -- events ------------------------------------------------------------------
@@ -181,47 +187,6 @@ class EngineConfig(msgspec.Struct, frozen=True):
 
 # -- the engine -------------------------------------------------------------
 
-Lifecycle = Literal[
-    "planned",
-    "dispatched",
-    "running",
-    "completed",
-    "failed",
-    "preempted",
-    "obsolete",
-]
-
-
-class _Pending(msgspec.Struct):
-    """A solve in flight.
-
-    ``stage`` is ``plan`` for an ordinary solve; when a replan the world
-    forced (not a goal) is infeasible, ``shed`` finds which mandatory
-    tasks to keep, then ``degraded`` solves without the others (see
-    :mod:`fsw_scheduler.shed`); ``infeasible`` keeps the plan that
-    started it.
-    """
-
-    solve_id: int
-    trigger: str
-    problem: Problem
-    replan: Replan | None
-    goals: tuple[str, ...]
-    started_at: int
-    dispatches_at_start: int
-    stage: Literal["plan", "shed", "degraded"] = "plan"
-    infeasible: Plan | None = None
-
-
-class _Change(msgspec.Struct, frozen=True):
-    """A queued trigger: a goal, a failure or measured levels."""
-
-    kind: Literal["goal", "failure", "levels"]
-    goal: Goal | None = None
-    task: str = ""
-    at: int = 0
-    levels: dict[str, float] = {}
-    trigger: str = ""
 
 
 def problem_hash(problem: Problem) -> str:
@@ -249,8 +214,8 @@ class Engine:
         self.plan_id: int | None = None
         self.now: int | None = None
         self._solve_id = 0
-        self._pending: _Pending | None = None
-        self._queue: list[_Change] = []
+        self._pending: PendingSolve | None = None
+        self._queue: list[QueuedChange] = []
         self._dispatched: dict[str, int] = {}  # task -> unit of dispatch
         self._lifecycle: dict[str, Lifecycle] = {}
         self._counters = Counters()
@@ -291,6 +256,96 @@ class Engine:
             counters=self._counters,
             last_solve=self._last_solve,
             **extra,  # type: ignore[arg-type]
+        )
+
+    # -- snapshots (resume, hot standby) ------------------------------------
+
+    def snapshot(self) -> EngineSnapshot:
+        """The whole state, as data (see :mod:`fsw_scheduler.snapshot`)."""
+        return EngineSnapshot(
+            initial=self.initial,
+            unsolved_initial=self._unsolved_initial,
+            schedule=self.schedule,
+            plan_id=self.plan_id,
+            now=self.now,
+            solve_id=self._solve_id,
+            pending=self._pending,
+            queue=tuple(self._queue),
+            dispatched=dict(self._dispatched),
+            lifecycle=dict(self._lifecycle),
+            counters=self._counters,
+            last_solve=self._last_solve,
+            inputs=self._inputs,
+            health=self._health,
+            health_detail=self._health_detail,
+            plan_message=self._plan_message,
+        )
+
+    @classmethod
+    def restore(
+        cls, config: EngineConfig, snapshot: EngineSnapshot
+    ) -> Engine:
+        """An engine in the state ``snapshot`` was taken in.
+
+        Parameters
+        ----------
+        config
+            Engine settings (not part of the state: a restarted node may
+            be given new ones).
+        snapshot
+            From :meth:`snapshot`.
+        """
+        engine = cls(config, snapshot.initial)
+        engine._unsolved_initial = snapshot.unsolved_initial
+        engine.schedule = snapshot.schedule
+        engine.plan_id = snapshot.plan_id
+        engine.now = snapshot.now
+        engine._solve_id = snapshot.solve_id
+        engine._pending = snapshot.pending
+        engine._queue = list(snapshot.queue)
+        engine._dispatched = dict(snapshot.dispatched)
+        engine._lifecycle = dict(snapshot.lifecycle)
+        engine._counters = snapshot.counters
+        engine._last_solve = snapshot.last_solve
+        engine._inputs = snapshot.inputs
+        engine._health = snapshot.health
+        engine._health_detail = snapshot.health_detail
+        engine._plan_message = snapshot.plan_message
+        return engine
+
+    def pending_solve(self) -> StartSolve | None:
+        """The solve in flight, as the command that asked for it.
+
+        A node that resumes (or takes over) while a solve was running asks
+        for it again: the same input gives the same plan.
+        """
+        pending = self._pending
+        if pending is None:
+            return None
+        return StartSolve(
+            pending.solve_id,
+            pending.trigger,
+            pending.problem,
+            pending.warm,
+            explain=pending.explain,
+        )
+
+    def resumed(self, event: str = "resumed", **extra: object) -> Command:
+        """The status saying this engine was rebuilt and goes on."""
+        detail = (
+            f"state rebuilt at t={self.now}: plan {self.plan_id}, "
+            f"{len(self._lifecycle)} activities known"
+            + (", a solve in flight asked again" if self.busy else "")
+        )
+        return Publish(
+            topics.STATUS,
+            self.status(
+                event,
+                detail=detail,
+                from_plan_id=self.plan_id,
+                at=self.now,
+                **extra,
+            ),
         )
 
     def count_dropped(self, dropped: int) -> None:
@@ -348,7 +403,7 @@ class Engine:
             c.trigger == "horizon" for c in self._queue
         ):
             self._queue.append(
-                _Change("levels", at=self._clock(), trigger="horizon")
+                QueuedChange("levels", at=self._clock(), trigger="horizon")
             )
         beat = self.config.heartbeat
         if beat and self.now is not None and self.now % beat == 0:
@@ -396,7 +451,7 @@ class Engine:
             except InputError as error:
                 self._reject_goal(goal.goal_id, error.issues, out)
                 return
-        self._queue.append(_Change("goal", goal=goal))
+        self._queue.append(QueuedChange("goal", goal=goal))
         if self._pending is not None:
             out.append(
                 Log("info", f"goal {goal.goal_id} queued behind a solve")
@@ -440,7 +495,9 @@ class Engine:
             )
         )
         if report.state == "failed":
-            self._queue.append(_Change("failure", task=report.task, at=at))
+            self._queue.append(
+                QueuedChange("failure", task=report.task, at=at)
+            )
 
     def _on_level(self, level: ResourceLevel, out: list[Command]) -> None:
         schedule = self.schedule
@@ -482,7 +539,7 @@ class Engine:
             )
         )
         self._queue.append(
-            _Change("levels", at=at, levels={level.resource: level.level})
+            QueuedChange("levels", at=at, levels={level.resource: level.level})
         )
 
     def _on_rejected(self, event: InputRejected, out: list[Command]) -> None:
@@ -556,7 +613,7 @@ class Engine:
         ):
             # The old plan dispatched while this one was being computed for
             # an earlier time: replan from what really happened.
-            self._queue.append(_Change("levels", at=self._clock()))
+            self._queue.append(QueuedChange("levels", at=self._clock()))
 
     def _on_solve_failed(self, event: SolveFailed, out: list[Command]) -> None:
         pending = self._pending
@@ -635,7 +692,7 @@ class Engine:
     def _start_goals(
         self,
         schedule: Schedule,
-        changes: list[_Change],
+        changes: list[QueuedChange],
         now: int,
         out: list[Command],
     ) -> None:
@@ -665,7 +722,7 @@ class Engine:
         )
 
     def _start_shedding(
-        self, pending: _Pending, infeasible: Plan, out: list[Command]
+        self, pending: PendingSolve, infeasible: Plan, out: list[Command]
     ) -> None:
         """Solve which mandatory tasks to keep (see :mod:`.shed`)."""
         assert pending.replan is not None
@@ -689,7 +746,7 @@ class Engine:
         )
 
     def _start_degraded(
-        self, pending: _Pending, shedding: Plan, out: list[Command]
+        self, pending: PendingSolve, shedding: Plan, out: list[Command]
     ) -> None:
         """Solve the replan without the mandatory tasks it cannot keep."""
         assert pending.replan is not None
@@ -738,7 +795,7 @@ class Engine:
             self._adopt(empty_plan(), trigger, goals, replan.removed, out)
             return
         self._solve_id += 1
-        self._pending = _Pending(
+        self._pending = PendingSolve(
             solve_id=self._solve_id,
             trigger=trigger,
             problem=problem,
@@ -748,6 +805,8 @@ class Engine:
             dispatches_at_start=self._counters.dispatches,
             stage=stage,
             infeasible=infeasible,
+            warm=warm,
+            explain=stage == "shed",
         )
         out.append(
             Log(
@@ -758,18 +817,12 @@ class Engine:
                 f"[{problem.start}, {problem.end})",
             )
         )
-        out.append(
-            StartSolve(
-                self._solve_id,
-                trigger,
-                problem,
-                warm,
-                explain=stage == "shed",
-            )
-        )
+        pending = self.pending_solve()
+        assert pending is not None
+        out.append(pending)
 
     def _solve_without_plan(
-        self, pending: _Pending, reason: str, out: list[Command]
+        self, pending: PendingSolve, reason: str, out: list[Command]
     ) -> None:
         """Keep the last good plan; say why; reject goals that caused it."""
         self._count(solves_failed=self._counters.solves_failed + 1)
@@ -788,7 +841,7 @@ class Engine:
         if not pending.goals:
             out.append(Publish(topics.STATUS, self.status("solve_failed")))
 
-    def _solve_record(self, pending: _Pending, plan: Plan) -> Publish:
+    def _solve_record(self, pending: PendingSolve, plan: Plan) -> Publish:
         problem = pending.problem
         stats = plan.stats or SolverStats(solver="?")
         record = SolveRecord(
@@ -809,6 +862,7 @@ class Engine:
             solve_s=stats.solve_s,
             wall_s=stats.wall_s,
             inputs_seen=self._inputs,
+            result=plan,
         )
         return Publish(topics.SOLVES, record)
 
@@ -938,7 +992,9 @@ class Engine:
                     self.schedule = self.schedule.with_report(
                         ExecutionReport(task, "failed", since)
                     )
-                self._queue.append(_Change("failure", task=task, at=since))
+                self._queue.append(
+                    QueuedChange("failure", task=task, at=since)
+                )
 
     # -- status helpers ------------------------------------------------------
 

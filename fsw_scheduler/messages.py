@@ -23,6 +23,7 @@ from .solution import (
     Activity,
     Blocker,
     Objective,
+    Plan,
     SolverStats,
     SolveStatus,
 )
@@ -151,11 +152,15 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
 
     ``event`` names what this message reports (``started``, ``plan``,
     ``goal_accepted``, ``goal_rejected``, ``solve_failed``,
-    ``input_rejected``, ``activity``, ``drift``, ``heartbeat``); with
-    ``goal_id`` and ``errors`` (``path`` + ``reason``) for rejections.
+    ``input_rejected``, ``activity``, ``drift``, ``heartbeat``, ``alarm``,
+    ``resumed``, ``took_over``); with ``goal_id`` and ``errors`` (``path``
+    + ``reason``) for rejections. ``resumed`` and ``took_over`` carry
+    ``from_plan_id`` and ``at`` (the plan and time the state was rebuilt
+    at). ``state`` is ``standby`` on a node that follows another one;
+    ``active`` then names the commanding node, ``node_id`` this one.
     """
 
-    state: Literal["ok", "degraded", "error"]
+    state: Literal["ok", "degraded", "error", "standby"]
     plan_id: int | None
     now: int | None = None
     event: str = ""
@@ -166,6 +171,10 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
     activities: dict[str, str] = {}
     counters: Counters = Counters()
     last_solve: SolveSummary | None = None
+    from_plan_id: int | None = None
+    at: int | None = None
+    active: str | None = None
+    node_id: str | None = None
 
 
 class SolveRecord(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -174,6 +183,8 @@ class SolveRecord(msgspec.Struct, frozen=True, omit_defaults=True):
     ``problem`` is the exact input, ``input_hash`` its SHA-256 (over the
     compact JSON), ``inputs_seen`` how many inputs the scheduler had
     processed when the result came back (used by deterministic replay).
+    ``result`` is the solve's whole answer, so that a node resuming from
+    its journal rebuilds its state without solving again.
     """
 
     solve_id: int
@@ -190,6 +201,7 @@ class SolveRecord(msgspec.Struct, frozen=True, omit_defaults=True):
     wall_s: float = 0.0
     inputs_seen: int = 0
     error: str = ""
+    result: Plan | None = None
 
 
 class SecurityInfo(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -227,6 +239,7 @@ class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     version: str = ""
     problem: Problem | None = None
     security: SecurityInfo | None = None
+    resumed: bool = False
 
 
 #: Message types of each key (relative to ``fsw/<sc>/``), for schemas.
@@ -286,7 +299,7 @@ def json_schemas() -> dict[str, dict]:
         Kind name to schema; each has ``title`` and ``$id``.
     """
     schemas = {}
-    for name, kind in SCHEMA_TYPES.items():
+    for name, kind in _all_schema_types().items():
         (ref,), defs = msgspec.json.schema_components([kind])
         schema: dict[str, Any] = {
             "$schema": "https://json-schema.org/draft/2020-12/schema",
@@ -297,6 +310,17 @@ def json_schemas() -> dict[str, dict]:
         }
         schemas[name] = _normalise(schema)
     return schemas
+
+
+def _all_schema_types() -> dict[str, Any]:
+    """Bus message kinds plus the journal's engine snapshot.
+
+    The snapshot type is built from the engine's state types, which
+    import this module; it is looked up late to keep imports one-way.
+    """
+    from .snapshot import EngineSnapshot
+
+    return {**SCHEMA_TYPES, "snapshot": EngineSnapshot}
 
 
 def schema_files() -> dict[str, str]:

@@ -27,6 +27,12 @@ NODE_INFO = "scheduler/config"
 ALIVE = "scheduler/alive"
 #: Recorded only (never published): the ticks of the scheduler's own clock.
 TICKS = "scheduler/ticks"
+#: The engine's whole state: first message of each journal file (resume),
+#: and published by an active node for its hot standby.
+SNAPSHOT = "scheduler/snapshot"
+#: One liveliness token per node (``scheduler/nodes/<node id>``), so that
+#: twins see each other (``scheduler/alive`` tokens merge into one).
+NODES = "scheduler/nodes"
 
 #: Output suffixes, compared by ``replay --verify``.
 OUTPUTS = (PLAN, DISPATCH, STATUS)
@@ -87,6 +93,7 @@ class Topics(msgspec.Struct, frozen=True):
             SOLVES: "solve_record",
             NODE_INFO: "node_info",
             TICKS: "clock",
+            SNAPSHOT: "snapshot",
         }
         if suffix in exact:
             return exact[suffix]
