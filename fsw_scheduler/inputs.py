@@ -15,7 +15,7 @@ from typing import Any
 import msgspec
 
 from . import messages
-from .bus.topics import Topics, input_kind
+from .bus.topics import GOALS, Topics, input_kind
 from .engine import (
     Event,
     GoalArrived,
@@ -80,6 +80,17 @@ class InputDecoder:
             return Tick(message.now)
         if kind == "goal":
             return GoalArrived(message)
+        if kind == "busy":
+            return InputRejected(
+                self.topics.key(GOALS),
+                "goal",
+                (
+                    FieldIssue(
+                        "", f"busy: {message.waiting} goals waiting"
+                    ),
+                ),
+                message.goal_id,
+            )
         name = key.rsplit("/", 1)[-1]
         field = "task" if kind == "activity_report" else "resource"
         value = getattr(message, field)

@@ -27,6 +27,8 @@ NODE_INFO = "scheduler/config"
 ALIVE = "scheduler/alive"
 #: Recorded only (never published): the ticks of the scheduler's own clock.
 TICKS = "scheduler/ticks"
+#: Recorded only: goals refused unread because the inbox was full.
+BUSY = "scheduler/busy"
 
 #: Output suffixes, compared by ``replay --verify``.
 OUTPUTS = (PLAN, DISPATCH, STATUS)
@@ -87,6 +89,7 @@ class Topics(msgspec.Struct, frozen=True):
             SOLVES: "solve_record",
             NODE_INFO: "node_info",
             TICKS: "clock",
+            BUSY: "busy",
         }
         if suffix in exact:
             return exact[suffix]
@@ -104,7 +107,8 @@ def input_kind(topics: Topics, key: str, clock: str) -> str | None:
     """The input kind of ``key`` for a node with this clock source.
 
     Returns ``goal``, ``clock`` (bus clock only), ``tick`` (the journal's
-    record of the node's own clock, wall clock only), ``activity_report``,
+    record of the node's own clock, wall clock only), ``busy`` (the
+    journal's record of a goal refused unread), ``activity_report``,
     ``resource_level``, or None for keys that are not scheduler inputs.
     """
     suffix = topics.suffix(key)
@@ -116,6 +120,8 @@ def input_kind(topics: Topics, key: str, clock: str) -> str | None:
         return "clock" if clock == "bus" else None
     if suffix == TICKS:
         return "tick" if clock == "wall" else None
+    if suffix == BUSY:
+        return "busy"
     head, _, name = suffix.rpartition("/")
     if not name:
         return None
