@@ -78,6 +78,13 @@ class NodeConfig(
         one more is rejected ``busy: N goals waiting``.
     goals_per_solve
         Goals merged into one solve; the others wait for the next one.
+    max_clock_step
+        Largest forward step of one bus clock message, in units; a bigger
+        one is rejected (``input_rejected``, path ``now``) and time stays.
+    clock_stall
+        Seconds without a bus clock message after which the status turns
+        ``degraded`` (event ``clock_stalled``) until the next one; None
+        never.
     heartbeat
         Units between periodic status messages (0: none).
     replan_lead
@@ -106,6 +113,8 @@ class NodeConfig(
     live_tasks: int = 300
     goals_waiting: int = 64
     goals_per_solve: int = 16
+    max_clock_step: int | None = 100
+    clock_stall: float | None = 30.0
     heartbeat: int = 10
     replan_lead: int | None = None
 
@@ -134,6 +143,10 @@ class NodeConfig(
         ):
             if getattr(self, name) < 1:
                 problems.append(f"{name.replace('_', '-')} must be >= 1")
+        if self.max_clock_step is not None and self.max_clock_step < 1:
+            problems.append("max-clock-step must be >= 1")
+        if self.clock_stall is not None and self.clock_stall <= 0:
+            problems.append("clock-stall must be > 0")
         if self.inbox_bytes < 1 << 20:
             problems.append("inbox-bytes must be >= 1048576 (one payload)")
         if problems:

@@ -89,6 +89,13 @@ class InputRejected(msgspec.Struct, frozen=True, tag=True):
     goal_id: str | None = None
 
 
+class ClockStalled(msgspec.Struct, frozen=True, tag=True):
+    """No bus clock message for ``seconds`` (wall clock) since ``last``."""
+
+    seconds: float
+    last: int | None = None
+
+
 class SolveDone(msgspec.Struct, frozen=True, tag=True):
     """The result of a :class:`StartSolve`."""
 
@@ -109,6 +116,7 @@ Event = (
     | ReportArrived
     | LevelArrived
     | InputRejected
+    | ClockStalled
     | SolveDone
     | SolveFailed
 )
@@ -368,6 +376,8 @@ class Engine:
             self._on_level(event.level, out)
         elif isinstance(event, InputRejected):
             self._on_rejected(event, out)
+        elif isinstance(event, ClockStalled):
+            self._on_stalled(event, out)
         elif isinstance(event, SolveDone):
             self._on_solve_done(event, out)
         elif isinstance(event, SolveFailed):
@@ -379,7 +389,19 @@ class Engine:
 
     # -- event handlers ------------------------------------------------------
 
+    def _on_stalled(self, event: ClockStalled, out: list[Command]) -> None:
+        detail = (
+            f"{_STALLED}: no clock message for {event.seconds:g} s "
+            f"since unit {event.last}"
+        )
+        self._set_health("degraded", detail)
+        out.append(Log("warning", detail))
+        out.append(Publish(topics.STATUS, self._status("clock_stalled")))
+
     def _on_tick(self, out: list[Command]) -> None:
+        if self._health_detail.startswith(_STALLED):
+            self._set_health("ok", "")
+            out.append(Publish(topics.STATUS, self._status("clock_resumed")))
         if self._unsolved_initial is not None and self._pending is None:
             self._start_initial(out)
         self._check_report_timeouts(out)
@@ -1028,6 +1050,9 @@ class Engine:
 
     def _clock(self) -> int:
         return self.now if self.now is not None else 0
+
+
+_STALLED = "bus clock stalled"
 
 
 def _merge_goals(goals: list[Goal]) -> Goal:

@@ -174,7 +174,8 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
     ``event`` names what this message reports (``started``, ``plan``,
     ``goal_queued``, ``goal_accepted``, ``goal_rejected``,
     ``solve_failed``, ``input_rejected``, ``activity``, ``drift``,
-    ``clock_stalled``, ``heartbeat``, ``loop_stopped``); with ``goal_id``
+    ``clock_stalled``, ``clock_resumed``, ``heartbeat``,
+    ``loop_stopped``); with ``goal_id``
     and ``errors`` (``path`` + ``reason``) for rejections.
 
     ``activities`` (the lifecycle of every activity) is in heartbeats and
@@ -208,6 +209,17 @@ class Busy(msgspec.Struct, frozen=True):
 
     goal_id: str | None
     waiting: int
+
+
+class Stalled(msgspec.Struct, frozen=True):
+    """``scheduler/stalled`` (journal only): the bus clock stopped.
+
+    No clock message for ``seconds`` of wall-clock time since the last
+    one (unit ``last``); the status turns ``degraded`` until one comes.
+    """
+
+    seconds: float
+    last: int | None = None
 
 
 class SolveRecord(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -255,6 +267,7 @@ class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     live_tasks: int = 300
     goals_waiting: int = 64
     goals_per_solve: int = 16
+    max_clock_step: int | None = None
 
 
 #: Message types of each key (relative to ``fsw/<sc>/``), for schemas.
@@ -270,6 +283,7 @@ SCHEMA_TYPES: dict[str, Any] = {
     "node_info": NodeInfo,
     "problem": Problem,
     "busy": Busy,
+    "stalled": Stalled,
 }
 
 _encoder = msgspec.json.Encoder()

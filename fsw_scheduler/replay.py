@@ -165,6 +165,7 @@ def config_from_info(info: messages.NodeInfo) -> NodeConfig:
         live_tasks=info.live_tasks,
         goals_waiting=info.goals_waiting,
         goals_per_solve=info.goals_per_solve,
+        max_clock_step=info.max_clock_step,
     )
 
 
@@ -226,7 +227,7 @@ def verify(
     config = config_from_info(info)
     topics = keys.Topics(config.spacecraft)
     engine = Engine(engine_config(config), info.problem)
-    decoder = InputDecoder(topics, config.clock)
+    decoder = InputDecoder(topics, config.clock, config.max_clock_step)
     solve = solve_fn or run_solve
     report = VerifyReport()
     produced: deque[tuple[str, bytes]] = deque()

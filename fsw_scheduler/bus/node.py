@@ -233,6 +233,7 @@ def node_info(config: NodeConfig, problem: Problem) -> messages.NodeInfo:
         live_tasks=config.live_tasks,
         goals_waiting=config.goals_waiting,
         goals_per_solve=config.goals_per_solve,
+        max_clock_step=config.max_clock_step,
         version=__version__,
         problem=problem,
     )
@@ -343,7 +344,11 @@ class SchedulerNode:
             max_workers=1, thread_name_prefix="fsw-solve"
         )
         self._clock: UnitClock | None = None
-        self._decoder = InputDecoder(self.topics, config.clock)
+        self._decoder = InputDecoder(
+            self.topics, config.clock, config.max_clock_step
+        )
+        self._last_clock_s = seconds()
+        self._stall_reported = False
         self._last_tick: int | None = None
         self._declared: list[Any] = []
         self._publishers: dict[str, zenoh.Publisher] = {}
@@ -542,6 +547,7 @@ class SchedulerNode:
     def spin_once(self, timeout: float | None = None) -> None:
         """Handle at most one inbox item, then any due clock tick."""
         self._tick_wall_clock()
+        self._check_stall()
         if timeout is None:
             timeout = self._clock.seconds_to_next() if self._clock else 0.5
         item = self._inbox.get(timeout=max(timeout, 0.001))
@@ -576,6 +582,23 @@ class SchedulerNode:
         )
         self._step(Tick(now))
 
+    def _check_stall(self) -> None:
+        """With the bus clock, say when it has not ticked for a while."""
+        limit = self.config.clock_stall
+        if self.config.clock != "bus" or limit is None:
+            return
+        quiet = self._seconds() - self._last_clock_s
+        if quiet < limit or self._stall_reported:
+            return
+        self._stall_reported = True
+        self._on_sample(
+            "stalled",
+            self.topics.key(topics.STALLED),
+            messages.encode(
+                messages.Stalled(round(quiet, 3), self._decoder.bus_now)
+            ),
+        )
+
     def _now(self) -> int:
         if self._clock is not None:
             return self._last_tick if self._last_tick is not None else 0
@@ -585,6 +608,9 @@ class SchedulerNode:
     def _on_sample(self, kind: str, key: str, payload: bytes) -> None:
         self._journal.write(key, payload)
         event = self._decoder.event(key, payload)
+        if kind == "clock" and isinstance(event, Tick):
+            self._last_clock_s = self._seconds()
+            self._stall_reported = False
         if event is not None:
             self._step(event)
 

@@ -29,6 +29,8 @@ ALIVE = "scheduler/alive"
 TICKS = "scheduler/ticks"
 #: Recorded only: goals refused unread because the inbox was full.
 BUSY = "scheduler/busy"
+#: Recorded only: the bus clock stopped ticking (wall-clock detection).
+STALLED = "scheduler/stalled"
 
 #: Output suffixes, compared by ``replay --verify``.
 OUTPUTS = (PLAN, DISPATCH, STATUS)
@@ -90,6 +92,7 @@ class Topics(msgspec.Struct, frozen=True):
             NODE_INFO: "node_info",
             TICKS: "clock",
             BUSY: "busy",
+            STALLED: "stalled",
         }
         if suffix in exact:
             return exact[suffix]
@@ -122,6 +125,8 @@ def input_kind(topics: Topics, key: str, clock: str) -> str | None:
         return "tick" if clock == "wall" else None
     if suffix == BUSY:
         return "busy"
+    if suffix == STALLED:
+        return "stalled" if clock == "bus" else None
     head, _, name = suffix.rpartition("/")
     if not name:
         return None
