@@ -403,10 +403,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
         )
         node.start()
         try:
-            while not stop.wait(0.5):
+            # The node stops itself when its loop cannot go on.
+            while not stop.is_set() and not node.wait_stopped(0.2):
                 pass
         finally:
             node.close()
+    if node.failed is not None:
+        print(f"fsw-scheduler: error: {node.failed}", file=sys.stderr)
+        return EXIT_NO_PLAN
     return EXIT_OK
 
 

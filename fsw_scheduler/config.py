@@ -61,7 +61,30 @@ class NodeConfig(
         A measured level departs from the prediction when
         ``|measured - predicted| > absolute + relative * |predicted|``.
     inbox_capacity
-        Inputs waiting for the event loop; more are dropped and counted.
+        Goals waiting to be decoded by the event loop; a goal beyond it
+        gets ``goal_rejected`` with ``busy: N goals waiting``.
+    inbox_bytes
+        Payload bytes waiting for the loop (goals and telemetry). A goal
+        beyond it is rejected as busy; a telemetry sample on a key with
+        nothing waiting is dropped and counted (``inputs_dropped``).
+        Telemetry and clock samples never queue up: the latest per key
+        replaces the one waiting (``telemetry_superseded``).
+    tasks_per_goal, live_tasks
+        A goal with more tasks, or one that would make the plan hold more
+        live tasks (planned, running or deferred), is rejected with the
+        reason.
+    goals_waiting
+        Decoded goals queued behind a solve (each gets ``goal_queued``);
+        one more is rejected ``busy: N goals waiting``.
+    goals_per_solve
+        Goals merged into one solve; the others wait for the next one.
+    max_clock_step
+        Largest forward step of one bus clock message, in units; a bigger
+        one is rejected (``input_rejected``, path ``now``) and time stays.
+    clock_stall
+        Seconds without a bus clock message after which the status turns
+        ``degraded`` (event ``clock_stalled``) until the next one; None
+        never.
     heartbeat
         Units between periodic status messages (0: none).
     replan_lead
@@ -84,7 +107,14 @@ class NodeConfig(
     report_timeout: int | None = None
     drift_absolute: float = 0.5
     drift_relative: float = 0.0
-    inbox_capacity: int = 1024
+    inbox_capacity: int = 256
+    inbox_bytes: int = 64 << 20
+    tasks_per_goal: int = 100
+    live_tasks: int = 300
+    goals_waiting: int = 64
+    goals_per_solve: int = 16
+    max_clock_step: int | None = 100
+    clock_stall: float | None = 30.0
     heartbeat: int = 10
     replan_lead: int | None = None
 
@@ -105,6 +135,20 @@ class NodeConfig(
             problems.append("replan-lead must be >= 0")
         if self.inbox_capacity < 1:
             problems.append("inbox-capacity must be >= 1")
+        for name in (
+            "tasks_per_goal",
+            "live_tasks",
+            "goals_waiting",
+            "goals_per_solve",
+        ):
+            if getattr(self, name) < 1:
+                problems.append(f"{name.replace('_', '-')} must be >= 1")
+        if self.max_clock_step is not None and self.max_clock_step < 1:
+            problems.append("max-clock-step must be >= 1")
+        if self.clock_stall is not None and self.clock_stall <= 0:
+            problems.append("clock-stall must be > 0")
+        if self.inbox_bytes < 1 << 20:
+            problems.append("inbox-bytes must be >= 1048576 (one payload)")
         if problems:
             raise ValueError("; ".join(problems))
 

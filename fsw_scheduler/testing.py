@@ -99,8 +99,9 @@ def paper_goal() -> dict[str, Any]:
 def harness_config(**changes: Any) -> NodeConfig:
     """Node settings suited to tests, with ``changes`` applied.
 
-    The clock is the bus clock (the test drives time), there is no
-    heartbeat, ``explain`` is off (no extra solves) and each solve may
+    The clock is the bus clock (the test drives time, so no stall
+    detection), there is no heartbeat, ``explain`` is off (no extra
+    solves) and each solve may
     take up to 30 s so that a slow machine changes timings, not plans.
 
     Parameters
@@ -108,7 +109,13 @@ def harness_config(**changes: Any) -> NodeConfig:
     **changes
         Any :class:`~fsw_scheduler.config.NodeConfig` field.
     """
-    base = NodeConfig(clock="bus", heartbeat=0, explain=False, time_limit=30.0)
+    base = NodeConfig(
+        clock="bus",
+        heartbeat=0,
+        explain=False,
+        time_limit=30.0,
+        clock_stall=None,
+    )
     return msgspec.structs.replace(base, **changes)
 
 

@@ -485,7 +485,7 @@ def test_authorised_roles_drive_the_scheduler(bus: SecureBus) -> None:
     assert dispatch.start == 1
     executor.report("DownlinkSat2Sat", "running", 1)
     executor.wait_status(
-        lambda s: s.activities.get("DownlinkSat2Sat") == "running"
+        lambda s: s.changed.get("DownlinkSat2Sat") == "running"
     )
     seen = bus.node.engine.inputs_seen
     telemetry.level("battery", 18.0, 1)
