@@ -206,6 +206,7 @@ class EngineConfig(msgspec.Struct, frozen=True):
     max_live_tasks: int | None = None
     max_goals_waiting: int | None = None
     max_goals_per_solve: int | None = None
+    node_id: str | None = None
     max_history: int = 1000
 
 
@@ -287,6 +288,7 @@ class Engine:
             activities=dict(sorted(self._lifecycle.items())),
             counters=self._counters,
             last_solve=self._last_solve,
+            node_id=self.config.node_id,
             **extra,  # type: ignore[arg-type]
         )
 

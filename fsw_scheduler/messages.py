@@ -293,7 +293,8 @@ class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     version: str = ""
     problem: Problem | None = None
     security: SecurityInfo | None = None
-    resumed: bool = False
+    resumed: str = ""
+    node_id: str | None = None
     tasks_per_goal: int = 100
     live_tasks: int = 300
     goals_waiting: int = 64

@@ -168,6 +168,7 @@ def config_from_info(info: messages.NodeInfo) -> NodeConfig:
         goals_waiting=info.goals_waiting,
         goals_per_solve=info.goals_per_solve,
         max_clock_step=info.max_clock_step,
+        node_id=info.node_id,
     )
 
 
@@ -263,7 +264,7 @@ def verify(
         # that resumed said so first and asked again for the solve that was
         # in flight; after a rotation, that solve is still running.
         if info.resumed:
-            run([engine.resumed()])
+            run([engine.resumed(info.resumed)])
         pending = engine.pending_solve()
         if pending is not None:
             results[pending.solve_id] = solve(config, pending)

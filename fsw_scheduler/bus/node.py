@@ -209,6 +209,7 @@ def engine_config(config: NodeConfig) -> EngineConfig:
         max_live_tasks=config.live_tasks,
         max_goals_waiting=config.goals_waiting,
         max_goals_per_solve=config.goals_per_solve,
+        node_id=config.node_id,
     )
 
 
@@ -217,12 +218,12 @@ def node_info(
     problem: Problem,
     security: messages.SecurityInfo | None = None,
     *,
-    resumed: bool = False,
+    resumed: str = "",
 ) -> messages.NodeInfo:
     """What a recording needs to replay this node's decisions.
 
-    ``resumed``: the node rebuilt its state from its journal and starts by
-    saying so (replay then expects that status first).
+    ``resumed``: the status event (``resumed``, ``took_over``) a node
+    whose state was rebuilt starts with (replay then expects it first).
     """
     from .. import __version__
 
@@ -247,6 +248,7 @@ def node_info(
         version=__version__,
         problem=problem,
         resumed=resumed,
+        node_id=config.node_id,
         security=security,
     )
 
@@ -342,6 +344,8 @@ class SchedulerNode:
         solve_fn: Callable[[NodeConfig, StartSolve], Plan] = run_solve,
         security: messages.SecurityInfo | None = None,
         engine: Engine | None = None,
+        resumed_event: str = "resumed",
+        share_state: bool = False,
         durable: bool = False,
         journal_max_bytes: int | None = None,
         clock_start: int = 0,
@@ -352,7 +356,8 @@ class SchedulerNode:
         self.config = config
         self.topics = topics.Topics(config.spacecraft)
         # A rebuilt engine (resume from the journal) or a fresh one.
-        self.resumed = engine is not None
+        self.resumed = resumed_event if engine is not None else ""
+        self._share_state = share_state
         self.engine = engine or Engine(engine_config(config), problem)
         self._durable = durable and journal is not None
         self._journal_max_bytes = journal_max_bytes
@@ -421,10 +426,12 @@ class SchedulerNode:
             self._clock = UnitClock(
                 self._seconds, self.config.time_unit, self._clock_start
             )
-        self._thread = threading.Thread(
-            target=self._spin, name="fsw-scheduler-loop", daemon=True
-        )
-        self._thread.start()
+        if self._share_state:
+            self._publishers[topics.SNAPSHOT] = session.declare_publisher(
+                key(topics.SNAPSHOT), encoding=JSON
+            )
+        # Settings and state go first into the journal, from this thread,
+        # before the loop (the journal's only other writer) starts.
         self._publish_raw(
             topics.NODE_INFO,
             messages.encode(
@@ -438,8 +445,14 @@ class SchedulerNode:
         )
         if self._durable:
             self._write_snapshot()
+        if self._share_state:
+            self._share_snapshot()
         if self.resumed:
             self._inbox.put("resume", None)
+        self._thread = threading.Thread(
+            target=self._spin, name="fsw-scheduler-loop", daemon=True
+        )
+        self._thread.start()
         log.info(
             "scheduler up on %s (clock %s, solver %s)",
             self.topics.root,
@@ -673,6 +686,10 @@ class SchedulerNode:
         when the process died is not sent again (a dispatch then waits for
         its report timeout).
         """
+        if self._share_state and commands:
+            # The standby's copy first, so that it never lags behind
+            # what the bus has seen (same publisher link, in order).
+            self._share_snapshot()
         if not self._durable:
             for command in commands:
                 self._execute(command)
@@ -691,6 +708,10 @@ class SchedulerNode:
         for suffix, payload in outputs:
             self._put(suffix, payload)
         self._maybe_rotate()
+
+    def _share_snapshot(self) -> None:
+        """Publish the engine's state for a hot standby."""
+        self._put(topics.SNAPSHOT, messages.encode(self.engine.snapshot()))
 
     def _write_snapshot(self) -> None:
         """The engine's state as the next journal message, on disk."""
@@ -723,7 +744,7 @@ class SchedulerNode:
             self.engine.now,
             self.engine.plan_id,
         )
-        commands: list[Command] = [self.engine.resumed()]
+        commands: list[Command] = [self.engine.resumed(self.resumed)]
         pending = self.engine.pending_solve()
         if pending is not None:
             commands.append(pending)

@@ -33,6 +33,8 @@ SNAPSHOT = "scheduler/snapshot"
 #: One liveliness token per node (``scheduler/nodes/<node id>``), so that
 #: twins see each other (``scheduler/alive`` tokens merge into one).
 NODES = "scheduler/nodes"
+#: The liveliness token of the node that commands the spacecraft.
+ACTIVE = "scheduler/active"
 #: Recorded only: goals refused unread because the inbox was full.
 BUSY = "scheduler/busy"
 #: Recorded only: the bus clock stopped ticking (wall-clock detection).
