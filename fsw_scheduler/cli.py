@@ -264,6 +264,20 @@ def _cmd_replan(args: argparse.Namespace) -> int:
 
 def _cmd_demo(args: argparse.Namespace) -> int:
     from .demo import SCENARIOS, run_demo
+
+    if args.scenario == "failover":
+        from .failover_demo import run_failover_demo
+
+        log.info("demo (failover scenario): state folders in %s", args.out)
+        outcome = run_failover_demo(
+            Path(args.out), quiet=args.quiet, time_unit=args.time_unit
+        )
+        if outcome.takeovers:
+            print(
+                "takeover after SIGKILL: "
+                + ", ".join(f"{t * 1000:.0f} ms" for t in outcome.takeovers)
+            )
+        return EXIT_OK if outcome.verified else EXIT_NO_PLAN
     from .plot import PLOT_INSTALL_HINT, have_matplotlib
 
     out = Path(args.out)
@@ -809,10 +823,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     demo.add_argument(
         "--scenario",
-        choices=("paper", "failure"),
+        choices=("paper", "failure", "failover"),
         default="paper",
         help="paper: Table 1 then the Table 2 goal; failure: also a failed "
-        "activity and a draining battery (default: %(default)s)",
+        "activity and a draining battery; failover: the paper scenario on "
+        "two redundant schedulers (separate processes) that are killed "
+        "and resume or take over (default: %(default)s)",
     )
     demo.add_argument("--spacecraft", default="sat1", help="key prefix id")
     demo.add_argument(
@@ -821,7 +837,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--quiet", action="store_true", help="no live timeline")
     demo.add_argument(
         "--time-unit",
-        type=positive_float,
+        type=non_negative_float,
         default=0.05,
         metavar="S",
         help="wall seconds per time unit, at least (default %(default)s)",
