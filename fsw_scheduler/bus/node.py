@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import logging
+import queue
 import threading
 import time
 from collections import deque
@@ -50,6 +51,7 @@ from ..engine import (
 )
 from ..errors import BusError
 from ..inputs import InputDecoder, goal_id_of
+from ..solvers.ilp.cbc import Cancel, cancel_scope
 from . import topics
 
 if TYPE_CHECKING:
@@ -80,6 +82,41 @@ MAX_BUSY_NOTICES = 65536
 
 # Faults that end the loop at once instead of being survived.
 _FATAL = (KeyboardInterrupt, SystemExit)
+
+
+class _Worker:
+    """One daemon thread running jobs in order (the solves).
+
+    Daemon, unlike ``ThreadPoolExecutor``'s threads, which the interpreter
+    joins at exit: a stopping node must not wait for a solve to finish.
+    """
+
+    def __init__(self, name: str) -> None:
+        self._jobs: queue.SimpleQueue[Any] = queue.SimpleQueue()
+        self._thread = threading.Thread(
+            target=self._run, name=name, daemon=True
+        )
+        self._thread.start()
+
+    def submit(
+        self, fn: Callable[..., Any], *args: Any
+    ) -> concurrent.futures.Future:
+        future: concurrent.futures.Future = concurrent.futures.Future()
+        self._jobs.put((future, fn, args))
+        return future
+
+    def shutdown(self) -> None:
+        self._jobs.put(None)
+
+    def _run(self) -> None:
+        while (job := self._jobs.get()) is not None:
+            future, fn, args = job
+            if not future.set_running_or_notify_cancel():
+                continue
+            try:
+                future.set_result(fn(*args))
+            except BaseException as error:  # reported as SolveFailed
+                future.set_exception(error)
 
 
 class Inbox:
@@ -340,9 +377,8 @@ class SchedulerNode:
         self._publish_failures_in_a_row = 0
         self._closed = threading.Event()
         self._thread: threading.Thread | None = None
-        self._workers = concurrent.futures.ThreadPoolExecutor(
-            max_workers=1, thread_name_prefix="fsw-solve"
-        )
+        self._workers = _Worker("fsw-solve")
+        self._cancel = Cancel()
         self._clock: UnitClock | None = None
         self._decoder = InputDecoder(
             self.topics, config.clock, config.max_clock_step
@@ -408,10 +444,11 @@ class SchedulerNode:
     def close(self, timeout: float = 10.0) -> None:
         """Stop the loop, wait for it, undeclare everything."""
         self._stop.set()
+        self._cancel.cancel()  # a solve in flight stops now
         self._inbox.put("wake", None)
         if self._thread is not None:
             self._thread.join(timeout)
-        self._workers.shutdown(wait=False, cancel_futures=True)
+        self._workers.shutdown()
         self._withdraw_token()
         for entity in [*self._declared, *self._publishers.values()]:
             try:
@@ -634,10 +671,14 @@ class SchedulerNode:
         if isinstance(command, Publish):
             self._publish_raw(command.suffix, messages.encode(command.message))
         elif isinstance(command, StartSolve):
-            future = self._workers.submit(self._solve_fn, self.config, command)
+            future = self._workers.submit(self._solve_scoped, command)
             future.add_done_callback(self._solve_callback(command.solve_id))
         elif isinstance(command, Log):
             log.log(logging.getLevelName(command.level.upper()), command.text)
+
+    def _solve_scoped(self, command: StartSolve) -> Plan:
+        with cancel_scope(self._cancel):
+            return self._solve_fn(self.config, command)
 
     def _solve_callback(
         self, solve_id: int
