@@ -196,6 +196,7 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
     counters: Counters = Counters()
     last_solve: SolveSummary | None = None
     changed: dict[str, str] = {}
+    why: tuple[Blocker, ...] = ()
 
 
 class Busy(msgspec.Struct, frozen=True):
@@ -220,6 +221,20 @@ class Stalled(msgspec.Struct, frozen=True):
 
     seconds: float
     last: int | None = None
+
+
+class Explanation(msgspec.Struct, frozen=True):
+    """``scheduler/explained`` (journal only): why tasks of a plan are out.
+
+    Explanations take extra solves; they run after the plan is published
+    (within ``explain-budget``) and reach the loop as this record, which
+    replay feeds back where it arrived. The bus sees them as a status
+    ``explained`` event with ``why``, and in the plan queryable.
+    """
+
+    solve_id: int
+    plan_id: int
+    why: tuple[Blocker, ...] = ()
 
 
 class SolveRecord(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -268,6 +283,8 @@ class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     goals_waiting: int = 64
     goals_per_solve: int = 16
     max_clock_step: int | None = None
+    explain_after_plan: bool = False
+    response_deadline: float | None = None
 
 
 #: Message types of each key (relative to ``fsw/<sc>/``), for schemas.
@@ -284,6 +301,7 @@ SCHEMA_TYPES: dict[str, Any] = {
     "problem": Problem,
     "busy": Busy,
     "stalled": Stalled,
+    "explanation": Explanation,
 }
 
 _encoder = msgspec.json.Encoder()

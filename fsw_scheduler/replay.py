@@ -166,6 +166,8 @@ def config_from_info(info: messages.NodeInfo) -> NodeConfig:
         goals_waiting=info.goals_waiting,
         goals_per_solve=info.goals_per_solve,
         max_clock_step=info.max_clock_step,
+        explain_after_plan=info.explain_after_plan,
+        response_deadline=info.response_deadline,
     )
 
 

@@ -765,3 +765,60 @@ def test_sigterm_interrupts_a_solve_and_exits_0(tmp_path: Path) -> None:
         if process.stderr is not None:
             process.stderr.close()
         session.close()  # type: ignore[attr-defined]
+
+
+# -- finding 5: a deadline over the whole goal -> plan path -------------------
+
+
+def _generated(num_tasks: int, seed: int) -> dict:
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+    from bench_lib.generator import generate_problem
+
+    return generate_problem(num_tasks, "mixed", 336, seed)
+
+
+def test_the_response_deadline_bounds_goal_to_plan() -> None:
+    """Tests that a hard goal gets its plan within the response deadline."""
+    import time
+
+    from fsw_scheduler.testing import SchedulerHarness
+
+    doc = _generated(60, 7)
+    empty = json.dumps({**doc, "tasks": [], "precedences": []})
+    config = harness_config(response_deadline=2.0, time_limit=60.0)
+    with SchedulerHarness(empty, config) as h:
+        h.tick(0)
+        goal = {
+            "goal_id": "hard",
+            "tasks": doc["tasks"],
+            "precedences": doc["precedences"],
+        }
+        sent = time.monotonic()
+        h.publish_goal(goal)
+        plan = h.wait_plan(lambda p: "hard" in p.goals, timeout=30)
+        took = time.monotonic() - sent
+        assert took < 3.0, f"goal -> plan took {took:.2f} s"
+        assert plan.stats is not None
+        assert plan.stats.time_limit_s is not None
+        assert plan.stats.time_limit_s < 2.0
+
+
+@pytest.mark.parametrize(
+    "scheduler_config", [harness_config(explain=True, explain_budget=5.0)]
+)
+def test_explanations_follow_the_plan(
+    started: SchedulerHarness, scheduler_config: NodeConfig
+) -> None:
+    """Tests that a plan is published unexplained, then `explained`."""
+    h = started
+    huge = task("Huge", uses={"power": 1000}, schedule_cost=1)
+    h.publish_goal(goal_of("too-long", huge))
+    plan = h.wait_plan(lambda p: "too-long" in p.goals)
+    assert "Huge" in plan.unscheduled
+    assert plan.why == ()  # not waited for
+    explained = h.wait_status(lambda s: s.event == "explained")
+    assert explained.plan_id == plan.plan_id
+    assert [b.task for b in explained.why] == ["Huge"]
+    queried = h.query_plan()
+    assert queried is not None
+    assert [b.task for b in queried.why] == ["Huge"]

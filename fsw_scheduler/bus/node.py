@@ -42,10 +42,13 @@ from ..engine import (
     Engine,
     EngineConfig,
     Event,
+    Explained,
+    GoalArrived,
     Log,
     Publish,
     SolveDone,
     SolveFailed,
+    StartExplain,
     StartSolve,
     Tick,
 )
@@ -58,7 +61,7 @@ if TYPE_CHECKING:
     from ..config import NodeConfig
     from ..model import Problem
     from ..recording import Recorder
-    from ..solution import Plan
+    from ..solution import Blocker, Plan
 
 log = logging.getLogger("fsw_scheduler.node")
 
@@ -70,6 +73,12 @@ SolveFn = Callable[..., "Plan"]
 #: the loop counts as unable to go on: it stops, says ``state: error``
 #: and withdraws its token.
 MAX_CONSECUTIVE_FAULTS = 20
+
+#: Seconds of the response deadline kept to publish the plan.
+PUBLISH_MARGIN_S = 0.2
+
+#: A solve gets at least this long, deadline or not (the start plan).
+MIN_SOLVE_S = 0.05
 
 #: Queries waiting for the loop; more are dropped (the querier gets no
 #: reply) and counted.
@@ -246,6 +255,7 @@ def engine_config(config: NodeConfig) -> EngineConfig:
         max_live_tasks=config.live_tasks,
         max_goals_waiting=config.goals_waiting,
         max_goals_per_solve=config.goals_per_solve,
+        explain_after_plan=config.explain and config.explain_after_plan,
     )
 
 
@@ -271,25 +281,68 @@ def node_info(config: NodeConfig, problem: Problem) -> messages.NodeInfo:
         goals_waiting=config.goals_waiting,
         goals_per_solve=config.goals_per_solve,
         max_clock_step=config.max_clock_step,
+        explain_after_plan=config.explain_after_plan,
+        response_deadline=config.response_deadline,
         version=__version__,
         problem=problem,
     )
 
 
 def run_solve(config: NodeConfig, command: StartSolve) -> Plan:
-    """Solve as the node does (shared with deterministic replay)."""
+    """Solve as the node does (shared with deterministic replay).
+
+    With ``explain_after_plan`` a plan comes back unexplained (the node
+    explains it once published); a solve that gives no plan is explained
+    here, since the rejection it causes names the blockers.
+    """
     from ..solve import solve
 
-    return solve(
+    later = config.explain_after_plan
+    plan = solve(
         command.problem,
         config.solver,
         time_limit=config.time_limit,
         threads=config.threads,
         seed=config.seed,
-        explain=config.explain,
+        explain=config.explain and not later,
         warm=command.warm,
         explain_budget=config.explain_budget,
     )
+    if config.explain and later and not plan.status.has_plan:
+        plan = plan.replace(
+            why=run_explain(config, command.problem, plan)
+        )
+    return plan
+
+
+def run_explain(
+    config: NodeConfig, problem: Problem, plan: Plan
+) -> tuple[Blocker, ...]:
+    """Why tasks of ``plan`` are out, within ``config.explain_budget``."""
+    from ..explain import explain
+    from ..solution import Plan as PlanType
+    from ..solution import SolveStatus
+    from ..solvers.ilp import solve_ilp
+
+    deadline = time.monotonic() + config.explain_budget
+
+    def attempt(relaxed: Problem) -> Plan:
+        left = deadline - time.monotonic()
+        if left <= 0.05:  # budget spent: the task is not analysed
+            return PlanType(
+                status=SolveStatus.UNKNOWN,
+                objective=None,
+                unscheduled=tuple(t.id for t in relaxed.tasks),
+            )
+        return solve_ilp(
+            relaxed,
+            config.solver,
+            time_limit=left,
+            threads=config.threads,
+            seed=config.seed,
+        )
+
+    return explain(problem, plan, attempt)
 
 
 def _direct(callback: Callable[[Any], None]) -> zenoh.handlers.Callback:
@@ -378,6 +431,10 @@ class SchedulerNode:
         self._closed = threading.Event()
         self._thread: threading.Thread | None = None
         self._workers = _Worker("fsw-solve")
+        # Explanations on their own thread: they never hold a solve back.
+        self._explainer = _Worker("fsw-explain")
+        # Goal id -> monotonic arrival (s), for the response deadline.
+        self._arrivals: dict[str, float] = {}
         self._cancel = Cancel()
         self._clock: UnitClock | None = None
         self._decoder = InputDecoder(
@@ -449,6 +506,7 @@ class SchedulerNode:
         if self._thread is not None:
             self._thread.join(timeout)
         self._workers.shutdown()
+        self._explainer.shutdown()
         self._withdraw_token()
         for entity in [*self._declared, *self._publishers.values()]:
             try:
@@ -590,13 +648,25 @@ class SchedulerNode:
         item = self._inbox.get(timeout=max(timeout, 0.001))
         if item is None:
             return
-        kind, key, payload, _arrived = item
+        kind, key, payload, arrived = item
         if kind == "wake":
             return
         if kind == "query":
             self._answer(*payload)
         elif kind == "solve":
             self._step(payload)
+        elif kind == "explained":
+            self._on_sample(
+                kind,
+                self.topics.key(topics.EXPLAINED),
+                messages.encode(
+                    messages.Explanation(
+                        payload.solve_id, payload.plan_id, payload.why
+                    )
+                ),
+            )
+        elif kind == "goal":
+            self._on_sample(kind, key, payload, arrived)
         elif kind == "busy":
             self._on_sample(
                 kind,
@@ -642,9 +712,13 @@ class SchedulerNode:
         bus_now = self._decoder.bus_now
         return bus_now if bus_now is not None else 0
 
-    def _on_sample(self, kind: str, key: str, payload: bytes) -> None:
+    def _on_sample(
+        self, kind: str, key: str, payload: bytes, arrived: float = 0.0
+    ) -> None:
         self._journal.write(key, payload)
         event = self._decoder.event(key, payload)
+        if isinstance(event, GoalArrived) and len(self._arrivals) < 4096:
+            self._arrivals.setdefault(event.goal.goal_id, arrived)
         if kind == "clock" and isinstance(event, Tick):
             self._last_clock_s = self._seconds()
             self._stall_reported = False
@@ -671,14 +745,52 @@ class SchedulerNode:
         if isinstance(command, Publish):
             self._publish_raw(command.suffix, messages.encode(command.message))
         elif isinstance(command, StartSolve):
-            future = self._workers.submit(self._solve_scoped, command)
+            future = self._workers.submit(
+                self._solve_scoped, command, self._solve_config(command)
+            )
             future.add_done_callback(self._solve_callback(command.solve_id))
+        elif isinstance(command, StartExplain):
+            self._explainer.submit(self._explain, command)
         elif isinstance(command, Log):
             log.log(logging.getLevelName(command.level.upper()), command.text)
 
-    def _solve_scoped(self, command: StartSolve) -> Plan:
+    def _solve_config(self, command: StartSolve) -> NodeConfig:
+        """The settings of a solve: its limit cut to the goals' deadline.
+
+        The response deadline runs from the arrival of the oldest goal of
+        the solve; decoding, merging and waiting behind another solve came
+        out of it already, the start plan, model and solver share the rest
+        (less a margin to publish).
+        """
+        config = self.config
+        goals = self.engine.pending_goals
+        if config.response_deadline is None or not goals:
+            return config
+        arrived = [self._arrivals[g] for g in goals if g in self._arrivals]
+        for goal_id in goals:
+            self._arrivals.pop(goal_id, None)
+        if not arrived:
+            return config
+        left = config.response_deadline - (self._seconds() - min(arrived))
+        limit = max(left - PUBLISH_MARGIN_S, MIN_SOLVE_S)
+        if config.time_limit is not None and config.time_limit <= limit:
+            return config
+        return config.replace(time_limit=limit)
+
+    def _solve_scoped(self, command: StartSolve, config: NodeConfig) -> Plan:
         with cancel_scope(self._cancel):
-            return self._solve_fn(self.config, command)
+            return self._solve_fn(config, command)
+
+    def _explain(self, command: StartExplain) -> None:
+        try:
+            with cancel_scope(self._cancel):
+                why = run_explain(self.config, command.problem, command.plan)
+        except BaseException:  # an explanation is advisory: log only
+            log.exception("explaining plan %d failed", command.plan_id)
+            return
+        self._inbox.put(
+            "explained", Explained(command.solve_id, command.plan_id, why)
+        )
 
     def _solve_callback(
         self, solve_id: int
