@@ -143,10 +143,11 @@ class SolveSummary(msgspec.Struct, frozen=True, omit_defaults=True):
 class Counters(msgspec.Struct, frozen=True, omit_defaults=True):
     """Running totals since start.
 
-    The last six are the bus shell's: ``inputs_dropped`` (telemetry that
+    The last seven are the bus shell's: ``inputs_dropped`` (telemetry that
     found the inbox's byte budget spent; it was never processed),
-    ``telemetry_superseded`` (samples replaced in the inbox by a newer
-    one on the same key before the loop read them: latest value wins),
+    ``telemetry_superseded`` and ``clock_superseded`` (samples replaced in
+    the inbox by a newer one on the same key before the loop read them:
+    the latest value wins),
     ``goals_busy`` (goals refused because too many were waiting; each got
     a ``goal_rejected``), ``queries_dropped``, ``publish_failures`` and
     ``loop_faults`` (inputs whose handling raised; the loop went on).
@@ -162,6 +163,7 @@ class Counters(msgspec.Struct, frozen=True, omit_defaults=True):
     inputs_rejected: int = 0
     inputs_dropped: int = 0
     telemetry_superseded: int = 0
+    clock_superseded: int = 0
     goals_busy: int = 0
     queries_dropped: int = 0
     publish_failures: int = 0

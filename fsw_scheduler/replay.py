@@ -49,6 +49,7 @@ EXCLUDED: dict[str, tuple[str, ...]] = {
     "status": (
         "counters.inputs_dropped",
         "counters.telemetry_superseded",
+        "counters.clock_superseded",
         "counters.goals_busy",
         "counters.queries_dropped",
         "counters.publish_failures",
