@@ -347,6 +347,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
             node_id=args.node_id,
             rank=args.rank,
             discovery=args.discovery,
+            response_deadline=args.response_deadline,
+            tasks_per_goal=args.tasks_per_goal,
+            live_tasks=args.live_tasks,
+            goals_waiting=args.goals_waiting,
+            max_clock_step=args.max_clock_step,
+            clock_stall=args.clock_stall,
         )
         if args.no_standby:
             config = config.replace(standby=False)
@@ -963,6 +969,52 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="refuse to start (exit 2) unless the bus is loopback only, or "
         "has mutual TLS on every endpoint and access control",
+    )
+    limits = run.add_argument_group(
+        "limits",
+        "What a sender gets beyond each limit is in the README "
+        "(robustness); the same settings exist in the TOML file.",
+    )
+    limits.add_argument(
+        "--response-deadline",
+        type=float,
+        metavar="S",
+        help="seconds from a goal's arrival to its plan; the solve gets "
+        "what is left (default 15)",
+    )
+    limits.add_argument(
+        "--tasks-per-goal",
+        type=int,
+        metavar="N",
+        help="a goal with more tasks is rejected (default 100)",
+    )
+    limits.add_argument(
+        "--live-tasks",
+        type=int,
+        metavar="N",
+        help="a goal that would make the plan hold more live tasks is "
+        "rejected (default 300)",
+    )
+    limits.add_argument(
+        "--goals-waiting",
+        type=int,
+        metavar="N",
+        help="goals queued behind a solve; more are rejected 'busy' "
+        "(default 64)",
+    )
+    limits.add_argument(
+        "--max-clock-step",
+        type=int,
+        metavar="UNITS",
+        help="largest forward step of one bus clock message; a bigger one "
+        "is rejected (default 100)",
+    )
+    limits.add_argument(
+        "--clock-stall",
+        type=float,
+        metavar="S",
+        help="seconds without a bus clock message before the status turns "
+        "degraded (default 30)",
     )
     add_zenoh_arguments(run)
 
