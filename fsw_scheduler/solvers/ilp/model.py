@@ -25,10 +25,11 @@ from ...solution import (
     SolverStats,
     SolveStatus,
 )
-from .cbc import ABS_GAP, MIN_CBC_S, CbcResult, CbcRun
+from .cbc import ABS_GAP, MIN_CBC_S, CbcResult
 from .constraints import Constraints
 from .objective import objective, weight
 from .program import Program
+from .progress import WatchedCbcRun
 from .variables import Variables
 
 if TYPE_CHECKING:
@@ -188,7 +189,17 @@ def _run_cbc(
     if warm:
         warm = in_symmetry_order(built.constraints.twins, warm)
         start = built.vars.initial(warm, built.program.num_columns)
-    run = CbcRun(time_limit=time_limit, threads=threads, seed=seed)
+    program = built.program
+    run = WatchedCbcRun(
+        constant=program.constant,
+        incumbent=None
+        if start is None
+        else program.constant
+        + sum(c * v for c, v in zip(program.cost, start, strict=True)),
+        time_limit=time_limit,
+        threads=threads,
+        seed=seed,
+    )
     result = run.solve(built.program, start)
     notes = [result.solver_status]
     if result.values is not None and not _integral(built.program, result):
