@@ -155,6 +155,16 @@ def solve(
             ),
             start,
         )
+        if start is None and not plan.status.has_plan and plan.stats:
+            # Rare: say why there is not even the start plan to fly.
+            plan = plan.replace(
+                stats=msgspec.structs.replace(
+                    plan.stats,
+                    solver_status=f"{plan.stats.solver_status}; no start "
+                    "plan: list scheduling could not place the tasks every "
+                    "plan must hold",
+                )
+            )
         if plan.stats is not None:
             # Report the limit the caller set, and the whole call's time.
             bound = plan.stats.bound
