@@ -42,6 +42,10 @@ if TYPE_CHECKING:
 
 SOLVERS = ("cbc", "highs")
 
+#: Seconds to build and write a model, per column (measured: 2.9 s for the
+#: 158 000 columns of 200 tasks at H = 1440, 18 us each; rounded up).
+BUILD_S_PER_COLUMN = 2.5e-5
+
 
 def _pulp_status(lp: pulp.LpProblem) -> SolveStatus:
     """The status of a solve through PuLP, from the solution status first.
@@ -315,6 +319,26 @@ def solve_ilp(
     if solver not in SOLVERS:
         raise SolverError(f"unknown solver {solver!r} (choose from {SOLVERS})")
     began = time.perf_counter()
+    if domains is None:
+        domains = start_domains(problem)
+    if time_limit is not None:
+        columns = sum(
+            d.latest - d.earliest + 1 for d in domains.values() if not d.empty
+        )
+        if BUILD_S_PER_COLUMN * columns > time_limit:
+            # Building alone would overrun the limit (200 tasks at
+            # H = 1440: 158 000 columns, 2.9 s).
+            return _without_plan(
+                problem,
+                SolveStatus.UNKNOWN,
+                dict(
+                    solver=solver,
+                    time_limit_s=time_limit,
+                    solver_status=f"time limit too short to build a model "
+                    f"of {columns} columns",
+                ),
+                began,
+            )
     built = BuiltModel(problem, domains)
     built_at = time.perf_counter()
     impossible = [
