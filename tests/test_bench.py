@@ -398,3 +398,26 @@ def test_broad_generator_has_the_issue_shape() -> None:
                 )
                 + 1
             ), bench.name
+
+
+def test_reports_set_each_solver_against_cpsat() -> None:
+    """Tests the problem-by-problem comparison with CP-SAT: ratios, proofs,
+    and on scaling points left-out cost and gap to the best bound."""
+    import dataclasses
+
+    def run(solver: str, wall: float, **over: object) -> object:
+        base = _run(solver, "optimal", 10)
+        return dataclasses.replace(base, wall_s=wall, **over)  # type: ignore[type-var]
+
+    runs = [run("cbc", 0.4), run("cpsat", 0.1)]
+    text = report.format_versus(runs)
+    assert "4.0x" in text and "1/1" in text
+    scale = dict(suite="scaling", num_tasks=30, unscheduled_cost=2)
+    runs = [
+        run("cbc", 5.0, status="feasible", total=120, bound=None, **scale),
+        run("cpsat", 5.0, status="feasible", total=130, bound=100.0, **scale),
+    ]
+    runs[1] = dataclasses.replace(runs[1], unscheduled_cost=3)
+    text = report.format_scaling_versus(runs)
+    assert "1/0/0" in text  # cbc leaves less out than cpsat
+    assert "16.7 %" in text  # (120 - 100) / 120
