@@ -172,7 +172,9 @@ def _add_solver_arguments(parser: argparse.ArgumentParser) -> None:
         "--time-limit",
         type=positive_float,
         metavar="S",
-        help="solver time limit in seconds (> 0); at the limit the best "
+        help="seconds (> 0) for the whole solve, start plan, model and "
+        "explanations included (the plan is out within about 0.5 s of "
+        "it; progress is logged every few seconds); at the limit the best "
         "plan is returned with status 'feasible' (default: none)",
     )
     parser.add_argument(
