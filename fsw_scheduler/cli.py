@@ -273,7 +273,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 "arguments",
             )
         problem = Problem(horizon=config.horizon, tasks=())
-    from .bus.security import assess
+    from .bus.security import assess, policy_publishers
 
     zenoh_settings = zenoh_config(args)
     security = assess(zenoh_settings, acknowledged=args.insecure)
@@ -313,7 +313,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     with zenoh.open(zenoh_settings) as session:
         node = SchedulerNode(
-            session, problem, config, journal=journal, security=security
+            session,
+            problem,
+            config,
+            journal=journal,
+            security=security,
+            publishers=policy_publishers(zenoh_settings),
         )
         node.start()
         try:

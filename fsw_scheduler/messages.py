@@ -120,6 +120,43 @@ class Dispatch(msgspec.Struct, frozen=True, omit_defaults=True):
     late: bool = False
 
 
+class Source(msgspec.Struct, frozen=True, omit_defaults=True):
+    """Where an input came from, as far as the scheduler can tell.
+
+    Attributes
+    ----------
+    zid, eid, sn
+        The publishing session's Zenoh id, the publisher's entity id and
+        its sequence number, from the sample's source info. Zenoh fills
+        source info only when the publisher sets it; without it, ``zid``
+        is the session that timestamped the sample, if any. Claimed by the
+        sender: not authenticated by itself.
+    identity
+        The authenticated identity (TLS certificate common name) of the
+        sender, when the node can tell it (``|`` between candidates).
+    basis
+        How ``identity`` was found: ``link``, ``zid`` has a direct link
+        authenticated under that name, and the access-control policy lets
+        that name publish on the key; ``policy``, the names of the
+        connected links the policy lets publish on the key (the sample
+        does not say which link it came over); empty, unknown.
+    """
+
+    zid: str = ""
+    eid: int | None = None
+    sn: int | None = None
+    identity: str = ""
+    basis: str = ""
+
+
+class InputSource(msgspec.Struct, frozen=True, omit_defaults=True):
+    """``scheduler/sources``, in the journal only: the source of the input
+    on ``key`` recorded right after it."""
+
+    key: str
+    source: Source
+
+
 class SolveSummary(msgspec.Struct, frozen=True, omit_defaults=True):
     """The last solve, as reported in status."""
 
@@ -153,6 +190,8 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
     ``goal_accepted``, ``goal_rejected``, ``solve_failed``,
     ``input_rejected``, ``activity``, ``drift``, ``heartbeat``); with
     ``goal_id`` and ``errors`` (``path`` + ``reason``) for rejections.
+    ``source`` says where the goal, report or level a verdict is about
+    came from (set by the bus node; ``replay --verify`` ignores it).
     """
 
     state: Literal["ok", "degraded", "error"]
@@ -166,6 +205,7 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
     activities: dict[str, str] = {}
     counters: Counters = Counters()
     last_solve: SolveSummary | None = None
+    source: Source | None = None
 
 
 class SolveRecord(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -240,6 +280,7 @@ SCHEMA_TYPES: dict[str, Any] = {
     "status": Status,
     "solve_record": SolveRecord,
     "node_info": NodeInfo,
+    "input_source": InputSource,
     "problem": Problem,
 }
 

@@ -37,6 +37,7 @@ from fsw_scheduler.bus.security import (
     ROLES,
     access_control,
     assess,
+    policy_publishers,
     render_profile,
 )
 from fsw_scheduler.bus.session import (
@@ -47,7 +48,7 @@ from fsw_scheduler.bus.session import (
 from fsw_scheduler.cli import main
 from fsw_scheduler.messages import schema_lookup
 from fsw_scheduler.recording import Recorder, iter_messages
-from fsw_scheduler.replay import read_node_info
+from fsw_scheduler.replay import read_node_info, verify
 from fsw_scheduler.testing import (
     SchedulerClient,
     harness_config,
@@ -203,7 +204,9 @@ class SecureBus:
     the control case showing what the policy prevents.
     """
 
-    def __init__(self, certs: Path, *, acl: bool = True) -> None:
+    def __init__(
+        self, certs: Path, *, acl: bool = True, journal: Path | None = None
+    ) -> None:
         self.certs = certs
         config = zenoh.Config.from_json5(
             render_profile(
@@ -219,11 +222,18 @@ class SecureBus:
         self.security = assess(config)
         self.session = zenoh.open(config)
         self.endpoint = listening_endpoints(self.session)[0]
+        self.journal = journal
         self.node = SchedulerNode(
             self.session,
             paper_problem(),
             harness_config(),
             security=self.security,
+            publishers=policy_publishers(config),
+            journal=(
+                Recorder(journal, schemas=schema_lookup("sat1"))
+                if journal is not None
+                else None
+            ),
         ).start()
         self._sessions: list[zenoh.Session] = []
         self.clock: SchedulerClient
@@ -742,3 +752,90 @@ def test_node_info_records_the_check(tmp_path: Path) -> None:
     assert recorded.security == info
     assert recorded.security.acknowledged
     assert recorded.security.warnings
+
+
+# -- traceability ------------------------------------------------------------
+
+
+def put_signed(session: zenoh.Session, key: str, message: dict) -> None:
+    """Publish with source info, as a component that wants to be traced."""
+    session.put(
+        key,
+        json.dumps(message).encode(),
+        source_info=zenoh.SourceInfo(session.id, 1),
+    )
+
+
+def test_verdicts_name_their_source(
+    pki: dict[str, Path], tmp_path: Path
+) -> None:
+    """Tests source on verdicts and in the journal, and replay --verify."""
+    journal = tmp_path / "journal.mcap"
+    secure = SecureBus(pki["good"], journal=journal)
+    try:
+        start(secure)
+        goals = secure.client("goals")
+        goals.wait_scheduler()
+        executor = secure.client("executor")
+        telemetry = secure.client("telemetry")
+        wait_matching(secure.session, SC.key(keys.STATUS), WAIT_S)
+        put_signed(goals.client, SC.key(keys.GOALS), ping_goal("signed", "S"))
+        accepted = goals.wait_status(lambda s: s.goal_id == "signed")
+        assert accepted.event == "goal_accepted"
+        assert accepted.source == messages.Source(
+            zid=str(goals.client.zid()),
+            eid=goals.client.id.eid,
+            sn=1,
+            identity="goals",
+            basis="link",
+        )
+        # Without source info the policy still names the only connected
+        # certificate that may publish goals.
+        goals.publish_goal(ping_goal("plain", "SetPositionX"))
+        rejected = goals.wait_status(lambda s: s.goal_id == "plain")
+        assert rejected.event == "goal_rejected"
+        assert rejected.source == messages.Source(
+            identity="goals", basis="policy"
+        )
+        put_signed(
+            executor.client,
+            SC.activity_report("SetPositionX"),
+            {"task": "SetPositionX", "state": "completed", "at": 0},
+        )
+        done = executor.wait_status(lambda s: s.event == "activity")
+        assert done.source is not None
+        assert (done.source.identity, done.source.zid) == (
+            "executor",
+            str(executor.client.zid()),
+        )
+        telemetry.level("battery", 0.0, 0)
+        drift = telemetry.wait_status(lambda s: s.event == "drift")
+        assert drift.source == messages.Source(
+            identity="telemetry", basis="policy"
+        )
+        heartbeat = status_via(goals.client)
+        assert heartbeat.source is None
+        # The drift replan is adopted before the journal closes.
+        goals.wait_status(
+            lambda s: s.event == "plan"
+            and (s.plan_id or 0) > (drift.plan_id or 0)
+        )
+    finally:
+        secure.close()
+    recorded = list(iter_messages(journal))
+    sources = [
+        msgspec.json.decode(m.payload, type=messages.InputSource)
+        for m in recorded
+        if m.topic == SC.key(keys.SOURCES)
+    ]
+    by_key = {s.key: s.source.identity for s in sources}
+    assert by_key[SC.key(keys.GOALS)] == "goals"
+    assert by_key[SC.key(keys.CLOCK)] == "clock"
+    assert by_key[SC.activity_report("SetPositionX")] == "executor"
+    assert by_key[SC.resource_level("battery")] == "telemetry"
+    inputs = [m.topic for m in recorded]
+    for idx, topic in enumerate(inputs):
+        if topic == SC.key(keys.SOURCES):
+            assert inputs[idx - 1] == sources.pop(0).key
+    report = verify(journal)
+    assert report.identical, report.summary()

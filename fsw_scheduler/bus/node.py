@@ -38,6 +38,7 @@ from ..engine import (
 )
 from ..inputs import InputDecoder
 from . import topics
+from .provenance import Origin, Provenance, capture
 
 if TYPE_CHECKING:
     import msgspec
@@ -158,6 +159,10 @@ class SchedulerNode:
     security
         How the bus is protected (:func:`~fsw_scheduler.bus.security.
         assess`), published in ``scheduler/config``.
+    publishers
+        Who the access-control policy lets publish on a key
+        (:func:`~fsw_scheduler.bus.security.policy_publishers`), to tell
+        the sender of each input (:mod:`~fsw_scheduler.bus.provenance`).
 
     Examples
     --------
@@ -177,6 +182,7 @@ class SchedulerNode:
         wall_ns: Callable[[], int] = time.time_ns,
         solve_fn: Callable[[NodeConfig, StartSolve], Plan] = run_solve,
         security: messages.SecurityInfo | None = None,
+        publishers: Callable[[str], frozenset[str] | None] | None = None,
     ) -> None:
         if config.horizon is not None:
             problem = problem.replace(horizon=config.horizon)
@@ -201,6 +207,7 @@ class SchedulerNode:
         self._declared: list[Any] = []
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._security = security
+        self._provenance = Provenance(publishers)
 
     # -- lifecycle -----------------------------------------------------------
 
@@ -217,6 +224,7 @@ class SchedulerNode:
             self._publishers[suffix] = session.declare_publisher(
                 key(suffix), encoding=JSON
             )
+        self._declared.append(self._provenance.declare(session))
         inputs = [
             (topics.GOALS, "goal"),
             (topics.CLOCK, "clock"),
@@ -310,7 +318,14 @@ class SchedulerNode:
                     self._dropped += 1
                     return
                 self._inbox.put(
-                    (kind, (str(sample.key_expr), sample.payload.to_bytes()))
+                    (
+                        kind,
+                        (
+                            str(sample.key_expr),
+                            sample.payload.to_bytes(),
+                            capture(sample),
+                        ),
+                    )
                 )
             except Exception:  # a raising callback fails silently in zenoh
                 log.exception("dropping a %s sample", kind)
@@ -372,11 +387,22 @@ class SchedulerNode:
         bus_now = self._decoder.bus_now
         return bus_now if bus_now is not None else 0
 
-    def _on_sample(self, kind: str, key: str, payload: bytes) -> None:
+    def _on_sample(
+        self, kind: str, key: str, payload: bytes, origin: Origin | None = None
+    ) -> None:
         self._journal.write(key, payload)
+        source = self._provenance.resolve(key, origin)
+        self._journal.write(
+            self.topics.key(topics.SOURCES),
+            messages.encode(messages.InputSource(key, source)),
+        )
         event = self._decoder.event(key, payload)
         if event is not None:
-            self._step(event)
+            self._provenance.begin(event, source)
+            try:
+                self._step(event)
+            finally:
+                self._provenance.end()
 
     def _step(self, event: Event) -> None:
         if self._dropped != self.engine._counters.inputs_dropped:
@@ -386,7 +412,8 @@ class SchedulerNode:
 
     def _execute(self, command: Command) -> None:
         if isinstance(command, Publish):
-            self._publish_raw(command.suffix, messages.encode(command.message))
+            message = self._provenance.annotate(command.message)
+            self._publish_raw(command.suffix, messages.encode(message))
         elif isinstance(command, StartSolve):
             future = self._workers.submit(self._solve_fn, self.config, command)
             future.add_done_callback(self._solve_callback(command.solve_id))

@@ -43,7 +43,7 @@ from ..errors import ConfigError
 from . import topics
 
 if TYPE_CHECKING:
-    from collections.abc import Iterable, Mapping
+    from collections.abc import Callable, Iterable, Mapping
 
     import zenoh
 
@@ -53,6 +53,7 @@ __all__ = [
     "Role",
     "access_control",
     "assess",
+    "policy_publishers",
     "render_profile",
     "write_profile",
 ]
@@ -600,3 +601,66 @@ def assess(
         acknowledged=acknowledged and bool(warnings),
         warnings=tuple(warnings),
     )
+
+
+def policy_publishers(
+    config: zenoh.Config,
+) -> Callable[[str], frozenset[str] | None] | None:
+    """Who the access-control policy lets publish on a key, by name.
+
+    Parameters
+    ----------
+    config
+        The node's Zenoh configuration.
+
+    Returns
+    -------
+    callable or None
+        None without a default-deny policy. Otherwise a function from a
+        key to the certificate common names allowed to ``put`` on it
+        (ingress), or None for a key that a subject without names (a
+        wildcard) may publish on. Deny rules are not subtracted: the
+        answer may name too many, never too few.
+    """
+    import zenoh
+
+    acl = _get(config, "access_control") or {}
+    if not acl.get("enabled") or acl.get("default_permission") != "deny":
+        return None
+    rules = {r["id"]: r for r in acl.get("rules") or []}
+    subjects = {s["id"]: s for s in acl.get("subjects") or []}
+    grants: list[tuple[list[zenoh.KeyExpr], frozenset[str] | None]] = []
+    for policy in acl.get("policies") or []:
+        names: set[str] | None = set()
+        for subject_id in policy.get("subjects") or []:
+            cns = subjects.get(subject_id, {}).get("cert_common_names")
+            if not cns:
+                names = None
+                break
+            names.update(cns)  # type: ignore[union-attr]
+        for rule_id in policy.get("rules") or []:
+            rule = rules.get(rule_id, {})
+            flows = rule.get("flows") or ["ingress", "egress"]
+            if (
+                "put" in (rule.get("messages") or [])
+                and "ingress" in flows
+                and rule.get("permission") == "allow"
+            ):
+                grants.append(
+                    (
+                        [zenoh.KeyExpr(k) for k in rule["key_exprs"]],
+                        None if names is None else frozenset(names),
+                    )
+                )
+
+    def publishers(key: str) -> frozenset[str] | None:
+        target = zenoh.KeyExpr(key)
+        found: set[str] = set()
+        for exprs, names in grants:
+            if any(expr.includes(target) for expr in exprs):
+                if names is None:
+                    return None
+                found |= names
+        return frozenset(found)
+
+    return publishers

@@ -27,6 +27,8 @@ NODE_INFO = "scheduler/config"
 ALIVE = "scheduler/alive"
 #: Recorded only (never published): the ticks of the scheduler's own clock.
 TICKS = "scheduler/ticks"
+#: Recorded only (never published): the source of each input.
+SOURCES = "scheduler/sources"
 
 #: Output suffixes, compared by ``replay --verify``.
 OUTPUTS = (PLAN, DISPATCH, STATUS)
@@ -87,6 +89,7 @@ class Topics(msgspec.Struct, frozen=True):
             SOLVES: "solve_record",
             NODE_INFO: "node_info",
             TICKS: "clock",
+            SOURCES: "input_source",
         }
         if suffix in exact:
             return exact[suffix]
