@@ -366,6 +366,21 @@ def _cmd_config(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _cmd_probe(args: argparse.Namespace) -> int:
+    import zenoh
+
+    from .bus.probe import probe
+    from .bus.session import zenoh_config
+    from .bus.topics import Topics
+
+    kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
+    with zenoh.open(zenoh_config(args)) as session:
+        results = probe(session, Topics(args.spacecraft), kinds, args.timeout)
+    for result in results:
+        print(f"{result.kind:<7} {result.key}: {result.detail}")
+    return EXIT_NO_PLAN if any(r.reached for r in results) else EXIT_OK
+
+
 # -- record / replay / recover / info ----------------------------------------
 
 
@@ -756,6 +771,48 @@ example:
         help="certificate common names of a role (default: the role's "
         "name), e.g. --cn goals=ground,autonomy (repeatable)",
     )
+
+    from .bus.probe import KINDS
+
+    prb = add(
+        "probe",
+        _cmd_probe,
+        "check which inputs the scheduler accepts from this seat",
+        """\
+        Publish one harmless input of each kind (a goal the scheduler
+        rejects, a report on a task and a level of a resource that do not
+        exist) and ask the scheduler's status after each, on the same link,
+        whether it saw it. Nothing changes the plan; the clock is never
+        probed. Exit 0 if every probe was refused, 1 if any reached the
+        scheduler.
+        """,
+    )
+    prb.epilog = """\
+example (a read-only monitor must be refused everything; the second run
+switches the monitor's own policy off to test the scheduler's):
+  fsw-scheduler probe --config deploy/monitor.json5
+  fsw-scheduler probe --config deploy/monitor.json5 \\
+      --cfg access_control/enabled:false
+"""
+    prb.add_argument(
+        "--kinds",
+        default=",".join(KINDS),
+        metavar="KIND[,KIND]",
+        help="which inputs to try, among %(default)s (default: all)",
+    )
+    prb.add_argument(
+        "--spacecraft",
+        default="sat1",
+        help="key prefix id (default: %(default)s)",
+    )
+    prb.add_argument(
+        "--timeout",
+        type=float,
+        default=10.0,
+        metavar="S",
+        help="seconds to wait for the scheduler (default: %(default)s)",
+    )
+    add_zenoh_arguments(prb)
 
     rec = add(
         "record",

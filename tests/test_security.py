@@ -33,6 +33,7 @@ from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
 from fsw_scheduler import messages
 from fsw_scheduler.bus import topics as keys
 from fsw_scheduler.bus.node import SchedulerNode
+from fsw_scheduler.bus.probe import probe
 from fsw_scheduler.bus.security import (
     ROLES,
     access_control,
@@ -817,8 +818,9 @@ def test_verdicts_name_their_source(
         assert heartbeat.source is None
         # The drift replan is adopted before the journal closes.
         goals.wait_status(
-            lambda s: s.event == "plan"
-            and (s.plan_id or 0) > (drift.plan_id or 0)
+            lambda s: (
+                s.event == "plan" and (s.plan_id or 0) > (drift.plan_id or 0)
+            )
         )
     finally:
         secure.close()
@@ -839,3 +841,43 @@ def test_verdicts_name_their_source(
             assert inputs[idx - 1] == sources.pop(0).key
     report = verify(journal)
     assert report.identical, report.summary()
+
+
+def test_probe_tells_refused_from_reached(bus: SecureBus) -> None:
+    """Tests the probe against the scheduler's policy and a role's own."""
+    # The monitor with its own policy switched off: only the scheduler's
+    # policy refuses.
+    monitor = bus.open("monitor", own_acl=False)
+    assert [r.reached for r in probe(monitor, SC)] == [False] * 3
+    goals = bus.open("goals")
+    results = {r.kind: r.reached for r in probe(goals, SC)}
+    assert results == {"goal": True, "report": False, "level": False}
+    status = status_via(goals)
+    assert status.plan_id == 1 and status.state == "ok"
+    assert status.counters.goals_rejected == 1
+    assert status.counters.goals_accepted == 0
+
+
+def test_probe_command(bus: SecureBus, tmp_path: Path) -> None:
+    """Tests 'fsw-scheduler probe' exit codes with a written profile."""
+    out = tmp_path / "deploy"
+    assert (
+        main(
+            [
+                "config",
+                "--out",
+                str(out),
+                "--certs",
+                str(bus.certs),
+                "--endpoint",
+                bus.endpoint,
+            ]
+        )
+        == 0
+    )
+    monitor = ["probe", "--config", str(out / "monitor.json5")]
+    assert main(monitor) == 0
+    assert main([*monitor, "--cfg", "access_control/enabled:false"]) == 0
+    executor = ["probe", "--config", str(out / "executor.json5")]
+    assert main([*executor, "--kinds", "goal,level"]) == 0
+    assert main([*executor, "--kinds", "report"]) == 1
