@@ -17,6 +17,7 @@ from __future__ import annotations
 import datetime
 import ipaddress
 import json
+import queue
 import shutil
 import subprocess
 import sys
@@ -485,12 +486,20 @@ def test_authorised_roles_drive_the_scheduler(bus: SecureBus) -> None:
     goals.wait_scheduler()
     executor = bus.client("executor")
     telemetry = bus.client("telemetry")
+    # A recorder with the monitor's certificate takes the whole tree.
+    recorded: queue.Queue[str] = queue.Queue()
+    recorder = bus.open("monitor").declare_subscriber(
+        SC.everything, lambda s: recorded.put(str(s.key_expr))
+    )
+    wait_matching(bus.session, SC.key(keys.STATUS), WAIT_S)
     wait_matching(bus.session, SC.dispatch("DownlinkSat2Sat"), WAIT_S)
     goals.publish_goal(ping_goal("beacon", "Beacon"))
     accepted = goals.wait_status(
         lambda s: s.event == "goal_accepted" and s.goal_id == "beacon"
     )
     assert accepted.state == "ok"
+    assert recorded.get(timeout=WAIT_S).startswith(SC.key("scheduler/"))
+    recorder.undeclare()
     bus.clock.clock(1)
     dispatch = executor.wait_dispatch("DownlinkSat2Sat")
     assert dispatch.start == 1
