@@ -1,9 +1,9 @@
 """The ``fsw-scheduler`` command line.
 
 Each subcommand is one ``_cmd_*`` function taking the parsed arguments and
-returning the exit code; ``main`` only parses and dispatches. Exit codes
-follow CONTRACT section 4: 0 success, 1 infeasible / unknown / violations,
-2 bad input (the message on stderr names the field).
+returning the exit code; ``main`` only parses and dispatches. Exit codes:
+0 success, 1 infeasible / unknown / violations, 2 bad input (the message on
+stderr names the field) or a missing optional dependency.
 """
 
 from __future__ import annotations
@@ -14,17 +14,19 @@ import sys
 import textwrap
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import msgspec
 from mcap.exceptions import McapError
 
-from .errors import FieldIssue, InputError, SchedulerError
+from .errors import ConfigError, FieldIssue, InputError, SchedulerError
 from .model import Problem, decode_problem, decode_strict
 from .solution import Plan
 
 log = logging.getLogger("fsw_scheduler")
 
 EXIT_OK, EXIT_NO_PLAN, EXIT_BAD_INPUT = 0, 1, 2
+LOG_LEVELS = ("debug", "info", "warning", "error")
 
 DESCRIPTION = """\
 On-board activity scheduler for spacecraft.
@@ -43,9 +45,59 @@ Start here:
 EPILOG = """\
 exit codes: 0 ok, 1 no plan (infeasible / unknown) or violations,
 2 bad input (stderr names the field and the reason).
-Formats: see the README (problem, plan, goal and bus message schemas are
-in schemas/).
+Formats: the README describes the problem, plan, goal and bus message
+formats; `fsw-scheduler schemas --out DIR` writes their JSON Schemas.
 """
+
+
+def _number(
+    kind: type[float] | type[int], *, minimum: float, strict: bool
+) -> Callable[[str], float]:
+    """An argparse type: a number above (or at) ``minimum``, else exit 2."""
+
+    def parse(text: str) -> float:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"{text!r} is not a{'n integer' if kind is int else ' number'}"
+            ) from None
+        if value != value or value in (float("inf"), float("-inf")):
+            raise argparse.ArgumentTypeError(f"{text!r} is not finite")
+        if value < minimum or (strict and value == minimum):
+            raise argparse.ArgumentTypeError(
+                f"{text} must be {'>' if strict else '>='} {minimum:g}"
+            )
+        return value
+
+    parse.__name__ = kind.__name__
+    return parse
+
+
+positive_float = _number(float, minimum=0, strict=True)
+non_negative_float = _number(float, minimum=0, strict=False)
+positive_int = _number(int, minimum=0, strict=True)
+
+
+def _need_matplotlib(what: str) -> None:
+    """Stop before any work when a picture is asked for and cannot be made.
+
+    Raises
+    ------
+    MissingDependency
+        matplotlib is not installed; the message gives the install command.
+    """
+    from .plot import PLOT_INSTALL_HINT, have_matplotlib
+
+    if not have_matplotlib():
+        raise MissingDependency(
+            f"{what} needs matplotlib, which is not installed: "
+            f"{PLOT_INSTALL_HINT} (or leave the option out)"
+        )
+
+
+class MissingDependency(SchedulerError):
+    """An optional dependency a requested feature needs is not installed."""
 
 
 def _read_bytes(path: str) -> bytes:
@@ -118,10 +170,10 @@ def _add_solver_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--time-limit",
-        type=float,
+        type=positive_float,
         metavar="S",
-        help="solver time limit in seconds; at the limit the best plan is "
-        "returned with status 'feasible' (default: none)",
+        help="solver time limit in seconds (> 0); at the limit the best "
+        "plan is returned with status 'feasible' (default: none)",
     )
     parser.add_argument(
         "--no-explain",
@@ -134,6 +186,8 @@ def _add_solver_arguments(parser: argparse.ArgumentParser) -> None:
 def _cmd_solve(args: argparse.Namespace) -> int:
     from .solve import solve
 
+    if args.gantt:
+        _need_matplotlib("--gantt")
     problem = load_problem(args.problem)
     log.info(
         "solving %d tasks over [%d, %d) with %s",
@@ -179,6 +233,8 @@ def _cmd_check(args: argparse.Namespace) -> int:
 def _cmd_replan(args: argparse.Namespace) -> int:
     from .reschedule import decode_change, format_diff, replan_files
 
+    if args.gantt:
+        _need_matplotlib("--gantt")
     problem = load_problem(args.problem)
     plan = load_plan(args.plan)
     change = decode_change(_read_bytes(args.change))
@@ -208,9 +264,17 @@ def _cmd_replan(args: argparse.Namespace) -> int:
 
 def _cmd_demo(args: argparse.Namespace) -> int:
     from .demo import SCENARIOS, run_demo
+    from .plot import PLOT_INSTALL_HINT, have_matplotlib
 
     out = Path(args.out)
     log.info("demo (%s scenario): output in %s", args.scenario, out)
+    pictures = have_matplotlib()
+    if not pictures:
+        log.warning(
+            "matplotlib is not installed: the demo runs without pictures "
+            "(text timelines only); for pictures: %s",
+            PLOT_INSTALL_HINT,
+        )
     result = run_demo(
         out,
         scenario=SCENARIOS[args.scenario](),
@@ -218,6 +282,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         verify=not args.no_verify,
         quiet=args.quiet,
         time_unit=args.time_unit,
+        pictures=pictures,
     )
     final = result.plans[-1] if result.plans else None
     print()
@@ -256,14 +321,17 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from .model import Problem
     from .recording import Recorder
 
-    config = load_config(toml_config_file(args)).replace(
-        spacecraft=args.spacecraft,
-        clock=args.clock,
-        time_unit=args.time_unit,
-        solver=args.solver,
-        time_limit=args.time_limit,
-        horizon=args.horizon,
-    )
+    try:
+        config = load_config(toml_config_file(args)).replace(
+            spacecraft=args.spacecraft,
+            clock=args.clock,
+            time_unit=args.time_unit,
+            solver=args.solver,
+            time_limit=args.time_limit,
+            horizon=args.horizon,
+        )
+    except ValueError as error:  # a bad value given as a flag
+        raise InputError([FieldIssue("", str(error))], "arguments") from None
     if args.problem:
         problem = decode_problem(_read_bytes(args.problem), allow_empty=True)
     else:
@@ -299,7 +367,20 @@ def _cmd_run(args: argparse.Namespace) -> int:
             "--profile secure'), or pass --insecure to acknowledge"
         )
     journal = None
-    if args.record:
+    resume: dict[str, Any] = {}
+    if args.state:
+        if args.record:
+            raise InputError(
+                [
+                    FieldIssue(
+                        "--record",
+                        "--state keeps its own journal; give one of them",
+                    )
+                ],
+                "arguments",
+            )
+        journal, resume = _open_state(args, config)
+    elif args.record:
         journal = Recorder(
             args.record, schemas=schema_lookup(config.spacecraft)
         )
@@ -319,6 +400,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             journal=journal,
             security=security,
             publishers=policy_publishers(zenoh_settings),
+            **resume,
         )
         node.start()
         try:
@@ -364,6 +446,63 @@ def _cmd_config(args: argparse.Namespace) -> int:
     for path in written:
         print(path)
     return EXIT_OK
+
+
+def _open_state(
+    args: argparse.Namespace, config: Any
+) -> tuple[Any, dict[str, Any]]:
+    """Open ``--state DIR``: rebuild from its journal, start a new file.
+
+    Returns the recorder and the resume arguments of the node.
+    """
+    import time
+
+    from .messages import schema_lookup
+    from .recording import Recorder
+    from .state import open_state
+
+    start = open_state(Path(args.state), keep_runs=args.keep_runs)
+    for path in start.recovered:
+        log.warning("recovered truncated journal %s", path)
+    journal = Recorder(
+        start.next_journal, schemas=schema_lookup(config.spacecraft)
+    )
+    resume: dict[str, Any] = {
+        "durable": True,
+        "journal_max_bytes": args.journal_max_size,
+    }
+    rebuilt = start.rebuilt
+    if rebuilt is not None:
+        engine = rebuilt.engine
+        if rebuilt.config.spacecraft != config.spacecraft:
+            raise InputError(
+                [
+                    FieldIssue(
+                        "--state",
+                        f"holds the journal of spacecraft "
+                        f"{rebuilt.config.spacecraft!r}, not "
+                        f"{config.spacecraft!r}",
+                    )
+                ],
+                "arguments",
+            )
+        resume["engine"] = engine
+        if config.clock == "wall" and rebuilt.last_tick is not None:
+            # Time went on while the node was down.
+            down_s = max(time.time_ns() - rebuilt.last_log_time_ns, 0) / 1e9
+            resume["clock_start"] = rebuilt.last_tick + int(
+                down_s // config.time_unit
+            )
+        log.info(
+            "resuming from %s: plan %s at t=%s (%d journal messages read)",
+            args.state,
+            engine.plan_id,
+            engine.now,
+            rebuilt.messages,
+        )
+    else:
+        log.info("new state folder %s", args.state)
+    return journal, resume
 
 
 def _cmd_probe(args: argparse.Namespace) -> int:
@@ -473,6 +612,17 @@ def _cmd_info(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _cmd_schemas(args: argparse.Namespace) -> int:
+    from .messages import schema_files
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    for name, text in sorted(schema_files().items()):
+        (out / name).write_text(text)
+        print(out / name)
+    return EXIT_OK
+
+
 # -- parser -----------------------------------------------------------------
 
 Command = Callable[[argparse.Namespace], int]
@@ -494,8 +644,17 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--log-level",
         default="info",
-        choices=("debug", "info", "warning", "error"),
+        choices=LOG_LEVELS,
         help="log verbosity on stderr (default: %(default)s)",
+    )
+    # The same flag after the command name (`solve --log-level debug`);
+    # SUPPRESS keeps the value given before the command when absent here.
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument(
+        "--log-level",
+        default=argparse.SUPPRESS,
+        choices=LOG_LEVELS,
+        help="log verbosity on stderr (default: info)",
     )
     commands = parser.add_subparsers(dest="command", metavar="COMMAND")
     commands.required = True
@@ -508,6 +667,7 @@ def build_parser() -> argparse.ArgumentParser:
             help=help_,
             description=textwrap.dedent(description or help_),
             formatter_class=argparse.RawDescriptionHelpFormatter,
+            parents=[common],
         )
         sub.set_defaults(func=func)
         return sub
@@ -517,7 +677,8 @@ def build_parser() -> argparse.ArgumentParser:
         _cmd_solve,
         "solve a problem file and print the plan JSON",
         """\
-        Solve a problem file (CONTRACT section 1) and print the plan JSON
+        Solve a problem file (format: README, "Problem, plan and goal
+        files"; schema: `fsw-scheduler schemas`) and print the plan JSON
         (status, objective, activities, unscheduled, why, solver stats).
 
         example:
@@ -551,7 +712,7 @@ def build_parser() -> argparse.ArgumentParser:
         _cmd_replan,
         "apply a goal or event to a running plan at time --now",
         """\
-        Apply a goal (CONTRACT section 3) or an event to a running plan at
+        Apply a goal (a goal document) or an event to a running plan at
         time T, by the paper's online rescheduling rules: finished tasks
         leave, running tasks follow their preemption policy, obsolete tasks
         and their tight followers go, lax links to them are dropped. The new
@@ -617,7 +778,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--quiet", action="store_true", help="no live timeline")
     demo.add_argument(
         "--time-unit",
-        type=float,
+        type=positive_float,
         default=0.05,
         metavar="S",
         help="wall seconds per time unit, at least (default %(default)s)",
@@ -661,19 +822,50 @@ def build_parser() -> argparse.ArgumentParser:
     )
     run.add_argument(
         "--time-unit",
-        type=float,
+        type=positive_float,
         metavar="S",
         help="seconds per time unit with --clock wall",
     )
-    run.add_argument("--horizon", type=int, help="horizon length override")
+    run.add_argument(
+        "--horizon",
+        type=positive_int,
+        metavar="H",
+        help="horizon length in time units (default: the problem file's)",
+    )
     run.add_argument(
         "--record",
         metavar="FILE.mcap",
         help="journal every input and output (for replay --verify)",
     )
+    run.add_argument(
+        "--state",
+        metavar="DIR",
+        help="keep the node's state in DIR: a durable journal that a "
+        "restarted node resumes from (plan ids, accepted goals, activity "
+        "states, a solve in flight); implies journaling",
+    )
+    run.add_argument(
+        "--journal-max-size",
+        type=positive_int,
+        default=64 * 1024 * 1024,
+        metavar="BYTES",
+        help="with --state: start a new journal file, opened by a state "
+        "snapshot, past this size (default %(default)s)",
+    )
+    run.add_argument(
+        "--keep-runs",
+        type=_number(int, minimum=2, strict=False),
+        default=20,
+        metavar="N",
+        help="with --state: journal files of the last N starts are kept "
+        "(default %(default)s; at least 2)",
+    )
     run.add_argument("--solver", choices=("cbc", "highs"), help="MILP solver")
     run.add_argument(
-        "--time-limit", type=float, metavar="S", help="seconds per solve"
+        "--time-limit",
+        type=positive_float,
+        metavar="S",
+        help="seconds per solve (> 0; default 10)",
     )
     safety = run.add_mutually_exclusive_group()
     safety.add_argument(
@@ -822,23 +1014,57 @@ switches the monitor's own policy off to test the scheduler's):
         Subscribe to a key expression (default fsw/<sc>/**) and write each
         sample as an MCAP message: one channel per key, JSON encoding with
         the JSON Schema of the key where there is one. Small chunks and a
-        periodic flush keep a killed recorder's file recoverable.
+        periodic flush keep a killed recorder's file recoverable (see
+        `recover`). Stop with Ctrl-C or SIGTERM.
+
+        examples:
+          fsw-scheduler record --out session.mcap -e tcp/127.0.0.1:7447
+          fsw-scheduler record --out plans.mcap --key 'fsw/sat1/scheduler/**'
+          fsw-scheduler record --out day.mcap --split-duration 3600
         """,
     )
-    rec.add_argument("--out", required=True, metavar="FILE.mcap")
-    rec.add_argument("--key", help="key expression (default fsw/<sc>/**)")
-    rec.add_argument("--spacecraft", default="sat1")
     rec.add_argument(
-        "--compression", choices=("zstd", "lz4", "none"), default="zstd"
+        "--out",
+        required=True,
+        metavar="FILE.mcap",
+        help="where to write; with splitting, FILE-001.mcap, FILE-002.mcap...",
     )
-    rec.add_argument("--split-size", type=int, metavar="BYTES")
-    rec.add_argument("--split-duration", type=float, metavar="S")
+    rec.add_argument(
+        "--key",
+        metavar="KEYEXPR",
+        help="key expression to record (default fsw/<spacecraft>/**)",
+    )
+    rec.add_argument(
+        "--spacecraft",
+        default="sat1",
+        help="spacecraft id of the default key and of the JSON Schemas "
+        "attached to channels (default %(default)s)",
+    )
+    rec.add_argument(
+        "--compression",
+        choices=("zstd", "lz4", "none"),
+        default="zstd",
+        help="chunk compression (default %(default)s)",
+    )
+    rec.add_argument(
+        "--split-size",
+        type=positive_int,
+        metavar="BYTES",
+        help="start a new file when this one reaches BYTES",
+    )
+    rec.add_argument(
+        "--split-duration",
+        type=positive_float,
+        metavar="S",
+        help="start a new file every S seconds of log time",
+    )
     rec.add_argument(
         "--flush-interval",
-        type=float,
+        type=positive_float,
         default=1.0,
         metavar="S",
-        help="most a crash can lose (default %(default)s s)",
+        help="write buffered messages to disk at least every S seconds: "
+        "the most a crash can lose (default %(default)s s)",
     )
     add_zenoh_arguments(rec)
 
@@ -851,21 +1077,53 @@ switches the monitor's own policy off to test the scheduler's):
         --verify re-run a scheduler journal through a fresh scheduler and
         compare every plan, dispatch and status with the recording (exit 0
         if identical, 1 with the first divergence otherwise).
+
+        examples:
+          fsw-scheduler replay session.mcap --verify
+          fsw-scheduler replay session.mcap --rate 10 -e tcp/127.0.0.1:7447
+          fsw-scheduler replay session.mcap --burst \\
+              --include 'fsw/sat1/telemetry/**' --wait-matching 5
         """,
     )
-    rep.add_argument("files", nargs="+", metavar="FILE.mcap")
+    rep.add_argument(
+        "files",
+        nargs="+",
+        metavar="FILE.mcap",
+        help="recordings (split files are read in order as one session)",
+    )
     rep.add_argument(
         "--verify",
         action="store_true",
-        help="replay through a fresh scheduler and compare decisions",
+        help="replay through a fresh scheduler and compare decisions "
+        "(no bus needed)",
     )
-    rep.add_argument("--rate", type=float, default=1.0)
+    rep.add_argument(
+        "--rate",
+        type=positive_float,
+        default=1.0,
+        help="speed factor on the recorded log times (default %(default)s)",
+    )
     rep.add_argument(
         "--burst", action="store_true", help="as fast as possible, in order"
     )
-    rep.add_argument("--start-offset", type=float, default=0.0, metavar="S")
-    rep.add_argument("--until", type=float, metavar="S")
-    rep.add_argument("--loop", action="store_true")
+    rep.add_argument(
+        "--start-offset",
+        type=non_negative_float,
+        default=0.0,
+        metavar="S",
+        help="skip the first S seconds of the recording",
+    )
+    rep.add_argument(
+        "--until",
+        type=non_negative_float,
+        metavar="S",
+        help="stop S seconds after the start of the recording",
+    )
+    rep.add_argument(
+        "--loop",
+        action="store_true",
+        help="start again at the end, until Ctrl-C",
+    )
     rep.add_argument(
         "--wait-matching",
         type=float,
@@ -878,10 +1136,18 @@ switches the monitor's own policy off to test the scheduler's):
         help="key expression to wait on (default fsw/**)",
     )
     rep.add_argument(
-        "--include", action="append", default=[], metavar="KEYEXPR"
+        "--include",
+        action="append",
+        default=[],
+        metavar="KEYEXPR",
+        help="only publish keys matching KEYEXPR (repeatable)",
     )
     rep.add_argument(
-        "--exclude", action="append", default=[], metavar="KEYEXPR"
+        "--exclude",
+        action="append",
+        default=[],
+        metavar="KEYEXPR",
+        help="do not publish keys matching KEYEXPR (repeatable)",
     )
     add_zenoh_arguments(rep)
 
@@ -889,12 +1155,59 @@ switches the monitor's own policy off to test the scheduler's):
         "recover",
         _cmd_recover,
         "rewrite a truncated MCAP file into a readable one",
-    )
-    recov.add_argument("file")
-    recov.add_argument("--out", required=True, metavar="FILE.mcap")
+        """\
+        Read every complete chunk and message of an MCAP file whose writer
+        was killed (no footer, half a chunk at the end) and write them into
+        a new, finished file with its index. Prints the messages kept per
+        channel.
 
-    inf = add("info", _cmd_info, "summarise an MCAP file")
-    inf.add_argument("file")
+        example:
+          fsw-scheduler recover killed.mcap --out session.mcap
+        """,
+    )
+    recov.add_argument("file", help="the truncated MCAP file")
+    recov.add_argument(
+        "--out",
+        required=True,
+        metavar="FILE.mcap",
+        help="where to write the finished file",
+    )
+
+    inf = add(
+        "info",
+        _cmd_info,
+        "summarise an MCAP file",
+        """\
+        Print the message count, time span and every channel with its
+        message count and schema (also for truncated files).
+
+        example:
+          fsw-scheduler info session.mcap
+        """,
+    )
+    inf.add_argument("file", help="an MCAP file")
+
+    sch = add(
+        "schemas",
+        _cmd_schemas,
+        "write the JSON Schema of every message and file format",
+        """\
+        Write one JSON Schema per message kind (problem, plan, goal, clock,
+        activity report, resource level, dispatch, status, solve record,
+        node info) into a folder, named <kind>.schema.json. They are
+        generated from the message types of the installed version, the
+        same files as the project's schemas/ folder.
+
+        example:
+          fsw-scheduler schemas --out schemas/
+        """,
+    )
+    sch.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="folder to write into (created if missing)",
+    )
     return parser
 
 
@@ -911,6 +1224,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     except InputError as error:
         print(f"fsw-scheduler: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except (ConfigError, MissingDependency) as error:
+        print(f"fsw-scheduler: error: {error}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except BrokenPipeError:
+        # The reader went away (`... | head`): stop quietly, as a shell
+        # tool killed by SIGPIPE would.
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
     except TimeoutError as error:  # an OSError, but not bad input
         print(f"fsw-scheduler: error: {error}", file=sys.stderr)
         return EXIT_NO_PLAN

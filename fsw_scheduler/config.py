@@ -26,6 +26,7 @@ from typing import Literal
 import msgspec
 
 from .errors import ConfigError
+from .model import id_issue
 from .reschedule import Tolerance
 
 
@@ -37,7 +38,8 @@ class NodeConfig(
     Attributes
     ----------
     spacecraft
-        Second key chunk: keys are ``fsw/<spacecraft>/...``.
+        Second key chunk: keys are ``fsw/<spacecraft>/...``; a key-safe id
+        (``[A-Za-z0-9_.-]``, at most 64 characters).
     horizon
         Horizon length H in time units; default: the problem file's.
     solver, time_limit, seed, threads
@@ -88,6 +90,9 @@ class NodeConfig(
 
     def __post_init__(self) -> None:
         problems = []
+        reason = id_issue(self.spacecraft)
+        if reason is not None:
+            problems.append(f"spacecraft: the spacecraft id {reason}")
         if self.time_unit <= 0:
             problems.append("time-unit must be > 0")
         if self.explain_budget < 0:

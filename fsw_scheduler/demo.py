@@ -343,7 +343,8 @@ def run_demo(
     quiet
         No live timeline.
     pictures
-        Draw the Gantt pictures (needs matplotlib).
+        Draw the Gantt pictures (needs matplotlib); the text timelines are
+        written either way.
     stream
         Where the live timeline goes.
     time_unit
@@ -399,7 +400,7 @@ def run_demo(
             world.close()
             node.close()
     plans = world.plans
-    drawn = _draw(out_dir, journal_path, plans, executor) if pictures else []
+    drawn = _draw(out_dir, journal_path, plans, executor, pictures=pictures)
     verified = None
     if verify:
         from .replay import verify as verify_journal
@@ -417,8 +418,14 @@ def _draw(
     journal_path: Path,
     plans: list[messages.PlanMessage],
     executor: Executor,
+    *,
+    pictures: bool = True,
 ) -> list[Path]:
-    """One Gantt picture per plan, from the problems in the journal."""
+    """One text timeline and (with ``pictures``) one Gantt per plan.
+
+    The problems come from the solve records of the journal. Returns the
+    pictures drawn.
+    """
     from .plot import gantt, timeline_text
     from .recording import iter_messages
 
@@ -445,6 +452,10 @@ def _draw(
         history = [
             a for a in executor.executed if a.start < plan_message.issued_at
         ]
+        text = timeline_text(problem, plan)
+        (out_dir / f"plan-{plan_message.plan_id}.txt").write_text(text + "\n")
+        if not pictures:
+            continue
         path = out_dir / f"plan-{plan_message.plan_id}.png"
         gantt(
             problem,
@@ -455,6 +466,4 @@ def _draw(
             history=history or None,
         )
         drawn.append(path)
-        text = timeline_text(problem, plan)
-        (out_dir / f"plan-{plan_message.plan_id}.txt").write_text(text + "\n")
     return drawn

@@ -1,4 +1,4 @@
-"""Goals: new tasks arriving while a plan runs (CONTRACT section 3).
+"""Goals: new tasks arriving while a plan runs (the goal format).
 
 A goal carries tasks (the fields of a problem task plus ``obsoletes``, the
 ids of live tasks the new task replaces) and precedences. :func:`decode_goal`
@@ -46,7 +46,8 @@ class Goal(msgspec.Struct, frozen=True, omit_defaults=True):
     Attributes
     ----------
     goal_id
-        Name of the goal, used in reports.
+        Name of the goal, used in reports; a key-safe id
+        (:func:`fsw_scheduler.model.id_issue`).
     tasks
         New tasks; their ids must not collide with live tasks unless a task
         of this goal makes the live one obsolete.
@@ -89,8 +90,9 @@ def validate_goal(goal: Goal) -> list[FieldIssue]:
         Paths are relative to the goal document (``tasks[0].length``).
     """
     issues: list[FieldIssue] = []
-    if not goal.goal_id:
-        issues.append(FieldIssue("goal_id", "must not be empty"))
+    reason = model.id_issue(goal.goal_id)
+    if reason is not None:
+        issues.append(FieldIssue("goal_id", f"goal id {reason}"))
     # A permissive stand-in problem: every used resource declared, a horizon
     # long enough for any length, so only per-task rules speak.
     used = {name: 0.0 for t in goal.tasks for name in t.uses}
@@ -108,6 +110,21 @@ def validate_goal(goal: Goal) -> list[FieldIssue]:
             for issue in model._check_task(stand_in, task.to_task(), path)
             if not any(part in issue.path for part in _MERGE_ONLY)
         ]
+        for name in task.uses:
+            reason = model.id_issue(name)
+            if reason is not None:
+                issues.append(
+                    FieldIssue(
+                        model.key_path(f"{path}.uses", name),
+                        f"resource name {reason}",
+                    )
+                )
+        for pos, name in enumerate(task.obsoletes):
+            reason = model.id_issue(name)
+            if reason is not None:
+                issues.append(
+                    FieldIssue(f"{path}.obsoletes[{pos}]", f"task id {reason}")
+                )
         if task.feasible_interval is not None:
             low, high = task.feasible_interval
             if low > high:
@@ -118,6 +135,14 @@ def validate_goal(goal: Goal) -> list[FieldIssue]:
                     )
                 )
     for idx, prec in enumerate(goal.precedences):
+        for end in ("before", "after"):
+            reason = model.id_issue(getattr(prec, end))
+            if reason is not None:
+                issues.append(
+                    FieldIssue(
+                        f"precedences[{idx}].{end}", f"task id {reason}"
+                    )
+                )
         if prec.before == prec.after:
             issues.append(
                 FieldIssue(
@@ -129,7 +154,7 @@ def validate_goal(goal: Goal) -> list[FieldIssue]:
 
 
 def decode_goal(data: bytes | str) -> Goal:
-    """Decode and check a goal document (CONTRACT section 3).
+    """Decode and check a goal document (the goal format).
 
     Parameters
     ----------

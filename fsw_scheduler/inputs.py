@@ -9,6 +9,7 @@ engine reports on the status key; nothing here raises.
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 import msgspec
@@ -24,6 +25,7 @@ from .engine import (
     Tick,
 )
 from .errors import FieldIssue, InputError
+from .model import MAX_ID_LENGTH
 
 
 class InputDecoder:
@@ -95,14 +97,38 @@ class InputDecoder:
         return LevelArrived(message)
 
 
+class _GoalHead(msgspec.Struct):
+    goal_id: str
+
+
+_GOAL_ID_RE = re.compile(rb'"goal_id"\s*:\s*"((?:[^"\\]|\\.){0,256})"')
+
+
+def goal_id_of(payload: bytes) -> str | None:
+    """Best-effort goal id of a goal document that may be invalid.
+
+    Used to name the goal in a rejection. A document too deep for the
+    decoder is searched as text. Ids longer than four times the id limit
+    are cut (and marked ``...``) so a rejection never echoes a huge string.
+    """
+    try:
+        head = msgspec.json.decode(payload, type=_GoalHead)
+        found: str | None = head.goal_id
+    except (msgspec.DecodeError, RecursionError):
+        match = _GOAL_ID_RE.search(payload)
+        try:
+            found = (
+                msgspec.json.decode(b'"' + match.group(1) + b'"', type=str)
+                if match
+                else None
+            )
+        except msgspec.DecodeError:
+            found = None
+    if found is not None and len(found) > 4 * MAX_ID_LENGTH:
+        found = found[: 4 * MAX_ID_LENGTH] + "..."
+    return found
+
+
 def _goal_id(kind: str, payload: bytes) -> str | None:
     """Best-effort goal id of a goal that failed to decode."""
-    if kind != "goal":
-        return None
-    try:
-        head = msgspec.json.decode(payload)
-    except msgspec.DecodeError:
-        return None
-    if isinstance(head, dict) and isinstance(head.get("goal_id"), str):
-        return head["goal_id"]
-    return None
+    return goal_id_of(payload) if kind == "goal" else None

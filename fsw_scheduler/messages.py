@@ -1,4 +1,4 @@
-"""Bus messages (CONTRACT section 5): msgspec Structs, codecs and schemas.
+"""Bus messages (the bus keys): msgspec Structs, codecs and schemas.
 
 Evolution rules: a new field always has a default and a field's type
 never changes, so older recordings still decode. Unknown fields are
@@ -23,6 +23,7 @@ from .solution import (
     Activity,
     Blocker,
     Objective,
+    Plan,
     SolverStats,
     SolveStatus,
 )
@@ -59,7 +60,7 @@ class ResourceLevel(msgspec.Struct, frozen=True):
 
 
 class PlanMessage(msgspec.Struct, frozen=True):
-    """``scheduler/plan``: the plan being executed (CONTRACT section 2).
+    """``scheduler/plan``: the plan being executed (the plan format).
 
     Attributes
     ----------
@@ -70,7 +71,7 @@ class PlanMessage(msgspec.Struct, frozen=True):
     horizon_start, horizon_end
         The window ``[start, end)`` the plan covers.
     status, objective, activities, unscheduled
-        As in CONTRACT section 2.
+        As in the plan format.
     why
         Why each unscheduled task is out.
     continuing
@@ -188,13 +189,17 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
 
     ``event`` names what this message reports (``started``, ``plan``,
     ``goal_accepted``, ``goal_rejected``, ``solve_failed``,
-    ``input_rejected``, ``activity``, ``drift``, ``heartbeat``); with
-    ``goal_id`` and ``errors`` (``path`` + ``reason``) for rejections.
+    ``input_rejected``, ``activity``, ``drift``, ``heartbeat``, ``alarm``,
+    ``resumed``, ``took_over``); with ``goal_id`` and ``errors`` (``path``
+    + ``reason``) for rejections. ``resumed`` and ``took_over`` carry
+    ``from_plan_id`` and ``at`` (the plan and time the state was rebuilt
+    at). ``state`` is ``standby`` on a node that follows another one;
+    ``active`` then names the commanding node, ``node_id`` this one.
     ``source`` says where the goal, report or level a verdict is about
     came from (set by the bus node; ``replay --verify`` ignores it).
     """
 
-    state: Literal["ok", "degraded", "error"]
+    state: Literal["ok", "degraded", "error", "standby"]
     plan_id: int | None
     now: int | None = None
     event: str = ""
@@ -205,6 +210,10 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
     activities: dict[str, str] = {}
     counters: Counters = Counters()
     last_solve: SolveSummary | None = None
+    from_plan_id: int | None = None
+    at: int | None = None
+    active: str | None = None
+    node_id: str | None = None
     source: Source | None = None
 
 
@@ -214,6 +223,8 @@ class SolveRecord(msgspec.Struct, frozen=True, omit_defaults=True):
     ``problem`` is the exact input, ``input_hash`` its SHA-256 (over the
     compact JSON), ``inputs_seen`` how many inputs the scheduler had
     processed when the result came back (used by deterministic replay).
+    ``result`` is the solve's whole answer, so that a node resuming from
+    its journal rebuilds its state without solving again.
     """
 
     solve_id: int
@@ -230,6 +241,7 @@ class SolveRecord(msgspec.Struct, frozen=True, omit_defaults=True):
     wall_s: float = 0.0
     inputs_seen: int = 0
     error: str = ""
+    result: Plan | None = None
 
 
 class SecurityInfo(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -267,6 +279,7 @@ class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     version: str = ""
     problem: Problem | None = None
     security: SecurityInfo | None = None
+    resumed: bool = False
 
 
 #: Message types of each key (relative to ``fsw/<sc>/``), for schemas.
@@ -327,7 +340,7 @@ def json_schemas() -> dict[str, dict]:
         Kind name to schema; each has ``title`` and ``$id``.
     """
     schemas = {}
-    for name, kind in SCHEMA_TYPES.items():
+    for name, kind in _all_schema_types().items():
         (ref,), defs = msgspec.json.schema_components([kind])
         schema: dict[str, Any] = {
             "$schema": "https://json-schema.org/draft/2020-12/schema",
@@ -338,6 +351,33 @@ def json_schemas() -> dict[str, dict]:
         }
         schemas[name] = _normalise(schema)
     return schemas
+
+
+def _all_schema_types() -> dict[str, Any]:
+    """Bus message kinds plus the journal's engine snapshot.
+
+    The snapshot type is built from the engine's state types, which
+    import this module; it is looked up late to keep imports one-way.
+    """
+    from .snapshot import EngineSnapshot
+
+    return {**SCHEMA_TYPES, "snapshot": EngineSnapshot}
+
+
+def schema_files() -> dict[str, str]:
+    """File name -> text of every schema, as ``schemas/`` holds them.
+
+    Returns
+    -------
+    dict[str, str]
+        ``<kind>.schema.json`` -> indented JSON with sorted keys and a
+        final newline.
+    """
+    return {
+        f"{name}.schema.json": json.dumps(schema, indent=2, sort_keys=True)
+        + "\n"
+        for name, schema in json_schemas().items()
+    }
 
 
 def _normalise(node: Any, key: str | None = None) -> Any:

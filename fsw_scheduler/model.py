@@ -1,4 +1,4 @@
-"""Problem model: tasks, resources and precedences (CONTRACT section 1).
+"""Problem model: tasks, resources and precedences (problem format).
 
 Every structure is an immutable :class:`msgspec.Struct`. :func:`decode_problem`
 turns JSON bytes into a validated :class:`Problem`; anything wrong is raised
@@ -27,6 +27,21 @@ T = TypeVar("T")
 
 MIN_COST, MAX_COST = 0, 5
 MIN_DELAY_COST, MAX_DELAY_COST = 1, 5
+
+#: Characters allowed in task ids, goal ids, resource names and spacecraft
+#: ids. They become Zenoh key chunks (``scheduler/dispatch/<task>``): ``/``
+#: would split the key, ``* $ ? #`` are wildcards or refused by Zenoh, and
+#: a leading ``@`` marks Zenoh's reserved chunks.
+ID_CHARS = "A-Za-z0-9_.-"
+#: Longest id accepted. Zenoh fails to send keys of about 64 KiB (a Rust
+#: panic in ``put``); ids stay far below that, with room for the prefix.
+MAX_ID_LENGTH = 64
+_ID_RE = re.compile(f"[{ID_CHARS}]+")
+_BAD_ID_CHAR = re.compile(f"[^{ID_CHARS}]")
+
+#: Largest absolute time value (units) in a problem, goal or clock: far
+#: beyond any mission, and exact in the solver's double precision.
+MAX_TIME = 2**31 - 1
 
 
 class Task(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -167,24 +182,112 @@ class Problem(msgspec.Struct, frozen=True, omit_defaults=True):
         return msgspec.structs.replace(self, **changes)
 
 
+def shown(value: str, limit: int = 40) -> str:
+    """``value`` quoted for a message, cut to ``limit`` characters."""
+    if len(value) <= limit:
+        return repr(value)
+    return f"{value[:limit]!r}... ({len(value)} characters)"
+
+
+def id_issue(value: str) -> str | None:
+    """Why ``value`` is not a key-safe id (None when it is one).
+
+    The grammar: 1 to :data:`MAX_ID_LENGTH` characters out of
+    ``[A-Za-z0-9_.-]``.
+    """
+    if not value:
+        return "must not be empty"
+    if len(value) > MAX_ID_LENGTH:
+        return (
+            f"is {len(value)} characters long; ids are at most "
+            f"{MAX_ID_LENGTH}"
+        )
+    if _ID_RE.fullmatch(value) is None:
+        bad = "".join(dict.fromkeys(_BAD_ID_CHAR.findall(value)))
+        return (
+            f"{shown(value)} has characters outside [{ID_CHARS}] "
+            f"({bad!r}); ids are used as bus key chunks"
+        )
+    return None
+
+
+def key_path(path: str, key: str) -> str:
+    """``path.key`` for a dictionary key (cut when it is not an id)."""
+    if id_issue(key) is None:
+        return f"{path}.{key}"
+    return f"{path}[{shown(key, 20)}]"
+
+
 _PATH_RE = re.compile(r"- at `\$(?P<path>[^`]*)`")
+_GOT_RE = re.compile(r"got `(?P<got>\w+)`")
+_SEGMENT_RE = re.compile(r"\.(?P<name>\w+)|\[(?P<idx>\d+)\]")
+_JSON_TYPES = {
+    str: "str",
+    bool: "bool",
+    int: "int",
+    float: "float",
+    list: "array",
+    dict: "object",
+    type(None): "null",
+}
+
+#: The reason given for a document nested beyond the decoder's limit.
+MAX_DEPTH_NOTE = "nested too deeply to decode"
 
 
-def _msgspec_issue(error: Exception) -> FieldIssue:
+def _msgspec_issue(error: Exception, data: bytes | str) -> FieldIssue:
     """Turn a msgspec decode error into a FieldIssue with a clean path."""
     text = str(error)
     match = _PATH_RE.search(text)
     path = match.group("path").lstrip(".") if match else ""
     reason = _PATH_RE.sub("", text).strip()
+    if path.endswith("[...]"):
+        path = _name_the_key(path[: -len("[...]")], text, data)
     return FieldIssue(path, reason)
 
 
+def _name_the_key(path: str, text: str, data: bytes | str) -> str:
+    """``path.<key>`` for msgspec's ``path[...]`` (a dictionary value).
+
+    msgspec does not say which key of a dictionary holds the wrong value;
+    the key is found again in the document: the first whose value has the
+    JSON type the error says it got.
+    """
+    got = _GOT_RE.search(text)
+    try:
+        node = msgspec.json.decode(data)
+    except (msgspec.DecodeError, RecursionError):
+        return path + "[...]"
+    for segment in _SEGMENT_RE.finditer("." + path if path else ""):
+        if segment.group("name") is not None and isinstance(node, dict):
+            node = node.get(segment.group("name"))
+        elif segment.group("idx") is not None and isinstance(node, list):
+            idx = int(segment.group("idx"))
+            node = node[idx] if idx < len(node) else None
+        else:
+            node = None
+    if isinstance(node, dict) and got is not None:
+        for key, value in node.items():
+            if _JSON_TYPES.get(type(value)) == got.group("got"):
+                return key_path(path, key)
+    return path + "[...]"
+
+
 def decode_strict(data: bytes | str, kind: type[T], what: str) -> T:
-    """Decode JSON into ``kind``, raising InputError naming the field."""
+    """Decode JSON into ``kind``, raising InputError naming the field.
+
+    A document nested deeper than the decoder's recursion limit (msgspec
+    raises ``RecursionError``, not a ``DecodeError``) is bad input too.
+    """
     try:
         return msgspec.json.decode(data, type=kind)
     except (msgspec.ValidationError, msgspec.DecodeError) as error:
-        raise InputError([_msgspec_issue(error)], what) from None
+        raise InputError([_msgspec_issue(error, data)], what) from None
+    except RecursionError:
+        raise InputError(
+            [FieldIssue("", f"{MAX_DEPTH_NOTE} (recursion limit reached)")],
+            what,
+        ) from None
 
 
 def decode_problem(data: bytes | str, *, allow_empty: bool = False) -> Problem:
@@ -193,7 +296,7 @@ def decode_problem(data: bytes | str, *, allow_empty: bool = False) -> Problem:
     Parameters
     ----------
     data
-        The JSON text of CONTRACT section 1.
+        The JSON text of the problem format.
     allow_empty
         Accept a problem with no task (``fsw-scheduler run``: the problem
         gives resources and horizon, goals bring the tasks).
@@ -234,9 +337,10 @@ def validate_problem(
         *_check_resources(problem.resources),
     ]
     issues += _check_tasks(problem, allow_empty)
+    # Tight precedences that contradict along two paths are valid: they
+    # only mean those tasks cannot all be scheduled together (see
+    # fsw_scheduler.proofs for when that makes the problem infeasible).
     issues += _check_precedences(problem)
-    if not issues:
-        issues += _check_tight_cycles(problem)
     return issues
 
 
@@ -245,6 +349,12 @@ def _check_horizon(problem: Problem) -> Iterator[FieldIssue]:
         yield FieldIssue("horizon", f"must be > 0, got {problem.horizon}")
     if problem.start < 0:
         yield FieldIssue("start", f"must be >= 0, got {problem.start}")
+    if problem.start + max(problem.horizon, 0) > MAX_TIME:
+        yield FieldIssue(
+            "horizon",
+            f"start + horizon must be at most {MAX_TIME}, got "
+            f"{problem.start + problem.horizon}",
+        )
 
 
 def _check_resources(resources: Resources) -> Iterator[FieldIssue]:
@@ -260,8 +370,11 @@ def _check_resources(resources: Resources) -> Iterator[FieldIssue]:
             if kind == "binary"
             else f"resources.{kind}.{key}"
         )
-        if not name:
-            yield FieldIssue(path, "resource name must not be empty")
+        reason = id_issue(name)
+        if reason is not None:
+            if kind != "binary":
+                path = key_path(f"resources.{kind}", name)
+            yield FieldIssue(path, f"resource name {reason}")
         if name in seen:
             yield FieldIssue(
                 path, f"resource {name!r} is already declared as {seen[name]}"
@@ -270,13 +383,13 @@ def _check_resources(resources: Resources) -> Iterator[FieldIssue]:
     for name, capacity in resources.multiple.items():
         if capacity < 0:
             yield FieldIssue(
-                f"resources.multiple.{name}",
+                key_path("resources.multiple", name),
                 f"capacity must be >= 0, got {capacity}",
             )
     for name, level in resources.consumable.items():
         if level < 0:
             yield FieldIssue(
-                f"resources.consumable.{name}",
+                key_path("resources.consumable", name),
                 f"initial level must be >= 0, got {level}",
             )
 
@@ -300,7 +413,7 @@ def duplicate_ids(tasks: Iterable[Task]) -> list[FieldIssue]:
             issues.append(
                 FieldIssue(
                     f"tasks[{idx}].id",
-                    f"duplicate task id {task.id!r} "
+                    f"duplicate task id {shown(task.id)} "
                     f"(first at tasks[{seen[task.id]}])",
                 )
             )
@@ -310,8 +423,10 @@ def duplicate_ids(tasks: Iterable[Task]) -> list[FieldIssue]:
 
 def _check_task(problem: Problem, task: Task, path: str) -> list[FieldIssue]:
     issues: list[FieldIssue] = []
-    if not task.id:
-        issues.append(FieldIssue(f"{path}.id", "must not be empty"))
+    reason = id_issue(task.id)
+    if reason is not None:
+        issues.append(FieldIssue(f"{path}.id", f"task id {reason}"))
+    issues += time_issues(task, path)
     if task.length <= 0:
         issues.append(
             FieldIssue(f"{path}.length", f"must be > 0, got {task.length}")
@@ -343,7 +458,7 @@ def _check_use(
     resources: Resources, name: str, amount: float, path: str
 ) -> Iterable[FieldIssue]:
     kind = resources.kind_of(name)
-    where = f"{path}.uses.{name}"
+    where = key_path(f"{path}.uses", name)
     if kind is None:
         known = ", ".join(resources.names) or "none declared"
         return [FieldIssue(where, f"unknown resource (known: {known})")]
@@ -360,6 +475,29 @@ def _check_use(
             )
         ]
     return []
+
+
+def time_issues(task: Task, path: str) -> list[FieldIssue]:
+    """Time values of ``task`` outside ``[-MAX_TIME, MAX_TIME]``."""
+    values = {
+        "length": task.length,
+        "fixed_start": task.fixed_start,
+        **dict(
+            zip(
+                ("feasible_interval[0]", "feasible_interval[1]"),
+                task.feasible_interval or (),
+                strict=False,
+            )
+        ),
+    }
+    return [
+        FieldIssue(
+            f"{path}.{name}",
+            f"{value} is out of range (at most {MAX_TIME} in absolute value)",
+        )
+        for name, value in values.items()
+        if value is not None and abs(value) > MAX_TIME
+    ]
 
 
 def _check_window(
@@ -415,50 +553,10 @@ def _check_precedences(problem: Problem) -> Iterator[FieldIssue]:
         for end in ("before", "after"):
             name = getattr(prec, end)
             if name not in ids:
-                yield FieldIssue(f"{path}.{end}", f"unknown task {name!r}")
+                yield FieldIssue(
+                    f"{path}.{end}", f"unknown task {shown(name)}"
+                )
         if prec.before == prec.after:
             yield FieldIssue(
                 f"{path}.after", f"task {prec.after!r} cannot precede itself"
             )
-
-
-def _check_tight_cycles(problem: Problem) -> list[FieldIssue]:
-    """Tight precedences fix start differences; a cycle must sum to zero.
-
-    A weighted union-find keeps, for each task, its start offset relative to
-    the root of its tight group; a new tight edge inside a group must agree
-    with the offset already implied.
-    """
-    length = {task.id: task.length for task in problem.tasks}
-    parent: dict[str, str] = {}
-    shift: dict[str, int] = {}  # s_task - s_parent
-
-    def find(name: str) -> tuple[str, int]:
-        total = 0
-        while parent.get(name, name) != name:
-            total += shift[name]
-            name = parent[name]
-        return name, total
-
-    issues = []
-    for idx, prec in enumerate(problem.precedences):
-        if prec.kind != "tight":
-            continue
-        gap = length[prec.before] + prec.offset  # s_after - s_before
-        root_b, off_b = find(prec.before)
-        root_a, off_a = find(prec.after)
-        if root_b == root_a:
-            implied = off_a - off_b
-            if implied != gap:
-                issues.append(
-                    FieldIssue(
-                        f"precedences[{idx}]",
-                        f"tight precedences contradict each other: this one "
-                        f"needs start({prec.after}) - start({prec.before}) = "
-                        f"{gap}, others imply {implied}",
-                    )
-                )
-            continue
-        parent[root_a] = root_b
-        shift[root_a] = off_b + gap - off_a
-    return issues

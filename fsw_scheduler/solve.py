@@ -13,6 +13,7 @@ from .check import check_plan
 from .domains import cost_caps, start_domains
 from .explain import explain as explain_plan
 from .greedy import greedy_plan
+from .proofs import infeasibility
 from .solution import Plan, SolverStats, SolveStatus
 
 if TYPE_CHECKING:
@@ -29,6 +30,9 @@ log = logging.getLogger("fsw_scheduler.solver")
 EXPLAIN_BUDGET_S = 10.0
 #: Below this much budget left, an explanation solve is not started.
 MIN_SOLVE_S = 0.05
+#: Share of the time limit the start heuristic may take (its trivial plan,
+#: the forced tasks alone, is always completed).
+GREEDY_SHARE = 0.4
 
 
 def solve(
@@ -85,7 +89,31 @@ def solve(
     )
     began = time.perf_counter()
     domains = start_domains(problem)
-    start = best_start(problem, warm)
+    proof = infeasibility(problem, domains)
+    if proof:
+        # Tasks every plan must hold cannot all be placed: no solve.
+        return Plan(
+            status=SolveStatus.INFEASIBLE,
+            objective=None,
+            unscheduled=tuple(task.id for task in problem.tasks),
+            why=proof,
+            stats=SolverStats(
+                solver="proof",
+                wall_s=time.perf_counter() - began,
+                solver_status=f"infeasible without a solve: {proof[0].detail}",
+                time_limit_s=time_limit,
+            ),
+        )
+    stop = None
+    if time_limit is not None:
+        # The heuristic gets a share of the limit; its trivial plan (the
+        # forced tasks alone) is always completed.
+        greedy_end = began + GREEDY_SHARE * time_limit
+
+        def stop() -> bool:
+            return time.perf_counter() > greedy_end
+
+    start = best_start(problem, warm, stop=stop, domains=domains)
     if start is not None and at_lower_bound(problem, start, domains):
         plan = start.replace(
             status=SolveStatus.OPTIMAL,
@@ -149,7 +177,13 @@ def solve(
     if explain and (plan.unscheduled or not plan.status.has_plan):
         budget = explain_budget
         if budget is None:
-            budget = EXPLAIN_BUDGET_S if time_limit is None else time_limit
+            # Explanations share the caller's limit: whatever the solve
+            # left of it (tasks get not_analysed when nothing is left).
+            budget = (
+                EXPLAIN_BUDGET_S
+                if time_limit is None
+                else time_limit - (time.perf_counter() - began)
+            )
         plan = plan.replace(
             why=explain_plan(problem, plan, _budgeted(run, budget))
         )
@@ -215,13 +249,20 @@ def _narrowed(
     return domains if caps is None else start_domains(problem, caps)
 
 
-def best_start(problem: Problem, warm: Plan | None) -> Plan | None:
+def best_start(
+    problem: Problem,
+    warm: Plan | None,
+    *,
+    stop: Callable[[], bool] | None = None,
+    domains: dict[str, Domain] | None = None,
+) -> Plan | None:
     """The better valid plan of ``warm`` and the greedy heuristic's.
 
     The greedy plan is valid by construction (:func:`greedy_plan` returns
     only plans the checker accepts); ``warm`` is used only if the checker
     accepts it on ``problem``, with its objective recomputed there. None
-    when neither is valid.
+    when neither is valid. ``stop`` and ``domains`` are passed on to
+    :func:`greedy_plan`.
     """
     candidates = []
     if warm is not None:
@@ -232,7 +273,7 @@ def best_start(problem: Problem, warm: Plan | None) -> Plan | None:
                     status=SolveStatus.FEASIBLE, objective=report.objective
                 )
             )
-    greedy = greedy_plan(problem)
+    greedy = greedy_plan(problem, stop=stop, domains=domains)
     if greedy is not None:
         candidates.append(greedy)  # on a tie, the previous plan is kept
     if not candidates:

@@ -303,6 +303,7 @@ BAD_INPUTS = {
 
 #: The goal id a rejection names (best effort for undecodable goals).
 GOAL_IDS = {
+    "malformed_json_goal": "broken",  # found in the text
     "wrong_type_goal": "typo",
     "id_collision_goal": "clash",
     "oversized_goal": "huge",

@@ -4,8 +4,8 @@ Random small problems are generated valid by construction (every window
 holds at least one start inside the horizon, pins sit on such a start);
 only contradictory tight-precedence cycles are filtered out. Three oracles
 judge the solvers: :func:`fsw_scheduler.check.check_plan`, the other
-backend, and an exhaustive enumeration written here from CONTRACT
-section 1 alone (it shares no code with either the checker or the ILP).
+backend, and an exhaustive enumeration written here from the problem
+format alone (it shares no code with either the checker or the ILP).
 """
 
 from __future__ import annotations
@@ -65,7 +65,7 @@ def problem_docs(
     Returns
     -------
     dict
-        A problem document of CONTRACT section 1.
+        A problem document of the problem format.
     """
     horizon = draw(st.integers(1, max_horizon))
     start = draw(st.integers(0, 3))
@@ -164,7 +164,7 @@ def _decode(doc: dict) -> Problem:
 
 
 # --------------------------------------------------------------------------
-# Brute force, from CONTRACT section 1 only
+# Brute force, from the problem format only
 
 
 def _reading(problem: Problem, task: Task) -> str:

@@ -69,8 +69,14 @@ def node_info(
     config: NodeConfig,
     problem: Problem,
     security: messages.SecurityInfo | None = None,
+    *,
+    resumed: bool = False,
 ) -> messages.NodeInfo:
-    """What a recording needs to replay this node's decisions."""
+    """What a recording needs to replay this node's decisions.
+
+    ``resumed``: the node rebuilt its state from its journal and starts by
+    saying so (replay then expects that status first).
+    """
     from .. import __version__
 
     return messages.NodeInfo(
@@ -88,6 +94,7 @@ def node_info(
         replan_lead=config.lead,
         version=__version__,
         problem=problem,
+        resumed=resumed,
         security=security,
     )
 
@@ -102,7 +109,7 @@ def run_solve(config: NodeConfig, command: StartSolve) -> Plan:
         time_limit=config.time_limit,
         threads=config.threads,
         seed=config.seed,
-        explain=config.explain,
+        explain=config.explain or command.explain,
         warm=command.warm,
         explain_budget=config.explain_budget,
     )
@@ -136,6 +143,10 @@ class _Journal:
         stamp = max(self._wall_ns(), self._last + 1)
         self._last = stamp
         self.recorder.write(key, payload, log_time_ns=stamp)
+
+    def flush(self) -> None:
+        if self.recorder is not None:
+            self.recorder.flush()
 
 
 class SchedulerNode:
@@ -182,6 +193,10 @@ class SchedulerNode:
         wall_ns: Callable[[], int] = time.time_ns,
         solve_fn: Callable[[NodeConfig, StartSolve], Plan] = run_solve,
         security: messages.SecurityInfo | None = None,
+        engine: Engine | None = None,
+        durable: bool = False,
+        journal_max_bytes: int | None = None,
+        clock_start: int = 0,
         publishers: Callable[[str], frozenset[str] | None] | None = None,
     ) -> None:
         if config.horizon is not None:
@@ -189,7 +204,12 @@ class SchedulerNode:
         self.session = session
         self.config = config
         self.topics = topics.Topics(config.spacecraft)
-        self.engine = Engine(engine_config(config), problem)
+        # A rebuilt engine (resume from the journal) or a fresh one.
+        self.resumed = engine is not None
+        self.engine = engine or Engine(engine_config(config), problem)
+        self._durable = durable and journal is not None
+        self._journal_max_bytes = journal_max_bytes
+        self._clock_start = clock_start
         self._journal = _Journal(journal, wall_ns)
         self._seconds = seconds
         self._solve_fn = solve_fn
@@ -247,7 +267,9 @@ class SchedulerNode:
             session.liveliness().declare_token(key(topics.ALIVE))
         )
         if self.config.clock == "wall":
-            self._clock = UnitClock(self._seconds, self.config.time_unit)
+            self._clock = UnitClock(
+                self._seconds, self.config.time_unit, self._clock_start
+            )
         self._thread = threading.Thread(
             target=self._spin, name="fsw-scheduler-loop", daemon=True
         )
@@ -255,9 +277,18 @@ class SchedulerNode:
         self._publish_raw(
             topics.NODE_INFO,
             messages.encode(
-                node_info(self.config, self.engine.initial, self._security)
+                node_info(
+                    self.config,
+                    self.engine.initial,
+                    self._security,
+                    resumed=self.resumed,
+                )
             ),
         )
+        if self._durable:
+            self._write_snapshot()
+        if self.resumed:
+            self._inbox.put(("resume", None))
         log.info(
             "scheduler up on %s (clock %s, solver %s)",
             self.topics.root,
@@ -361,7 +392,9 @@ class SchedulerNode:
             return
         if kind == "wake":
             return
-        if kind == "query":
+        if kind == "resume":
+            self._resume()
+        elif kind == "query":
             self._answer(*item)
         elif kind == "solve":
             self._step(item)
@@ -407,8 +440,76 @@ class SchedulerNode:
     def _step(self, event: Event) -> None:
         if self._dropped != self.engine._counters.inputs_dropped:
             self.engine.count_dropped(self._dropped)
-        for command in self.engine.step(event, self._now()):
-            self._execute(command)
+        self._run(self.engine.step(event, self._now()))
+
+    def _run(self, commands: list[Command]) -> None:
+        """Carry out a step's commands; durably first with ``--state``.
+
+        With a durable journal the step's input and outputs reach the disk
+        before any output reaches the bus (write-ahead): a node killed at
+        any point and resumed from its journal never repeats a dispatch
+        the bus saw. The price: an output on disk but not yet on the bus
+        when the process died is not sent again (a dispatch then waits for
+        its report timeout).
+        """
+        if not self._durable:
+            for command in commands:
+                self._execute(command)
+            return
+        outputs = [
+            (
+                command.suffix,
+                messages.encode(self._provenance.annotate(command.message)),
+            )
+            for command in commands
+            if isinstance(command, Publish)
+        ]
+        for suffix, payload in outputs:
+            self._journal.write(self.topics.key(suffix), payload)
+        self._journal.flush()
+        for command in commands:
+            if not isinstance(command, Publish):
+                self._execute(command)
+        for suffix, payload in outputs:
+            self._put(suffix, payload)
+        self._maybe_rotate()
+
+    def _write_snapshot(self) -> None:
+        """The engine's state as the next journal message, on disk."""
+        self._journal.write(
+            self.topics.key(topics.SNAPSHOT),
+            messages.encode(self.engine.snapshot()),
+        )
+        self._journal.flush()
+
+    def _maybe_rotate(self) -> None:
+        """Start a new journal file, opened by a snapshot, when too big."""
+        recorder = self._journal.recorder
+        limit = self._journal_max_bytes
+        if recorder is None or limit is None or recorder.size < limit:
+            return
+        path = recorder.rotate()
+        log.info("journal continues in %s", path)
+        self._journal.write(
+            self.topics.key(topics.NODE_INFO),
+            messages.encode(
+                node_info(self.config, self.engine.initial, self._security)
+            ),
+        )
+        self._write_snapshot()
+
+    def _resume(self) -> None:
+        """Say the state was rebuilt; ask again for a solve in flight."""
+        log.info(
+            "resumed at t=%s from plan %s",
+            self.engine.now,
+            self.engine.plan_id,
+        )
+        commands: list[Command] = [self.engine.resumed()]
+        pending = self.engine.pending_solve()
+        if pending is not None:
+            commands.append(pending)
+        self._run(commands)
 
     def _execute(self, command: Command) -> None:
         if isinstance(command, Publish):
@@ -439,8 +540,11 @@ class SchedulerNode:
         return done
 
     def _publish_raw(self, suffix: str, payload: bytes) -> None:
+        self._journal.write(self.topics.key(suffix), payload)
+        self._put(suffix, payload)
+
+    def _put(self, suffix: str, payload: bytes) -> None:
         key = self.topics.key(suffix)
-        self._journal.write(key, payload)
         publisher = self._publishers.get(suffix)
         try:
             if publisher is not None:

@@ -1,4 +1,4 @@
-"""Every key expression of the bus, in one place (CONTRACT section 5).
+"""Every key expression of the bus, in one place (the bus keys).
 
 Keys are ``fsw/<spacecraft>/<suffix>``; the suffixes below are the public
 names. Recording, replay and the scheduler node all derive their keys here.
@@ -29,6 +29,12 @@ ALIVE = "scheduler/alive"
 TICKS = "scheduler/ticks"
 #: Recorded only (never published): the source of each input.
 SOURCES = "scheduler/sources"
+#: The engine's whole state: first message of each journal file (resume),
+#: and published by an active node for its hot standby.
+SNAPSHOT = "scheduler/snapshot"
+#: One liveliness token per node (``scheduler/nodes/<node id>``), so that
+#: twins see each other (``scheduler/alive`` tokens merge into one).
+NODES = "scheduler/nodes"
 
 #: Output suffixes, compared by ``replay --verify``.
 OUTPUTS = (PLAN, DISPATCH, STATUS)
@@ -90,6 +96,7 @@ class Topics(msgspec.Struct, frozen=True):
             NODE_INFO: "node_info",
             TICKS: "clock",
             SOURCES: "input_source",
+            SNAPSHOT: "snapshot",
         }
         if suffix in exact:
             return exact[suffix]

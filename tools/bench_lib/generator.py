@@ -1,4 +1,4 @@
-"""Seeded generator of benchmark problems (CONTRACT section 1 documents).
+"""Seeded generator of benchmark problems (the problem format documents).
 
 Two suites:
 
@@ -72,7 +72,7 @@ class BenchProblem:
         The problem's own seed: ``generate_problem(num_tasks,
         resource_class, horizon, seed)`` returns the same document.
     doc
-        The problem document (CONTRACT section 1) as a dict.
+        The problem document (problem format) as a dict.
     """
 
     name: str
@@ -237,7 +237,7 @@ def generate_problem(
     Returns
     -------
     dict
-        A CONTRACT section 1 problem that passes ``decode_problem``.
+        A the problem format problem that passes ``decode_problem``.
     """
     if resource_class not in (*CLASSES, "mixed"):
         raise ValueError(f"unknown resource class {resource_class!r}")
