@@ -21,6 +21,7 @@ import queue
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import msgspec
@@ -59,7 +60,6 @@ from fsw_scheduler.testing import (
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
-    from pathlib import Path
 
 SC = keys.Topics("sat1")
 WAIT_S = 20.0
@@ -890,3 +890,95 @@ def test_probe_command(bus: SecureBus, tmp_path: Path) -> None:
     executor = ["probe", "--config", str(out / "executor.json5")]
     assert main([*executor, "--kinds", "goal,level"]) == 0
     assert main([*executor, "--kinds", "report"]) == 1
+
+
+def test_run_command_on_the_secure_profile(
+    pki: dict[str, Path], tmp_path: Path
+) -> None:
+    """Tests 'run --require-secure' with the written profile, end to end:
+    it starts, takes a goal from the goals role and names its source."""
+    import signal
+    import socket
+
+    problem = Path(__file__).resolve().parents[1] / "fsw_scheduler" / "data"
+    for _attempt in range(3):
+        with socket.socket() as probe_port:
+            probe_port.bind(("127.0.0.1", 0))
+            port = probe_port.getsockname()[1]
+        out = tmp_path / f"deploy-{port}"
+        endpoint = f"tls/localhost:{port}"
+        assert (
+            main(
+                [
+                    "config",
+                    "--out",
+                    str(out),
+                    "--certs",
+                    str(pki["good"]),
+                    "--endpoint",
+                    endpoint,
+                    "--listen",
+                    endpoint,
+                ]
+            )
+            == 0
+        )
+        process = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "fsw_scheduler.cli",
+                "run",
+                "--problem",
+                str(problem / "paper_table1.json"),
+                "--clock",
+                "bus",
+                "--config",
+                str(out / "scheduler.json5"),
+                "--require-secure",
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        assert process.stderr is not None
+        log = []
+        for line in process.stderr:
+            log.append(line)
+            if "scheduler up on" in line:
+                break
+        if process.poll() is None:
+            break
+    else:
+        pytest.fail("run did not start:\n" + "".join(log))
+    try:
+        assert not any("INSECURE" in line for line in log), log
+        config = zenoh.Config.from_file(out / "clock.json5")
+        with (
+            zenoh.open(config) as clock_session,
+            zenoh.open(
+                zenoh.Config.from_file(out / "goals.json5")
+            ) as goals_session,
+        ):
+            clock = SchedulerClient(clock_session, timeout=WAIT_S)
+            goals = SchedulerClient(goals_session, timeout=WAIT_S)
+            clock.wait_scheduler()
+            goals.wait_scheduler()
+            clock.tick(0)
+            put_signed(goals_session, SC.key(keys.GOALS), ping_goal("cli"))
+            verdict = goals.wait_status(lambda s: s.goal_id == "cli")
+            assert verdict.event == "goal_accepted"
+            assert verdict.source is not None
+            assert (verdict.source.identity, verdict.source.basis) == (
+                "goals",
+                "link",
+            )
+            clock.close()
+            goals.close()
+        process.send_signal(signal.SIGTERM)
+        assert process.wait(20) == 0
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait(10)
+        process.stderr.close()
