@@ -218,7 +218,9 @@ class SecureBus:
                 listen="tls/localhost:0",
             )
         )
+        # Read-only and local: how the test learns the port the OS chose.
         config.insert_json5("adminspace/enabled", "true")
+        config.insert_json5("adminspace/permissions/read", "true")
         if not acl:
             config.insert_json5("access_control/enabled", "false")
         self.security = assess(config)
@@ -513,6 +515,12 @@ def test_authorised_roles_drive_the_scheduler(bus: SecureBus) -> None:
     assert bus.node.engine.inputs_seen == seen + 1
     plan = bus.monitor.query_plan()
     assert plan is not None and "beacon" in plan.goals
+    changes: queue.Queue[zenoh.SampleKind] = queue.Queue()
+    watch = bus.monitor.client.liveliness().declare_subscriber(
+        SC.key(keys.ALIVE), lambda s: changes.put(s.kind), history=True
+    )
+    assert changes.get(timeout=WAIT_S) == zenoh.SampleKind.PUT
+    watch.undeclare()
     alive = [
         r.ok
         for r in bus.monitor.client.liveliness().get(
