@@ -446,6 +446,7 @@ def test_config_command_writes_every_role(tmp_path: Path) -> None:
         "root_ca_certificate"
     ] == str((out / "certs" / "ca.pem").resolve())
     assert main(["config", "--out", str(out), "--cn", "pilot=x"]) == 2
+    assert main(["config", "--out", str(out), "--spacecraft", "*"]) == 2
     assert main(["config", "--out", str(out), "--endpoint", "tcp/h:1"]) == 2
 
 

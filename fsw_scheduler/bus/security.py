@@ -40,6 +40,7 @@ from typing import TYPE_CHECKING, Any
 
 from .. import messages
 from ..errors import ConfigError
+from ..model import id_issue
 from . import topics
 
 if TYPE_CHECKING:
@@ -241,6 +242,10 @@ def access_control(
     """
     if role not in ROLES:
         raise ConfigError(f"unknown role {role!r}")
+    # A wildcard in the spacecraft id would widen every rule.
+    reason = id_issue(spacecraft)
+    if reason is not None:
+        raise ConfigError(f"spacecraft: the spacecraft id {reason}")
     cns = _check_names(names or {})
     tree = topics.Topics(spacecraft)
     rules: list[dict[str, Any]] = []
