@@ -14,7 +14,7 @@ import sys
 import textwrap
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import msgspec
 from mcap.exceptions import McapError
@@ -22,6 +22,9 @@ from mcap.exceptions import McapError
 from .errors import ConfigError, FieldIssue, InputError, SchedulerError
 from .model import Problem, decode_problem, decode_strict
 from .solution import Plan
+
+if TYPE_CHECKING:
+    import zenoh
 
 log = logging.getLogger("fsw_scheduler")
 
@@ -308,11 +311,24 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 # -- run ---------------------------------------------------------------------
 
 
+def _open_bus(settings: zenoh.Config) -> zenoh.Session:
+    """``zenoh.open``, with Zenoh's errors (a missing certificate, a port
+    in use, no route to a client's router) said in one line."""
+    import zenoh
+
+    from .errors import BusError
+
+    try:
+        return zenoh.open(settings)
+    except zenoh.ZError as error:
+        # Zenoh appends the Rust source location: keep the first sentence.
+        text = str(error).split(" at /")[0]
+        raise BusError(f"cannot open the Zenoh session: {text}") from None
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     import signal
     import threading
-
-    import zenoh
 
     from .bus.node import SchedulerNode
     from .bus.session import toml_config_file, zenoh_config
@@ -392,7 +408,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
-    with zenoh.open(zenoh_settings) as session:
+    with _open_bus(zenoh_settings) as session:
         node = SchedulerNode(
             session,
             problem,
@@ -506,14 +522,13 @@ def _open_state(
 
 
 def _cmd_probe(args: argparse.Namespace) -> int:
-    import zenoh
 
     from .bus.probe import probe
     from .bus.session import zenoh_config
     from .bus.topics import Topics
 
     kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
-    with zenoh.open(zenoh_config(args)) as session:
+    with _open_bus(zenoh_config(args)) as session:
         results = probe(session, Topics(args.spacecraft), kinds, args.timeout)
     for result in results:
         print(f"{result.kind:<7} {result.key}: {result.detail}")

@@ -991,3 +991,21 @@ def test_run_command_on_the_secure_profile(
             process.kill()
             process.wait(10)
         process.stderr.close()
+
+
+def test_missing_certificates_are_said_in_one_line(tmp_path: Path) -> None:
+    """Tests that 'run' on a profile without its certificates says so."""
+    out = tmp_path / "deploy"
+    assert main(["config", "--out", str(out)]) == 0
+    result = _run_cli(
+        "run",
+        "--horizon",
+        "10",
+        "--config",
+        str(out / "scheduler.json5"),
+        "--listen",
+        "tls/localhost:0",
+    )
+    assert result.returncode == 1
+    assert "cannot open the Zenoh session" in result.stderr
+    assert "Traceback" not in result.stderr
