@@ -18,7 +18,7 @@ the identity (basis ``link``); otherwise the names of the connected links
 the policy allows are (basis ``policy``). Behind a router, the links are
 the router's and no identity is given.
 
-The node calls :meth:`Provenance.capture` in its Zenoh callback (reading
+The node calls :func:`capture` in its Zenoh callback (reading
 the sample only) and the rest on its event loop: it journals each input's
 :class:`~fsw_scheduler.messages.Source` and sets ``source`` on the status
 verdicts about that input, including a goal's later acceptance.
@@ -26,6 +26,7 @@ verdicts about that input, including a goal's later acceptance.
 
 from __future__ import annotations
 
+import logging
 import threading
 from collections import OrderedDict
 from typing import TYPE_CHECKING, Any
@@ -40,6 +41,8 @@ if TYPE_CHECKING:
     from collections.abc import Callable
 
     from ..engine import Event
+
+log = logging.getLogger("fsw_scheduler.node")
 
 #: ``(zid, eid, sn)`` read from a sample in the Zenoh callback.
 Origin = tuple[str, int | None, int | None]
@@ -93,13 +96,16 @@ class Provenance:
         )
 
     def _on_link(self, event: Any) -> None:
-        link = event.link
-        zid = str(link.zid)
-        with self._lock:
-            if event.kind == zenoh.SampleKind.PUT:
-                self._links[zid] = link.auth_identifier or ""
-            else:
-                self._links.pop(zid, None)
+        try:
+            link = event.link
+            zid = str(link.zid)
+            with self._lock:
+                if event.kind == zenoh.SampleKind.PUT:
+                    self._links[zid] = link.auth_identifier or ""
+                else:
+                    self._links.pop(zid, None)
+        except Exception:  # a raising callback fails silently in zenoh
+            log.exception("link event not followed")
 
     # -- inputs ------------------------------------------------------------
 
