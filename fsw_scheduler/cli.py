@@ -329,6 +329,7 @@ def _open_bus(settings: zenoh.Config) -> zenoh.Session:
 def _cmd_run(args: argparse.Namespace) -> int:
     import signal
     import threading
+    import time
 
     from .bus.node import SchedulerNode
     from .bus.session import toml_config_file, zenoh_config
@@ -345,9 +346,18 @@ def _cmd_run(args: argparse.Namespace) -> int:
             solver=args.solver,
             time_limit=args.time_limit,
             horizon=args.horizon,
+            node_id=args.node_id,
+            rank=args.rank,
+            discovery=args.discovery,
         )
+        if args.no_standby:
+            config = config.replace(standby=False)
     except ValueError as error:  # a bad value given as a flag
         raise InputError([FieldIssue("", str(error))], "arguments") from None
+    if config.node_id is None:
+        from .bus.redundancy import default_node_id
+
+        config = config.replace(node_id=default_node_id())
     if args.problem:
         problem = decode_problem(_read_bytes(args.problem), allow_empty=True)
     else:
@@ -395,7 +405,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 ],
                 "arguments",
             )
-        journal, resume = _open_state(args, config)
     elif args.record:
         journal = Recorder(
             args.record, schemas=schema_lookup(config.spacecraft)
@@ -409,21 +418,65 @@ def _cmd_run(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
     with _open_bus(zenoh_settings) as session:
-        node = SchedulerNode(
-            session,
-            problem,
-            config,
-            journal=journal,
-            security=security,
-            publishers=policy_publishers(zenoh_settings),
-            **resume,
-        )
-        node.start()
-        try:
-            while not stop.wait(0.5):
-                pass
-        finally:
-            node.close()
+
+        def make_node(shared: Any = None) -> SchedulerNode:
+            """The node that commands; from the active's state on takeover."""
+            nonlocal journal
+            extra = dict(resume)
+            if args.state:
+                # Opened only to command: a standby writes no journal.
+                if journal is not None:
+                    journal.close()
+                journal, opened = _open_state(args, config)
+                extra.update(opened)
+            if shared is not None:
+                from .bus.node import engine_config
+                from .engine import Engine
+
+                extra["engine"] = Engine.restore(engine_config(config), shared)
+                extra["resumed_event"] = "took_over"
+                extra.pop("clock_start", None)
+                if config.clock == "wall" and shared.now is not None:
+                    extra["clock_start"] = shared.now
+            return SchedulerNode(
+                session,
+                problem,
+                config,
+                journal=journal,
+                security=security,
+                publishers=policy_publishers(zenoh_settings),
+                share_state=config.standby,
+                **extra,
+            )
+
+        node: SchedulerNode | None
+        if not config.standby:
+            node = make_node()
+            node.start()
+            try:
+                # The node stops itself when its loop cannot go on.
+                while not stop.is_set() and not node.wait_stopped(0.2):
+                    pass
+            finally:
+                node.close()
+        else:
+            from .bus.redundancy import Member, Redundancy, serve
+
+            member = Member(config.rank, time.time_ns(), config.node_id or "")
+            redundancy = Redundancy(session, config.spacecraft, member)
+            redundancy.join()
+            node = None
+            try:
+                node = serve(redundancy, make_node, stop, config.discovery)
+            finally:
+                if node is not None:
+                    node.close()
+                redundancy.close()
+        if node is None:
+            return EXIT_OK
+    if node.failed is not None:
+        print(f"fsw-scheduler: error: {node.failed}", file=sys.stderr)
+        return EXIT_NO_PLAN
     return EXIT_OK
 
 
@@ -502,7 +555,13 @@ def _open_state(
                 ],
                 "arguments",
             )
-        resume["engine"] = engine
+        # The rebuilt state, under this start's settings (node id, limits).
+        from .bus.node import engine_config
+        from .engine import Engine
+
+        resume["engine"] = Engine.restore(
+            engine_config(config), engine.snapshot()
+        )
         if config.clock == "wall" and rebuilt.last_tick is not None:
             # Time went on while the node was down.
             down_s = max(time.time_ns() - rebuilt.last_log_time_ns, 0) / 1e9
@@ -874,6 +933,31 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="N",
         help="with --state: journal files of the last N starts are kept "
         "(default %(default)s; at least 2)",
+    )
+    run.add_argument(
+        "--node-id",
+        metavar="ID",
+        help="this node's name among redundant schedulers (default "
+        "<host>-<pid>)",
+    )
+    run.add_argument(
+        "--rank",
+        type=_number(int, minimum=0, strict=False),
+        metavar="N",
+        help="preference among redundant schedulers: the lowest rank "
+        "commands when none does yet (default 0)",
+    )
+    run.add_argument(
+        "--discovery",
+        type=non_negative_float,
+        metavar="S",
+        help="seconds to look for other schedulers before commanding "
+        "(default 1)",
+    )
+    run.add_argument(
+        "--no-standby",
+        action="store_true",
+        help="command whatever else runs: no election, no hot standby",
     )
     run.add_argument("--solver", choices=("cbc", "highs"), help="MILP solver")
     run.add_argument(

@@ -61,7 +61,30 @@ class NodeConfig(
         A measured level departs from the prediction when
         ``|measured - predicted| > absolute + relative * |predicted|``.
     inbox_capacity
-        Inputs waiting for the event loop; more are dropped and counted.
+        Goals waiting to be decoded by the event loop; a goal beyond it
+        gets ``goal_rejected`` with ``busy: N goals waiting``.
+    inbox_bytes
+        Payload bytes waiting for the loop (goals and telemetry). A goal
+        beyond it is rejected as busy; a telemetry sample on a key with
+        nothing waiting is dropped and counted (``inputs_dropped``).
+        Telemetry and clock samples never queue up: the latest per key
+        replaces the one waiting (``telemetry_superseded``).
+    tasks_per_goal, live_tasks
+        A goal with more tasks, or one that would make the plan hold more
+        live tasks (planned, running or deferred), is rejected with the
+        reason.
+    goals_waiting
+        Decoded goals queued behind a solve (each gets ``goal_queued``);
+        one more is rejected ``busy: N goals waiting``.
+    goals_per_solve
+        Goals merged into one solve; the others wait for the next one.
+    max_clock_step
+        Largest forward step of one bus clock message, in units; a bigger
+        one is rejected (``input_rejected``, path ``now``) and time stays.
+    clock_stall
+        Seconds without a bus clock message after which the status turns
+        ``degraded`` (event ``clock_stalled``) until the next one; None
+        never.
     heartbeat
         Units between periodic status messages (0: none).
     replan_lead
@@ -69,6 +92,18 @@ class NodeConfig(
         plan it causes, so that a solve may take that long without the new
         plan's first activities being late. Default: 1 with the wall clock,
         0 with the bus clock (which can wait for the scheduler).
+    node_id
+        This node's name among redundant schedulers of the spacecraft
+        (key-safe); default: ``<host>-<pid>``.
+    rank
+        Preference among redundant schedulers: the lowest rank commands
+        when none does yet (ties: the earliest start, then the id).
+    standby
+        Take part in the one-commander protocol (hot standby); off for a
+        node that must command whatever else is on the bus.
+    discovery
+        Seconds a starting node looks for other schedulers before it
+        decides to command or to stand by.
     """
 
     spacecraft: str = "sat1"
@@ -84,15 +119,34 @@ class NodeConfig(
     report_timeout: int | None = None
     drift_absolute: float = 0.5
     drift_relative: float = 0.0
-    inbox_capacity: int = 1024
+    inbox_capacity: int = 256
+    inbox_bytes: int = 64 << 20
+    tasks_per_goal: int = 100
+    live_tasks: int = 300
+    goals_waiting: int = 64
+    goals_per_solve: int = 16
+    max_clock_step: int | None = 100
+    clock_stall: float | None = 30.0
     heartbeat: int = 10
     replan_lead: int | None = None
+    node_id: str | None = None
+    rank: int = 0
+    standby: bool = True
+    discovery: float = 1.0
 
     def __post_init__(self) -> None:
         problems = []
         reason = id_issue(self.spacecraft)
         if reason is not None:
             problems.append(f"spacecraft: the spacecraft id {reason}")
+        if self.node_id is not None:
+            reason = id_issue(self.node_id)
+            if reason is not None:
+                problems.append(f"node-id: the node id {reason}")
+        if self.rank < 0:
+            problems.append("rank must be >= 0")
+        if self.discovery < 0:
+            problems.append("discovery must be >= 0")
         if self.time_unit <= 0:
             problems.append("time-unit must be > 0")
         if self.explain_budget < 0:
@@ -105,6 +159,20 @@ class NodeConfig(
             problems.append("replan-lead must be >= 0")
         if self.inbox_capacity < 1:
             problems.append("inbox-capacity must be >= 1")
+        for name in (
+            "tasks_per_goal",
+            "live_tasks",
+            "goals_waiting",
+            "goals_per_solve",
+        ):
+            if getattr(self, name) < 1:
+                problems.append(f"{name.replace('_', '-')} must be >= 1")
+        if self.max_clock_step is not None and self.max_clock_step < 1:
+            problems.append("max-clock-step must be >= 1")
+        if self.clock_stall is not None and self.clock_stall <= 0:
+            problems.append("clock-stall must be > 0")
+        if self.inbox_bytes < 1 << 20:
+            problems.append("inbox-bytes must be >= 1048576 (one payload)")
         if problems:
             raise ValueError("; ".join(problems))
 

@@ -21,7 +21,7 @@ in place and the status says why.
 from __future__ import annotations
 
 import hashlib
-from typing import Literal
+from typing import Any, Literal
 
 import msgspec
 
@@ -101,6 +101,13 @@ class InputRejected(msgspec.Struct, frozen=True, tag=True):
     goal_id: str | None = None
 
 
+class ClockStalled(msgspec.Struct, frozen=True, tag=True):
+    """No bus clock message for ``seconds`` (wall clock) since ``last``."""
+
+    seconds: float
+    last: int | None = None
+
+
 class SolveDone(msgspec.Struct, frozen=True, tag=True):
     """The result of a :class:`StartSolve`."""
 
@@ -121,6 +128,7 @@ Event = (
     | ReportArrived
     | LevelArrived
     | InputRejected
+    | ClockStalled
     | SolveDone
     | SolveFailed
 )
@@ -177,12 +185,29 @@ class EngineConfig(msgspec.Struct, frozen=True):
     replan_lead
         Units between a trigger and the start of the plan it causes: the
         time a solve may take without its first activities being late.
+    max_tasks_per_goal, max_live_tasks
+        A goal with more tasks, or one that would make the plan hold more
+        live tasks (planned, running or deferred), is rejected with the
+        reason (None: no limit).
+    max_goals_waiting
+        Goals queued behind a solve; one more is rejected ``busy``.
+    max_goals_per_solve
+        Goals merged into one solve; the others wait for the next.
+    max_history
+        Finished activities (completed, failed, preempted, obsolete) kept
+        in the lifecycle map; the oldest leave it first.
     """
 
     report_timeout: int | None = None
     tolerance: Tolerance = Tolerance(absolute=0.5)
     heartbeat: int = 0
     replan_lead: int = 0
+    max_tasks_per_goal: int | None = None
+    max_live_tasks: int | None = None
+    max_goals_waiting: int | None = None
+    max_goals_per_solve: int | None = None
+    node_id: str | None = None
+    max_history: int = 1000
 
 
 # -- the engine -------------------------------------------------------------
@@ -218,6 +243,10 @@ class Engine:
         self._queue: list[QueuedChange] = []
         self._dispatched: dict[str, int] = {}  # task -> unit of dispatch
         self._lifecycle: dict[str, Lifecycle] = {}
+        # The lifecycle as last published: statuses carry the difference.
+        self._reported: dict[str, Lifecycle] = {}
+        # (start, end) of each activity's dispatch still standing.
+        self._sent: dict[str, tuple[int, int]] = {}
         self._counters = Counters()
         self._last_solve: SolveSummary | None = None
         self._inputs = 0
@@ -244,7 +273,11 @@ class Engine:
         return self._plan_message
 
     def status(self, event: str = "heartbeat", **extra: object) -> Status:
-        """The current status message, reporting ``event``."""
+        """The current status with the whole lifecycle map (queries).
+
+        Publishing goes through :meth:`_status`, which also says what
+        changed since the previous published status.
+        """
         return Status(
             state=self._health,
             plan_id=self.plan_id,
@@ -255,6 +288,7 @@ class Engine:
             activities=dict(sorted(self._lifecycle.items())),
             counters=self._counters,
             last_solve=self._last_solve,
+            node_id=self.config.node_id,
             **extra,  # type: ignore[arg-type]
         )
 
@@ -273,6 +307,8 @@ class Engine:
             queue=tuple(self._queue),
             dispatched=dict(self._dispatched),
             lifecycle=dict(self._lifecycle),
+            reported=dict(self._reported),
+            sent=dict(self._sent),
             counters=self._counters,
             last_solve=self._last_solve,
             inputs=self._inputs,
@@ -305,6 +341,8 @@ class Engine:
         engine._queue = list(snapshot.queue)
         engine._dispatched = dict(snapshot.dispatched)
         engine._lifecycle = dict(snapshot.lifecycle)
+        engine._reported = dict(snapshot.reported)
+        engine._sent = dict(snapshot.sent)
         engine._counters = snapshot.counters
         engine._last_solve = snapshot.last_solve
         engine._inputs = snapshot.inputs
@@ -339,8 +377,9 @@ class Engine:
         )
         return Publish(
             topics.STATUS,
-            self.status(
+            self._status(
                 event,
+                full=True,
                 detail=detail,
                 from_plan_id=self.plan_id,
                 at=self.now,
@@ -348,9 +387,41 @@ class Engine:
             ),
         )
 
+    def _status(self, event: str, full: bool = False, **extra: Any) -> Status:
+        """A status to publish: ``changed`` since the last one published.
+
+        Verdicts and events carry only the lifecycle entries that changed
+        since the previous published status; heartbeats (``full``) carry
+        the whole map too. Applying every ``changed`` in order to the last
+        full map gives the current map.
+        """
+        lifecycle = self._lifecycle
+        reported = self._reported
+        changed = {
+            k: v for k, v in sorted(lifecycle.items()) if reported.get(k) != v
+        }
+        self._reported = dict(lifecycle)
+        status = self.status(event, **extra)
+        return msgspec.structs.replace(
+            status,
+            activities=status.activities if full else {},
+            changed=changed,
+        )
+
+    @property
+    def goals_waiting(self) -> int:
+        """Goals accepted for processing and waiting for a solve."""
+        return sum(1 for c in self._queue if c.kind == "goal")
+
     def count_dropped(self, dropped: int) -> None:
         """Record inputs the shell dropped because its queue was full."""
         self._count(inputs_dropped=dropped)
+
+    def count_shell(self, **totals: int) -> None:
+        """Record the shell's running totals (see ``Counters``)."""
+        current = self._counters
+        if any(getattr(current, k) != v for k, v in totals.items()):
+            self._count(**totals)
 
     # -- the step ------------------------------------------------------------
 
@@ -384,6 +455,8 @@ class Engine:
             self._on_level(event.level, out)
         elif isinstance(event, InputRejected):
             self._on_rejected(event, out)
+        elif isinstance(event, ClockStalled):
+            self._on_stalled(event, out)
         elif isinstance(event, SolveDone):
             self._on_solve_done(event, out)
         elif isinstance(event, SolveFailed):
@@ -395,7 +468,19 @@ class Engine:
 
     # -- event handlers ------------------------------------------------------
 
+    def _on_stalled(self, event: ClockStalled, out: list[Command]) -> None:
+        detail = (
+            f"{_STALLED}: no clock message for {event.seconds:g} s "
+            f"since unit {event.last}"
+        )
+        self._set_health("degraded", detail)
+        out.append(Log("warning", detail))
+        out.append(Publish(topics.STATUS, self._status("clock_stalled")))
+
     def _on_tick(self, out: list[Command]) -> None:
+        if self._health_detail.startswith(_STALLED):
+            self._set_health("ok", "")
+            out.append(Publish(topics.STATUS, self._status("clock_resumed")))
         if self._unsolved_initial is not None and self._pending is None:
             self._start_initial(out)
         self._check_report_timeouts(out)
@@ -407,7 +492,9 @@ class Engine:
             )
         beat = self.config.heartbeat
         if beat and self.now is not None and self.now % beat == 0:
-            out.append(Publish(topics.STATUS, self.status()))
+            out.append(
+                Publish(topics.STATUS, self._status("heartbeat", full=True))
+            )
 
     def _deferred_due(self) -> bool:
         """True when the rolling horizon now reaches a deferred task."""
@@ -443,11 +530,39 @@ class Engine:
                 out,
             )
             return
+        config = self.config
+        limit = config.max_tasks_per_goal
+        if limit is not None and len(goal.tasks) > limit:
+            self._reject_goal(
+                goal.goal_id,
+                [
+                    FieldIssue(
+                        "tasks",
+                        f"{len(goal.tasks)} tasks; the limit is {limit} "
+                        "per goal (tasks-per-goal)",
+                    )
+                ],
+                out,
+            )
+            return
+        waiting = self.goals_waiting
+        if (
+            config.max_goals_waiting is not None
+            and waiting >= config.max_goals_waiting
+        ):
+            self._reject_goal(
+                goal.goal_id,
+                [FieldIssue("", f"busy: {waiting} goals waiting")],
+                out,
+            )
+            return
         # Validate against the live state now so a bad goal is rejected at
         # once, even when it has to wait for a solve in flight.
         if self.schedule is not None:
             try:
-                apply_goal(self.schedule, goal, self._clock())
+                self._live_checked(
+                    apply_goal(self.schedule, goal, self._clock())
+                )
             except InputError as error:
                 self._reject_goal(goal.goal_id, error.issues, out)
                 return
@@ -456,6 +571,36 @@ class Engine:
             out.append(
                 Log("info", f"goal {goal.goal_id} queued behind a solve")
             )
+            out.append(
+                Publish(
+                    topics.STATUS,
+                    self._status(
+                        "goal_queued",
+                        goal_id=goal.goal_id,
+                        detail=f"waiting behind solve "
+                        f"{self._pending.solve_id} "
+                        f"({self._pending.trigger}); "
+                        f"{waiting + 1} goals waiting",
+                    ),
+                )
+            )
+
+    def _live_checked(self, replan: Replan) -> Replan:
+        """``replan``, unless it would hold more than ``max_live_tasks``."""
+        limit = self.config.max_live_tasks
+        live = replan.problem.num_tasks + len(replan.deferred)
+        if limit is not None and live > limit:
+            raise InputError(
+                [
+                    FieldIssue(
+                        "tasks",
+                        f"the plan would hold {live} live tasks; the limit "
+                        f"is {limit} (live-tasks)",
+                    )
+                ],
+                "goal",
+            )
+        return replan
 
     def _on_report(self, report: ActivityReport, out: list[Command]) -> None:
         schedule = self.schedule
@@ -480,6 +625,7 @@ class Engine:
             return
         self._count(reports=self._counters.reports + 1)
         self._dispatched.pop(report.task, None)
+        self._sent.pop(report.task, None)
         at = min(report.at, self._clock())
         self.schedule = schedule.with_report(
             ExecutionReport(report.task, report.state, at)
@@ -488,7 +634,7 @@ class Engine:
         out.append(
             Publish(
                 topics.STATUS,
-                self.status(
+                self._status(
                     "activity",
                     detail=f"{report.task} {report.state} at {report.at}",
                 ),
@@ -531,7 +677,7 @@ class Engine:
         out.append(
             Publish(
                 topics.STATUS,
-                self.status(
+                self._status(
                     "drift",
                     detail=f"{d.resource} measured {d.measured:g} at {at}, "
                     f"plan predicted {d.predicted:g}",
@@ -647,7 +793,9 @@ class Engine:
                 schedule.problem.start,
             )
             failures = [c for c in self._queue if c.kind == "failure"]
-            goals = [c for c in self._queue if c.kind == "goal"]
+            goals = [c for c in self._queue if c.kind == "goal"][
+                : self.config.max_goals_per_solve
+            ]
             if failures:
                 change = failures[0]
                 self._queue.remove(change)
@@ -704,7 +852,9 @@ class Engine:
             assert change.goal is not None
             candidate = _merge_goals([*accepted, change.goal])
             try:
-                replan = apply_goal(schedule, candidate, now)
+                replan = self._live_checked(
+                    apply_goal(schedule, candidate, now)
+                )
             except InputError as error:
                 self._reject_goal(change.goal.goal_id, error.issues, out)
                 continue
@@ -839,7 +989,7 @@ class Engine:
                 out,
             )
         if not pending.goals:
-            out.append(Publish(topics.STATUS, self.status("solve_failed")))
+            out.append(Publish(topics.STATUS, self._status("solve_failed")))
 
     def _solve_record(self, pending: PendingSolve, plan: Plan) -> Publish:
         problem = pending.problem
@@ -891,10 +1041,17 @@ class Engine:
             if activity.task in continuing:
                 continue
             state = self._lifecycle.get(activity.task)
-            if state in ("running", "dispatched"):
-                self._lifecycle[activity.task] = "preempted"
+            if state == "dispatched" and self._sent.get(activity.task) == (
+                activity.start,
+                activity.end,
+            ):
+                # Unchanged by this plan: the dispatch already sent stands
+                # (sending it again with each replan made storms).
+                continue
             self._lifecycle[activity.task] = "planned"
             self._dispatched.pop(activity.task, None)
+            self._sent.pop(activity.task, None)
+        self._forget_history()
         self._plan_message = PlanMessage(
             plan_id=self.plan_id,
             issued_at=self._clock(),
@@ -930,10 +1087,10 @@ class Engine:
             out.append(
                 Publish(
                     topics.STATUS,
-                    self.status("goal_accepted", goal_id=goal_id),
+                    self._status("goal_accepted", goal_id=goal_id),
                 )
             )
-        out.append(Publish(topics.STATUS, self.status("plan")))
+        out.append(Publish(topics.STATUS, self._status("plan")))
 
     def _dispatch_due(self, out: list[Command]) -> None:
         schedule = self.schedule
@@ -952,6 +1109,7 @@ class Engine:
             task = schedule.problem.task(activity.task)
             self._lifecycle[activity.task] = "dispatched"
             self._dispatched[activity.task] = self.now
+            self._sent[activity.task] = (activity.start, activity.end)
             self._count(
                 dispatches=self._counters.dispatches + 1,
                 late_dispatches=self._counters.late_dispatches + late,
@@ -967,9 +1125,25 @@ class Engine:
                         uses=dict(sorted(task.uses.items())),
                         dispatched_at=self.now,
                         late=late,
+                        dispatch_id=(
+                            f"{activity.task}:{activity.start}-{activity.end}"
+                        ),
                     ),
                 )
             )
+
+    def _forget_history(self) -> None:
+        """Keep at most ``max_history`` finished entries (oldest go)."""
+        finished = [
+            task
+            for task, state in self._lifecycle.items()
+            if state not in ("planned", "dispatched", "running")
+        ]
+        excess = max(0, len(finished) - self.config.max_history)
+        for task in finished[:excess]:
+            del self._lifecycle[task]
+            self._reported.pop(task, None)
+            self._sent.pop(task, None)
 
     def _check_report_timeouts(self, out: list[Command]) -> None:
         timeout = self.config.report_timeout
@@ -978,6 +1152,7 @@ class Engine:
         for task, since in sorted(self._dispatched.items()):
             if self.now - since > timeout:
                 del self._dispatched[task]
+                self._sent.pop(task, None)
                 self._lifecycle[task] = "failed"
                 out.append(
                     Log(
@@ -1032,7 +1207,7 @@ class Engine:
         errors: list[FieldIssue] | tuple[FieldIssue, ...],
         out: list[Command],
         event: str,
-        **fields: object,
+        **fields: Any,
     ) -> None:
         """Log a rejection and publish it on the status key."""
         text = "; ".join(str(e) for e in errors)
@@ -1040,7 +1215,7 @@ class Engine:
         out.append(
             Publish(
                 topics.STATUS,
-                self.status(event, errors=tuple(errors), **fields),
+                self._status(event, errors=tuple(errors), **fields),
             )
         )
 
@@ -1054,6 +1229,9 @@ class Engine:
 
     def _clock(self) -> int:
         return self.now if self.now is not None else 0
+
+
+_STALLED = "bus clock stalled"
 
 
 def _merge_goals(goals: list[Goal]) -> Goal:

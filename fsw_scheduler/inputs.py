@@ -15,8 +15,9 @@ from typing import Any
 import msgspec
 
 from . import messages
-from .bus.topics import Topics, input_kind
+from .bus.topics import GOALS, Topics, input_kind
 from .engine import (
+    ClockStalled,
     Event,
     GoalArrived,
     InputRejected,
@@ -25,7 +26,7 @@ from .engine import (
     Tick,
 )
 from .errors import FieldIssue, InputError
-from .model import MAX_ID_LENGTH
+from .model import MAX_ID_LENGTH, MAX_TIME
 
 
 class InputDecoder:
@@ -39,11 +40,18 @@ class InputDecoder:
         ``bus``: clock messages are ticks; ``wall``: the node keeps its own
         time, clock messages are ignored and its ticks come from the
         ``scheduler/ticks`` journal channel.
+    max_clock_step
+        Largest forward step of one bus clock message, in units (None: no
+        limit); a bigger step is rejected and time stays where it was.
+        Clock values are integers in ``[0, MAX_TIME]`` in any case.
     """
 
-    def __init__(self, topics: Topics, clock: str) -> None:
+    def __init__(
+        self, topics: Topics, clock: str, max_clock_step: int | None = None
+    ) -> None:
         self.topics = topics
         self.clock = clock
+        self.max_clock_step = max_clock_step
         self.bus_now: int | None = None
 
     def event(self, key: str, payload: bytes) -> Event | None:
@@ -64,7 +72,10 @@ class InputDecoder:
     def _event(self, kind: str, key: str, message: Any) -> Event | None:
         if kind == "tick":
             return Tick(message.now)
+        if kind == "stalled":
+            return ClockStalled(message.seconds, message.last)
         if kind == "clock":
+            self._check_clock(message.now)
             if self.bus_now is not None and message.now < self.bus_now:
                 raise InputError(
                     [
@@ -80,6 +91,17 @@ class InputDecoder:
             return Tick(message.now)
         if kind == "goal":
             return GoalArrived(message)
+        if kind == "busy":
+            return InputRejected(
+                self.topics.key(GOALS),
+                "goal",
+                (
+                    FieldIssue(
+                        "", f"busy: {message.waiting} goals waiting"
+                    ),
+                ),
+                message.goal_id,
+            )
         name = key.rsplit("/", 1)[-1]
         field = "task" if kind == "activity_report" else "resource"
         value = getattr(message, field)
@@ -95,6 +117,30 @@ class InputDecoder:
         if kind == "activity_report":
             return ReportArrived(message)
         return LevelArrived(message)
+
+    def _check_clock(self, now: int) -> None:
+        if not 0 <= now <= MAX_TIME:
+            raise InputError(
+                [FieldIssue("now", f"{now} is outside [0, {MAX_TIME}]")],
+                "clock",
+            )
+        step = self.max_clock_step
+        if (
+            step is not None
+            and self.bus_now is not None
+            and now - self.bus_now > step
+        ):
+            raise InputError(
+                [
+                    FieldIssue(
+                        "now",
+                        f"clock jumped from {self.bus_now} to {now}: more "
+                        f"than {step} units in one message "
+                        "(max-clock-step)",
+                    )
+                ],
+                "clock",
+            )
 
 
 class _GoalHead(msgspec.Struct):

@@ -110,7 +110,14 @@ class PlanMessage(msgspec.Struct, frozen=True):
 
 
 class Dispatch(msgspec.Struct, frozen=True, omit_defaults=True):
-    """``scheduler/dispatch/<task>``: start this activity now."""
+    """``scheduler/dispatch/<task>``: start this activity now.
+
+    An activity is dispatched once per plan change of that activity: a
+    replan that keeps it where it was sends nothing. ``dispatch_id``
+    (``<task>:<start>-<end>``) names the command; a receiver that already
+    acts on that id ignores a repeat, and a new id for the same task
+    replaces the earlier command.
+    """
 
     task: str
     plan_id: int
@@ -119,6 +126,7 @@ class Dispatch(msgspec.Struct, frozen=True, omit_defaults=True):
     uses: dict[str, float]
     dispatched_at: int = 0
     late: bool = False
+    dispatch_id: str = ""
 
 
 class Source(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -171,7 +179,16 @@ class SolveSummary(msgspec.Struct, frozen=True, omit_defaults=True):
 
 
 class Counters(msgspec.Struct, frozen=True, omit_defaults=True):
-    """Running totals since start."""
+    """Running totals since start.
+
+    The last six are the bus shell's: ``inputs_dropped`` (telemetry that
+    found the inbox's byte budget spent; it was never processed),
+    ``telemetry_superseded`` (samples replaced in the inbox by a newer
+    one on the same key before the loop read them: latest value wins),
+    ``goals_busy`` (goals refused because too many were waiting; each got
+    a ``goal_rejected``), ``queries_dropped``, ``publish_failures`` and
+    ``loop_faults`` (inputs whose handling raised; the loop went on).
+    """
 
     goals_accepted: int = 0
     goals_rejected: int = 0
@@ -182,19 +199,32 @@ class Counters(msgspec.Struct, frozen=True, omit_defaults=True):
     reports: int = 0
     inputs_rejected: int = 0
     inputs_dropped: int = 0
+    telemetry_superseded: int = 0
+    goals_busy: int = 0
+    queries_dropped: int = 0
+    publish_failures: int = 0
+    loop_faults: int = 0
 
 
 class Status(msgspec.Struct, frozen=True, omit_defaults=True):
     """``scheduler/status``: health, counters and the latest event.
 
     ``event`` names what this message reports (``started``, ``plan``,
-    ``goal_accepted``, ``goal_rejected``, ``solve_failed``,
-    ``input_rejected``, ``activity``, ``drift``, ``heartbeat``, ``alarm``,
-    ``resumed``, ``took_over``); with ``goal_id`` and ``errors`` (``path``
-    + ``reason``) for rejections. ``resumed`` and ``took_over`` carry
-    ``from_plan_id`` and ``at`` (the plan and time the state was rebuilt
-    at). ``state`` is ``standby`` on a node that follows another one;
-    ``active`` then names the commanding node, ``node_id`` this one.
+    ``goal_queued``, ``goal_accepted``, ``goal_rejected``,
+    ``solve_failed``, ``input_rejected``, ``activity``, ``drift``,
+    ``clock_stalled``, ``clock_resumed``, ``heartbeat``,
+    ``loop_stopped``, ``alarm``, ``resumed``, ``took_over``); with
+    ``goal_id`` and ``errors`` (``path`` + ``reason``) for rejections.
+    ``resumed`` and ``took_over`` carry ``from_plan_id`` and ``at`` (the
+    plan and time the state was rebuilt at). ``state`` is ``standby`` on a
+    node that follows another one; ``active`` then names the commanding
+    node, ``node_id`` this one.
+
+    ``activities`` (the lifecycle of every activity) is in heartbeats and
+    query answers only; every published status carries ``changed``, the
+    entries that changed since the previous published status, so applying
+    them in order to the last full map gives the current one.
+
     ``source`` says where the goal, report or level a verdict is about
     came from (set by the bus node; ``replay --verify`` ignores it).
     """
@@ -214,7 +244,32 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
     at: int | None = None
     active: str | None = None
     node_id: str | None = None
+    changed: dict[str, str] = {}
     source: Source | None = None
+
+
+class Busy(msgspec.Struct, frozen=True):
+    """``scheduler/busy`` (journal only): a goal refused unread.
+
+    The node's inbox already held as many goals (or bytes) as its limits
+    allow, so the goal was not decoded; it is reported ``goal_rejected``
+    with ``busy: <waiting> goals waiting``. Journaled so that replay
+    reproduces the rejection where it happened.
+    """
+
+    goal_id: str | None
+    waiting: int
+
+
+class Stalled(msgspec.Struct, frozen=True):
+    """``scheduler/stalled`` (journal only): the bus clock stopped.
+
+    No clock message for ``seconds`` of wall-clock time since the last
+    one (unit ``last``); the status turns ``degraded`` until one comes.
+    """
+
+    seconds: float
+    last: int | None = None
 
 
 class SolveRecord(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -279,7 +334,13 @@ class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     version: str = ""
     problem: Problem | None = None
     security: SecurityInfo | None = None
-    resumed: bool = False
+    resumed: str = ""
+    node_id: str | None = None
+    tasks_per_goal: int = 100
+    live_tasks: int = 300
+    goals_waiting: int = 64
+    goals_per_solve: int = 16
+    max_clock_step: int | None = None
 
 
 #: Message types of each key (relative to ``fsw/<sc>/``), for schemas.
@@ -295,6 +356,8 @@ SCHEMA_TYPES: dict[str, Any] = {
     "node_info": NodeInfo,
     "input_source": InputSource,
     "problem": Problem,
+    "busy": Busy,
+    "stalled": Stalled,
 }
 
 _encoder = msgspec.json.Encoder()

@@ -21,7 +21,10 @@ status replies to queries (never recorded). Everything else must match:
 plan ids, activities, unscheduled tasks and reasons, objectives, dispatch
 times and contents, lifecycle states, rejection messages. Fields that a newer
 version added and the recording does not have are not compared, so old
-recordings keep verifying as message types grow.
+recordings keep verifying as message types grow. Statuses once carried
+the whole lifecycle map; now only heartbeats do and the others carry what
+``changed``: against such a recording, the map rebuilt from the replayed
+statuses (last full map plus every change since) is compared.
 """
 
 from __future__ import annotations
@@ -45,9 +48,18 @@ from .solution import Plan
 #: Fields left out of the comparison, per output kind (dotted paths).
 EXCLUDED: dict[str, tuple[str, ...]] = {
     "plan": ("stats",),
-    # The source of an input is a property of the live bus (session ids,
-    # certificates), not a decision: the engine never sees it.
-    "status": ("counters.inputs_dropped", "last_solve.wall_s", "source"),
+    "status": (
+        "counters.inputs_dropped",
+        "counters.telemetry_superseded",
+        "counters.goals_busy",
+        "counters.queries_dropped",
+        "counters.publish_failures",
+        "counters.loop_faults",
+        "last_solve.wall_s",
+        # The source of an input is a property of the live bus (session
+        # ids, certificates), not a decision: the engine never sees it.
+        "source",
+    ),
     "solve_record": (
         "build_s",
         "solve_s",
@@ -95,6 +107,7 @@ class VerifyReport:
     dispatches: int = 0
     divergence: Divergence | None = None
     notes: list[str] = field(default_factory=list)
+    lifecycle: dict[str, str] = field(default_factory=dict, repr=False)
 
     @property
     def identical(self) -> bool:
@@ -154,6 +167,12 @@ def config_from_info(info: messages.NodeInfo) -> NodeConfig:
         drift_relative=info.drift_relative,
         heartbeat=info.heartbeat,
         replan_lead=info.replan_lead,
+        tasks_per_goal=info.tasks_per_goal,
+        live_tasks=info.live_tasks,
+        goals_waiting=info.goals_waiting,
+        goals_per_solve=info.goals_per_solve,
+        max_clock_step=info.max_clock_step,
+        node_id=info.node_id,
     )
 
 
@@ -220,7 +239,7 @@ def verify(
         if snapshot is not None
         else Engine(engine_config(config), info.problem)
     )
-    decoder = InputDecoder(topics, config.clock)
+    decoder = InputDecoder(topics, config.clock, config.max_clock_step)
     solve = solve_fn or run_solve
     report = VerifyReport()
     produced: deque[tuple[str, bytes]] = deque()
@@ -249,7 +268,7 @@ def verify(
         # that resumed said so first and asked again for the solve that was
         # in flight; after a rotation, that solve is still running.
         if info.resumed:
-            run([engine.resumed()])
+            run([engine.resumed(info.resumed)])
         pending = engine.pending_solve()
         if pending is not None:
             results[pending.solve_id] = solve(config, pending)
@@ -377,7 +396,7 @@ def rebuild(
         if snapshot is not None
         else Engine(engine_config(config), info.problem)
     )
-    decoder = InputDecoder(topics, config.clock)
+    decoder = InputDecoder(topics, config.clock, config.max_clock_step)
     out = Rebuilt(engine, config)
     now = (snapshot.now or 0) if snapshot is not None else 0
     out.last_tick = snapshot.now if snapshot is not None else None
@@ -453,6 +472,26 @@ def _only_recorded_fields(got: Any, recorded: Any) -> Any:
     return got
 
 
+def _rebuild_lifecycle(
+    lifecycle: dict[str, str], got: dict[str, Any], expected: Any
+) -> None:
+    """Follow the lifecycle map through replayed statuses.
+
+    A status with ``activities`` resets the map, ``changed`` updates it;
+    a recorded status with the whole map is compared with the rebuilt one.
+    """
+    if "activities" in got:
+        lifecycle.clear()
+        lifecycle.update(got["activities"])
+    lifecycle.update(got.get("changed", {}))
+    if (
+        isinstance(expected, dict)
+        and "activities" in expected
+        and "activities" not in got
+    ):
+        got["activities"] = dict(sorted(lifecycle.items()))
+
+
 def _compare(
     report: VerifyReport,
     produced: deque[tuple[str, bytes]],
@@ -471,8 +510,11 @@ def _compare(
         )
         return False
     key, payload = produced.popleft()
+    got = _normalise(kind, payload)
+    if kind == "status" and isinstance(got, dict):
+        _rebuild_lifecycle(report.lifecycle, got, expected)
     got = (
-        _only_recorded_fields(_normalise(kind, payload), expected)
+        _only_recorded_fields(got, expected)
         if key == message.topic
         else (msgspec.json.decode(payload))
     )

@@ -86,6 +86,8 @@ class EngineSnapshot(msgspec.Struct, frozen=True, omit_defaults=True):
     queue: tuple[QueuedChange, ...] = ()
     dispatched: dict[str, int] = {}
     lifecycle: dict[str, Lifecycle] = {}
+    reported: dict[str, Lifecycle] = {}
+    sent: dict[str, tuple[int, int]] = {}
     counters: Counters = Counters()
     last_solve: SolveSummary | None = None
     inputs: int = 0

@@ -10,17 +10,23 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import threading
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import pytest
+import zenoh
 
 from fsw_scheduler.bus import topics as keys
 from fsw_scheduler.model import MAX_ID_LENGTH
+from fsw_scheduler.testing import harness_config
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
 
+    from fsw_scheduler.config import NodeConfig
+    from fsw_scheduler.engine import StartSolve
+    from fsw_scheduler.solution import Plan
     from fsw_scheduler.testing import SchedulerHarness
 
 pytest_plugins = ["fsw_scheduler.testing"]
@@ -215,3 +221,395 @@ def test_spacecraft_id_is_checked() -> None:
     assert done.returncode == 2
     assert "spacecraft id 'sat/*'" in done.stderr
     assert keys.DEFAULT_SPACECRAFT == "sat1"
+
+
+# -- finding 1: a native fault does not kill the loop ------------------------
+
+
+def _panic_type() -> type[BaseException]:
+    """The exception type of a real Rust panic in zenoh-python.
+
+    A put on a 70 kB key fails to write and panics; the pair of sessions
+    used for it is thrown away (the panic poisons its transmit pipeline).
+    """
+    from fsw_scheduler.bus.session import open_peer_pair, wait_matching
+
+    with open_peer_pair() as (a, b):
+        sub = b.declare_subscriber("probe/**", lambda _s: None)
+        wait_matching(a, "probe/x")
+        try:
+            a.put("probe/" + "x" * 70_000, b"")
+        except BaseException as error:
+            assert not isinstance(error, Exception)
+            return type(error)
+        finally:
+            sub.undeclare()
+    raise AssertionError("no panic")
+
+
+class _FaultySession:
+    """The node's session, with ``put`` panicking on some keys."""
+
+    def __init__(self, real: object, poison: str, panic: type) -> None:
+        self._real = real
+        self._poison = poison
+        self._panic = panic
+        self.raised = 0
+
+    def put(self, key: str, *args: object, **kwargs: object) -> None:
+        if self._poison in key:
+            self.raised += 1
+            raise self._panic("called `Result::unwrap()` on an `Err` value")
+        self._real.put(key, *args, **kwargs)  # type: ignore[attr-defined]
+
+    def __getattr__(self, name: str) -> object:
+        return getattr(self._real, name)
+
+
+def test_a_panic_in_a_publish_does_not_kill_the_loop(
+    started: SchedulerHarness,
+) -> None:
+    """Tests that a BaseException from zenoh's put is survived per input."""
+    h = started
+    panic = _panic_type()
+    faulty = _FaultySession(h.node.session, "dispatch/SetPositionK", panic)
+    h.node.session = faulty  # type: ignore[assignment]
+    plan = h.wait_plan()
+    k = next(a for a in plan.activities if a.task == "SetPositionK")
+    # Not tick(): it waits for every counted dispatch, and one never goes.
+    h.clock(k.start)
+    status = h.query_status()
+    while status.now != k.start:
+        status = h.query_status()
+    assert faulty.raised == 1
+    assert h.node.alive and h.node.failed is None
+    assert status.counters.publish_failures == 1
+    # Still serving: a later goal gets its verdict, queries are answered.
+    h.publish_goal(goal_of("after-panic", task("Late")))
+    h.wait_status(
+        lambda s: s.event == "goal_accepted" and s.goal_id == "after-panic"
+    )
+    assert h.query_status().counters.publish_failures == 1
+
+
+POISONED_RUN = """
+import sys
+from fsw_scheduler import engine
+
+real_step = engine.Engine.step
+
+
+def step(self, event, now):
+    goal = getattr(event, "goal", None)
+    if goal is not None and goal.goal_id == "poison":
+        raise SystemExit("a fault the loop's guard lets through")
+    return real_step(self, event, now)
+
+
+engine.Engine.step = step
+from fsw_scheduler.cli import main
+
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_a_dead_loop_withdraws_its_token_and_exits_non_zero(
+    tmp_path: Path,
+) -> None:
+    """Tests that a loop that dies says error, drops its token, exits 1."""
+    import zenoh
+
+    from fsw_scheduler.bus.session import (
+        listening_endpoints,
+        loopback_config,
+    )
+    from fsw_scheduler.testing import SchedulerClient
+
+    from .test_node import Liveliness
+
+    script = tmp_path / "poisoned.py"
+    script.write_text(POISONED_RUN)
+    # The test listens; the node connects to it (no port race).
+    with zenoh.open(loopback_config()) as session:
+        (endpoint,) = [
+            e for e in listening_endpoints(session) if e.startswith("tcp/")
+        ]
+        watch = Liveliness(session)
+        client = SchedulerClient(session)
+        process = subprocess.Popen(
+            [
+                sys.executable,
+                str(script),
+                "run",
+                "--problem",
+                str(DATA / "paper_table1.json"),
+                "--clock",
+                "bus",
+                "--mode",
+                "peer",
+                "--connect",
+                endpoint,
+                "--listen",
+                "tcp/127.0.0.1:0",
+                "--no-multicast-scouting",
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            watch.expect(zenoh.SampleKind.PUT, timeout=30)
+            client.wait_scheduler(30)
+            client.tick(0, timeout=30)
+            client.publish_goal(goal_of("poison", task("P")))
+            error = client.wait_status(lambda s: s.state == "error")
+            assert "event loop stopped" in error.detail
+            assert error.event == "loop_stopped"
+            watch.expect(zenoh.SampleKind.DELETE)
+            assert process.wait(20) == 1
+            assert process.stderr is not None
+            assert "error: SystemExit" in process.stderr.read()
+        finally:
+            if process.poll() is None:
+                process.kill()
+                process.wait(10)
+            if process.stderr is not None:
+                process.stderr.close()
+            client.close()
+            watch.close()
+
+
+# -- finding 3: no silent input loss -----------------------------------------
+
+
+@pytest.mark.parametrize(
+    "scheduler_config",
+    [
+        harness_config(
+            inbox_capacity=2, goals_waiting=3, goals_per_solve=2, live_tasks=14
+        )
+    ],
+)
+def test_a_goal_flood_gets_a_verdict_for_every_goal(
+    started: SchedulerHarness, scheduler_config: NodeConfig
+) -> None:
+    """Tests that every flooded goal is accepted or rejected by name."""
+    h = started
+    sent = [f"flood{n}" for n in range(150)]
+    publisher = h.client.declare_publisher(
+        h.topics.key(keys.GOALS),
+        congestion_control=zenoh.CongestionControl.BLOCK,
+    )
+    try:
+        for goal_id in sent:
+            publisher.put(json.dumps(goal_of(goal_id, task(f"T{goal_id}"))))
+    finally:
+        publisher.undeclare()
+    verdicts: dict[str, list[str]] = {}
+
+    def all_decided() -> bool:
+        verdicts.clear()
+        for s in list(h.statuses):
+            if s.event in ("goal_accepted", "goal_rejected") and s.goal_id:
+                verdicts.setdefault(s.goal_id, []).append(
+                    s.errors[0].reason if s.errors else "accepted"
+                )
+        return set(verdicts) >= set(sent)
+
+    with h._cond:
+        assert h._cond.wait_for(all_decided, 60), set(sent) - set(verdicts)
+    assert all(len(v) == 1 for v in verdicts.values())  # one verdict each
+    reasons = [v[0] for v in verdicts.values()]
+    busy = [r for r in reasons if r.startswith("busy: ")]
+    assert busy, reasons
+    assert all(r.endswith(" goals waiting") for r in busy)
+    accepted = {g for g, v in verdicts.items() if v == ["accepted"]}
+    status = h.settle()
+    assert status.counters.goals_accepted == len(accepted)
+    assert status.counters.goals_rejected == len(sent) - len(accepted)
+    plan = h.query_plan()
+    assert plan is not None
+    planned = {a.task for a in plan.activities} | set(plan.unscheduled)
+    assert {f"T{g}" for g in accepted} <= planned
+
+
+def test_telemetry_is_coalesced_never_lost(
+    started: SchedulerHarness,
+) -> None:
+    """Tests that a telemetry flood is processed or superseded, not lost."""
+    h = started
+    battery = h.problem.resources.consumable["battery"]
+    before = h.settle(0)
+    seen = h.node.engine.inputs_seen
+    publisher = h.client.declare_publisher(
+        h.topics.resource_level("battery"),
+        congestion_control=zenoh.CongestionControl.BLOCK,
+    )
+    sent = 3000
+    try:
+        for _ in range(sent):
+            publisher.put(
+                json.dumps({"resource": "battery", "level": battery, "at": 0})
+            )
+    finally:
+        publisher.undeclare()
+    after = h.settle(0)
+    processed = h.node.engine.inputs_seen - seen
+    superseded = (
+        after.counters.telemetry_superseded
+        - before.counters.telemetry_superseded
+    )
+    assert processed + superseded == sent
+    assert after.counters.inputs_dropped == 0
+    assert after.plan_id == before.plan_id
+
+
+# -- finding 5: goals waiting behind a solve, limits -------------------------
+
+
+def test_goals_behind_a_solve_are_queued_at_once(
+    scheduler_problem: object,
+) -> None:
+    """Tests goal_queued for a goal waiting behind a running solve."""
+    from fsw_scheduler.bus.node import run_solve
+    from fsw_scheduler.testing import SchedulerHarness
+
+    release = threading.Event()
+
+    def held(config: NodeConfig, command: StartSolve) -> Plan:
+        if command.trigger == "goal":
+            release.wait(30)
+        return run_solve(config, command)
+
+    with SchedulerHarness(
+        config=harness_config(tasks_per_goal=2, live_tasks=11),
+        solve_fn=held,
+    ) as h:
+        h.tick(0)
+        h.publish_goal(goal_of("first", task("A")))
+        while not h.query_status().busy:  # each query waits on the node
+            pass
+        h.publish_goal(goal_of("second", task("B")))
+        queued = h.wait_status(lambda s: s.event == "goal_queued")
+        assert queued.goal_id == "second"
+        assert "waiting behind solve" in queued.detail
+        status = rejection(
+            h, goal_of("big", task("C"), task("D"), task("E")), "big"
+        )
+        assert [e.path for e in status.errors] == ["tasks"]
+        assert "limit is 2 per goal" in status.errors[0].reason
+        release.set()
+        for goal_id in ("first", "second"):
+            h.wait_status(
+                lambda s, g=goal_id: s.event == "goal_accepted"
+                and s.goal_id == g
+            )
+        # 9 tasks of Table 1, A and B: the limit of 11 live tasks is full.
+        status = rejection(h, goal_of("third", task("F")), "third")
+        assert [e.path for e in status.errors] == ["tasks"]
+        assert "12 live tasks; the limit is 11" in status.errors[0].reason
+
+
+# -- finding 7: verdicts carry what changed -----------------------------------
+
+
+@pytest.mark.parametrize("scheduler_config", [harness_config(heartbeat=5)])
+def test_verdicts_carry_changes_heartbeats_the_map(
+    started: SchedulerHarness, scheduler_config: NodeConfig
+) -> None:
+    """Tests that only heartbeats and queries carry the lifecycle map."""
+    h = started
+    for n in range(3):
+        h.publish_goal(goal_of(f"v{n}", task(f"V{n}")))
+        h.wait_status(
+            lambda s, g=f"v{n}": s.event == "goal_accepted" and s.goal_id == g
+        )
+    h.settle(0)
+    raw = [
+        json.loads(p) for k, p in h.samples if k == h.topics.key(keys.STATUS)
+    ]
+    verdicts = [r for r in raw if r["event"] != "heartbeat"]
+    assert verdicts and all("activities" not in r for r in verdicts)
+    # The changes, applied in order, rebuild the full map.
+    rebuilt: dict[str, str] = {}
+    for r in raw:
+        rebuilt.update(r.get("activities", {}))
+        rebuilt.update(r.get("changed", {}))
+    # Dispatches after the last status are seen on the dispatch keys.
+    for d in h.dispatches:
+        if rebuilt.get(d.task) == "planned":
+            rebuilt[d.task] = "dispatched"
+    assert rebuilt == h.query_status().activities
+    plan_status = next(r for r in reversed(raw) if r["event"] == "plan")
+    assert set(plan_status.get("changed", {})) <= set(rebuilt)
+    h.tick(5)
+    beat = h.wait_status(lambda s: s.event == "heartbeat")
+    assert set(beat.activities) == set(h.query_status().activities)
+
+
+# -- finding 8: one dispatch per plan change ----------------------------------
+
+
+def test_replans_do_not_dispatch_again(started: SchedulerHarness) -> None:
+    """Tests that a dispatched, unreported activity is not re-dispatched."""
+    h = started
+    first = h.wait_dispatch("SetPositionX")
+    for n in range(6):
+        h.publish_goal(goal_of(f"r{n}", task(f"R{n}")))
+        h.wait_plan(lambda p, g=f"r{n}": g in p.goals)
+    h.settle(0)
+    again = [d for d in h.dispatches if d.task == "SetPositionX"]
+    assert again == [first]
+    assert first.dispatch_id == f"SetPositionX:{first.start}-{first.end}"
+    assert h.query_status().activities["SetPositionX"] == "dispatched"
+
+
+# -- finding 4: clock bounds and a stalled bus clock --------------------------
+
+
+def test_clock_jumps_are_rejected_and_time_stays(
+    started: SchedulerHarness,
+) -> None:
+    """Tests that huge or out-of-range clock values are rejected."""
+    h = started
+    plan = h.wait_plan()
+    dispatched = len(h.dispatches)
+    for now, words in (
+        (2**62, "outside [0, 2147483647]"),
+        (2**20, "more than 100 units"),
+        (10**6, "more than 100 units"),
+        (2**31, "outside [0, 2147483647]"),
+        (10**23, "outside [0, 2147483647]"),
+        (-1, "outside"),
+    ):
+        seen = len(h.statuses)
+        h.clock(now)
+        status = h.wait_status(
+            lambda s: s.event == "input_rejected", since=seen
+        )
+        assert [e.path for e in status.errors] == ["now"]
+        assert words in status.errors[0].reason, status.errors[0].reason
+    status = h.settle(0)
+    assert len(h.dispatches) == dispatched  # nothing fired
+    status = h.tick(1)
+    assert status.plan_id == plan.plan_id
+    first = {a.task for a in plan.activities if a.start <= 1}
+    assert {d.task for d in h.dispatches} == first
+
+
+@pytest.mark.parametrize(
+    "scheduler_config", [harness_config(clock_stall=0.3)]
+)
+def test_a_stalled_bus_clock_degrades_the_status(
+    started: SchedulerHarness, scheduler_config: NodeConfig
+) -> None:
+    """Tests that no tick for clock-stall seconds gives degraded, why."""
+    h = started
+    stalled = h.wait_status(lambda s: s.event == "clock_stalled")
+    assert stalled.state == "degraded"
+    assert "bus clock stalled" in stalled.detail
+    assert "since unit 0" in stalled.detail
+    seen = len(h.statuses)
+    h.clock(1)
+    resumed = h.wait_status(lambda s: s.event == "clock_resumed", since=seen)
+    assert resumed.state == "ok"

@@ -508,7 +508,7 @@ def test_authorised_roles_drive_the_scheduler(bus: SecureBus) -> None:
     assert dispatch.start == 1
     executor.report("DownlinkSat2Sat", "running", 1)
     executor.wait_status(
-        lambda s: s.activities.get("DownlinkSat2Sat") == "running"
+        lambda s: s.changed.get("DownlinkSat2Sat") == "running"
     )
     seen = bus.node.engine.inputs_seen
     telemetry.level("battery", 18.0, 1)
@@ -516,12 +516,6 @@ def test_authorised_roles_drive_the_scheduler(bus: SecureBus) -> None:
     assert bus.node.engine.inputs_seen == seen + 1
     plan = bus.monitor.query_plan()
     assert plan is not None and "beacon" in plan.goals
-    changes: queue.Queue[zenoh.SampleKind] = queue.Queue()
-    watch = bus.monitor.client.liveliness().declare_subscriber(
-        SC.key(keys.ALIVE), lambda s: changes.put(s.kind), history=True
-    )
-    assert changes.get(timeout=WAIT_S) == zenoh.SampleKind.PUT
-    watch.undeclare()
     alive = [
         r.ok
         for r in bus.monitor.client.liveliness().get(
@@ -531,6 +525,12 @@ def test_authorised_roles_drive_the_scheduler(bus: SecureBus) -> None:
     assert [str(s.key_expr) for s in alive if s is not None] == [
         SC.key(keys.ALIVE)
     ]
+    changes: queue.Queue[zenoh.SampleKind] = queue.Queue()
+    watch = bus.monitor.client.liveliness().declare_subscriber(
+        SC.key(keys.ALIVE), lambda s: changes.put(s.kind), history=True
+    )
+    assert changes.get(timeout=WAIT_S) == zenoh.SampleKind.PUT
+    watch.undeclare()
 
 
 FORGERIES = {

@@ -1,25 +1,37 @@
 """The scheduler as a Zenoh component: a thin shell around the engine.
 
 One thread (the event loop) owns the :class:`~fsw_scheduler.engine.Engine`.
-Zenoh callbacks only put raw samples and queries into a bounded inbox
-(dropping, and counting, what does not fit) and never call Zenoh or the
-engine. Solves run on a worker thread so that dispatches keep their timing;
-their results come back through the same inbox. Every input the loop
-processes and every output it publishes can be written, in processing
-order, to an MCAP *journal*: that linear record is what makes
+Zenoh callbacks only put raw samples and queries into the :class:`Inbox`
+and never call Zenoh or the engine, and never block: telemetry and clock
+samples are coalesced (the latest per key wins; the others are counted
+as superseded), goals wait up to a count and byte limit and beyond it are
+refused by name (``goal_rejected``, ``busy: N goals waiting``), never
+dropped silently. Solves run on a worker thread so that dispatches keep
+their timing; their results come back through the same inbox. Every input
+the loop processes and every output it publishes can be written, in
+processing order, to an MCAP *journal*: that linear record is what makes
 :mod:`fsw_scheduler.replay` exact.
+
+The loop survives what native code raises (a Rust panic in zenoh-python is
+a ``BaseException``): each input is handled under its own guard. If the
+loop stops anyway (a fault escaping the guard, or
+:data:`MAX_CONSECUTIVE_FAULTS` inputs failing in a row), it does not leave
+a live-looking node behind: it publishes ``state: error``, withdraws its
+liveliness token and marks the node :attr:`SchedulerNode.failed`, which
+makes ``fsw-scheduler run`` exit non-zero so a supervisor restarts it.
 """
 
 from __future__ import annotations
 
 import concurrent.futures
 import logging
-import queue
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+import msgspec
 import zenoh
 
 from .. import messages
@@ -36,13 +48,12 @@ from ..engine import (
     StartSolve,
     Tick,
 )
-from ..inputs import InputDecoder
+from ..errors import BusError
+from ..inputs import InputDecoder, goal_id_of
 from . import topics
 from .provenance import Origin, Provenance, capture
 
 if TYPE_CHECKING:
-    import msgspec
-
     from ..config import NodeConfig
     from ..model import Problem
     from ..recording import Recorder
@@ -54,6 +65,154 @@ JSON = zenoh.Encoding.APPLICATION_JSON
 
 SolveFn = Callable[..., "Plan"]
 
+#: Inputs failing in a row (or publishes failing in a row) after which
+#: the loop counts as unable to go on: it stops, says ``state: error``
+#: and withdraws its token.
+MAX_CONSECUTIVE_FAULTS = 20
+
+#: Queries waiting for the loop; more are dropped (the querier gets no
+#: reply) and counted.
+MAX_WAITING_QUERIES = 256
+
+#: Goals refused unread whose rejection waits to be published; more are
+#: counted as lost (never seen in practice: publishing one takes far less
+#: time than receiving one).
+MAX_BUSY_NOTICES = 65536
+
+# Faults that end the loop at once instead of being survived.
+_FATAL = (KeyboardInterrupt, SystemExit)
+
+
+class Inbox:
+    """What the Zenoh callbacks hand to the loop: bounded, never blocking.
+
+    Parameters
+    ----------
+    max_goals
+        Undecoded goals that may wait.
+    max_bytes
+        Payload bytes that may wait (goals and telemetry together).
+
+    Every method is safe from any thread and returns at once; the loop
+    takes items with :meth:`get`. Items are lists ``[kind, key, payload,
+    arrived, origin]`` (``payload`` is any object for internal kinds;
+    ``origin`` what a bus sample says of its sender, see
+    :mod:`~fsw_scheduler.bus.provenance`).
+    """
+
+    def __init__(self, max_goals: int, max_bytes: int) -> None:
+        self.max_goals = max_goals
+        self.max_bytes = max_bytes
+        self._cond = threading.Condition(threading.Lock())
+        self._items: deque[list[Any]] = deque()
+        self._latest: dict[str, list[Any]] = {}
+        self.goals = 0
+        self.bytes = 0
+        self.queries = 0
+        self.busy_notices = 0
+        self.superseded = 0
+        self.lost = 0
+        self.busy = 0
+        self.goals_lost = 0
+        self.queries_dropped = 0
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def put_goal(
+        self,
+        key: str,
+        payload: bytes,
+        arrived: float,
+        origin: Origin | None = None,
+    ) -> bool:
+        """Queue a goal; False when the limits are reached (not queued)."""
+        with self._cond:
+            if (
+                self.goals >= self.max_goals
+                or self.bytes + len(payload) > self.max_bytes
+            ):
+                return False
+            self.goals += 1
+            self.bytes += len(payload)
+            self._items.append(["goal", key, payload, arrived, origin])
+            self._cond.notify()
+            return True
+
+    def put_busy(self, goal_id: str | None, waiting: int) -> None:
+        """Queue the rejection of a goal refused by :meth:`put_goal`."""
+        with self._cond:
+            self.busy += 1
+            if self.busy_notices >= MAX_BUSY_NOTICES:
+                self.goals_lost += 1
+                return
+            self.busy_notices += 1
+            self._items.append(["busy", goal_id, waiting, 0.0, None])
+            self._cond.notify()
+
+    def put_latest(
+        self,
+        kind: str,
+        key: str,
+        payload: bytes,
+        origin: Origin | None = None,
+    ) -> None:
+        """Queue a sample; a newer one on the same key replaces it."""
+        with self._cond:
+            pending = self._latest.get(key)
+            if pending is not None:
+                self.bytes += len(payload) - len(pending[2])
+                pending[2] = payload
+                pending[4] = origin
+                self.superseded += 1
+                return
+            if self.bytes + len(payload) > self.max_bytes:
+                self.lost += 1
+                return
+            self.bytes += len(payload)
+            item = [kind, key, payload, 0.0, origin]
+            self._latest[key] = item
+            self._items.append(item)
+            self._cond.notify()
+
+    def put_query(self, item: Any) -> bool:
+        """Queue a query; False when too many wait (caller drops it)."""
+        with self._cond:
+            if self.queries >= MAX_WAITING_QUERIES:
+                self.queries_dropped += 1
+                return False
+            self.queries += 1
+            self._items.append(["query", "", item, 0.0, None])
+            self._cond.notify()
+            return True
+
+    def put(self, kind: str, item: Any) -> None:
+        """Queue an internal item (solve results, wake-ups): unbounded."""
+        with self._cond:
+            self._items.append([kind, "", item, 0.0, None])
+            self._cond.notify()
+
+    def get(self, timeout: float) -> list[Any] | None:
+        """The oldest item, waiting up to ``timeout`` s (None: nothing)."""
+        with self._cond:
+            if not self._items and not self._cond.wait_for(
+                lambda: bool(self._items), timeout
+            ):
+                return None
+            item = self._items.popleft()
+            kind = item[0]
+            if kind == "goal":
+                self.goals -= 1
+                self.bytes -= len(item[2])
+            elif kind == "busy":
+                self.busy_notices -= 1
+            elif kind == "query":
+                self.queries -= 1
+            elif self._latest.get(item[1]) is item:
+                del self._latest[item[1]]
+                self.bytes -= len(item[2])
+            return item
+
 
 def engine_config(config: NodeConfig) -> EngineConfig:
     """The engine settings carried by a node configuration."""
@@ -62,6 +221,11 @@ def engine_config(config: NodeConfig) -> EngineConfig:
         tolerance=config.tolerance,
         heartbeat=config.heartbeat,
         replan_lead=config.lead,
+        max_tasks_per_goal=config.tasks_per_goal,
+        max_live_tasks=config.live_tasks,
+        max_goals_waiting=config.goals_waiting,
+        max_goals_per_solve=config.goals_per_solve,
+        node_id=config.node_id,
     )
 
 
@@ -70,12 +234,12 @@ def node_info(
     problem: Problem,
     security: messages.SecurityInfo | None = None,
     *,
-    resumed: bool = False,
+    resumed: str = "",
 ) -> messages.NodeInfo:
     """What a recording needs to replay this node's decisions.
 
-    ``resumed``: the node rebuilt its state from its journal and starts by
-    saying so (replay then expects that status first).
+    ``resumed``: the status event (``resumed``, ``took_over``) a node
+    whose state was rebuilt starts with (replay then expects it first).
     """
     from .. import __version__
 
@@ -92,9 +256,15 @@ def node_info(
         drift_relative=config.drift_relative,
         heartbeat=config.heartbeat,
         replan_lead=config.lead,
+        tasks_per_goal=config.tasks_per_goal,
+        live_tasks=config.live_tasks,
+        goals_waiting=config.goals_waiting,
+        goals_per_solve=config.goals_per_solve,
+        max_clock_step=config.max_clock_step,
         version=__version__,
         problem=problem,
         resumed=resumed,
+        node_id=config.node_id,
         security=security,
     )
 
@@ -194,6 +364,8 @@ class SchedulerNode:
         solve_fn: Callable[[NodeConfig, StartSolve], Plan] = run_solve,
         security: messages.SecurityInfo | None = None,
         engine: Engine | None = None,
+        resumed_event: str = "resumed",
+        share_state: bool = False,
         durable: bool = False,
         journal_max_bytes: int | None = None,
         clock_start: int = 0,
@@ -205,7 +377,8 @@ class SchedulerNode:
         self.config = config
         self.topics = topics.Topics(config.spacecraft)
         # A rebuilt engine (resume from the journal) or a fresh one.
-        self.resumed = engine is not None
+        self.resumed = resumed_event if engine is not None else ""
+        self._share_state = share_state
         self.engine = engine or Engine(engine_config(config), problem)
         self._durable = durable and journal is not None
         self._journal_max_bytes = journal_max_bytes
@@ -213,16 +386,24 @@ class SchedulerNode:
         self._journal = _Journal(journal, wall_ns)
         self._seconds = seconds
         self._solve_fn = solve_fn
-        self._inbox: queue.Queue[tuple[str, Any]] = queue.Queue()
-        self._dropped = 0
+        self._inbox = Inbox(config.inbox_capacity, config.inbox_bytes)
         self._stop = threading.Event()
+        self._token: Any = None
+        self.failed: str | None = None
+        self._faults = 0
+        self._publish_failures = 0
+        self._publish_failures_in_a_row = 0
         self._closed = threading.Event()
         self._thread: threading.Thread | None = None
         self._workers = concurrent.futures.ThreadPoolExecutor(
             max_workers=1, thread_name_prefix="fsw-solve"
         )
         self._clock: UnitClock | None = None
-        self._decoder = InputDecoder(self.topics, config.clock)
+        self._decoder = InputDecoder(
+            self.topics, config.clock, config.max_clock_step
+        )
+        self._last_clock_s = seconds()
+        self._stall_reported = False
         self._last_tick: int | None = None
         self._declared: list[Any] = []
         self._publishers: dict[str, zenoh.Publisher] = {}
@@ -263,17 +444,17 @@ class SchedulerNode:
                     key(suffix), _direct(self._query_callback(suffix))
                 )
             )
-        self._declared.append(
-            session.liveliness().declare_token(key(topics.ALIVE))
-        )
+        self._token = session.liveliness().declare_token(key(topics.ALIVE))
         if self.config.clock == "wall":
             self._clock = UnitClock(
                 self._seconds, self.config.time_unit, self._clock_start
             )
-        self._thread = threading.Thread(
-            target=self._spin, name="fsw-scheduler-loop", daemon=True
-        )
-        self._thread.start()
+        if self._share_state:
+            self._publishers[topics.SNAPSHOT] = session.declare_publisher(
+                key(topics.SNAPSHOT), encoding=JSON
+            )
+        # Settings and state go first into the journal, from this thread,
+        # before the loop (the journal's only other writer) starts.
         self._publish_raw(
             topics.NODE_INFO,
             messages.encode(
@@ -287,8 +468,14 @@ class SchedulerNode:
         )
         if self._durable:
             self._write_snapshot()
+        if self._share_state:
+            self._share_snapshot()
         if self.resumed:
-            self._inbox.put(("resume", None))
+            self._inbox.put("resume", None)
+        self._thread = threading.Thread(
+            target=self._spin, name="fsw-scheduler-loop", daemon=True
+        )
+        self._thread.start()
         log.info(
             "scheduler up on %s (clock %s, solver %s)",
             self.topics.root,
@@ -300,10 +487,11 @@ class SchedulerNode:
     def close(self, timeout: float = 10.0) -> None:
         """Stop the loop, wait for it, undeclare everything."""
         self._stop.set()
-        self._inbox.put(("wake", None))
+        self._inbox.put("wake", None)
         if self._thread is not None:
             self._thread.join(timeout)
         self._workers.shutdown(wait=False, cancel_futures=True)
+        self._withdraw_token()
         for entity in [*self._declared, *self._publishers.values()]:
             try:
                 entity.undeclare()
@@ -325,49 +513,59 @@ class SchedulerNode:
     def request_stop(self) -> None:
         """Ask the loop to stop (safe from signal handlers)."""
         self._stop.set()
-        self._inbox.put(("wake", None))
+        self._inbox.put("wake", None)
 
     def wait_stopped(self, timeout: float | None = None) -> bool:
-        """Block until the loop has been asked to stop."""
+        """Block until the loop has been asked to stop (or has died)."""
         return self._stop.wait(timeout)
 
     @property
     def dropped(self) -> int:
-        """Inputs dropped because the inbox was full."""
-        return self._dropped
+        """Telemetry samples lost because the inbox's bytes were spent."""
+        return self._inbox.lost
 
-    # -- Zenoh callbacks: enqueue only ---------------------------------------
+    @property
+    def inbox(self) -> Inbox:
+        """The queue between the Zenoh callbacks and the loop."""
+        return self._inbox
+
+    @property
+    def alive(self) -> bool:
+        """True while the event loop thread runs."""
+        return self._thread is not None and self._thread.is_alive()
+
+    # -- Zenoh callbacks: enqueue only, never block --------------------------
 
     def _sample_callback(self, kind: str) -> Callable[[zenoh.Sample], None]:
-        capacity = self.config.inbox_capacity
+        inbox = self._inbox
 
         def callback(sample: zenoh.Sample) -> None:
             try:
                 if sample.kind != zenoh.SampleKind.PUT:
                     return
-                if self._inbox.qsize() >= capacity:
-                    self._dropped += 1
-                    return
-                self._inbox.put(
-                    (
-                        kind,
-                        (
-                            str(sample.key_expr),
-                            sample.payload.to_bytes(),
-                            capture(sample),
-                        ),
-                    )
-                )
-            except Exception:  # a raising callback fails silently in zenoh
-                log.exception("dropping a %s sample", kind)
+                key = str(sample.key_expr)
+                payload = sample.payload.to_bytes()
+                origin = capture(sample)
+                if kind != "goal":
+                    inbox.put_latest(kind, key, payload, origin)
+                elif not inbox.put_goal(
+                    key, payload, self._seconds(), origin
+                ):
+                    # Refused unread, but never silently: the loop
+                    # publishes a goal_rejected naming it.
+                    waiting = inbox.goals + self.engine.goals_waiting
+                    inbox.put_busy(goal_id_of(payload), waiting)
+            except BaseException:  # zenoh only logs what a callback raises
+                log.exception("could not queue a %s sample", kind)
 
         return callback
 
     def _query_callback(self, suffix: str) -> Callable[[zenoh.Query], None]:
         def callback(query: zenoh.Query) -> None:
             try:
-                self._inbox.put(("query", (suffix, query)))
-            except Exception:
+                if not self._inbox.put_query((suffix, query)):
+                    query.drop()
+            except BaseException:
                 log.exception("dropping a query")
 
         return callback
@@ -375,31 +573,85 @@ class SchedulerNode:
     # -- the loop ---------------------------------------------------------
 
     def _spin(self) -> None:
-        while not self._stop.is_set():
+        in_a_row = 0
+        try:
+            while not self._stop.is_set():
+                try:
+                    self.spin_once()
+                    in_a_row = 0
+                    if (
+                        self._publish_failures_in_a_row
+                        >= MAX_CONSECUTIVE_FAULTS
+                    ):
+                        # A panic poisons zenoh's transmit pipeline: every
+                        # later put fails too. Nothing reaches the bus.
+                        raise BusError(
+                            f"{self._publish_failures_in_a_row} publishes "
+                            "failed in a row"
+                        )
+                except _FATAL:
+                    raise
+                except BaseException:
+                    # Native code (zenoh's Rust panics) raises
+                    # BaseExceptions: survive them like any other fault.
+                    self._faults += 1
+                    in_a_row += 1
+                    log.exception("event loop error; continuing")
+                    if in_a_row >= MAX_CONSECUTIVE_FAULTS:
+                        raise
+        except BaseException as error:
+            self._die(error)
+
+    def _die(self, error: BaseException) -> None:
+        """The loop cannot go on: say so, withdraw the token, stop."""
+        self.failed = f"{type(error).__name__}: {error}"
+        log.critical("event loop stopped: %s", self.failed, exc_info=error)
+        try:
+            status = msgspec.structs.replace(
+                self.engine.status("loop_stopped"),
+                state="error",
+                detail=f"event loop stopped: {self.failed}",
+            )
+            self._publish_raw(topics.STATUS, messages.encode(status))
+        except BaseException:
+            log.exception("could not publish the error status")
+        self._withdraw_token()
+        self._stop.set()
+
+    def _withdraw_token(self) -> None:
+        token, self._token = self._token, None
+        if token is not None:
             try:
-                self.spin_once()
-            except Exception:  # log and keep serving
-                log.exception("event loop error; continuing")
+                token.undeclare()
+            except BaseException as error:
+                log.debug("token undeclare: %s", error)
 
     def spin_once(self, timeout: float | None = None) -> None:
         """Handle at most one inbox item, then any due clock tick."""
         self._tick_wall_clock()
+        self._check_stall()
         if timeout is None:
             timeout = self._clock.seconds_to_next() if self._clock else 0.5
-        try:
-            kind, item = self._inbox.get(timeout=max(timeout, 0.001))
-        except queue.Empty:
+        item = self._inbox.get(timeout=max(timeout, 0.001))
+        if item is None:
             return
+        kind, key, payload, _arrived, origin = item
         if kind == "wake":
             return
         if kind == "resume":
             self._resume()
         elif kind == "query":
-            self._answer(*item)
+            self._answer(*payload)
         elif kind == "solve":
-            self._step(item)
+            self._step(payload)
+        elif kind == "busy":
+            self._on_sample(
+                kind,
+                self.topics.key(topics.BUSY),
+                messages.encode(messages.Busy(key, payload)),
+            )
         else:
-            self._on_sample(kind, *item)
+            self._on_sample(kind, key, payload, origin)
 
     def _tick_wall_clock(self) -> None:
         if self._clock is None:
@@ -414,6 +666,23 @@ class SchedulerNode:
         )
         self._step(Tick(now))
 
+    def _check_stall(self) -> None:
+        """With the bus clock, say when it has not ticked for a while."""
+        limit = self.config.clock_stall
+        if self.config.clock != "bus" or limit is None:
+            return
+        quiet = self._seconds() - self._last_clock_s
+        if quiet < limit or self._stall_reported:
+            return
+        self._stall_reported = True
+        self._on_sample(
+            "stalled",
+            self.topics.key(topics.STALLED),
+            messages.encode(
+                messages.Stalled(round(quiet, 3), self._decoder.bus_now)
+            ),
+        )
+
     def _now(self) -> int:
         if self._clock is not None:
             return self._last_tick if self._last_tick is not None else 0
@@ -424,13 +693,20 @@ class SchedulerNode:
         self, kind: str, key: str, payload: bytes, origin: Origin | None = None
     ) -> None:
         self._journal.write(key, payload)
-        source = self._provenance.resolve(key, origin)
-        self._journal.write(
-            self.topics.key(topics.SOURCES),
-            messages.encode(messages.InputSource(key, source)),
-        )
+        source = None
+        if kind not in ("busy", "stalled"):  # bus inputs only
+            source = self._provenance.resolve(key, origin)
+            self._journal.write(
+                self.topics.key(topics.SOURCES),
+                messages.encode(messages.InputSource(key, source)),
+            )
         event = self._decoder.event(key, payload)
-        if event is not None:
+        if kind == "clock" and isinstance(event, Tick):
+            self._last_clock_s = self._seconds()
+            self._stall_reported = False
+        if event is not None and source is None:
+            self._step(event)
+        elif event is not None and source is not None:
             self._provenance.begin(event, source)
             try:
                 self._step(event)
@@ -438,8 +714,7 @@ class SchedulerNode:
                 self._provenance.end()
 
     def _step(self, event: Event) -> None:
-        if self._dropped != self.engine._counters.inputs_dropped:
-            self.engine.count_dropped(self._dropped)
+        self._sync_counters()
         self._run(self.engine.step(event, self._now()))
 
     def _run(self, commands: list[Command]) -> None:
@@ -452,6 +727,10 @@ class SchedulerNode:
         when the process died is not sent again (a dispatch then waits for
         its report timeout).
         """
+        if self._share_state and commands:
+            # The standby's copy first, so that it never lags behind
+            # what the bus has seen (same publisher link, in order).
+            self._share_snapshot()
         if not self._durable:
             for command in commands:
                 self._execute(command)
@@ -473,6 +752,10 @@ class SchedulerNode:
         for suffix, payload in outputs:
             self._put(suffix, payload)
         self._maybe_rotate()
+
+    def _share_snapshot(self) -> None:
+        """Publish the engine's state for a hot standby."""
+        self._put(topics.SNAPSHOT, messages.encode(self.engine.snapshot()))
 
     def _write_snapshot(self) -> None:
         """The engine's state as the next journal message, on disk."""
@@ -505,11 +788,22 @@ class SchedulerNode:
             self.engine.now,
             self.engine.plan_id,
         )
-        commands: list[Command] = [self.engine.resumed()]
+        commands: list[Command] = [self.engine.resumed(self.resumed)]
         pending = self.engine.pending_solve()
         if pending is not None:
             commands.append(pending)
         self._run(commands)
+
+    def _sync_counters(self) -> None:
+        inbox = self._inbox
+        self.engine.count_shell(
+            inputs_dropped=inbox.lost,
+            telemetry_superseded=inbox.superseded,
+            goals_busy=inbox.busy,
+            queries_dropped=inbox.queries_dropped,
+            publish_failures=self._publish_failures,
+            loop_faults=self._faults,
+        )
 
     def _execute(self, command: Command) -> None:
         if isinstance(command, Publish):
@@ -535,7 +829,7 @@ class SchedulerNode:
                 event = SolveFailed(
                     solve_id, f"{type(error).__name__}: {error}"
                 )
-            self._inbox.put(("solve", event))
+            self._inbox.put("solve", event)
 
         return done
 
@@ -551,10 +845,22 @@ class SchedulerNode:
                 publisher.put(payload)
             else:
                 self.session.put(key, payload, encoding=JSON)
-        except zenoh.ZError as error:  # keep serving; the bus may return
-            log.error("publish on %s failed: %s", key, error)
+            self._publish_failures_in_a_row = 0
+        except _FATAL:
+            raise
+        except BaseException as error:  # ZError, or a panic in zenoh
+            # Keep serving; the bus may return.
+            self._publish_failures += 1
+            self._publish_failures_in_a_row += 1
+            log.error(
+                "publish on %s failed: %s: %s",
+                key[:200],
+                type(error).__name__,
+                error,
+            )
 
     def _answer(self, suffix: str, query: zenoh.Query) -> None:
+        self._sync_counters()
         message: msgspec.Struct | None = (
             self.engine.plan_message
             if suffix == topics.PLAN
@@ -569,7 +875,9 @@ class SchedulerNode:
                     messages.encode(message),
                     encoding=JSON,
                 )
-        except zenoh.ZError as error:
+        except _FATAL:
+            raise
+        except BaseException as error:  # ZError, or a panic in zenoh
             log.warning("query reply failed: %s", error)
         finally:
             query.drop()

@@ -35,6 +35,12 @@ SNAPSHOT = "scheduler/snapshot"
 #: One liveliness token per node (``scheduler/nodes/<node id>``), so that
 #: twins see each other (``scheduler/alive`` tokens merge into one).
 NODES = "scheduler/nodes"
+#: The liveliness token of the node that commands the spacecraft.
+ACTIVE = "scheduler/active"
+#: Recorded only: goals refused unread because the inbox was full.
+BUSY = "scheduler/busy"
+#: Recorded only: the bus clock stopped ticking (wall-clock detection).
+STALLED = "scheduler/stalled"
 
 #: Output suffixes, compared by ``replay --verify``.
 OUTPUTS = (PLAN, DISPATCH, STATUS)
@@ -97,6 +103,8 @@ class Topics(msgspec.Struct, frozen=True):
             TICKS: "clock",
             SOURCES: "input_source",
             SNAPSHOT: "snapshot",
+            BUSY: "busy",
+            STALLED: "stalled",
         }
         if suffix in exact:
             return exact[suffix]
@@ -114,7 +122,8 @@ def input_kind(topics: Topics, key: str, clock: str) -> str | None:
     """The input kind of ``key`` for a node with this clock source.
 
     Returns ``goal``, ``clock`` (bus clock only), ``tick`` (the journal's
-    record of the node's own clock, wall clock only), ``activity_report``,
+    record of the node's own clock, wall clock only), ``busy`` (the
+    journal's record of a goal refused unread), ``activity_report``,
     ``resource_level``, or None for keys that are not scheduler inputs.
     """
     suffix = topics.suffix(key)
@@ -126,6 +135,10 @@ def input_kind(topics: Topics, key: str, clock: str) -> str | None:
         return "clock" if clock == "bus" else None
     if suffix == TICKS:
         return "tick" if clock == "wall" else None
+    if suffix == BUSY:
+        return "busy"
+    if suffix == STALLED:
+        return "stalled" if clock == "bus" else None
     head, _, name = suffix.rpartition("/")
     if not name:
         return None
