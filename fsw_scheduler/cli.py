@@ -508,6 +508,7 @@ def _cmd_config(args: argparse.Namespace) -> int:
             endpoint=args.endpoint,
             listen=args.listen,
             names=names,
+            topology=args.topology,
         )
     except ConfigError as error:
         print(f"fsw-scheduler: {error}", file=sys.stderr)
@@ -981,7 +982,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_zenoh_arguments(run)
 
-    from .bus.security import DEFAULT_PORT, PROFILES, ROLES
+    from .bus.security import DEFAULT_PORT, PROFILES, ROLES, ROUTER, TOPOLOGIES
 
     conf = add(
         "config",
@@ -1006,7 +1007,7 @@ def build_parser() -> argparse.ArgumentParser:
                 initial_indent=f"  {r.name:<10} ",
                 subsequent_indent=" " * 13,
             )
-            for r in ROLES.values()
+            for r in [*ROLES.values(), ROUTER]
         ),
     )
     conf.epilog = f"""\
@@ -1053,6 +1054,15 @@ example:
         metavar="ENDPOINT",
         help="where the scheduler listens (default: every interface, "
         "--endpoint's port)",
+    )
+    conf.add_argument(
+        "--topology",
+        choices=TOPOLOGIES,
+        default="star",
+        help="star: the scheduler listens, the roles connect to it; router: "
+        "a Zenoh router listens (router.json5) and every role, the "
+        "scheduler and its redundant twins included, connects to it "
+        "(default: %(default)s)",
     )
     conf.add_argument(
         "--cn",

@@ -42,6 +42,7 @@ from fsw_scheduler.bus.security import (
     assess,
     policy_publishers,
     render_profile,
+    roles_of,
 )
 from fsw_scheduler.bus.session import (
     listening_endpoints,
@@ -168,7 +169,7 @@ def pki(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     good, rogue = root / "good", root / "rogue"
     ca = _CA("test deployment CA")
     _write(good, "ca", None, ca.cert)
-    for role in ROLES:
+    for role in roles_of("router"):
         _write(good, role, *ca.issue(role))
     other = _CA("another CA")
     _write(rogue, "ca", None, other.cert)
@@ -185,6 +186,7 @@ def role_config(
     endpoint: str,
     *,
     own_acl: bool = True,
+    topology: str = "star",
 ) -> zenoh.Config:
     """The profile of ``role`` connecting to ``endpoint``.
 
@@ -192,7 +194,7 @@ def role_config(
     has switched off its own (mirrored) access control.
     """
     config = zenoh.Config.from_json5(
-        render_profile(role, certs=certs, endpoint=endpoint)
+        render_profile(role, certs=certs, endpoint=endpoint, topology=topology)
     )
     if not own_acl:
         config.insert_json5("access_control/enabled", "false")
@@ -202,20 +204,30 @@ def role_config(
 class SecureBus:
     """A scheduler node on its secure profile, and ways to reach it.
 
-    ``acl=False`` switches the scheduler's access control off (TLS stays):
-    the control case showing what the policy prevents.
+    ``acl=False`` switches the hub's access control off (TLS stays): the
+    control case showing what the policy prevents. ``topology="router"``
+    puts a Zenoh router in the middle, the scheduler being its client.
     """
 
     def __init__(
-        self, certs: Path, *, acl: bool = True, journal: Path | None = None
+        self,
+        certs: Path,
+        *,
+        acl: bool = True,
+        journal: Path | None = None,
+        topology: str = "star",
     ) -> None:
         self.certs = certs
+        self.topology = topology
+        self._sessions: list[zenoh.Session] = []
+        hub = "scheduler" if topology == "star" else "router"
         config = zenoh.Config.from_json5(
             render_profile(
-                "scheduler",
+                hub,
                 certs=certs,
                 endpoint="tls/localhost:0",
                 listen="tls/localhost:0",
+                topology=topology,
             )
         )
         # Read-only and local: how the test learns the port the OS chose.
@@ -223,9 +235,16 @@ class SecureBus:
         config.insert_json5("adminspace/permissions/read", "true")
         if not acl:
             config.insert_json5("access_control/enabled", "false")
+        self.hub = zenoh.open(config)
+        self.endpoint = listening_endpoints(self.hub)[0]
+        if topology == "router":
+            config = role_config(
+                "scheduler", certs, self.endpoint, topology=topology
+            )
+            self.session = zenoh.open(config)
+        else:
+            self.session = self.hub
         self.security = assess(config)
-        self.session = zenoh.open(config)
-        self.endpoint = listening_endpoints(self.session)[0]
         self.journal = journal
         self.node = SchedulerNode(
             self.session,
@@ -239,14 +258,19 @@ class SecureBus:
                 else None
             ),
         ).start()
-        self._sessions: list[zenoh.Session] = []
         self.clock: SchedulerClient
         self.monitor: SchedulerClient
 
     def open(self, role: str, **kwargs: object) -> zenoh.Session:
         """A session of ``role`` (closed with the bus)."""
         session = zenoh.open(
-            role_config(role, self.certs, self.endpoint, **kwargs)  # type: ignore[arg-type]
+            role_config(
+                role,
+                self.certs,
+                self.endpoint,
+                topology=self.topology,
+                **kwargs,  # type: ignore[arg-type]
+            )
         )
         self._sessions.append(session)
         return session
@@ -261,6 +285,8 @@ class SecureBus:
             session.close()
         self.node.close()
         self.session.close()
+        if self.hub is not self.session:
+            self.hub.close()
 
 
 def start(secure: SecureBus) -> SecureBus:
@@ -1009,3 +1035,108 @@ def test_missing_certificates_are_said_in_one_line(tmp_path: Path) -> None:
     assert result.returncode == 1
     assert "cannot open the Zenoh session" in result.stderr
     assert "Traceback" not in result.stderr
+
+
+# -- the router topology -----------------------------------------------------
+
+
+@pytest.fixture
+def routed(pki: dict[str, Path]) -> Iterator[SecureBus]:
+    """A started scheduler behind a Zenoh router, on TLS + ACL."""
+    secure = SecureBus(pki["good"], topology="router")
+    try:
+        yield start(secure)
+    finally:
+        secure.close()
+
+
+def test_router_topology_serves_the_roles(routed: SecureBus) -> None:
+    """Tests goals, dispatch and verdicts through the router."""
+    goals = routed.client("goals")
+    goals.wait_scheduler()
+    executor = routed.client("executor")
+    wait_matching(routed.session, SC.dispatch("DownlinkSat2Sat"), WAIT_S)
+    put_signed(goals.client, SC.key(keys.GOALS), ping_goal("via-router"))
+    verdict = goals.wait_status(lambda s: s.goal_id == "via-router")
+    assert verdict.event == "goal_accepted"
+    # The scheduler's only link is the router's: that is all it can name.
+    assert verdict.source is not None
+    assert (verdict.source.identity, verdict.source.basis) == (
+        "router",
+        "policy",
+    )
+    assert verdict.source.zid == str(goals.client.zid())
+    routed.clock.clock(1)
+    assert executor.wait_dispatch("DownlinkSat2Sat").start == 1
+
+
+@pytest.mark.parametrize(
+    ("kind", "role"), [("goal", "monitor"), ("clock", "goals")]
+)
+def test_router_refuses_another_roles_input(
+    routed: SecureBus, kind: str, role: str
+) -> None:
+    """Tests that the router's policy keeps forged inputs from the engine."""
+    key, payload = FORGERIES[kind]
+    forger = routed.open(role, own_acl=False)
+    wait_matching(forger, key, WAIT_S)
+    before = status_via(forger)
+    seen = routed.node.engine.inputs_seen
+    forger.put(key, json.dumps(payload).encode())
+    after = status_via(forger)
+    assert routed.node.engine.inputs_seen == seen
+    assert after.counters == before.counters
+    assert after.now == before.now
+
+
+def test_router_refuses_a_forged_dispatch(routed: SecureBus) -> None:
+    """Tests that a dispatch forged through the router never arrives."""
+    assert "Forged" not in _forge_dispatch(routed)
+
+
+def test_twin_schedulers_see_each_other_through_the_router(
+    routed: SecureBus,
+) -> None:
+    """Tests what redundant schedulers need: each other's liveliness
+    tokens and shared snapshots, with the scheduler certificate."""
+    twin_a = routed.open("scheduler")
+    twin_b = routed.open("scheduler")
+    nodes = SC.key(keys.NODES + "/**")
+    token = twin_a.liveliness().declare_token(SC.key(keys.NODES + "/1/2/a"))
+    seen: queue.Queue[str] = queue.Queue()
+    watch = twin_b.liveliness().declare_subscriber(
+        nodes, lambda s: seen.put(str(s.key_expr)), history=True
+    )
+    assert seen.get(timeout=WAIT_S) == SC.key(keys.NODES + "/1/2/a")
+    snapshots: queue.Queue[bytes] = queue.Queue()
+    follow = twin_b.declare_subscriber(
+        SC.key(keys.SNAPSHOT), lambda s: snapshots.put(s.payload.to_bytes())
+    )
+    wait_matching(twin_a, SC.key(keys.SNAPSHOT), WAIT_S)
+    twin_a.put(SC.key(keys.SNAPSHOT), b"{}")
+    assert snapshots.get(timeout=WAIT_S) == b"{}"
+    for entity in (follow, watch, token):
+        entity.undeclare()
+
+
+
+def test_router_topology_profiles(tmp_path: Path) -> None:
+    """Tests the router topology's files: modes, endpoints, the check."""
+    out = tmp_path / "deploy"
+    args = ["config", "--out", str(out), "--topology", "router"]
+    assert main([*args, "--endpoint", "tls/10.0.0.9:7447"]) == 0
+    assert (out / "router.json5").exists()
+    for role in roles_of("router"):
+        config = zenoh.Config.from_file(out / f"{role}.json5")
+        mode = json.loads(config.get_json("mode"))
+        assert mode == ("router" if role == "router" else "client")
+        info = assess(config)
+        assert info.exposed and info.warnings == (), role
+    router = json.loads(
+        zenoh.Config.from_file(out / "router.json5").get_json(
+            "access_control"
+        )
+    )
+    assert {s["id"] for s in router["subjects"]} == set(ROLES)
+    script = (out / "make-certs.sh").read_text()
+    assert "make_cert router router IP:10.0.0.9" in script

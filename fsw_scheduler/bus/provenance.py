@@ -15,8 +15,8 @@ on a key can only have come over a link whose certificate may publish on
 that key. :class:`Provenance` combines the three: if the claimed session
 has a direct link whose name the policy allows on the key, that name is
 the identity (basis ``link``); otherwise the names of the connected links
-the policy allows are (basis ``policy``). Behind a router, the links are
-the router's and no identity is given.
+the policy allows are (basis ``policy``). Behind a router, the only link
+is the router's: the identity is the router's name.
 
 The node calls :func:`capture` in its Zenoh callback (reading
 the sample only) and the rest on its event loop: it journals each input's
