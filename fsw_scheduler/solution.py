@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import enum
+from typing import Any
 
 import msgspec
 
@@ -103,6 +104,33 @@ class Plan(msgspec.Struct, frozen=True):
     def replace(self, **changes: object) -> Plan:
         """Return a copy with ``changes`` applied."""
         return msgspec.structs.replace(self, **changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The plan as plain JSON-ready data (the plan format).
+
+        Returns
+        -------
+        dict
+            Built-in types only (``status`` as its string, activities as
+            dicts, sequences as lists): ``json.loads(plan.to_json())``.
+        """
+        # Through JSON rather than msgspec.to_builtins, which keeps tuples:
+        # the result must equal json.loads(plan.to_json()).
+        data: dict[str, Any] = msgspec.json.decode(msgspec.json.encode(self))
+        return data
+
+    def to_json(self, *, indent: int | None = None) -> str:
+        """The plan as JSON text (the plan format).
+
+        Parameters
+        ----------
+        indent
+            Spaces per level; ``None`` writes one compact line.
+        """
+        text = msgspec.json.encode(self)
+        if indent is not None:
+            text = msgspec.json.format(text, indent=indent)
+        return text.decode()
 
 
 def objective_weight(delay_costs: list[int], horizon: int) -> int:

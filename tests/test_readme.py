@@ -168,8 +168,10 @@ def test_shell_blocks_run(where: str, body: str, tmp_path: Path) -> None:
 )
 def test_python_blocks_run(where: str, body: str, tmp_path: Path) -> None:
     """Tests that each Python block runs in a fresh interpreter."""
+    # -P: the scratch folder's fsw_scheduler/data must not shadow the
+    # installed package, as it would from the current directory.
     result = subprocess.run(
-        [sys.executable, "-c", body],
+        [sys.executable, "-P", "-c", body],
         cwd=scratch(tmp_path),
         capture_output=True,
         text=True,
