@@ -18,6 +18,7 @@ import msgspec
 from .errors import FieldIssue, InputError
 from .goal import Goal
 from .model import Problem, decode_strict
+from .profiles import LevelCheck, Profiles
 from .reschedule import Removal
 from .solution import (
     Activity,
@@ -223,6 +224,8 @@ SCHEMA_TYPES: dict[str, Any] = {
     "solve_record": SolveRecord,
     "node_info": NodeInfo,
     "problem": Problem,
+    "profiles": Profiles,
+    "level_check": LevelCheck,
 }
 
 _encoder = msgspec.json.Encoder()
@@ -326,9 +329,11 @@ _UNORDERED_KEYWORDS = frozenset({"anyOf", "oneOf", "required"})
 def schema_lookup(spacecraft: str) -> Any:
     """Topic -> JSON Schema (or None) for MCAP channels of a spacecraft."""
     from .bus.topics import Topics
+    from .foxglove import LOG_SCHEMA
 
     topics = Topics(spacecraft)
-    schemas = json_schemas()
+    # foxglove.Log is the well-known schema, not one generated here.
+    schemas = {**json_schemas(), "log": LOG_SCHEMA}
 
     def lookup(topic: str) -> dict | None:
         kind = topics.schema_kind(topic)

@@ -21,6 +21,14 @@ activities, unscheduled tasks and reasons, objectives, dispatch times and
 contents, lifecycle states, rejection messages. Fields that a newer
 version added and the recording does not have are not compared, so old
 recordings keep verifying as message types grow.
+
+Derived channels (``scheduler/profiles``, ``scheduler/levels``,
+``scheduler/log``, see :mod:`fsw_scheduler.foxglove`) are checked, not
+ignored: when the journal has any of them, the replay derives them from
+its own stream with the same :class:`~fsw_scheduler.foxglove.Annotator`
+and compares them in place like any output (``foxglove.Log``
+``timestamp``, a wall-clock time, excepted). Journals recorded before
+these channels existed have none and are verified without them.
 """
 
 from __future__ import annotations
@@ -36,6 +44,7 @@ from . import messages
 from .bus import topics as keys
 from .config import NodeConfig
 from .engine import Engine, Publish, SolveDone, StartSolve
+from .foxglove import DERIVED, Annotator, engine_problem
 from .inputs import InputDecoder
 from .recording import PathLike, RecordedMessage, iter_messages
 from .solution import Plan
@@ -52,6 +61,12 @@ EXCLUDED: dict[str, tuple[str, ...]] = {
         "num_constraints",
     ),
     "dispatch": (),
+}
+#: Derived channels, compared when the journal has them (see above).
+DERIVED_EXCLUDED: dict[str, tuple[str, ...]] = {
+    "profiles": (),
+    "level_check": (),
+    "log": ("timestamp",),
 }
 
 SolveFn = Callable[[NodeConfig, StartSolve], Plan]
@@ -88,6 +103,7 @@ class VerifyReport:
     solves: int = 0
     plans: int = 0
     dispatches: int = 0
+    derived: int = 0
     divergence: Divergence | None = None
     notes: list[str] = field(default_factory=list)
 
@@ -107,7 +123,9 @@ class VerifyReport:
             head,
             f"  inputs fed {self.inputs}, outputs compared {self.outputs} "
             f"(plans {self.plans}, dispatches {self.dispatches}, "
-            f"solves {self.solves})",
+            f"solves {self.solves}"
+            + (f", derived {self.derived}" if self.derived else "")
+            + ")",
             *[f"  note: {n}" for n in self.notes],
         ]
         if self.divergence is not None:
@@ -154,7 +172,7 @@ def config_from_info(info: messages.NodeInfo) -> NodeConfig:
 
 def _normalise(kind: str, payload: bytes) -> Any:
     value = msgspec.json.decode(payload)
-    for dotted in EXCLUDED.get(kind, ()):
+    for dotted in EXCLUDED.get(kind, DERIVED_EXCLUDED.get(kind, ())):
         node = value
         *parents, leaf = dotted.split(".")
         for part in parents:
@@ -216,16 +234,30 @@ def verify(
     produced: deque[tuple[str, bytes]] = deque()
     results: dict[int, Plan] = {}
     now = 0
+    derived_keys = {topics.key(suffix) for suffix in DERIVED}
+    ticks_key = topics.key(keys.TICKS)
+    annotator = (
+        Annotator(topics, lambda: engine_problem(engine))
+        if any(m.topic in derived_keys for m in recorded)
+        else None
+    )
+    compared = (
+        {**EXCLUDED, **DERIVED_EXCLUDED} if annotator is not None else EXCLUDED
+    )
+
+    def annotate(key: str, payload: bytes) -> None:
+        if annotator is None:
+            return
+        for item in annotator.observe(key, payload):
+            produced.append((topics.key(item.suffix), item.payload))
 
     def run(commands: list) -> None:
         for command in commands:
             if isinstance(command, Publish):
-                produced.append(
-                    (
-                        topics.key(command.suffix),
-                        messages.encode(command.message),
-                    )
-                )
+                key = topics.key(command.suffix)
+                payload = messages.encode(command.message)
+                produced.append((key, payload))
+                annotate(key, payload)
             elif isinstance(command, StartSolve):
                 if progress is not None:
                     progress(
@@ -247,10 +279,12 @@ def verify(
             else:
                 run(engine.step(SolveDone(solve_id, plan), now))
                 report.solves += 1
-        if kind in EXCLUDED:
+        if kind in compared:
             if not _compare(report, produced, message, kind):
                 return report
             continue
+        if message.topic != ticks_key:  # the node annotates bus samples
+            annotate(message.topic, message.payload)
         event = decoder.event(message.topic, message.payload)
         if event is None:
             continue
@@ -335,4 +369,5 @@ def _compare(
     report.outputs += 1
     report.plans += kind == "plan"
     report.dispatches += kind == "dispatch"
+    report.derived += kind in DERIVED_EXCLUDED
     return True

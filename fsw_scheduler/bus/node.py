@@ -36,6 +36,7 @@ from ..engine import (
     StartSolve,
     Tick,
 )
+from ..foxglove import Annotator, engine_problem, session_records
 from ..inputs import InputDecoder
 from . import topics
 
@@ -131,6 +132,11 @@ class _Journal:
         self._last = stamp
         self.recorder.write(key, payload, log_time_ns=stamp)
 
+    @property
+    def last_ns(self) -> int:
+        """Log time of the last message written."""
+        return self._last
+
 
 class SchedulerNode:
     """The scheduler on a Zenoh session.
@@ -176,6 +182,12 @@ class SchedulerNode:
         self.topics = topics.Topics(config.spacecraft)
         self.engine = Engine(engine_config(config), problem)
         self._journal = _Journal(journal, wall_ns)
+        self._wall_ns = wall_ns
+        # Profiles (published), level checks and log entries (journaled)
+        # derived from what the loop handles; replay derives the same.
+        self._annotator = Annotator(
+            self.topics, lambda: engine_problem(self.engine)
+        )
         self._seconds = seconds
         self._solve_fn = solve_fn
         self._inbox: queue.Queue[tuple[str, Any]] = queue.Queue()
@@ -203,6 +215,7 @@ class SchedulerNode:
             topics.STATUS,
             topics.SOLVES,
             topics.NODE_INFO,
+            topics.PROFILES,
         ):
             self._publishers[suffix] = session.declare_publisher(
                 key(suffix), encoding=JSON
@@ -234,6 +247,7 @@ class SchedulerNode:
             target=self._spin, name="fsw-scheduler-loop", daemon=True
         )
         self._thread.start()
+        self._describe_journal()
         self._publish_raw(
             topics.NODE_INFO,
             messages.encode(node_info(self.config, self.engine.initial)),
@@ -362,6 +376,7 @@ class SchedulerNode:
 
     def _on_sample(self, kind: str, key: str, payload: bytes) -> None:
         self._journal.write(key, payload)
+        self._annotate(key, payload)
         event = self._decoder.event(key, payload)
         if event is not None:
             self._step(event)
@@ -410,6 +425,33 @@ class SchedulerNode:
                 self.session.put(key, payload, encoding=JSON)
         except zenoh.ZError as error:  # keep serving; the bus may return
             log.error("publish on %s failed: %s", key, error)
+        self._annotate(key, payload)
+
+    def _annotate(self, key: str, payload: bytes) -> None:
+        """Publish or journal what :class:`Annotator` derives from it."""
+        for item in self._annotator.observe(
+            key, payload, self._journal.last_ns
+        ):
+            if item.publish:
+                self._publish_raw(item.suffix, item.payload)
+            else:
+                self._journal.write(self.topics.key(item.suffix), item.payload)
+
+    def _describe_journal(self) -> None:
+        """Session metadata and attachments at the head of the journal."""
+        recorder = self._journal.recorder
+        if recorder is None:
+            return
+        start_ns = self._wall_ns()
+        metadata, attachments = session_records(
+            self.config, self.engine.initial, start_ns
+        )
+        for name, pairs in metadata:
+            recorder.add_metadata(name, pairs)
+        for name, media_type, data in attachments:
+            recorder.add_attachment(
+                name, data, media_type=media_type, log_time_ns=start_ns
+            )
 
     def _answer(self, suffix: str, query: zenoh.Query) -> None:
         message: msgspec.Struct | None = (

@@ -27,6 +27,12 @@ NODE_INFO = "scheduler/config"
 ALIVE = "scheduler/alive"
 #: Recorded only (never published): the ticks of the scheduler's own clock.
 TICKS = "scheduler/ticks"
+#: Predicted consumable levels, published with each plan.
+PROFILES = "scheduler/profiles"
+#: Journal only: measured levels beside the plan's prediction.
+LEVELS = "scheduler/levels"
+#: Journal only: decisions and rejections as foxglove.Log messages.
+LOG = "scheduler/log"
 
 #: Output suffixes, compared by ``replay --verify``.
 OUTPUTS = (PLAN, DISPATCH, STATUS)
@@ -87,6 +93,9 @@ class Topics(msgspec.Struct, frozen=True):
             SOLVES: "solve_record",
             NODE_INFO: "node_info",
             TICKS: "clock",
+            PROFILES: "profiles",
+            LEVELS: "level_check",
+            LOG: "log",
         }
         if suffix in exact:
             return exact[suffix]
