@@ -524,6 +524,19 @@ def _remap_rule(text: str) -> tuple[str, str]:
     return old, new
 
 
+def _cmd_plot(args: argparse.Namespace) -> int:
+    _need_matplotlib("plot")
+    from .session_plot import plot_session
+
+    try:
+        drawn = plot_session(args.file, args.out)
+    except ValueError as error:
+        raise InputError([FieldIssue("", str(error))], "journal") from None
+    for path in drawn:
+        print(path)
+    return EXIT_OK
+
+
 def _cmd_schemas(args: argparse.Namespace) -> int:
     from .messages import schema_files
 
@@ -1022,6 +1035,32 @@ def build_parser() -> argparse.ArgumentParser:
         help="print JSON instead: file, finished, messages, start/end (ns "
         "and UTC), duration_s, channels (topic, messages, schema, "
         "encoding), metadata, attachments",
+    )
+
+    plo = add(
+        "plot",
+        _cmd_plot,
+        "draw every plan of a recorded session, and levels vs measured",
+        """\
+        Read a scheduler journal (run --record, demo) and draw, into
+        --out, one Gantt picture per plan (plan-<id>.png: what had run
+        before, the tasks that replan removed with the rule, one lane per
+        binary resource showing who holds it, the resource profiles and
+        the measured levels while the plan was in force) and levels.png:
+        every consumable over the session, as each plan predicted it
+        against the measured samples.
+
+        examples:
+          fsw-scheduler plot out/demo/session.mcap --out out/pictures
+          fsw-scheduler plot replay/failure.mcap --out failure-pictures
+        """,
+    )
+    plo.add_argument("file", help="a scheduler journal (MCAP)")
+    plo.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="folder for the PNG files (created if missing)",
     )
 
     sch = add(
