@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import msgspec
 import pytest
@@ -22,6 +23,11 @@ from fsw_scheduler.profiles import level_check, plan_profiles
 from fsw_scheduler.recording import info, info_dict
 from fsw_scheduler.replay import verify
 from fsw_scheduler.solution import Activity, SolveStatus
+
+if TYPE_CHECKING:
+    from fsw_scheduler.testing import SchedulerHarness
+
+pytest_plugins = ["fsw_scheduler.testing"]
 
 ROOT = Path(__file__).resolve().parents[1]
 LAYOUT = ROOT / "docs" / "foxglove-layout.json"
@@ -302,3 +308,27 @@ def test_log_schema_is_foxgloves() -> None:
     levels = LOG_SCHEMA["properties"]["level"]["oneOf"]
     assert [lv["const"] for lv in levels] == list(range(6))
     msgspec.json.encode(LOG_SCHEMA)
+
+
+def test_node_publishes_profiles_with_each_plan(
+    scheduler_harness: SchedulerHarness,
+) -> None:
+    """Tests scheduler/profiles on the bus, right after each plan."""
+    from fsw_scheduler.bus.session import wait_until
+
+    h = scheduler_harness
+    h.tick(0)
+    plan = h.wait_plan(lambda p: p.plan_id == 1)
+    key = h.topics.key("scheduler/profiles")
+
+    def profiles() -> list[dict]:
+        return [json.loads(p) for k, p in list(h.samples) if k == key]
+
+    wait_until(lambda: bool(profiles()), 10.0, what="profiles")
+    (first,) = profiles()
+    assert first["plan_id"] == plan.plan_id
+    assert first["times"][0] == plan.horizon_start
+    assert first["times"][-1] == plan.horizon_end
+    assert set(first["levels"]) == {"battery", "propellant"}
+    seen = [k for k, _ in list(h.samples)]
+    assert seen.index(key) > seen.index(h.topics.key("scheduler/plan"))
