@@ -253,7 +253,19 @@ def _cmd_replan(args: argparse.Namespace) -> int:
     if args.gantt and new_plan.status.has_plan:
         from .plot import gantt
 
-        gantt(new_problem, new_plan, Path(args.gantt), now=args.now)
+        removed = {
+            r.task: r.rule
+            for r in diff.removed
+            if r.rule not in ("finished", "unscheduled")
+        }
+        gantt(
+            new_problem,
+            new_plan,
+            Path(args.gantt),
+            now=args.now,
+            removed=removed or None,
+            previous=plan.activities,
+        )
         log.info("wrote %s", args.gantt)
     return EXIT_OK if new_plan.status.has_plan else EXIT_NO_PLAN
 
@@ -1070,7 +1082,8 @@ def build_parser() -> argparse.ArgumentParser:
         """\
         Write one JSON Schema per message kind (problem, plan, goal, clock,
         activity report, resource level, dispatch, status, solve record,
-        node info) into a folder, named <kind>.schema.json. They are
+        node info, profiles, level check) into a folder, named
+        <kind>.schema.json. They are
         generated from the message types of the installed version, the
         same files as the project's schemas/ folder.
 
