@@ -432,9 +432,8 @@ def recording_metadata(
     """The ``fsw_scheduler.recording`` metadata of a ``record`` file."""
     import time
     from datetime import datetime, timezone
-    from importlib import metadata as dist_metadata
 
-    from . import __version__
+    from .foxglove import versions
 
     now = datetime.fromtimestamp(time.time(), tz=timezone.utc)
     return {
@@ -444,8 +443,7 @@ def recording_metadata(
         "start_time": now.isoformat(timespec="milliseconds").replace(
             "+00:00", "Z"
         ),
-        "fsw-scheduler": __version__,
-        "eclipse-zenoh": dist_metadata.version("eclipse-zenoh"),
+        **versions(),
     }
 
 

@@ -56,7 +56,10 @@ __all__ = [
     "Derived",
     "Log",
     "LogTime",
+    "engine_problem",
     "session_records",
+    "settings_toml",
+    "versions",
 ]
 
 #: Suffixes of the derived channels and whether they go on the bus.
@@ -349,7 +352,8 @@ _DEPENDENCIES = (
 )
 
 
-def _versions() -> dict[str, str]:
+def versions() -> dict[str, str]:
+    """Python's version and those of the installed dependencies."""
     found = {"python": platform.python_version()}
     for name in _DEPENDENCIES:
         try:
@@ -432,7 +436,7 @@ def session_records(
     metadata = [
         ("fsw_scheduler.session", session),
         ("fsw_scheduler.settings", settings),
-        ("fsw_scheduler.versions", _versions()),
+        ("fsw_scheduler.versions", versions()),
     ]
     attachments = [
         (

@@ -656,6 +656,8 @@ def _draw_tasks(
     ax.set_ylim(len(rows) - 0.4, -0.6)  # first task on top
     ax.tick_params(axis="y", length=0)
 
+    # Colours of every task drawn (executed ones from ``past`` too).
+    shown = [tasks[name] for name in rows if name in tasks]
     handles = [
         Patch(
             facecolor=_PALETTE[idx % len(_PALETTE)],
@@ -666,10 +668,10 @@ def _draw_tasks(
         for idx, name in enumerate(problem.resources.binary)
         if any(
             _colour_of(problem, t) == _PALETTE[idx % len(_PALETTE)]
-            for t in problem.tasks
+            for t in shown
         )
     ]
-    if any(_colour_of(problem, t) == _NO_BINARY for t in problem.tasks):
+    if any(_colour_of(problem, t) == _NO_BINARY for t in shown):
         handles.append(Patch(facecolor=_NO_BINARY, label="no binary"))
     if history:
         handles.append(
