@@ -243,11 +243,12 @@ class SchedulerNode:
         )
         if self.config.clock == "wall":
             self._clock = UnitClock(self._seconds, self.config.time_unit)
+        # Before the loop starts: the recorder is not shared across threads.
+        self._describe_journal()
         self._thread = threading.Thread(
             target=self._spin, name="fsw-scheduler-loop", daemon=True
         )
         self._thread.start()
-        self._describe_journal()
         self._publish_raw(
             topics.NODE_INFO,
             messages.encode(node_info(self.config, self.engine.initial)),
@@ -429,9 +430,14 @@ class SchedulerNode:
 
     def _annotate(self, key: str, payload: bytes) -> None:
         """Publish or journal what :class:`Annotator` derives from it."""
-        for item in self._annotator.observe(
-            key, payload, self._journal.last_ns
-        ):
+        try:
+            derived = self._annotator.observe(
+                key, payload, self._journal.last_ns
+            )
+        except Exception:  # a visualisation aid must never stop the loop
+            log.exception("cannot derive profiles or log from %s", key)
+            return
+        for item in derived:
             if item.publish:
                 self._publish_raw(item.suffix, item.payload)
             else:
