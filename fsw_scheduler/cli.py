@@ -544,6 +544,15 @@ def _cmd_plot(args: argparse.Namespace) -> int:
         raise InputError([FieldIssue("", str(error))], "journal") from None
     for path in drawn:
         print(path)
+    if args.attach_to:
+        from .session_plot import attach_pictures
+
+        if Path(args.attach_to).resolve() == Path(args.file).resolve():
+            raise InputError(
+                [FieldIssue("--attach-to", "must differ from the journal")],
+                "arguments",
+            )
+        print(attach_pictures(args.file, drawn, args.attach_to))
     return EXIT_OK
 
 
@@ -1063,6 +1072,7 @@ def build_parser() -> argparse.ArgumentParser:
         examples:
           fsw-scheduler plot out/demo/session.mcap --out out/pictures
           fsw-scheduler plot replay/failure.mcap --out failure-pictures
+          fsw-scheduler plot session.mcap --out pics --attach-to shared.mcap
         """,
     )
     plo.add_argument("file", help="a scheduler journal (MCAP)")
@@ -1071,6 +1081,12 @@ def build_parser() -> argparse.ArgumentParser:
         required=True,
         metavar="DIR",
         help="folder for the PNG files (created if missing)",
+    )
+    plo.add_argument(
+        "--attach-to",
+        metavar="COPY.mcap",
+        help="also write a copy of the journal with the pictures attached "
+        "(the journal itself is left as it is)",
     )
 
     sch = add(

@@ -454,7 +454,11 @@ def _draw(
     if pictures:
         # The same pictures as `fsw-scheduler plot session.mcap`: what
         # ran before, removed tasks, binary lanes, measured levels.
-        from .session_plot import plot_session
+        from .session_plot import attach_pictures, plot_session
 
         drawn = plot_session(journal_path, out_dir)
+        # The journal carries its pictures (Foxglove lists attachments).
+        copy = journal_path.with_suffix(".pictures.tmp")
+        attach_pictures(journal_path, drawn, copy)
+        copy.replace(journal_path)
     return drawn

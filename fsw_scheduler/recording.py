@@ -646,7 +646,12 @@ def _scan_messages(
     return schemas, channels, messages
 
 
-def recover(src: PathLike, dst: PathLike) -> dict[str, int]:
+def recover(
+    src: PathLike,
+    dst: PathLike,
+    *,
+    attachments: Sequence[tuple[str, str, bytes]] = (),
+) -> dict[str, int]:
     """Rewrite a truncated or unfinished MCAP file into a finished one.
 
     Every complete record up to the first truncated or damaged one is kept
@@ -661,6 +666,10 @@ def recover(src: PathLike, dst: PathLike) -> dict[str, int]:
         The damaged file, e.g. left behind by ``kill -9``.
     dst
         Where to write the finished file (must differ from ``src``).
+    attachments
+        Files to attach as well, as ``(name, media type, bytes)`` (e.g.
+        the pictures of a session, drawn after it ended); their log time
+        is the last message's.
 
     Returns
     -------
@@ -675,6 +684,7 @@ def recover(src: PathLike, dst: PathLike) -> dict[str, int]:
     if Path(src).resolve() == Path(dst).resolve():
         raise ValueError("recover needs a destination distinct from src")
     kept: dict[str, int] = {}
+    last_ns = 0
     schema_map: dict[int, int] = {0: 0}
     channel_map: dict[int, int] = {}
     channels: dict[int, Channel] = {}
@@ -719,6 +729,10 @@ def recover(src: PathLike, dst: PathLike) -> dict[str, int]:
                     record.media_type,
                     record.data,
                 )
+            if isinstance(record, Message):
+                last_ns = max(last_ns, record.log_time)
+        for name, media_type, data in attachments:
+            writer.add_attachment(last_ns, last_ns, name, media_type, data)
         writer.finish()
     return kept
 

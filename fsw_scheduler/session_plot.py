@@ -41,9 +41,11 @@ from .recording import iter_messages
 from .solution import Activity, Plan
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from .recording import PathLike
 
-__all__ = ["Session", "plot_session", "read_session"]
+__all__ = ["Session", "attach_pictures", "plot_session", "read_session"]
 
 
 @dataclass
@@ -406,3 +408,32 @@ def _levels_at_starts(
     """Level at the start of each unit ``problem.start .. problem.end``."""
     ends = resource_profiles(problem, _as_plan(plan))[name]
     return [float(problem.resources.consumable[name]), *ends]
+
+
+def attach_pictures(
+    journal: PathLike, pictures: Sequence[Path], dst: PathLike
+) -> Path:
+    """A copy of ``journal`` with ``pictures`` attached (``image/png``).
+
+    Parameters
+    ----------
+    journal
+        The recording (left unchanged).
+    pictures
+        PNG files, attached under their file names.
+    dst
+        The copy to write (distinct from ``journal``).
+
+    Returns
+    -------
+    Path
+        ``dst``.
+    """
+    from .recording import recover
+
+    recover(
+        journal,
+        dst,
+        attachments=[(p.name, "image/png", p.read_bytes()) for p in pictures],
+    )
+    return Path(dst)

@@ -76,3 +76,18 @@ def test_plot_command(tmp_path: Path) -> None:
     )
     assert result.returncode == 2
     assert "not a scheduler journal" in result.stderr
+
+
+def test_attach_pictures_copies_the_journal(tmp_path: Path) -> None:
+    """Tests a copy with the pictures attached, messages unchanged."""
+    from fsw_scheduler.recording import info, read_attachments
+    from fsw_scheduler.replay import verify
+    from fsw_scheduler.session_plot import attach_pictures
+
+    picture = tmp_path / "plan-1.png"
+    picture.write_bytes(PNG + b"not really")
+    copy = attach_pictures(PAPER, [picture], tmp_path / "copy.mcap")
+    assert read_attachments(copy) == {"plan-1.png": PNG + b"not really"}
+    assert info(copy).message_count == info(PAPER).message_count
+    assert [a.media_type for a in info(copy).attachments] == ["image/png"]
+    assert verify(copy).identical
