@@ -25,16 +25,18 @@ TINY = {
 
 
 @pytest.mark.parametrize(
-    "form", ["typed", "dict", "text", "bytes"], ids=str
+    "form", ["typed", "dict", "text", "bytes", "path"], ids=str
 )
-def test_solve_accepts_every_form(form: str) -> None:
-    """Tests that solve takes a Problem, a dict, JSON text or bytes alike."""
+def test_solve_accepts_every_form(form: str, tmp_path: Path) -> None:
+    """Tests that solve takes a Problem, a dict, JSON text, bytes, a file."""
     text = json.dumps(TINY)
+    (tmp_path / "p.json").write_text(text)
     problem = {
         "typed": decode_problem(text),
         "dict": TINY,
         "text": text,
         "bytes": text.encode(),
+        "path": tmp_path / "p.json",
     }[form]
     plan = fs.solve(problem)
     assert plan.status is fs.SolveStatus.OPTIMAL
@@ -97,6 +99,8 @@ def test_bad_inputs_name_the_field() -> None:
         fs.solve(42)  # type: ignore[arg-type]
     with pytest.raises(fs.InputError):
         fs.solve("{not json")
+    with pytest.raises(fs.InputError, match="cannot read"):
+        fs.solve(Path("/nonexistent/problem.json"))
     typed = decode_problem(json.dumps(TINY)).replace(horizon=0)
     with pytest.raises(fs.InputError, match="horizon"):
         fs.solve(typed)
