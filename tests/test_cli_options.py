@@ -228,7 +228,9 @@ def test_output_to_a_closed_pipe_is_quiet() -> None:
 
 def test_info_json_is_machine_readable() -> None:
     """Tests `info --json` on a golden journal: channels, counts, span."""
-    result = run("info", str(ROOT / "replay" / "paper.mcap"), "--json")
+    # The 0.1.0 recording: no metadata, a fixed message count.
+    legacy = ROOT / "replay" / "paper-2026-11-26.mcap"
+    result = run("info", str(legacy), "--json")
     assert result.returncode == 0, result.stderr
     data = json.loads(result.stdout)
     assert data["messages"] == 152
