@@ -175,7 +175,9 @@ def _add_solver_arguments(parser: argparse.ArgumentParser) -> None:
         "--time-limit",
         type=positive_float,
         metavar="S",
-        help="solver time limit in seconds (> 0); at the limit the best "
+        help="seconds (> 0) for the whole solve, start plan, model and "
+        "explanations included (the plan is out within about 0.5 s of "
+        "it; progress is logged every few seconds); at the limit the best "
         "plan is returned with status 'feasible' (default: none)",
     )
     parser.add_argument(
@@ -267,6 +269,20 @@ def _cmd_replan(args: argparse.Namespace) -> int:
 
 def _cmd_demo(args: argparse.Namespace) -> int:
     from .demo import SCENARIOS, run_demo
+
+    if args.scenario == "failover":
+        from .failover_demo import run_failover_demo
+
+        log.info("demo (failover scenario): state folders in %s", args.out)
+        outcome = run_failover_demo(
+            Path(args.out), quiet=args.quiet, time_unit=args.time_unit
+        )
+        if outcome.takeovers:
+            print(
+                "takeover after SIGKILL: "
+                + ", ".join(f"{t * 1000:.0f} ms" for t in outcome.takeovers)
+            )
+        return EXIT_OK if outcome.verified else EXIT_NO_PLAN
     from .plot import PLOT_INSTALL_HINT, have_matplotlib
 
     out = Path(args.out)
@@ -349,6 +365,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
             node_id=args.node_id,
             rank=args.rank,
             discovery=args.discovery,
+            response_deadline=args.response_deadline,
+            tasks_per_goal=args.tasks_per_goal,
+            live_tasks=args.live_tasks,
+            goals_waiting=args.goals_waiting,
+            max_clock_step=args.max_clock_step,
+            clock_stall=args.clock_stall,
         )
         if args.no_standby:
             config = config.replace(standby=False)
@@ -841,10 +863,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     demo.add_argument(
         "--scenario",
-        choices=("paper", "failure"),
+        choices=("paper", "failure", "failover"),
         default="paper",
         help="paper: Table 1 then the Table 2 goal; failure: also a failed "
-        "activity and a draining battery (default: %(default)s)",
+        "activity and a draining battery; failover: the paper scenario on "
+        "two redundant schedulers (separate processes) that are killed "
+        "and resume or take over (default: %(default)s)",
     )
     demo.add_argument("--spacecraft", default="sat1", help="key prefix id")
     demo.add_argument(
@@ -853,7 +877,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--quiet", action="store_true", help="no live timeline")
     demo.add_argument(
         "--time-unit",
-        type=positive_float,
+        type=non_negative_float,
         default=0.05,
         metavar="S",
         help="wall seconds per time unit, at least (default %(default)s)",
@@ -979,6 +1003,52 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="refuse to start (exit 2) unless the bus is loopback only, or "
         "has mutual TLS on every endpoint and access control",
+    )
+    limits = run.add_argument_group(
+        "limits",
+        "What a sender gets beyond each limit is in the README "
+        "(robustness); the same settings exist in the TOML file.",
+    )
+    limits.add_argument(
+        "--response-deadline",
+        type=float,
+        metavar="S",
+        help="seconds from a goal's arrival to its plan; the solve gets "
+        "what is left (default 15)",
+    )
+    limits.add_argument(
+        "--tasks-per-goal",
+        type=int,
+        metavar="N",
+        help="a goal with more tasks is rejected (default 100)",
+    )
+    limits.add_argument(
+        "--live-tasks",
+        type=int,
+        metavar="N",
+        help="a goal that would make the plan hold more live tasks is "
+        "rejected (default 300)",
+    )
+    limits.add_argument(
+        "--goals-waiting",
+        type=int,
+        metavar="N",
+        help="goals queued behind a solve; more are rejected 'busy' "
+        "(default 64)",
+    )
+    limits.add_argument(
+        "--max-clock-step",
+        type=int,
+        metavar="UNITS",
+        help="largest forward step of one bus clock message; a bigger one "
+        "is rejected (default 100)",
+    )
+    limits.add_argument(
+        "--clock-stall",
+        type=float,
+        metavar="S",
+        help="seconds without a bus clock message before the status turns "
+        "degraded (default 30)",
     )
     add_zenoh_arguments(run)
 

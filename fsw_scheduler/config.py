@@ -47,8 +47,20 @@ class NodeConfig(
     explain
         Say why tasks are left out (extra solves after each plan).
     explain_budget
-        Seconds those extra solves may take per plan; the plan waits for
-        them, so keep it well under a time unit with the wall clock.
+        Seconds those extra solves may take per plan. They run after the
+        plan is published (``explain_after_plan``), on their own thread,
+        so they never delay it; the status then reports ``explained``.
+        When a solve gives no plan, they run before the rejection (it
+        names the blockers), within what is left of the response
+        deadline.
+    explain_after_plan
+        False: explanations run inside the solve, before the plan is
+        published (the behaviour of older recordings).
+    response_deadline
+        Seconds from a goal's arrival to its verdict and plan: decoding,
+        merging, the start plan, the model and the solver all come out of
+        it (the solve's limit is cut to what is left). None: only
+        ``time_limit`` bounds the solve.
     clock
         ``bus`` (time from ``fsw/<sc>/clock``) or ``wall`` (the node's
         monotonic clock, ``time_unit`` seconds per unit).
@@ -127,6 +139,8 @@ class NodeConfig(
     goals_per_solve: int = 16
     max_clock_step: int | None = 100
     clock_stall: float | None = 30.0
+    response_deadline: float | None = 15.0
+    explain_after_plan: bool = True
     heartbeat: int = 10
     replan_lead: int | None = None
     node_id: str | None = None
@@ -167,6 +181,8 @@ class NodeConfig(
         ):
             if getattr(self, name) < 1:
                 problems.append(f"{name.replace('_', '-')} must be >= 1")
+        if self.response_deadline is not None and self.response_deadline <= 0:
+            problems.append("response-deadline must be > 0")
         if self.max_clock_step is not None and self.max_clock_step < 1:
             problems.append("max-clock-step must be >= 1")
         if self.clock_stall is not None and self.clock_stall <= 0:

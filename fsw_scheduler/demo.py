@@ -296,12 +296,20 @@ class Printer:
             "solve_failed",
             "drift",
             "input_rejected",
+            "alarm",
         ):
             extra = s.goal_id or s.detail
             errors = "; ".join(f"{e.path}: {e.reason}" for e in s.errors)
             self.line(f"status    {s.event} {extra or ''} {errors}".rstrip())
         elif s.event == "activity":
             self.line(f"report    {s.detail}")
+        elif s.event in ("resumed", "took_over"):
+            self.line(
+                f"status    {s.event} by {s.node_id}: plan {s.from_plan_id} "
+                f"at t={s.at}, next plan id follows"
+            )
+        elif s.state == "standby":
+            self.line(f"status    {s.node_id} stands by ({s.detail})")
 
 
 @dataclass

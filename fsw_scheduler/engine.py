@@ -63,7 +63,7 @@ from .snapshot import (
     PendingSolve,
     QueuedChange,
 )
-from .solution import Plan, SolverStats, SolveStatus
+from .solution import Blocker, Plan, SolverStats, SolveStatus
 
 # -- events ------------------------------------------------------------------
 
@@ -108,6 +108,14 @@ class ClockStalled(msgspec.Struct, frozen=True, tag=True):
     last: int | None = None
 
 
+class Explained(msgspec.Struct, frozen=True, tag=True):
+    """Why tasks of plan ``plan_id`` (from solve ``solve_id``) are out."""
+
+    solve_id: int
+    plan_id: int
+    why: tuple[Blocker, ...] = ()
+
+
 class SolveDone(msgspec.Struct, frozen=True, tag=True):
     """The result of a :class:`StartSolve`."""
 
@@ -129,6 +137,7 @@ Event = (
     | LevelArrived
     | InputRejected
     | ClockStalled
+    | Explained
     | SolveDone
     | SolveFailed
 )
@@ -157,6 +166,19 @@ class StartSolve(msgspec.Struct, frozen=True):
     explain: bool = False
 
 
+class StartExplain(msgspec.Struct, frozen=True):
+    """Explain why tasks of the plan just published are out.
+
+    Runs after the plan is out, so it never delays it; the shell answers
+    with :class:`Explained`.
+    """
+
+    solve_id: int
+    plan_id: int
+    problem: Problem
+    plan: Plan
+
+
 class Log(msgspec.Struct, frozen=True):
     """A line for the component's log."""
 
@@ -164,7 +186,7 @@ class Log(msgspec.Struct, frozen=True):
     text: str
 
 
-Command = Publish | StartSolve | Log
+Command = Publish | StartSolve | StartExplain | Log
 
 # -- configuration -----------------------------------------------------------
 
@@ -196,6 +218,9 @@ class EngineConfig(msgspec.Struct, frozen=True):
     max_history
         Finished activities (completed, failed, preempted, obsolete) kept
         in the lifecycle map; the oldest leave it first.
+    explain_after_plan
+        Ask for the explanation of a plan's left-out tasks after it is
+        published (:class:`StartExplain`) instead of inside the solve.
     """
 
     report_timeout: int | None = None
@@ -208,6 +233,7 @@ class EngineConfig(msgspec.Struct, frozen=True):
     max_goals_per_solve: int | None = None
     node_id: str | None = None
     max_history: int = 1000
+    explain_after_plan: bool = False
 
 
 # -- the engine -------------------------------------------------------------
@@ -409,6 +435,11 @@ class Engine:
         )
 
     @property
+    def pending_goals(self) -> tuple[str, ...]:
+        """Goal ids of the solve in flight (empty when none)."""
+        return self._pending.goals if self._pending is not None else ()
+
+    @property
     def goals_waiting(self) -> int:
         """Goals accepted for processing and waiting for a solve."""
         return sum(1 for c in self._queue if c.kind == "goal")
@@ -457,6 +488,8 @@ class Engine:
             self._on_rejected(event, out)
         elif isinstance(event, ClockStalled):
             self._on_stalled(event, out)
+        elif isinstance(event, Explained):
+            self._on_explained(event, out)
         elif isinstance(event, SolveDone):
             self._on_solve_done(event, out)
         elif isinstance(event, SolveFailed):
@@ -467,6 +500,23 @@ class Engine:
         return out
 
     # -- event handlers ------------------------------------------------------
+
+    def _on_explained(self, event: Explained, out: list[Command]) -> None:
+        message = self._plan_message
+        if message is None or message.plan_id != event.plan_id:
+            return  # a newer plan is out; its own explanation follows
+        self._plan_message = msgspec.structs.replace(message, why=event.why)
+        out.append(
+            Publish(
+                topics.STATUS,
+                self._status(
+                    "explained",
+                    why=event.why,
+                    detail=f"plan {event.plan_id}: why "
+                    f"{len(event.why)} tasks are out",
+                ),
+            )
+        )
 
     def _on_stalled(self, event: ClockStalled, out: list[Command]) -> None:
         detail = (
@@ -753,6 +803,16 @@ class Engine:
             )
         if pending.stage == "degraded":
             self._raise_alarm(plan, out)
+        if (
+            self.config.explain_after_plan
+            and plan.unscheduled
+            and self.plan_id is not None
+        ):
+            out.append(
+                StartExplain(
+                    event.solve_id, self.plan_id, pending.problem, plan
+                )
+            )
         if (
             pending.dispatches_at_start != self._counters.dispatches
             and self._clock() > pending.started_at

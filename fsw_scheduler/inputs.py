@@ -19,6 +19,7 @@ from .bus.topics import GOALS, Topics, input_kind
 from .engine import (
     ClockStalled,
     Event,
+    Explained,
     GoalArrived,
     InputRejected,
     LevelArrived,
@@ -74,6 +75,8 @@ class InputDecoder:
             return Tick(message.now)
         if kind == "stalled":
             return ClockStalled(message.seconds, message.last)
+        if kind == "explanation":
+            return Explained(message.solve_id, message.plan_id, message.why)
         if kind == "clock":
             self._check_clock(message.now)
             if self.bus_now is not None and message.now < self.bus_now:

@@ -181,10 +181,11 @@ class SolveSummary(msgspec.Struct, frozen=True, omit_defaults=True):
 class Counters(msgspec.Struct, frozen=True, omit_defaults=True):
     """Running totals since start.
 
-    The last six are the bus shell's: ``inputs_dropped`` (telemetry that
+    The last seven are the bus shell's: ``inputs_dropped`` (telemetry that
     found the inbox's byte budget spent; it was never processed),
-    ``telemetry_superseded`` (samples replaced in the inbox by a newer
-    one on the same key before the loop read them: latest value wins),
+    ``telemetry_superseded`` and ``clock_superseded`` (samples replaced in
+    the inbox by a newer one on the same key before the loop read them:
+    the latest value wins),
     ``goals_busy`` (goals refused because too many were waiting; each got
     a ``goal_rejected``), ``queries_dropped``, ``publish_failures`` and
     ``loop_faults`` (inputs whose handling raised; the loop went on).
@@ -200,6 +201,7 @@ class Counters(msgspec.Struct, frozen=True, omit_defaults=True):
     inputs_rejected: int = 0
     inputs_dropped: int = 0
     telemetry_superseded: int = 0
+    clock_superseded: int = 0
     goals_busy: int = 0
     queries_dropped: int = 0
     publish_failures: int = 0
@@ -245,6 +247,7 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
     active: str | None = None
     node_id: str | None = None
     changed: dict[str, str] = {}
+    why: tuple[Blocker, ...] = ()
     source: Source | None = None
 
 
@@ -270,6 +273,20 @@ class Stalled(msgspec.Struct, frozen=True):
 
     seconds: float
     last: int | None = None
+
+
+class Explanation(msgspec.Struct, frozen=True):
+    """``scheduler/explained`` (journal only): why tasks of a plan are out.
+
+    Explanations take extra solves; they run after the plan is published
+    (within ``explain-budget``) and reach the loop as this record, which
+    replay feeds back where it arrived. The bus sees them as a status
+    ``explained`` event with ``why``, and in the plan queryable.
+    """
+
+    solve_id: int
+    plan_id: int
+    why: tuple[Blocker, ...] = ()
 
 
 class SolveRecord(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -341,6 +358,8 @@ class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     goals_waiting: int = 64
     goals_per_solve: int = 16
     max_clock_step: int | None = None
+    explain_after_plan: bool = False
+    response_deadline: float | None = None
 
 
 #: Message types of each key (relative to ``fsw/<sc>/``), for schemas.
@@ -358,6 +377,7 @@ SCHEMA_TYPES: dict[str, Any] = {
     "problem": Problem,
     "busy": Busy,
     "stalled": Stalled,
+    "explanation": Explanation,
 }
 
 _encoder = msgspec.json.Encoder()

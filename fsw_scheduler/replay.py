@@ -51,6 +51,7 @@ EXCLUDED: dict[str, tuple[str, ...]] = {
     "status": (
         "counters.inputs_dropped",
         "counters.telemetry_superseded",
+        "counters.clock_superseded",
         "counters.goals_busy",
         "counters.queries_dropped",
         "counters.publish_failures",
@@ -173,6 +174,8 @@ def config_from_info(info: messages.NodeInfo) -> NodeConfig:
         goals_per_solve=info.goals_per_solve,
         max_clock_step=info.max_clock_step,
         node_id=info.node_id,
+        explain_after_plan=info.explain_after_plan,
+        response_deadline=info.response_deadline,
     )
 
 

@@ -13,6 +13,7 @@ from .check import check_plan
 from .domains import cost_caps, start_domains
 from .explain import explain as explain_plan
 from .greedy import greedy_plan
+from .improve import improve
 from .proofs import infeasibility
 from .solution import Plan, SolverStats, SolveStatus
 
@@ -33,6 +34,12 @@ MIN_SOLVE_S = 0.05
 #: Share of the time limit the start heuristic may take (its trivial plan,
 #: the forced tasks alone, is always completed).
 GREEDY_SHARE = 0.4
+#: From this many tasks on, a solve under a time limit improves the start
+#: plan by neighbourhood search (:mod:`fsw_scheduler.improve`) instead of
+#: handing the whole model to the solver.
+LNS_MIN_TASKS = 30
+#: Seconds of the limit left when the neighbourhood search stops.
+LNS_MARGIN_S = 0.2
 
 
 def solve(
@@ -139,6 +146,12 @@ def solve(
                 time_limit_s=time_limit,
             )
         )
+    elif (
+        start is not None
+        and time_limit is not None
+        and problem.num_tasks >= LNS_MIN_TASKS
+    ):
+        plan = _improved(problem, start, domains, run, began, time_limit)
     else:
         plan = _keep_better(
             _checked(
@@ -155,6 +168,16 @@ def solve(
             ),
             start,
         )
+        if start is None and not plan.status.has_plan and plan.stats:
+            # Rare: say why there is not even the start plan to fly.
+            plan = plan.replace(
+                stats=msgspec.structs.replace(
+                    plan.stats,
+                    solver_status=f"{plan.stats.solver_status}; no start "
+                    "plan: list scheduling could not place the tasks every "
+                    "plan must hold",
+                )
+            )
         if plan.stats is not None:
             # Report the limit the caller set, and the whole call's time.
             bound = plan.stats.bound
@@ -188,6 +211,36 @@ def solve(
             why=explain_plan(problem, plan, _budgeted(run, budget))
         )
     return plan
+
+
+def _improved(
+    problem: Problem,
+    start: Plan,
+    domains: dict[str, Domain],
+    run: Callable[..., Plan],
+    began: float,
+    time_limit: float,
+) -> Plan:
+    """The start plan improved by :func:`fsw_scheduler.improve.improve`.
+
+    For large problems under a limit: the whole model does not get
+    through CBC's root LP in seconds (on the scaling set CBC never
+    improved the start plan), small neighbourhood models do.
+    """
+    deadline = began + time_limit - LNS_MARGIN_S
+    best, improved = improve(problem, start, domains, run, deadline)
+    return best.replace(
+        status=SolveStatus.FEASIBLE,
+        stats=SolverStats(
+            solver=f"{run.keywords.get('solver', 'cbc')}-lns"
+            if isinstance(run, functools.partial)
+            else "lns",
+            wall_s=time.perf_counter() - began,
+            solver_status=f"neighbourhood search: {improved} improvements "
+            "of the start plan",
+            time_limit_s=time_limit,
+        ),
+    )
 
 
 def _budgeted(

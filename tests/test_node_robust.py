@@ -8,6 +8,7 @@ liveliness or query answers, never on fixed sleeps.
 from __future__ import annotations
 
 import json
+import signal
 import subprocess
 import sys
 import threading
@@ -613,3 +614,211 @@ def test_a_stalled_bus_clock_degrades_the_status(
     h.clock(1)
     resumed = h.wait_status(lambda s: s.event == "clock_resumed", since=seen)
     assert resumed.state == "ok"
+
+
+# -- finding 6: the solver dies with the node; a stop interrupts a solve ------
+
+
+def _children(pid: int) -> list[int]:
+    """Pids of the direct children of ``pid`` (Linux /proc)."""
+    found = []
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        with_children = task / "children"
+        if with_children.exists():
+            found += [int(c) for c in with_children.read_text().split()]
+    return found
+
+
+def _cmdline(pid: int) -> str:
+    try:
+        raw = Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:
+        return ""
+    return raw.decode(errors="replace")
+
+
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().split()[2]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+def _wait_for(predicate: object, timeout: float, what: str) -> None:
+    from fsw_scheduler.bus.session import wait_until
+
+    wait_until(
+        predicate,  # type: ignore[arg-type]
+        timeout,
+        interval_s=0.02,
+        what=what,
+    )
+
+
+def _long_solve_node(tmp_path: Path, *extra: str) -> tuple:
+    """A `run` subprocess busy in a long CBC solve, and the CBC pid."""
+    import zenoh
+
+    from fsw_scheduler.bus.session import (
+        listening_endpoints,
+        loopback_config,
+    )
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+    from bench_lib.generator import generate_problem
+
+    problem = tmp_path / "big.json"
+    problem.write_text(json.dumps(generate_problem(60, "mixed", 336, 7)))
+    session = zenoh.open(loopback_config())
+    (endpoint,) = [
+        e for e in listening_endpoints(session) if e.startswith("tcp/")
+    ]
+    process = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "fsw_scheduler.cli",
+            "run",
+            "--problem",
+            str(problem),
+            "--clock",
+            "bus",
+            "--time-limit",
+            "120",
+            "--connect",
+            endpoint,
+            "--listen",
+            "tcp/127.0.0.1:0",
+            "--no-multicast-scouting",
+            *extra,
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    return session, process
+
+
+def _start_cbc(session: object, process: subprocess.Popen) -> int:
+    from fsw_scheduler.testing import SchedulerClient
+
+    client = SchedulerClient(session)  # type: ignore[arg-type]
+    try:
+        client.wait_scheduler(30)
+        client.clock(0)  # the initial solve starts
+    finally:
+        client.close()
+    cbc: list[int] = []
+
+    def cbc_running() -> bool:
+        cbc[:] = [
+            c for c in _children(process.pid) if "fsw-cbc-" in _cmdline(c)
+        ]
+        return bool(cbc)
+
+    _wait_for(cbc_running, 60, "CBC started by the node")
+    return cbc[0]
+
+
+def test_cbc_dies_with_a_killed_node(tmp_path: Path) -> None:
+    """Tests that SIGKILL of the node during a solve also ends CBC."""
+    session, process = _long_solve_node(tmp_path)
+    try:
+        cbc = _start_cbc(session, process)
+        process.kill()
+        process.wait(10)
+        _wait_for(lambda: not _alive(cbc), 5, "CBC gone with its parent")
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait(10)
+        if process.stderr is not None:
+            process.stderr.close()
+        session.close()  # type: ignore[attr-defined]
+
+
+def test_sigterm_interrupts_a_solve_and_exits_0(tmp_path: Path) -> None:
+    """Tests that SIGTERM during a solve stops within a second, exit 0."""
+    import time
+
+    from fsw_scheduler.recording import iter_messages
+
+    journal = tmp_path / "journal.mcap"
+    session, process = _long_solve_node(tmp_path, "--record", str(journal))
+    try:
+        cbc = _start_cbc(session, process)
+        asked = time.monotonic()
+        process.send_signal(signal.SIGTERM)
+        assert process.wait(10) == 0
+        took = time.monotonic() - asked
+        assert not _alive(cbc)
+        assert took < 2.0, f"stopped {took:.2f} s after SIGTERM"
+        topics = {m.topic for m in iter_messages(journal)}
+        assert "fsw/sat1/clock" in topics  # a finished, readable journal
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait(10)
+        if process.stderr is not None:
+            process.stderr.close()
+        session.close()  # type: ignore[attr-defined]
+
+
+# -- finding 5: a deadline over the whole goal -> plan path -------------------
+
+
+def _generated(num_tasks: int, seed: int) -> dict:
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+    from bench_lib.generator import generate_problem
+
+    return generate_problem(num_tasks, "mixed", 336, seed)
+
+
+def test_the_response_deadline_bounds_goal_to_plan() -> None:
+    """Tests that a hard goal gets its plan within the response deadline."""
+    import time
+
+    from fsw_scheduler.testing import SchedulerHarness
+
+    doc = _generated(60, 7)
+    empty = json.dumps({**doc, "tasks": [], "precedences": []})
+    config = harness_config(response_deadline=2.0, time_limit=60.0)
+    with SchedulerHarness(empty, config) as h:
+        h.tick(0)
+        goal = {
+            "goal_id": "hard",
+            "tasks": doc["tasks"],
+            "precedences": doc["precedences"],
+        }
+        sent = time.monotonic()
+        h.publish_goal(goal)
+        plan = h.wait_plan(lambda p: "hard" in p.goals, timeout=30)
+        took = time.monotonic() - sent
+        assert took < 3.0, f"goal -> plan took {took:.2f} s"
+        assert plan.stats is not None
+        assert plan.stats.time_limit_s is not None
+        assert plan.stats.time_limit_s < 2.0
+
+
+@pytest.mark.parametrize(
+    "scheduler_config", [harness_config(explain=True, explain_budget=5.0)]
+)
+def test_explanations_follow_the_plan(
+    started: SchedulerHarness, scheduler_config: NodeConfig
+) -> None:
+    """Tests that a plan is published unexplained, then `explained`."""
+    h = started
+    huge = task("Huge", uses={"power": 1000}, schedule_cost=1)
+    h.publish_goal(goal_of("too-long", huge))
+    plan = h.wait_plan(lambda p: "too-long" in p.goals)
+    assert "Huge" in plan.unscheduled
+    assert plan.why == ()  # not waited for
+    explained = h.wait_status(lambda s: s.event == "explained")
+    assert explained.plan_id == plan.plan_id
+    assert [b.task for b in explained.why] == ["Huge"]
+    queried = h.query_plan()
+    assert queried is not None
+    assert [b.task for b in queried.why] == ["Huge"]

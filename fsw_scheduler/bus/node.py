@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import logging
+import queue
 import threading
 import time
 from collections import deque
@@ -41,15 +42,19 @@ from ..engine import (
     Engine,
     EngineConfig,
     Event,
+    Explained,
+    GoalArrived,
     Log,
     Publish,
     SolveDone,
     SolveFailed,
+    StartExplain,
     StartSolve,
     Tick,
 )
 from ..errors import BusError
 from ..inputs import InputDecoder, goal_id_of
+from ..solvers.ilp.cbc import Cancel, cancel_scope
 from . import topics
 from .provenance import Origin, Provenance, capture
 
@@ -57,7 +62,7 @@ if TYPE_CHECKING:
     from ..config import NodeConfig
     from ..model import Problem
     from ..recording import Recorder
-    from ..solution import Plan
+    from ..solution import Blocker, Plan
 
 log = logging.getLogger("fsw_scheduler.node")
 
@@ -70,6 +75,14 @@ SolveFn = Callable[..., "Plan"]
 #: and withdraws its token.
 MAX_CONSECUTIVE_FAULTS = 20
 
+#: Seconds of the response deadline kept for what a solve's limit does
+#: not cover: the start plan of a large merged problem, reading CBC's
+#: answer back, publishing (the soak's p99 overran 0.2 s by 0.3 s).
+PUBLISH_MARGIN_S = 1.0
+
+#: A solve gets at least this long, deadline or not (the start plan).
+MIN_SOLVE_S = 0.05
+
 #: Queries waiting for the loop; more are dropped (the querier gets no
 #: reply) and counted.
 MAX_WAITING_QUERIES = 256
@@ -79,8 +92,47 @@ MAX_WAITING_QUERIES = 256
 #: time than receiving one).
 MAX_BUSY_NOTICES = 65536
 
+#: Inbox kinds that are samples from the bus (the others are the node's
+#: own notices: busy, stalled, explained...): only these have a source.
+_BUS_INPUTS = frozenset({"goal", "clock", "activity_report", "resource_level"})
+
 # Faults that end the loop at once instead of being survived.
 _FATAL = (KeyboardInterrupt, SystemExit)
+
+
+class _Worker:
+    """One daemon thread running jobs in order (the solves).
+
+    Daemon, unlike ``ThreadPoolExecutor``'s threads, which the interpreter
+    joins at exit: a stopping node must not wait for a solve to finish.
+    """
+
+    def __init__(self, name: str) -> None:
+        self._jobs: queue.SimpleQueue[Any] = queue.SimpleQueue()
+        self._thread = threading.Thread(
+            target=self._run, name=name, daemon=True
+        )
+        self._thread.start()
+
+    def submit(
+        self, fn: Callable[..., Any], *args: Any
+    ) -> concurrent.futures.Future:
+        future: concurrent.futures.Future = concurrent.futures.Future()
+        self._jobs.put((future, fn, args))
+        return future
+
+    def shutdown(self) -> None:
+        self._jobs.put(None)
+
+    def _run(self) -> None:
+        while (job := self._jobs.get()) is not None:
+            future, fn, args = job
+            if not future.set_running_or_notify_cancel():
+                continue
+            try:
+                future.set_result(fn(*args))
+            except BaseException as error:  # reported as SolveFailed
+                future.set_exception(error)
 
 
 class Inbox:
@@ -111,6 +163,7 @@ class Inbox:
         self.queries = 0
         self.busy_notices = 0
         self.superseded = 0
+        self.clock_superseded = 0
         self.lost = 0
         self.busy = 0
         self.goals_lost = 0
@@ -164,7 +217,10 @@ class Inbox:
                 self.bytes += len(payload) - len(pending[2])
                 pending[2] = payload
                 pending[4] = origin
-                self.superseded += 1
+                if kind == "clock":
+                    self.clock_superseded += 1
+                else:
+                    self.superseded += 1
                 return
             if self.bytes + len(payload) > self.max_bytes:
                 self.lost += 1
@@ -226,6 +282,7 @@ def engine_config(config: NodeConfig) -> EngineConfig:
         max_goals_waiting=config.goals_waiting,
         max_goals_per_solve=config.goals_per_solve,
         node_id=config.node_id,
+        explain_after_plan=config.explain and config.explain_after_plan,
     )
 
 
@@ -261,6 +318,8 @@ def node_info(
         goals_waiting=config.goals_waiting,
         goals_per_solve=config.goals_per_solve,
         max_clock_step=config.max_clock_step,
+        explain_after_plan=config.explain_after_plan,
+        response_deadline=config.response_deadline,
         version=__version__,
         problem=problem,
         resumed=resumed,
@@ -270,19 +329,61 @@ def node_info(
 
 
 def run_solve(config: NodeConfig, command: StartSolve) -> Plan:
-    """Solve as the node does (shared with deterministic replay)."""
+    """Solve as the node does (shared with deterministic replay).
+
+    With ``explain_after_plan`` a plan comes back unexplained (the node
+    explains it once published); a solve that gives no plan is explained
+    here, since the rejection it causes names the blockers.
+    """
     from ..solve import solve
 
-    return solve(
+    later = config.explain_after_plan
+    plan = solve(
         command.problem,
         config.solver,
         time_limit=config.time_limit,
         threads=config.threads,
         seed=config.seed,
-        explain=config.explain or command.explain,
+        # The shedding solve explains at once: its alarm must say why.
+        explain=(config.explain and not later) or command.explain,
         warm=command.warm,
         explain_budget=config.explain_budget,
     )
+    if config.explain and later and not plan.status.has_plan:
+        plan = plan.replace(
+            why=run_explain(config, command.problem, plan)
+        )
+    return plan
+
+
+def run_explain(
+    config: NodeConfig, problem: Problem, plan: Plan
+) -> tuple[Blocker, ...]:
+    """Why tasks of ``plan`` are out, within ``config.explain_budget``."""
+    from ..explain import explain
+    from ..solution import Plan as PlanType
+    from ..solution import SolveStatus
+    from ..solvers.ilp import solve_ilp
+
+    deadline = time.monotonic() + config.explain_budget
+
+    def attempt(relaxed: Problem) -> Plan:
+        left = deadline - time.monotonic()
+        if left <= 0.05:  # budget spent: the task is not analysed
+            return PlanType(
+                status=SolveStatus.UNKNOWN,
+                objective=None,
+                unscheduled=tuple(t.id for t in relaxed.tasks),
+            )
+        return solve_ilp(
+            relaxed,
+            config.solver,
+            time_limit=left,
+            threads=config.threads,
+            seed=config.seed,
+        )
+
+    return explain(problem, plan, attempt)
 
 
 def _direct(callback: Callable[[Any], None]) -> zenoh.handlers.Callback:
@@ -395,9 +496,12 @@ class SchedulerNode:
         self._publish_failures_in_a_row = 0
         self._closed = threading.Event()
         self._thread: threading.Thread | None = None
-        self._workers = concurrent.futures.ThreadPoolExecutor(
-            max_workers=1, thread_name_prefix="fsw-solve"
-        )
+        self._workers = _Worker("fsw-solve")
+        # Explanations on their own thread: they never hold a solve back.
+        self._explainer = _Worker("fsw-explain")
+        # Goal id -> monotonic arrival (s), for the response deadline.
+        self._arrivals: dict[str, float] = {}
+        self._cancel = Cancel()
         self._clock: UnitClock | None = None
         self._decoder = InputDecoder(
             self.topics, config.clock, config.max_clock_step
@@ -438,7 +542,11 @@ class SchedulerNode:
                     key(suffix), _direct(self._sample_callback(kind))
                 )
             )
-        for suffix in (topics.PLAN, topics.STATUS):
+        queryables = [topics.PLAN, topics.STATUS]
+        if self._share_state:
+            # A standby that joins later asks for the state at once.
+            queryables.append(topics.SNAPSHOT)
+        for suffix in queryables:
             self._declared.append(
                 session.declare_queryable(
                     key(suffix), _direct(self._query_callback(suffix))
@@ -487,10 +595,12 @@ class SchedulerNode:
     def close(self, timeout: float = 10.0) -> None:
         """Stop the loop, wait for it, undeclare everything."""
         self._stop.set()
+        self._cancel.cancel()  # a solve in flight stops now
         self._inbox.put("wake", None)
         if self._thread is not None:
             self._thread.join(timeout)
-        self._workers.shutdown(wait=False, cancel_futures=True)
+        self._workers.shutdown()
+        self._explainer.shutdown()
         self._withdraw_token()
         for entity in [*self._declared, *self._publishers.values()]:
             try:
@@ -635,7 +745,7 @@ class SchedulerNode:
         item = self._inbox.get(timeout=max(timeout, 0.001))
         if item is None:
             return
-        kind, key, payload, _arrived, origin = item
+        kind, key, payload, arrived, origin = item
         if kind == "wake":
             return
         if kind == "resume":
@@ -644,6 +754,18 @@ class SchedulerNode:
             self._answer(*payload)
         elif kind == "solve":
             self._step(payload)
+        elif kind == "explained":
+            self._on_sample(
+                kind,
+                self.topics.key(topics.EXPLAINED),
+                messages.encode(
+                    messages.Explanation(
+                        payload.solve_id, payload.plan_id, payload.why
+                    )
+                ),
+            )
+        elif kind == "goal":
+            self._on_sample(kind, key, payload, arrived, origin)
         elif kind == "busy":
             self._on_sample(
                 kind,
@@ -651,7 +773,7 @@ class SchedulerNode:
                 messages.encode(messages.Busy(key, payload)),
             )
         else:
-            self._on_sample(kind, key, payload, origin)
+            self._on_sample(kind, key, payload, origin=origin)
 
     def _tick_wall_clock(self) -> None:
         if self._clock is None:
@@ -690,17 +812,24 @@ class SchedulerNode:
         return bus_now if bus_now is not None else 0
 
     def _on_sample(
-        self, kind: str, key: str, payload: bytes, origin: Origin | None = None
+        self,
+        kind: str,
+        key: str,
+        payload: bytes,
+        arrived: float = 0.0,
+        origin: Origin | None = None,
     ) -> None:
         self._journal.write(key, payload)
         source = None
-        if kind not in ("busy", "stalled"):  # bus inputs only
+        if kind in _BUS_INPUTS:  # not the node's own notices
             source = self._provenance.resolve(key, origin)
             self._journal.write(
                 self.topics.key(topics.SOURCES),
                 messages.encode(messages.InputSource(key, source)),
             )
         event = self._decoder.event(key, payload)
+        if isinstance(event, GoalArrived) and len(self._arrivals) < 4096:
+            self._arrivals.setdefault(event.goal.goal_id, arrived)
         if kind == "clock" and isinstance(event, Tick):
             self._last_clock_s = self._seconds()
             self._stall_reported = False
@@ -799,6 +928,7 @@ class SchedulerNode:
         self.engine.count_shell(
             inputs_dropped=inbox.lost,
             telemetry_superseded=inbox.superseded,
+            clock_superseded=inbox.clock_superseded,
             goals_busy=inbox.busy,
             queries_dropped=inbox.queries_dropped,
             publish_failures=self._publish_failures,
@@ -810,10 +940,56 @@ class SchedulerNode:
             message = self._provenance.annotate(command.message)
             self._publish_raw(command.suffix, messages.encode(message))
         elif isinstance(command, StartSolve):
-            future = self._workers.submit(self._solve_fn, self.config, command)
+            future = self._workers.submit(
+                self._solve_scoped, command, self._solve_config(command)
+            )
             future.add_done_callback(self._solve_callback(command.solve_id))
+        elif isinstance(command, StartExplain):
+            self._explainer.submit(self._explain, command)
         elif isinstance(command, Log):
             log.log(logging.getLevelName(command.level.upper()), command.text)
+
+    def _solve_config(self, command: StartSolve) -> NodeConfig:
+        """The settings of a solve: its limit cut to the goals' deadline.
+
+        The response deadline runs from the arrival of the oldest goal of
+        the solve; decoding, merging and waiting behind another solve came
+        out of it already, the start plan, model and solver share the rest
+        (less a margin to publish) with the solves that the goals queued
+        behind this one will need.
+        """
+        config = self.config
+        goals = self.engine.pending_goals
+        if config.response_deadline is None or not goals:
+            return config
+        arrived = [self._arrivals[g] for g in goals if g in self._arrivals]
+        for goal_id in goals:
+            self._arrivals.pop(goal_id, None)
+        if not arrived:
+            return config
+        left = config.response_deadline - (self._seconds() - min(arrived))
+        # Goals queued behind this solve need solves of their own within
+        # their deadlines: each batch gets an equal share of what is left.
+        batches = -(-self.engine.goals_waiting // config.goals_per_solve)
+        limit = max((left - PUBLISH_MARGIN_S) / (1 + batches), MIN_SOLVE_S)
+        if config.time_limit is not None and config.time_limit <= limit:
+            return config
+        return config.replace(time_limit=limit)
+
+    def _solve_scoped(self, command: StartSolve, config: NodeConfig) -> Plan:
+        with cancel_scope(self._cancel):
+            return self._solve_fn(config, command)
+
+    def _explain(self, command: StartExplain) -> None:
+        try:
+            with cancel_scope(self._cancel):
+                why = run_explain(self.config, command.problem, command.plan)
+        except BaseException:  # an explanation is advisory: log only
+            log.exception("explaining plan %d failed", command.plan_id)
+            return
+        self._inbox.put(
+            "explained", Explained(command.solve_id, command.plan_id, why)
+        )
 
     def _solve_callback(
         self, solve_id: int
@@ -861,11 +1037,13 @@ class SchedulerNode:
 
     def _answer(self, suffix: str, query: zenoh.Query) -> None:
         self._sync_counters()
-        message: msgspec.Struct | None = (
-            self.engine.plan_message
-            if suffix == topics.PLAN
-            else self.engine.status("query")
-        )
+        message: msgspec.Struct | None
+        if suffix == topics.PLAN:
+            message = self.engine.plan_message
+        elif suffix == topics.SNAPSHOT:
+            message = self.engine.snapshot()
+        else:
+            message = self.engine.status("query")
         try:
             if message is None:
                 query.reply_err(b'{"error": "no plan yet"}', encoding=JSON)

@@ -170,7 +170,9 @@ class Redundancy:
 
     def _on_snapshot(self, sample: zenoh.Sample) -> None:
         # Callbacks only keep bytes: decoding waits for a takeover.
-        payload = sample.payload.to_bytes()
+        self._keep_snapshot(sample.payload.to_bytes())
+
+    def _keep_snapshot(self, payload: bytes) -> None:
         try:
             inputs = int(msgspec.json.decode(payload).get("inputs", 0))
         except (msgspec.DecodeError, AttributeError, TypeError, ValueError):
@@ -178,6 +180,25 @@ class Redundancy:
         with self._lock:
             if inputs >= self._snapshot_inputs:
                 self._snapshot, self._snapshot_inputs = payload, inputs
+
+    def ask_snapshot(self, timeout: float = 2.0) -> bool:
+        """Ask the active node for its state now; True if one came.
+
+        Shared snapshots come with the active node's steps; a standby that
+        joins between two of them asks, so that it never takes over
+        without the state.
+        """
+        got = False
+        try:
+            for reply in self.session.get(
+                self.topics.key(topics.SNAPSHOT), timeout=timeout
+            ):
+                if reply.ok is not None:
+                    self._keep_snapshot(reply.ok.payload.to_bytes())
+                    got = True
+        except zenoh.ZError as error:
+            log.warning("asking for the active node's state: %s", error)
+        return got
 
     def latest_snapshot(self) -> EngineSnapshot | None:
         """The newest state the active node shared (None: none yet)."""
@@ -313,6 +334,8 @@ def serve(
             _, actives = redundancy.view()
             active = min(actives, key=order) if actives else None
             if active != standing_by_for:
+                if active is not None:
+                    redundancy.ask_snapshot()
                 redundancy.publish_standby(active)
                 log.info(
                     "standing by%s",

@@ -41,6 +41,8 @@ ACTIVE = "scheduler/active"
 BUSY = "scheduler/busy"
 #: Recorded only: the bus clock stopped ticking (wall-clock detection).
 STALLED = "scheduler/stalled"
+#: Recorded only: explanations computed after a plan was published.
+EXPLAINED = "scheduler/explained"
 
 #: Output suffixes, compared by ``replay --verify``.
 OUTPUTS = (PLAN, DISPATCH, STATUS)
@@ -105,6 +107,7 @@ class Topics(msgspec.Struct, frozen=True):
             SNAPSHOT: "snapshot",
             BUSY: "busy",
             STALLED: "stalled",
+            EXPLAINED: "explanation",
         }
         if suffix in exact:
             return exact[suffix]
@@ -139,6 +142,8 @@ def input_kind(topics: Topics, key: str, clock: str) -> str | None:
         return "busy"
     if suffix == STALLED:
         return "stalled" if clock == "bus" else None
+    if suffix == EXPLAINED:
+        return "explanation"
     head, _, name = suffix.rpartition("/")
     if not name:
         return None

@@ -17,17 +17,25 @@ makes the limit enforceable on board:
 
 Starting the process costs a few milliseconds; writing and reading the
 files a few more (tools/bench reports both as solver overhead).
+
+Process lifetime: on Linux CBC asks the kernel to kill it when the thread
+that started it goes (``PR_SET_PDEATHSIG``), so a node killed with
+SIGKILL leaves no CBC running on; and a :class:`Cancel` installed with
+:func:`cancel_scope` stops every CBC run of its scope at once (a node
+being stopped), and refuses to start new ones.
 """
 
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import functools
 import logging
 import os
 import re
 import signal
 import subprocess
+import sys
 import tempfile
 import threading
 import time
@@ -39,7 +47,7 @@ from ...errors import SolverError
 from ...solution import SolveStatus
 
 if TYPE_CHECKING:
-    from collections.abc import Sequence
+    from collections.abc import Callable, Iterator, Sequence
 
     from .program import Program
 
@@ -69,6 +77,84 @@ log = logging.getLogger("fsw_scheduler.solver")
 
 _SECONDS = re.compile(r"Time \(Wallclock seconds\):\s+([0-9.eE+-]+)")
 _BOUND = re.compile(r"Lower bound:\s+([0-9.eE+-]+)")
+
+
+class Cancel:
+    """Stops the CBC runs started under it (see :func:`cancel_scope`)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._running: set[subprocess.Popen] = set()
+        self.cancelled = False
+
+    def cancel(self) -> None:
+        """Kill every run of the scope now; start no new one."""
+        with self._lock:
+            self.cancelled = True
+            running = list(self._running)
+        for process in running:
+            with contextlib.suppress(OSError):
+                process.kill()
+
+    def _enter(self, process: subprocess.Popen) -> bool:
+        with self._lock:
+            if not self.cancelled:
+                self._running.add(process)
+            return not self.cancelled
+
+    def _leave(self, process: subprocess.Popen) -> None:
+        with self._lock:
+            self._running.discard(process)
+
+
+_scope = threading.local()
+
+
+@contextlib.contextmanager
+def cancel_scope(cancel: Cancel) -> Iterator[Cancel]:
+    """Run the CBC solves of this thread under ``cancel``."""
+    outer = getattr(_scope, "cancel", None)
+    _scope.cancel = cancel
+    try:
+        yield cancel
+    finally:
+        _scope.cancel = outer
+
+
+@functools.cache
+def _prctl() -> Callable[..., int] | None:
+    """libc's ``prctl`` (Linux), None elsewhere."""
+    if not sys.platform.startswith("linux"):
+        return None
+    try:
+        return ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):
+        return None
+
+
+def _die_with_parent() -> Callable[[], None] | None:
+    """A ``preexec_fn`` asking the kernel to kill CBC with its parent.
+
+    The signal comes when the thread that started CBC ends, which for a
+    solve is never before CBC does, or when the process dies, SIGKILL
+    included.
+    """
+    prctl = _prctl()
+    if prctl is None:
+        return None
+    parent = os.getpid()
+
+    def preexec() -> None:
+        # Runs in the child between fork and exec: a system call and a
+        # comparison, nothing that could need a lock held by a thread.
+        prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
+        if os.getppid() != parent:  # the parent died before the prctl
+            os._exit(1)
+
+    return preexec
+
+
+_PR_SET_PDEATHSIG = 1
 
 
 @functools.cache
@@ -320,11 +406,27 @@ class CbcRun:
     def _run(
         self, args: list[str], log_path: str, deadline: float | None
     ) -> int:
+        cancel: Cancel | None = getattr(_scope, "cancel", None)
+        if cancel is not None and cancel.cancelled:
+            self.interrupted = True
+            return -signal.SIGKILL
         with open(log_path, "w") as out:
             process = subprocess.Popen(
-                args, stdout=out, stderr=out, stdin=subprocess.DEVNULL
+                args,
+                stdout=out,
+                stderr=out,
+                stdin=subprocess.DEVNULL,
+                preexec_fn=_die_with_parent(),
             )
-            self._wait(process, deadline)
+            if cancel is not None and not cancel._enter(process):
+                process.kill()
+            try:
+                self._wait(process, deadline)
+            finally:
+                if cancel is not None:
+                    cancel._leave(process)
+        if cancel is not None and cancel.cancelled:
+            self.interrupted = True
         return process.returncode
 
     def _wait(self, process: subprocess.Popen, deadline: float | None) -> None:
