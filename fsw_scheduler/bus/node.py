@@ -765,7 +765,7 @@ class SchedulerNode:
                 ),
             )
         elif kind == "goal":
-            self._on_sample(kind, key, payload, arrived, origin)
+            self._on_sample(kind, key, payload, origin, arrived)
         elif kind == "busy":
             self._on_sample(
                 kind,
@@ -816,8 +816,8 @@ class SchedulerNode:
         kind: str,
         key: str,
         payload: bytes,
-        arrived: float = 0.0,
         origin: Origin | None = None,
+        arrived: float = 0.0,
     ) -> None:
         self._journal.write(key, payload)
         source = None
