@@ -1119,7 +1119,6 @@ def test_twin_schedulers_see_each_other_through_the_router(
         entity.undeclare()
 
 
-
 def test_router_topology_profiles(tmp_path: Path) -> None:
     """Tests the router topology's files: modes, endpoints, the check."""
     out = tmp_path / "deploy"
@@ -1133,10 +1132,154 @@ def test_router_topology_profiles(tmp_path: Path) -> None:
         info = assess(config)
         assert info.exposed and info.warnings == (), role
     router = json.loads(
-        zenoh.Config.from_file(out / "router.json5").get_json(
-            "access_control"
-        )
+        zenoh.Config.from_file(out / "router.json5").get_json("access_control")
     )
     assert {s["id"] for s in router["subjects"]} == set(ROLES)
     script = (out / "make-certs.sh").read_text()
     assert "make_cert router router IP:10.0.0.9" in script
+
+
+class _Run:
+    """``fsw-scheduler run`` in a subprocess, its log read by a thread."""
+
+    def __init__(self, *args: str) -> None:
+        import threading
+
+        self.process = subprocess.Popen(
+            [sys.executable, "-m", "fsw_scheduler.cli", "run", *args],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        self.lines: queue.Queue[str | None] = queue.Queue()
+        self.log: list[str] = []
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        assert self.process.stderr is not None
+        for line in self.process.stderr:
+            self.log.append(line)
+            self.lines.put(line)
+        self.lines.put(None)
+
+    def wait_for(self, *words: str, timeout: float = 60.0) -> str:
+        """The first of ``words`` the log shows (fails if the run ends)."""
+        import time
+
+        deadline = time.monotonic() + timeout
+        while True:
+            line = self.lines.get(timeout=max(deadline - time.monotonic(), 0))
+            assert line is not None, "".join(self.log)
+            for word in words:
+                if word in line:
+                    return word
+
+    def stop(self) -> None:
+        """Kill the process if it still runs (cleanup)."""
+        if self.process.poll() is None:
+            self.process.kill()
+            self.process.wait(10)
+        self._reader.join(10)
+        if self.process.stderr is not None:
+            self.process.stderr.close()
+
+
+def test_redundant_schedulers_behind_the_secure_router(
+    pki: dict[str, Path], tmp_path: Path
+) -> None:
+    """Tests two 'run' twins through the TLS router: one commands, a goal
+    gets one verdict, and the other takes over when it is killed."""
+    import threading
+
+    router_config = zenoh.Config.from_json5(
+        render_profile(
+            "router",
+            certs=pki["good"],
+            endpoint="tls/localhost:0",
+            listen="tls/localhost:0",
+            topology="router",
+        )
+    )
+    router_config.insert_json5("adminspace/enabled", "true")
+    router_config.insert_json5("adminspace/permissions/read", "true")
+    router = zenoh.open(router_config)
+    runs: dict[str, _Run] = {}
+    sessions: list[zenoh.Session] = []
+    try:
+        endpoint = listening_endpoints(router)[0]
+        out = tmp_path / "deploy"
+        assert (
+            main(
+                [
+                    "config",
+                    "--out",
+                    str(out),
+                    "--certs",
+                    str(pki["good"]),
+                    "--endpoint",
+                    endpoint,
+                    "--topology",
+                    "router",
+                ]
+            )
+            == 0
+        )
+        problem = Path(__file__).resolve().parents[1] / "fsw_scheduler"
+        for name in ("twin-a", "twin-b"):
+            runs[name] = _Run(
+                "--problem",
+                str(problem / "data" / "paper_table1.json"),
+                "--clock",
+                "bus",
+                "--config",
+                str(out / "scheduler.json5"),
+                "--require-secure",
+                "--node-id",
+                name,
+            )
+        decisions: dict[str, str] = {}
+        threads = [
+            threading.Thread(
+                target=lambda n=name: decisions.__setitem__(
+                    n, runs[n].wait_for("scheduler up on", "standing by")
+                )
+            )
+            for name in runs
+        ]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join(90)
+        assert sorted(decisions.values()) == [
+            "scheduler up on",
+            "standing by",
+        ], decisions
+
+        def role(name: str) -> SchedulerClient:
+            session = zenoh.open(zenoh.Config.from_file(out / f"{name}.json5"))
+            sessions.append(session)
+            return SchedulerClient(session, timeout=WAIT_S)
+
+        monitor, clock, goals = role("monitor"), role("clock"), role("goals")
+        clock.wait_scheduler(60)
+        goals.wait_scheduler(60)
+        clock.clock(0)
+        monitor.wait_plan(lambda p: p.plan_id == 1, 60)
+        goals.publish_goal(ping_goal("once", "Beacon"))
+        verdict = goals.wait_status(lambda s: s.goal_id == "once", 60)
+        assert verdict.event == "goal_accepted"
+        commander = verdict.node_id
+        assert commander in runs
+        assert [s.event for s in goals.statuses if s.goal_id == "once"] == [
+            "goal_accepted"
+        ]
+        runs[commander].process.kill()
+        took_over = monitor.wait_status(lambda s: s.event == "took_over", 60)
+        assert took_over.node_id != commander
+    finally:
+        for session in sessions:
+            session.close()
+        for run in runs.values():
+            run.stop()
+        router.close()

@@ -93,6 +93,10 @@ MAX_WAITING_QUERIES = 256
 #: time than receiving one).
 MAX_BUSY_NOTICES = 65536
 
+#: Inbox kinds that are samples from the bus (the others are the node's
+#: own notices: busy, stalled, explained...): only these have a source.
+_BUS_INPUTS = frozenset({"goal", "clock", "activity_report", "resource_level"})
+
 # Faults that end the loop at once instead of being survived.
 _FATAL = (KeyboardInterrupt, SystemExit)
 
@@ -783,7 +787,7 @@ class SchedulerNode:
                 messages.encode(messages.Busy(key, payload)),
             )
         else:
-            self._on_sample(kind, key, payload, origin)
+            self._on_sample(kind, key, payload, origin=origin)
 
     def _tick_wall_clock(self) -> None:
         if self._clock is None:
@@ -831,7 +835,7 @@ class SchedulerNode:
     ) -> None:
         self._journal.write(key, payload)
         source = None
-        if kind not in ("busy", "stalled"):  # bus inputs only
+        if kind in _BUS_INPUTS:  # not the node's own notices
             source = self._provenance.resolve(key, origin)
             self._journal.write(
                 self.topics.key(topics.SOURCES),

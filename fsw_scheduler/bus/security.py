@@ -1,13 +1,15 @@
 """Secure deployment: roles, their Zenoh configurations, a start-up check.
 
-The bus is a star: the scheduler listens on one TLS endpoint and every
-other component connects to it as a Zenoh client. Each component holds a
+In the ``star`` topology the scheduler listens on one TLS endpoint and
+every other component connects to it as a Zenoh client; in the ``router``
+topology a Zenoh router listens and every component, the scheduler and
+its redundant twins included, connects to it. Each component holds a
 certificate signed by the deployment's CA whose common name (CN) names
 its role; Zenoh's access control, default deny, is then written in terms
-of those names. The scheduler's policy is what protects the spacecraft,
-because every message reaches the scheduler or leaves it over one of its
-own links; each component's policy mirrors it, so that a misconfigured
-component cannot even send what the scheduler would refuse.
+of those names. The hub's policy is what protects the spacecraft, because
+every message crosses one of its links; each component's policy mirrors
+it, so that a misconfigured component cannot even send what the hub
+would refuse.
 
 How Zenoh applies the rules (checked against ``zenoh/src/net/routing/
 interceptor/access_control.rs`` and on the bus, see
@@ -19,8 +21,8 @@ allowed when a rule key expression *includes* its key (so a subscriber on
 Besides ``put``, a node's own entities travel as messages too: its
 subscriber, queryable and liveliness token are declarations that must be
 allowed to leave it, and query replies are ``reply`` messages. The table
-below therefore gives, per role, what it sends to the scheduler and what
-the scheduler sends to it.
+below therefore gives, per role, what it sends to the hub and what the
+hub sends to it.
 
 The profile template is package data (``profiles/<name>.json5``);
 :func:`render_profile` fills it per role.
