@@ -822,3 +822,53 @@ def test_explanations_follow_the_plan(
     queried = h.query_plan()
     assert queried is not None
     assert [b.task for b in queried.why] == ["Huge"]
+
+
+# -- the new journal channels replay exactly ----------------------------------
+
+
+def test_a_journal_with_busy_and_explained_replays(tmp_path: Path) -> None:
+    """Tests that busy rejections and late explanations replay identically."""
+    from fsw_scheduler.bus.node import SchedulerNode
+    from fsw_scheduler.bus.session import open_peer_pair, wait_matching
+    from fsw_scheduler.messages import schema_lookup
+    from fsw_scheduler.recording import Recorder
+    from fsw_scheduler.replay import verify
+    from fsw_scheduler.testing import SchedulerClient, paper_problem
+
+    path = tmp_path / "journal.mcap"
+    config = harness_config(
+        explain=True, goals_waiting=1, goals_per_solve=1, inbox_capacity=1
+    )
+    with open_peer_pair() as (server, client_session):
+        client = SchedulerClient(client_session)
+        for key in ("plan", "status"):
+            wait_matching(server, client.topics.key(f"scheduler/{key}"))
+        journal = Recorder(path, schemas=schema_lookup("sat1"))
+        node = SchedulerNode(server, paper_problem(), config, journal=journal)
+        node.start()
+        try:
+            client.wait_scheduler()
+            client.tick(0)
+            huge = task("Huge", uses={"power": 1000}, schedule_cost=1)
+            client.publish_goal(goal_of("too-big", huge))
+            for n in range(80):
+                client.publish_goal(goal_of(f"b{n}", task(f"B{n}")))
+            client.wait_status(lambda s: s.event == "explained")
+            client.wait_status(
+                lambda s: s.event == "goal_rejected"
+                and s.errors[0].reason.startswith("busy")
+            )
+            client.settle(0)
+            client.tick(1)
+        finally:
+            node.close()
+            client.close()
+    report = verify(path)
+    assert report.identical, report.summary()
+    assert report.solves >= 2
+    from fsw_scheduler.recording import iter_messages
+
+    topics = {m.topic for m in iter_messages(path)}
+    assert "fsw/sat1/scheduler/explained" in topics
+    assert "fsw/sat1/scheduler/busy" in topics
