@@ -728,9 +728,19 @@ def test_cbc_dies_with_a_killed_node(tmp_path: Path) -> None:
     session, process = _long_solve_node(tmp_path)
     try:
         cbc = _start_cbc(session, process)
+        model = next(
+            part for part in _cmdline(cbc).split("\0") if "fsw-cbc-" in part
+        )
         process.kill()
         process.wait(10)
         _wait_for(lambda: not _alive(cbc), 5, "CBC gone with its parent")
+        # Its temporary directory is left; the next node removes it.
+        from fsw_scheduler.solvers.ilp.cbc import sweep_stale_dirs
+
+        folder = str(Path(model).parent)
+        assert Path(folder).exists()
+        assert folder in sweep_stale_dirs()
+        assert not Path(folder).exists()
     finally:
         if process.poll() is None:
             process.kill()

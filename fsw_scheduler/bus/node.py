@@ -54,7 +54,7 @@ from ..engine import (
 )
 from ..errors import BusError
 from ..inputs import InputDecoder, goal_id_of
-from ..solvers.ilp.cbc import Cancel, cancel_scope
+from ..solvers.ilp.cbc import Cancel, cancel_scope, sweep_stale_dirs
 from . import topics
 
 if TYPE_CHECKING:
@@ -488,6 +488,7 @@ class SchedulerNode:
         self._token = session.liveliness().declare_token(key(topics.ALIVE))
         if self.config.clock == "wall":
             self._clock = UnitClock(self._seconds, self.config.time_unit)
+        sweep_stale_dirs()
         self._thread = threading.Thread(
             target=self._spin, name="fsw-scheduler-loop", daemon=True
         )
@@ -750,7 +751,13 @@ class SchedulerNode:
 
     def _execute(self, command: Command) -> None:
         if isinstance(command, Publish):
-            self._publish_raw(command.suffix, messages.encode(command.message))
+            message = command.message
+            if isinstance(message, messages.Status) and message.event in (
+                "goal_accepted",
+                "goal_rejected",
+            ):
+                self._arrivals.pop(message.goal_id or "", None)
+            self._publish_raw(command.suffix, messages.encode(message))
         elif isinstance(command, StartSolve):
             future = self._workers.submit(
                 self._solve_scoped, command, self._solve_config(command)
