@@ -441,6 +441,9 @@ class SchedulerNode:
         self._explainer = _Worker("fsw-explain")
         # Goal id -> monotonic arrival (s), for the response deadline.
         self._arrivals: dict[str, float] = {}
+        # Goals queued in the engine, as of the loop's last step (read by
+        # the callbacks, which must not touch the engine).
+        self._engine_waiting = 0
         self._cancel = Cancel()
         self._clock: UnitClock | None = None
         self._decoder = InputDecoder(
@@ -573,7 +576,7 @@ class SchedulerNode:
                 elif not inbox.put_goal(key, payload, self._seconds()):
                     # Refused unread, but never silently: the loop
                     # publishes a goal_rejected naming it.
-                    waiting = inbox.goals + self.engine.goals_waiting
+                    waiting = inbox.goals + self._engine_waiting
                     inbox.put_busy(goal_id_of(payload), waiting)
             except BaseException:  # zenoh only logs what a callback raises
                 log.exception("could not queue a %s sample", kind)
@@ -636,6 +639,14 @@ class SchedulerNode:
         except BaseException:
             log.exception("could not publish the error status")
         self._withdraw_token()
+        # Queriers get no answer at once rather than waiting for a reply
+        # that will never come.
+        for entity in self._declared:
+            try:
+                entity.undeclare()
+            except BaseException as failure:
+                log.debug("undeclare: %s", failure)
+        self._declared.clear()
         self._stop.set()
 
     def _withdraw_token(self) -> None:
@@ -736,6 +747,7 @@ class SchedulerNode:
         self._sync_counters()
         for command in self.engine.step(event, self._now()):
             self._execute(command)
+        self._engine_waiting = self.engine.goals_waiting
 
     def _sync_counters(self) -> None:
         inbox = self._inbox
