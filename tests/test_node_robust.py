@@ -807,7 +807,8 @@ def test_the_response_deadline_bounds_goal_to_plan() -> None:
         h.publish_goal(goal)
         plan = h.wait_plan(lambda p: "hard" in p.goals, timeout=30)
         took = time.monotonic() - sent
-        assert took < 3.0, f"goal -> plan took {took:.2f} s"
+        # Without the deadline the solve runs to its 60 s limit.
+        assert took < 5.0, f"goal -> plan took {took:.2f} s"
         assert plan.stats is not None
         assert plan.stats.time_limit_s is not None
         assert plan.stats.time_limit_s < 2.0
