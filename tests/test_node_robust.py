@@ -883,3 +883,32 @@ def test_a_journal_with_busy_and_explained_replays(tmp_path: Path) -> None:
     topics = {m.topic for m in iter_messages(path)}
     assert "fsw/sat1/scheduler/explained" in topics
     assert "fsw/sat1/scheduler/busy" in topics
+
+
+def test_inbox_bounds_without_blocking() -> None:
+    """Tests the inbox's coalescing, goal limits and key bound directly."""
+    from fsw_scheduler.bus import node as node_module
+    from fsw_scheduler.bus.node import Inbox
+
+    inbox = Inbox(max_goals=2, max_bytes=100)
+    assert inbox.put_goal("g", b"x" * 40, 0.0)
+    assert inbox.put_goal("g", b"x" * 40, 0.0)
+    assert not inbox.put_goal("g", b"x", 0.0)  # count limit
+    inbox.put_latest("resource_level", "k1", b"a" * 10)
+    inbox.put_latest("resource_level", "k1", b"b" * 15)  # replaces
+    assert (inbox.superseded, inbox.bytes) == (1, 95)
+    inbox.put_latest("resource_level", "k2", b"c" * 10)  # bytes spent
+    assert inbox.lost == 1
+    kinds = [inbox.get(0.01) for _ in range(4)]
+    assert [k[0] if k else None for k in kinds] == [
+        "goal",
+        "goal",
+        "resource_level",
+        None,
+    ]
+    assert kinds[2] is not None and kinds[2][2] == b"b" * 15
+    assert (inbox.goals, inbox.bytes, len(inbox)) == (0, 0, 0)
+    big = Inbox(max_goals=1, max_bytes=1 << 30)
+    for n in range(node_module.MAX_PENDING_KEYS + 5):
+        big.put_latest("resource_level", f"k{n}", b"1")
+    assert big.lost == 5

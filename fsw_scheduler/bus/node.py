@@ -86,6 +86,12 @@ MIN_SOLVE_S = 0.05
 #: reply) and counted.
 MAX_WAITING_QUERIES = 256
 
+#: Telemetry and clock keys with a sample waiting; a sample on one more
+#: key is dropped and counted (``inputs_dropped``). Far above the keys a
+#: node has (one per live task and consumable), it bounds the memory a
+#: flood of made-up keys can take.
+MAX_PENDING_KEYS = 4096
+
 #: Goals refused unread whose rejection waits to be published; more are
 #: counted as lost (never seen in practice: publishing one takes far less
 #: time than receiving one).
@@ -202,7 +208,10 @@ class Inbox:
                 else:
                     self.superseded += 1
                 return
-            if self.bytes + len(payload) > self.max_bytes:
+            if (
+                self.bytes + len(payload) > self.max_bytes
+                or len(self._latest) >= MAX_PENDING_KEYS
+            ):
                 self.lost += 1
                 return
             self.bytes += len(payload)
