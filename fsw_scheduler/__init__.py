@@ -1,10 +1,37 @@
 """fsw_scheduler: on-board activity scheduler for spacecraft.
 
-The public API: decode a :class:`Problem`, :func:`solve` it into a
-:class:`Plan`, check it with :func:`fsw_scheduler.check.check_plan`.
+The public API: :func:`solve` a problem into a :class:`Plan`,
+:func:`check` a plan independently of the solver, :func:`replan` a
+running plan when a goal or an event arrives. Each takes the typed
+objects, plain dicts or JSON text (:mod:`fsw_scheduler.api`); a plan
+gives itself back as :meth:`Plan.to_dict` or :meth:`Plan.to_json`.
 Importing the package imports neither PuLP nor Zenoh.
 """
 
+from .api import (
+    as_change as as_change,
+)
+from .api import (
+    as_plan as as_plan,
+)
+from .api import (
+    as_problem as as_problem,
+)
+from .api import (
+    check as check,
+)
+from .api import (
+    replan as replan,
+)
+from .api import (
+    solve as solve,
+)
+from .check import (
+    CheckReport as CheckReport,
+)
+from .check import (
+    check_plan as check_plan,
+)
 from .errors import (
     BusError as BusError,
 )
@@ -23,6 +50,12 @@ from .errors import (
 from .errors import (
     SolverError as SolverError,
 )
+from .goal import (
+    Goal as Goal,
+)
+from .goal import (
+    decode_goal as decode_goal,
+)
 from .model import (
     Precedence as Precedence,
 )
@@ -38,6 +71,12 @@ from .model import (
 from .model import (
     decode_problem as decode_problem,
 )
+from .reschedule import (
+    PlanDiff as PlanDiff,
+)
+from .reschedule import (
+    decode_change as decode_change,
+)
 from .solution import (
     Activity as Activity,
 )
@@ -50,6 +89,5 @@ from .solution import (
 from .solution import (
     SolveStatus as SolveStatus,
 )
-from .solve import solve as solve
 
 __version__ = "0.1.0"

@@ -1,6 +1,6 @@
 """Independent plan checker: does a plan obey every rule of the problem?
 
-:func:`check_plan` re-derives every constraint of CONTRACT section 1 from
+:func:`check_plan` re-derives every constraint of the problem format from
 the raw fields of the :class:`~fsw_scheduler.model.Problem` and walks the
 horizon one time unit at a time. It deliberately shares no code with the
 ILP builder (no ``pulp``, nothing from ``solve`` or ``solvers``, not even
@@ -47,7 +47,7 @@ Conventions for malformed plans (documented so that reports are stable):
   what would be dispatched. A wrong ``end`` is a ``length`` violation, and
   resources are still checked on the reported interval.
 * Precedences use the problem's ``length`` of ``before`` (the formula of
-  CONTRACT section 1) and the first activity listed for each task.
+  the problem format) and the first activity listed for each task.
 * Activities listed twice are both counted for resources (both would be
   dispatched); activities of unknown tasks use no resource.
 * Resources are walked over the horizon. Units an activity runs before the
@@ -126,8 +126,8 @@ class CheckReport(msgspec.Struct, frozen=True):
     violations
         Every violation found, grouped by rule in :data:`RULES` order.
     objective
-        The objective recomputed from the plan's activities (CONTRACT
-        section 1), whatever the plan itself reports.
+        The objective recomputed from the plan's activities (the
+        problem format's objective), whatever the plan itself reports.
     """
 
     violations: tuple[Violation, ...]

@@ -1,9 +1,9 @@
 """The ``fsw-scheduler`` command line.
 
 Each subcommand is one ``_cmd_*`` function taking the parsed arguments and
-returning the exit code; ``main`` only parses and dispatches. Exit codes
-follow CONTRACT section 4: 0 success, 1 infeasible / unknown / violations,
-2 bad input (the message on stderr names the field).
+returning the exit code; ``main`` only parses and dispatches. Exit codes:
+0 success, 1 infeasible / unknown / violations, 2 bad input (the message on
+stderr names the field) or a missing optional dependency.
 """
 
 from __future__ import annotations
@@ -14,17 +14,19 @@ import sys
 import textwrap
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import msgspec
 from mcap.exceptions import McapError
 
-from .errors import FieldIssue, InputError, SchedulerError
+from .errors import ConfigError, FieldIssue, InputError, SchedulerError
 from .model import Problem, decode_problem, decode_strict
 from .solution import Plan
 
 log = logging.getLogger("fsw_scheduler")
 
 EXIT_OK, EXIT_NO_PLAN, EXIT_BAD_INPUT = 0, 1, 2
+LOG_LEVELS = ("debug", "info", "warning", "error")
 
 DESCRIPTION = """\
 On-board activity scheduler for spacecraft.
@@ -43,9 +45,59 @@ Start here:
 EPILOG = """\
 exit codes: 0 ok, 1 no plan (infeasible / unknown) or violations,
 2 bad input (stderr names the field and the reason).
-Formats: see the README (problem, plan, goal and bus message schemas are
-in schemas/).
+Formats: the README describes the problem, plan, goal and bus message
+formats; `fsw-scheduler schemas --out DIR` writes their JSON Schemas.
 """
+
+
+def _number(
+    kind: type[float] | type[int], *, minimum: float, strict: bool
+) -> Callable[[str], float]:
+    """An argparse type: a number above (or at) ``minimum``, else exit 2."""
+
+    def parse(text: str) -> float:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"{text!r} is not a{'n integer' if kind is int else ' number'}"
+            ) from None
+        if value != value or value in (float("inf"), float("-inf")):
+            raise argparse.ArgumentTypeError(f"{text!r} is not finite")
+        if value < minimum or (strict and value == minimum):
+            raise argparse.ArgumentTypeError(
+                f"{text} must be {'>' if strict else '>='} {minimum:g}"
+            )
+        return value
+
+    parse.__name__ = kind.__name__
+    return parse
+
+
+positive_float = _number(float, minimum=0, strict=True)
+non_negative_float = _number(float, minimum=0, strict=False)
+positive_int = _number(int, minimum=0, strict=True)
+
+
+def _need_matplotlib(what: str) -> None:
+    """Stop before any work when a picture is asked for and cannot be made.
+
+    Raises
+    ------
+    MissingDependency
+        matplotlib is not installed; the message gives the install command.
+    """
+    from .plot import PLOT_INSTALL_HINT, have_matplotlib
+
+    if not have_matplotlib():
+        raise MissingDependency(
+            f"{what} needs matplotlib, which is not installed: "
+            f"{PLOT_INSTALL_HINT} (or leave the option out)"
+        )
+
+
+class MissingDependency(SchedulerError):
+    """An optional dependency a requested feature needs is not installed."""
 
 
 def _read_bytes(path: str) -> bytes:
@@ -118,10 +170,12 @@ def _add_solver_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--time-limit",
-        type=float,
+        type=positive_float,
         metavar="S",
-        help="solver time limit in seconds; at the limit the best plan is "
-        "returned with status 'feasible' (default: none)",
+        help="seconds (> 0) for the whole solve, start plan, model and "
+        "explanations included (the plan is out within about 0.5 s of "
+        "it; progress is logged every few seconds); at the limit the best "
+        "plan is returned with status 'feasible' (default: none)",
     )
     parser.add_argument(
         "--no-explain",
@@ -134,6 +188,8 @@ def _add_solver_arguments(parser: argparse.ArgumentParser) -> None:
 def _cmd_solve(args: argparse.Namespace) -> int:
     from .solve import solve
 
+    if args.gantt:
+        _need_matplotlib("--gantt")
     problem = load_problem(args.problem)
     log.info(
         "solving %d tasks over [%d, %d) with %s",
@@ -179,6 +235,8 @@ def _cmd_check(args: argparse.Namespace) -> int:
 def _cmd_replan(args: argparse.Namespace) -> int:
     from .reschedule import decode_change, format_diff, replan_files
 
+    if args.gantt:
+        _need_matplotlib("--gantt")
     problem = load_problem(args.problem)
     plan = load_plan(args.plan)
     change = decode_change(_read_bytes(args.change))
@@ -209,8 +267,30 @@ def _cmd_replan(args: argparse.Namespace) -> int:
 def _cmd_demo(args: argparse.Namespace) -> int:
     from .demo import SCENARIOS, run_demo
 
+    if args.scenario == "failover":
+        from .failover_demo import run_failover_demo
+
+        log.info("demo (failover scenario): state folders in %s", args.out)
+        outcome = run_failover_demo(
+            Path(args.out), quiet=args.quiet, time_unit=args.time_unit
+        )
+        if outcome.takeovers:
+            print(
+                "takeover after SIGKILL: "
+                + ", ".join(f"{t * 1000:.0f} ms" for t in outcome.takeovers)
+            )
+        return EXIT_OK if outcome.verified else EXIT_NO_PLAN
+    from .plot import PLOT_INSTALL_HINT, have_matplotlib
+
     out = Path(args.out)
     log.info("demo (%s scenario): output in %s", args.scenario, out)
+    pictures = have_matplotlib()
+    if not pictures:
+        log.warning(
+            "matplotlib is not installed: the demo runs without pictures "
+            "(text timelines only); for pictures: %s",
+            PLOT_INSTALL_HINT,
+        )
     result = run_demo(
         out,
         scenario=SCENARIOS[args.scenario](),
@@ -218,6 +298,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         verify=not args.no_verify,
         quiet=args.quiet,
         time_unit=args.time_unit,
+        pictures=pictures,
     )
     final = result.plans[-1] if result.plans else None
     print()
@@ -264,6 +345,7 @@ def _check_spacecraft(spacecraft: str | None) -> None:
 def _cmd_run(args: argparse.Namespace) -> int:
     import signal
     import threading
+    import time
 
     import zenoh
 
@@ -282,6 +364,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
             solver=args.solver,
             time_limit=args.time_limit,
             horizon=args.horizon,
+            node_id=args.node_id,
+            rank=args.rank,
+            discovery=args.discovery,
             response_deadline=args.response_deadline,
             tasks_per_goal=args.tasks_per_goal,
             live_tasks=args.live_tasks,
@@ -289,8 +374,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
             max_clock_step=args.max_clock_step,
             clock_stall=args.clock_stall,
         )
+        if args.no_standby:
+            config = config.replace(standby=False)
     except ValueError as error:  # a bad value given as a flag
         raise InputError([FieldIssue("", str(error))], "arguments") from None
+    if config.node_id is None:
+        from .bus.redundancy import default_node_id
+
+        config = config.replace(node_id=default_node_id())
     if args.problem:
         problem = decode_problem(_read_bytes(args.problem), allow_empty=True)
     else:
@@ -300,8 +391,45 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 "arguments",
             )
         problem = Problem(horizon=config.horizon, tasks=())
+    from .bus.security import assess
+
+    zenoh_settings = zenoh_config(args)
+    security = assess(zenoh_settings, acknowledged=args.insecure)
+    if security.warnings and args.require_secure:
+        for warning in security.warnings:
+            print(f"fsw-scheduler: insecure bus: {warning}", file=sys.stderr)
+        print(
+            "fsw-scheduler: --require-secure: not starting (see 'fsw-"
+            "scheduler config --profile secure' and the README, 'Deploying "
+            "securely')",
+            file=sys.stderr,
+        )
+        return EXIT_BAD_INPUT
+    for warning in security.warnings:
+        if args.insecure:
+            log.info("running open (--insecure): %s", warning)
+        else:
+            log.warning("INSECURE: %s", warning)
+    if security.warnings and not args.insecure:
+        log.warning(
+            "INSECURE: anyone who reaches this bus can command the "
+            "scheduler; use a secure profile ('fsw-scheduler config "
+            "--profile secure'), or pass --insecure to acknowledge"
+        )
     journal = None
-    if args.record:
+    resume: dict[str, Any] = {}
+    if args.state:
+        if args.record:
+            raise InputError(
+                [
+                    FieldIssue(
+                        "--record",
+                        "--state keeps its own journal; give one of them",
+                    )
+                ],
+                "arguments",
+            )
+    elif args.record:
         journal = Recorder(
             args.record, schemas=schema_lookup(config.spacecraft)
         )
@@ -313,19 +441,166 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
-    with zenoh.open(zenoh_config(args)) as session:
-        node = SchedulerNode(session, problem, config, journal=journal)
-        node.start()
-        try:
-            # The node stops itself when its loop cannot go on.
-            while not stop.is_set() and not node.wait_stopped(0.2):
-                pass
-        finally:
-            node.close()
+    with zenoh.open(zenoh_settings) as session:
+
+        def make_node(shared: Any = None) -> SchedulerNode:
+            """The node that commands; from the active's state on takeover."""
+            nonlocal journal
+            extra = dict(resume)
+            if args.state:
+                # Opened only to command: a standby writes no journal.
+                if journal is not None:
+                    journal.close()
+                journal, opened = _open_state(args, config)
+                extra.update(opened)
+            if shared is not None:
+                from .bus.node import engine_config
+                from .engine import Engine
+
+                extra["engine"] = Engine.restore(engine_config(config), shared)
+                extra["resumed_event"] = "took_over"
+                extra.pop("clock_start", None)
+                if config.clock == "wall" and shared.now is not None:
+                    extra["clock_start"] = shared.now
+            return SchedulerNode(
+                session,
+                problem,
+                config,
+                journal=journal,
+                security=security,
+                share_state=config.standby,
+                **extra,
+            )
+
+        node: SchedulerNode | None
+        if not config.standby:
+            node = make_node()
+            node.start()
+            try:
+                # The node stops itself when its loop cannot go on.
+                while not stop.is_set() and not node.wait_stopped(0.2):
+                    pass
+            finally:
+                node.close()
+        else:
+            from .bus.redundancy import Member, Redundancy, serve
+
+            member = Member(config.rank, time.time_ns(), config.node_id or "")
+            redundancy = Redundancy(session, config.spacecraft, member)
+            redundancy.join()
+            node = None
+            try:
+                node = serve(redundancy, make_node, stop, config.discovery)
+            finally:
+                if node is not None:
+                    node.close()
+                redundancy.close()
+        if node is None:
+            return EXIT_OK
     if node.failed is not None:
         print(f"fsw-scheduler: error: {node.failed}", file=sys.stderr)
         return EXIT_NO_PLAN
     return EXIT_OK
+
+
+# -- config ------------------------------------------------------------------
+
+
+def _cmd_config(args: argparse.Namespace) -> int:
+    from .bus.security import write_profile
+    from .errors import ConfigError
+
+    names: dict[str, list[str]] = {}
+    for entry in args.cn:
+        role, sep, value = entry.partition("=")
+        if not sep:
+            print(
+                f"fsw-scheduler: --cn {entry!r}: expected ROLE=NAME[,NAME]",
+                file=sys.stderr,
+            )
+            return EXIT_BAD_INPUT
+        names.setdefault(role.strip(), []).extend(
+            v.strip() for v in value.split(",")
+        )
+    try:
+        written = write_profile(
+            args.out,
+            profile=args.profile,
+            spacecraft=args.spacecraft,
+            certs=args.certs,
+            endpoint=args.endpoint,
+            listen=args.listen,
+            names=names,
+        )
+    except ConfigError as error:
+        print(f"fsw-scheduler: {error}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    for path in written:
+        print(path)
+    return EXIT_OK
+
+
+def _open_state(
+    args: argparse.Namespace, config: Any
+) -> tuple[Any, dict[str, Any]]:
+    """Open ``--state DIR``: rebuild from its journal, start a new file.
+
+    Returns the recorder and the resume arguments of the node.
+    """
+    import time
+
+    from .messages import schema_lookup
+    from .recording import Recorder
+    from .state import open_state
+
+    start = open_state(Path(args.state), keep_runs=args.keep_runs)
+    for path in start.recovered:
+        log.warning("recovered truncated journal %s", path)
+    journal = Recorder(
+        start.next_journal, schemas=schema_lookup(config.spacecraft)
+    )
+    resume: dict[str, Any] = {
+        "durable": True,
+        "journal_max_bytes": args.journal_max_size,
+    }
+    rebuilt = start.rebuilt
+    if rebuilt is not None:
+        engine = rebuilt.engine
+        if rebuilt.config.spacecraft != config.spacecraft:
+            raise InputError(
+                [
+                    FieldIssue(
+                        "--state",
+                        f"holds the journal of spacecraft "
+                        f"{rebuilt.config.spacecraft!r}, not "
+                        f"{config.spacecraft!r}",
+                    )
+                ],
+                "arguments",
+            )
+        # The rebuilt state, under this start's settings (node id, limits).
+        from .bus.node import engine_config
+        from .engine import Engine
+
+        resume["engine"] = Engine.restore(
+            engine_config(config), engine.snapshot()
+        )
+        if config.clock == "wall" and rebuilt.last_tick is not None:
+            # Time went on while the node was down.
+            down_s = max(time.time_ns() - rebuilt.last_log_time_ns, 0) / 1e9
+            resume["clock_start"] = rebuilt.last_tick + int(
+                down_s // config.time_unit
+            )
+        log.info(
+            "resuming from %s: plan %s at t=%s (%d journal messages read)",
+            args.state,
+            engine.plan_id,
+            engine.now,
+            rebuilt.messages,
+        )
+    else:
+        log.info("new state folder %s", args.state)
+    return journal, resume
 
 
 # -- record / replay / recover / info ----------------------------------------
@@ -421,6 +696,17 @@ def _cmd_info(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _cmd_schemas(args: argparse.Namespace) -> int:
+    from .messages import schema_files
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    for name, text in sorted(schema_files().items()):
+        (out / name).write_text(text)
+        print(out / name)
+    return EXIT_OK
+
+
 # -- parser -----------------------------------------------------------------
 
 Command = Callable[[argparse.Namespace], int]
@@ -442,8 +728,17 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--log-level",
         default="info",
-        choices=("debug", "info", "warning", "error"),
+        choices=LOG_LEVELS,
         help="log verbosity on stderr (default: %(default)s)",
+    )
+    # The same flag after the command name (`solve --log-level debug`);
+    # SUPPRESS keeps the value given before the command when absent here.
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument(
+        "--log-level",
+        default=argparse.SUPPRESS,
+        choices=LOG_LEVELS,
+        help="log verbosity on stderr (default: info)",
     )
     commands = parser.add_subparsers(dest="command", metavar="COMMAND")
     commands.required = True
@@ -456,6 +751,7 @@ def build_parser() -> argparse.ArgumentParser:
             help=help_,
             description=textwrap.dedent(description or help_),
             formatter_class=argparse.RawDescriptionHelpFormatter,
+            parents=[common],
         )
         sub.set_defaults(func=func)
         return sub
@@ -465,7 +761,8 @@ def build_parser() -> argparse.ArgumentParser:
         _cmd_solve,
         "solve a problem file and print the plan JSON",
         """\
-        Solve a problem file (CONTRACT section 1) and print the plan JSON
+        Solve a problem file (format: README, "Problem, plan and goal
+        files"; schema: `fsw-scheduler schemas`) and print the plan JSON
         (status, objective, activities, unscheduled, why, solver stats).
 
         example:
@@ -499,7 +796,7 @@ def build_parser() -> argparse.ArgumentParser:
         _cmd_replan,
         "apply a goal or event to a running plan at time --now",
         """\
-        Apply a goal (CONTRACT section 3) or an event to a running plan at
+        Apply a goal (a goal document) or an event to a running plan at
         time T, by the paper's online rescheduling rules: finished tasks
         leave, running tasks follow their preemption policy, obsolete tasks
         and their tight followers go, lax links to them are dropped. The new
@@ -553,10 +850,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     demo.add_argument(
         "--scenario",
-        choices=("paper", "failure"),
+        choices=("paper", "failure", "failover"),
         default="paper",
         help="paper: Table 1 then the Table 2 goal; failure: also a failed "
-        "activity and a draining battery (default: %(default)s)",
+        "activity and a draining battery; failover: the paper scenario on "
+        "two redundant schedulers (separate processes) that are killed "
+        "and resume or take over (default: %(default)s)",
     )
     demo.add_argument("--spacecraft", default="sat1", help="key prefix id")
     demo.add_argument(
@@ -565,7 +864,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--quiet", action="store_true", help="no live timeline")
     demo.add_argument(
         "--time-unit",
-        type=float,
+        type=non_negative_float,
         default=0.05,
         metavar="S",
         help="wall seconds per time unit, at least (default %(default)s)",
@@ -588,6 +887,12 @@ def build_parser() -> argparse.ArgumentParser:
           fsw-scheduler run --problem resources.json --clock wall --time-unit 1
           fsw-scheduler run --problem p.json --clock bus -e tcp/10.0.0.2:7447
           fsw-scheduler run --config scheduler.toml --record session.mcap
+          fsw-scheduler run --problem p.json --config deploy/scheduler.json5 \
+              --require-secure
+
+        A bus reachable beyond loopback without TLS or access control is
+        reported at start (and in scheduler/config): --insecure accepts
+        it, --require-secure refuses to start (exit 2).
         """,
     )
     run.add_argument(
@@ -603,19 +908,88 @@ def build_parser() -> argparse.ArgumentParser:
     )
     run.add_argument(
         "--time-unit",
-        type=float,
+        type=positive_float,
         metavar="S",
         help="seconds per time unit with --clock wall",
     )
-    run.add_argument("--horizon", type=int, help="horizon length override")
+    run.add_argument(
+        "--horizon",
+        type=positive_int,
+        metavar="H",
+        help="horizon length in time units (default: the problem file's)",
+    )
     run.add_argument(
         "--record",
         metavar="FILE.mcap",
         help="journal every input and output (for replay --verify)",
     )
+    run.add_argument(
+        "--state",
+        metavar="DIR",
+        help="keep the node's state in DIR: a durable journal that a "
+        "restarted node resumes from (plan ids, accepted goals, activity "
+        "states, a solve in flight); implies journaling",
+    )
+    run.add_argument(
+        "--journal-max-size",
+        type=positive_int,
+        default=64 * 1024 * 1024,
+        metavar="BYTES",
+        help="with --state: start a new journal file, opened by a state "
+        "snapshot, past this size (default %(default)s)",
+    )
+    run.add_argument(
+        "--keep-runs",
+        type=_number(int, minimum=2, strict=False),
+        default=20,
+        metavar="N",
+        help="with --state: journal files of the last N starts are kept "
+        "(default %(default)s; at least 2)",
+    )
+    run.add_argument(
+        "--node-id",
+        metavar="ID",
+        help="this node's name among redundant schedulers (default "
+        "<host>-<pid>)",
+    )
+    run.add_argument(
+        "--rank",
+        type=_number(int, minimum=0, strict=False),
+        metavar="N",
+        help="preference among redundant schedulers: the lowest rank "
+        "commands when none does yet (default 0)",
+    )
+    run.add_argument(
+        "--discovery",
+        type=non_negative_float,
+        metavar="S",
+        help="seconds to look for other schedulers before commanding "
+        "(default 1)",
+    )
+    run.add_argument(
+        "--no-standby",
+        action="store_true",
+        help="command whatever else runs: no election, no hot standby",
+    )
     run.add_argument("--solver", choices=("cbc", "highs"), help="MILP solver")
     run.add_argument(
-        "--time-limit", type=float, metavar="S", help="seconds per solve"
+        "--time-limit",
+        type=positive_float,
+        metavar="S",
+        help="seconds per solve (> 0; default 10)",
+    )
+    safety = run.add_mutually_exclusive_group()
+    safety.add_argument(
+        "--insecure",
+        action="store_true",
+        help="acknowledge a bus reachable beyond loopback without TLS or "
+        "access control (recorded in scheduler/config)",
+    )
+    safety.add_argument(
+        "--require-secure",
+        action="store_true",
+        help="refuse to start (exit 2) unless the bus is loopback only, or "
+        "has mutual TLS on every endpoint and access control",
     )
     limits = run.add_argument_group(
         "limits",
@@ -665,6 +1039,88 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_zenoh_arguments(run)
 
+    from .bus.security import DEFAULT_PORT, PROFILES, ROLES
+
+    conf = add(
+        "config",
+        _cmd_config,
+        "write the Zenoh configurations of a deployment profile",
+        textwrap.dedent(
+            """\
+            Write one Zenoh configuration (JSON5) per role of a deployment
+            profile, and make-certs.sh, which makes a CA and a certificate
+            per role with openssl. The secure profile has mutual TLS on
+            every link and access control (default deny) by certificate
+            common name. The scheduler listens; every other role connects
+            to it.
+
+            roles (configuration <role>.json5, certificate <role>.pem):
+            """
+        )
+        + "\n".join(
+            textwrap.fill(
+                r.summary,
+                width=76,
+                initial_indent=f"  {r.name:<10} ",
+                subsequent_indent=" " * 13,
+            )
+            for r in ROLES.values()
+        ),
+    )
+    conf.epilog = f"""\
+example:
+  fsw-scheduler config --profile secure --out deploy \\
+      --endpoint tls/10.0.0.2:{DEFAULT_PORT}
+  sh deploy/make-certs.sh
+  fsw-scheduler run --problem p.json --config deploy/scheduler.json5 \\
+      --require-secure
+  fsw-scheduler record --config deploy/monitor.json5 --out bus.mcap
+"""
+    conf.add_argument(
+        "--profile",
+        choices=PROFILES,
+        default="secure",
+        help="deployment profile (default: %(default)s)",
+    )
+    conf.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="folder for <role>.json5 and make-certs.sh",
+    )
+    conf.add_argument(
+        "--spacecraft",
+        default="sat1",
+        help="key prefix id (default: %(default)s)",
+    )
+    conf.add_argument(
+        "--certs",
+        metavar="DIR",
+        help="where the certificates are on the nodes: ca.pem, "
+        "<role>.pem, <role>.key (default: DIR/certs)",
+    )
+    conf.add_argument(
+        "--endpoint",
+        default=f"tls/localhost:{DEFAULT_PORT}",
+        metavar="tls/HOST:PORT",
+        help="where the roles reach the scheduler; HOST goes into the "
+        "scheduler's certificate (default: %(default)s)",
+    )
+    conf.add_argument(
+        "--listen",
+        metavar="ENDPOINT",
+        help="where the scheduler listens (default: every interface, "
+        "--endpoint's port)",
+    )
+    conf.add_argument(
+        "--cn",
+        action="append",
+        default=[],
+        metavar="ROLE=NAME[,NAME]",
+        help="certificate common names of a role (default: the role's "
+        "name), e.g. --cn goals=ground,autonomy (repeatable)",
+    )
+
     rec = add(
         "record",
         _cmd_record,
@@ -673,23 +1129,57 @@ def build_parser() -> argparse.ArgumentParser:
         Subscribe to a key expression (default fsw/<sc>/**) and write each
         sample as an MCAP message: one channel per key, JSON encoding with
         the JSON Schema of the key where there is one. Small chunks and a
-        periodic flush keep a killed recorder's file recoverable.
+        periodic flush keep a killed recorder's file recoverable (see
+        `recover`). Stop with Ctrl-C or SIGTERM.
+
+        examples:
+          fsw-scheduler record --out session.mcap -e tcp/127.0.0.1:7447
+          fsw-scheduler record --out plans.mcap --key 'fsw/sat1/scheduler/**'
+          fsw-scheduler record --out day.mcap --split-duration 3600
         """,
     )
-    rec.add_argument("--out", required=True, metavar="FILE.mcap")
-    rec.add_argument("--key", help="key expression (default fsw/<sc>/**)")
-    rec.add_argument("--spacecraft", default="sat1")
     rec.add_argument(
-        "--compression", choices=("zstd", "lz4", "none"), default="zstd"
+        "--out",
+        required=True,
+        metavar="FILE.mcap",
+        help="where to write; with splitting, FILE-001.mcap, FILE-002.mcap...",
     )
-    rec.add_argument("--split-size", type=int, metavar="BYTES")
-    rec.add_argument("--split-duration", type=float, metavar="S")
+    rec.add_argument(
+        "--key",
+        metavar="KEYEXPR",
+        help="key expression to record (default fsw/<spacecraft>/**)",
+    )
+    rec.add_argument(
+        "--spacecraft",
+        default="sat1",
+        help="spacecraft id of the default key and of the JSON Schemas "
+        "attached to channels (default %(default)s)",
+    )
+    rec.add_argument(
+        "--compression",
+        choices=("zstd", "lz4", "none"),
+        default="zstd",
+        help="chunk compression (default %(default)s)",
+    )
+    rec.add_argument(
+        "--split-size",
+        type=positive_int,
+        metavar="BYTES",
+        help="start a new file when this one reaches BYTES",
+    )
+    rec.add_argument(
+        "--split-duration",
+        type=positive_float,
+        metavar="S",
+        help="start a new file every S seconds of log time",
+    )
     rec.add_argument(
         "--flush-interval",
-        type=float,
+        type=positive_float,
         default=1.0,
         metavar="S",
-        help="most a crash can lose (default %(default)s s)",
+        help="write buffered messages to disk at least every S seconds: "
+        "the most a crash can lose (default %(default)s s)",
     )
     add_zenoh_arguments(rec)
 
@@ -702,21 +1192,53 @@ def build_parser() -> argparse.ArgumentParser:
         --verify re-run a scheduler journal through a fresh scheduler and
         compare every plan, dispatch and status with the recording (exit 0
         if identical, 1 with the first divergence otherwise).
+
+        examples:
+          fsw-scheduler replay session.mcap --verify
+          fsw-scheduler replay session.mcap --rate 10 -e tcp/127.0.0.1:7447
+          fsw-scheduler replay session.mcap --burst \\
+              --include 'fsw/sat1/telemetry/**' --wait-matching 5
         """,
     )
-    rep.add_argument("files", nargs="+", metavar="FILE.mcap")
+    rep.add_argument(
+        "files",
+        nargs="+",
+        metavar="FILE.mcap",
+        help="recordings (split files are read in order as one session)",
+    )
     rep.add_argument(
         "--verify",
         action="store_true",
-        help="replay through a fresh scheduler and compare decisions",
+        help="replay through a fresh scheduler and compare decisions "
+        "(no bus needed)",
     )
-    rep.add_argument("--rate", type=float, default=1.0)
+    rep.add_argument(
+        "--rate",
+        type=positive_float,
+        default=1.0,
+        help="speed factor on the recorded log times (default %(default)s)",
+    )
     rep.add_argument(
         "--burst", action="store_true", help="as fast as possible, in order"
     )
-    rep.add_argument("--start-offset", type=float, default=0.0, metavar="S")
-    rep.add_argument("--until", type=float, metavar="S")
-    rep.add_argument("--loop", action="store_true")
+    rep.add_argument(
+        "--start-offset",
+        type=non_negative_float,
+        default=0.0,
+        metavar="S",
+        help="skip the first S seconds of the recording",
+    )
+    rep.add_argument(
+        "--until",
+        type=non_negative_float,
+        metavar="S",
+        help="stop S seconds after the start of the recording",
+    )
+    rep.add_argument(
+        "--loop",
+        action="store_true",
+        help="start again at the end, until Ctrl-C",
+    )
     rep.add_argument(
         "--wait-matching",
         type=float,
@@ -729,10 +1251,18 @@ def build_parser() -> argparse.ArgumentParser:
         help="key expression to wait on (default fsw/**)",
     )
     rep.add_argument(
-        "--include", action="append", default=[], metavar="KEYEXPR"
+        "--include",
+        action="append",
+        default=[],
+        metavar="KEYEXPR",
+        help="only publish keys matching KEYEXPR (repeatable)",
     )
     rep.add_argument(
-        "--exclude", action="append", default=[], metavar="KEYEXPR"
+        "--exclude",
+        action="append",
+        default=[],
+        metavar="KEYEXPR",
+        help="do not publish keys matching KEYEXPR (repeatable)",
     )
     add_zenoh_arguments(rep)
 
@@ -740,12 +1270,59 @@ def build_parser() -> argparse.ArgumentParser:
         "recover",
         _cmd_recover,
         "rewrite a truncated MCAP file into a readable one",
-    )
-    recov.add_argument("file")
-    recov.add_argument("--out", required=True, metavar="FILE.mcap")
+        """\
+        Read every complete chunk and message of an MCAP file whose writer
+        was killed (no footer, half a chunk at the end) and write them into
+        a new, finished file with its index. Prints the messages kept per
+        channel.
 
-    inf = add("info", _cmd_info, "summarise an MCAP file")
-    inf.add_argument("file")
+        example:
+          fsw-scheduler recover killed.mcap --out session.mcap
+        """,
+    )
+    recov.add_argument("file", help="the truncated MCAP file")
+    recov.add_argument(
+        "--out",
+        required=True,
+        metavar="FILE.mcap",
+        help="where to write the finished file",
+    )
+
+    inf = add(
+        "info",
+        _cmd_info,
+        "summarise an MCAP file",
+        """\
+        Print the message count, time span and every channel with its
+        message count and schema (also for truncated files).
+
+        example:
+          fsw-scheduler info session.mcap
+        """,
+    )
+    inf.add_argument("file", help="an MCAP file")
+
+    sch = add(
+        "schemas",
+        _cmd_schemas,
+        "write the JSON Schema of every message and file format",
+        """\
+        Write one JSON Schema per message kind (problem, plan, goal, clock,
+        activity report, resource level, dispatch, status, solve record,
+        node info) into a folder, named <kind>.schema.json. They are
+        generated from the message types of the installed version, the
+        same files as the project's schemas/ folder.
+
+        example:
+          fsw-scheduler schemas --out schemas/
+        """,
+    )
+    sch.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="folder to write into (created if missing)",
+    )
     return parser
 
 
@@ -762,6 +1339,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     except InputError as error:
         print(f"fsw-scheduler: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except (ConfigError, MissingDependency) as error:
+        print(f"fsw-scheduler: error: {error}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except BrokenPipeError:
+        # The reader went away (`... | head`): stop quietly, as a shell
+        # tool killed by SIGPIPE would.
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
     except TimeoutError as error:  # an OSError, but not bad input
         print(f"fsw-scheduler: error: {error}", file=sys.stderr)
         return EXIT_NO_PLAN

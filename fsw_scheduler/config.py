@@ -104,6 +104,18 @@ class NodeConfig(
         plan it causes, so that a solve may take that long without the new
         plan's first activities being late. Default: 1 with the wall clock,
         0 with the bus clock (which can wait for the scheduler).
+    node_id
+        This node's name among redundant schedulers of the spacecraft
+        (key-safe); default: ``<host>-<pid>``.
+    rank
+        Preference among redundant schedulers: the lowest rank commands
+        when none does yet (ties: the earliest start, then the id).
+    standby
+        Take part in the one-commander protocol (hot standby); off for a
+        node that must command whatever else is on the bus.
+    discovery
+        Seconds a starting node looks for other schedulers before it
+        decides to command or to stand by.
     """
 
     spacecraft: str = "sat1"
@@ -131,12 +143,24 @@ class NodeConfig(
     explain_after_plan: bool = True
     heartbeat: int = 10
     replan_lead: int | None = None
+    node_id: str | None = None
+    rank: int = 0
+    standby: bool = True
+    discovery: float = 1.0
 
     def __post_init__(self) -> None:
         problems = []
         reason = id_issue(self.spacecraft)
         if reason is not None:
             problems.append(f"spacecraft: the spacecraft id {reason}")
+        if self.node_id is not None:
+            reason = id_issue(self.node_id)
+            if reason is not None:
+                problems.append(f"node-id: the node id {reason}")
+        if self.rank < 0:
+            problems.append("rank must be >= 0")
+        if self.discovery < 0:
+            problems.append("discovery must be >= 0")
         if self.time_unit <= 0:
             problems.append("time-unit must be > 0")
         if self.explain_budget < 0:

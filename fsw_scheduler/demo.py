@@ -296,12 +296,20 @@ class Printer:
             "solve_failed",
             "drift",
             "input_rejected",
+            "alarm",
         ):
             extra = s.goal_id or s.detail
             errors = "; ".join(f"{e.path}: {e.reason}" for e in s.errors)
             self.line(f"status    {s.event} {extra or ''} {errors}".rstrip())
         elif s.event == "activity":
             self.line(f"report    {s.detail}")
+        elif s.event in ("resumed", "took_over"):
+            self.line(
+                f"status    {s.event} by {s.node_id}: plan {s.from_plan_id} "
+                f"at t={s.at}, next plan id follows"
+            )
+        elif s.state == "standby":
+            self.line(f"status    {s.node_id} stands by ({s.detail})")
 
 
 @dataclass
@@ -343,7 +351,8 @@ def run_demo(
     quiet
         No live timeline.
     pictures
-        Draw the Gantt pictures (needs matplotlib).
+        Draw the Gantt pictures (needs matplotlib); the text timelines are
+        written either way.
     stream
         Where the live timeline goes.
     time_unit
@@ -399,7 +408,7 @@ def run_demo(
             world.close()
             node.close()
     plans = world.plans
-    drawn = _draw(out_dir, journal_path, plans, executor) if pictures else []
+    drawn = _draw(out_dir, journal_path, plans, executor, pictures=pictures)
     verified = None
     if verify:
         from .replay import verify as verify_journal
@@ -417,8 +426,14 @@ def _draw(
     journal_path: Path,
     plans: list[messages.PlanMessage],
     executor: Executor,
+    *,
+    pictures: bool = True,
 ) -> list[Path]:
-    """One Gantt picture per plan, from the problems in the journal."""
+    """One text timeline and (with ``pictures``) one Gantt per plan.
+
+    The problems come from the solve records of the journal. Returns the
+    pictures drawn.
+    """
     from .plot import gantt, timeline_text
     from .recording import iter_messages
 
@@ -445,6 +460,10 @@ def _draw(
         history = [
             a for a in executor.executed if a.start < plan_message.issued_at
         ]
+        text = timeline_text(problem, plan)
+        (out_dir / f"plan-{plan_message.plan_id}.txt").write_text(text + "\n")
+        if not pictures:
+            continue
         path = out_dir / f"plan-{plan_message.plan_id}.png"
         gantt(
             problem,
@@ -455,6 +474,4 @@ def _draw(
             history=history or None,
         )
         drawn.append(path)
-        text = timeline_text(problem, plan)
-        (out_dir / f"plan-{plan_message.plan_id}.txt").write_text(text + "\n")
     return drawn

@@ -54,6 +54,18 @@ from .reschedule import (
     drift,
     empty_plan,
 )
+from .shed import (
+    shed_blockers,
+    shed_tasks,
+    shedding_problem,
+    without_tasks,
+)
+from .snapshot import (
+    EngineSnapshot,
+    Lifecycle,
+    PendingSolve,
+    QueuedChange,
+)
 from .solution import Blocker, Plan, SolverStats, SolveStatus
 
 # -- events ------------------------------------------------------------------
@@ -146,13 +158,15 @@ class Publish(msgspec.Struct, frozen=True):
 class StartSolve(msgspec.Struct, frozen=True):
     """Solve ``problem`` (warm-started from ``warm``); reply with SolveDone.
 
-    ``inputs_seen`` is for the solve record the shell publishes.
+    ``explain`` asks for the reasons of left-out tasks whatever the node's
+    settings (the shedding solve: an alarm must say why).
     """
 
     solve_id: int
     trigger: str
     problem: Problem
     warm: Plan | None = None
+    explain: bool = False
 
 
 class StartExplain(msgspec.Struct, frozen=True):
@@ -220,44 +234,13 @@ class EngineConfig(msgspec.Struct, frozen=True):
     max_live_tasks: int | None = None
     max_goals_waiting: int | None = None
     max_goals_per_solve: int | None = None
+    node_id: str | None = None
     max_history: int = 1000
     explain_after_plan: bool = False
 
 
 # -- the engine -------------------------------------------------------------
 
-Lifecycle = Literal[
-    "planned",
-    "dispatched",
-    "running",
-    "completed",
-    "failed",
-    "preempted",
-    "obsolete",
-]
-
-
-class _Pending(msgspec.Struct):
-    """A solve in flight."""
-
-    solve_id: int
-    trigger: str
-    problem: Problem
-    replan: Replan | None
-    goals: tuple[str, ...]
-    started_at: int
-    dispatches_at_start: int
-
-
-class _Change(msgspec.Struct, frozen=True):
-    """A queued trigger: a goal, a failure or measured levels."""
-
-    kind: Literal["goal", "failure", "levels"]
-    goal: Goal | None = None
-    task: str = ""
-    at: int = 0
-    levels: dict[str, float] = {}
-    trigger: str = ""
 
 
 def problem_hash(problem: Problem) -> str:
@@ -285,8 +268,8 @@ class Engine:
         self.plan_id: int | None = None
         self.now: int | None = None
         self._solve_id = 0
-        self._pending: _Pending | None = None
-        self._queue: list[_Change] = []
+        self._pending: PendingSolve | None = None
+        self._queue: list[QueuedChange] = []
         self._dispatched: dict[str, int] = {}  # task -> unit of dispatch
         self._lifecycle: dict[str, Lifecycle] = {}
         # The lifecycle as last published: statuses carry the difference.
@@ -334,7 +317,103 @@ class Engine:
             activities=dict(sorted(self._lifecycle.items())),
             counters=self._counters,
             last_solve=self._last_solve,
+            node_id=self.config.node_id,
             **extra,  # type: ignore[arg-type]
+        )
+
+    # -- snapshots (resume, hot standby) ------------------------------------
+
+    def snapshot(self) -> EngineSnapshot:
+        """The whole state, as data (see :mod:`fsw_scheduler.snapshot`)."""
+        return EngineSnapshot(
+            initial=self.initial,
+            unsolved_initial=self._unsolved_initial,
+            schedule=self.schedule,
+            plan_id=self.plan_id,
+            now=self.now,
+            solve_id=self._solve_id,
+            pending=self._pending,
+            queue=tuple(self._queue),
+            dispatched=dict(self._dispatched),
+            lifecycle=dict(self._lifecycle),
+            reported=dict(self._reported),
+            sent=dict(self._sent),
+            counters=self._counters,
+            last_solve=self._last_solve,
+            inputs=self._inputs,
+            health=self._health,
+            health_detail=self._health_detail,
+            plan_message=self._plan_message,
+        )
+
+    @classmethod
+    def restore(
+        cls, config: EngineConfig, snapshot: EngineSnapshot
+    ) -> Engine:
+        """An engine in the state ``snapshot`` was taken in.
+
+        Parameters
+        ----------
+        config
+            Engine settings (not part of the state: a restarted node may
+            be given new ones).
+        snapshot
+            From :meth:`snapshot`.
+        """
+        engine = cls(config, snapshot.initial)
+        engine._unsolved_initial = snapshot.unsolved_initial
+        engine.schedule = snapshot.schedule
+        engine.plan_id = snapshot.plan_id
+        engine.now = snapshot.now
+        engine._solve_id = snapshot.solve_id
+        engine._pending = snapshot.pending
+        engine._queue = list(snapshot.queue)
+        engine._dispatched = dict(snapshot.dispatched)
+        engine._lifecycle = dict(snapshot.lifecycle)
+        engine._reported = dict(snapshot.reported)
+        engine._sent = dict(snapshot.sent)
+        engine._counters = snapshot.counters
+        engine._last_solve = snapshot.last_solve
+        engine._inputs = snapshot.inputs
+        engine._health = snapshot.health
+        engine._health_detail = snapshot.health_detail
+        engine._plan_message = snapshot.plan_message
+        return engine
+
+    def pending_solve(self) -> StartSolve | None:
+        """The solve in flight, as the command that asked for it.
+
+        A node that resumes (or takes over) while a solve was running asks
+        for it again: the same input gives the same plan.
+        """
+        pending = self._pending
+        if pending is None:
+            return None
+        return StartSolve(
+            pending.solve_id,
+            pending.trigger,
+            pending.problem,
+            pending.warm,
+            explain=pending.explain,
+        )
+
+    def resumed(self, event: str = "resumed", **extra: object) -> Command:
+        """The status saying this engine was rebuilt and goes on."""
+        detail = (
+            f"state rebuilt at t={self.now}: plan {self.plan_id}, "
+            f"{len(self._lifecycle)} activities known"
+            + (", a solve in flight asked again" if self.busy else "")
+        )
+        return Publish(
+            topics.STATUS,
+            self._status(
+                event,
+                full=True,
+                detail=detail,
+                from_plan_id=self.plan_id,
+                at=self.now,
+                **extra,
+            ),
         )
 
     def _status(self, event: str, full: bool = False, **extra: Any) -> Status:
@@ -462,7 +541,7 @@ class Engine:
             c.trigger == "horizon" for c in self._queue
         ):
             self._queue.append(
-                _Change("levels", at=self._clock(), trigger="horizon")
+                QueuedChange("levels", at=self._clock(), trigger="horizon")
             )
         beat = self.config.heartbeat
         if beat and self.now is not None and self.now % beat == 0:
@@ -540,7 +619,7 @@ class Engine:
             except InputError as error:
                 self._reject_goal(goal.goal_id, error.issues, out)
                 return
-        self._queue.append(_Change("goal", goal=goal))
+        self._queue.append(QueuedChange("goal", goal=goal))
         if self._pending is not None:
             out.append(
                 Log("info", f"goal {goal.goal_id} queued behind a solve")
@@ -615,7 +694,9 @@ class Engine:
             )
         )
         if report.state == "failed":
-            self._queue.append(_Change("failure", task=report.task, at=at))
+            self._queue.append(
+                QueuedChange("failure", task=report.task, at=at)
+            )
 
     def _on_level(self, level: ResourceLevel, out: list[Command]) -> None:
         self._count(levels=self._counters.levels + 1)
@@ -658,7 +739,7 @@ class Engine:
             )
         )
         self._queue.append(
-            _Change("levels", at=at, levels={level.resource: level.level})
+            QueuedChange("levels", at=at, levels={level.resource: level.level})
         )
 
     def _on_rejected(self, event: InputRejected, out: list[Command]) -> None:
@@ -676,8 +757,8 @@ class Engine:
         plan = event.plan
         stats = plan.stats or SolverStats(solver="?")
         self._count(solves=self._counters.solves + 1)
-        adopted = plan.status.has_plan
-        reason = "" if adopted else _no_plan_reason(plan)
+        adopted = plan.status.has_plan and pending.stage != "shed"
+        reason = "" if plan.status.has_plan else _no_plan_reason(plan)
         self._last_solve = SolveSummary(
             solve_id=event.solve_id,
             trigger=pending.trigger,
@@ -688,9 +769,29 @@ class Engine:
             reason=reason,
         )
         out.append(self._solve_record(pending, plan))
+        if (
+            plan.status is SolveStatus.INFEASIBLE
+            and pending.stage == "plan"
+            and pending.replan is not None
+            and not pending.goals
+        ):
+            # The world, not a goal, made the plan impossible: do not keep
+            # flying it; find the best plan still possible.
+            self._start_shedding(pending, plan, out)
+            return
+        if pending.stage == "shed" and plan.status.has_plan:
+            self._start_degraded(pending, plan, out)
+            return
         if not adopted:
             self._solve_without_plan(pending, reason, out)
             return
+        if pending.stage == "degraded":
+            assert pending.replan is not None
+            assert pending.infeasible is not None
+            shed = shed_blockers(pending.replan.removed, pending.infeasible)
+            plan = plan.replace(
+                status=SolveStatus.DEGRADED, why=(*shed, *plan.why)
+            )
         if pending.replan is None:
             assert self._plan_message is None
             self.schedule = Schedule.begin(pending.problem, plan)
@@ -704,6 +805,8 @@ class Engine:
                 pending.replan.removed,
                 out,
             )
+        if pending.stage == "degraded":
+            self._raise_alarm(plan, out)
         if (
             self.config.explain_after_plan
             and plan.unscheduled
@@ -720,7 +823,7 @@ class Engine:
         ):
             # The old plan dispatched while this one was being computed for
             # an earlier time: replan from what really happened.
-            self._queue.append(_Change("levels", at=self._clock()))
+            self._queue.append(QueuedChange("levels", at=self._clock()))
 
     def _on_solve_failed(self, event: SolveFailed, out: list[Command]) -> None:
         pending = self._pending
@@ -801,7 +904,7 @@ class Engine:
     def _start_goals(
         self,
         schedule: Schedule,
-        changes: list[_Change],
+        changes: list[QueuedChange],
         now: int,
         out: list[Command],
     ) -> None:
@@ -832,6 +935,62 @@ class Engine:
             out,
         )
 
+    def _start_shedding(
+        self, pending: PendingSolve, infeasible: Plan, out: list[Command]
+    ) -> None:
+        """Solve which mandatory tasks to keep (see :mod:`.shed`)."""
+        assert pending.replan is not None
+        reason = _no_plan_reason(infeasible)
+        out.append(
+            Log(
+                "warning",
+                f"solve {pending.solve_id} ({pending.trigger}) is "
+                f"{reason}; shedding mandatory tasks",
+            )
+        )
+        self._start_solve(
+            pending.trigger,
+            shedding_problem(pending.replan.problem),
+            pending.replan,
+            None,
+            (),
+            out,
+            stage="shed",
+            infeasible=infeasible,
+        )
+
+    def _start_degraded(
+        self, pending: PendingSolve, shedding: Plan, out: list[Command]
+    ) -> None:
+        """Solve the replan without the mandatory tasks it cannot keep."""
+        assert pending.replan is not None
+        assert pending.infeasible is not None
+        dropped = shed_tasks(pending.replan.problem, shedding)
+        replan = without_tasks(
+            pending.replan,
+            dropped,
+            f"{pending.trigger} at t={pending.started_at} left no room",
+        )
+        self._start_solve(
+            pending.trigger,
+            replan.problem,
+            replan,
+            replan.warm,
+            (),
+            out,
+            stage="degraded",
+            # The shedding solve explains its left-out tasks with the
+            # constraint that really blocks each; those reasons win.
+            infeasible=pending.infeasible.replace(
+                why=(*pending.infeasible.why, *shedding.why)
+            ),
+        )
+
+    def _raise_alarm(self, plan: Plan, out: list[Command]) -> None:
+        """Say loudly that mandatory tasks were dropped, and why."""
+        out.append(Log("error", _degraded_detail(self.plan_id, plan)))
+        out.append(Publish(topics.STATUS, self.status("alarm")))
+
     def _start_solve(
         self,
         trigger: str,
@@ -840,6 +999,9 @@ class Engine:
         warm: Plan | None,
         goals: tuple[str, ...],
         out: list[Command],
+        *,
+        stage: Literal["plan", "shed", "degraded"] = "plan",
+        infeasible: Plan | None = None,
     ) -> None:
         if replan is not None and not problem.tasks:
             # Nothing left to schedule: adopt the empty plan without solving.
@@ -847,7 +1009,7 @@ class Engine:
             self._adopt(empty_plan(), trigger, goals, replan.removed, out)
             return
         self._solve_id += 1
-        self._pending = _Pending(
+        self._pending = PendingSolve(
             solve_id=self._solve_id,
             trigger=trigger,
             problem=problem,
@@ -855,19 +1017,26 @@ class Engine:
             goals=goals,
             started_at=self._clock(),
             dispatches_at_start=self._counters.dispatches,
+            stage=stage,
+            infeasible=infeasible,
+            warm=warm,
+            explain=stage == "shed",
         )
         out.append(
             Log(
                 "info",
-                f"solve {self._solve_id} ({trigger}): "
+                f"solve {self._solve_id} ({trigger}"
+                f"{'' if stage == 'plan' else ', ' + stage}): "
                 f"{problem.num_tasks} tasks over "
                 f"[{problem.start}, {problem.end})",
             )
         )
-        out.append(StartSolve(self._solve_id, trigger, problem, warm))
+        pending = self.pending_solve()
+        assert pending is not None
+        out.append(pending)
 
     def _solve_without_plan(
-        self, pending: _Pending, reason: str, out: list[Command]
+        self, pending: PendingSolve, reason: str, out: list[Command]
     ) -> None:
         """Keep the last good plan; say why; reject goals that caused it."""
         self._count(solves_failed=self._counters.solves_failed + 1)
@@ -886,7 +1055,7 @@ class Engine:
         if not pending.goals:
             out.append(Publish(topics.STATUS, self._status("solve_failed")))
 
-    def _solve_record(self, pending: _Pending, plan: Plan) -> Publish:
+    def _solve_record(self, pending: PendingSolve, plan: Plan) -> Publish:
         problem = pending.problem
         stats = plan.stats or SolverStats(solver="?")
         record = SolveRecord(
@@ -896,13 +1065,18 @@ class Engine:
             problem=problem,
             status=plan.status,
             objective=plan.objective,
-            plan_id=(self.plan_id or 0) + 1 if plan.status.has_plan else None,
+            plan_id=(
+                (self.plan_id or 0) + 1
+                if plan.status.has_plan and pending.stage != "shed"
+                else None
+            ),
             num_variables=stats.num_variables,
             num_constraints=stats.num_constraints,
             build_s=stats.build_s,
             solve_s=stats.solve_s,
             wall_s=stats.wall_s,
             inputs_seen=self._inputs,
+            result=plan,
         )
         return Publish(topics.SOLVES, record)
 
@@ -959,7 +1133,10 @@ class Engine:
             goals=goals,
             stats=plan.stats,
         )
-        self._set_health("ok", "")
+        if plan.status is SolveStatus.DEGRADED:
+            self._set_health("degraded", _degraded_detail(self.plan_id, plan))
+        else:
+            self._set_health("ok", "")
         out.append(Publish(topics.PLAN, self._plan_message))
         out.append(
             Log(
@@ -1054,7 +1231,9 @@ class Engine:
                     self.schedule = self.schedule.with_report(
                         ExecutionReport(task, "failed", since)
                     )
-                self._queue.append(_Change("failure", task=task, at=since))
+                self._queue.append(
+                    QueuedChange("failure", task=task, at=since)
+                )
 
     # -- status helpers ------------------------------------------------------
 
@@ -1127,6 +1306,13 @@ def _merge_goals(goals: list[Goal]) -> Goal:
         goal_id="+".join(g.goal_id for g in goals),
         tasks=tuple(t for g in goals for t in g.tasks),
         precedences=tuple(p for g in goals for p in g.precedences),
+    )
+
+
+def _degraded_detail(plan_id: int | None, plan: Plan) -> str:
+    """The alarm text of a degraded plan: each shed task and why."""
+    return f"plan {plan_id} is degraded: " + "; ".join(
+        f"{b.task} shed ({b.detail})" for b in plan.why if b.cause == "shed"
     )
 
 

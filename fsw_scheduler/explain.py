@@ -12,9 +12,13 @@ solve.
 * For each such task, and each task a plan leaves out, the model is solved
   again with that task forced in. If it then fits, leaving it out was the
   cheaper choice (``cost``: the plan would lose other tasks or start later).
-  If not, resources are dropped one at a time, then the task's precedences;
-  the first relaxation that lets it in names the blocker (``binary``,
-  ``multiple``, ``consumable`` or ``precedence``), else ``combination``.
+  If not, the task's precedences are dropped first (then, to name one,
+  each alone), then its resources one at a time; the first relaxation
+  that lets it in names the blocker (``precedence``, ``binary``,
+  ``multiple`` or ``consumable``), else ``combination``. Precedences come
+  first because dropping a resource for every task also lets in a
+  partner that cannot be placed, and the resource would then be blamed
+  for what the precedence does.
 """
 
 from __future__ import annotations
@@ -31,6 +35,8 @@ SolveFn = Callable[[Problem], Plan]
 
 #: Tasks explained in detail per plan; the rest get ``not_analysed``.
 MAX_EXPLAINED = 8
+#: Precedences of one task dropped one at a time to name the blocking one.
+MAX_LINKS_TRIED = 4
 
 
 def explain(
@@ -173,32 +179,87 @@ def _forced(
     if attempt.status is SolveStatus.UNKNOWN:
         return _not_analysed(task_id)
     task = problem.task(task_id)
-    relaxations: list[tuple[str, str, Problem]] = [
-        (
-            problem.resources.kind_of(name) or "resource",
-            _resource_detail(problem, name),
-            _without_resource(forced, name),
-        )
-        for name in sorted(task.uses, key=problem.resources.names.index)
+    links = [
+        idx
+        for idx, prec in enumerate(problem.precedences)
+        if task_id in (prec.before, prec.after)
     ]
-    relaxations.append(
-        (
-            "precedence",
-            "its precedences cannot all be met",
-            _without_precedences(forced, task_id),
-        )
-    )
-    for cause, detail, relaxed in relaxations:
-        outcome = solve(relaxed).status
+    if links:
+        # Precedence partners first: dropping a resource for everyone can
+        # also let in the partner that really keeps the task out, and the
+        # resource would then be blamed for it.
+        outcome = solve(_without_precedences(forced, task_id)).status
         if outcome is SolveStatus.UNKNOWN:
             return _not_analysed(task_id)
         if outcome.has_plan:
-            return Blocker(task_id, cause, detail)
+            return _precedence_blocker(problem, forced, task_id, links, solve)
+    for name in sorted(task.uses, key=problem.resources.names.index):
+        outcome = solve(_without_resource(forced, name)).status
+        if outcome is SolveStatus.UNKNOWN:
+            return _not_analysed(task_id)
+        if outcome.has_plan:
+            return Blocker(
+                task_id,
+                problem.resources.kind_of(name) or "resource",
+                _resource_detail(problem, name),
+            )
     return Blocker(
         task_id,
         "combination",
         "no single resource or precedence relaxation lets it in",
     )
+
+
+def _precedence_blocker(
+    problem: Problem,
+    forced: Problem,
+    task_id: str,
+    links: list[int],
+    solve: SolveFn,
+) -> Blocker:
+    """Name the precedence that keeps ``task_id`` out, when one alone does.
+
+    Without all its precedences the task fits. With a single precedence
+    that one is named; with a few, each is dropped alone in turn and the
+    first that lets the task in is named; else all of them.
+    """
+    named = links if len(links) == 1 else []
+    for idx in links[:MAX_LINKS_TRIED] if len(links) > 1 else []:
+        relaxed = forced.replace(
+            precedences=tuple(
+                p for k, p in enumerate(forced.precedences) if k != idx
+            )
+        )
+        outcome = solve(relaxed).status
+        if outcome is SolveStatus.UNKNOWN:
+            break
+        if outcome.has_plan:
+            named = [idx]
+            break
+    if not named:
+        return Blocker(
+            task_id,
+            "precedence",
+            "its precedences cannot all be met with "
+            + ", ".join(sorted(_partners(problem, task_id, links))),
+        )
+    prec = problem.precedences[named[0]]
+    partner = prec.after if prec.before == task_id else prec.before
+    return Blocker(
+        task_id,
+        "precedence",
+        f"precedences[{named[0]}] ({prec.kind}, {prec.scope}) "
+        f"{prec.before} -> {prec.after}: it cannot be met with {partner} "
+        "placed too",
+    )
+
+
+def _partners(problem: Problem, task_id: str, links: list[int]) -> set[str]:
+    found = set()
+    for idx in links:
+        prec = problem.precedences[idx]
+        found.add(prec.after if prec.before == task_id else prec.before)
+    return found
 
 
 def _not_analysed(task_id: str) -> Blocker:

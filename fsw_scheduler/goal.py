@@ -1,4 +1,4 @@
-"""Goals: new tasks arriving while a plan runs (CONTRACT section 3).
+"""Goals: new tasks arriving while a plan runs (the goal format).
 
 A goal carries tasks (the fields of a problem task plus ``obsoletes``, the
 ids of live tasks the new task replaces) and precedences. :func:`decode_goal`
@@ -154,7 +154,7 @@ def validate_goal(goal: Goal) -> list[FieldIssue]:
 
 
 def decode_goal(data: bytes | str) -> Goal:
-    """Decode and check a goal document (CONTRACT section 3).
+    """Decode and check a goal document (the goal format).
 
     Parameters
     ----------

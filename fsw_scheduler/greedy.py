@@ -26,10 +26,12 @@ scaling set the deadline rule did for 11 of the 24.
 from __future__ import annotations
 
 from collections import defaultdict
+from collections.abc import Callable, Set
 from typing import TYPE_CHECKING, Any
 
 from .check import check_plan
 from .domains import Domain, start_domains
+from .proofs import forced_tasks, tight_conflicts
 from .solution import (
     Activity,
     Objective,
@@ -39,8 +41,6 @@ from .solution import (
 )
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
-
     from .model import Problem, Task
 
 
@@ -154,18 +154,32 @@ class _Board:
         self.lowest[name] = lowest
 
 
-def greedy_plan(problem: Problem) -> Plan | None:
+def greedy_plan(
+    problem: Problem,
+    *,
+    stop: Callable[[], bool] | None = None,
+    domains: dict[str, Domain] | None = None,
+) -> Plan | None:
     """The best valid plan list scheduling finds, or None.
 
-    Each rule of :data:`RULES` gives one plan (see :func:`_rule_plan`); the
-    one with the lowest objective is returned, the earliest rule on a
-    tie. A plan with every task at its earliest start cannot be beaten,
-    so the remaining rules are then skipped.
+    First the *trivial* plan: the tasks every plan must hold
+    (:func:`~fsw_scheduler.proofs.forced_tasks`) alone, by the deadline
+    rule. Then each rule of :data:`RULES` gives one plan (see
+    :func:`_rule_plan`); the one with the lowest objective is returned,
+    the earliest rule on a tie and the trivial plan last. A plan with
+    every task at its earliest start cannot be beaten, so the remaining
+    rules are then skipped, and so are they once ``stop()`` is true.
 
     Parameters
     ----------
     problem
         A validated problem.
+    stop
+        Asked between and during rules; true when time is up (the caller's
+        deadline: this module reads no clock). The trivial plan is always
+        completed.
+    domains
+        The problem's :func:`start_domains`, if already known.
 
     Returns
     -------
@@ -173,10 +187,29 @@ def greedy_plan(problem: Problem) -> Plan | None:
         Status ``feasible``, objective computed; None when no rule places
         every mandatory task in a plan the checker accepts.
     """
-    domains = start_domains(problem)
+    if domains is None:
+        domains = start_domains(problem)
+    forced = forced_tasks(problem)
+    seeds = _conflict_seeds(problem, forced)
+    # The plan with only the forced tasks: no plan found may be worse.
+    trivial = _rule_plan(
+        problem,
+        _by_deadline(problem, domains, forced),
+        domains,
+        seeds | {t.id for t in problem.tasks if t.id not in forced},
+    )
     candidates: list[Plan] = []
     for rule in RULES.values():
-        plan = _rule_plan(problem, rule(problem, domains), domains)
+        if stop is not None and stop():
+            break
+        plan = _rule_plan(
+            problem,
+            rule(problem, domains, forced),
+            domains,
+            seeds,
+            stop=stop,
+            first=forced if rule is _by_deadline_forced_first else None,
+        )
         if plan is None:
             continue
         candidates.append(plan)
@@ -184,16 +217,39 @@ def greedy_plan(problem: Problem) -> Plan | None:
             a.start == domains[a.task].earliest for a in plan.activities
         ):
             break
+    if trivial is not None:
+        candidates.append(trivial)
     # The checker runs on the best candidate only, then the next ones if
     # it refuses (it never has: it is the heuristic's safety net).
     candidates.sort(key=lambda p: p.objective.total if p.objective else 0)
     return next((p for p in candidates if check_plan(problem, p).ok), None)
 
 
+def _conflict_seeds(problem: Problem, forced: Set[str]) -> set[str]:
+    """Tasks to leave out so that no tight precedences contradict.
+
+    Tight precedences fixing the same start difference in two ways cannot
+    all hold; of each such precedence the ``after`` task is left out (the
+    ``before`` when ``after`` must be scheduled). The groups of
+    :func:`_tight_groups` ignore the same precedences.
+    """
+    seeds = set()
+    for conflict in tight_conflicts(problem):
+        prec = conflict.prec
+        if prec.before in seeds or prec.after in seeds:
+            continue
+        seeds.add(prec.before if prec.after in forced else prec.after)
+    return seeds
+
+
 def _rule_plan(
     problem: Problem,
     priority: Callable[[dict[str, int]], tuple[Any, ...]],
     domains: dict[str, Domain],
+    seeds: set[str],
+    *,
+    stop: Callable[[], bool] | None = None,
+    first: set[str] | None = None,
 ) -> Plan | None:
     """A plan by list scheduling in ``priority`` order, not yet checked.
 
@@ -212,10 +268,21 @@ def _rule_plan(
         the highest key is placed next.
     domains
         The problem's :func:`start_domains`.
+    seeds
+        Tasks left out from the start.
+    stop
+        True when time is up: the pass is abandoned (None).
+    first
+        Place these tasks' groups first, the others after them.
     """
-    excluded: set[str] = set()
+    excluded = set(seeds)
     for _ in range(problem.num_tasks + 1):
-        starts = _list_schedule(problem, excluded, priority, domains)
+        found = _list_schedule(
+            problem, excluded, priority, domains, stop=stop, first=first
+        )
+        if found is None:
+            return None
+        starts = found
         dropped = _drop_unsupported(problem, starts)
         if any(t.mandatory and t.id not in starts for t in problem.tasks):
             return None
@@ -230,8 +297,16 @@ def _list_schedule(
     excluded: set[str],
     priority: Callable[[dict[str, int]], tuple[Any, ...]],
     domains: dict[str, Domain],
-) -> dict[str, int]:
-    """One pass: each group in turn at its earliest fitting start."""
+    *,
+    stop: Callable[[], bool] | None = None,
+    first: set[str] | None = None,
+) -> dict[str, int] | None:
+    """One pass: each group in turn at its earliest fitting start.
+
+    With ``first``, a first pass places only those tasks (the rest of
+    their groups is left out) and a second pass the other groups. None
+    when ``stop()`` turns true meanwhile.
+    """
     tasks = {t.id: t for t in problem.tasks}
     groups = _tight_groups(problem)
     group_of = {name: idx for idx, g in enumerate(groups) for name in g}
@@ -242,47 +317,68 @@ def _list_schedule(
             predecessors[b].add(a)
     board = _Board(problem)
     starts: dict[str, int] = {}
-    decided: set[int] = set()
-    remaining = set(range(len(groups)))
-    while remaining:
-        ready = [g for g in remaining if predecessors[g] <= decided]
-        if not ready:  # a precedence cycle between groups: break it
-            ready = list(remaining)
-        # min(group) is the stable tie-break between equal priorities.
-        chosen = max(
-            ready, key=lambda g: (*priority(groups[g]), min(groups[g]))
-        )
-        remaining.discard(chosen)
-        decided.add(chosen)
-        members = _without(problem, groups[chosen], excluded)
-        anchor = None
-        while members:
-            anchor = _earliest(problem, members, tasks, domains, board, starts)
-            if anchor is not None:
-                break
-            # The whole group does not fit: shed its optional followers
-            # (tight "at_least_first" successors) and try the rest.
-            optional = {
-                prec.after
-                for prec in problem.precedences
-                if prec.kind == "tight"
-                and prec.scope == "at_least_first"
-                and prec.before in members
-                and prec.after in members
-            }
-            if not optional:
-                break
-            members = _without(problem, members, optional)
-        if anchor is None:
-            continue
-        for name, shift in members.items():
-            starts[name] = anchor + shift
-            board.add(tasks[name], anchor + shift)
+    placed: set[int] = set()
+    for keep in (None,) if first is None else (first, None):
+        decided = set(placed)
+        remaining = set(range(len(groups))) - placed
+        while remaining:
+            if stop is not None and stop():
+                return None
+            ready = [g for g in remaining if predecessors[g] <= decided]
+            if not ready:  # a precedence cycle between groups: break it
+                ready = list(remaining)
+            # min(group) is the stable tie-break between equal priorities.
+            chosen = max(
+                ready, key=lambda g: (*priority(groups[g]), min(groups[g]))
+            )
+            remaining.discard(chosen)
+            decided.add(chosen)
+            members = _without(problem, groups[chosen], excluded)
+            if keep is not None:
+                members = _without(problem, members, members.keys() - keep)
+                if not members:
+                    continue  # placed in the second pass
+            placed.add(chosen)
+            _place(problem, members, tasks, domains, board, starts)
     return starts
 
 
+def _place(
+    problem: Problem,
+    members: dict[str, int],
+    tasks: dict[str, Task],
+    domains: dict[str, Domain],
+    board: _Board,
+    starts: dict[str, int],
+) -> None:
+    """Book a group at its earliest fitting start, shedding if it must."""
+    anchor = None
+    while members:
+        anchor = _earliest(problem, members, tasks, domains, board, starts)
+        if anchor is not None:
+            break
+        # The whole group does not fit: shed its optional followers
+        # (tight "at_least_first" successors) and try the rest.
+        optional = {
+            prec.after
+            for prec in problem.precedences
+            if prec.kind == "tight"
+            and prec.scope == "at_least_first"
+            and prec.before in members
+            and prec.after in members
+        }
+        if not optional:
+            break
+        members = _without(problem, members, optional)
+    if anchor is None:
+        return
+    for name, shift in members.items():
+        starts[name] = anchor + shift
+        board.add(tasks[name], anchor + shift)
+
+
 def _without(
-    problem: Problem, members: dict[str, int], drop: set[str]
+    problem: Problem, members: dict[str, int], drop: Set[str]
 ) -> dict[str, int]:
     """``members`` less ``drop`` and every member that cannot go without it.
 
@@ -310,9 +406,18 @@ def _without(
 
 
 def _mandatory_first(
-    problem: Problem, rest: Callable[[list[Task]], tuple]
+    problem: Problem,
+    forced: Set[str],
+    rest: Callable[[list[Task]], tuple],
 ) -> Callable[[dict[str, int]], tuple]:
-    """A group's key: mandatory groups first, then ``rest`` of members."""
+    """A group's key: mandatory groups first, then ``rest`` of members.
+
+    Only mandatory tasks, not every forced one
+    (:func:`~fsw_scheduler.proofs.forced_tasks`): putting the optional
+    tasks they need first too made plans worse where an optional task
+    fits before them; the ``forced-first`` rule covers the other case.
+    """
+    del forced
     tasks = {t.id: t for t in problem.tasks}
 
     def key(group: dict[str, int]) -> tuple:
@@ -328,11 +433,12 @@ def _value(members: list[Task]) -> float:
 
 
 def _by_value(
-    problem: Problem, domains: dict[str, Domain]
+    problem: Problem, domains: dict[str, Domain], forced: Set[str]
 ) -> Callable[[dict[str, int]], tuple]:
     """Mandatory first, then schedule cost, then delay cost."""
     return _mandatory_first(
         problem,
+        forced,
         lambda members: (
             sum(t.schedule_cost for t in members),
             sum(t.delay_cost for t in members),
@@ -341,7 +447,7 @@ def _by_value(
 
 
 def _by_density(
-    problem: Problem, domains: dict[str, Domain]
+    problem: Problem, domains: dict[str, Domain], forced: Set[str]
 ) -> Callable[[dict[str, int]], tuple]:
     """Mandatory, then net generators, then value per consumable share.
 
@@ -361,15 +467,16 @@ def _by_density(
         net = sum(share(t) for t in members)
         return (net < 0, _value(members) / (1.0 + max(net, 0.0)))
 
-    return _mandatory_first(problem, rest)
+    return _mandatory_first(problem, forced, rest)
 
 
 def _by_delay_rate(
-    problem: Problem, domains: dict[str, Domain]
+    problem: Problem, domains: dict[str, Domain], forced: Set[str]
 ) -> Callable[[dict[str, int]], tuple]:
     """Schedule cost, then delay cost per unit of length (Smith's rule)."""
     return _mandatory_first(
         problem,
+        forced,
         lambda members: (
             sum(t.schedule_cost for t in members),
             sum(t.delay_cost for t in members)
@@ -379,17 +486,18 @@ def _by_delay_rate(
 
 
 def _by_value_rate(
-    problem: Problem, domains: dict[str, Domain]
+    problem: Problem, domains: dict[str, Domain], forced: Set[str]
 ) -> Callable[[dict[str, int]], tuple]:
     """Value per unit of length: many short tasks before one long one."""
     return _mandatory_first(
         problem,
+        forced,
         lambda members: (_value(members) / sum(t.length for t in members),),
     )
 
 
 def _by_deadline(
-    problem: Problem, domains: dict[str, Domain]
+    problem: Problem, domains: dict[str, Domain], forced: Set[str]
 ) -> Callable[[dict[str, int]], tuple]:
     """Latest start soonest first (earliest deadline), then schedule cost.
 
@@ -400,6 +508,7 @@ def _by_deadline(
     """
     return _mandatory_first(
         problem,
+        forced,
         lambda members: (
             -min(domains[t.id].latest for t in members),
             sum(t.schedule_cost for t in members),
@@ -407,16 +516,32 @@ def _by_deadline(
     )
 
 
+def _by_deadline_forced_first(
+    problem: Problem, domains: dict[str, Domain], forced: Set[str]
+) -> Callable[[dict[str, int]], tuple]:
+    """The deadline rule, in two passes: forced tasks, then the others.
+
+    A forced task that waits for an optional predecessor's group can find
+    its slots taken by the time it is ready; placing every forced task
+    first keeps the plan at least as good as the trivial one in almost
+    every case (:func:`_list_schedule` runs the two passes).
+    """
+    return _by_deadline(problem, domains, forced)
+
+
+Rule = Callable[
+    ["Problem", dict[str, Domain], Set[str]],
+    Callable[[dict[str, int]], tuple],
+]
+
 #: Priority rules, tried in this order.
-RULES: dict[
-    str,
-    Callable[[Problem, dict[str, Domain]], Callable[[dict[str, int]], tuple]],
-] = {
+RULES: dict[str, Rule] = {
     "value": _by_value,
     "density": _by_density,
     "delay-rate": _by_delay_rate,
     "value-rate": _by_value_rate,
     "deadline": _by_deadline,
+    "forced-first": _by_deadline_forced_first,
 }
 
 

@@ -1,4 +1,4 @@
-"""Bus messages (CONTRACT section 5): msgspec Structs, codecs and schemas.
+"""Bus messages (the bus keys): msgspec Structs, codecs and schemas.
 
 Evolution rules: a new field always has a default and a field's type
 never changes, so older recordings still decode. Unknown fields are
@@ -23,6 +23,7 @@ from .solution import (
     Activity,
     Blocker,
     Objective,
+    Plan,
     SolverStats,
     SolveStatus,
 )
@@ -59,7 +60,7 @@ class ResourceLevel(msgspec.Struct, frozen=True):
 
 
 class PlanMessage(msgspec.Struct, frozen=True):
-    """``scheduler/plan``: the plan being executed (CONTRACT section 2).
+    """``scheduler/plan``: the plan being executed (the plan format).
 
     Attributes
     ----------
@@ -70,7 +71,7 @@ class PlanMessage(msgspec.Struct, frozen=True):
     horizon_start, horizon_end
         The window ``[start, end)`` the plan covers.
     status, objective, activities, unscheduled
-        As in CONTRACT section 2.
+        As in the plan format.
     why
         Why each unscheduled task is out.
     continuing
@@ -179,8 +180,12 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
     ``goal_queued``, ``goal_accepted``, ``goal_rejected``,
     ``solve_failed``, ``input_rejected``, ``activity``, ``drift``,
     ``clock_stalled``, ``clock_resumed``, ``heartbeat``,
-    ``loop_stopped``); with ``goal_id``
-    and ``errors`` (``path`` + ``reason``) for rejections.
+    ``loop_stopped``, ``alarm``, ``resumed``, ``took_over``); with
+    ``goal_id`` and ``errors`` (``path`` + ``reason``) for rejections.
+    ``resumed`` and ``took_over`` carry ``from_plan_id`` and ``at`` (the
+    plan and time the state was rebuilt at). ``state`` is ``standby`` on a
+    node that follows another one; ``active`` then names the commanding
+    node, ``node_id`` this one.
 
     ``activities`` (the lifecycle of every activity) is in heartbeats and
     query answers only; every published status carries ``changed``, the
@@ -188,7 +193,7 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
     them in order to the last full map gives the current one.
     """
 
-    state: Literal["ok", "degraded", "error"]
+    state: Literal["ok", "degraded", "error", "standby"]
     plan_id: int | None
     now: int | None = None
     event: str = ""
@@ -199,6 +204,10 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
     activities: dict[str, str] = {}
     counters: Counters = Counters()
     last_solve: SolveSummary | None = None
+    from_plan_id: int | None = None
+    at: int | None = None
+    active: str | None = None
+    node_id: str | None = None
     changed: dict[str, str] = {}
     why: tuple[Blocker, ...] = ()
 
@@ -247,6 +256,8 @@ class SolveRecord(msgspec.Struct, frozen=True, omit_defaults=True):
     ``problem`` is the exact input, ``input_hash`` its SHA-256 (over the
     compact JSON), ``inputs_seen`` how many inputs the scheduler had
     processed when the result came back (used by deterministic replay).
+    ``result`` is the solve's whole answer, so that a node resuming from
+    its journal rebuilds its state without solving again.
     """
 
     solve_id: int
@@ -263,6 +274,24 @@ class SolveRecord(msgspec.Struct, frozen=True, omit_defaults=True):
     wall_s: float = 0.0
     inputs_seen: int = 0
     error: str = ""
+    result: Plan | None = None
+
+
+class SecurityInfo(msgspec.Struct, frozen=True, omit_defaults=True):
+    """How the node's bus was protected when it started.
+
+    ``exposed``: an endpoint reaches beyond loopback, or multicast
+    scouting is on. ``warnings`` says what an exposed bus lacks (TLS,
+    mutual authentication, access control); ``acknowledged``: the operator
+    started it so anyway (``run --insecure``).
+    """
+
+    exposed: bool = False
+    tls: bool = False
+    mutual_tls: bool = False
+    access_control: bool = False
+    acknowledged: bool = False
+    warnings: tuple[str, ...] = ()
 
 
 class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -282,6 +311,9 @@ class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     replan_lead: int = 0
     version: str = ""
     problem: Problem | None = None
+    security: SecurityInfo | None = None
+    resumed: str = ""
+    node_id: str | None = None
     tasks_per_goal: int = 100
     live_tasks: int = 300
     goals_waiting: int = 64
@@ -351,7 +383,7 @@ def json_schemas() -> dict[str, dict]:
         Kind name to schema; each has ``title`` and ``$id``.
     """
     schemas = {}
-    for name, kind in SCHEMA_TYPES.items():
+    for name, kind in _all_schema_types().items():
         (ref,), defs = msgspec.json.schema_components([kind])
         schema: dict[str, Any] = {
             "$schema": "https://json-schema.org/draft/2020-12/schema",
@@ -362,6 +394,33 @@ def json_schemas() -> dict[str, dict]:
         }
         schemas[name] = _normalise(schema)
     return schemas
+
+
+def _all_schema_types() -> dict[str, Any]:
+    """Bus message kinds plus the journal's engine snapshot.
+
+    The snapshot type is built from the engine's state types, which
+    import this module; it is looked up late to keep imports one-way.
+    """
+    from .snapshot import EngineSnapshot
+
+    return {**SCHEMA_TYPES, "snapshot": EngineSnapshot}
+
+
+def schema_files() -> dict[str, str]:
+    """File name -> text of every schema, as ``schemas/`` holds them.
+
+    Returns
+    -------
+    dict[str, str]
+        ``<kind>.schema.json`` -> indented JSON with sorted keys and a
+        final newline.
+    """
+    return {
+        f"{name}.schema.json": json.dumps(schema, indent=2, sort_keys=True)
+        + "\n"
+        for name, schema in json_schemas().items()
+    }
 
 
 def _normalise(node: Any, key: str | None = None) -> Any:

@@ -1,4 +1,4 @@
-"""Problem model: tasks, resources and precedences (CONTRACT section 1).
+"""Problem model: tasks, resources and precedences (problem format).
 
 Every structure is an immutable :class:`msgspec.Struct`. :func:`decode_problem`
 turns JSON bytes into a validated :class:`Problem`; anything wrong is raised
@@ -296,7 +296,7 @@ def decode_problem(data: bytes | str, *, allow_empty: bool = False) -> Problem:
     Parameters
     ----------
     data
-        The JSON text of CONTRACT section 1.
+        The JSON text of the problem format.
     allow_empty
         Accept a problem with no task (``fsw-scheduler run``: the problem
         gives resources and horizon, goals bring the tasks).
@@ -337,9 +337,10 @@ def validate_problem(
         *_check_resources(problem.resources),
     ]
     issues += _check_tasks(problem, allow_empty)
+    # Tight precedences that contradict along two paths are valid: they
+    # only mean those tasks cannot all be scheduled together (see
+    # fsw_scheduler.proofs for when that makes the problem infeasible).
     issues += _check_precedences(problem)
-    if not issues:
-        issues += _check_tight_cycles(problem)
     return issues
 
 
@@ -559,45 +560,3 @@ def _check_precedences(problem: Problem) -> Iterator[FieldIssue]:
             yield FieldIssue(
                 f"{path}.after", f"task {prec.after!r} cannot precede itself"
             )
-
-
-def _check_tight_cycles(problem: Problem) -> list[FieldIssue]:
-    """Tight precedences fix start differences; a cycle must sum to zero.
-
-    A weighted union-find keeps, for each task, its start offset relative to
-    the root of its tight group; a new tight edge inside a group must agree
-    with the offset already implied.
-    """
-    length = {task.id: task.length for task in problem.tasks}
-    parent: dict[str, str] = {}
-    shift: dict[str, int] = {}  # s_task - s_parent
-
-    def find(name: str) -> tuple[str, int]:
-        total = 0
-        while parent.get(name, name) != name:
-            total += shift[name]
-            name = parent[name]
-        return name, total
-
-    issues = []
-    for idx, prec in enumerate(problem.precedences):
-        if prec.kind != "tight":
-            continue
-        gap = length[prec.before] + prec.offset  # s_after - s_before
-        root_b, off_b = find(prec.before)
-        root_a, off_a = find(prec.after)
-        if root_b == root_a:
-            implied = off_a - off_b
-            if implied != gap:
-                issues.append(
-                    FieldIssue(
-                        f"precedences[{idx}]",
-                        f"tight precedences contradict each other: this one "
-                        f"needs start({prec.after}) - start({prec.before}) = "
-                        f"{gap}, others imply {implied}",
-                    )
-                )
-            continue
-        parent[root_a] = root_b
-        shift[root_a] = off_b + gap - off_a
-    return issues

@@ -6,7 +6,7 @@ matplotlib, which is an optional dependency (``fsw-scheduler[plot]``) and
 is imported only when :func:`gantt` is called, so ``import
 fsw_scheduler.plot`` stays cheap and works without it.
 
-Time convention (CONTRACT section 1): an activity ``[start, end)`` runs in
+Time convention (problem format): an activity ``[start, end)`` runs in
 the time units ``start .. end - 1``; a profile value at index ``i`` belongs
 to time unit ``problem.start + i``.
 """
@@ -291,6 +291,24 @@ def _resource_lines(
 
 # --------------------------------------------------------------------------
 # Picture (matplotlib, imported lazily)
+
+
+def have_matplotlib() -> bool:
+    """Whether the pictures can be drawn (matplotlib importable).
+
+    Checked before any work is done, so that a command never solves for
+    minutes and then fails on a missing optional dependency.
+    """
+    try:
+        from matplotlib.backends.backend_agg import (  # noqa: F401
+            FigureCanvasAgg,
+        )
+    except ImportError:
+        return False
+    return True
+
+
+PLOT_INSTALL_HINT = "pip install 'fsw-scheduler[plot]'"
 
 
 def _load_matplotlib() -> tuple[Any, Any, Any]:

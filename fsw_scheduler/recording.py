@@ -320,6 +320,23 @@ class Recorder:
         self._last_flush_ns = now_ns
         return True
 
+    @property
+    def size(self) -> int:
+        """Bytes written to the current file so far."""
+        return self._file.tell() if self._file is not None else 0
+
+    def rotate(self) -> Path:
+        """Finish the current file and start the next part now.
+
+        For writers that must choose where a file ends (a journal starts
+        each file with a snapshot of the state). Returns the new file.
+        """
+        if self._closed:
+            raise ValueError("rotate a closed Recorder")
+        self._close_part()
+        self._open_part()
+        return self.path
+
     def flush(self) -> None:
         """Write the chunk in progress and flush the file now."""
         if self._closed or self._writer is None or self._file is None:

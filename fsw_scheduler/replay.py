@@ -41,6 +41,7 @@ from .config import NodeConfig
 from .engine import Engine, Publish, SolveDone, StartSolve
 from .inputs import InputDecoder
 from .recording import PathLike, RecordedMessage, iter_messages
+from .snapshot import EngineSnapshot
 from .solution import Plan
 
 #: Fields left out of the comparison, per output kind (dotted paths).
@@ -62,6 +63,7 @@ EXCLUDED: dict[str, tuple[str, ...]] = {
         "wall_s",
         "num_variables",
         "num_constraints",
+        "result.stats",
     ),
     "dispatch": (),
 }
@@ -167,6 +169,7 @@ def config_from_info(info: messages.NodeInfo) -> NodeConfig:
         goals_waiting=info.goals_waiting,
         goals_per_solve=info.goals_per_solve,
         max_clock_step=info.max_clock_step,
+        node_id=info.node_id,
         explain_after_plan=info.explain_after_plan,
         response_deadline=info.response_deadline,
     )
@@ -229,13 +232,18 @@ def verify(
         raise ValueError("the journal's scheduler/config has no problem")
     config = config_from_info(info)
     topics = keys.Topics(config.spacecraft)
-    engine = Engine(engine_config(config), info.problem)
+    snapshot = _opening_snapshot(recorded, topics)
+    engine = (
+        Engine.restore(engine_config(config), snapshot)
+        if snapshot is not None
+        else Engine(engine_config(config), info.problem)
+    )
     decoder = InputDecoder(topics, config.clock, config.max_clock_step)
     solve = solve_fn or run_solve
     report = VerifyReport()
     produced: deque[tuple[str, bytes]] = deque()
     results: dict[int, Plan] = {}
-    now = 0
+    now = snapshot.now or 0 if snapshot is not None else 0
 
     def run(commands: list) -> None:
         for command in commands:
@@ -254,6 +262,15 @@ def verify(
                     )
                 results[command.solve_id] = solve(config, command)
 
+    if snapshot is not None:
+        # A file of a state folder starts from the engine's state. A node
+        # that resumed said so first and asked again for the solve that was
+        # in flight; after a rotation, that solve is still running.
+        if info.resumed:
+            run([engine.resumed(info.resumed)])
+        pending = engine.pending_solve()
+        if pending is not None:
+            results[pending.solve_id] = solve(config, pending)
     for message in _outputs_and_inputs(recorded, info_topic):
         kind = topics.schema_kind(message.topic)
         if kind == "solve_record":
@@ -289,6 +306,141 @@ def verify(
             "replay published more than the recording",
         )
     return report
+
+
+def _opening_snapshot(
+    recorded: Sequence[RecordedMessage], topics: keys.Topics
+) -> EngineSnapshot | None:
+    """The snapshot a journal file starts from, if it has one.
+
+    A node journaling into a state folder (``run --state``) starts each
+    file with the engine's state; the messages after it continue from
+    there. A snapshot later in a file (a standby's copy) is not a start.
+    """
+    for message in recorded:
+        kind = topics.schema_kind(message.topic)
+        if kind == "snapshot":
+            return msgspec.json.decode(message.payload, type=EngineSnapshot)
+        if kind != "node_info":
+            return None
+    return None
+
+
+@dataclass
+class Rebuilt:
+    """An engine rebuilt from a journal, and where the journal ended.
+
+    Attributes
+    ----------
+    engine
+        In the state the journaled node was in after its last step.
+    config
+        The node settings the journal was made with.
+    last_log_time_ns
+        Log time of the journal's last message (wall-clock ns).
+    last_tick
+        The last time unit seen (ticks or bus clock), None if none.
+    messages
+        How many journal messages were read after the starting point.
+    solves_rerun
+        Solve results missing from the journal (older journals) that were
+        computed again.
+    """
+
+    engine: Engine
+    config: NodeConfig
+    last_log_time_ns: int = 0
+    last_tick: int | None = None
+    messages: int = 0
+    solves_rerun: int = 0
+
+
+def rebuild(
+    paths: PathLike | Sequence[PathLike],
+    *,
+    solve_fn: SolveFn | None = None,
+) -> Rebuilt:
+    """Rebuild the engine a journal describes, without solving again.
+
+    The journal is read from its opening snapshot (or from the initial
+    problem of ``scheduler/config``); recorded inputs are stepped in
+    order and each solve result is taken from its solve record
+    (``result``) where the original arrived. Outputs are not compared.
+    A solve in flight at the end stays pending in the engine: ask for it
+    again with :meth:`Engine.pending_solve`.
+
+    Parameters
+    ----------
+    paths
+        The journal file(s), in order.
+    solve_fn
+        Used only for solve records without ``result`` (journals written
+        before results were recorded).
+
+    Returns
+    -------
+    Rebuilt
+    """
+    from .bus.node import engine_config, run_solve
+
+    recorded = list(iter_messages(paths))
+    info, info_topic = read_node_info(recorded)
+    if info.problem is None:
+        raise ValueError("the journal's scheduler/config has no problem")
+    config = config_from_info(info)
+    topics = keys.Topics(config.spacecraft)
+    snapshot = _opening_snapshot(recorded, topics)
+    engine = (
+        Engine.restore(engine_config(config), snapshot)
+        if snapshot is not None
+        else Engine(engine_config(config), info.problem)
+    )
+    decoder = InputDecoder(topics, config.clock, config.max_clock_step)
+    out = Rebuilt(engine, config)
+    now = (snapshot.now or 0) if snapshot is not None else 0
+    out.last_tick = snapshot.now if snapshot is not None else None
+    requested: dict[int, StartSolve] = {}
+    if snapshot is not None and snapshot.pending is not None:
+        pending = engine.pending_solve()
+        assert pending is not None
+        requested[pending.solve_id] = pending
+
+    def note(commands: list) -> None:
+        for command in commands:
+            if isinstance(command, StartSolve):
+                requested[command.solve_id] = command
+
+    for message in recorded:
+        out.last_log_time_ns = max(out.last_log_time_ns, message.log_time_ns)
+        if message.topic == info_topic:
+            continue
+        kind = topics.schema_kind(message.topic)
+        if kind == "snapshot":
+            continue
+        out.messages += 1
+        if kind == "solve_record":
+            record = msgspec.json.decode(
+                message.payload, type=messages.SolveRecord
+            )
+            command = requested.pop(record.solve_id, None)
+            if command is None:
+                continue
+            plan = record.result
+            if plan is None:
+                plan = (solve_fn or run_solve)(config, command)
+                out.solves_rerun += 1
+            note(engine.step(SolveDone(record.solve_id, plan), now))
+            continue
+        if kind in EXCLUDED:
+            continue
+        event = decoder.event(message.topic, message.payload)
+        if event is None:
+            continue
+        if hasattr(event, "now"):
+            now = max(now, event.now)  # type: ignore[attr-defined]
+            out.last_tick = now
+        note(engine.step(event, now))
+    return out
 
 
 def _outputs_and_inputs(

@@ -1,8 +1,9 @@
-"""Plans: what a solve returns (CONTRACT section 2). Pure data."""
+"""Plans: what a solve returns (the plan format). Pure data."""
 
 from __future__ import annotations
 
 import enum
+from typing import Any
 
 import msgspec
 
@@ -13,17 +14,25 @@ class SolveStatus(str, enum.Enum):
     ``optimal``: proven optimal. ``feasible``: a limit was hit and the best
     plan found is returned. ``infeasible``: proven that mandatory tasks
     cannot all be placed. ``unknown``: no plan found within the limit.
+    ``degraded`` (bus plans only): the mandatory tasks no longer fitted
+    together, and this is the best plan without the ones that had to be
+    shed; ``why`` names each.
     """
 
     OPTIMAL = "optimal"
     FEASIBLE = "feasible"
     INFEASIBLE = "infeasible"
     UNKNOWN = "unknown"
+    DEGRADED = "degraded"
 
     @property
     def has_plan(self) -> bool:
         """True when the status comes with a usable plan."""
-        return self in (SolveStatus.OPTIMAL, SolveStatus.FEASIBLE)
+        return self in (
+            SolveStatus.OPTIMAL,
+            SolveStatus.FEASIBLE,
+            SolveStatus.DEGRADED,
+        )
 
 
 class Activity(msgspec.Struct, frozen=True):
@@ -104,7 +113,34 @@ class Plan(msgspec.Struct, frozen=True):
         """Return a copy with ``changes`` applied."""
         return msgspec.structs.replace(self, **changes)
 
+    def to_dict(self) -> dict[str, Any]:
+        """The plan as plain JSON-ready data (the plan format).
+
+        Returns
+        -------
+        dict
+            Built-in types only (``status`` as its string, activities as
+            dicts, sequences as lists): ``json.loads(plan.to_json())``.
+        """
+        # Through JSON rather than msgspec.to_builtins, which keeps tuples:
+        # the result must equal json.loads(plan.to_json()).
+        data: dict[str, Any] = msgspec.json.decode(msgspec.json.encode(self))
+        return data
+
+    def to_json(self, *, indent: int | None = None) -> str:
+        """The plan as JSON text (the plan format).
+
+        Parameters
+        ----------
+        indent
+            Spaces per level; ``None`` writes one compact line.
+        """
+        text = msgspec.json.encode(self)
+        if indent is not None:
+            text = msgspec.json.format(text, indent=indent)
+        return text.decode()
+
 
 def objective_weight(delay_costs: list[int], horizon: int) -> int:
-    """W of CONTRACT section 1: one unscheduled cost beats any delay."""
+    """W of the problem format: one unscheduled cost beats any delay."""
     return 1 + sum(delay_costs) * horizon

@@ -13,6 +13,8 @@ from .check import check_plan
 from .domains import cost_caps, start_domains
 from .explain import explain as explain_plan
 from .greedy import greedy_plan
+from .improve import improve
+from .proofs import infeasibility
 from .solution import Plan, SolverStats, SolveStatus
 
 if TYPE_CHECKING:
@@ -29,6 +31,15 @@ log = logging.getLogger("fsw_scheduler.solver")
 EXPLAIN_BUDGET_S = 10.0
 #: Below this much budget left, an explanation solve is not started.
 MIN_SOLVE_S = 0.05
+#: Share of the time limit the start heuristic may take (its trivial plan,
+#: the forced tasks alone, is always completed).
+GREEDY_SHARE = 0.4
+#: From this many tasks on, a solve under a time limit improves the start
+#: plan by neighbourhood search (:mod:`fsw_scheduler.improve`) instead of
+#: handing the whole model to the solver.
+LNS_MIN_TASKS = 30
+#: Seconds of the limit left when the neighbourhood search stops.
+LNS_MARGIN_S = 0.2
 
 
 def solve(
@@ -85,7 +96,31 @@ def solve(
     )
     began = time.perf_counter()
     domains = start_domains(problem)
-    start = best_start(problem, warm)
+    proof = infeasibility(problem, domains)
+    if proof:
+        # Tasks every plan must hold cannot all be placed: no solve.
+        return Plan(
+            status=SolveStatus.INFEASIBLE,
+            objective=None,
+            unscheduled=tuple(task.id for task in problem.tasks),
+            why=proof,
+            stats=SolverStats(
+                solver="proof",
+                wall_s=time.perf_counter() - began,
+                solver_status=f"infeasible without a solve: {proof[0].detail}",
+                time_limit_s=time_limit,
+            ),
+        )
+    stop = None
+    if time_limit is not None:
+        # The heuristic gets a share of the limit; its trivial plan (the
+        # forced tasks alone) is always completed.
+        greedy_end = began + GREEDY_SHARE * time_limit
+
+        def stop() -> bool:
+            return time.perf_counter() > greedy_end
+
+    start = best_start(problem, warm, stop=stop, domains=domains)
     if start is not None and at_lower_bound(problem, start, domains):
         plan = start.replace(
             status=SolveStatus.OPTIMAL,
@@ -111,6 +146,12 @@ def solve(
                 time_limit_s=time_limit,
             )
         )
+    elif (
+        start is not None
+        and time_limit is not None
+        and problem.num_tasks >= LNS_MIN_TASKS
+    ):
+        plan = _improved(problem, start, domains, run, began, time_limit)
     else:
         plan = _keep_better(
             _checked(
@@ -127,6 +168,16 @@ def solve(
             ),
             start,
         )
+        if start is None and not plan.status.has_plan and plan.stats:
+            # Rare: say why there is not even the start plan to fly.
+            plan = plan.replace(
+                stats=msgspec.structs.replace(
+                    plan.stats,
+                    solver_status=f"{plan.stats.solver_status}; no start "
+                    "plan: list scheduling could not place the tasks every "
+                    "plan must hold",
+                )
+            )
         if plan.stats is not None:
             # Report the limit the caller set, and the whole call's time.
             bound = plan.stats.bound
@@ -149,11 +200,47 @@ def solve(
     if explain and (plan.unscheduled or not plan.status.has_plan):
         budget = explain_budget
         if budget is None:
-            budget = EXPLAIN_BUDGET_S if time_limit is None else time_limit
+            # Explanations share the caller's limit: whatever the solve
+            # left of it (tasks get not_analysed when nothing is left).
+            budget = (
+                EXPLAIN_BUDGET_S
+                if time_limit is None
+                else time_limit - (time.perf_counter() - began)
+            )
         plan = plan.replace(
             why=explain_plan(problem, plan, _budgeted(run, budget))
         )
     return plan
+
+
+def _improved(
+    problem: Problem,
+    start: Plan,
+    domains: dict[str, Domain],
+    run: Callable[..., Plan],
+    began: float,
+    time_limit: float,
+) -> Plan:
+    """The start plan improved by :func:`fsw_scheduler.improve.improve`.
+
+    For large problems under a limit: the whole model does not get
+    through CBC's root LP in seconds (on the scaling set CBC never
+    improved the start plan), small neighbourhood models do.
+    """
+    deadline = began + time_limit - LNS_MARGIN_S
+    best, improved = improve(problem, start, domains, run, deadline)
+    return best.replace(
+        status=SolveStatus.FEASIBLE,
+        stats=SolverStats(
+            solver=f"{run.keywords.get('solver', 'cbc')}-lns"
+            if isinstance(run, functools.partial)
+            else "lns",
+            wall_s=time.perf_counter() - began,
+            solver_status=f"neighbourhood search: {improved} improvements "
+            "of the start plan",
+            time_limit_s=time_limit,
+        ),
+    )
 
 
 def _budgeted(
@@ -215,13 +302,20 @@ def _narrowed(
     return domains if caps is None else start_domains(problem, caps)
 
 
-def best_start(problem: Problem, warm: Plan | None) -> Plan | None:
+def best_start(
+    problem: Problem,
+    warm: Plan | None,
+    *,
+    stop: Callable[[], bool] | None = None,
+    domains: dict[str, Domain] | None = None,
+) -> Plan | None:
     """The better valid plan of ``warm`` and the greedy heuristic's.
 
     The greedy plan is valid by construction (:func:`greedy_plan` returns
     only plans the checker accepts); ``warm`` is used only if the checker
     accepts it on ``problem``, with its objective recomputed there. None
-    when neither is valid.
+    when neither is valid. ``stop`` and ``domains`` are passed on to
+    :func:`greedy_plan`.
     """
     candidates = []
     if warm is not None:
@@ -232,7 +326,7 @@ def best_start(problem: Problem, warm: Plan | None) -> Plan | None:
                     status=SolveStatus.FEASIBLE, objective=report.objective
                 )
             )
-    greedy = greedy_plan(problem)
+    greedy = greedy_plan(problem, stop=stop, domains=domains)
     if greedy is not None:
         candidates.append(greedy)  # on a tie, the previous plan is kept
     if not candidates:

@@ -702,3 +702,122 @@ def _fixtures() -> object:
                 yield harness
 
     return Fixtures()
+
+
+class SchedulerProcess:
+    """``fsw-scheduler run`` in a separate OS process, its log read live.
+
+    For tests that kill the scheduler (SIGKILL), run several of them, or
+    talk to it only through the bus, as a deployment does.
+
+    Parameters
+    ----------
+    args
+        Arguments after ``fsw-scheduler run``.
+    ready
+        Log fragments that mean the node has made up its mind: it
+        commands (``scheduler up on``) or stands by (``standing by``).
+    """
+
+    def __init__(
+        self,
+        args: list[str],
+        ready: tuple[str, ...] = ("scheduler up on", "standing by"),
+    ) -> None:
+        self.args = list(args)
+        self.ready = ready
+        self.process: Any = None
+        self.log: list[str] = []
+        self.starts = 0
+        self._reader: threading.Thread | None = None
+        self._cond = threading.Condition()
+
+    def start(self, timeout: float = 60.0) -> str:
+        """Start it; returns the first ``ready`` fragment it logged."""
+        import subprocess
+        import sys
+        from pathlib import Path
+
+        script = Path(sys.executable).with_name("fsw-scheduler")
+        command = (
+            [str(script)]
+            if script.exists()
+            else [sys.executable, "-m", "fsw_scheduler.cli"]
+        )
+        self.process = subprocess.Popen(
+            [*command, "run", *self.args],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        self.starts += 1
+        mark = len(self.log)
+        process = self.process
+
+        def read() -> None:
+            assert process.stderr is not None
+            for line in process.stderr:
+                with self._cond:
+                    self.log.append(line)
+                    self._cond.notify_all()
+            with self._cond:
+                self._cond.notify_all()
+
+        self._reader = threading.Thread(target=read, daemon=True)
+        self._reader.start()
+        return self.wait_log(self.ready, timeout, since=mark)
+
+    def wait_log(
+        self, words: tuple[str, ...], timeout: float = 60.0, since: int = 0
+    ) -> str:
+        """Wait until a log line holds one of ``words``; returns it.
+
+        Raises
+        ------
+        RuntimeError
+            If the process ends or the time runs out first.
+        """
+        deadline = time.monotonic() + timeout
+        found: list[str] = []
+
+        def seen() -> bool:
+            for line in self.log[since:]:
+                for word in words:
+                    if word in line:
+                        found.append(word)
+                        return True
+            return self.process.poll() is not None
+
+        with self._cond:
+            while not seen():
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    break
+                self._cond.wait(min(left, 0.2))
+        if not found:
+            raise RuntimeError(
+                f"no {words} in the scheduler's log:\n" + "".join(self.log)
+            )
+        return found[0]
+
+    def kill(self) -> None:
+        """SIGKILL, as a watchdog or a power cut would."""
+        if self.process is not None and self.process.poll() is None:
+            self.process.kill()
+            self.process.wait(10)
+        self._release()
+
+    def stop(self) -> int:
+        """SIGTERM and wait; returns the exit code."""
+        assert self.process is not None
+        self.process.terminate()
+        code = int(self.process.wait(30))
+        self._release()
+        return code
+
+    def _release(self) -> None:
+        if self.process is None or self._reader is None:
+            return
+        self._reader.join(10)
+        if self.process.stderr is not None:
+            self.process.stderr.close()

@@ -346,3 +346,78 @@ def test_bench_rejects_unknown_solver() -> None:
     )
     assert result.returncode == 2
     assert "gurobi" in result.stderr
+
+
+def test_broad_generator_has_the_issue_shape() -> None:
+    """Tests that the broad campaign is valid, deterministic and as broad as
+    asked: windows, precedences per task, contradicting tight paths, busy
+    binary resources and scarce consumables."""
+    from fsw_scheduler.proofs import tight_conflicts
+
+    first = generator.suite("all", 0, "broad")
+    assert [p.to_json() for p in first] == [
+        p.to_json() for p in generator.suite("all", 0, "broad")
+    ]
+    camp = [p for p in first if p.suite == "campaign"]
+    assert len(camp) == 84 and all(p.name.startswith("b") for p in camp)
+    tasks = [t for p in camp for t in p.doc["tasks"]]
+    windows = sum(t.get("feasible_interval") is not None for t in tasks)
+    assert 0.25 < windows / len(tasks) < 0.45
+    precs = sum(len(p.doc["precedences"]) for p in camp)
+    assert 0.35 < precs / len(tasks) < 0.6
+    kinds = {
+        (e["kind"], e["scope"], (e["offset"] > 0) - (e["offset"] < 0))
+        for p in camp
+        for e in p.doc["precedences"]
+    }
+    assert len(kinds) == 12  # every kind x scope x offset sign
+    assert sum(bool(tight_conflicts(p.problem())) for p in camp) > 10
+    for bench in camp:
+        problem = bench.problem()
+        horizon = problem.horizon
+        for name in problem.resources.binary:
+            busy = sum(t.length for t in problem.tasks if t.uses.get(name))
+            assert busy >= 0.65 * horizon, bench.name
+        for name, cap in problem.resources.multiple.items():
+            for task in problem.tasks:
+                amount = task.uses.get(name, 0)
+                assert amount == 0 or cap / 6 - 1 <= amount <= 0.6 * cap
+        for name, level in problem.resources.consumable.items():
+            demand = sum(
+                t.uses.get(name, 0) * t.length
+                for t in problem.tasks
+                if t.uses.get(name, 0) > 0
+            )
+            assert (
+                level < 0.5 * demand
+                or level
+                <= sum(
+                    t.uses.get(name, 0) * t.length
+                    for t in problem.tasks
+                    if t.mandatory and t.uses.get(name, 0) > 0
+                )
+                + 1
+            ), bench.name
+
+
+def test_reports_set_each_solver_against_cpsat() -> None:
+    """Tests the problem-by-problem comparison with CP-SAT: ratios, proofs,
+    and on scaling points left-out cost and gap to the best bound."""
+    import dataclasses
+
+    def run(solver: str, wall: float, **over: object) -> object:
+        base = _run(solver, "optimal", 10)
+        return dataclasses.replace(base, wall_s=wall, **over)  # type: ignore[type-var]
+
+    runs = [run("cbc", 0.4), run("cpsat", 0.1)]
+    text = report.format_versus(runs)
+    assert "4.0x" in text and "1/1" in text
+    scale = dict(suite="scaling", num_tasks=30, unscheduled_cost=2)
+    runs = [
+        run("cbc", 5.0, status="feasible", total=120, bound=None, **scale),
+        run("cpsat", 5.0, status="feasible", total=130, bound=100.0, **scale),
+    ]
+    runs[1] = dataclasses.replace(runs[1], unscheduled_cost=3)
+    text = report.format_scaling_versus(runs)
+    assert "1/0/0" in text  # cbc leaves less out than cpsat
+    assert "16.7 %" in text  # (120 - 100) / 120

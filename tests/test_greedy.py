@@ -33,10 +33,20 @@ def test_tight_group_members_share_a_consumable() -> None:
         "horizon": 10,
         "resources": {"consumable": {"fuel": 5}},
         "tasks": [
-            {"id": "a", "length": 2, "delay_cost": 1, "schedule_cost": 1,
-             "uses": {"fuel": 2}},
-            {"id": "b", "length": 2, "delay_cost": 1, "schedule_cost": 1,
-             "uses": {"fuel": 2}},
+            {
+                "id": "a",
+                "length": 2,
+                "delay_cost": 1,
+                "schedule_cost": 1,
+                "uses": {"fuel": 2},
+            },
+            {
+                "id": "b",
+                "length": 2,
+                "delay_cost": 1,
+                "schedule_cost": 1,
+                "uses": {"fuel": 2},
+            },
         ],
         "precedences": [{"before": "a", "after": "b", "kind": "tight"}],
     }
@@ -57,14 +67,28 @@ def test_optional_follower_is_shed_when_the_group_cannot_fit() -> None:
         "horizon": 10,
         "resources": {"consumable": {"fuel": 5}},
         "tasks": [
-            {"id": "a", "length": 2, "delay_cost": 1, "schedule_cost": 5,
-             "uses": {"fuel": 2}},
-            {"id": "b", "length": 2, "delay_cost": 1, "schedule_cost": 1,
-             "uses": {"fuel": 2}},
+            {
+                "id": "a",
+                "length": 2,
+                "delay_cost": 1,
+                "schedule_cost": 5,
+                "uses": {"fuel": 2},
+            },
+            {
+                "id": "b",
+                "length": 2,
+                "delay_cost": 1,
+                "schedule_cost": 1,
+                "uses": {"fuel": 2},
+            },
         ],
         "precedences": [
-            {"before": "a", "after": "b", "kind": "tight",
-             "scope": "at_least_first"}
+            {
+                "before": "a",
+                "after": "b",
+                "kind": "tight",
+                "scope": "at_least_first",
+            }
         ],
     }
     problem = problem_from(doc)
@@ -80,9 +104,15 @@ def test_density_rule_spends_a_consumable_on_value() -> None:
     By value the big consumer ``big`` (cost 5) goes first and uses all the
     fuel; by value per fuel share the two small ones (cost 4 each) fit.
     """
+
     def task(name: str, cost: int, fuel: int) -> dict:
-        return {"id": name, "length": 1, "delay_cost": 1,
-                "schedule_cost": cost, "uses": {"fuel": fuel}}
+        return {
+            "id": name,
+            "length": 1,
+            "delay_cost": 1,
+            "schedule_cost": cost,
+            "uses": {"fuel": fuel},
+        }
 
     doc = {
         "horizon": 10,
@@ -106,12 +136,22 @@ def test_deadline_rule_keeps_narrow_windows_free() -> None:
         "horizon": 4,
         "resources": {"binary": ["cam"]},
         "tasks": [
-            {"id": "wide", "length": 2, "delay_cost": 1, "schedule_cost": 5,
-             "uses": {"cam": 1}},
-            {"id": "narrow", "length": 2, "delay_cost": 1,
-             "schedule_cost": 4, "uses": {"cam": 1},
-             "feasible_interval": [0, 0],
-             "feasible_interval_applies_to": "start"},
+            {
+                "id": "wide",
+                "length": 2,
+                "delay_cost": 1,
+                "schedule_cost": 5,
+                "uses": {"cam": 1},
+            },
+            {
+                "id": "narrow",
+                "length": 2,
+                "delay_cost": 1,
+                "schedule_cost": 4,
+                "uses": {"cam": 1},
+                "feasible_interval": [0, 0],
+                "feasible_interval_applies_to": "start",
+            },
         ],
     }
     problem = problem_from(doc)
@@ -127,8 +167,13 @@ def test_impossible_mandatory_gives_none() -> None:
         "horizon": 4,
         "resources": {"binary": ["cam"]},
         "tasks": [
-            {"id": n, "length": 3, "delay_cost": 1, "schedule_cost": 0,
-             "uses": {"cam": 1}}
+            {
+                "id": n,
+                "length": 3,
+                "delay_cost": 1,
+                "schedule_cost": 0,
+                "uses": {"cam": 1},
+            }
             for n in ("a", "b")
         ],
     }
@@ -140,8 +185,13 @@ def test_lower_bound_shortcut_is_optimal() -> None:
     doc = {
         "horizon": 10,
         "tasks": [
-            {"id": "a", "length": 2, "delay_cost": 3, "schedule_cost": 1,
-             "feasible_interval": [3, 9]},
+            {
+                "id": "a",
+                "length": 2,
+                "delay_cost": 3,
+                "schedule_cost": 1,
+                "feasible_interval": [3, 9],
+            },
         ],
     }
     problem = problem_from(doc)
@@ -177,3 +227,64 @@ def test_lower_bound_shortcut_agrees_with_brute_force(doc: dict) -> None:
     assert best is not None
     assert start.objective is not None
     assert start.objective.total == best[0].total
+
+
+def _needs_optional_first() -> Problem:
+    """Mandatory ``m`` needs optional ``p`` (so ``p`` is forced); ``x`` is
+    worth more than ``p`` and, placed first, takes every slot ``m`` has."""
+    return problem_from(
+        {
+            "horizon": 12,
+            "resources": {"binary": ["r"]},
+            "tasks": [
+                {
+                    "id": "m",
+                    "length": 5,
+                    "delay_cost": 1,
+                    "schedule_cost": 0,
+                    "uses": {"r": 1},
+                    "feasible_interval": [5, 12],
+                },
+                {"id": "p", "length": 3, "delay_cost": 1, "schedule_cost": 1},
+                {
+                    "id": "x",
+                    "length": 8,
+                    "delay_cost": 5,
+                    "schedule_cost": 5,
+                    "uses": {"r": 1},
+                },
+            ],
+            "precedences": [
+                {
+                    "before": "p",
+                    "after": "m",
+                    "kind": "lax",
+                    "scope": "at_least_first",
+                }
+            ],
+        }
+    )
+
+
+def test_start_plan_never_worse_than_the_trivial_plan() -> None:
+    """Tests that the start plan exists when the forced tasks fit alone.
+
+    Every priority rule used to place ``x`` before ``m`` was ready and
+    then found no slot for ``m``: no start plan at all, although ``p``
+    and ``m`` alone make a valid plan.
+    """
+    problem = _needs_optional_first()
+    plan = greedy_plan(problem)
+    assert plan is not None
+    assert check_plan(problem, plan).ok
+    assert plan.starts() == {"p": 0, "m": 5}
+
+
+def test_stop_keeps_the_trivial_plan() -> None:
+    """Tests that a heuristic stopped at once still returns the plan of the
+    forced tasks alone."""
+    problem = _needs_optional_first()
+    plan = greedy_plan(problem, stop=lambda: True)
+    assert plan is not None
+    assert check_plan(problem, plan).ok
+    assert set(plan.starts()) == {"p", "m"}

@@ -352,7 +352,10 @@ def test_no_solver_is_started_without_time_left() -> None:
     plan = solve_ilp(problem, time_limit=0.0)
     assert plan.status is SolveStatus.UNKNOWN
     assert plan.stats is not None
-    assert "before the solver started" in plan.stats.solver_status
+    assert any(
+        words in plan.stats.solver_status
+        for words in ("before the solver started", "too short to build")
+    )
     assert CbcRun(time_limit=0.01).solve(_small_program()).values is None
     kept = solve(problem, time_limit=1e-9)
     assert kept.status is SolveStatus.FEASIBLE
@@ -397,3 +400,64 @@ def test_overlapping_generation_still_counts() -> None:
     plan = solve(problem)
     assert plan.objective is not None
     assert plan.objective.total == brute_force(problem)
+
+
+def test_progress_lines_are_parsed() -> None:
+    """Tests that incumbent and bound are read from CBC's log lines."""
+    from fsw_scheduler.solvers.ilp.progress import LogState
+
+    state = LogState(constant=100.0, incumbent=900.0)
+    assert state.summary() == "incumbent 900, bound none, gap -"
+    state.feed("Continuous objective value is 250.5 - 1.20 seconds")
+    state.feed("Cbc0012I Integer solution of 700 found by DiveCoefficient")
+    state.feed(
+        "Cbc0010I After 100 nodes, 12 on tree, 650 best solution, "
+        "best possible 300 (3.1 seconds)"
+    )
+    assert state.incumbent == 750.0 and state.bound == 400.0
+    assert state.summary() == "incumbent 750, bound 400, gap 46.67 %"
+
+
+def test_limit_bounds_the_whole_call_and_progress_is_logged(
+    caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Tests that a large problem answers within its limit, explanations
+    included, logging CBC's progress meanwhile."""
+    import time
+
+    from fsw_scheduler.solvers.ilp import progress
+
+    monkeypatch.setattr(progress, "PROGRESS_S", 0.5)
+    # 10 tasks on a busy binary resource: CBC needs over 10 s to prove it.
+    (bench,) = [
+        b for b in generator.campaign(0, "broad") if b.name == "b10-binary-6"
+    ]
+    problem = bench.problem()
+    caplog.set_level("INFO", logger="fsw_scheduler.solver")
+    began = time.perf_counter()
+    plan = solve(problem, time_limit=3.0, explain=True)
+    wall = time.perf_counter() - began
+    assert wall < 3.0 + 0.75, wall
+    assert plan.status is SolveStatus.FEASIBLE
+    assert check_plan(problem, plan).ok
+    lines = [r.getMessage() for r in caplog.records]
+    assert any("cbc running" in m and "incumbent" in m for m in lines)
+
+
+def test_large_problems_improve_by_neighbourhood_search() -> None:
+    """Tests that a 60-task solve under a limit improves its start plan by
+    neighbourhood search, within the limit, with a valid plan."""
+    import time
+
+    bench = generator.scaling(0, style="broad")[3]  # 60 tasks, H = 336
+    problem = bench.problem()
+    start = best_start(problem, None)
+    assert start is not None and start.objective is not None
+    began = time.perf_counter()
+    plan = solve(problem, time_limit=3.0)
+    assert time.perf_counter() - began < 3.0 + 0.5
+    assert plan.stats is not None and plan.stats.solver == "cbc-lns"
+    assert plan.status is SolveStatus.FEASIBLE
+    assert check_plan(problem, plan).ok
+    assert plan.objective is not None
+    assert plan.objective.total < start.objective.total

@@ -103,17 +103,6 @@ def test_window_readings() -> None:
             "itself",
         ),
         (
-            [_task(id="a"), _task(id="b")],
-            {
-                "precedences": [
-                    {"before": "a", "after": "b", "kind": "tight"},
-                    {"before": "b", "after": "a", "kind": "tight"},
-                ]
-            },
-            "precedences[1]",
-            "contradict",
-        ),
-        (
             [_task()],
             {"resources": {"consumable": {"battery": -1}}},
             "resources.consumable.battery",

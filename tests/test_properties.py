@@ -4,8 +4,8 @@ Random small problems are generated valid by construction (every window
 holds at least one start inside the horizon, pins sit on such a start);
 only contradictory tight-precedence cycles are filtered out. Three oracles
 judge the solvers: :func:`fsw_scheduler.check.check_plan`, the other
-backend, and an exhaustive enumeration written here from CONTRACT
-section 1 alone (it shares no code with either the checker or the ILP).
+backend, and an exhaustive enumeration written here from the problem
+format alone (it shares no code with either the checker or the ILP).
 """
 
 from __future__ import annotations
@@ -65,7 +65,7 @@ def problem_docs(
     Returns
     -------
     dict
-        A problem document of CONTRACT section 1.
+        A problem document of the problem format.
     """
     horizon = draw(st.integers(1, max_horizon))
     start = draw(st.integers(0, 3))
@@ -164,7 +164,7 @@ def _decode(doc: dict) -> Problem:
 
 
 # --------------------------------------------------------------------------
-# Brute force, from CONTRACT section 1 only
+# Brute force, from the problem format only
 
 
 def _reading(problem: Problem, task: Task) -> str:
@@ -434,3 +434,53 @@ def test_cbc_matches_brute_force(doc: dict) -> None:
         f"{_show(doc, plan)}\nbrute force: {objective} {starts}"
     )
     assert _feasible(problem, _starts_of(problem, plan)), _show(doc, plan)
+
+
+# --------------------------------------------------------------------------
+# The broad benchmark generator (issue 15): plans valid, statuses honest
+
+
+@settings(COMMON, max_examples=60)
+@given(
+    seed=st.integers(0, 2**31),
+    size=st.sampled_from([3, 5, 6]),
+    cls=st.sampled_from(["none", "binary", "multiple", "consumable", "mixed"]),
+    horizon=st.sampled_from([24, 48, 96]),
+)
+def test_broad_problems_get_valid_plans_and_honest_statuses(
+    seed: int, size: int, cls: str, horizon: int
+) -> None:
+    """Tests that every plan on broad problems passes the checker, and that
+    'optimal' and 'infeasible' agree with CP-SAT, 'feasible' with its bound.
+    """
+    import importlib
+    import sys
+    from pathlib import Path
+
+    tools = str(Path(__file__).resolve().parents[1] / "tools")
+    if tools not in sys.path:
+        sys.path.insert(0, tools)
+    broad = importlib.import_module("bench_lib.broad")
+    cpsat = importlib.import_module("bench_lib.cpsat")
+    doc = broad.generate_problem(size, cls, horizon, seed)
+    problem = decode_problem(json.dumps(doc))
+    plan = solve(problem, solver="cbc", time_limit=20)
+    report = check_plan(problem, plan)
+    assert report.ok, f"{format_report(report)}\n{_show(doc, plan)}"
+    assert plan.status is not SolveStatus.UNKNOWN, _show(doc, plan)
+    reference = cpsat.solve_cpsat(problem, time_limit=20)
+    if plan.status is SolveStatus.INFEASIBLE:
+        assert reference.status is SolveStatus.INFEASIBLE, _show(doc, plan)
+        assert plan.why, _show(doc, plan)
+        return
+    assert plan.objective is not None
+    assert reference.status is SolveStatus.OPTIMAL, _show(doc, reference)
+    assert reference.objective is not None
+    if plan.status is SolveStatus.OPTIMAL:
+        assert plan.objective.total == reference.objective.total, _show(
+            doc, plan, reference
+        )
+    else:
+        assert plan.objective.total >= reference.objective.total
+        bound = plan.stats.bound if plan.stats else None
+        assert bound is None or bound <= reference.objective.total + 0.5

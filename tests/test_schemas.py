@@ -64,7 +64,7 @@ def test_round_trip(kind: str) -> None:
 
 
 def test_contract_examples_decode() -> None:
-    """Tests that CONTRACT section 5 minimal payloads decode."""
+    """Tests that the bus keys minimal payloads decode."""
     examples = {
         "clock": b'{"now": 15}',
         "activity_report": (

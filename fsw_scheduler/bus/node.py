@@ -270,12 +270,23 @@ def engine_config(config: NodeConfig) -> EngineConfig:
         max_live_tasks=config.live_tasks,
         max_goals_waiting=config.goals_waiting,
         max_goals_per_solve=config.goals_per_solve,
+        node_id=config.node_id,
         explain_after_plan=config.explain and config.explain_after_plan,
     )
 
 
-def node_info(config: NodeConfig, problem: Problem) -> messages.NodeInfo:
-    """What a recording needs to replay this node's decisions."""
+def node_info(
+    config: NodeConfig,
+    problem: Problem,
+    security: messages.SecurityInfo | None = None,
+    *,
+    resumed: str = "",
+) -> messages.NodeInfo:
+    """What a recording needs to replay this node's decisions.
+
+    ``resumed``: the status event (``resumed``, ``took_over``) a node
+    whose state was rebuilt starts with (replay then expects it first).
+    """
     from .. import __version__
 
     return messages.NodeInfo(
@@ -300,6 +311,9 @@ def node_info(config: NodeConfig, problem: Problem) -> messages.NodeInfo:
         response_deadline=config.response_deadline,
         version=__version__,
         problem=problem,
+        resumed=resumed,
+        node_id=config.node_id,
+        security=security,
     )
 
 
@@ -319,7 +333,8 @@ def run_solve(config: NodeConfig, command: StartSolve) -> Plan:
         time_limit=config.time_limit,
         threads=config.threads,
         seed=config.seed,
-        explain=config.explain and not later,
+        # The shedding solve explains at once: its alarm must say why.
+        explain=(config.explain and not later) or command.explain,
         warm=command.warm,
         explain_budget=config.explain_budget,
     )
@@ -389,6 +404,10 @@ class _Journal:
         self._last = stamp
         self.recorder.write(key, payload, log_time_ns=stamp)
 
+    def flush(self) -> None:
+        if self.recorder is not None:
+            self.recorder.flush()
+
 
 class SchedulerNode:
     """The scheduler on a Zenoh session.
@@ -408,6 +427,9 @@ class SchedulerNode:
         Monotonic clock in seconds for the wall time source.
     wall_ns
         Wall clock in nanoseconds for journal log times.
+    security
+        How the bus is protected (:func:`~fsw_scheduler.bus.security.
+        assess`), published in ``scheduler/config``.
 
     Examples
     --------
@@ -426,13 +448,26 @@ class SchedulerNode:
         seconds: Callable[[], float] = time.monotonic,
         wall_ns: Callable[[], int] = time.time_ns,
         solve_fn: Callable[[NodeConfig, StartSolve], Plan] = run_solve,
+        security: messages.SecurityInfo | None = None,
+        engine: Engine | None = None,
+        resumed_event: str = "resumed",
+        share_state: bool = False,
+        durable: bool = False,
+        journal_max_bytes: int | None = None,
+        clock_start: int = 0,
     ) -> None:
         if config.horizon is not None:
             problem = problem.replace(horizon=config.horizon)
         self.session = session
         self.config = config
         self.topics = topics.Topics(config.spacecraft)
-        self.engine = Engine(engine_config(config), problem)
+        # A rebuilt engine (resume from the journal) or a fresh one.
+        self.resumed = resumed_event if engine is not None else ""
+        self._share_state = share_state
+        self.engine = engine or Engine(engine_config(config), problem)
+        self._durable = durable and journal is not None
+        self._journal_max_bytes = journal_max_bytes
+        self._clock_start = clock_start
         self._journal = _Journal(journal, wall_ns)
         self._seconds = seconds
         self._solve_fn = solve_fn
@@ -463,6 +498,7 @@ class SchedulerNode:
         self._last_tick: int | None = None
         self._declared: list[Any] = []
         self._publishers: dict[str, zenoh.Publisher] = {}
+        self._security = security
 
     # -- lifecycle -----------------------------------------------------------
 
@@ -491,7 +527,11 @@ class SchedulerNode:
                     key(suffix), _direct(self._sample_callback(kind))
                 )
             )
-        for suffix in (topics.PLAN, topics.STATUS):
+        queryables = [topics.PLAN, topics.STATUS]
+        if self._share_state:
+            # A standby that joins later asks for the state at once.
+            queryables.append(topics.SNAPSHOT)
+        for suffix in queryables:
             self._declared.append(
                 session.declare_queryable(
                     key(suffix), _direct(self._query_callback(suffix))
@@ -499,16 +539,37 @@ class SchedulerNode:
             )
         self._token = session.liveliness().declare_token(key(topics.ALIVE))
         if self.config.clock == "wall":
-            self._clock = UnitClock(self._seconds, self.config.time_unit)
+            self._clock = UnitClock(
+                self._seconds, self.config.time_unit, self._clock_start
+            )
         sweep_stale_dirs()
+        if self._share_state:
+            self._publishers[topics.SNAPSHOT] = session.declare_publisher(
+                key(topics.SNAPSHOT), encoding=JSON
+            )
+        # Settings and state go first into the journal, from this thread,
+        # before the loop (the journal's only other writer) starts.
+        self._publish_raw(
+            topics.NODE_INFO,
+            messages.encode(
+                node_info(
+                    self.config,
+                    self.engine.initial,
+                    self._security,
+                    resumed=self.resumed,
+                )
+            ),
+        )
+        if self._durable:
+            self._write_snapshot()
+        if self._share_state:
+            self._share_snapshot()
+        if self.resumed:
+            self._inbox.put("resume", None)
         self._thread = threading.Thread(
             target=self._spin, name="fsw-scheduler-loop", daemon=True
         )
         self._thread.start()
-        self._publish_raw(
-            topics.NODE_INFO,
-            messages.encode(node_info(self.config, self.engine.initial)),
-        )
         log.info(
             "scheduler up on %s (clock %s, solver %s)",
             self.topics.root,
@@ -678,7 +739,9 @@ class SchedulerNode:
         kind, key, payload, arrived = item
         if kind == "wake":
             return
-        if kind == "query":
+        if kind == "resume":
+            self._resume()
+        elif kind == "query":
             self._answer(*payload)
         elif kind == "solve":
             self._step(payload)
@@ -754,9 +817,89 @@ class SchedulerNode:
 
     def _step(self, event: Event) -> None:
         self._sync_counters()
-        for command in self.engine.step(event, self._now()):
-            self._execute(command)
+        self._run(self.engine.step(event, self._now()))
         self._engine_waiting = self.engine.goals_waiting
+
+    def _run(self, commands: list[Command]) -> None:
+        """Carry out a step's commands; durably first with ``--state``.
+
+        With a durable journal the step's input and outputs reach the disk
+        before any output reaches the bus (write-ahead): a node killed at
+        any point and resumed from its journal never repeats a dispatch
+        the bus saw. The price: an output on disk but not yet on the bus
+        when the process died is not sent again (a dispatch then waits for
+        its report timeout).
+        """
+        for command in commands:
+            message = getattr(command, "message", None)
+            if isinstance(message, messages.Status) and message.event in (
+                "goal_accepted",
+                "goal_rejected",
+            ):  # the goal has its verdict: its deadline is over
+                self._arrivals.pop(message.goal_id or "", None)
+        if self._share_state and commands:
+            # The standby's copy first, so that it never lags behind
+            # what the bus has seen (same publisher link, in order).
+            self._share_snapshot()
+        if not self._durable:
+            for command in commands:
+                self._execute(command)
+            return
+        outputs = [
+            (command.suffix, messages.encode(command.message))
+            for command in commands
+            if isinstance(command, Publish)
+        ]
+        for suffix, payload in outputs:
+            self._journal.write(self.topics.key(suffix), payload)
+        self._journal.flush()
+        for command in commands:
+            if not isinstance(command, Publish):
+                self._execute(command)
+        for suffix, payload in outputs:
+            self._put(suffix, payload)
+        self._maybe_rotate()
+
+    def _share_snapshot(self) -> None:
+        """Publish the engine's state for a hot standby."""
+        self._put(topics.SNAPSHOT, messages.encode(self.engine.snapshot()))
+
+    def _write_snapshot(self) -> None:
+        """The engine's state as the next journal message, on disk."""
+        self._journal.write(
+            self.topics.key(topics.SNAPSHOT),
+            messages.encode(self.engine.snapshot()),
+        )
+        self._journal.flush()
+
+    def _maybe_rotate(self) -> None:
+        """Start a new journal file, opened by a snapshot, when too big."""
+        recorder = self._journal.recorder
+        limit = self._journal_max_bytes
+        if recorder is None or limit is None or recorder.size < limit:
+            return
+        path = recorder.rotate()
+        log.info("journal continues in %s", path)
+        self._journal.write(
+            self.topics.key(topics.NODE_INFO),
+            messages.encode(
+                node_info(self.config, self.engine.initial, self._security)
+            ),
+        )
+        self._write_snapshot()
+
+    def _resume(self) -> None:
+        """Say the state was rebuilt; ask again for a solve in flight."""
+        log.info(
+            "resumed at t=%s from plan %s",
+            self.engine.now,
+            self.engine.plan_id,
+        )
+        commands: list[Command] = [self.engine.resumed(self.resumed)]
+        pending = self.engine.pending_solve()
+        if pending is not None:
+            commands.append(pending)
+        self._run(commands)
 
     def _sync_counters(self) -> None:
         inbox = self._inbox
@@ -772,13 +915,7 @@ class SchedulerNode:
 
     def _execute(self, command: Command) -> None:
         if isinstance(command, Publish):
-            message = command.message
-            if isinstance(message, messages.Status) and message.event in (
-                "goal_accepted",
-                "goal_rejected",
-            ):
-                self._arrivals.pop(message.goal_id or "", None)
-            self._publish_raw(command.suffix, messages.encode(message))
+            self._publish_raw(command.suffix, messages.encode(command.message))
         elif isinstance(command, StartSolve):
             future = self._workers.submit(
                 self._solve_scoped, command, self._solve_config(command)
@@ -850,8 +987,11 @@ class SchedulerNode:
         return done
 
     def _publish_raw(self, suffix: str, payload: bytes) -> None:
+        self._journal.write(self.topics.key(suffix), payload)
+        self._put(suffix, payload)
+
+    def _put(self, suffix: str, payload: bytes) -> None:
         key = self.topics.key(suffix)
-        self._journal.write(key, payload)
         publisher = self._publishers.get(suffix)
         try:
             if publisher is not None:
@@ -874,11 +1014,13 @@ class SchedulerNode:
 
     def _answer(self, suffix: str, query: zenoh.Query) -> None:
         self._sync_counters()
-        message: msgspec.Struct | None = (
-            self.engine.plan_message
-            if suffix == topics.PLAN
-            else self.engine.status("query")
-        )
+        message: msgspec.Struct | None
+        if suffix == topics.PLAN:
+            message = self.engine.plan_message
+        elif suffix == topics.SNAPSHOT:
+            message = self.engine.snapshot()
+        else:
+            message = self.engine.status("query")
         try:
             if message is None:
                 query.reply_err(b'{"error": "no plan yet"}', encoding=JSON)

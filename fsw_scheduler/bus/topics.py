@@ -1,4 +1,4 @@
-"""Every key expression of the bus, in one place (CONTRACT section 5).
+"""Every key expression of the bus, in one place (the bus keys).
 
 Keys are ``fsw/<spacecraft>/<suffix>``; the suffixes below are the public
 names. Recording, replay and the scheduler node all derive their keys here.
@@ -27,6 +27,14 @@ NODE_INFO = "scheduler/config"
 ALIVE = "scheduler/alive"
 #: Recorded only (never published): the ticks of the scheduler's own clock.
 TICKS = "scheduler/ticks"
+#: The engine's whole state: first message of each journal file (resume),
+#: and published by an active node for its hot standby.
+SNAPSHOT = "scheduler/snapshot"
+#: One liveliness token per node (``scheduler/nodes/<node id>``), so that
+#: twins see each other (``scheduler/alive`` tokens merge into one).
+NODES = "scheduler/nodes"
+#: The liveliness token of the node that commands the spacecraft.
+ACTIVE = "scheduler/active"
 #: Recorded only: goals refused unread because the inbox was full.
 BUSY = "scheduler/busy"
 #: Recorded only: the bus clock stopped ticking (wall-clock detection).
@@ -93,6 +101,7 @@ class Topics(msgspec.Struct, frozen=True):
             SOLVES: "solve_record",
             NODE_INFO: "node_info",
             TICKS: "clock",
+            SNAPSHOT: "snapshot",
             BUSY: "busy",
             STALLED: "stalled",
             EXPLAINED: "explanation",

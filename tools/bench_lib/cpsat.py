@@ -1,6 +1,6 @@
 """Reference CP-SAT model of the scheduling problem (OR-Tools).
 
-The same semantics as CONTRACT section 1, written independently of the ILP:
+The same semantics as the problem format, written independently of the ILP:
 
 * one optional fixed-size interval per task, present iff scheduled;
   mandatory tasks (``schedule_cost`` 0 or ``fixed_start``) are present;

@@ -1,4 +1,4 @@
-"""Seeded generator of benchmark problems (CONTRACT section 1 documents).
+"""Seeded generator of benchmark problems (the problem format documents).
 
 Two suites:
 
@@ -34,6 +34,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from fsw_scheduler.model import Problem, decode_problem
+
+from . import broad
 
 CLASSES: tuple[str, ...] = ("none", "binary", "multiple", "consumable")
 CAMPAIGN_SIZES: tuple[int, ...] = (5, 10, 15)
@@ -72,7 +74,7 @@ class BenchProblem:
         The problem's own seed: ``generate_problem(num_tasks,
         resource_class, horizon, seed)`` returns the same document.
     doc
-        The problem document (CONTRACT section 1) as a dict.
+        The problem document (problem format) as a dict.
     """
 
     name: str
@@ -102,32 +104,44 @@ def problem_seed(seed: int, name: str) -> int:
     return zlib.crc32(f"{seed}/{name}".encode())
 
 
-def campaign(seed: int = 0) -> list[BenchProblem]:
+def campaign(seed: int = 0, style: str = "paper") -> list[BenchProblem]:
     """Return the paper's campaign: sizes x classes x 7 problems, H = 336.
 
     Parameters
     ----------
     seed
         Suite seed; the same seed always gives the same problems.
+    style
+        ``paper`` (this module's witness-based generator) or ``broad``
+        (:mod:`bench_lib.broad`, names prefixed ``b``).
 
     Returns
     -------
     list of BenchProblem
         84 problems, ordered by size, then class, then index.
     """
+    prefix = "b" if style == "broad" else "c"
     problems = []
     for size in CAMPAIGN_SIZES:
         for cls in CLASSES:
             for index in range(CAMPAIGN_PER_CELL):
-                name = f"c{size:02d}-{cls}-{index}"
+                name = f"{prefix}{size:02d}-{cls}-{index}"
                 problems.append(
-                    _make(name, "campaign", size, cls, CAMPAIGN_HORIZON, seed)
+                    _make(
+                        name,
+                        "campaign",
+                        size,
+                        cls,
+                        CAMPAIGN_HORIZON,
+                        seed,
+                        style,
+                    )
                 )
     return problems
 
 
 def scaling(
-    seed: int = 0, per_point: int = SCALING_PER_POINT
+    seed: int = 0, per_point: int = SCALING_PER_POINT, style: str = "paper"
 ) -> list[BenchProblem]:
     """Return the scaling set: 30..200 tasks at H = 336 and 1440, mixed.
 
@@ -137,49 +151,81 @@ def scaling(
         Suite seed.
     per_point
         Problems per (size, horizon) point.
+    style
+        ``paper`` or ``broad`` (names prefixed ``b``), as for
+        :func:`campaign`.
 
     Returns
     -------
     list of BenchProblem
         Ordered by horizon, then size, then index.
     """
+    prefix = "bs" if style == "broad" else "s"
     problems = []
     for horizon in SCALING_HORIZONS:
         for size in SCALING_SIZES:
             for index in range(per_point):
-                name = f"s{size:03d}-h{horizon}-{index}"
+                name = f"{prefix}{size:03d}-h{horizon}-{index}"
                 problems.append(
-                    _make(name, "scaling", size, "mixed", horizon, seed)
+                    _make(name, "scaling", size, "mixed", horizon, seed, style)
                 )
     return problems
 
 
-def quick(seed: int = 0) -> list[BenchProblem]:
+def quick(seed: int = 0, style: str = "paper") -> list[BenchProblem]:
     """Return a small smoke subset: one 5-task problem per class."""
+    prefix = "bq" if style == "broad" else "q"
     return [
-        _make(f"q05-{cls}-0", "quick", 5, cls, CAMPAIGN_HORIZON, seed)
+        _make(
+            f"{prefix}05-{cls}-0",
+            "quick",
+            5,
+            cls,
+            CAMPAIGN_HORIZON,
+            seed,
+            style,
+        )
         for cls in CLASSES
     ]
 
 
-def suite(name: str, seed: int = 0) -> list[BenchProblem]:
-    """Return the problems of suite ``name`` (campaign/scaling/all/quick)."""
+STYLES: tuple[str, ...] = ("paper", "broad")
+
+
+def suite(
+    name: str, seed: int = 0, style: str = "paper"
+) -> list[BenchProblem]:
+    """Return the problems of suite ``name`` (campaign/scaling/all/quick).
+
+    ``style`` chooses the generator: ``paper`` or ``broad``.
+    """
+    if style not in STYLES:
+        raise ValueError(f"unknown style {style!r}")
     if name == "campaign":
-        return campaign(seed)
+        return campaign(seed, style)
     if name == "scaling":
-        return scaling(seed)
+        return scaling(seed, style=style)
     if name == "all":
-        return campaign(seed) + scaling(seed)
+        return campaign(seed, style) + scaling(seed, style=style)
     if name == "quick":
-        return quick(seed)
+        return quick(seed, style)
     raise ValueError(f"unknown suite {name!r}")
 
 
 def _make(
-    name: str, suite_name: str, size: int, cls: str, horizon: int, seed: int
+    name: str,
+    suite_name: str,
+    size: int,
+    cls: str,
+    horizon: int,
+    seed: int,
+    style: str = "paper",
 ) -> BenchProblem:
     own_seed = problem_seed(seed, name)
-    doc = generate_problem(size, cls, horizon, own_seed)
+    if style == "broad":
+        doc = broad.generate_problem(size, cls, horizon, own_seed)
+    else:
+        doc = generate_problem(size, cls, horizon, own_seed)
     return BenchProblem(name, suite_name, size, cls, horizon, own_seed, doc)
 
 
@@ -237,7 +283,7 @@ def generate_problem(
     Returns
     -------
     dict
-        A CONTRACT section 1 problem that passes ``decode_problem``.
+        A the problem format problem that passes ``decode_problem``.
     """
     if resource_class not in (*CLASSES, "mixed"):
         raise ValueError(f"unknown resource class {resource_class!r}")

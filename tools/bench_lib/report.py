@@ -264,6 +264,12 @@ def format_report(outcome: Outcome, *, time_limit: float | None) -> str:
         "OR-Tools for cpsat*), on another machine.",
     ]
     parts += [format_table(title, rows) for title, rows in summarize(runs)]
+    versus = format_versus(runs)
+    if versus:
+        parts.append(versus)
+    scaled = format_scaling_versus(runs)
+    if scaled:
+        parts.append(scaled)
     slowest = sorted(runs, key=lambda r: r.wall_s, reverse=True)
     lines = ["== slowest solves"]
     lines += [
@@ -293,6 +299,166 @@ def format_report(outcome: Outcome, *, time_limit: float | None) -> str:
         f"{len(proven)} problems proven optimal by at least one solver."
     )
     return "\n\n".join(parts)
+
+
+def _proved(run: Run) -> bool:
+    return run.status in ("optimal", "infeasible") and not run.check_failed
+
+
+def format_versus(runs: Sequence[Run], reference: str = "cpsat") -> str:
+    """Each solver against ``reference`` on the campaign, problem by problem.
+
+    Per size and per class: both medians, their ratio, the median of the
+    per-problem ratios, and how many problems each proved (optimal or
+    infeasible).
+    """
+    camp = [r for r in runs if r.suite in ("campaign", "quick")]
+    ref = {r.problem: r for r in camp if r.solver == reference}
+    others = [s for s in _solvers(camp) if s != reference]
+    if not ref or not others:
+        return ""
+    cells = [
+        (
+            "solver",
+            "group",
+            "n",
+            "median",
+            reference,
+            "ratio",
+            "median ratio",
+            "worst ratio",
+            "proved",
+            f"{reference} proved",
+        )
+    ]
+    groups: list[tuple[str, Callable[[Run], bool]]] = [
+        (f"{size} tasks", lambda r, k=size: r.num_tasks == k)
+        for size in CAMPAIGN_SIZES
+    ]
+    groups += [
+        (cls, lambda r, k=cls: r.resource_class == k) for cls in CLASSES
+    ]
+    groups.append(("all", lambda r: True))
+    for solver in others:
+        for label, keep in groups:
+            mine = [
+                r
+                for r in camp
+                if r.solver == solver and keep(r) and r.problem in ref
+            ]
+            if not mine:
+                continue
+            theirs = [ref[r.problem] for r in mine]
+            ratios = [
+                r.wall_s / max(ref[r.problem].wall_s, 1e-4) for r in mine
+            ]
+            mine_median = statistics.median(r.wall_s for r in mine)
+            ref_median = statistics.median(r.wall_s for r in theirs)
+            cells.append(
+                (
+                    solver,
+                    label,
+                    str(len(mine)),
+                    fmt(mine_median),
+                    fmt(ref_median),
+                    f"{mine_median / max(ref_median, 1e-4):.1f}x",
+                    f"{statistics.median(ratios):.1f}x",
+                    f"{max(ratios):.0f}x",
+                    f"{sum(_proved(r) for r in mine)}/{len(mine)}",
+                    f"{sum(_proved(r) for r in theirs)}/{len(theirs)}",
+                )
+            )
+    return "\n".join(
+        [
+            f"== campaign against {reference}, problem by problem",
+            *aligned(cells, 2),
+        ]
+    )
+
+
+def format_scaling_versus(
+    runs: Sequence[Run], reference: str = "cpsat"
+) -> str:
+    """Scaling points: what each solver left out, against ``reference``.
+
+    Per (horizon, tasks): median wall time, statuses, median left-out
+    cost, the problems where the solver leaves less / as much / more out
+    than ``reference``, and the median gap of its objective to the best
+    bound any solver proved on the problem.
+    """
+    scale = [r for r in runs if r.suite == "scaling"]
+    if not scale:
+        return ""
+    ref = {r.problem: r for r in scale if r.solver == reference}
+    cells = [
+        (
+            "solver",
+            "point",
+            "median",
+            "statuses",
+            "left-out cost",
+            f"vs {reference} less/same/more",
+            "gap to best bound",
+        )
+    ]
+    points = sorted({(r.horizon, r.num_tasks) for r in scale})
+    for solver in _solvers(scale):
+        for horizon, size in points:
+            mine = [
+                r
+                for r in scale
+                if r.solver == solver
+                and (r.horizon, r.num_tasks) == (horizon, size)
+            ]
+            if not mine:
+                continue
+            statuses = ", ".join(
+                f"{sum(r.status == s for r in mine)} {s}"
+                for s in ("optimal", "feasible", "infeasible", "unknown")
+                if any(r.status == s for r in mine)
+            )
+            left = [r.unscheduled_cost for r in mine if r.total is not None]
+            versus = "-"
+            if solver != reference and ref:
+                less = same = more = 0
+                for r in mine:
+                    other = ref.get(r.problem)
+                    if other is None or other.unscheduled_cost is None:
+                        less += r.unscheduled_cost is not None
+                        continue
+                    if r.unscheduled_cost is None:
+                        more += 1
+                    elif r.unscheduled_cost < other.unscheduled_cost:
+                        less += 1
+                    elif r.unscheduled_cost == other.unscheduled_cost:
+                        same += 1
+                    else:
+                        more += 1
+                versus = f"{less}/{same}/{more}"
+            gaps = []
+            for r in mine:
+                bounds = [
+                    o.bound
+                    for o in scale
+                    if o.problem == r.problem and o.bound is not None
+                ]
+                if r.total is not None and bounds:
+                    best = max(bounds)
+                    gaps.append(100 * (r.total - best) / max(1, r.total))
+            cells.append(
+                (
+                    solver,
+                    f"H={horizon} n={size}",
+                    fmt(statistics.median(r.wall_s for r in mine)),
+                    statuses,
+                    "-"
+                    if not left
+                    else f"{statistics.median(x or 0 for x in left):g}",
+                    versus,
+                    "-" if not gaps else f"{statistics.median(gaps):.1f} %",
+                )
+            )
+    return "\n".join([f"== scaling against {reference}", *aligned(cells, 2)])
 
 
 def write_csv(

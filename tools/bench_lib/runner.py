@@ -69,6 +69,7 @@ class Run:
     check_violations: int = 0
     check_detail: str = ""
     error: str = ""
+    solver_status: str = ""
 
     @property
     def check_failed(self) -> bool:
@@ -209,6 +210,7 @@ def run_one(
         bound=stats.bound if stats else None,
         num_variables=stats.num_variables if stats else 0,
         num_constraints=stats.num_constraints if stats else 0,
+        solver_status=stats.solver_status if stats else "",
         check_violations=len(report.violations),
         check_detail="; ".join(
             f"{v.rule}: {v.detail}" for v in report.violations[:3]

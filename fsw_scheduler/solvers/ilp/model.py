@@ -25,10 +25,11 @@ from ...solution import (
     SolverStats,
     SolveStatus,
 )
-from .cbc import ABS_GAP, MIN_CBC_S, CbcResult, CbcRun
+from .cbc import ABS_GAP, MIN_CBC_S, CbcResult
 from .constraints import Constraints
 from .objective import objective, weight
 from .program import Program
+from .progress import WatchedCbcRun
 from .variables import Variables
 
 if TYPE_CHECKING:
@@ -40,6 +41,10 @@ if TYPE_CHECKING:
     from ...model import Problem
 
 SOLVERS = ("cbc", "highs")
+
+#: Seconds to build and write a model, per column (measured: 2.9 s for the
+#: 158 000 columns of 200 tasks at H = 1440, 18 us each; rounded up).
+BUILD_S_PER_COLUMN = 2.5e-5
 
 
 def _pulp_status(lp: pulp.LpProblem) -> SolveStatus:
@@ -188,7 +193,17 @@ def _run_cbc(
     if warm:
         warm = in_symmetry_order(built.constraints.twins, warm)
         start = built.vars.initial(warm, built.program.num_columns)
-    run = CbcRun(time_limit=time_limit, threads=threads, seed=seed)
+    program = built.program
+    run = WatchedCbcRun(
+        constant=program.constant,
+        incumbent=None
+        if start is None
+        else program.constant
+        + sum(c * v for c, v in zip(program.cost, start, strict=True)),
+        time_limit=time_limit,
+        threads=threads,
+        seed=seed,
+    )
     result = run.solve(built.program, start)
     notes = [result.solver_status]
     if result.values is not None and not _integral(built.program, result):
@@ -304,6 +319,26 @@ def solve_ilp(
     if solver not in SOLVERS:
         raise SolverError(f"unknown solver {solver!r} (choose from {SOLVERS})")
     began = time.perf_counter()
+    if domains is None:
+        domains = start_domains(problem)
+    if time_limit is not None:
+        columns = sum(
+            d.latest - d.earliest + 1 for d in domains.values() if not d.empty
+        )
+        if BUILD_S_PER_COLUMN * columns > time_limit:
+            # Building alone would overrun the limit (200 tasks at
+            # H = 1440: 158 000 columns, 2.9 s).
+            return _without_plan(
+                problem,
+                SolveStatus.UNKNOWN,
+                dict(
+                    solver=solver,
+                    time_limit_s=time_limit,
+                    solver_status=f"time limit too short to build a model "
+                    f"of {columns} columns",
+                ),
+                began,
+            )
     built = BuiltModel(problem, domains)
     built_at = time.perf_counter()
     impossible = [

@@ -1,4 +1,4 @@
-"""The lexicographic objective of CONTRACT section 1, as one weighted sum.
+"""The lexicographic objective of the problem format, as one weighted sum.
 
 ``total = W * unscheduled_cost + delay_cost`` with
 ``W = 1 + sum_i delay_cost_i * horizon``: any one unit of unscheduled cost

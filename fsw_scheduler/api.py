@@ -1,0 +1,256 @@
+"""The library entry points, taking typed objects, plain dicts or JSON.
+
+:func:`solve`, :func:`check` and :func:`replan` accept a problem, a plan,
+a goal or an event in any of the forms a caller is likely to hold:
+
+* the typed object (:class:`~fsw_scheduler.model.Problem`,
+  :class:`~fsw_scheduler.solution.Plan`, :class:`~fsw_scheduler.goal.Goal`,
+  an event of :mod:`fsw_scheduler.reschedule`), used as it is;
+* a plain ``dict`` as :func:`json.load` returns it;
+* JSON text (``str`` or ``bytes``), as read from a file or the bus.
+
+Dicts and text go through the same strict decoding and validation as the
+command line, so a mistake raises :class:`~fsw_scheduler.errors.InputError`
+naming every field path and reason, never a bare ``KeyError``.
+
+Like :mod:`fsw_scheduler.solve`, this module imports the solver backend
+only when a solve runs, so ``import fsw_scheduler`` stays free of PuLP.
+(It imports :mod:`fsw_scheduler.solve` eagerly on purpose: the package
+top binds the name ``solve`` to a function, and a submodule imported for
+the first time later would rebind it to the module.)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import msgspec
+
+from .check import CheckReport, check_plan
+from .errors import FieldIssue, InputError
+from .goal import Goal
+from .model import Problem, decode_problem, decode_strict, validate_problem
+from .reschedule import (
+    ActivityFailed,
+    Change,
+    LevelsMeasured,
+    PlanDiff,
+    decode_change,
+    replan_files,
+)
+from .solution import Plan
+from .solve import solve as solve_problem
+
+__all__ = [
+    "ChangeLike",
+    "PlanLike",
+    "ProblemLike",
+    "as_change",
+    "as_plan",
+    "as_problem",
+    "check",
+    "replan",
+    "solve",
+]
+
+#: A problem as a typed object, a dict or JSON text.
+ProblemLike = Problem | Mapping[str, Any] | str | bytes
+#: A plan as a typed object, a dict or JSON text.
+PlanLike = Plan | Mapping[str, Any] | str | bytes
+#: A goal or an event as a typed object, a dict or JSON text.
+ChangeLike = (
+    Goal | ActivityFailed | LevelsMeasured | Mapping[str, Any] | str | bytes
+)
+
+
+def _as_json(value: object, what: str) -> bytes | str:
+    """JSON text of a dict, or the text itself."""
+    if isinstance(value, str | bytes | bytearray):
+        return bytes(value) if isinstance(value, bytearray) else value
+    if isinstance(value, Mapping):
+        try:
+            return msgspec.json.encode(value)
+        except (TypeError, msgspec.EncodeError) as error:
+            raise InputError(
+                [FieldIssue("", f"not JSON-like data: {error}")], what
+            ) from None
+    raise InputError(
+        [
+            FieldIssue(
+                "",
+                f"expected a {what}, a dict or JSON text, "
+                f"got {type(value).__name__}",
+            )
+        ],
+        what,
+    )
+
+
+def as_problem(value: ProblemLike, *, allow_empty: bool = False) -> Problem:
+    """A validated :class:`Problem` from any accepted form.
+
+    Parameters
+    ----------
+    value
+        A :class:`Problem` (validated again, since a hand-built one may be
+        wrong), a dict in the problem format, or its JSON text.
+    allow_empty
+        Accept a problem with no task.
+
+    Returns
+    -------
+    Problem
+        The problem.
+
+    Raises
+    ------
+    InputError
+        With one issue per mistake, each naming its field path.
+    """
+    if isinstance(value, Problem):
+        issues = validate_problem(value, allow_empty=allow_empty)
+        if issues:
+            raise InputError(issues, "problem")
+        return value
+    return decode_problem(_as_json(value, "problem"), allow_empty=allow_empty)
+
+
+def as_plan(value: PlanLike) -> Plan:
+    """A :class:`Plan` from a plan, a dict in the plan format or JSON."""
+    if isinstance(value, Plan):
+        return value
+    return decode_strict(_as_json(value, "plan"), Plan, "plan")
+
+
+def as_change(value: ChangeLike) -> Change:
+    """A goal or an event from a typed object, a dict or JSON text.
+
+    A document with an ``event`` key is an event (``activity_failed`` or
+    ``levels``); any other is a goal.
+    """
+    if isinstance(value, Goal | ActivityFailed | LevelsMeasured):
+        return value
+    return decode_change(_as_json(value, "goal or event"))
+
+
+def solve(
+    problem: ProblemLike,
+    solver: str = "cbc",
+    *,
+    time_limit: float | None = None,
+    threads: int = 1,
+    seed: int = 0,
+    explain: bool = False,
+    warm: PlanLike | None = None,
+    explain_budget: float | None = None,
+) -> Plan:
+    """Solve a problem given in any accepted form.
+
+    Parameters
+    ----------
+    problem
+        A :class:`Problem`, a dict in the problem format, or JSON text.
+    solver, time_limit, threads, seed, explain, explain_budget
+        As :func:`fsw_scheduler.solve.solve`.
+    warm
+        A plan to start from, in any form :func:`as_plan` takes.
+
+    Returns
+    -------
+    Plan
+        The plan with its honest status (``optimal``, ``feasible``,
+        ``infeasible`` or ``unknown``).
+
+    Raises
+    ------
+    InputError
+        The problem or the warm plan is malformed or invalid.
+
+    Examples
+    --------
+    >>> import fsw_scheduler as fs
+    >>> plan = fs.solve({"horizon": 5, "tasks": [
+    ...     {"id": "a", "length": 2, "delay_cost": 1, "schedule_cost": 1}]})
+    >>> plan.to_dict()["activities"]
+    [{'task': 'a', 'start': 0, 'end': 2}]
+    """
+    return solve_problem(
+        as_problem(problem),
+        solver,
+        time_limit=time_limit,
+        threads=threads,
+        seed=seed,
+        explain=explain,
+        warm=None if warm is None else as_plan(warm),
+        explain_budget=explain_budget,
+    )
+
+
+def check(problem: ProblemLike, plan: PlanLike) -> CheckReport:
+    """Check a plan against a problem, both in any accepted form.
+
+    Parameters
+    ----------
+    problem
+        The problem, as :func:`as_problem` takes it.
+    plan
+        The plan, as :func:`as_plan` takes it.
+
+    Returns
+    -------
+    CheckReport
+        ``ok`` when no constraint is violated; every violation by name and
+        the objective recomputed from the activities
+        (see :func:`fsw_scheduler.check.check_plan`).
+    """
+    return check_plan(as_problem(problem), as_plan(plan))
+
+
+def replan(
+    problem: ProblemLike,
+    plan: PlanLike,
+    change: ChangeLike,
+    now: int,
+    *,
+    solver: str = "cbc",
+    time_limit: float | None = None,
+) -> tuple[Problem, Plan, PlanDiff]:
+    """Apply a goal or an event to a running plan at time ``now``.
+
+    The paper's online rescheduling rules build the new problem over
+    ``[now, now + horizon)``, which is then solved; as ``fsw-scheduler
+    replan``.
+
+    Parameters
+    ----------
+    problem, plan
+        The running problem and its plan, in any accepted form.
+    change
+        A goal, or an event (``{"event": "activity_failed", "task": ...,
+        "at": ...}`` or ``{"event": "levels", "levels": {...}, "at":
+        ...}``), in any accepted form.
+    now
+        Time unit of the replan.
+    solver, time_limit
+        Passed to the solver.
+
+    Returns
+    -------
+    tuple
+        The new problem, its plan, and the difference from ``plan`` (kept,
+        moved, added, removed with the rule that removed each task).
+
+    Raises
+    ------
+    InputError
+        A malformed input, or a change the rules reject (nothing solved).
+    """
+    return replan_files(
+        as_problem(problem),
+        as_plan(plan),
+        as_change(change),
+        now,
+        solver=solver,
+        time_limit=time_limit,
+    )

@@ -1,0 +1,190 @@
+"""CBC runs that report their progress and end within the caller's limit.
+
+:class:`WatchedCbcRun` is a :class:`~.cbc.CbcRun` with two additions:
+
+* **Progress.** CBC's log goes to a file, where the C library buffers it
+  until CBC exits. Started through ``stdbuf -oL`` (when the system has
+  it), CBC writes it line by line; a watcher thread reads the new lines
+  every :data:`PROGRESS_S` seconds and logs the incumbent, the bound and
+  the gap on the ``fsw_scheduler.solver`` logger (the CLI prints it on
+  stderr). Without ``stdbuf`` only the elapsed time is logged.
+* **A limit that holds.** CbcRun interrupts CBC shortly before the end of
+  its share and kills it :data:`~.cbc.GRACE_S` later, so a CBC that does
+  not answer the interrupt (it does not during a long root LP) overran
+  the limit by up to that grace. Here the interrupt comes that much
+  earlier for limits long enough to spare it, so that the kill falls
+  within :data:`KILL_MARGIN_S` of the end of CBC's share.
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+import re
+import shutil
+import threading
+import time
+from typing import TYPE_CHECKING
+
+from .cbc import GRACE_S, CbcRun
+
+if TYPE_CHECKING:
+    import subprocess
+
+#: Seconds between two progress lines.
+PROGRESS_S = 3.0
+
+#: Seconds past the end of CBC's share at which a silent CBC is killed.
+KILL_MARGIN_S = 0.3
+
+#: Deadlines shorter than this keep CbcRun's own interrupt (their grace
+#: is a larger share, and small models answer the interrupt at once).
+SHORT_S = 1.0
+
+log = logging.getLogger("fsw_scheduler.solver")
+
+_FLOAT = r"(-?[0-9.]+(?:e[+-]?[0-9]+)?)"
+_INCUMBENT = [
+    re.compile(r"Integer solution of " + _FLOAT, re.IGNORECASE),
+    re.compile(r"solution with cost " + _FLOAT, re.IGNORECASE),
+    re.compile(r"After \d+ nodes, \d+ on tree, " + _FLOAT + " best solution"),
+]
+_BOUND = [
+    re.compile(r"best possible " + _FLOAT),
+    re.compile(r"Continuous objective value is " + _FLOAT),
+]
+
+
+@functools.cache
+def _stdbuf() -> str | None:
+    return shutil.which("stdbuf")
+
+
+class LogState:
+    """Incumbent and bound read so far from a CBC log (objective offset
+    ``constant`` added back)."""
+
+    def __init__(
+        self, constant: float = 0.0, incumbent: float | None = None
+    ) -> None:
+        self.constant = constant
+        self.incumbent = incumbent
+        self.bound: float | None = None
+
+    def feed(self, line: str) -> None:
+        """Update from one log line."""
+        for pattern in _INCUMBENT:
+            match = pattern.search(line)
+            if match:
+                value = float(match.group(1)) + self.constant
+                if value < 1e49 and (
+                    self.incumbent is None or value < self.incumbent
+                ):
+                    self.incumbent = value
+        for pattern in _BOUND:
+            match = pattern.search(line)
+            if match:
+                value = float(match.group(1)) + self.constant
+                if self.bound is None or value > self.bound:
+                    self.bound = value
+
+    def summary(self) -> str:
+        """``incumbent X, bound Y, gap Z %`` with what is known."""
+        inc = "none" if self.incumbent is None else f"{self.incumbent:.0f}"
+        bound = "none" if self.bound is None else f"{self.bound:.0f}"
+        gap = "-"
+        if self.incumbent is not None and self.bound is not None:
+            spread = self.incumbent - self.bound
+            gap = f"{100 * spread / max(1.0, abs(self.incumbent)):.2f} %"
+        return f"incumbent {inc}, bound {bound}, gap {gap}"
+
+
+class _Watcher:
+    """Reads a growing log file now and then and logs the progress."""
+
+    def __init__(self, path: str, state: LogState, every_s: float) -> None:
+        self.path = path
+        self.state = state
+        self.every_s = every_s
+        self.began = time.monotonic()
+        self._done = threading.Event()
+        self._offset = 0
+        self._thread = threading.Thread(
+            target=self._loop, name="cbc-progress", daemon=True
+        )
+        self._thread.start()
+
+    def _read(self) -> None:
+        try:
+            with open(self.path, errors="replace") as lines:
+                lines.seek(self._offset)
+                text = lines.read()
+        except OSError:
+            return
+        # Only whole lines; the rest is read next time.
+        complete = text.rfind("\n") + 1
+        self._offset += len(text[:complete].encode(errors="replace"))
+        for line in text[:complete].splitlines():
+            self.state.feed(line)
+
+    def _loop(self) -> None:
+        while not self._done.wait(self.every_s):
+            self._read()
+            log.info(
+                "cbc running %.0f s: %s",
+                time.monotonic() - self.began,
+                self.state.summary(),
+            )
+
+    def stop(self) -> None:
+        self._done.set()
+        self._thread.join()
+
+
+class WatchedCbcRun(CbcRun):
+    """A :class:`~.cbc.CbcRun` that logs progress and ends within its limit.
+
+    Parameters
+    ----------
+    constant
+        The program's objective constant, added to the values in the log.
+    incumbent
+        The objective of the MIP start, if any (CBC logs it only once it
+        has checked it, after the root LP).
+    every_s
+        Seconds between progress lines (default :data:`PROGRESS_S`).
+    **options
+        As for :class:`~.cbc.CbcRun`.
+    """
+
+    def __init__(
+        self,
+        *,
+        constant: float = 0.0,
+        incumbent: float | None = None,
+        every_s: float | None = None,
+        **options: object,
+    ) -> None:
+        super().__init__(**options)  # type: ignore[arg-type]
+        self.constant = constant
+        self.incumbent = incumbent
+        self.every_s = PROGRESS_S if every_s is None else every_s
+
+    def _run(
+        self, args: list[str], log_path: str, deadline: float | None
+    ) -> int:
+        stdbuf = _stdbuf()
+        if stdbuf is not None:
+            args = [stdbuf, "-oL", *args]
+        watcher = _Watcher(
+            log_path, LogState(self.constant, self.incumbent), self.every_s
+        )
+        try:
+            return super()._run(args, log_path, deadline)
+        finally:
+            watcher.stop()
+
+    def _wait(self, process: subprocess.Popen, deadline: float | None) -> None:
+        if deadline is not None and deadline > SHORT_S:
+            deadline = max(deadline - GRACE_S + KILL_MARGIN_S, SHORT_S)
+        super()._wait(process, deadline)
