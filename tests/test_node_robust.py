@@ -293,6 +293,42 @@ def test_a_panic_in_a_publish_does_not_kill_the_loop(
     assert h.query_status().counters.publish_failures == 1
 
 
+class _PanickingPublisher:
+    def __init__(self, panic: type) -> None:
+        self._panic = panic
+
+    def put(self, *_args: object, **_kwargs: object) -> None:
+        raise self._panic("called `Result::unwrap()` on an `Err` value")
+
+    def undeclare(self) -> None:
+        pass
+
+
+def test_a_bus_refusing_every_publish_stops_the_node(
+    started: SchedulerHarness,
+) -> None:
+    """Tests that a poisoned transmit pipeline ends in a withdrawn token."""
+    from .test_node import Liveliness
+
+    h = started
+    panic = _panic_type()
+    node = h.node
+    node.session = _FaultySession(node.session, "fsw/", panic)  # type: ignore[assignment]
+    for suffix in list(node._publishers):
+        node._publishers[suffix] = _PanickingPublisher(panic)  # type: ignore[assignment]
+    watch = Liveliness(h.client)
+    try:
+        watch.expect(zenoh.SampleKind.PUT)
+        for n in range(25):  # each rejection is a status publish
+            h.publish_goal(goal_of(f"bad{n}", task("a/b")))
+        watch.expect(zenoh.SampleKind.DELETE)
+    finally:
+        watch.close()
+    assert node.wait_stopped(5)
+    assert node.failed is not None
+    assert "publishes failed in a row" in node.failed
+
+
 POISONED_RUN = """
 import sys
 from fsw_scheduler import engine

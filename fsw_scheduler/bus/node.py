@@ -672,16 +672,6 @@ class SchedulerNode:
                 try:
                     self.spin_once()
                     in_a_row = 0
-                    if (
-                        self._publish_failures_in_a_row
-                        >= MAX_CONSECUTIVE_FAULTS
-                    ):
-                        # A panic poisons zenoh's transmit pipeline: every
-                        # later put fails too. Nothing reaches the bus.
-                        raise BusError(
-                            f"{self._publish_failures_in_a_row} publishes "
-                            "failed in a row"
-                        )
                 except _FATAL:
                     raise
                 except BaseException:
@@ -692,6 +682,13 @@ class SchedulerNode:
                     log.exception("event loop error; continuing")
                     if in_a_row >= MAX_CONSECUTIVE_FAULTS:
                         raise
+                if self._publish_failures_in_a_row >= MAX_CONSECUTIVE_FAULTS:
+                    # A panic poisons zenoh's transmit pipeline: every
+                    # later put fails too. Nothing reaches the bus.
+                    raise BusError(
+                        f"{self._publish_failures_in_a_row} publishes "
+                        "failed in a row"
+                    )
         except BaseException as error:
             self._die(error)
 
