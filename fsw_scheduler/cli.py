@@ -14,7 +14,7 @@ import sys
 import textwrap
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import msgspec
 from mcap.exceptions import McapError
@@ -22,6 +22,9 @@ from mcap.exceptions import McapError
 from .errors import ConfigError, FieldIssue, InputError, SchedulerError
 from .model import Problem, decode_problem, decode_strict
 from .solution import Plan
+
+if TYPE_CHECKING:
+    import zenoh
 
 log = logging.getLogger("fsw_scheduler")
 
@@ -341,13 +344,25 @@ def _check_spacecraft(spacecraft: str | None) -> None:
         )
 
 
+def _open_bus(settings: zenoh.Config) -> zenoh.Session:
+    """``zenoh.open``, with Zenoh's errors (a missing certificate, a port
+    in use, no route to a client's router) said in one line."""
+    import zenoh
+
+    from .errors import BusError
+
+    try:
+        return zenoh.open(settings)
+    except zenoh.ZError as error:
+        # Zenoh appends the Rust source location: keep the first sentence.
+        text = str(error).split(" at /")[0]
+        raise BusError(f"cannot open the Zenoh session: {text}") from None
+
 
 def _cmd_run(args: argparse.Namespace) -> int:
     import signal
     import threading
     import time
-
-    import zenoh
 
     from .bus.node import SchedulerNode
     from .bus.session import toml_config_file, zenoh_config
@@ -391,7 +406,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 "arguments",
             )
         problem = Problem(horizon=config.horizon, tasks=())
-    from .bus.security import assess
+    from .bus.security import assess, policy_publishers
 
     zenoh_settings = zenoh_config(args)
     security = assess(zenoh_settings, acknowledged=args.insecure)
@@ -441,7 +456,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
-    with zenoh.open(zenoh_settings) as session:
+    with _open_bus(zenoh_settings) as session:
 
         def make_node(shared: Any = None) -> SchedulerNode:
             """The node that commands; from the active's state on takeover."""
@@ -468,6 +483,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 config,
                 journal=journal,
                 security=security,
+                publishers=policy_publishers(zenoh_settings),
                 share_state=config.standby,
                 **extra,
             )
@@ -531,6 +547,7 @@ def _cmd_config(args: argparse.Namespace) -> int:
             endpoint=args.endpoint,
             listen=args.listen,
             names=names,
+            topology=args.topology,
         )
     except ConfigError as error:
         print(f"fsw-scheduler: {error}", file=sys.stderr)
@@ -601,6 +618,20 @@ def _open_state(
     else:
         log.info("new state folder %s", args.state)
     return journal, resume
+
+
+def _cmd_probe(args: argparse.Namespace) -> int:
+
+    from .bus.probe import probe
+    from .bus.session import zenoh_config
+    from .bus.topics import Topics
+
+    kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
+    with _open_bus(zenoh_config(args)) as session:
+        results = probe(session, Topics(args.spacecraft), kinds, args.timeout)
+    for result in results:
+        print(f"{result.kind:<7} {result.key}: {result.detail}")
+    return EXIT_NO_PLAN if any(r.reached for r in results) else EXIT_OK
 
 
 # -- record / replay / recover / info ----------------------------------------
@@ -1039,7 +1070,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_zenoh_arguments(run)
 
-    from .bus.security import DEFAULT_PORT, PROFILES, ROLES
+    from .bus.security import DEFAULT_PORT, PROFILES, ROLES, ROUTER, TOPOLOGIES
 
     conf = add(
         "config",
@@ -1064,7 +1095,7 @@ def build_parser() -> argparse.ArgumentParser:
                 initial_indent=f"  {r.name:<10} ",
                 subsequent_indent=" " * 13,
             )
-            for r in ROLES.values()
+            for r in [*ROLES.values(), ROUTER]
         ),
     )
     conf.epilog = f"""\
@@ -1113,6 +1144,15 @@ example:
         "--endpoint's port)",
     )
     conf.add_argument(
+        "--topology",
+        choices=TOPOLOGIES,
+        default="star",
+        help="star: the scheduler listens, the roles connect to it; router: "
+        "a Zenoh router listens (router.json5) and every role, the "
+        "scheduler and its redundant twins included, connects to it "
+        "(default: %(default)s)",
+    )
+    conf.add_argument(
         "--cn",
         action="append",
         default=[],
@@ -1120,6 +1160,48 @@ example:
         help="certificate common names of a role (default: the role's "
         "name), e.g. --cn goals=ground,autonomy (repeatable)",
     )
+
+    from .bus.probe import KINDS
+
+    prb = add(
+        "probe",
+        _cmd_probe,
+        "check which inputs the scheduler accepts from this seat",
+        """\
+        Publish one harmless input of each kind (a goal the scheduler
+        rejects, a report on a task and a level of a resource that do not
+        exist) and ask the scheduler's status after each, on the same link,
+        whether it saw it. Nothing changes the plan; the clock is never
+        probed. Exit 0 if every probe was refused, 1 if any reached the
+        scheduler.
+        """,
+    )
+    prb.epilog = """\
+example (a read-only monitor must be refused everything; the second run
+switches the monitor's own policy off to test the scheduler's):
+  fsw-scheduler probe --config deploy/monitor.json5
+  fsw-scheduler probe --config deploy/monitor.json5 \\
+      --cfg access_control/enabled:false
+"""
+    prb.add_argument(
+        "--kinds",
+        default=",".join(KINDS),
+        metavar="KIND[,KIND]",
+        help="which inputs to try, among %(default)s (default: all)",
+    )
+    prb.add_argument(
+        "--spacecraft",
+        default="sat1",
+        help="key prefix id (default: %(default)s)",
+    )
+    prb.add_argument(
+        "--timeout",
+        type=float,
+        default=10.0,
+        metavar="S",
+        help="seconds to wait for the scheduler (default: %(default)s)",
+    )
+    add_zenoh_arguments(prb)
 
     rec = add(
         "record",

@@ -129,6 +129,43 @@ class Dispatch(msgspec.Struct, frozen=True, omit_defaults=True):
     dispatch_id: str = ""
 
 
+class Source(msgspec.Struct, frozen=True, omit_defaults=True):
+    """Where an input came from, as far as the scheduler can tell.
+
+    Attributes
+    ----------
+    zid, eid, sn
+        The publishing session's Zenoh id, the publisher's entity id and
+        its sequence number, from the sample's source info. Zenoh fills
+        source info only when the publisher sets it; without it, ``zid``
+        is the session that timestamped the sample, if any. Claimed by the
+        sender: not authenticated by itself.
+    identity
+        The authenticated identity (TLS certificate common name) of the
+        sender, when the node can tell it (``|`` between candidates).
+    basis
+        How ``identity`` was found: ``link``, ``zid`` has a direct link
+        authenticated under that name, and the access-control policy lets
+        that name publish on the key; ``policy``, the names of the
+        connected links the policy lets publish on the key (the sample
+        does not say which link it came over); empty, unknown.
+    """
+
+    zid: str = ""
+    eid: int | None = None
+    sn: int | None = None
+    identity: str = ""
+    basis: str = ""
+
+
+class InputSource(msgspec.Struct, frozen=True, omit_defaults=True):
+    """``scheduler/sources``, in the journal only: the source of the input
+    on ``key`` recorded right after it."""
+
+    key: str
+    source: Source
+
+
 class SolveSummary(msgspec.Struct, frozen=True, omit_defaults=True):
     """The last solve, as reported in status."""
 
@@ -191,6 +228,9 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
     query answers only; every published status carries ``changed``, the
     entries that changed since the previous published status, so applying
     them in order to the last full map gives the current one.
+
+    ``source`` says where the goal, report or level a verdict is about
+    came from (set by the bus node; ``replay --verify`` ignores it).
     """
 
     state: Literal["ok", "degraded", "error", "standby"]
@@ -210,6 +250,7 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
     node_id: str | None = None
     changed: dict[str, str] = {}
     why: tuple[Blocker, ...] = ()
+    source: Source | None = None
 
 
 class Busy(msgspec.Struct, frozen=True):
@@ -334,6 +375,7 @@ SCHEMA_TYPES: dict[str, Any] = {
     "status": Status,
     "solve_record": SolveRecord,
     "node_info": NodeInfo,
+    "input_source": InputSource,
     "problem": Problem,
     "busy": Busy,
     "stalled": Stalled,

@@ -15,10 +15,11 @@ position.
 What "identical" means: outputs are compared as decoded JSON, in order,
 key by key and field by field, except the fields listed in
 :data:`EXCLUDED`: solver timings and statistics (wall-clock dependent),
-``counters.inputs_dropped`` (a property of the live inbox) and status
-replies to queries (never recorded). Everything else must match: plan ids,
-activities, unscheduled tasks and reasons, objectives, dispatch times and
-contents, lifecycle states, rejection messages. Fields that a newer
+``counters.inputs_dropped`` (a property of the live inbox), the ``source``
+of status verdicts (who sent an input, a property of the live bus) and
+status replies to queries (never recorded). Everything else must match:
+plan ids, activities, unscheduled tasks and reasons, objectives, dispatch
+times and contents, lifecycle states, rejection messages. Fields that a newer
 version added and the recording does not have are not compared, so old
 recordings keep verifying as message types grow. Statuses once carried
 the whole lifecycle map; now only heartbeats do and the others carry what
@@ -56,6 +57,9 @@ EXCLUDED: dict[str, tuple[str, ...]] = {
         "counters.publish_failures",
         "counters.loop_faults",
         "last_solve.wall_s",
+        # The source of an input is a property of the live bus (session
+        # ids, certificates), not a decision: the engine never sees it.
+        "source",
     ),
     "solve_record": (
         "build_s",

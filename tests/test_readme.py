@@ -51,6 +51,8 @@ NOT_RUN = {
     "fsw-scheduler run": "a long-running bus component; tests/test_node.py "
     "runs it on loopback (the README's endpoints are a deployment's)",
     "fsw-scheduler record": "needs a live bus; tests/test_cli_recording.py",
+    "fsw-scheduler probe": "needs a live secure bus; tests/test_security.py "
+    "runs it against one",
     "fsw-scheduler replay --burst": "publishes on a live bus; "
     "tests/test_cli_recording.py",
     ".venv/bin/python tools/make_golden": "regenerates the golden files; "

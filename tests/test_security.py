@@ -17,9 +17,11 @@ from __future__ import annotations
 import datetime
 import ipaddress
 import json
+import queue
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import msgspec
@@ -33,11 +35,14 @@ from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
 from fsw_scheduler import messages
 from fsw_scheduler.bus import topics as keys
 from fsw_scheduler.bus.node import SchedulerNode
+from fsw_scheduler.bus.probe import probe
 from fsw_scheduler.bus.security import (
     ROLES,
     access_control,
     assess,
+    policy_publishers,
     render_profile,
+    roles_of,
 )
 from fsw_scheduler.bus.session import (
     listening_endpoints,
@@ -47,7 +52,7 @@ from fsw_scheduler.bus.session import (
 from fsw_scheduler.cli import main
 from fsw_scheduler.messages import schema_lookup
 from fsw_scheduler.recording import Recorder, iter_messages
-from fsw_scheduler.replay import read_node_info
+from fsw_scheduler.replay import read_node_info, verify
 from fsw_scheduler.testing import (
     SchedulerClient,
     harness_config,
@@ -56,7 +61,6 @@ from fsw_scheduler.testing import (
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
-    from pathlib import Path
 
 SC = keys.Topics("sat1")
 WAIT_S = 20.0
@@ -165,7 +169,7 @@ def pki(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     good, rogue = root / "good", root / "rogue"
     ca = _CA("test deployment CA")
     _write(good, "ca", None, ca.cert)
-    for role in ROLES:
+    for role in roles_of("router"):
         _write(good, role, *ca.issue(role))
     other = _CA("another CA")
     _write(rogue, "ca", None, other.cert)
@@ -182,6 +186,7 @@ def role_config(
     endpoint: str,
     *,
     own_acl: bool = True,
+    topology: str = "star",
 ) -> zenoh.Config:
     """The profile of ``role`` connecting to ``endpoint``.
 
@@ -189,7 +194,7 @@ def role_config(
     has switched off its own (mirrored) access control.
     """
     config = zenoh.Config.from_json5(
-        render_profile(role, certs=certs, endpoint=endpoint)
+        render_profile(role, certs=certs, endpoint=endpoint, topology=topology)
     )
     if not own_acl:
         config.insert_json5("access_control/enabled", "false")
@@ -199,40 +204,73 @@ def role_config(
 class SecureBus:
     """A scheduler node on its secure profile, and ways to reach it.
 
-    ``acl=False`` switches the scheduler's access control off (TLS stays):
-    the control case showing what the policy prevents.
+    ``acl=False`` switches the hub's access control off (TLS stays): the
+    control case showing what the policy prevents. ``topology="router"``
+    puts a Zenoh router in the middle, the scheduler being its client.
     """
 
-    def __init__(self, certs: Path, *, acl: bool = True) -> None:
+    def __init__(
+        self,
+        certs: Path,
+        *,
+        acl: bool = True,
+        journal: Path | None = None,
+        topology: str = "star",
+    ) -> None:
         self.certs = certs
+        self.topology = topology
+        self._sessions: list[zenoh.Session] = []
+        hub = "scheduler" if topology == "star" else "router"
         config = zenoh.Config.from_json5(
             render_profile(
-                "scheduler",
+                hub,
                 certs=certs,
                 endpoint="tls/localhost:0",
                 listen="tls/localhost:0",
+                topology=topology,
             )
         )
+        # Read-only and local: how the test learns the port the OS chose.
         config.insert_json5("adminspace/enabled", "true")
+        config.insert_json5("adminspace/permissions/read", "true")
         if not acl:
             config.insert_json5("access_control/enabled", "false")
+        self.hub = zenoh.open(config)
+        self.endpoint = listening_endpoints(self.hub)[0]
+        if topology == "router":
+            config = role_config(
+                "scheduler", certs, self.endpoint, topology=topology
+            )
+            self.session = zenoh.open(config)
+        else:
+            self.session = self.hub
         self.security = assess(config)
-        self.session = zenoh.open(config)
-        self.endpoint = listening_endpoints(self.session)[0]
+        self.journal = journal
         self.node = SchedulerNode(
             self.session,
             paper_problem(),
             harness_config(),
             security=self.security,
+            publishers=policy_publishers(config),
+            journal=(
+                Recorder(journal, schemas=schema_lookup("sat1"))
+                if journal is not None
+                else None
+            ),
         ).start()
-        self._sessions: list[zenoh.Session] = []
         self.clock: SchedulerClient
         self.monitor: SchedulerClient
 
     def open(self, role: str, **kwargs: object) -> zenoh.Session:
         """A session of ``role`` (closed with the bus)."""
         session = zenoh.open(
-            role_config(role, self.certs, self.endpoint, **kwargs)  # type: ignore[arg-type]
+            role_config(
+                role,
+                self.certs,
+                self.endpoint,
+                topology=self.topology,
+                **kwargs,  # type: ignore[arg-type]
+            )
         )
         self._sessions.append(session)
         return session
@@ -247,6 +285,8 @@ class SecureBus:
             session.close()
         self.node.close()
         self.session.close()
+        if self.hub is not self.session:
+            self.hub.close()
 
 
 def start(secure: SecureBus) -> SecureBus:
@@ -432,6 +472,7 @@ def test_config_command_writes_every_role(tmp_path: Path) -> None:
         "root_ca_certificate"
     ] == str((out / "certs" / "ca.pem").resolve())
     assert main(["config", "--out", str(out), "--cn", "pilot=x"]) == 2
+    assert main(["config", "--out", str(out), "--spacecraft", "*"]) == 2
     assert main(["config", "--out", str(out), "--endpoint", "tcp/h:1"]) == 2
 
 
@@ -474,12 +515,20 @@ def test_authorised_roles_drive_the_scheduler(bus: SecureBus) -> None:
     goals.wait_scheduler()
     executor = bus.client("executor")
     telemetry = bus.client("telemetry")
+    # A recorder with the monitor's certificate takes the whole tree.
+    recorded: queue.Queue[str] = queue.Queue()
+    recorder = bus.open("monitor").declare_subscriber(
+        SC.everything, lambda s: recorded.put(str(s.key_expr))
+    )
+    wait_matching(bus.session, SC.key(keys.STATUS), WAIT_S)
     wait_matching(bus.session, SC.dispatch("DownlinkSat2Sat"), WAIT_S)
     goals.publish_goal(ping_goal("beacon", "Beacon"))
     accepted = goals.wait_status(
         lambda s: s.event == "goal_accepted" and s.goal_id == "beacon"
     )
     assert accepted.state == "ok"
+    assert recorded.get(timeout=WAIT_S).startswith(SC.key("scheduler/"))
+    recorder.undeclare()
     bus.clock.clock(1)
     dispatch = executor.wait_dispatch("DownlinkSat2Sat")
     assert dispatch.start == 1
@@ -502,6 +551,12 @@ def test_authorised_roles_drive_the_scheduler(bus: SecureBus) -> None:
     assert [str(s.key_expr) for s in alive if s is not None] == [
         SC.key(keys.ALIVE)
     ]
+    changes: queue.Queue[zenoh.SampleKind] = queue.Queue()
+    watch = bus.monitor.client.liveliness().declare_subscriber(
+        SC.key(keys.ALIVE), lambda s: changes.put(s.kind), history=True
+    )
+    assert changes.get(timeout=WAIT_S) == zenoh.SampleKind.PUT
+    watch.undeclare()
 
 
 FORGERIES = {
@@ -742,3 +797,346 @@ def test_node_info_records_the_check(tmp_path: Path) -> None:
     assert recorded.security == info
     assert recorded.security.acknowledged
     assert recorded.security.warnings
+
+
+# -- traceability ------------------------------------------------------------
+
+
+def put_signed(session: zenoh.Session, key: str, message: dict) -> None:
+    """Publish with source info, as a component that wants to be traced."""
+    session.put(
+        key,
+        json.dumps(message).encode(),
+        source_info=zenoh.SourceInfo(session.id, 1),
+    )
+
+
+def test_verdicts_name_their_source(
+    pki: dict[str, Path], tmp_path: Path
+) -> None:
+    """Tests source on verdicts and in the journal, and replay --verify."""
+    journal = tmp_path / "journal.mcap"
+    secure = SecureBus(pki["good"], journal=journal)
+    try:
+        start(secure)
+        goals = secure.client("goals")
+        goals.wait_scheduler()
+        executor = secure.client("executor")
+        telemetry = secure.client("telemetry")
+        wait_matching(secure.session, SC.key(keys.STATUS), WAIT_S)
+        put_signed(goals.client, SC.key(keys.GOALS), ping_goal("signed", "S"))
+        accepted = goals.wait_status(lambda s: s.goal_id == "signed")
+        assert accepted.event == "goal_accepted"
+        assert accepted.source == messages.Source(
+            zid=str(goals.client.zid()),
+            eid=goals.client.id.eid,
+            sn=1,
+            identity="goals",
+            basis="link",
+        )
+        # Without source info the policy still names the only connected
+        # certificate that may publish goals.
+        goals.publish_goal(ping_goal("plain", "SetPositionX"))
+        rejected = goals.wait_status(lambda s: s.goal_id == "plain")
+        assert rejected.event == "goal_rejected"
+        assert rejected.source == messages.Source(
+            identity="goals", basis="policy"
+        )
+        put_signed(
+            executor.client,
+            SC.activity_report("SetPositionX"),
+            {"task": "SetPositionX", "state": "completed", "at": 0},
+        )
+        done = executor.wait_status(lambda s: s.event == "activity")
+        assert done.source is not None
+        assert (done.source.identity, done.source.zid) == (
+            "executor",
+            str(executor.client.zid()),
+        )
+        telemetry.level("battery", 0.0, 0)
+        drift = telemetry.wait_status(lambda s: s.event == "drift")
+        assert drift.source == messages.Source(
+            identity="telemetry", basis="policy"
+        )
+        heartbeat = status_via(goals.client)
+        assert heartbeat.source is None
+        # The drift replan is adopted before the journal closes.
+        goals.wait_status(
+            lambda s: (
+                s.event == "plan" and (s.plan_id or 0) > (drift.plan_id or 0)
+            )
+        )
+    finally:
+        secure.close()
+    recorded = list(iter_messages(journal))
+    sources = [
+        msgspec.json.decode(m.payload, type=messages.InputSource)
+        for m in recorded
+        if m.topic == SC.key(keys.SOURCES)
+    ]
+    by_key = {s.key: s.source.identity for s in sources}
+    assert by_key[SC.key(keys.GOALS)] == "goals"
+    assert by_key[SC.key(keys.CLOCK)] == "clock"
+    assert by_key[SC.activity_report("SetPositionX")] == "executor"
+    assert by_key[SC.resource_level("battery")] == "telemetry"
+    inputs = [m.topic for m in recorded]
+    for idx, topic in enumerate(inputs):
+        if topic == SC.key(keys.SOURCES):
+            assert inputs[idx - 1] == sources.pop(0).key
+    report = verify(journal)
+    assert report.identical, report.summary()
+
+
+def test_probe_tells_refused_from_reached(bus: SecureBus) -> None:
+    """Tests the probe against the scheduler's policy and a role's own."""
+    # The monitor with its own policy switched off: only the scheduler's
+    # policy refuses.
+    monitor = bus.open("monitor", own_acl=False)
+    assert [r.reached for r in probe(monitor, SC)] == [False] * 3
+    goals = bus.open("goals")
+    results = {r.kind: r.reached for r in probe(goals, SC)}
+    assert results == {"goal": True, "report": False, "level": False}
+    status = status_via(goals)
+    assert status.plan_id == 1 and status.state == "ok"
+    assert status.counters.goals_rejected == 1
+    assert status.counters.goals_accepted == 0
+
+
+def test_probe_command(bus: SecureBus, tmp_path: Path) -> None:
+    """Tests 'fsw-scheduler probe' exit codes with a written profile."""
+    out = tmp_path / "deploy"
+    assert (
+        main(
+            [
+                "config",
+                "--out",
+                str(out),
+                "--certs",
+                str(bus.certs),
+                "--endpoint",
+                bus.endpoint,
+            ]
+        )
+        == 0
+    )
+    monitor = ["probe", "--config", str(out / "monitor.json5")]
+    assert main(monitor) == 0
+    assert main([*monitor, "--cfg", "access_control/enabled:false"]) == 0
+    executor = ["probe", "--config", str(out / "executor.json5")]
+    assert main([*executor, "--kinds", "goal,level"]) == 0
+    assert main([*executor, "--kinds", "report"]) == 1
+
+
+def test_run_command_on_the_secure_profile(
+    pki: dict[str, Path], tmp_path: Path
+) -> None:
+    """Tests 'run --require-secure' with the written profile, end to end:
+    it starts, takes a goal from the goals role and names its source."""
+    import signal
+    import socket
+
+    problem = Path(__file__).resolve().parents[1] / "fsw_scheduler" / "data"
+    for _attempt in range(3):
+        with socket.socket() as probe_port:
+            probe_port.bind(("127.0.0.1", 0))
+            port = probe_port.getsockname()[1]
+        out = tmp_path / f"deploy-{port}"
+        endpoint = f"tls/localhost:{port}"
+        assert (
+            main(
+                [
+                    "config",
+                    "--out",
+                    str(out),
+                    "--certs",
+                    str(pki["good"]),
+                    "--endpoint",
+                    endpoint,
+                    "--listen",
+                    endpoint,
+                ]
+            )
+            == 0
+        )
+        process = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "fsw_scheduler.cli",
+                "run",
+                "--problem",
+                str(problem / "paper_table1.json"),
+                "--clock",
+                "bus",
+                "--config",
+                str(out / "scheduler.json5"),
+                "--require-secure",
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        assert process.stderr is not None
+        log = []
+        for line in process.stderr:
+            log.append(line)
+            if "scheduler up on" in line:
+                break
+        if process.poll() is None:
+            break
+    else:
+        pytest.fail("run did not start:\n" + "".join(log))
+    try:
+        assert not any("INSECURE" in line for line in log), log
+        config = zenoh.Config.from_file(out / "clock.json5")
+        with (
+            zenoh.open(config) as clock_session,
+            zenoh.open(
+                zenoh.Config.from_file(out / "goals.json5")
+            ) as goals_session,
+        ):
+            clock = SchedulerClient(clock_session, timeout=WAIT_S)
+            goals = SchedulerClient(goals_session, timeout=WAIT_S)
+            clock.wait_scheduler()
+            goals.wait_scheduler()
+            clock.tick(0)
+            put_signed(goals_session, SC.key(keys.GOALS), ping_goal("cli"))
+            verdict = goals.wait_status(lambda s: s.goal_id == "cli")
+            assert verdict.event == "goal_accepted"
+            assert verdict.source is not None
+            assert (verdict.source.identity, verdict.source.basis) == (
+                "goals",
+                "link",
+            )
+            clock.close()
+            goals.close()
+        process.send_signal(signal.SIGTERM)
+        assert process.wait(20) == 0
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait(10)
+        process.stderr.close()
+
+
+def test_missing_certificates_are_said_in_one_line(tmp_path: Path) -> None:
+    """Tests that 'run' on a profile without its certificates says so."""
+    out = tmp_path / "deploy"
+    assert main(["config", "--out", str(out)]) == 0
+    result = _run_cli(
+        "run",
+        "--horizon",
+        "10",
+        "--config",
+        str(out / "scheduler.json5"),
+        "--listen",
+        "tls/localhost:0",
+    )
+    assert result.returncode == 1
+    assert "cannot open the Zenoh session" in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+# -- the router topology -----------------------------------------------------
+
+
+@pytest.fixture
+def routed(pki: dict[str, Path]) -> Iterator[SecureBus]:
+    """A started scheduler behind a Zenoh router, on TLS + ACL."""
+    secure = SecureBus(pki["good"], topology="router")
+    try:
+        yield start(secure)
+    finally:
+        secure.close()
+
+
+def test_router_topology_serves_the_roles(routed: SecureBus) -> None:
+    """Tests goals, dispatch and verdicts through the router."""
+    goals = routed.client("goals")
+    goals.wait_scheduler()
+    executor = routed.client("executor")
+    wait_matching(routed.session, SC.dispatch("DownlinkSat2Sat"), WAIT_S)
+    put_signed(goals.client, SC.key(keys.GOALS), ping_goal("via-router"))
+    verdict = goals.wait_status(lambda s: s.goal_id == "via-router")
+    assert verdict.event == "goal_accepted"
+    # The scheduler's only link is the router's: that is all it can name.
+    assert verdict.source is not None
+    assert (verdict.source.identity, verdict.source.basis) == (
+        "router",
+        "policy",
+    )
+    assert verdict.source.zid == str(goals.client.zid())
+    routed.clock.clock(1)
+    assert executor.wait_dispatch("DownlinkSat2Sat").start == 1
+
+
+@pytest.mark.parametrize(
+    ("kind", "role"), [("goal", "monitor"), ("clock", "goals")]
+)
+def test_router_refuses_another_roles_input(
+    routed: SecureBus, kind: str, role: str
+) -> None:
+    """Tests that the router's policy keeps forged inputs from the engine."""
+    key, payload = FORGERIES[kind]
+    forger = routed.open(role, own_acl=False)
+    wait_matching(forger, key, WAIT_S)
+    before = status_via(forger)
+    seen = routed.node.engine.inputs_seen
+    forger.put(key, json.dumps(payload).encode())
+    after = status_via(forger)
+    assert routed.node.engine.inputs_seen == seen
+    assert after.counters == before.counters
+    assert after.now == before.now
+
+
+def test_router_refuses_a_forged_dispatch(routed: SecureBus) -> None:
+    """Tests that a dispatch forged through the router never arrives."""
+    assert "Forged" not in _forge_dispatch(routed)
+
+
+def test_twin_schedulers_see_each_other_through_the_router(
+    routed: SecureBus,
+) -> None:
+    """Tests what redundant schedulers need: each other's liveliness
+    tokens and shared snapshots, with the scheduler certificate."""
+    twin_a = routed.open("scheduler")
+    twin_b = routed.open("scheduler")
+    nodes = SC.key(keys.NODES + "/**")
+    token = twin_a.liveliness().declare_token(SC.key(keys.NODES + "/1/2/a"))
+    seen: queue.Queue[str] = queue.Queue()
+    watch = twin_b.liveliness().declare_subscriber(
+        nodes, lambda s: seen.put(str(s.key_expr)), history=True
+    )
+    assert seen.get(timeout=WAIT_S) == SC.key(keys.NODES + "/1/2/a")
+    snapshots: queue.Queue[bytes] = queue.Queue()
+    follow = twin_b.declare_subscriber(
+        SC.key(keys.SNAPSHOT), lambda s: snapshots.put(s.payload.to_bytes())
+    )
+    wait_matching(twin_a, SC.key(keys.SNAPSHOT), WAIT_S)
+    twin_a.put(SC.key(keys.SNAPSHOT), b"{}")
+    assert snapshots.get(timeout=WAIT_S) == b"{}"
+    for entity in (follow, watch, token):
+        entity.undeclare()
+
+
+
+def test_router_topology_profiles(tmp_path: Path) -> None:
+    """Tests the router topology's files: modes, endpoints, the check."""
+    out = tmp_path / "deploy"
+    args = ["config", "--out", str(out), "--topology", "router"]
+    assert main([*args, "--endpoint", "tls/10.0.0.9:7447"]) == 0
+    assert (out / "router.json5").exists()
+    for role in roles_of("router"):
+        config = zenoh.Config.from_file(out / f"{role}.json5")
+        mode = json.loads(config.get_json("mode"))
+        assert mode == ("router" if role == "router" else "client")
+        info = assess(config)
+        assert info.exposed and info.warnings == (), role
+    router = json.loads(
+        zenoh.Config.from_file(out / "router.json5").get_json(
+            "access_control"
+        )
+    )
+    assert {s["id"] for s in router["subjects"]} == set(ROLES)
+    script = (out / "make-certs.sh").read_text()
+    assert "make_cert router router IP:10.0.0.9" in script

@@ -56,6 +56,7 @@ from ..errors import BusError
 from ..inputs import InputDecoder, goal_id_of
 from ..solvers.ilp.cbc import Cancel, cancel_scope, sweep_stale_dirs
 from . import topics
+from .provenance import Origin, Provenance, capture
 
 if TYPE_CHECKING:
     from ..config import NodeConfig
@@ -148,7 +149,9 @@ class Inbox:
 
     Every method is safe from any thread and returns at once; the loop
     takes items with :meth:`get`. Items are lists ``[kind, key, payload,
-    arrived]`` (``payload`` is any object for internal kinds).
+    arrived, origin]`` (``payload`` is any object for internal kinds;
+    ``origin`` what a bus sample says of its sender, see
+    :mod:`~fsw_scheduler.bus.provenance`).
     """
 
     def __init__(self, max_goals: int, max_bytes: int) -> None:
@@ -171,7 +174,13 @@ class Inbox:
     def __len__(self) -> int:
         return len(self._items)
 
-    def put_goal(self, key: str, payload: bytes, arrived: float) -> bool:
+    def put_goal(
+        self,
+        key: str,
+        payload: bytes,
+        arrived: float,
+        origin: Origin | None = None,
+    ) -> bool:
         """Queue a goal; False when the limits are reached (not queued)."""
         with self._cond:
             if (
@@ -181,7 +190,7 @@ class Inbox:
                 return False
             self.goals += 1
             self.bytes += len(payload)
-            self._items.append(["goal", key, payload, arrived])
+            self._items.append(["goal", key, payload, arrived, origin])
             self._cond.notify()
             return True
 
@@ -193,16 +202,23 @@ class Inbox:
                 self.goals_lost += 1
                 return
             self.busy_notices += 1
-            self._items.append(["busy", goal_id, waiting, 0.0])
+            self._items.append(["busy", goal_id, waiting, 0.0, None])
             self._cond.notify()
 
-    def put_latest(self, kind: str, key: str, payload: bytes) -> None:
+    def put_latest(
+        self,
+        kind: str,
+        key: str,
+        payload: bytes,
+        origin: Origin | None = None,
+    ) -> None:
         """Queue a sample; a newer one on the same key replaces it."""
         with self._cond:
             pending = self._latest.get(key)
             if pending is not None:
                 self.bytes += len(payload) - len(pending[2])
                 pending[2] = payload
+                pending[4] = origin
                 if kind == "clock":
                     self.clock_superseded += 1
                 else:
@@ -215,7 +231,7 @@ class Inbox:
                 self.lost += 1
                 return
             self.bytes += len(payload)
-            item = [kind, key, payload, 0.0]
+            item = [kind, key, payload, 0.0, origin]
             self._latest[key] = item
             self._items.append(item)
             self._cond.notify()
@@ -227,14 +243,14 @@ class Inbox:
                 self.queries_dropped += 1
                 return False
             self.queries += 1
-            self._items.append(["query", "", item, 0.0])
+            self._items.append(["query", "", item, 0.0, None])
             self._cond.notify()
             return True
 
     def put(self, kind: str, item: Any) -> None:
         """Queue an internal item (solve results, wake-ups): unbounded."""
         with self._cond:
-            self._items.append([kind, "", item, 0.0])
+            self._items.append([kind, "", item, 0.0, None])
             self._cond.notify()
 
     def get(self, timeout: float) -> list[Any] | None:
@@ -430,6 +446,10 @@ class SchedulerNode:
     security
         How the bus is protected (:func:`~fsw_scheduler.bus.security.
         assess`), published in ``scheduler/config``.
+    publishers
+        Who the access-control policy lets publish on a key
+        (:func:`~fsw_scheduler.bus.security.policy_publishers`), to tell
+        the sender of each input (:mod:`~fsw_scheduler.bus.provenance`).
 
     Examples
     --------
@@ -455,6 +475,7 @@ class SchedulerNode:
         durable: bool = False,
         journal_max_bytes: int | None = None,
         clock_start: int = 0,
+        publishers: Callable[[str], frozenset[str] | None] | None = None,
     ) -> None:
         if config.horizon is not None:
             problem = problem.replace(horizon=config.horizon)
@@ -499,6 +520,7 @@ class SchedulerNode:
         self._declared: list[Any] = []
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._security = security
+        self._provenance = Provenance(publishers)
 
     # -- lifecycle -----------------------------------------------------------
 
@@ -515,6 +537,7 @@ class SchedulerNode:
             self._publishers[suffix] = session.declare_publisher(
                 key(suffix), encoding=JSON
             )
+        self._declared.append(self._provenance.declare(session))
         inputs = [
             (topics.GOALS, "goal"),
             (topics.CLOCK, "clock"),
@@ -641,9 +664,12 @@ class SchedulerNode:
                     return
                 key = str(sample.key_expr)
                 payload = sample.payload.to_bytes()
+                origin = capture(sample)
                 if kind != "goal":
-                    inbox.put_latest(kind, key, payload)
-                elif not inbox.put_goal(key, payload, self._seconds()):
+                    inbox.put_latest(kind, key, payload, origin)
+                elif not inbox.put_goal(
+                    key, payload, self._seconds(), origin
+                ):
                     # Refused unread, but never silently: the loop
                     # publishes a goal_rejected naming it.
                     waiting = inbox.goals + self._engine_waiting
@@ -733,7 +759,7 @@ class SchedulerNode:
         item = self._inbox.get(timeout=max(timeout, 0.001))
         if item is None:
             return
-        kind, key, payload, arrived = item
+        kind, key, payload, arrived, origin = item
         if kind == "wake":
             return
         if kind == "resume":
@@ -753,7 +779,7 @@ class SchedulerNode:
                 ),
             )
         elif kind == "goal":
-            self._on_sample(kind, key, payload, arrived)
+            self._on_sample(kind, key, payload, origin, arrived)
         elif kind == "busy":
             self._on_sample(
                 kind,
@@ -761,7 +787,7 @@ class SchedulerNode:
                 messages.encode(messages.Busy(key, payload)),
             )
         else:
-            self._on_sample(kind, key, payload)
+            self._on_sample(kind, key, payload, origin)
 
     def _tick_wall_clock(self) -> None:
         if self._clock is None:
@@ -800,17 +826,35 @@ class SchedulerNode:
         return bus_now if bus_now is not None else 0
 
     def _on_sample(
-        self, kind: str, key: str, payload: bytes, arrived: float = 0.0
+        self,
+        kind: str,
+        key: str,
+        payload: bytes,
+        origin: Origin | None = None,
+        arrived: float = 0.0,
     ) -> None:
         self._journal.write(key, payload)
+        source = None
+        if kind not in ("busy", "stalled"):  # bus inputs only
+            source = self._provenance.resolve(key, origin)
+            self._journal.write(
+                self.topics.key(topics.SOURCES),
+                messages.encode(messages.InputSource(key, source)),
+            )
         event = self._decoder.event(key, payload)
         if isinstance(event, GoalArrived) and len(self._arrivals) < 4096:
             self._arrivals.setdefault(event.goal.goal_id, arrived)
         if kind == "clock" and isinstance(event, Tick):
             self._last_clock_s = self._seconds()
             self._stall_reported = False
-        if event is not None:
+        if event is not None and source is None:
             self._step(event)
+        elif event is not None and source is not None:
+            self._provenance.begin(event, source)
+            try:
+                self._step(event)
+            finally:
+                self._provenance.end()
 
     def _step(self, event: Event) -> None:
         self._sync_counters()
@@ -843,7 +887,10 @@ class SchedulerNode:
                 self._execute(command)
             return
         outputs = [
-            (command.suffix, messages.encode(command.message))
+            (
+                command.suffix,
+                messages.encode(self._provenance.annotate(command.message)),
+            )
             for command in commands
             if isinstance(command, Publish)
         ]
@@ -912,7 +959,8 @@ class SchedulerNode:
 
     def _execute(self, command: Command) -> None:
         if isinstance(command, Publish):
-            self._publish_raw(command.suffix, messages.encode(command.message))
+            message = self._provenance.annotate(command.message)
+            self._publish_raw(command.suffix, messages.encode(message))
         elif isinstance(command, StartSolve):
             future = self._workers.submit(
                 self._solve_scoped, command, self._solve_config(command)

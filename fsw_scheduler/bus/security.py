@@ -40,25 +40,34 @@ from typing import TYPE_CHECKING, Any
 
 from .. import messages
 from ..errors import ConfigError
+from ..model import id_issue
 from . import topics
 
 if TYPE_CHECKING:
-    from collections.abc import Iterable, Mapping
+    from collections.abc import Callable, Iterable, Mapping
 
     import zenoh
 
 __all__ = [
     "PROFILES",
     "ROLES",
+    "TOPOLOGIES",
     "Role",
     "access_control",
     "assess",
+    "policy_publishers",
     "render_profile",
+    "roles_of",
     "write_profile",
 ]
 
 #: Profiles shipped in ``fsw_scheduler/profiles``.
 PROFILES = ("secure",)
+
+#: ``star``: the scheduler listens and every other role connects to it.
+#: ``router``: a Zenoh router listens and every role, the scheduler (or
+#: its redundant twins) included, connects to it.
+TOPOLOGIES = ("star", "router")
 
 #: What every authorised component may read: the scheduler's outputs
 #: (subscribe, query, and watch its liveliness token).
@@ -137,6 +146,26 @@ ROLES: dict[str, Role] = {
     )
 }
 
+#: The hub of the router topology (not a component: no role of its own).
+ROUTER = Role(
+    "router",
+    "The Zenoh router of the router topology: every role, the scheduler "
+    "included, connects to it, and its policy is the one that protects "
+    "the spacecraft.",
+    reads=(),
+)
+
+
+def roles_of(topology: str = "star") -> list[str]:
+    """The roles that get a configuration and a certificate."""
+    if topology not in TOPOLOGIES:
+        raise ConfigError(
+            f"unknown topology {topology!r}; topologies: "
+            f"{', '.join(TOPOLOGIES)}"
+        )
+    return [*ROLES, *(["router"] if topology == "router" else [])]
+
+
 #: Messages a role sends to the scheduler, besides its puts.
 _TO_SCHEDULER_READS = ("declare_subscriber",)
 _TO_SCHEDULER_QUERIES = (
@@ -164,31 +193,35 @@ class _Grant:
     label: str
 
 
-def _grants(role: Role) -> list[_Grant]:
-    """What flows between ``role`` and the scheduler, both ways."""
+def _grants(role: Role, hub: str = "scheduler") -> list[_Grant]:
+    """What flows between ``role`` and the ``hub`` it connects to.
+
+    The hub is the scheduler (star) or a router that forwards between the
+    scheduler and the roles (router): a role's grants are the same.
+    """
+    if role.name == "scheduler" and hub == "router":
+        return _scheduler_via_router()
     out = []
     if role.puts:
-        out.append(_Grant(role.name, "scheduler", ("put",), role.puts, "put"))
+        out.append(_Grant(role.name, hub, ("put",), role.puts, "put"))
     out += [
-        _Grant(
-            role.name, "scheduler", _TO_SCHEDULER_READS, role.reads, "read"
-        ),
+        _Grant(role.name, hub, _TO_SCHEDULER_READS, role.reads, "read"),
         _Grant(
             role.name,
-            "scheduler",
+            hub,
             _TO_SCHEDULER_QUERIES,
             (SCHEDULER_OUTPUTS,),
             "query",
         ),
         _Grant(
-            "scheduler",
+            hub,
             role.name,
             _FROM_SCHEDULER_OUTPUTS,
             (SCHEDULER_OUTPUTS,),
             "outputs",
         ),
         _Grant(
-            "scheduler",
+            hub,
             role.name,
             ("declare_subscriber",),
             SCHEDULER_INPUTS,
@@ -198,14 +231,54 @@ def _grants(role: Role) -> list[_Grant]:
     return out
 
 
+def _scheduler_via_router() -> list[_Grant]:
+    """The scheduler behind a router: its outputs go out; the inputs, the
+    readers' subscriptions and queries come in. Everything on
+    ``scheduler/**`` flows both ways too, so that redundant schedulers see
+    each other's liveliness tokens and shared snapshots."""
+    everything = ("put", "reply", "declare_queryable", "liveliness_token")
+    watch = ("query", "declare_liveliness_subscriber", "liveliness_query")
+    return [
+        _Grant(
+            "scheduler", "router", everything, (SCHEDULER_OUTPUTS,), "outputs"
+        ),
+        _Grant(
+            "scheduler",
+            "router",
+            ("declare_subscriber",),
+            (*SCHEDULER_INPUTS, SCHEDULER_OUTPUTS),
+            "read",
+        ),
+        _Grant("scheduler", "router", watch, (SCHEDULER_OUTPUTS,), "query"),
+        _Grant(
+            "router",
+            "scheduler",
+            ("put",),
+            (*SCHEDULER_INPUTS, SCHEDULER_OUTPUTS),
+            "inputs",
+        ),
+        _Grant(
+            "router",
+            "scheduler",
+            ("reply", "declare_queryable", "liveliness_token", *watch),
+            (SCHEDULER_OUTPUTS,),
+            "twins",
+        ),
+        _Grant(
+            "router", "scheduler", ("declare_subscriber",), ("**",), "readers"
+        ),
+    ]
+
+
 def _check_names(names: Mapping[str, Iterable[str]]) -> dict[str, list[str]]:
-    unknown = set(names) - set(ROLES)
+    known = roles_of("router")
+    unknown = set(names) - set(known)
     if unknown:
         raise ConfigError(
             f"unknown role(s) {', '.join(sorted(unknown))}; roles are "
-            f"{', '.join(ROLES)}"
+            f"{', '.join(known)}"
         )
-    result = {role: [role] for role in ROLES}
+    result = {role: [role] for role in known}
     for role, given in names.items():
         cns = [cn for cn in given if cn]
         if not cns:
@@ -218,6 +291,7 @@ def access_control(
     role: str,
     spacecraft: str = topics.DEFAULT_SPACECRAFT,
     names: Mapping[str, Iterable[str]] | None = None,
+    topology: str = "star",
 ) -> dict[str, Any]:
     """The ``access_control`` section of one role's Zenoh configuration.
 
@@ -232,24 +306,33 @@ def access_control(
         Several names give one role to several certificates (e.g. ground
         and on-board autonomy both in ``goals``).
 
+    topology
+        One of :data:`TOPOLOGIES`.
+
     Returns
     -------
     dict
-        Default deny; for the scheduler, one subject per other role; for
-        any other role, one subject (the scheduler).
+        Default deny; for the hub (the scheduler, or the router), one
+        subject per role connecting to it; for any other role, one subject
+        (the hub).
     """
-    if role not in ROLES:
+    if role not in roles_of(topology):
         raise ConfigError(f"unknown role {role!r}")
+    # A wildcard in the spacecraft id would widen every rule.
+    reason = id_issue(spacecraft)
+    if reason is not None:
+        raise ConfigError(f"spacecraft: the spacecraft id {reason}")
     cns = _check_names(names or {})
     tree = topics.Topics(spacecraft)
     rules: list[dict[str, Any]] = []
     policies: list[dict[str, Any]] = []
-    peers = [r for r in ROLES.values() if r.name != "scheduler"]
-    if role != "scheduler":
+    hub = "scheduler" if topology == "star" else "router"
+    peers = [r for r in ROLES.values() if r.name != hub]
+    if role != hub:
         peers = [ROLES[role]]
     for peer in peers:
         ids = []
-        for grant in _grants(peer):
+        for grant in _grants(peer, hub):
             incoming = grant.receiver == role
             rule_id = f"{grant.sender}-{grant.label}-to-{grant.receiver}"
             ids.append(rule_id)
@@ -262,17 +345,17 @@ def access_control(
                     "key_exprs": [tree.key(k) for k in grant.keys],
                 }
             )
-        subject = peer.name if role == "scheduler" else "scheduler"
+        subject = peer.name if role == hub else hub
         policies.append(
             {"id": f"{peer.name}", "rules": ids, "subjects": [subject]}
         )
-    if role == "scheduler":
+    if role == hub:
         subjects = [
             {"id": peer.name, "cert_common_names": cns[peer.name]}
             for peer in peers
         ]
     else:
-        subjects = [{"id": "scheduler", "cert_common_names": cns["scheduler"]}]
+        subjects = [{"id": hub, "cert_common_names": cns[hub]}]
     return {
         "enabled": True,
         "default_permission": "deny",
@@ -321,6 +404,7 @@ def render_profile(
     endpoint: str = f"tls/localhost:{DEFAULT_PORT}",
     listen: str | None = None,
     names: Mapping[str, Iterable[str]] | None = None,
+    topology: str = "star",
 ) -> str:
     """The Zenoh configuration (JSON5 text) of one role.
 
@@ -335,33 +419,44 @@ def render_profile(
     certs
         Folder holding ``ca.pem`` and ``<role>.pem`` / ``<role>.key``.
     endpoint
-        Where the other roles connect to the scheduler; its host must be
-        named in the scheduler's certificate.
+        Where the roles connect to the hub (the scheduler, or the router);
+        its host must be named in the hub's certificate.
     listen
-        Where the scheduler listens (default: ``endpoint``'s port on every
+        Where the hub listens (default: ``endpoint``'s port on every
         interface).
     names
         Certificate common names per role (default: the role's name).
+    topology
+        One of :data:`TOPOLOGIES`.
     """
-    if role not in ROLES:
+    if role not in roles_of(topology):
         raise ConfigError(f"unknown role {role!r}")
     if not endpoint.startswith("tls/"):
         raise ConfigError(f"endpoint {endpoint!r}: must be tls/HOST:PORT")
     if listen is None:
         listen = f"tls/[::]:{_port(endpoint)}"
     folder = Path(certs)
-    is_scheduler = role == "scheduler"
+    hub = "scheduler" if topology == "star" else "router"
+    is_hub = role == hub
+    summary = ROUTER.summary if role == "router" else ROLES[role].summary
+    if role == "scheduler" and topology == "router":
+        summary += " Here behind the router, with any redundant twin."
+    mode = "client"
+    if is_hub:
+        mode = "peer" if hub == "scheduler" else "router"
     return _template(profile).substitute(
         ROLE=role,
         SPACECRAFT=spacecraft,
-        ROLE_HELP="\n// ".join(textwrap.wrap(ROLES[role].summary, 72)),
-        MODE=json.dumps("peer" if is_scheduler else "client"),
-        LISTEN=json.dumps([listen] if is_scheduler else []),
-        CONNECT=json.dumps([] if is_scheduler else [endpoint]),
+        ROLE_HELP="\n// ".join(textwrap.wrap(summary, 72)),
+        MODE=json.dumps(mode),
+        LISTEN=json.dumps([listen] if is_hub else []),
+        CONNECT=json.dumps([] if is_hub else [endpoint]),
         ROOT_CA=json.dumps(str(folder / "ca.pem")),
         CERTIFICATE=json.dumps(str(folder / f"{role}.pem")),
         PRIVATE_KEY=json.dumps(str(folder / f"{role}.key")),
-        ACCESS_CONTROL=_json5(access_control(role, spacecraft, names)),
+        ACCESS_CONTROL=_json5(
+            access_control(role, spacecraft, names, topology)
+        ),
     )
 
 
@@ -418,12 +513,15 @@ def certs_script(
     endpoint: str,
     names: Mapping[str, Iterable[str]] | None = None,
     ca_name: str = "fsw-scheduler deployment CA",
+    topology: str = "star",
 ) -> str:
     """A shell script making the CA and the role certificates (openssl).
 
-    The scheduler's certificate names the host of ``endpoint`` (plus
-    ``localhost`` and ``127.0.0.1``), since connecting roles check it.
+    The hub's certificate (the scheduler's, or the router's) names the
+    host of ``endpoint`` (plus ``localhost`` and ``127.0.0.1``), since
+    connecting roles check it.
     """
+    hub = "scheduler" if topology == "star" else "router"
     cns = _check_names(names or {})
     host = _host(endpoint)
     alt = ["DNS:localhost", "IP:127.0.0.1"]
@@ -435,8 +533,8 @@ def certs_script(
     if extra not in alt:
         alt.insert(0, extra)
     calls = []
-    for role in ROLES:
-        san = ",".join(alt) if role == "scheduler" else f"DNS:{role}"
+    for role in roles_of(topology):
+        san = ",".join(alt) if role == hub else f"DNS:{role}"
         calls.append(
             "make_cert "
             + " ".join(shlex.quote(v) for v in (role, cns[role][0], san))
@@ -457,6 +555,7 @@ def write_profile(
     endpoint: str = f"tls/localhost:{DEFAULT_PORT}",
     listen: str | None = None,
     names: Mapping[str, Iterable[str]] | None = None,
+    topology: str = "star",
 ) -> list[Path]:
     """Write ``<role>.json5`` for every role and ``make-certs.sh`` to ``out``.
 
@@ -470,7 +569,7 @@ def write_profile(
     certs_dir = Path(certs) if certs is not None else folder / "certs"
     certs_abs = certs_dir.resolve()
     written = []
-    for role in ROLES:
+    for role in roles_of(topology):
         path = folder / f"{role}.json5"
         path.write_text(
             render_profile(
@@ -481,11 +580,14 @@ def write_profile(
                 endpoint=endpoint,
                 listen=listen,
                 names=names,
+                topology=topology,
             )
         )
         written.append(path)
     script = folder / "make-certs.sh"
-    script.write_text(certs_script(certs_abs, endpoint, names))
+    script.write_text(
+        certs_script(certs_abs, endpoint, names, topology=topology)
+    )
     script.chmod(0o755)
     written.append(script)
     return written
@@ -600,3 +702,66 @@ def assess(
         acknowledged=acknowledged and bool(warnings),
         warnings=tuple(warnings),
     )
+
+
+def policy_publishers(
+    config: zenoh.Config,
+) -> Callable[[str], frozenset[str] | None] | None:
+    """Who the access-control policy lets publish on a key, by name.
+
+    Parameters
+    ----------
+    config
+        The node's Zenoh configuration.
+
+    Returns
+    -------
+    callable or None
+        None without a default-deny policy. Otherwise a function from a
+        key to the certificate common names allowed to ``put`` on it
+        (ingress), or None for a key that a subject without names (a
+        wildcard) may publish on. Deny rules are not subtracted: the
+        answer may name too many, never too few.
+    """
+    import zenoh
+
+    acl = _get(config, "access_control") or {}
+    if not acl.get("enabled") or acl.get("default_permission") != "deny":
+        return None
+    rules = {r["id"]: r for r in acl.get("rules") or []}
+    subjects = {s["id"]: s for s in acl.get("subjects") or []}
+    grants: list[tuple[list[zenoh.KeyExpr], frozenset[str] | None]] = []
+    for policy in acl.get("policies") or []:
+        names: set[str] | None = set()
+        for subject_id in policy.get("subjects") or []:
+            cns = subjects.get(subject_id, {}).get("cert_common_names")
+            if not cns:
+                names = None
+                break
+            names.update(cns)  # type: ignore[union-attr]
+        for rule_id in policy.get("rules") or []:
+            rule = rules.get(rule_id, {})
+            flows = rule.get("flows") or ["ingress", "egress"]
+            if (
+                "put" in (rule.get("messages") or [])
+                and "ingress" in flows
+                and rule.get("permission") == "allow"
+            ):
+                grants.append(
+                    (
+                        [zenoh.KeyExpr(k) for k in rule["key_exprs"]],
+                        None if names is None else frozenset(names),
+                    )
+                )
+
+    def publishers(key: str) -> frozenset[str] | None:
+        target = zenoh.KeyExpr(key)
+        found: set[str] = set()
+        for exprs, names in grants:
+            if any(expr.includes(target) for expr in exprs):
+                if names is None:
+                    return None
+                found |= names
+        return frozenset(found)
+
+    return publishers

@@ -27,6 +27,8 @@ NODE_INFO = "scheduler/config"
 ALIVE = "scheduler/alive"
 #: Recorded only (never published): the ticks of the scheduler's own clock.
 TICKS = "scheduler/ticks"
+#: Recorded only (never published): the source of each input.
+SOURCES = "scheduler/sources"
 #: The engine's whole state: first message of each journal file (resume),
 #: and published by an active node for its hot standby.
 SNAPSHOT = "scheduler/snapshot"
@@ -101,6 +103,7 @@ class Topics(msgspec.Struct, frozen=True):
             SOLVES: "solve_record",
             NODE_INFO: "node_info",
             TICKS: "clock",
+            SOURCES: "input_source",
             SNAPSHOT: "snapshot",
             BUSY: "busy",
             STALLED: "stalled",

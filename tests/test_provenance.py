@@ -1,0 +1,106 @@
+"""Tests of the sources of inputs and verdicts (no bus: links are fed)."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import zenoh
+
+from fsw_scheduler import messages
+from fsw_scheduler.bus.provenance import MAX_PENDING_GOALS, Provenance
+from fsw_scheduler.engine import GoalArrived, InputRejected
+from fsw_scheduler.goal import Goal
+
+GOALS = "fsw/sat1/scheduler/goals"
+ALLOWED = {GOALS: frozenset({"ground", "autonomy"})}
+
+
+def provenance(links: dict[str, str | None]) -> Provenance:
+    """A Provenance whose session has these links (zid -> name)."""
+    tracker = Provenance(lambda key: ALLOWED.get(key, frozenset()))
+    for zid, name in links.items():
+        tracker._on_link(
+            SimpleNamespace(
+                kind=zenoh.SampleKind.PUT,
+                link=SimpleNamespace(zid=zid, auth_identifier=name),
+            )
+        )
+    return tracker
+
+
+def test_a_claimed_session_with_an_allowed_link_is_named() -> None:
+    """Tests basis 'link': the claim and the policy agree."""
+    tracker = provenance({"aa": "ground", "bb": "executor"})
+    assert tracker.resolve(GOALS, ("aa", 3, 7)) == messages.Source(
+        "aa", 3, 7, "ground", "link"
+    )
+
+
+def test_a_claim_the_policy_contradicts_falls_back_to_the_policy() -> None:
+    """Tests that claiming another role's session does not borrow its name."""
+    tracker = provenance({"aa": "ground", "bb": "executor"})
+    source = tracker.resolve(GOALS, ("bb", 1, 1))
+    assert (source.zid, source.identity, source.basis) == (
+        "bb",
+        "ground",
+        "policy",
+    )
+
+
+def test_without_a_claim_the_policy_names_the_candidates() -> None:
+    """Tests basis 'policy' with two connected goal certificates."""
+    tracker = provenance({"aa": "ground", "cc": "autonomy", "bb": "exec"})
+    assert tracker.resolve(GOALS, None) == messages.Source(
+        identity="autonomy|ground", basis="policy"
+    )
+    tracker._on_link(
+        SimpleNamespace(
+            kind=zenoh.SampleKind.DELETE,
+            link=SimpleNamespace(zid="cc", auth_identifier="autonomy"),
+        )
+    )
+    assert tracker.resolve(GOALS, None).identity == "ground"
+
+
+def test_without_a_policy_only_links_name_senders() -> None:
+    """Tests that with no access control only a direct link names one."""
+    tracker = Provenance(None)
+    tracker._on_link(
+        SimpleNamespace(
+            kind=zenoh.SampleKind.PUT,
+            link=SimpleNamespace(zid="aa", auth_identifier=None),
+        )
+    )
+    assert tracker.resolve(GOALS, ("aa", 1, 1)) == messages.Source("aa", 1, 1)
+    assert tracker.resolve(GOALS, None) == messages.Source()
+
+
+def test_verdicts_get_the_source_of_their_input() -> None:
+    """Tests annotate: now, later for a goal, never for other statuses."""
+    tracker = provenance({"aa": "ground"})
+    source = tracker.resolve(GOALS, ("aa", 1, 1))
+    tracker.begin(GoalArrived(Goal(goal_id="g1", tasks=())), source)
+    plan = messages.Status(state="ok", plan_id=1, event="plan")
+    assert tracker.annotate(plan) is plan
+    tracker.end()
+    accepted = messages.Status(
+        state="ok", plan_id=2, event="goal_accepted", goal_id="g1"
+    )
+    assert tracker.annotate(accepted).source == source  # type: ignore[attr-defined]
+    assert tracker.annotate(accepted).source is None  # type: ignore[attr-defined]
+    tracker.begin(InputRejected("k", "activity_report", ()), source)
+    rejected = messages.Status(state="ok", plan_id=2, event="input_rejected")
+    assert tracker.annotate(rejected).source == source  # type: ignore[attr-defined]
+    tracker.end()
+    assert tracker.annotate(rejected).source is None  # type: ignore[attr-defined]
+
+
+def test_pending_goals_are_bounded() -> None:
+    """Tests that goals never judged are forgotten, oldest first."""
+    tracker = provenance({})
+    for idx in range(MAX_PENDING_GOALS + 5):
+        tracker.begin(
+            GoalArrived(Goal(goal_id=f"g{idx}", tasks=())), messages.Source()
+        )
+    assert len(tracker._goals) == MAX_PENDING_GOALS
+    assert "g0" not in tracker._goals
