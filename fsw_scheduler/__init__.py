@@ -1,7 +1,7 @@
 """fsw_scheduler: on-board activity scheduler for spacecraft.
 
 The public API: :func:`solve` a problem into a :class:`Plan`,
-:func:`check` a plan independently of the solver, :func:`replan` a
+:func:`check_plan` a plan independently of the solver, :func:`replan` a
 running plan when a goal or an event arrives. Each takes the typed
 objects, plain dicts or JSON text (:mod:`fsw_scheduler.api`); a plan
 gives itself back as :meth:`Plan.to_dict` or :meth:`Plan.to_json`.
@@ -18,7 +18,7 @@ from .api import (
     as_problem as as_problem,
 )
 from .api import (
-    check as check,
+    check_plan as check_plan,
 )
 from .api import (
     replan as replan,
@@ -28,9 +28,6 @@ from .api import (
 )
 from .check import (
     CheckReport as CheckReport,
-)
-from .check import (
-    check_plan as check_plan,
 )
 from .errors import (
     BusError as BusError,

@@ -1,13 +1,15 @@
 """The library entry points, taking typed objects, plain dicts or JSON.
 
-:func:`solve`, :func:`check` and :func:`replan` accept a problem, a plan,
+:func:`solve`, :func:`check_plan` and :func:`replan` accept a problem, a plan,
 a goal or an event in any of the forms a caller is likely to hold:
 
 * the typed object (:class:`~fsw_scheduler.model.Problem`,
   :class:`~fsw_scheduler.solution.Plan`, :class:`~fsw_scheduler.goal.Goal`,
   an event of :mod:`fsw_scheduler.reschedule`), used as it is;
 * a plain ``dict`` as :func:`json.load` returns it;
-* JSON text (``str`` or ``bytes``), as read from a file or the bus.
+* JSON text (``str`` or ``bytes``), as read from a file or the bus;
+* a :class:`pathlib.Path` to a JSON file (a ``str`` is always JSON text,
+  never a file name).
 
 Dicts and text go through the same strict decoding and validation as the
 command line, so a mistake raises :class:`~fsw_scheduler.errors.InputError`
@@ -22,12 +24,15 @@ the first time later would rebind it to the module.)
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import msgspec
 
-from .check import CheckReport, check_plan
+from .check import CheckReport
+from .check import check_plan as check_typed
 from .errors import FieldIssue, InputError
 from .goal import Goal
 from .model import Problem, decode_problem, decode_strict, validate_problem
@@ -49,23 +54,37 @@ __all__ = [
     "as_change",
     "as_plan",
     "as_problem",
-    "check",
+    "check_plan",
     "replan",
     "solve",
 ]
 
-#: A problem as a typed object, a dict or JSON text.
-ProblemLike = Problem | Mapping[str, Any] | str | bytes
-#: A plan as a typed object, a dict or JSON text.
-PlanLike = Plan | Mapping[str, Any] | str | bytes
-#: A goal or an event as a typed object, a dict or JSON text.
+#: A problem as a typed object, a dict, JSON text or a JSON file.
+ProblemLike = Problem | Mapping[str, Any] | str | bytes | os.PathLike[str]
+#: A plan as a typed object, a dict, JSON text or a JSON file.
+PlanLike = Plan | Mapping[str, Any] | str | bytes | os.PathLike[str]
+#: A goal or an event as a typed object, a dict, JSON text or a JSON file.
 ChangeLike = (
-    Goal | ActivityFailed | LevelsMeasured | Mapping[str, Any] | str | bytes
+    Goal
+    | ActivityFailed
+    | LevelsMeasured
+    | Mapping[str, Any]
+    | str
+    | bytes
+    | os.PathLike[str]
 )
 
 
 def _as_json(value: object, what: str) -> bytes | str:
-    """JSON text of a dict, or the text itself."""
+    """JSON text of a dict or of a file, or the text itself."""
+    if isinstance(value, os.PathLike):
+        try:
+            return Path(value).read_bytes()
+        except OSError as error:
+            raise InputError(
+                [FieldIssue("", f"cannot read {value}: {error.strerror}")],
+                what,
+            ) from None
     if isinstance(value, str | bytes | bytearray):
         return bytes(value) if isinstance(value, bytearray) else value
     if isinstance(value, Mapping):
@@ -187,7 +206,7 @@ def solve(
     )
 
 
-def check(problem: ProblemLike, plan: PlanLike) -> CheckReport:
+def check_plan(problem: ProblemLike, plan: PlanLike) -> CheckReport:
     """Check a plan against a problem, both in any accepted form.
 
     Parameters
@@ -204,7 +223,7 @@ def check(problem: ProblemLike, plan: PlanLike) -> CheckReport:
         the objective recomputed from the activities
         (see :func:`fsw_scheduler.check.check_plan`).
     """
-    return check_plan(as_problem(problem), as_plan(plan))
+    return check_typed(as_problem(problem), as_plan(plan))
 
 
 def replan(

@@ -259,7 +259,19 @@ def _cmd_replan(args: argparse.Namespace) -> int:
     if args.gantt and new_plan.status.has_plan:
         from .plot import gantt
 
-        gantt(new_problem, new_plan, Path(args.gantt), now=args.now)
+        removed = {
+            r.task: r.rule
+            for r in diff.removed
+            if r.rule not in ("finished", "unscheduled")
+        }
+        gantt(
+            new_problem,
+            new_plan,
+            Path(args.gantt),
+            now=args.now,
+            removed=removed or None,
+            previous=plan.activities,
+        )
         log.info("wrote %s", args.gantt)
     return EXIT_OK if new_plan.status.has_plan else EXIT_NO_PLAN
 
@@ -365,14 +377,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
     import time
 
     from .bus.node import SchedulerNode
-    from .bus.session import toml_config_file, zenoh_config
+    from .bus.session import settings_file, zenoh_config
     from .config import load_config
     from .messages import schema_lookup
     from .model import Problem
     from .recording import Recorder
 
     try:
-        config = load_config(toml_config_file(args)).replace(
+        config = load_config(settings_file(args)).replace(
             spacecraft=args.spacecraft,
             clock=args.clock,
             time_unit=args.time_unit,
@@ -652,6 +664,7 @@ def _cmd_record(args: argparse.Namespace) -> int:
     _check_spacecraft(args.spacecraft)
     key = args.key or Topics(args.spacecraft).everything
     stop = threading.Event()
+    exclude = [_key_expression(k, "--exclude") for k in args.exclude]
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
     recorder = Recorder(
@@ -663,17 +676,62 @@ def _cmd_record(args: argparse.Namespace) -> int:
         ),
         flush_interval_ns=int(args.flush_interval * 1e9),
         schemas=schema_lookup(args.spacecraft),
+        only_json=args.json_only,
     )
     with zenoh.open(zenoh_config(args)) as session, recorder:
+        recorder.add_metadata(
+            "fsw_scheduler.recording",
+            recording_metadata(key, exclude, args.spacecraft),
+        )
         log.info("recording %s to %s (Ctrl-C to stop)", key, args.out)
-        stats = record(session, key, recorder, stop)
+        stats = record(session, key, recorder, stop, exclude=exclude)
     log.info(
         "recorded %d messages on %d keys into %s",
         stats.written,
         len(stats.by_key),
         ", ".join(map(str, recorder.paths)),
     )
+    if stats.skipped or stats.excluded:
+        log.info(
+            "left out: %d non-JSON samples, %d on excluded keys",
+            stats.skipped,
+            stats.excluded,
+        )
     return EXIT_OK
+
+
+def recording_metadata(
+    key: str, exclude: Sequence[str], spacecraft: str
+) -> dict[str, str]:
+    """The ``fsw_scheduler.recording`` metadata of a ``record`` file."""
+    import time
+    from datetime import datetime, timezone
+
+    from .foxglove import versions
+
+    now = datetime.fromtimestamp(time.time(), tz=timezone.utc)
+    return {
+        "key": key,
+        "exclude": " ".join(exclude),
+        "spacecraft": spacecraft,
+        "start_time": now.isoformat(timespec="milliseconds").replace(
+            "+00:00", "Z"
+        ),
+        **versions(),
+    }
+
+
+def _key_expression(text: str, flag: str) -> str:
+    """Refuse a malformed key expression before opening the bus."""
+    import zenoh
+
+    try:
+        return str(zenoh.KeyExpr(text))
+    except zenoh.ZError as error:
+        raise InputError(
+            [FieldIssue(flag, f"{text!r} is not a key expression: {error}")],
+            "arguments",
+        ) from None
 
 
 def _cmd_replay(args: argparse.Namespace) -> int:
@@ -687,6 +745,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
 
     from .bus.record import replay
     from .bus.session import zenoh_config
+    from .bus.topics import Topics
 
     with zenoh.open(zenoh_config(args)) as session:
         if args.wait_matching:
@@ -705,6 +764,13 @@ def _cmd_replay(args: argparse.Namespace) -> int:
             loop=args.loop,
             include=args.include,
             exclude=args.exclude,
+            remap=dict(args.remap),
+            clock_key=(
+                None
+                if args.clock is None
+                else args.clock_key or Topics(args.spacecraft).key("clock")
+            ),
+            clock_unit_s=args.clock or 1.0,
         )
     log.info("published %d messages", count)
     return EXIT_OK
@@ -721,9 +787,46 @@ def _cmd_recover(args: argparse.Namespace) -> int:
 
 
 def _cmd_info(args: argparse.Namespace) -> int:
-    from .recording import format_info, info
+    from .recording import format_info, info, info_dict
 
-    print(format_info(info(args.file)))
+    description = info(args.file)
+    if args.json:
+        _write_json(info_dict(description), None)
+    else:
+        print(format_info(description))
+    return EXIT_OK
+
+
+def _remap_rule(text: str) -> tuple[str, str]:
+    """An argparse type: ``OLD=NEW`` key prefixes."""
+    from .bus.record import parse_remap
+
+    try:
+        ((old, new),) = parse_remap([text]).items()
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+    return old, new
+
+
+def _cmd_plot(args: argparse.Namespace) -> int:
+    _need_matplotlib("plot")
+    from .session_plot import plot_session
+
+    try:
+        drawn = plot_session(args.file, args.out)
+    except ValueError as error:
+        raise InputError([FieldIssue("", str(error))], "journal") from None
+    for path in drawn:
+        print(path)
+    if args.attach_to:
+        from .session_plot import attach_pictures
+
+        if Path(args.attach_to).resolve() == Path(args.file).resolve():
+            raise InputError(
+                [FieldIssue("--attach-to", "must differ from the journal")],
+                "arguments",
+            )
+        print(attach_pictures(args.file, drawn, args.attach_to))
     return EXIT_OK
 
 
@@ -777,10 +880,15 @@ def build_parser() -> argparse.ArgumentParser:
     def add(
         name: str, func: Command, help_: str, description: str = ""
     ) -> argparse.ArgumentParser:
+        text = textwrap.dedent(description or help_)
+        # The examples go after the flags, where --help readers look for
+        # them (the epilog), as in the zenoh and rosbag2 tools.
+        head, sep, examples = text.partition("\nexample")
         sub = commands.add_parser(
             name,
             help=help_,
-            description=textwrap.dedent(description or help_),
+            description=head.rstrip() + "\n",
+            epilog=f"example{examples}" if sep else None,
             formatter_class=argparse.RawDescriptionHelpFormatter,
             parents=[common],
         )
@@ -817,6 +925,9 @@ def build_parser() -> argparse.ArgumentParser:
         Walk the plan time unit by time unit and report every violated
         constraint by name; recompute the objective. Shares no code with
         the ILP.
+
+        example:
+          fsw-scheduler check problem.json plan.json
         """,
     )
     check.add_argument("problem", help="problem JSON file")
@@ -874,6 +985,10 @@ def build_parser() -> argparse.ArgumentParser:
         t=15, on a fast clock. Prints a live timeline, then writes the MCAP
         journal, one Gantt picture per plan and the final timeline to --out,
         and replays the journal to prove the decisions are reproduced.
+
+        examples:
+          fsw-scheduler demo
+          fsw-scheduler demo --scenario failure --out out/failure --quiet
         """,
     )
     demo.add_argument(
@@ -917,9 +1032,11 @@ def build_parser() -> argparse.ArgumentParser:
         examples:
           fsw-scheduler run --problem resources.json --clock wall --time-unit 1
           fsw-scheduler run --problem p.json --clock bus -e tcp/10.0.0.2:7447
-          fsw-scheduler run --config scheduler.toml --record session.mcap
-          fsw-scheduler run --problem p.json --config deploy/scheduler.json5 \
-              --require-secure
+          fsw-scheduler run --settings scheduler.toml --record session.mcap
+          fsw-scheduler run --settings scheduler.toml -c zenoh.json5 \\
+              -m client -e tcp/10.0.0.1:7447 --no-multicast-scouting
+          fsw-scheduler run --problem p.json -c deploy/scheduler.json5 \\
+              --require-secure --state /var/lib/fsw-scheduler
 
         A bus reachable beyond loopback without TLS or access control is
         reported at start (and in scheduler/config): --insecure accepts
@@ -930,6 +1047,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--problem",
         metavar="PROBLEM.json",
         help="resources, horizon length and any initial tasks",
+    )
+    run.add_argument(
+        "--settings",
+        metavar="FILE.toml",
+        help="the scheduler's settings (strict TOML; an unknown key exits "
+        "2); flags given here override them. The old form --config "
+        "FILE.toml still works, with a deprecation message",
     )
     run.add_argument("--spacecraft", help="key prefix id (default sat1)")
     run.add_argument(
@@ -1214,10 +1338,17 @@ switches the monitor's own policy off to test the scheduler's):
         periodic flush keep a killed recorder's file recoverable (see
         `recover`). Stop with Ctrl-C or SIGTERM.
 
+        Each sample keeps its Zenoh encoding: JSON samples go to `json`
+        channels, others (CBOR, Protobuf, CDR, raw bytes, text...) to
+        channels of their own encoding, and `replay` puts them back with
+        it; --json-only skips them instead and counts them.
+
         examples:
           fsw-scheduler record --out session.mcap -e tcp/127.0.0.1:7447
           fsw-scheduler record --out plans.mcap --key 'fsw/sat1/scheduler/**'
           fsw-scheduler record --out day.mcap --split-duration 3600
+          fsw-scheduler record --out s.mcap --exclude 'fsw/sat1/clock' \\
+              --exclude 'fsw/sat1/telemetry/**' -m client -e tcp/10.0.0.1:7447
         """,
     )
     rec.add_argument(
@@ -1236,6 +1367,19 @@ switches the monitor's own policy off to test the scheduler's):
         default="sat1",
         help="spacecraft id of the default key and of the JSON Schemas "
         "attached to channels (default %(default)s)",
+    )
+    rec.add_argument(
+        "--exclude",
+        action="append",
+        default=[],
+        metavar="KEYEXPR",
+        help="do not record keys matching KEYEXPR (repeatable)",
+    )
+    rec.add_argument(
+        "--json-only",
+        action="store_true",
+        help="skip samples whose Zenoh encoding is not JSON (counted and "
+        "logged) instead of recording them under their own encoding",
     )
     rec.add_argument(
         "--compression",
@@ -1275,11 +1419,20 @@ switches the monitor's own policy off to test the scheduler's):
         compare every plan, dispatch and status with the recording (exit 0
         if identical, 1 with the first divergence otherwise).
 
+        Options follow rosbag2 where they fit: -r/--rate, --loop,
+        --start-offset, --clock (publish a bus clock from the recording's
+        time), --remap OLD=NEW (key prefixes, e.g. replay a sat1 session
+        as sat2). Each message is published with the Zenoh encoding it
+        was recorded with.
+
         examples:
           fsw-scheduler replay session.mcap --verify
-          fsw-scheduler replay session.mcap --rate 10 -e tcp/127.0.0.1:7447
+          fsw-scheduler replay session.mcap -r 10 -e tcp/127.0.0.1:7447
           fsw-scheduler replay session.mcap --burst \\
               --include 'fsw/sat1/telemetry/**' --wait-matching 5
+          fsw-scheduler replay session.mcap --remap fsw/sat1=fsw/sat2
+          fsw-scheduler replay telemetry.mcap --clock 1 --loop \\
+              --start-offset 30 --exclude 'fsw/sat1/scheduler/**'
         """,
     )
     rep.add_argument(
@@ -1296,6 +1449,7 @@ switches the monitor's own policy off to test the scheduler's):
     )
     rep.add_argument(
         "--rate",
+        "-r",
         type=positive_float,
         default=1.0,
         help="speed factor on the recorded log times (default %(default)s)",
@@ -1346,6 +1500,36 @@ switches the monitor's own policy off to test the scheduler's):
         metavar="KEYEXPR",
         help="do not publish keys matching KEYEXPR (repeatable)",
     )
+    rep.add_argument(
+        "--remap",
+        action="append",
+        default=[],
+        type=_remap_rule,
+        metavar="OLD=NEW",
+        help="publish keys under OLD (a key prefix, chunk by chunk) under "
+        "NEW instead, e.g. fsw/sat1=fsw/sat2 (repeatable; the first "
+        "matching rule applies; filters see the recorded keys)",
+    )
+    rep.add_argument(
+        "--clock",
+        nargs="?",
+        const=1.0,
+        type=positive_float,
+        metavar="S",
+        help="also publish a bus clock ({\"now\": n}) on --clock-key, unit n "
+        "at S*n seconds of recording time from its start (S default 1); "
+        "recorded messages on that key are not replayed",
+    )
+    rep.add_argument(
+        "--clock-key",
+        metavar="KEY",
+        help="the clock key, before --remap (default fsw/<spacecraft>/clock)",
+    )
+    rep.add_argument(
+        "--spacecraft",
+        default="sat1",
+        help="spacecraft of the default --clock-key (default %(default)s)",
+    )
     add_zenoh_arguments(rep)
 
     recov = add(
@@ -1378,11 +1562,54 @@ switches the monitor's own policy off to test the scheduler's):
         Print the message count, time span and every channel with its
         message count and schema (also for truncated files).
 
-        example:
+        Also lists the file's metadata records and attachments.
+
+        examples:
           fsw-scheduler info session.mcap
+          fsw-scheduler info session.mcap --json
         """,
     )
     inf.add_argument("file", help="an MCAP file")
+    inf.add_argument(
+        "--json",
+        action="store_true",
+        help="print JSON instead: file, finished, messages, start/end (ns "
+        "and UTC), duration_s, channels (topic, messages, schema, "
+        "encoding), metadata, attachments",
+    )
+
+    plo = add(
+        "plot",
+        _cmd_plot,
+        "draw every plan of a recorded session, and levels vs measured",
+        """\
+        Read a scheduler journal (run --record, demo) and draw, into
+        --out, one Gantt picture per plan (plan-<id>.png: what had run
+        before, the tasks that replan removed with the rule, one lane per
+        binary resource showing who holds it, the resource profiles and
+        the measured levels while the plan was in force) and levels.png:
+        every consumable over the session, as each plan predicted it
+        against the measured samples.
+
+        examples:
+          fsw-scheduler plot out/demo/session.mcap --out out/pictures
+          fsw-scheduler plot replay/failure.mcap --out failure-pictures
+          fsw-scheduler plot session.mcap --out pics --attach-to shared.mcap
+        """,
+    )
+    plo.add_argument("file", help="a scheduler journal (MCAP)")
+    plo.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="folder for the PNG files (created if missing)",
+    )
+    plo.add_argument(
+        "--attach-to",
+        metavar="COPY.mcap",
+        help="also write a copy of the journal with the pictures attached "
+        "(the journal itself is left as it is)",
+    )
 
     sch = add(
         "schemas",
@@ -1391,7 +1618,8 @@ switches the monitor's own policy off to test the scheduler's):
         """\
         Write one JSON Schema per message kind (problem, plan, goal, clock,
         activity report, resource level, dispatch, status, solve record,
-        node info) into a folder, named <kind>.schema.json. They are
+        node info, profiles, level check) into a folder, named
+        <kind>.schema.json. They are
         generated from the message types of the installed version, the
         same files as the project's schemas/ folder.
 

@@ -434,7 +434,7 @@ def _draw(
     The problems come from the solve records of the journal. Returns the
     pictures drawn.
     """
-    from .plot import gantt, timeline_text
+    from .plot import timeline_text
     from .recording import iter_messages
 
     problems: dict[int, Problem] = {}
@@ -445,7 +445,7 @@ def _draw(
             )
             if record.plan_id is not None:
                 problems[record.plan_id] = record.problem
-    drawn = []
+    drawn: list[Path] = []
     for plan_message in plans:
         problem = problems.get(plan_message.plan_id)
         if problem is None:
@@ -457,21 +457,16 @@ def _draw(
             unscheduled=plan_message.unscheduled,
             why=plan_message.why,
         )
-        history = [
-            a for a in executor.executed if a.start < plan_message.issued_at
-        ]
         text = timeline_text(problem, plan)
         (out_dir / f"plan-{plan_message.plan_id}.txt").write_text(text + "\n")
-        if not pictures:
-            continue
-        path = out_dir / f"plan-{plan_message.plan_id}.png"
-        gantt(
-            problem,
-            plan,
-            path,
-            title=f"plan {plan_message.plan_id} ({plan_message.trigger})",
-            now=plan_message.issued_at if history else None,
-            history=history or None,
-        )
-        drawn.append(path)
+    if pictures:
+        # The same pictures as `fsw-scheduler plot session.mcap`: what
+        # ran before, removed tasks, binary lanes, measured levels.
+        from .session_plot import attach_pictures, plot_session
+
+        drawn = plot_session(journal_path, out_dir)
+        # The journal carries its pictures (Foxglove lists attachments).
+        copy = journal_path.with_suffix(".pictures.tmp")
+        attach_pictures(journal_path, drawn, copy)
+        copy.replace(journal_path)
     return drawn

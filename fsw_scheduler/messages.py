@@ -18,6 +18,7 @@ import msgspec
 from .errors import FieldIssue, InputError
 from .goal import Goal
 from .model import Problem, decode_strict
+from .profiles import LevelCheck, Profiles
 from .reschedule import Removal
 from .solution import (
     Activity,
@@ -380,6 +381,8 @@ SCHEMA_TYPES: dict[str, Any] = {
     "busy": Busy,
     "stalled": Stalled,
     "explanation": Explanation,
+    "profiles": Profiles,
+    "level_check": LevelCheck,
 }
 
 _encoder = msgspec.json.Encoder()
@@ -494,9 +497,11 @@ _UNORDERED_KEYWORDS = frozenset({"anyOf", "oneOf", "required"})
 def schema_lookup(spacecraft: str) -> Any:
     """Topic -> JSON Schema (or None) for MCAP channels of a spacecraft."""
     from .bus.topics import Topics
+    from .foxglove import LOG_SCHEMA
 
     topics = Topics(spacecraft)
-    schemas = json_schemas()
+    # foxglove.Log is the well-known schema, not one generated here.
+    schemas = {**json_schemas(), "log": LOG_SCHEMA}
 
     def lookup(topic: str) -> dict | None:
         kind = topics.schema_kind(topic)

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from collections.abc import Iterable, Sequence
+    from collections.abc import Iterable, Mapping, Sequence
 
     from .model import Problem, Task
     from .solution import Activity, Blocker, Plan
@@ -378,6 +378,10 @@ def gantt(
     title: str | None = None,
     now: int | None = None,
     history: Sequence[Activity] | None = None,
+    removed: Mapping[str, str] | None = None,
+    previous: Sequence[Activity] | None = None,
+    measured: Mapping[str, Sequence[tuple[int, float]]] | None = None,
+    past_tasks: Sequence[Task] | None = None,
 ) -> Path:
     """Draw a plan as a Gantt chart with resource profiles and save a PNG.
 
@@ -406,6 +410,22 @@ def gantt(
         Already-executed activities, drawn faded (and cut at ``now`` when
         given). Their tasks need not be in the problem; those get rows
         after the problem's tasks. The x axis widens to show them.
+    removed
+        Tasks a replan removed, with the rule that removed each (e.g.
+        ``{"AcquisitionHF": "obsolete"}``): greyed rows, labelled with the
+        rule, drawn where ``previous`` had them planned.
+    previous
+        The activities of the plan before, for where removed tasks were.
+    measured
+        Measured consumable levels, ``{resource: [(at, level), ...]}``
+        (level at the start of unit ``at``), drawn as dots on the
+        consumable panels against the predicted profile.
+    past_tasks
+        Definitions of executed tasks that are no longer in the problem,
+        so their faded bars get their colours and binary lanes.
+
+    A panel under the tasks has one lane per binary resource, showing
+    which task holds it when (executed activities faded).
 
     Returns
     -------
@@ -424,9 +444,14 @@ def gantt(
 
     path = Path(path)
     history = list(history or ())
+    removed = dict(removed or {})
+    previous = [a for a in previous or () if a.task in removed]
+    measured = {k: list(v) for k, v in (measured or {}).items()}
     profiles = resource_profiles(problem, plan)
     rows = _row_ids(problem, history)
+    rows += [name for name in removed if name not in rows]
     names = [*problem.resources.multiple, *problem.resources.consumable]
+    lanes = list(problem.resources.binary)
 
     x_lo = min([problem.start, *(a.start for a in history)])
     x_hi = max([problem.end, *(a.end for a in history)])
@@ -434,7 +459,10 @@ def gantt(
         x_lo, x_hi = min(x_lo, now), max(x_hi, now)
 
     task_h = max(2.2, 0.34 * len(rows) + 0.9)
-    heights = [task_h] + [1.35] * len(names)
+    heights = [task_h]
+    if lanes:
+        heights.append(0.42 * len(lanes) + 0.55)
+    heights += [1.35] * len(names)
     fig = Figure(figsize=(11, sum(heights) + 0.9), layout="constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(
@@ -445,12 +473,22 @@ def gantt(
         gridspec_kw={"height_ratios": heights},
     )[:, 0]
 
-    _draw_tasks(axes[0], problem, plan, rows, history, now, Patch)
-    for ax, name in zip(axes[1:], names, strict=True):
+    past = {t.id: t for t in past_tasks or ()}
+    _draw_tasks(axes[0], problem, plan, rows, history, now, Patch, past)
+    if removed:
+        _draw_removed(axes[0], rows, removed, previous, now, plan)
+    panels = list(axes[1:])
+    if lanes:
+        _draw_lanes(
+            panels.pop(0), problem, plan, history, now, past, x_hi - x_lo
+        )
+    for ax, name in zip(panels, names, strict=True):
         if name in problem.resources.multiple:
             _draw_multiple(ax, problem, name, profiles[name])
         else:
             _draw_consumable(ax, problem, name, profiles[name])
+            if measured.get(name):
+                _draw_measured(ax, measured[name])
 
     for ax in axes:
         ax.set_xlim(x_lo, x_hi)
@@ -494,9 +532,10 @@ def _draw_tasks(
     history: list[Activity],
     now: int | None,
     Patch: Any,
+    past: Mapping[str, Task] | None = None,
 ) -> None:
     """Task panel: bars, unscheduled rows, history, legend."""
-    tasks = _task_map(problem)
+    tasks = {**(past or {}), **_task_map(problem)}
     y_of = {name: idx for idx, name in enumerate(rows)}
     bar_h = 0.62
     reasons = {name: blockers for name, blockers in _left_out(plan)}
@@ -617,6 +656,8 @@ def _draw_tasks(
     ax.set_ylim(len(rows) - 0.4, -0.6)  # first task on top
     ax.tick_params(axis="y", length=0)
 
+    # Colours of every task drawn (executed ones from ``past`` too).
+    shown = [tasks[name] for name in rows if name in tasks]
     handles = [
         Patch(
             facecolor=_PALETTE[idx % len(_PALETTE)],
@@ -627,10 +668,10 @@ def _draw_tasks(
         for idx, name in enumerate(problem.resources.binary)
         if any(
             _colour_of(problem, t) == _PALETTE[idx % len(_PALETTE)]
-            for t in problem.tasks
+            for t in shown
         )
     ]
-    if any(_colour_of(problem, t) == _NO_BINARY for t in problem.tasks):
+    if any(_colour_of(problem, t) == _NO_BINARY for t in shown):
         handles.append(Patch(facecolor=_NO_BINARY, label="no binary"))
     if history:
         handles.append(
@@ -756,4 +797,175 @@ def _draw_consumable(
         ax,
         f"{name}  (initial {_fmt(initial)}, "
         f"min {_fmt(min(low_level, initial))}){flag}",
+    )
+
+
+_REMOVED = "#9a9a9a"
+_MEASURED = "#D55E00"
+
+
+def _draw_removed(
+    ax: Any,
+    rows: list[str],
+    removed: Mapping[str, str],
+    previous: Sequence[Activity],
+    now: int | None,
+    plan: Plan,
+) -> None:
+    """Removed tasks: a grey dashed outline where they were planned and
+    the rule that removed them, on their (greyed) rows.
+
+    A task removed and brought back under the same id (a goal replacing
+    it) keeps its new bar; the note then follows the bars.
+    """
+    y_of = {name: idx for idx, name in enumerate(rows)}
+    where = {a.task: a for a in previous}
+    again = {a.task: a for a in plan.activities}
+    for name, rule in removed.items():
+        y = y_of[name]
+        was = where.get(name)
+        x = now if now is not None else ax.get_xlim()[0]
+        new = again.get(name)
+        if new is not None:
+            right = max(new.end, was.end if was is not None else new.end)
+            ax.annotate(
+                f"(the previous {name}: removed, {rule})",
+                xy=(right, y),
+                xytext=(40, 0),  # clear of the bar's own time label
+                textcoords="offset points",
+                ha="left",
+                va="center",
+                fontsize=7.5,
+                style="italic",
+                color="#555555",
+                zorder=4,
+            )
+            continue
+        if was is not None:
+            ax.barh(
+                y,
+                was.end - was.start,
+                left=was.start,
+                height=0.62,
+                color="#efefef",
+                edgecolor=_REMOVED,
+                linestyle="--",
+                linewidth=0.9,
+                zorder=2,
+            )
+            x = was.start
+        ax.text(
+            x,
+            y,
+            f" removed: {rule} ",
+            ha="left",
+            va="center",
+            fontsize=8,
+            style="italic",
+            color="#555555",
+            zorder=4,
+            bbox={
+                "facecolor": "white",
+                "edgecolor": _REMOVED,
+                "boxstyle": "round,pad=0.2",
+                "linewidth": 0.6,
+                "alpha": 0.9,
+            },
+        )
+    for label in ax.get_yticklabels():
+        if label.get_text() in removed and label.get_text() not in again:
+            label.set_color(_REMOVED)
+            label.set_style("italic")
+
+
+def _draw_lanes(
+    ax: Any,
+    problem: Problem,
+    plan: Plan,
+    history: Sequence[Activity],
+    now: int | None,
+    past: Mapping[str, Task],
+    x_span: float,
+) -> None:
+    """One lane per binary resource: which task holds it when.
+
+    A bar is named when the name fits inside it (about 4.3 points per
+    character at 7 points, on an axis about 650 points wide).
+    """
+    tasks = {**past, **_task_map(problem)}
+    units_per_char = 4.3 * max(x_span, 1) / 650
+    lanes = list(problem.resources.binary)
+    y_of = {name: idx for idx, name in enumerate(lanes)}
+    # Executed tasks may have left the problem; a task's uses are known
+    # only from the problem, so executed bars are drawn for its tasks.
+    holders: list[tuple[Activity, bool]] = [
+        (a, True) for a in history if a.task in tasks
+    ] + [(a, False) for a in plan.activities]
+    for activity, executed in holders:
+        task = tasks.get(activity.task)
+        if task is None:
+            continue
+        stop = activity.end
+        if executed and now is not None:
+            stop = min(stop, now)
+        if stop <= activity.start:
+            continue
+        for name in task.uses:
+            if name not in y_of:
+                continue
+            colour = _PALETTE[y_of[name] % len(_PALETTE)]
+            ax.barh(
+                y_of[name],
+                stop - activity.start,
+                left=activity.start,
+                height=0.7,
+                color=colour,
+                alpha=0.3 if executed else 0.9,
+                edgecolor="#333333",
+                linewidth=0.5,
+                zorder=3,
+            )
+            width = stop - activity.start
+            if width >= (len(activity.task) + 1) * units_per_char:
+                ax.text(
+                    activity.start + width / 2,
+                    y_of[name],
+                    activity.task,
+                    ha="center",
+                    va="center",
+                    fontsize=7,
+                    color="#333333" if executed else "white",
+                    fontweight="bold",
+                    clip_on=True,
+                    zorder=4,
+                )
+    ax.set_yticks(range(len(lanes)), lanes, fontsize=8)
+    ax.set_ylim(len(lanes) - 0.5, -0.5)
+    ax.tick_params(axis="y", length=0)
+    _label(ax, "who holds each binary resource")
+    ax.set_ylim(len(lanes) - 0.5, -1.1)
+
+
+def _draw_measured(ax: Any, samples: Sequence[tuple[int, float]]) -> None:
+    """Measured levels (start of unit ``at``) as dots, with a legend."""
+    xs = [at for at, _ in samples]
+    ys = [level for _, level in samples]
+    ax.plot(
+        xs,
+        ys,
+        "o",
+        color=_MEASURED,
+        markersize=4.5,
+        markeredgecolor="white",
+        markeredgewidth=0.6,
+        zorder=6,
+        label="measured",
+    )
+    low, high = ax.get_ylim()
+    # Room above the highest dot for the panel's label and legend.
+    top = max(ys) + 0.3 * (max(high, max(ys)) - min(low, min(ys)) or 1.0)
+    ax.set_ylim(min(low, min(ys) - 0.05 * (high - low or 1.0)), max(high, top))
+    ax.plot([], [], color="#2a9d8f", linewidth=1.4, label="predicted")
+    ax.legend(
+        loc="upper right", fontsize=7, frameon=False, ncol=2, handlelength=1.2
     )

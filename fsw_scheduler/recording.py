@@ -1,9 +1,16 @@
 """MCAP recording of bus traffic: crash-safe writing, recovery and reading.
 
-One MCAP channel per key expression, ``message_encoding="json"``; a channel
-carries a ``jsonschema`` schema when one is known for its key, else none
-(schema id 0). Times are nanoseconds: ``log_time`` when the recorder saw the
-message, ``publish_time`` when the publisher stamped it.
+One MCAP channel per key expression and encoding. JSON samples go to a
+``message_encoding="json"`` channel that carries a ``jsonschema`` schema
+when one is known for its key, else none (schema id 0). Samples of another
+Zenoh encoding keep it: CBOR, Protobuf, CDR and FlatBuffers map to the MCAP
+well-known encodings, anything else is written under the Zenoh encoding's
+own name; such channels record the full Zenoh encoding in their metadata
+(``zenoh.encoding``) so a replay publishes the bytes as they came. Times
+are nanoseconds: ``log_time`` when the recorder saw the message,
+``publish_time`` when the publisher stamped it. File-level metadata
+records and attachments (:meth:`Recorder.add_metadata`,
+:meth:`Recorder.add_attachment`) describe the session.
 
 This module never imports :mod:`zenoh`; :mod:`fsw_scheduler.bus.record`
 connects it to the bus.
@@ -60,13 +67,18 @@ if TYPE_CHECKING:
     from mcap.records import McapRecord
 
 __all__ = [
+    "AttachmentInfo",
     "ChannelInfo",
     "McapInfo",
     "RecordedMessage",
     "Recorder",
     "format_info",
     "info",
+    "info_dict",
     "iter_messages",
+    "mcap_encoding",
+    "read_attachments",
+    "read_metadata",
     "recover",
     "split_name",
 ]
@@ -86,6 +98,39 @@ _COMPRESSION = {
     "none": CompressionType.NONE,
 }
 _LIBRARY = "fsw_scheduler.recording"
+JSON_ENCODING = "application/json"
+#: Channel metadata key holding the Zenoh encoding of non-JSON samples.
+ZENOH_ENCODING_KEY = "zenoh.encoding"
+#: Zenoh encodings (without their ``;schema`` suffix) that have an MCAP
+#: well-known message encoding.
+_WELL_KNOWN = {
+    "application/json": MessageEncoding.JSON,
+    "text/json": MessageEncoding.JSON,
+    "application/cbor": MessageEncoding.CBOR,
+    "application/protobuf": MessageEncoding.Protobuf,
+    "application/cdr": MessageEncoding.CDR,
+    "application/flatbuffers": MessageEncoding.Flatbuffer,
+}
+
+
+def mcap_encoding(zenoh_encoding: str) -> str:
+    """The MCAP ``message_encoding`` for samples of a Zenoh encoding.
+
+    Parameters
+    ----------
+    zenoh_encoding
+        As ``str(sample.encoding)``, e.g. ``application/json`` or
+        ``zenoh/bytes``; a ``;schema`` suffix is ignored here.
+
+    Returns
+    -------
+    str
+        ``json``, ``cbor``, ``protobuf``, ``cdr`` or ``flatbuffer`` for
+        the well-known ones, else the Zenoh encoding itself (MCAP allows
+        any name; readers then show the raw bytes).
+    """
+    base = zenoh_encoding.split(";", 1)[0].strip()
+    return _WELL_KNOWN.get(base, base or "zenoh/bytes")
 
 
 class RecordedMessage(NamedTuple):
@@ -102,12 +147,17 @@ class RecordedMessage(NamedTuple):
     publish_time_ns
         When it was published, ns since the Unix epoch (the log time when
         the publisher did not stamp it).
+    encoding
+        The Zenoh encoding to publish it with on replay:
+        ``application/json`` for ``json`` channels, else the channel's
+        recorded ``zenoh.encoding`` (or its message encoding).
     """
 
     topic: str
     payload: bytes
     log_time_ns: int
     publish_time_ns: int
+    encoding: str = JSON_ENCODING
 
 
 def split_name(path: PathLike, part: int) -> Path:
@@ -161,6 +211,9 @@ class Recorder:
         else the first topic that used it.
     fsync
         Also ``os.fsync`` the file on every flush.
+    only_json
+        Skip (and count in :attr:`skipped`) messages whose encoding is not
+        JSON instead of recording them under their own encoding.
 
     Attributes
     ----------
@@ -170,6 +223,8 @@ class Recorder:
         Messages written over all files.
     flush_count
         Periodic and explicit flushes done.
+    skipped
+        Messages refused by ``only_json`` (non-JSON encodings).
     """
 
     def __init__(
@@ -183,6 +238,7 @@ class Recorder:
         split_duration_ns: int | None = None,
         schemas: SchemaSource | None = None,
         fsync: bool = False,
+        only_json: bool = False,
     ) -> None:
         if compression not in _COMPRESSION:
             raise ValueError(
@@ -203,14 +259,19 @@ class Recorder:
         self._split_duration_ns = split_duration_ns
         self._schema_of = _schema_lookup(schemas)
         self._fsync = fsync
+        self._only_json = only_json
         self.paths: list[Path] = []
         self.message_count = 0
         self.flush_count = 0
+        self.skipped = 0
+        # Re-written at the head of every split part, so each part
+        # describes its session on its own.
+        self._metadata: list[tuple[str, dict[str, str]]] = []
         self._file: IO[bytes] | None = None
         self._writer: Writer | None = None
         self._closed = False
         # Per-file state, reset by _open_part().
-        self._channel_ids: dict[str, int] = {}
+        self._channel_ids: dict[tuple[str, str], int] = {}
         self._schema_ids: dict[bytes, int] = {}
         self._sequences: dict[int, int] = {}
         self._part_start_ns: int | None = None
@@ -245,20 +306,29 @@ class Recorder:
         *,
         log_time_ns: int,
         publish_time_ns: int | None = None,
-    ) -> None:
+        encoding: str = JSON_ENCODING,
+    ) -> bool:
         """Append one message.
 
         Parameters
         ----------
         topic
-            Key expression the message was seen on; one channel per topic.
+            Key expression the message was seen on; one channel per topic
+            and encoding.
         payload
-            JSON bytes, written unchanged.
+            The bytes, written unchanged.
         log_time_ns
             Reception time in ns; also drives periodic flushing and
             time-based splitting.
         publish_time_ns
             Publisher's time stamp in ns; defaults to ``log_time_ns``.
+        encoding
+            The sample's Zenoh encoding (see :func:`mcap_encoding`).
+
+        Returns
+        -------
+        bool
+            False when ``only_json`` skipped it.
 
         Raises
         ------
@@ -267,12 +337,16 @@ class Recorder:
         """
         if self._closed:
             raise ValueError("write to a closed Recorder")
+        message_encoding = mcap_encoding(encoding)
+        if self._only_json and message_encoding != MessageEncoding.JSON:
+            self.skipped += 1
+            return False
         self._maybe_split(log_time_ns)
         writer = self._writer
         assert writer is not None
-        channel_id = self._channel_ids.get(topic)
+        channel_id = self._channel_ids.get((topic, encoding))
         if channel_id is None:
-            channel_id = self._register(topic)
+            channel_id = self._register(topic, encoding)
         sequence = self._sequences[channel_id] = (
             self._sequences[channel_id] + 1
         )
@@ -292,6 +366,66 @@ class Recorder:
         if self._last_flush_ns is None:
             self._last_flush_ns = log_time_ns
         self.tick(log_time_ns)
+        return True
+
+    def add_metadata(self, name: str, data: Mapping[str, str]) -> None:
+        """Write a metadata record (``name`` plus string pairs).
+
+        Foxglove shows them under the file's metadata; ``mcap info`` and
+        :func:`read_metadata` list them. They are written again at the
+        head of every later split part.
+
+        Parameters
+        ----------
+        name
+            Record name, e.g. ``fsw_scheduler.session``.
+        data
+            Keys and values, both strings.
+        """
+        if self._closed:
+            raise ValueError("add_metadata to a closed Recorder")
+        pairs = {str(k): str(v) for k, v in data.items()}
+        self._metadata.append((name, pairs))
+        assert self._writer is not None
+        self._writer.add_metadata(name, pairs)
+        self._dirty = True
+
+    def add_attachment(
+        self,
+        name: str,
+        data: bytes,
+        *,
+        media_type: str = "application/octet-stream",
+        log_time_ns: int = 0,
+        create_time_ns: int | None = None,
+    ) -> None:
+        """Attach a file (problem, settings, picture) to the current part.
+
+        Parameters
+        ----------
+        name
+            File name shown by readers, e.g. ``problem.json``.
+        data
+            Its bytes.
+        media_type
+            e.g. ``application/json``, ``application/toml``, ``image/png``.
+        log_time_ns, create_time_ns
+            When it belongs in the session and when it was made
+            (default: ``log_time_ns``).
+        """
+        if self._closed:
+            raise ValueError("add_attachment to a closed Recorder")
+        assert self._writer is not None
+        self._writer.add_attachment(
+            create_time=(
+                log_time_ns if create_time_ns is None else create_time_ns
+            ),
+            log_time=log_time_ns,
+            name=name,
+            media_type=media_type,
+            data=bytes(data),
+        )
+        self._dirty = True
 
     def tick(self, now_ns: int) -> bool:
         """Flush if ``flush_interval_ns`` has passed since the last flush.
@@ -373,6 +507,8 @@ class Recorder:
         self._sequences = {}
         self._part_start_ns = None
         self._dirty = True
+        for name, pairs in self._metadata:
+            self._writer.add_metadata(name, pairs)
 
     def _close_part(self) -> None:
         if self._writer is not None:
@@ -400,11 +536,17 @@ class Recorder:
             self._close_part()
             self._open_part()
 
-    def _register(self, topic: str) -> int:
+    def _register(self, topic: str, encoding: str) -> int:
         writer = self._writer
         assert writer is not None
+        message_encoding = mcap_encoding(encoding)
         schema_id = 0
-        schema = self._schema_of(topic)
+        metadata: dict[str, str] = {}
+        schema = None
+        if message_encoding == MessageEncoding.JSON:
+            schema = self._schema_of(topic)
+        if encoding.split(";", 1)[0].strip() != JSON_ENCODING:
+            metadata[ZENOH_ENCODING_KEY] = encoding
         if schema is not None:
             data = json.dumps(
                 schema, sort_keys=True, separators=(",", ":")
@@ -420,10 +562,11 @@ class Recorder:
                 self._schema_ids[data] = schema_id
         channel_id = writer.register_channel(
             topic=topic,
-            message_encoding=MessageEncoding.JSON,
+            message_encoding=message_encoding,
             schema_id=schema_id,
+            metadata=metadata,
         )
-        self._channel_ids[topic] = channel_id
+        self._channel_ids[(topic, encoding)] = channel_id
         self._sequences[channel_id] = 0
         return channel_id
 
@@ -520,7 +663,12 @@ def _scan_messages(
     return schemas, channels, messages
 
 
-def recover(src: PathLike, dst: PathLike) -> dict[str, int]:
+def recover(
+    src: PathLike,
+    dst: PathLike,
+    *,
+    attachments: Sequence[tuple[str, str, bytes]] = (),
+) -> dict[str, int]:
     """Rewrite a truncated or unfinished MCAP file into a finished one.
 
     Every complete record up to the first truncated or damaged one is kept
@@ -535,6 +683,10 @@ def recover(src: PathLike, dst: PathLike) -> dict[str, int]:
         The damaged file, e.g. left behind by ``kill -9``.
     dst
         Where to write the finished file (must differ from ``src``).
+    attachments
+        Files to attach as well, as ``(name, media type, bytes)`` (e.g.
+        the pictures of a session, drawn after it ended); their log time
+        is the last message's.
 
     Returns
     -------
@@ -549,6 +701,7 @@ def recover(src: PathLike, dst: PathLike) -> dict[str, int]:
     if Path(src).resolve() == Path(dst).resolve():
         raise ValueError("recover needs a destination distinct from src")
     kept: dict[str, int] = {}
+    last_ns = 0
     schema_map: dict[int, int] = {0: 0}
     channel_map: dict[int, int] = {}
     channels: dict[int, Channel] = {}
@@ -593,6 +746,10 @@ def recover(src: PathLike, dst: PathLike) -> dict[str, int]:
                     record.media_type,
                     record.data,
                 )
+            if isinstance(record, Message):
+                last_ns = max(last_ns, record.log_time)
+        for name, media_type, data in attachments:
+            writer.add_attachment(last_ns, last_ns, name, media_type, data)
         writer.finish()
     return kept
 
@@ -623,6 +780,28 @@ class ChannelInfo:
 
 
 @dataclass(frozen=True)
+class AttachmentInfo:
+    """One attachment of a recording (its bytes: :func:`read_attachments`).
+
+    Attributes
+    ----------
+    name
+        File name.
+    media_type
+        e.g. ``application/json``.
+    size
+        Bytes.
+    log_time_ns
+        Where it belongs in the session.
+    """
+
+    name: str
+    media_type: str
+    size: int
+    log_time_ns: int = 0
+
+
+@dataclass(frozen=True)
 class McapInfo:
     """Summary of one recording.
 
@@ -639,6 +818,10 @@ class McapInfo:
         Earliest and latest log time (0 when there are no messages).
     channels
         Per-channel details, sorted by topic.
+    metadata
+        Metadata records as ``(name, {key: value})``, in file order.
+    attachments
+        Attachments, in file order.
     """
 
     path: Path
@@ -647,6 +830,8 @@ class McapInfo:
     start_ns: int
     end_ns: int
     channels: tuple[ChannelInfo, ...] = field(default_factory=tuple)
+    metadata: tuple[tuple[str, dict[str, str]], ...] = ()
+    attachments: tuple[AttachmentInfo, ...] = ()
 
     @property
     def duration_ns(self) -> int:
@@ -698,6 +883,13 @@ def info(path: PathLike) -> McapInfo:
                 start_ns=stats.message_start_time,
                 end_ns=stats.message_end_time,
                 channels=_merge_channels(channels),
+                metadata=tuple(read_metadata(path)),
+                attachments=tuple(
+                    AttachmentInfo(
+                        a.name, a.media_type, len(a.data), a.log_time
+                    )
+                    for a in _attachments(path)
+                ),
             )
     schemas, channels_by_id, messages = _scan_messages(path)
     counts_by_id: dict[int, int] = {}
@@ -727,7 +919,62 @@ def info(path: PathLike) -> McapInfo:
         start_ns=min(times, default=0),
         end_ns=max(times, default=0),
         channels=_merge_channels(scanned),
+        metadata=tuple(read_metadata(path)),
+        attachments=tuple(
+            AttachmentInfo(a.name, a.media_type, len(a.data), a.log_time)
+            for a in _attachments(path)
+        ),
     )
+
+
+def _records_of(path: PathLike, kind: type) -> list[Any]:
+    """Every record of ``kind`` in file order, finished file or not."""
+    with open(path, "rb") as f:
+        return [r for r in _iter_complete_records(f) if isinstance(r, kind)]
+
+
+def _attachments(path: PathLike) -> list[Attachment]:
+    if _is_finished(path):
+        with open(path, "rb") as f:
+            return list(make_reader(f).iter_attachments())
+    return _records_of(path, Attachment)
+
+
+def read_metadata(path: PathLike) -> list[tuple[str, dict[str, str]]]:
+    """The metadata records of a recording, in file order.
+
+    Parameters
+    ----------
+    path
+        An MCAP file (finished or not).
+
+    Returns
+    -------
+    list
+        ``(name, {key: value})`` pairs.
+    """
+    if _is_finished(path):
+        with open(path, "rb") as f:
+            found = list(make_reader(f).iter_metadata())
+    else:
+        found = _records_of(path, Metadata)
+    return [(m.name, dict(m.metadata)) for m in found]
+
+
+def read_attachments(path: PathLike) -> dict[str, bytes]:
+    """The attachments of a recording by name (the last of a name wins).
+
+    Parameters
+    ----------
+    path
+        An MCAP file (finished or not).
+
+    Returns
+    -------
+    dict of str to bytes
+        Attachment name to its bytes.
+    """
+    return {a.name: a.data for a in _attachments(path)}
 
 
 def _schema_name(schemas: Mapping[int, Schema], channel: Channel) -> str:
@@ -786,8 +1033,74 @@ def format_info(description: McapInfo) -> str:
     width = max((len(c.topic) for c in d.channels), default=0)
     for ch in d.channels:
         schema = ch.schema_name or "(no schema)"
-        lines.append(f"  {ch.topic:<{width}}  {ch.message_count:>8}  {schema}")
+        encoding = (
+            ""
+            if ch.message_encoding == MessageEncoding.JSON
+            else f"  [{ch.message_encoding}]"
+        )
+        lines.append(
+            f"  {ch.topic:<{width}}  {ch.message_count:>8}  {schema}"
+            f"{encoding}"
+        )
+    if d.metadata:
+        lines.append(f"metadata:  {len(d.metadata)}")
+        for name, pairs in d.metadata:
+            lines.append(f"  {name}")
+            for key, value in pairs.items():
+                shown = value if len(value) <= 60 else value[:57] + "..."
+                lines.append(f"    {key}: {shown}")
+    if d.attachments:
+        lines.append(f"attachments: {len(d.attachments)}")
+        for a in d.attachments:
+            lines.append(f"  {a.name}  {a.media_type}  {a.size} bytes")
     return "\n".join(lines)
+
+
+def info_dict(description: McapInfo) -> dict[str, Any]:
+    """:class:`McapInfo` as JSON-ready data (``info --json``).
+
+    Parameters
+    ----------
+    description
+        As returned by :func:`info`.
+
+    Returns
+    -------
+    dict
+        ``file``, ``finished``, ``messages``, ``start_ns``, ``end_ns``,
+        ``start`` / ``end`` (UTC, ISO 8601), ``duration_s``, ``channels``
+        (topic, messages, schema, encoding), ``metadata`` (name to its
+        pairs; a repeated name keeps the first) and ``attachments`` (name,
+        media type, size).
+    """
+    d = description
+    metadata: dict[str, dict[str, str]] = {}
+    for name, pairs in d.metadata:
+        metadata.setdefault(name, pairs)
+    return {
+        "file": str(d.path),
+        "finished": d.finished,
+        "messages": d.message_count,
+        "start_ns": d.start_ns,
+        "end_ns": d.end_ns,
+        "start": _utc(d.start_ns),
+        "end": _utc(d.end_ns),
+        "duration_s": d.duration_ns / 1e9,
+        "channels": [
+            {
+                "topic": c.topic,
+                "messages": c.message_count,
+                "schema": c.schema_name,
+                "encoding": c.message_encoding,
+            }
+            for c in d.channels
+        ],
+        "metadata": metadata,
+        "attachments": [
+            {"name": a.name, "media_type": a.media_type, "size": a.size}
+            for a in d.attachments
+        ],
+    }
 
 
 # -- reading messages ------------------------------------------------------
@@ -828,6 +1141,16 @@ def iter_messages(
     yield from heapq.merge(*parts, key=lambda m: m.log_time_ns)
 
 
+def _replay_encoding(channel: Channel) -> str:
+    """The Zenoh encoding a channel's messages are published with."""
+    recorded = channel.metadata.get(ZENOH_ENCODING_KEY)
+    if recorded:
+        return recorded
+    if channel.message_encoding == MessageEncoding.JSON:
+        return JSON_ENCODING
+    return channel.message_encoding
+
+
 def _iter_one(
     path: PathLike,
     topics: frozenset[str] | None,
@@ -838,14 +1161,19 @@ def _iter_one(
         _schemas, channels, messages = _scan_messages(path)
         messages.sort(key=lambda m: m.log_time)  # stable: keeps file order
         for m in messages:
-            topic = channels[m.channel_id].topic
+            channel = channels[m.channel_id]
+            topic = channel.topic
             if (
                 (topics is None or topic in topics)
                 and (start_ns is None or m.log_time >= start_ns)
                 and (end_ns is None or m.log_time < end_ns)
             ):
                 yield RecordedMessage(
-                    topic, m.data, m.log_time, m.publish_time
+                    topic,
+                    m.data,
+                    m.log_time,
+                    m.publish_time,
+                    _replay_encoding(channel),
                 )
         return
     with open(path, "rb") as f:
@@ -857,5 +1185,9 @@ def _iter_one(
             ending_before=end_ns,
         ):
             yield RecordedMessage(
-                channel.topic, m.data, m.log_time, m.publish_time
+                channel.topic,
+                m.data,
+                m.log_time,
+                m.publish_time,
+                _replay_encoding(channel),
             )

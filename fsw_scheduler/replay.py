@@ -25,6 +25,15 @@ recordings keep verifying as message types grow. Statuses once carried
 the whole lifecycle map; now only heartbeats do and the others carry what
 ``changed``: against such a recording, the map rebuilt from the replayed
 statuses (last full map plus every change since) is compared.
+
+
+Derived channels (``scheduler/profiles``, ``scheduler/levels``,
+``scheduler/log``, see :mod:`fsw_scheduler.foxglove`) are checked, not
+ignored: when the journal has any of them, the replay derives them from
+its own stream with the same :class:`~fsw_scheduler.foxglove.Annotator`
+and compares them in place like any output (``foxglove.Log``
+``timestamp``, a wall-clock time, excepted). Journals recorded before
+these channels existed have none and are verified without them.
 """
 
 from __future__ import annotations
@@ -40,6 +49,7 @@ from . import messages
 from .bus import topics as keys
 from .config import NodeConfig
 from .engine import Engine, Publish, SolveDone, StartSolve
+from .foxglove import DERIVED, Annotator, engine_problem
 from .inputs import InputDecoder
 from .recording import PathLike, RecordedMessage, iter_messages
 from .snapshot import EngineSnapshot
@@ -70,6 +80,12 @@ EXCLUDED: dict[str, tuple[str, ...]] = {
         "result.stats",
     ),
     "dispatch": (),
+}
+#: Derived channels, compared when the journal has them (see above).
+DERIVED_EXCLUDED: dict[str, tuple[str, ...]] = {
+    "profiles": (),
+    "level_check": (),
+    "log": ("timestamp",),
 }
 
 SolveFn = Callable[[NodeConfig, StartSolve], Plan]
@@ -106,6 +122,7 @@ class VerifyReport:
     solves: int = 0
     plans: int = 0
     dispatches: int = 0
+    derived: int = 0
     divergence: Divergence | None = None
     notes: list[str] = field(default_factory=list)
     lifecycle: dict[str, str] = field(default_factory=dict, repr=False)
@@ -126,7 +143,9 @@ class VerifyReport:
             head,
             f"  inputs fed {self.inputs}, outputs compared {self.outputs} "
             f"(plans {self.plans}, dispatches {self.dispatches}, "
-            f"solves {self.solves})",
+            f"solves {self.solves}"
+            + (f", derived {self.derived}" if self.derived else "")
+            + ")",
             *[f"  note: {n}" for n in self.notes],
         ]
         if self.divergence is not None:
@@ -181,7 +200,7 @@ def config_from_info(info: messages.NodeInfo) -> NodeConfig:
 
 def _normalise(kind: str, payload: bytes) -> Any:
     value = msgspec.json.decode(payload)
-    for dotted in EXCLUDED.get(kind, ()):
+    for dotted in EXCLUDED.get(kind, DERIVED_EXCLUDED.get(kind, ())):
         node = value
         *parents, leaf = dotted.split(".")
         for part in parents:
@@ -248,16 +267,30 @@ def verify(
     produced: deque[tuple[str, bytes]] = deque()
     results: dict[int, Plan] = {}
     now = snapshot.now or 0 if snapshot is not None else 0
+    derived_keys = {topics.key(suffix) for suffix in DERIVED}
+    ticks_key = topics.key(keys.TICKS)
+    annotator = (
+        Annotator(topics, lambda: engine_problem(engine))
+        if any(m.topic in derived_keys for m in recorded)
+        else None
+    )
+    compared = (
+        {**EXCLUDED, **DERIVED_EXCLUDED} if annotator is not None else EXCLUDED
+    )
+
+    def annotate(key: str, payload: bytes) -> None:
+        if annotator is None:
+            return
+        for item in annotator.observe(key, payload):
+            produced.append((topics.key(item.suffix), item.payload))
 
     def run(commands: list) -> None:
         for command in commands:
             if isinstance(command, Publish):
-                produced.append(
-                    (
-                        topics.key(command.suffix),
-                        messages.encode(command.message),
-                    )
-                )
+                key = topics.key(command.suffix)
+                payload = messages.encode(command.message)
+                produced.append((key, payload))
+                annotate(key, payload)
             elif isinstance(command, StartSolve):
                 if progress is not None:
                     progress(
@@ -288,10 +321,12 @@ def verify(
             else:
                 run(engine.step(SolveDone(solve_id, plan), now))
                 report.solves += 1
-        if kind in EXCLUDED:
+        if kind in compared:
             if not _compare(report, produced, message, kind):
                 return report
             continue
+        if message.topic != ticks_key:  # the node annotates bus samples
+            annotate(message.topic, message.payload)
         event = decoder.event(message.topic, message.payload)
         if event is None:
             continue
@@ -534,4 +569,5 @@ def _compare(
     report.outputs += 1
     report.plans += kind == "plan"
     report.dispatches += kind == "dispatch"
+    report.derived += kind in DERIVED_EXCLUDED
     return True

@@ -25,16 +25,18 @@ TINY = {
 
 
 @pytest.mark.parametrize(
-    "form", ["typed", "dict", "text", "bytes"], ids=str
+    "form", ["typed", "dict", "text", "bytes", "path"], ids=str
 )
-def test_solve_accepts_every_form(form: str) -> None:
-    """Tests that solve takes a Problem, a dict, JSON text or bytes alike."""
+def test_solve_accepts_every_form(form: str, tmp_path: Path) -> None:
+    """Tests that solve takes a Problem, a dict, JSON text, bytes, a file."""
     text = json.dumps(TINY)
+    (tmp_path / "p.json").write_text(text)
     problem = {
         "typed": decode_problem(text),
         "dict": TINY,
         "text": text,
         "bytes": text.encode(),
+        "path": tmp_path / "p.json",
     }[form]
     plan = fs.solve(problem)
     assert plan.status is fs.SolveStatus.OPTIMAL
@@ -54,13 +56,13 @@ def test_plan_to_dict_and_json_round_trip() -> None:
     assert fs.as_plan(data) == plan
 
 
-def test_check_accepts_dicts_and_reports_violations() -> None:
-    """Tests that check takes dicts and names a broken rule."""
+def test_check_plan_accepts_dicts_and_reports_violations() -> None:
+    """Tests that check_plan takes dicts and names a broken rule."""
     plan = fs.solve(TINY).to_dict()
-    assert fs.check(TINY, plan).ok
+    assert fs.check_plan(TINY, plan).ok
     plan["activities"][1]["start"] = 1
     plan["activities"][1]["end"] = 3
-    report = fs.check(json.dumps(TINY), plan)
+    report = fs.check_plan(json.dumps(TINY), plan)
     assert not report.ok
     assert "binary" in report.rules
 
@@ -73,7 +75,7 @@ def test_replan_accepts_files_as_text() -> None:
     new_problem, new_plan, diff = fs.replan(problem, plan.to_dict(), goal, 15)
     assert new_problem.start == 15
     assert new_plan.status.has_plan
-    assert fs.check(new_problem, new_plan).ok
+    assert fs.check_plan(new_problem, new_plan).ok
     assert {r.task for r in diff.removed} >= {"AcquisitionHF"}
 
 
@@ -97,18 +99,23 @@ def test_bad_inputs_name_the_field() -> None:
         fs.solve(42)  # type: ignore[arg-type]
     with pytest.raises(fs.InputError):
         fs.solve("{not json")
+    with pytest.raises(fs.InputError, match="cannot read"):
+        fs.solve(Path("/nonexistent/problem.json"))
     typed = decode_problem(json.dumps(TINY)).replace(horizon=0)
     with pytest.raises(fs.InputError, match="horizon"):
         fs.solve(typed)
 
 
 def test_package_top_exports_the_entry_points() -> None:
-    """Tests that check, replan and the decoders are at the package top."""
+    """Tests that check_plan, replan and decoders are at the package top."""
     import importlib
 
-    checker = importlib.import_module("fsw_scheduler.check")
     importlib.import_module("fsw_scheduler.solve")  # must not rebind
-    assert callable(fs.solve) and callable(fs.check)
-    assert fs.check_plan is checker.check_plan
+    assert callable(fs.solve) and callable(fs.check_plan)
+    # The checker module stays importable by its name.
+    from fsw_scheduler import check
+
+    assert check.check_plan is not fs.check_plan
+    assert fs.check_plan.__module__ == "fsw_scheduler.api"
     for name in ("replan", "decode_goal", "decode_change", "Goal"):
         assert name in dir(fs)

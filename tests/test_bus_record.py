@@ -382,3 +382,148 @@ def test_peer_pair_is_connected() -> None:
         assert str(b.zid()) in {str(z) for z in a.info.peers_zid()}
         assert str(a.zid()) in {str(z) for z in b.info.peers_zid()}
     assert a.is_closed() and b.is_closed()
+
+
+def test_record_keeps_each_sample_encoding(tmp_path: Path) -> None:
+    """Tests that non-JSON samples keep their encoding, and replay it."""
+    path = tmp_path / "mixed.mcap"
+    stop = threading.Event()
+    ready = threading.Event()
+    stats = RecordStats()
+    sent = [
+        ("fsw/sat1/clock", b'{"now": 1}', "application/json"),
+        ("fsw/sat1/camera/frame", b"\x00\x01\x02", "zenoh/bytes"),
+        ("fsw/sat1/notes", b"hello", "text/plain;utf8"),
+        ("fsw/sat1/cbor", b"\xa1\x61a\x01", "application/cbor"),
+        ("fsw/sat1/skip/me", b"{}", "application/json"),
+    ]
+    with open_peer_pair() as (a, b), Recorder(path) as recorder:
+        worker = threading.Thread(
+            target=record,
+            args=(b, "fsw/sat1/**", recorder, stop),
+            kwargs={
+                "ready": ready,
+                "stats": stats,
+                "exclude": ["fsw/sat1/skip/**"],
+            },
+        )
+        worker.start()
+        try:
+            assert ready.wait(TIMEOUT_S)
+            wait_matching(a, "fsw/sat1/clock", TIMEOUT_S)
+            for key, payload, encoding in sent:
+                a.put(key, payload, encoding=zenoh.Encoding(encoding))
+            wait_until(
+                lambda: stats.written + stats.excluded >= len(sent),
+                TIMEOUT_S,
+                what="all recorded",
+            )
+        finally:
+            stop.set()
+            worker.join(TIMEOUT_S)
+    assert stats.excluded == 1 and stats.written == 4
+    assert stats.by_encoding["zenoh/bytes"] == 1
+    described = {c.topic: c for c in info(path).channels}
+    assert described["fsw/sat1/clock"].message_encoding == "json"
+    assert described["fsw/sat1/camera/frame"].message_encoding == (
+        "zenoh/bytes"
+    )
+    assert described["fsw/sat1/notes"].message_encoding == "text/plain"
+    assert described["fsw/sat1/cbor"].message_encoding == "cbor"
+    assert "fsw/sat1/skip/me" not in described
+    back = {m.topic: m for m in iter_messages(path)}
+    assert back["fsw/sat1/notes"].encoding == "text/plain;utf8"
+    assert back["fsw/sat1/camera/frame"].payload == b"\x00\x01\x02"
+    assert back["fsw/sat1/clock"].encoding == "application/json"
+
+    # Replayed with the recorded encodings.
+    with open_peer_pair() as (a, b):
+        sub = b.declare_subscriber(
+            "fsw/sat1/**", zenoh.handlers.FifoChannel(64)
+        )
+        wait_matching(a, "fsw/sat1/notes", TIMEOUT_S)
+        assert replay(a, path, burst=True) == 4
+        got: dict[str, str] = {}
+
+        def arrived() -> bool:
+            while (s := sub.try_recv()) is not None:
+                got[str(s.key_expr)] = str(s.encoding)
+            return len(got) >= 4
+
+        wait_until(arrived, TIMEOUT_S, what="replayed samples")
+        sub.undeclare()
+    assert got["fsw/sat1/notes"] == "text/plain;utf8"
+    assert got["fsw/sat1/cbor"] == "application/cbor"
+    assert got["fsw/sat1/clock"] == "application/json"
+
+
+def test_only_json_recorder_skips_and_counts(tmp_path: Path) -> None:
+    """Tests the skip-with-a-counter mode for non-JSON samples."""
+    path = tmp_path / "json.mcap"
+    with Recorder(path, only_json=True) as rec:
+        assert rec.write("k/a", b"{}", log_time_ns=T0)
+        assert not rec.write(
+            "k/b", b"x", log_time_ns=T0 + 1, encoding="zenoh/bytes"
+        )
+    assert rec.skipped == 1
+    assert [c.topic for c in info(path).channels] == ["k/a"]
+
+
+def test_replay_remaps_keys_and_publishes_a_clock(tmp_path: Path) -> None:
+    """Tests --remap (sat1 as sat2) and a bus clock from log times."""
+    from fsw_scheduler.bus.record import clock_ticks, parse_remap, remap_key
+
+    table = parse_remap(["fsw/sat1=fsw/sat2"])
+    assert remap_key("fsw/sat1/clock", table) == "fsw/sat2/clock"
+    assert remap_key("fsw/sat10/clock", table) == "fsw/sat10/clock"
+    for bad in ("fsw/sat1", "=x", "fsw/*=a"):
+        with pytest.raises(ValueError):
+            parse_remap([bad])
+
+    path = tmp_path / "rec.mcap"
+    # Messages at 0, 0.5, 2.2 s: the clock ticks 0, 1, 2 before them.
+    with Recorder(path) as rec:
+        for i, at_ms in enumerate((0, 500, 2200)):
+            rec.write(
+                "fsw/sat1/telemetry/resources/battery",
+                json.dumps({"i": i}).encode(),
+                log_time_ns=T0 + at_ms * 1_000_000,
+            )
+    merged = [
+        (m.topic.rsplit("/", 1)[-1], m.payload)
+        for m in clock_ticks(
+            iter_messages(path), "fsw/sat1/clock", T0, 1_000_000_000
+        )
+    ]
+    assert merged == [
+        ("clock", b'{"now":0}'),
+        ("battery", b'{"i": 0}'),
+        ("battery", b'{"i": 1}'),
+        ("clock", b'{"now":1}'),
+        ("clock", b'{"now":2}'),
+        ("battery", b'{"i": 2}'),
+    ]
+    with open_peer_pair() as (a, b):
+        sub = b.declare_subscriber(
+            "fsw/**", zenoh.handlers.FifoChannel(64)
+        )
+        wait_matching(a, "fsw/sat2/clock", TIMEOUT_S)
+        count = replay(
+            a,
+            path,
+            burst=True,
+            remap=table,
+            clock_key="fsw/sat1/clock",
+        )
+        assert count == 6
+        keys: list[str] = []
+
+        def arrived() -> bool:
+            while (s := sub.try_recv()) is not None:
+                keys.append(str(s.key_expr))
+            return len(keys) >= 6
+
+        wait_until(arrived, TIMEOUT_S, what="replayed samples")
+        sub.undeclare()
+    assert all(k.startswith("fsw/sat2/") for k in keys)
+    assert keys.count("fsw/sat2/clock") == 3

@@ -258,6 +258,10 @@ def test_sigint_finishes_recording(
     assert f"recorded {len(sent)} messages on {len(KEYS)} keys" in (
         recording.log()
     )
+    (name, meta), *_ = description.metadata
+    assert name == "fsw_scheduler.recording"
+    assert meta["key"].startswith("fsw/") and meta["start_time"].endswith("Z")
+    assert {"fsw-scheduler", "eclipse-zenoh"} <= set(meta)
 
 
 def test_info_prints_channels_counts_and_span() -> None:

@@ -322,3 +322,83 @@ def test_import_does_not_load_matplotlib() -> None:
         cwd=Path(__file__).resolve().parents[1],
     )
     assert result.stdout.strip() == "False"
+
+
+def _drawn_figure(monkeypatch: pytest.MonkeyPatch) -> list:
+    """Capture the figures gantt saves, to read their texts back."""
+    from matplotlib.figure import Figure
+
+    figures: list = []
+    save = Figure.savefig
+
+    def capture(self, *args, **kwargs):  # type: ignore[no-untyped-def]
+        figures.append(self)
+        return save(self, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", capture)
+    return figures
+
+
+def _texts(figure) -> list[str]:  # type: ignore[no-untyped-def]
+    found = []
+    for ax in figure.axes:
+        found += [t.get_text() for t in ax.texts]
+        found += [t.get_text() for t in ax.get_yticklabels()]
+        legend = ax.get_legend()
+        if legend is not None:
+            found += [t.get_text() for t in legend.get_texts()]
+    return found
+
+
+def test_gantt_binary_lanes_removed_and_measured(
+    tmp_path: Path,
+    table1: Problem,
+    table1_plan: Plan,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Tests the binary lanes, greyed removed tasks and measured dots."""
+    figures = _drawn_figure(monkeypatch)
+    problem = table1.replace(start=15, horizon=50)
+    plan = _plan((("AcquisitionHF", 18, 38), ("SetPositionZ", 17, 18)))
+    previous = [Activity("Gone", 20, 30), Activity("SetPositionZ", 17, 18)]
+    gantt(
+        problem,
+        plan,
+        tmp_path / "lanes.png",
+        now=15,
+        history=[Activity("Done", 3, 8)],
+        removed={"Gone": "obsolete", "SetPositionZ": "tight_cascade"},
+        previous=previous,
+        measured={"battery": [(5, 10.0), (15, 80.0)]},
+        past_tasks=[Task("Done", 5, 1, 1, uses={"camera": 1})],
+    )
+    (figure,) = figures
+    texts = _texts(figure)
+    assert "who holds each binary resource" in texts
+    assert {"camera", "antenna", "reaction_wheel", "position"} <= set(texts)
+    assert "AcquisitionHF" in texts  # named in its camera lane
+    assert " removed: obsolete " in texts
+    assert "(the previous SetPositionZ: removed, tight_cascade)" in texts
+    assert "measured" in texts and "predicted" in texts
+    task_axis = figure.axes[0]
+    labels = {t.get_text(): t for t in task_axis.get_yticklabels()}
+    assert labels["Gone"].get_style() == "italic"
+    assert labels["SetPositionZ"].get_style() == "normal"
+    # Dots at the measured times, on the battery panel.
+    battery = next(
+        ax for ax in figure.axes if any("battery" in t.get_text()
+                                         for t in ax.texts)
+    )
+    dots = [line for line in battery.lines if line.get_label() == "measured"]
+    assert list(dots[0].get_xdata()) == [5, 15]
+    _check_png(tmp_path / "lanes.png")
+
+
+def test_gantt_without_binary_resources_has_no_lanes(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Tests that the lanes panel only appears with binary resources."""
+    figures = _drawn_figure(monkeypatch)
+    problem = Problem(horizon=5, tasks=(Task("a", 2, 1, 1),))
+    gantt(problem, _plan((("a", 0, 2),)), tmp_path / "plain.png")
+    assert "who holds each binary resource" not in _texts(figures[0])

@@ -53,6 +53,7 @@ from ..engine import (
     Tick,
 )
 from ..errors import BusError
+from ..foxglove import Annotator, engine_problem, session_records
 from ..inputs import InputDecoder, goal_id_of
 from ..solvers.ilp.cbc import Cancel, cancel_scope, sweep_stale_dirs
 from . import topics
@@ -424,6 +425,11 @@ class _Journal:
         if self.recorder is not None:
             self.recorder.flush()
 
+    @property
+    def last_ns(self) -> int:
+        """Log time of the last message written."""
+        return self._last
+
 
 class SchedulerNode:
     """The scheduler on a Zenoh session.
@@ -490,6 +496,12 @@ class SchedulerNode:
         self._journal_max_bytes = journal_max_bytes
         self._clock_start = clock_start
         self._journal = _Journal(journal, wall_ns)
+        self._wall_ns = wall_ns
+        # Profiles (published), level checks and log entries (journaled)
+        # derived from what the loop handles; replay derives the same.
+        self._annotator = Annotator(
+            self.topics, lambda: engine_problem(self.engine)
+        )
         self._seconds = seconds
         self._solve_fn = solve_fn
         self._inbox = Inbox(config.inbox_capacity, config.inbox_bytes)
@@ -533,6 +545,7 @@ class SchedulerNode:
             topics.STATUS,
             topics.SOLVES,
             topics.NODE_INFO,
+            topics.PROFILES,
         ):
             self._publishers[suffix] = session.declare_publisher(
                 key(suffix), encoding=JSON
@@ -572,6 +585,7 @@ class SchedulerNode:
             )
         # Settings and state go first into the journal, from this thread,
         # before the loop (the journal's only other writer) starts.
+        self._describe_journal()
         self._publish_raw(
             topics.NODE_INFO,
             messages.encode(
@@ -841,6 +855,7 @@ class SchedulerNode:
                 self.topics.key(topics.SOURCES),
                 messages.encode(messages.InputSource(key, source)),
             )
+        self._annotate(key, payload)
         event = self._decoder.event(key, payload)
         if isinstance(event, GoalArrived) and len(self._arrivals) < 4096:
             self._arrivals.setdefault(event.goal.goal_id, arrived)
@@ -894,13 +909,29 @@ class SchedulerNode:
             for command in commands
             if isinstance(command, Publish)
         ]
+        puts: list[tuple[str, bytes]] = []
+
+        def stage(suffix: str, payload: bytes) -> None:
+            # Journal order as without --state: each output, then what
+            # the annotator derives from it (replay checks that order).
+            key = self.topics.key(suffix)
+            self._journal.write(key, payload)
+            puts.append((suffix, payload))
+            for item in self._derive(key, payload):
+                if item.publish:
+                    stage(item.suffix, item.payload)
+                else:
+                    self._journal.write(
+                        self.topics.key(item.suffix), item.payload
+                    )
+
         for suffix, payload in outputs:
-            self._journal.write(self.topics.key(suffix), payload)
+            stage(suffix, payload)
         self._journal.flush()
         for command in commands:
             if not isinstance(command, Publish):
                 self._execute(command)
-        for suffix, payload in outputs:
+        for suffix, payload in puts:
             self._put(suffix, payload)
         self._maybe_rotate()
 
@@ -1032,8 +1063,10 @@ class SchedulerNode:
         return done
 
     def _publish_raw(self, suffix: str, payload: bytes) -> None:
-        self._journal.write(self.topics.key(suffix), payload)
+        key = self.topics.key(suffix)
+        self._journal.write(key, payload)
         self._put(suffix, payload)
+        self._annotate(key, payload)
 
     def _put(self, suffix: str, payload: bytes) -> None:
         key = self.topics.key(suffix)
@@ -1055,6 +1088,40 @@ class SchedulerNode:
                 key[:200],
                 type(error).__name__,
                 error,
+            )
+
+    def _derive(self, key: str, payload: bytes) -> list[Any]:
+        """What :class:`Annotator` derives from a message (once each)."""
+        try:
+            return list(
+                self._annotator.observe(key, payload, self._journal.last_ns)
+            )
+        except Exception:  # a visualisation aid must never stop the loop
+            log.exception("cannot derive profiles or log from %s", key)
+            return []
+
+    def _annotate(self, key: str, payload: bytes) -> None:
+        """Publish or journal what :class:`Annotator` derives from it."""
+        for item in self._derive(key, payload):
+            if item.publish:
+                self._publish_raw(item.suffix, item.payload)
+            else:
+                self._journal.write(self.topics.key(item.suffix), item.payload)
+
+    def _describe_journal(self) -> None:
+        """Session metadata and attachments at the head of the journal."""
+        recorder = self._journal.recorder
+        if recorder is None:
+            return
+        start_ns = self._wall_ns()
+        metadata, attachments = session_records(
+            self.config, self.engine.initial, start_ns
+        )
+        for name, pairs in metadata:
+            recorder.add_metadata(name, pairs)
+        for name, media_type, data in attachments:
+            recorder.add_attachment(
+                name, data, media_type=media_type, log_time_ns=start_ns
             )
 
     def _answer(self, suffix: str, query: zenoh.Query) -> None:

@@ -7,6 +7,11 @@ calling thread drains the channel and writes to a
 recording back in log-time order, re-creating the recorded gaps (scaled by
 ``rate``) from an injectable clock and sleep function.
 
+Encodings: each sample is recorded with its own Zenoh encoding (JSON ones
+on ``json`` channels with their schema, others under their own encoding,
+see :func:`~fsw_scheduler.recording.mcap_encoding`), and a replay puts each
+message back with the encoding it was recorded with.
+
 Key-expression pitfall: ``fsw/**`` never matches keys starting with ``@``
 (admin space, liveliness); record those with their own key expression.
 """
@@ -21,16 +26,30 @@ from typing import TYPE_CHECKING
 import zenoh
 
 from ..errors import BusError
-from ..recording import PathLike, iter_messages
+from ..recording import PathLike, RecordedMessage, iter_messages
 from ..recording import info as recording_info
 
 if TYPE_CHECKING:
     import threading
-    from collections.abc import Callable, Iterable, Sequence
+    from collections.abc import (
+        Callable,
+        Iterable,
+        Iterator,
+        Mapping,
+        Sequence,
+    )
 
-    from ..recording import RecordedMessage, Recorder
+    from ..recording import Recorder
 
-__all__ = ["KeyFilter", "RecordStats", "record", "replay"]
+__all__ = [
+    "KeyFilter",
+    "RecordStats",
+    "clock_ticks",
+    "parse_remap",
+    "record",
+    "remap_key",
+    "replay",
+]
 
 #: Default capacity of the recording channel; a full FIFO channel makes the
 #: Zenoh network thread wait, so it is sized for bursts, not for steady
@@ -53,15 +72,25 @@ class RecordStats:
         DELETE samples seen (not recorded: they carry no JSON payload).
     errors
         Samples that could not be written.
+    excluded
+        Samples on keys the ``exclude`` expressions leave out.
+    skipped
+        Samples of another encoding than JSON, left out by a recorder made
+        with ``only_json=True``.
     by_key
         Samples written per key expression.
+    by_encoding
+        Samples written per Zenoh encoding.
     """
 
     received: int = 0
     written: int = 0
     deletes: int = 0
     errors: int = 0
+    excluded: int = 0
+    skipped: int = 0
     by_key: dict[str, int] = field(default_factory=dict)
+    by_encoding: dict[str, int] = field(default_factory=dict)
 
 
 def _timestamp_ns(sample: zenoh.Sample) -> int | None:
@@ -84,12 +113,14 @@ def record(
     poll_interval_s: float = 0.01,
     ready: threading.Event | None = None,
     stats: RecordStats | None = None,
+    exclude: Iterable[str] = (),
 ) -> RecordStats:
     """Record every sample on ``key_expr`` until ``stop`` is set.
 
     Each PUT sample becomes one MCAP message: topic = its key expression,
-    payload = its bytes, ``log_time`` = ``clock_ns()`` at reception,
-    ``publish_time`` = its Zenoh timestamp when it has one. While idle the
+    payload = its bytes, encoding = its Zenoh encoding, ``log_time`` =
+    ``clock_ns()`` at reception, ``publish_time`` = its Zenoh timestamp
+    when it has one. While idle the
     loop calls :meth:`Recorder.tick` so that the last messages are flushed
     within the recorder's flush interval. The recorder is flushed, not
     closed, on return.
@@ -116,6 +147,8 @@ def record(
     stats
         Counters to update in place (lets another thread watch progress);
         a new object when omitted.
+    exclude
+        Key expressions not to record (counted in ``stats.excluded``).
 
     Returns
     -------
@@ -129,6 +162,8 @@ def record(
         session).
     """
     stats = RecordStats() if stats is None else stats
+    exclude = list(exclude)
+    keep = KeyFilter((), exclude) if exclude else None
     try:
         subscriber = session.declare_subscriber(
             key_expr, zenoh.handlers.FifoChannel(capacity)
@@ -140,7 +175,7 @@ def record(
             ready.set()
         while True:
             stopping = stop.is_set()
-            drained = _drain(subscriber, recorder, stats, clock_ns)
+            drained = _drain(subscriber, recorder, stats, clock_ns, keep)
             if stopping:
                 break
             recorder.tick(clock_ns())
@@ -157,6 +192,7 @@ def _drain(
     recorder: Recorder,
     stats: RecordStats,
     clock_ns: Callable[[], int],
+    keep: KeyFilter | None = None,
 ) -> int:
     count = 0
     while (sample := subscriber.try_recv()) is not None:
@@ -166,20 +202,29 @@ def _drain(
             stats.deletes += 1
             continue
         topic = str(sample.key_expr)
+        if keep is not None and not keep(topic):
+            stats.excluded += 1
+            continue
+        encoding = str(sample.encoding)
         try:
-            recorder.write(
+            written = recorder.write(
                 topic,
                 sample.payload.to_bytes(),
                 log_time_ns=clock_ns(),
                 publish_time_ns=_timestamp_ns(sample),
+                encoding=encoding,
             )
         except (OSError, ValueError):
             # Keep recording the rest: one bad write must not end a
             # session-long recording.
             stats.errors += 1
             continue
+        if not written:
+            stats.skipped += 1
+            continue
         stats.written += 1
         stats.by_key[topic] = stats.by_key.get(topic, 0) + 1
+        stats.by_encoding[encoding] = stats.by_encoding.get(encoding, 0) + 1
     return count
 
 
@@ -221,6 +266,83 @@ class KeyFilter:
         return verdict
 
 
+def parse_remap(rules: Iterable[str]) -> dict[str, str]:
+    """``OLD=NEW`` strings to a remapping table.
+
+    Raises
+    ------
+    ValueError
+        A rule without ``=``, an empty side, or a wildcard (``*``, ``$``,
+        ``?``, ``#``): remapping works on concrete key prefixes.
+    """
+    table: dict[str, str] = {}
+    for rule in rules:
+        old, sep, new = rule.partition("=")
+        old, new = old.strip().strip("/"), new.strip().strip("/")
+        if not sep or not old or not new:
+            raise ValueError(f"--remap {rule!r}: expected OLD=NEW")
+        if any(c in old + new for c in "*$?#"):
+            raise ValueError(
+                f"--remap {rule!r}: key prefixes only, no wildcards"
+            )
+        table[old] = new
+    return table
+
+
+def remap_key(key: str, table: Mapping[str, str]) -> str:
+    """Apply the first rule whose OLD is ``key`` or a chunk prefix of it.
+
+    ``fsw/sat1=fsw/sat2`` maps ``fsw/sat1/clock`` to ``fsw/sat2/clock``
+    but leaves ``fsw/sat10/clock`` alone (prefixes end on a ``/``).
+    """
+    for old, new in table.items():
+        if key == old:
+            return new
+        if key.startswith(old + "/"):
+            return new + key[len(old) :]
+    return key
+
+
+def clock_ticks(
+    messages: Iterable[RecordedMessage],
+    key: str,
+    origin_ns: int,
+    unit_ns: int,
+) -> Iterator[RecordedMessage]:
+    """Interleave a bus clock with recorded messages.
+
+    Unit ``n`` is due at ``origin_ns + n * unit_ns`` and is put on ``key``
+    as ``{"now": n}`` before the first message logged at or after that
+    time; the clock ends with the last message. Recorded messages on
+    ``key`` itself are dropped, so subscribers see one clock.
+
+    Parameters
+    ----------
+    messages
+        Recorded messages in log-time order.
+    key
+        The clock key, e.g. ``fsw/sat1/clock``.
+    origin_ns
+        Log time of unit 0: the start of the recording.
+    unit_ns
+        Log-time nanoseconds per unit.
+    """
+    if unit_ns <= 0:
+        raise ValueError("the clock unit must be > 0")
+    due: int | None = None
+    for message in messages:
+        if due is None:  # the first unit at or after the first message
+            due = max(0, -(-(message.log_time_ns - origin_ns) // unit_ns))
+        while origin_ns + due * unit_ns <= message.log_time_ns:
+            stamp = origin_ns + due * unit_ns
+            yield RecordedMessage(
+                key, b'{"now":%d}' % due, stamp, stamp
+            )
+            due += 1
+        if message.topic != key:
+            yield message
+
+
 def replay(
     session: zenoh.Session,
     path: PathLike | Sequence[PathLike],
@@ -235,11 +357,15 @@ def replay(
     clock: Callable[[], float] = time.monotonic,
     sleep: Callable[[float], object] | None = None,
     stop: threading.Event | None = None,
-    encoding: str = JSON_ENCODING,
+    encoding: str | None = None,
+    remap: Mapping[str, str] | None = None,
+    clock_key: str | None = None,
+    clock_unit_s: float = 1.0,
 ) -> int:
     """Publish a recording back onto the bus, in log-time order.
 
-    Each message is put on its recorded key with ``encoding``. Timing is
+    Each message is put on its recorded key (after ``remap``) with the
+    encoding it was recorded with. Timing is
     scheduled from the start of the pass, not from the previous message,
     so sleeping late does not accumulate drift: message ``i`` is due
     ``(log_time_i - log_time_0) / rate`` seconds after the first one.
@@ -274,7 +400,18 @@ def replay(
     stop
         Set it to end the replay early.
     encoding
-        Zenoh encoding of the published payloads.
+        Force this Zenoh encoding on every message instead of the
+        recorded ones.
+    remap
+        Key prefix rules ``{OLD: NEW}`` (see :func:`remap_key`), e.g.
+        ``{"fsw/sat1": "fsw/sat2"}`` replays a sat1 session as sat2.
+        Filters apply to the recorded keys, before remapping.
+    clock_key
+        Also publish a bus clock on this key (recorded key, remapped like
+        the others): ``{"now": n}`` every ``clock_unit_s`` seconds of the
+        recording's log time from its start (see :func:`clock_ticks`).
+    clock_unit_s
+        Recording seconds per clock unit.
 
     Returns
     -------
@@ -288,6 +425,8 @@ def replay(
     """
     if rate <= 0:
         raise ValueError(f"rate must be > 0, not {rate}")
+    if clock_unit_s <= 0:
+        raise ValueError(f"clock unit must be > 0, not {clock_unit_s}")
     paths = [path] if isinstance(path, str | os.PathLike) else list(path)
     starts = [
         d.start_ns
@@ -306,14 +445,27 @@ def replay(
     published = 0
     try:
         while stop is None or not stop.is_set():
-            messages = iter_messages(
-                paths if len(paths) > 1 else paths[0],
-                start_ns=start_ns,
-                end_ns=end_ns,
+            messages: Iterable[RecordedMessage] = (
+                m
+                for m in iter_messages(
+                    paths if len(paths) > 1 else paths[0],
+                    start_ns=start_ns,
+                    end_ns=end_ns,
+                )
+                if keep(m.topic)
             )
+            if clock_key is not None:
+                messages = clock_ticks(
+                    messages, clock_key, origin_ns, round(clock_unit_s * 1e9)
+                )
+            if remap:
+                messages = (
+                    m._replace(topic=remap_key(m.topic, remap))
+                    for m in messages
+                )
             count = _replay_pass(
                 session,
-                (m for m in messages if keep(m.topic)),
+                messages,
                 publishers,
                 rate=rate,
                 burst=burst,
@@ -341,7 +493,7 @@ def _replay_pass(
     clock: Callable[[], float],
     sleep: Callable[[float], object],
     stop: threading.Event | None,
-    encoding: str,
+    encoding: str | None,
 ) -> int:
     count = 0
     first_ns: int | None = None
@@ -360,10 +512,8 @@ def _replay_pass(
                     break
         publisher = publishers.get(message.topic)
         if publisher is None:
-            publisher = session.declare_publisher(
-                message.topic, encoding=encoding
-            )
+            publisher = session.declare_publisher(message.topic)
             publishers[message.topic] = publisher
-        publisher.put(message.payload)
+        publisher.put(message.payload, encoding=encoding or message.encoding)
         count += 1
     return count

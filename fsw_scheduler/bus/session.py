@@ -38,6 +38,7 @@ __all__ = [
     "listening_endpoints",
     "loopback_config",
     "open_peer_pair",
+    "settings_file",
     "wait_connected",
     "wait_matching",
     "wait_until",
@@ -83,12 +84,14 @@ def add_zenoh_arguments(parser: argparse.ArgumentParser) -> None:
     )
     group.add_argument(
         "--config",
+        "-c",
         metavar="FILE",
         action="append",
         default=[],
         help=(
-            "A Zenoh configuration file (JSON5). A file ending in .toml is "
-            "not Zenoh's: 'run' reads it as the scheduler's settings."
+            "A Zenoh configuration file (JSON5). The scheduler's own "
+            "settings (TOML) go under --settings; a .toml file here is "
+            "still read as settings by 'run', with a deprecation message."
         ),
     )
     group.add_argument(
@@ -126,6 +129,49 @@ def toml_config_file(args: argparse.Namespace) -> str | None:
         files = [files]
     tomls = [f for f in files if str(f).endswith(".toml")]
     return tomls[-1] if tomls else None
+
+
+#: Printed on stderr when ``--config FILE.toml`` is used for settings.
+TOML_CONFIG_DEPRECATED = (
+    "fsw-scheduler: deprecated: --config {path} (a .toml file) is read as "
+    "the scheduler's settings; use --settings {path} (--config is for "
+    "Zenoh's JSON5 configuration, as in the zenoh tools)"
+)
+
+
+def settings_file(
+    args: argparse.Namespace, warn: Callable[[str], object] | None = None
+) -> str | None:
+    """The scheduler settings file: ``--settings``, else a ``.toml`` config.
+
+    ``--config FILE.toml`` is the old way to give the settings; it keeps
+    working, with a deprecation message passed to ``warn`` (default: print
+    on stderr). ``--settings`` wins when both are given.
+
+    Parameters
+    ----------
+    args
+        Parsed arguments (``settings`` and ``config`` may be absent).
+    warn
+        Where the deprecation message goes.
+
+    Returns
+    -------
+    str or None
+        The TOML file to read, or None for the defaults.
+    """
+    explicit = getattr(args, "settings", None)
+    old = toml_config_file(args)
+    if old is not None and explicit is None:
+        text = TOML_CONFIG_DEPRECATED.format(path=old)
+        if warn is None:
+            import sys
+
+            print(text, file=sys.stderr)
+        else:
+            warn(text)
+        return old
+    return explicit
 
 
 def zenoh_config(args: argparse.Namespace) -> zenoh.Config:

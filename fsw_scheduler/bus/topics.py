@@ -43,6 +43,12 @@ BUSY = "scheduler/busy"
 STALLED = "scheduler/stalled"
 #: Recorded only: explanations computed after a plan was published.
 EXPLAINED = "scheduler/explained"
+#: Predicted consumable levels, published with each plan.
+PROFILES = "scheduler/profiles"
+#: Journal only: measured levels beside the plan's prediction.
+LEVELS = "scheduler/levels"
+#: Journal only: decisions and rejections as foxglove.Log messages.
+LOG = "scheduler/log"
 
 #: Output suffixes, compared by ``replay --verify``.
 OUTPUTS = (PLAN, DISPATCH, STATUS)
@@ -108,6 +114,9 @@ class Topics(msgspec.Struct, frozen=True):
             BUSY: "busy",
             STALLED: "stalled",
             EXPLAINED: "explanation",
+            PROFILES: "profiles",
+            LEVELS: "level_check",
+            LOG: "log",
         }
         if suffix in exact:
             return exact[suffix]
