@@ -309,7 +309,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     result = run_demo(
         out,
         scenario=SCENARIOS[args.scenario](),
-        spacecraft=args.spacecraft,
+        spacecraft=_checked_spacecraft(args.spacecraft),
         verify=not args.no_verify,
         quiet=args.quiet,
         time_unit=args.time_unit,
@@ -337,6 +337,23 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 # -- run ---------------------------------------------------------------------
+
+
+def _checked_spacecraft(spacecraft: str) -> str:
+    _check_spacecraft(spacecraft)
+    return spacecraft
+
+
+def _check_spacecraft(spacecraft: str | None) -> None:
+    """Refuse a spacecraft id that is not a key-safe id (exit 2)."""
+    from .model import id_issue
+
+    reason = None if spacecraft is None else id_issue(spacecraft)
+    if reason is not None:
+        raise InputError(
+            [FieldIssue("--spacecraft", f"the spacecraft id {reason}")],
+            "arguments",
+        )
 
 
 def _open_bus(settings: zenoh.Config) -> zenoh.Session:
@@ -644,6 +661,7 @@ def _cmd_record(args: argparse.Namespace) -> int:
     from .messages import schema_lookup
     from .recording import Recorder
 
+    _check_spacecraft(args.spacecraft)
     key = args.key or Topics(args.spacecraft).everything
     stop = threading.Event()
     exclude = [_key_expression(k, "--exclude") for k in args.exclude]

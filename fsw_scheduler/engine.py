@@ -13,9 +13,12 @@ completed | failed``, or ``preempted`` / ``obsolete`` when a replan takes
 it away. Replans are triggered by a goal, a failure report, a dispatch
 with no report within ``report_timeout`` units (a failure), or a measured
 consumable level departing from the plan's prediction. One solve runs at a
-time: goals arriving meanwhile are coalesced into the next solve, other
-triggers are queued. A solve that yields no plan leaves the current plan
-in place and the status says why.
+time: goals arriving meanwhile get ``goal_queued`` and are merged into the
+next solve (at most ``max_goals_per_solve`` at once; beyond
+``max_goals_waiting`` a goal is rejected ``busy``), other triggers are
+queued. A solve that yields no plan leaves the current plan in place and
+the status says why. Published statuses carry the lifecycle entries that
+``changed`` since the previous one; heartbeats and queries the whole map.
 """
 
 from __future__ import annotations
@@ -696,6 +699,7 @@ class Engine:
             )
 
     def _on_level(self, level: ResourceLevel, out: list[Command]) -> None:
+        self._count(levels=self._counters.levels + 1)
         schedule = self.schedule
         if schedule is None:
             return

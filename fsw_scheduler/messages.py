@@ -182,7 +182,8 @@ class SolveSummary(msgspec.Struct, frozen=True, omit_defaults=True):
 class Counters(msgspec.Struct, frozen=True, omit_defaults=True):
     """Running totals since start.
 
-    The last seven are the bus shell's: ``inputs_dropped`` (telemetry that
+    ``levels`` counts the resource levels the engine received. The last
+    seven are the bus shell's: ``inputs_dropped`` (telemetry that
     found the inbox's byte budget spent; it was never processed),
     ``telemetry_superseded`` and ``clock_superseded`` (samples replaced in
     the inbox by a newer one on the same key before the loop read them:
@@ -201,6 +202,7 @@ class Counters(msgspec.Struct, frozen=True, omit_defaults=True):
     reports: int = 0
     inputs_rejected: int = 0
     inputs_dropped: int = 0
+    levels: int = 0
     telemetry_superseded: int = 0
     clock_superseded: int = 0
     goals_busy: int = 0

@@ -44,6 +44,12 @@ def test_kebab_case_keys_are_read(tmp_path: Path) -> None:
         ('solver = "gurobi"\n', "solver"),
         ("time-unit = 0\n", "time-unit"),
         ("inbox-capacity = 0\n", "inbox-capacity"),
+        ('spacecraft = "sat/1"\n', "spacecraft"),
+        ("tasks-per-goal = 0\n", "tasks-per-goal"),
+        ("max-clock-step = 0\n", "max-clock-step"),
+        ("clock-stall = -1\n", "clock-stall"),
+        ("response-deadline = 0\n", "response-deadline"),
+        ("inbox-bytes = 10\n", "inbox-bytes"),
         ("this is not toml", "scheduler.toml"),
     ],
 )

@@ -293,6 +293,42 @@ def test_a_panic_in_a_publish_does_not_kill_the_loop(
     assert h.query_status().counters.publish_failures == 1
 
 
+class _PanickingPublisher:
+    def __init__(self, panic: type) -> None:
+        self._panic = panic
+
+    def put(self, *_args: object, **_kwargs: object) -> None:
+        raise self._panic("called `Result::unwrap()` on an `Err` value")
+
+    def undeclare(self) -> None:
+        pass
+
+
+def test_a_bus_refusing_every_publish_stops_the_node(
+    started: SchedulerHarness,
+) -> None:
+    """Tests that a poisoned transmit pipeline ends in a withdrawn token."""
+    from .test_node import Liveliness
+
+    h = started
+    panic = _panic_type()
+    node = h.node
+    node.session = _FaultySession(node.session, "fsw/", panic)  # type: ignore[assignment]
+    for suffix in list(node._publishers):
+        node._publishers[suffix] = _PanickingPublisher(panic)  # type: ignore[assignment]
+    watch = Liveliness(h.client)
+    try:
+        watch.expect(zenoh.SampleKind.PUT)
+        for n in range(25):  # each rejection is a status publish
+            h.publish_goal(goal_of(f"bad{n}", task("a/b")))
+        watch.expect(zenoh.SampleKind.DELETE)
+    finally:
+        watch.close()
+    assert node.wait_stopped(5)
+    assert node.failed is not None
+    assert "publishes failed in a row" in node.failed
+
+
 POISONED_RUN = """
 import sys
 from fsw_scheduler import engine
@@ -728,9 +764,19 @@ def test_cbc_dies_with_a_killed_node(tmp_path: Path) -> None:
     session, process = _long_solve_node(tmp_path)
     try:
         cbc = _start_cbc(session, process)
+        model = next(
+            part for part in _cmdline(cbc).split("\0") if "fsw-cbc-" in part
+        )
         process.kill()
         process.wait(10)
         _wait_for(lambda: not _alive(cbc), 5, "CBC gone with its parent")
+        # Its temporary directory is left; the next node removes it.
+        from fsw_scheduler.solvers.ilp.cbc import sweep_stale_dirs
+
+        folder = str(Path(model).parent)
+        assert Path(folder).exists()
+        assert folder in sweep_stale_dirs()
+        assert not Path(folder).exists()
     finally:
         if process.poll() is None:
             process.kill()
@@ -797,7 +843,8 @@ def test_the_response_deadline_bounds_goal_to_plan() -> None:
         h.publish_goal(goal)
         plan = h.wait_plan(lambda p: "hard" in p.goals, timeout=30)
         took = time.monotonic() - sent
-        assert took < 3.0, f"goal -> plan took {took:.2f} s"
+        # Without the deadline the solve runs to its 60 s limit.
+        assert took < 5.0, f"goal -> plan took {took:.2f} s"
         assert plan.stats is not None
         assert plan.stats.time_limit_s is not None
         assert plan.stats.time_limit_s < 2.0
@@ -822,3 +869,82 @@ def test_explanations_follow_the_plan(
     queried = h.query_plan()
     assert queried is not None
     assert [b.task for b in queried.why] == ["Huge"]
+
+
+# -- the new journal channels replay exactly ----------------------------------
+
+
+def test_a_journal_with_busy_and_explained_replays(tmp_path: Path) -> None:
+    """Tests that busy rejections and late explanations replay identically."""
+    from fsw_scheduler.bus.node import SchedulerNode
+    from fsw_scheduler.bus.session import open_peer_pair, wait_matching
+    from fsw_scheduler.messages import schema_lookup
+    from fsw_scheduler.recording import Recorder
+    from fsw_scheduler.replay import verify
+    from fsw_scheduler.testing import SchedulerClient, paper_problem
+
+    path = tmp_path / "journal.mcap"
+    config = harness_config(
+        explain=True, goals_waiting=1, goals_per_solve=1, inbox_capacity=1
+    )
+    with open_peer_pair() as (server, client_session):
+        client = SchedulerClient(client_session)
+        for key in ("plan", "status"):
+            wait_matching(server, client.topics.key(f"scheduler/{key}"))
+        journal = Recorder(path, schemas=schema_lookup("sat1"))
+        node = SchedulerNode(server, paper_problem(), config, journal=journal)
+        node.start()
+        try:
+            client.wait_scheduler()
+            client.tick(0)
+            huge = task("Huge", uses={"power": 1000}, schedule_cost=1)
+            client.publish_goal(goal_of("too-big", huge))
+            for n in range(80):
+                client.publish_goal(goal_of(f"b{n}", task(f"B{n}")))
+            client.wait_status(lambda s: s.event == "explained")
+            client.wait_status(
+                lambda s: s.event == "goal_rejected"
+                and s.errors[0].reason.startswith("busy")
+            )
+            client.settle(0)
+            client.tick(1)
+        finally:
+            node.close()
+            client.close()
+    report = verify(path)
+    assert report.identical, report.summary()
+    assert report.solves >= 2
+    from fsw_scheduler.recording import iter_messages
+
+    topics = {m.topic for m in iter_messages(path)}
+    assert "fsw/sat1/scheduler/explained" in topics
+    assert "fsw/sat1/scheduler/busy" in topics
+
+
+def test_inbox_bounds_without_blocking() -> None:
+    """Tests the inbox's coalescing, goal limits and key bound directly."""
+    from fsw_scheduler.bus import node as node_module
+    from fsw_scheduler.bus.node import Inbox
+
+    inbox = Inbox(max_goals=2, max_bytes=100)
+    assert inbox.put_goal("g", b"x" * 40, 0.0)
+    assert inbox.put_goal("g", b"x" * 40, 0.0)
+    assert not inbox.put_goal("g", b"x", 0.0)  # count limit
+    inbox.put_latest("resource_level", "k1", b"a" * 10)
+    inbox.put_latest("resource_level", "k1", b"b" * 15)  # replaces
+    assert (inbox.superseded, inbox.bytes) == (1, 95)
+    inbox.put_latest("resource_level", "k2", b"c" * 10)  # bytes spent
+    assert inbox.lost == 1
+    kinds = [inbox.get(0.01) for _ in range(4)]
+    assert [k[0] if k else None for k in kinds] == [
+        "goal",
+        "goal",
+        "resource_level",
+        None,
+    ]
+    assert kinds[2] is not None and kinds[2][2] == b"b" * 15
+    assert (inbox.goals, inbox.bytes, len(inbox)) == (0, 0, 0)
+    big = Inbox(max_goals=1, max_bytes=1 << 30)
+    for n in range(node_module.MAX_PENDING_KEYS + 5):
+        big.put_latest("resource_level", f"k{n}", b"1")
+    assert big.lost == 5

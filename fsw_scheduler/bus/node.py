@@ -55,7 +55,7 @@ from ..engine import (
 from ..errors import BusError
 from ..foxglove import Annotator, engine_problem, session_records
 from ..inputs import InputDecoder, goal_id_of
-from ..solvers.ilp.cbc import Cancel, cancel_scope
+from ..solvers.ilp.cbc import Cancel, cancel_scope, sweep_stale_dirs
 from . import topics
 from .provenance import Origin, Provenance, capture
 
@@ -87,6 +87,12 @@ MIN_SOLVE_S = 0.05
 #: Queries waiting for the loop; more are dropped (the querier gets no
 #: reply) and counted.
 MAX_WAITING_QUERIES = 256
+
+#: Telemetry and clock keys with a sample waiting; a sample on one more
+#: key is dropped and counted (``inputs_dropped``). Far above the keys a
+#: node has (one per live task and consumable), it bounds the memory a
+#: flood of made-up keys can take.
+MAX_PENDING_KEYS = 4096
 
 #: Goals refused unread whose rejection waits to be published; more are
 #: counted as lost (never seen in practice: publishing one takes far less
@@ -223,7 +229,10 @@ class Inbox:
                 else:
                     self.superseded += 1
                 return
-            if self.bytes + len(payload) > self.max_bytes:
+            if (
+                self.bytes + len(payload) > self.max_bytes
+                or len(self._latest) >= MAX_PENDING_KEYS
+            ):
                 self.lost += 1
                 return
             self.bytes += len(payload)
@@ -513,6 +522,9 @@ class SchedulerNode:
         self._explainer = _Worker("fsw-explain")
         # Goal id -> monotonic arrival (s), for the response deadline.
         self._arrivals: dict[str, float] = {}
+        # Goals queued in the engine, as of the loop's last step (read by
+        # the callbacks, which must not touch the engine).
+        self._engine_waiting = 0
         self._cancel = Cancel()
         self._clock: UnitClock | None = None
         self._decoder = InputDecoder(
@@ -570,6 +582,7 @@ class SchedulerNode:
             self._clock = UnitClock(
                 self._seconds, self.config.time_unit, self._clock_start
             )
+        sweep_stale_dirs()
         if self._share_state:
             self._publishers[topics.SNAPSHOT] = session.declare_publisher(
                 key(topics.SNAPSHOT), encoding=JSON
@@ -677,7 +690,7 @@ class SchedulerNode:
                 ):
                     # Refused unread, but never silently: the loop
                     # publishes a goal_rejected naming it.
-                    waiting = inbox.goals + self.engine.goals_waiting
+                    waiting = inbox.goals + self._engine_waiting
                     inbox.put_busy(goal_id_of(payload), waiting)
             except BaseException:  # zenoh only logs what a callback raises
                 log.exception("could not queue a %s sample", kind)
@@ -703,16 +716,6 @@ class SchedulerNode:
                 try:
                     self.spin_once()
                     in_a_row = 0
-                    if (
-                        self._publish_failures_in_a_row
-                        >= MAX_CONSECUTIVE_FAULTS
-                    ):
-                        # A panic poisons zenoh's transmit pipeline: every
-                        # later put fails too. Nothing reaches the bus.
-                        raise BusError(
-                            f"{self._publish_failures_in_a_row} publishes "
-                            "failed in a row"
-                        )
                 except _FATAL:
                     raise
                 except BaseException:
@@ -723,6 +726,13 @@ class SchedulerNode:
                     log.exception("event loop error; continuing")
                     if in_a_row >= MAX_CONSECUTIVE_FAULTS:
                         raise
+                if self._publish_failures_in_a_row >= MAX_CONSECUTIVE_FAULTS:
+                    # A panic poisons zenoh's transmit pipeline: every
+                    # later put fails too. Nothing reaches the bus.
+                    raise BusError(
+                        f"{self._publish_failures_in_a_row} publishes "
+                        "failed in a row"
+                    )
         except BaseException as error:
             self._die(error)
 
@@ -740,6 +750,14 @@ class SchedulerNode:
         except BaseException:
             log.exception("could not publish the error status")
         self._withdraw_token()
+        # Queriers get no answer at once rather than waiting for a reply
+        # that will never come.
+        for entity in self._declared:
+            try:
+                entity.undeclare()
+            except BaseException as failure:
+                log.debug("undeclare: %s", failure)
+        self._declared.clear()
         self._stop.set()
 
     def _withdraw_token(self) -> None:
@@ -860,6 +878,7 @@ class SchedulerNode:
     def _step(self, event: Event) -> None:
         self._sync_counters()
         self._run(self.engine.step(event, self._now()))
+        self._engine_waiting = self.engine.goals_waiting
 
     def _run(self, commands: list[Command]) -> None:
         """Carry out a step's commands; durably first with ``--state``.
@@ -871,6 +890,13 @@ class SchedulerNode:
         when the process died is not sent again (a dispatch then waits for
         its report timeout).
         """
+        for command in commands:
+            message = getattr(command, "message", None)
+            if isinstance(message, messages.Status) and message.event in (
+                "goal_accepted",
+                "goal_rejected",
+            ):  # the goal has its verdict: its deadline is over
+                self._arrivals.pop(message.goal_id or "", None)
         if self._share_state and commands:
             # The standby's copy first, so that it never lags behind
             # what the bus has seen (same publisher link, in order).

@@ -121,6 +121,46 @@ def cancel_scope(cancel: Cancel) -> Iterator[Cancel]:
         _scope.cancel = outer
 
 
+def _dir_prefix() -> str:
+    """Temporary directories carry the pid that made them."""
+    return f"fsw-cbc-{os.getpid()}-"
+
+
+def sweep_stale_dirs(root: str | None = None) -> list[str]:
+    """Remove CBC directories left by processes that no longer run.
+
+    A process killed with SIGKILL cannot remove its temporary directory;
+    the next one started cleans up after it. Only directories whose pid
+    is gone are touched.
+
+    Returns
+    -------
+    list of str
+        The directories removed.
+    """
+    import shutil
+
+    base = Path(root or tempfile.gettempdir())
+    removed = []
+    for path in base.glob("fsw-cbc-*-*"):
+        pid = path.name.split("-")[2]
+        if not pid.isdigit() or _running(int(pid)):
+            continue
+        shutil.rmtree(path, ignore_errors=True)
+        removed.append(str(path))
+    return removed
+
+
+def _running(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # exists, owned by someone else
+        return True
+    return True
+
+
 @functools.cache
 def _prctl() -> Callable[..., int] | None:
     """libc's ``prctl`` (Linux), None elsewhere."""
@@ -321,7 +361,7 @@ class CbcRun:
         began = time.monotonic()
         if self.time_limit is not None and self.time_limit < MIN_CBC_S:
             return _not_started()
-        with tempfile.TemporaryDirectory(prefix="fsw-cbc-") as tmp:
+        with tempfile.TemporaryDirectory(prefix=_dir_prefix()) as tmp:
             files = {
                 kind: os.path.join(tmp, f"model.{kind}")
                 for kind in ("mps", "mst", "prio", "sol", "log")
