@@ -470,6 +470,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     with _open_bus(zenoh_settings) as session:
 
+        redundancy: Any = None
+
         def make_node(shared: Any = None) -> SchedulerNode:
             """The node that commands; from the active's state on takeover."""
             nonlocal journal
@@ -496,7 +498,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 journal=journal,
                 security=security,
                 publishers=policy_publishers(zenoh_settings),
-                share_state=config.standby,
+                share_state=(
+                    redundancy.has_peers if redundancy is not None else False
+                ),
                 **extra,
             )
 

@@ -481,7 +481,7 @@ class SchedulerNode:
         security: messages.SecurityInfo | None = None,
         engine: Engine | None = None,
         resumed_event: str = "resumed",
-        share_state: bool = False,
+        share_state: bool | Callable[[], bool] = False,
         durable: bool = False,
         journal_max_bytes: int | None = None,
         clock_start: int = 0,
@@ -494,7 +494,13 @@ class SchedulerNode:
         self.topics = topics.Topics(config.spacecraft)
         # A rebuilt engine (resume from the journal) or a fresh one.
         self.resumed = resumed_event if engine is not None else ""
-        self._share_state = share_state
+        # Whether to share the engine's state for a hot standby: a flag,
+        # or a question asked before each step (is a standby there?), so
+        # that a node with nobody to share with pays nothing.
+        self._sharing = share_state is not False
+        self._share_state: Callable[[], bool] = (
+            share_state if callable(share_state) else lambda: share_state
+        )
         self.engine = engine or Engine(engine_config(config), problem)
         self._durable = durable and journal is not None
         self._journal_max_bytes = journal_max_bytes
@@ -568,7 +574,7 @@ class SchedulerNode:
                 )
             )
         queryables = [topics.PLAN, topics.STATUS]
-        if self._share_state:
+        if self._sharing:
             # A standby that joins later asks for the state at once.
             queryables.append(topics.SNAPSHOT)
         for suffix in queryables:
@@ -583,7 +589,7 @@ class SchedulerNode:
                 self._seconds, self.config.time_unit, self._clock_start
             )
         sweep_stale_dirs()
-        if self._share_state:
+        if self._sharing:
             self._publishers[topics.SNAPSHOT] = session.declare_publisher(
                 key(topics.SNAPSHOT), encoding=JSON
             )
@@ -603,7 +609,7 @@ class SchedulerNode:
         )
         if self._durable:
             self._write_snapshot()
-        if self._share_state:
+        if self._sharing and self._share_state():
             self._share_snapshot()
         if self.resumed:
             self._inbox.put("resume", None)
@@ -897,7 +903,7 @@ class SchedulerNode:
                 "goal_rejected",
             ):  # the goal has its verdict: its deadline is over
                 self._arrivals.pop(message.goal_id or "", None)
-        if self._share_state and commands:
+        if commands and self._sharing and self._share_state():
             # The standby's copy first, so that it never lags behind
             # what the bus has seen (same publisher link, in order).
             self._share_snapshot()

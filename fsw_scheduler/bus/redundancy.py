@@ -214,6 +214,12 @@ class Redundancy:
 
     # -- the election --------------------------------------------------------
 
+    def has_peers(self) -> bool:
+        """Whether another scheduler of the spacecraft is there (a standby
+        to share the state with)."""
+        with self._lock:
+            return any(m != self.me for m in self.members)
+
     def view(self) -> tuple[set[Member], set[Member]]:
         """Members and active members seen now (this node included)."""
         with self._lock:
