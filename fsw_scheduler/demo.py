@@ -224,6 +224,28 @@ class World:
             time.sleep(0.002)  # a solve is running: let it work
         raise TimeoutError(f"scheduler did not settle at t={now}")
 
+    def advance(self, now: int, scenario: Scenario) -> None:
+        """One unit of the world: tick, the executor's reports, goals due.
+
+        Waits for the scheduler to settle after the tick and at the end.
+        """
+        topics = self.topics
+        self.put(topics.key(keys.CLOCK), messages.Clock(now))
+        self.settle(now)
+        for report in self.executor.step(now):
+            key = (
+                topics.activity_report(report.task)
+                if isinstance(report, messages.ActivityReport)
+                else topics.resource_level(report.resource)
+            )
+            self.put(key, report)
+        if now in scenario.goals:
+            goal = scenario.goals[now]
+            name = json.loads(goal).get("goal_id", "?")
+            self.printer.line(f"goal      {name} sent")
+            self.put(topics.key(keys.GOALS), goal)
+        self.settle(now)
+
     def drain(self, now: int) -> None:
         """Handle what the scheduler published: dispatches, plans, status."""
         while True:
@@ -387,21 +409,7 @@ def run_demo(
             for now in range(scenario.until + 1):
                 began = time.monotonic()
                 printer.now = now
-                world.put(topics.key(keys.CLOCK), messages.Clock(now))
-                world.settle(now)
-                for report in executor.step(now):
-                    key = (
-                        topics.activity_report(report.task)
-                        if isinstance(report, messages.ActivityReport)
-                        else topics.resource_level(report.resource)
-                    )
-                    world.put(key, report)
-                if now in scenario.goals:
-                    goal = scenario.goals[now]
-                    name = json.loads(goal).get("goal_id", "?")
-                    printer.line(f"goal      {name} sent")
-                    world.put(topics.key(keys.GOALS), goal)
-                world.settle(now)
+                world.advance(now, scenario)
                 # Pacing only; every wait for the scheduler is on a query.
                 time.sleep(max(time_unit - (time.monotonic() - began), 0.0))
         finally:

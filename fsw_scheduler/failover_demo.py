@@ -29,7 +29,6 @@ from typing import TYPE_CHECKING, TextIO
 
 import zenoh
 
-from . import messages
 from .bus import topics as keys
 from .bus.session import listening_endpoints, loopback_config, wait_matching
 from .demo import Executor, Printer, World, paper_scenario, scenario_file
@@ -38,6 +37,8 @@ from .testing import SchedulerProcess
 
 if TYPE_CHECKING:
     from pathlib import Path
+
+    from . import messages
 
 #: Scenario times of the faults (see the module docstring).
 KILL_ACTIVE_1, KILL_ACTIVE_2, KILL_BOTH = 5, 20, 35
@@ -149,21 +150,7 @@ def run_failover_demo(
                     elif now == KILL_BOTH:
                         _kill_both(world, nodes, printer)
                         active = NODES[0]
-                    world.put(topics.key(keys.CLOCK), messages.Clock(now))
-                    world.settle(now)
-                    for report in executor.step(now):
-                        key = (
-                            topics.activity_report(report.task)
-                            if isinstance(report, messages.ActivityReport)
-                            else topics.resource_level(report.resource)
-                        )
-                        world.put(key, report)
-                    if now in scenario.goals:
-                        printer.line("goal      monitor-target-lf sent")
-                        world.put(
-                            topics.key(keys.GOALS), scenario.goals[now]
-                        )
-                    world.settle(now)
+                    world.advance(now, scenario)
                     time.sleep(max(time_unit - (time.monotonic() - began), 0))
                 result.plans = list(world.plans)
             finally:

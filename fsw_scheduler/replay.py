@@ -247,21 +247,12 @@ def verify(
     VerifyReport
         ``identical`` is True when every output matched.
     """
-    from .bus.node import engine_config, run_solve
+    from .bus.node import run_solve
 
-    recorded = list(iter_messages(paths))
-    info, info_topic = read_node_info(recorded)
-    if info.problem is None:
-        raise ValueError("the journal's scheduler/config has no problem")
-    config = config_from_info(info)
-    topics = keys.Topics(config.spacecraft)
-    snapshot = _opening_snapshot(recorded, topics)
-    engine = (
-        Engine.restore(engine_config(config), snapshot)
-        if snapshot is not None
-        else Engine(engine_config(config), info.problem)
-    )
-    decoder = InputDecoder(topics, config.clock, config.max_clock_step)
+    start = _Start.of(paths)
+    recorded, info, info_topic = start.recorded, start.info, start.info_topic
+    config, topics, snapshot = start.config, start.topics, start.snapshot
+    engine, decoder = start.engine, start.decoder
     solve = solve_fn or run_solve
     report = VerifyReport()
     produced: deque[tuple[str, bytes]] = deque()
@@ -347,6 +338,50 @@ def verify(
     return report
 
 
+@dataclass
+class _Start:
+    """A journal read, and a fresh engine where the journal starts."""
+
+    recorded: list[RecordedMessage]
+    info: messages.NodeInfo
+    info_topic: str
+    config: NodeConfig
+    topics: keys.Topics
+    snapshot: EngineSnapshot | None
+    engine: Engine
+    decoder: InputDecoder
+
+    @classmethod
+    def of(cls, paths: PathLike | Sequence[PathLike]) -> _Start:
+        """Read ``paths``; the engine starts from the opening snapshot, or
+        from the initial problem of ``scheduler/config``."""
+        from .bus.node import engine_config
+
+        recorded = list(iter_messages(paths))
+        info, info_topic = read_node_info(recorded)
+        if info.problem is None:
+            raise ValueError("the journal's scheduler/config has no problem")
+        config = config_from_info(info)
+        topics = keys.Topics(config.spacecraft)
+        snapshot = _opening_snapshot(recorded, topics)
+        engine = (
+            Engine.restore(engine_config(config), snapshot)
+            if snapshot is not None
+            else Engine(engine_config(config), info.problem)
+        )
+        decoder = InputDecoder(topics, config.clock, config.max_clock_step)
+        return cls(
+            recorded,
+            info,
+            info_topic,
+            config,
+            topics,
+            snapshot,
+            engine,
+            decoder,
+        )
+
+
 def _opening_snapshot(
     recorded: Sequence[RecordedMessage], topics: keys.Topics
 ) -> EngineSnapshot | None:
@@ -420,21 +455,12 @@ def rebuild(
     -------
     Rebuilt
     """
-    from .bus.node import engine_config, run_solve
+    from .bus.node import run_solve
 
-    recorded = list(iter_messages(paths))
-    info, info_topic = read_node_info(recorded)
-    if info.problem is None:
-        raise ValueError("the journal's scheduler/config has no problem")
-    config = config_from_info(info)
-    topics = keys.Topics(config.spacecraft)
-    snapshot = _opening_snapshot(recorded, topics)
-    engine = (
-        Engine.restore(engine_config(config), snapshot)
-        if snapshot is not None
-        else Engine(engine_config(config), info.problem)
-    )
-    decoder = InputDecoder(topics, config.clock, config.max_clock_step)
+    start = _Start.of(paths)
+    recorded, info_topic = start.recorded, start.info_topic
+    config, topics, snapshot = start.config, start.topics, start.snapshot
+    engine, decoder = start.engine, start.decoder
     out = Rebuilt(engine, config)
     now = (snapshot.now or 0) if snapshot is not None else 0
     out.last_tick = snapshot.now if snapshot is not None else None
