@@ -188,7 +188,8 @@ def _solve_parts(
     Smaller models are solved much faster than their union (the search
     of one part no longer branches over the others'), and parts without
     a resource or a precedence need no solver at all. Each part gets a
-    share of what is left of the limit, by its number of start times.
+    share of what is left of the limit, by its number of start times,
+    the smallest first.
     """
     weights = [
         1
@@ -197,8 +198,12 @@ def _solve_parts(
         )
         for part in parts
     ]
+    # Smallest parts first: they are done at once, and what they leave of
+    # the limit goes to the large one instead of waiting unused.
+    order = sorted(range(len(parts)), key=lambda k: (weights[k], k))
+    weights = [weights[k] for k in order]
     plans = []
-    for idx, part in enumerate(parts):
+    for idx, part in enumerate(parts[k] for k in order):
         members = set(part)
         sub = problem.replace(
             tasks=tuple(t for t in problem.tasks if t.id in members),
