@@ -245,7 +245,8 @@ def _joined(
     began: float,
     time_limit: float | None,
 ) -> Plan:
-    """One plan of ``problem`` from the plans of its parts."""
+    """One plan of ``problem`` from the plans of its parts (smallest
+    first: the status line ends with the largest part's)."""
     statuses = {plan.status for plan in plans}
     stats = [plan.stats for plan in plans if plan.stats is not None]
     summary = SolverStats(
@@ -260,7 +261,8 @@ def _joined(
             f"{sum(p.status is status for p in plans)} {status.value}"
             for status in SolveStatus
             if status in statuses
-        ),
+        )
+        + (f"; largest: {stats[-1].solver_status}" if stats else ""),
         time_limit_s=time_limit,
     )
     everything = tuple(task.id for task in problem.tasks)
