@@ -18,6 +18,7 @@ and the same number of rounds give the same plan.
 
 from __future__ import annotations
 
+import logging
 import time
 from typing import TYPE_CHECKING
 
@@ -41,6 +42,10 @@ MARGIN = 15
 ROUND_S = 1.0
 #: Below this much time left no round is started.
 MIN_ROUND_S = 0.15
+#: Seconds between two progress lines on the solver's logger.
+PROGRESS_S = 3.0
+
+log = logging.getLogger("fsw_scheduler.solver")
 
 
 def improve(
@@ -75,13 +80,28 @@ def improve(
     """
     best = incumbent
     improved = 0
+    began = last_log = time.perf_counter()
     size = MIN_FREE
     windows = _windows(problem, size)
     stale = index = 0
     while True:
-        left = deadline - time.perf_counter()
+        now = time.perf_counter()
+        left = deadline - now
         if left < MIN_ROUND_S:
             break
+        if now - last_log >= PROGRESS_S and best.objective is not None:
+            last_log = now
+            log.info(
+                "neighbourhood search %.0f s on %d tasks: incumbent left-out "
+                "cost %d, delay %d; %d improvements, neighbourhoods of %d "
+                "tasks, no bound",
+                now - began,
+                problem.num_tasks,
+                best.objective.unscheduled_cost,
+                best.objective.delay_cost,
+                improved,
+                size,
+            )
         if stale >= len(windows):
             # A whole sweep found nothing: larger neighbourhoods.
             if size >= MAX_FREE:

@@ -15,7 +15,13 @@ from .explain import explain as explain_plan
 from .greedy import greedy_plan
 from .improve import improve
 from .proofs import infeasibility
-from .solution import Plan, SolverStats, SolveStatus
+from .solution import (
+    Objective,
+    Plan,
+    SolverStats,
+    SolveStatus,
+    objective_weight,
+)
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -111,6 +117,195 @@ def solve(
                 time_limit_s=time_limit,
             ),
         )
+    parts = components(problem)
+    if len(parts) > 1:
+        plan = _solve_parts(
+            problem, parts, run, began, time_limit, warm, domains
+        )
+    else:
+        plan = _solve_whole(problem, run, began, time_limit, warm, domains)
+    if explain and (plan.unscheduled or not plan.status.has_plan):
+        budget = explain_budget
+        if budget is None:
+            # Explanations share the caller's limit: whatever the solve
+            # left of it (tasks get not_analysed when nothing is left).
+            budget = (
+                EXPLAIN_BUDGET_S
+                if time_limit is None
+                else time_limit - (time.perf_counter() - began)
+            )
+        plan = plan.replace(
+            why=explain_plan(problem, plan, _budgeted(run, budget))
+        )
+    return plan
+
+
+def components(problem: Problem) -> list[list[str]]:
+    """Independent parts: tasks linked by a precedence or a shared resource.
+
+    No constraint crosses two parts, and the lexicographic objective is a
+    sum over tasks, so the best plan of the whole is the union of the best
+    plans of the parts (least left out in each, then least delay in each).
+    Parts are listed by their first task, tasks in problem order.
+    """
+    parent = {task.id: task.id for task in problem.tasks}
+
+    def find(name: str) -> str:
+        while parent[name] != name:
+            parent[name] = parent[parent[name]]
+            name = parent[name]
+        return name
+
+    def join(a: str, b: str) -> None:
+        root_a, root_b = find(a), find(b)
+        if root_a != root_b:
+            parent[max(root_a, root_b)] = min(root_a, root_b)
+
+    for prec in problem.precedences:
+        join(prec.before, prec.after)
+    first_user: dict[str, str] = {}
+    for task in problem.tasks:
+        for name, amount in task.uses.items():
+            if amount:
+                join(task.id, first_user.setdefault(name, task.id))
+    parts: dict[str, list[str]] = {}
+    for task in problem.tasks:
+        parts.setdefault(find(task.id), []).append(task.id)
+    return list(parts.values())
+
+
+def _solve_parts(
+    problem: Problem,
+    parts: list[list[str]],
+    run: functools.partial[Plan],
+    began: float,
+    time_limit: float | None,
+    warm: Plan | None,
+    domains: dict[str, Domain],
+) -> Plan:
+    """Solve each independent part alone and join the plans.
+
+    Smaller models are solved much faster than their union (the search
+    of one part no longer branches over the others'), and parts without
+    a resource or a precedence need no solver at all. Each part gets a
+    share of what is left of the limit, by its number of start times,
+    the smallest first.
+    """
+    weights = [
+        1
+        + sum(
+            max(0, domains[n].latest - domains[n].earliest + 1) for n in part
+        )
+        for part in parts
+    ]
+    # Smallest parts first: they are done at once, and what they leave of
+    # the limit goes to the large one instead of waiting unused.
+    order = sorted(range(len(parts)), key=lambda k: (weights[k], k))
+    weights = [weights[k] for k in order]
+    plans = []
+    for idx, part in enumerate(parts[k] for k in order):
+        members = set(part)
+        sub = problem.replace(
+            tasks=tuple(t for t in problem.tasks if t.id in members),
+            precedences=tuple(
+                p for p in problem.precedences if p.before in members
+            ),
+        )
+        sub_warm = None
+        if warm is not None:
+            sub_warm = warm.replace(
+                objective=None,
+                activities=tuple(
+                    a for a in warm.activities if a.task in members
+                ),
+                unscheduled=tuple(n for n in warm.unscheduled if n in members),
+                why=(),
+            )
+        limit = None
+        now = time.perf_counter()
+        if time_limit is not None:
+            left = time_limit - (now - began)
+            limit = max(0.0, left * weights[idx] / sum(weights[idx:]))
+        plans.append(
+            _solve_whole(
+                sub,
+                run,
+                now,
+                limit,
+                sub_warm,
+                {n: domains[n] for n in part},
+            )
+        )
+    return _joined(problem, plans, began, time_limit)
+
+
+def _joined(
+    problem: Problem,
+    plans: list[Plan],
+    began: float,
+    time_limit: float | None,
+) -> Plan:
+    """One plan of ``problem`` from the plans of its parts (smallest
+    first: the status line ends with the largest part's)."""
+    statuses = {plan.status for plan in plans}
+    stats = [plan.stats for plan in plans if plan.stats is not None]
+    summary = SolverStats(
+        solver="+".join(sorted({s.solver for s in stats})) or "none",
+        build_s=sum(s.build_s for s in stats),
+        solve_s=sum(s.solve_s for s in stats),
+        wall_s=time.perf_counter() - began,
+        num_variables=sum(s.num_variables for s in stats),
+        num_constraints=sum(s.num_constraints for s in stats),
+        solver_status=f"{len(plans)} independent parts: "
+        + ", ".join(
+            f"{sum(p.status is status for p in plans)} {status.value}"
+            for status in SolveStatus
+            if status in statuses
+        )
+        + (f"; largest: {stats[-1].solver_status}" if stats else ""),
+        time_limit_s=time_limit,
+    )
+    everything = tuple(task.id for task in problem.tasks)
+    for status in (SolveStatus.INFEASIBLE, SolveStatus.UNKNOWN):
+        if status in statuses:
+            return Plan(status, None, unscheduled=everything, stats=summary)
+    left_out = {name for plan in plans for name in plan.unscheduled}
+    activities = tuple(
+        sorted(
+            (a for plan in plans for a in plan.activities),
+            key=lambda a: (a.start, a.task),
+        )
+    )
+    missed = sum(t.schedule_cost for t in problem.tasks if t.id in left_out)
+    delay = sum(
+        problem.task(a.task).delay_cost * (a.start - problem.start)
+        for a in activities
+    )
+    weight = objective_weight(
+        [t.delay_cost for t in problem.tasks], problem.horizon
+    )
+    optimal = statuses == {SolveStatus.OPTIMAL}
+    total = weight * missed + delay
+    return Plan(
+        status=SolveStatus.OPTIMAL if optimal else SolveStatus.FEASIBLE,
+        objective=Objective(missed, delay, total),
+        activities=activities,
+        unscheduled=tuple(n for n in everything if n in left_out),
+        stats=msgspec.structs.replace(
+            summary, bound=total if optimal else None
+        ),
+    )
+
+
+def _solve_whole(
+    problem: Problem,
+    run: functools.partial[Plan],
+    began: float,
+    time_limit: float | None,
+    warm: Plan | None,
+    domains: dict[str, Domain],
+) -> Plan:
+    """Start plan, then the solver or the neighbourhood search; no ``why``."""
     stop = None
     if time_limit is not None:
         # The heuristic gets a share of the limit; its trivial plan (the
@@ -197,19 +392,6 @@ def solve(
                     bound=bound,
                 )
             )
-    if explain and (plan.unscheduled or not plan.status.has_plan):
-        budget = explain_budget
-        if budget is None:
-            # Explanations share the caller's limit: whatever the solve
-            # left of it (tasks get not_analysed when nothing is left).
-            budget = (
-                EXPLAIN_BUDGET_S
-                if time_limit is None
-                else time_limit - (time.perf_counter() - began)
-            )
-        plan = plan.replace(
-            why=explain_plan(problem, plan, _budgeted(run, budget))
-        )
     return plan
 
 

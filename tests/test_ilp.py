@@ -461,3 +461,17 @@ def test_large_problems_improve_by_neighbourhood_search() -> None:
     assert check_plan(problem, plan).ok
     assert plan.objective is not None
     assert plan.objective.total < start.objective.total
+
+
+def test_neighbourhood_search_logs_progress(
+    caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Tests that a long neighbourhood search logs its incumbent."""
+    from fsw_scheduler import improve
+
+    monkeypatch.setattr(improve, "PROGRESS_S", 0.3)
+    problem = generator.scaling(0, style="broad")[3].problem()
+    caplog.set_level("INFO", logger="fsw_scheduler.solver")
+    solve(problem, time_limit=1.5)
+    lines = [r.getMessage() for r in caplog.records]
+    assert any("neighbourhood search" in m and "left-out" in m for m in lines)

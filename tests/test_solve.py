@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from fsw_scheduler.check import check_plan
 from fsw_scheduler.solution import SolveStatus
 from fsw_scheduler.solve import solve
 
@@ -493,3 +494,35 @@ def test_reason_names_the_precedence_partner_not_the_resource() -> None:
     assert why["t"].cause == "precedence", why
     assert "t -> u" in why["t"].detail
     assert why["u"].cause in ("precedence", "consumable"), why
+
+
+def test_independent_parts_are_solved_apart() -> None:
+    """Tests that tasks sharing no resource or precedence are solved as
+    separate models, and the joined plan is the whole problem's optimum."""
+    from fsw_scheduler.solve import components
+    from fsw_scheduler.solvers.ilp import solve_ilp
+
+    doc = _problem(
+        [
+            _task("a", 3, delay_cost=2, uses={"cam": 1}),
+            _task("b", 3, delay_cost=3, uses={"cam": 1}),
+            _task("c", 2, uses={"ant": 1}),
+            _task("d", 2, delay_cost=5, uses={"ant": 1}),
+            _task("e", 1, schedule_cost=0),
+            _task("f", 9, schedule_cost=2, uses={"cam": 1}),
+        ],
+        horizon=10,
+        resources={"binary": ["cam", "ant"]},
+        precedences=[{"before": "e", "after": "c", "kind": "lax"}],
+    )
+    problem = problem_from(doc)
+    assert components(problem) == [["a", "b", "f"], ["c", "d", "e"]]
+    plan = solve(problem)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.stats is not None
+    assert plan.stats.solver_status.startswith("2 independent parts")
+    whole = solve_ilp(problem)
+    assert whole.status is SolveStatus.OPTIMAL
+    assert plan.objective == whole.objective
+    report = check_plan(problem, plan)
+    assert report.ok and report.objective == plan.objective

@@ -29,7 +29,7 @@ from .cbc import ABS_GAP, MIN_CBC_S, CbcResult
 from .constraints import Constraints
 from .objective import objective, weight
 from .program import Program
-from .progress import WatchedCbcRun
+from .progress import WITH_START, WatchedCbcRun
 from .variables import Variables
 
 if TYPE_CHECKING:
@@ -203,6 +203,7 @@ def _run_cbc(
         time_limit=time_limit,
         threads=threads,
         seed=seed,
+        extra=None if start is None else WITH_START,
     )
     result = run.solve(built.program, start)
     notes = [result.solver_status]
