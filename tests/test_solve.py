@@ -526,3 +526,27 @@ def test_independent_parts_are_solved_apart() -> None:
     assert plan.objective == whole.objective
     report = check_plan(problem, plan)
     assert report.ok and report.objective == plan.objective
+
+
+def test_no_solver_when_only_impossible_tasks_are_out() -> None:
+    """Tests that a start plan leaving out only tasks no plan can hold, the
+    others at their earliest starts, is optimal without a solve."""
+    doc = _problem(
+        [_task("a", 3), _task("b", 4), _task("c", 2, delay_cost=3)],
+        horizon=10,
+        precedences=[
+            # b would have to start at 3 + 5 = 8 and end past 10.
+            {
+                "before": "a",
+                "after": "b",
+                "kind": "tight",
+                "offset": 5,
+                "scope": "at_least_first",
+            }
+        ],
+    )
+    plan = solve(problem_from(doc))
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.unscheduled == ("b",)
+    assert plan.starts() == {"a": 0, "c": 0}
+    assert plan.stats is not None and plan.stats.solver == "greedy"
