@@ -434,3 +434,37 @@ def test_gantt_draws_the_capacity(tmp_path: Path) -> None:
         measured={"battery": [(2, 10.0), (5, 4.0)]},
     )
     assert target.stat().st_size > 0
+
+
+def test_engine_keeps_the_capacity_through_a_drift_replan() -> None:
+    """Tests the engine on the full-battery scenario: a level reported
+    above the capacity is full (no replan); a low one replans from it,
+    with the capacity kept."""
+    from fsw_scheduler.engine import StartSolve
+
+    from .test_engine import Driver, statuses
+
+    problem = problem_from(
+        json.loads((ROOT / "examples" / "full-battery.json").read_text())
+    )
+    driver = Driver(problem)
+    driver.tick(0)
+    for now in range(1, 11):
+        driver.tick(now)
+    schedule = driver.engine.schedule
+    assert schedule is not None
+    assert predicted_levels(schedule.problem, schedule.plan, 10) == {
+        "battery": 10.0
+    }
+    out = driver.level("battery", 10.4, 10)
+    assert not [c for c in out if isinstance(c, StartSolve)]
+    assert not statuses(out, "drift")
+    out = driver.level("battery", 8.0, 10)
+    assert statuses(out, "drift")
+    assert driver.plan.plan_id == 2
+    schedule = driver.engine.schedule
+    assert schedule is not None
+    assert schedule.problem.resources.consumable == {
+        "battery": Consumable(8.0, 10.0)
+    }
+    assert check_plan(schedule.problem, schedule.plan).ok
