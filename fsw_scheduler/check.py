@@ -31,7 +31,9 @@ Every violation is reported, not just the first. Rule names:
 ``multiple``
     the summed amounts of running users stay within capacity.
 ``consumable``
-    the level at the end of every time unit stays >= 0.
+    the level at the end of every time unit stays >= 0; with a capacity
+    the level at the end of unit ``t`` is ``min(max, level at t-1 - net
+    use in t)`` (what a full store cannot take is lost).
 ``precedence``
     tight: ``s_after == s_before + l_before + offset``; lax: ``>=``.
     Only checked when both tasks are scheduled.
@@ -63,6 +65,7 @@ Conventions for malformed plans (documented so that reports are stable):
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from typing import TYPE_CHECKING, NamedTuple
 
@@ -73,7 +76,7 @@ from .solution import Objective, objective_weight
 if TYPE_CHECKING:
     from collections.abc import Iterable, Iterator, Sequence
 
-    from .model import Precedence, Problem, Task
+    from .model import Consumable, Precedence, Problem, Task
     from .solution import Activity, Plan
 
 RULES = (
@@ -464,7 +467,9 @@ def _multiple(
 def _consumable(
     problem: Problem, tasks: dict[str, Task], known: Sequence[Activity]
 ) -> Iterator[Violation]:
-    for resource, initial in problem.resources.consumable.items():
+    for resource, spec in problem.resources.consumable.items():
+        initial, ceiling = _initial_and_ceiling(spec)
+        top = math.inf if ceiling is None else ceiling
         users = _users(tasks, known, resource)
         # Units run before the horizon (already a horizon violation) still
         # drained the resource; count them at the first unit.
@@ -472,9 +477,12 @@ def _consumable(
             amount * max(0, min(a.end, problem.start) - a.start)
             for a, amount in users
         )
+        level = min(top, level)
         hits = []
         for t, running in _walk(problem, users):
-            level -= sum(amount for _, amount in running)
+            # Net use of the unit, then the ceiling: what a full store
+            # cannot take is lost.
+            level = min(top, level - sum(amount for _, amount in running))
             if level < -TOLERANCE:
                 # The level keeps falling while the same tasks run: merge
                 # on "below zero" alone, not on who runs.
@@ -487,8 +495,23 @@ def _consumable(
                 run[0].t,
                 f"{resource!r} at {_span(run)}: level below 0 (first "
                 f"{run[0].value:g}, lowest {lowest:g}; initial "
-                f"{initial:g})",
+                f"{initial:g}"
+                + ("" if ceiling is None else f", capacity {ceiling:g}")
+                + ")",
             )
+
+
+def _initial_and_ceiling(
+    spec: float | Consumable,
+) -> tuple[float, float | None]:
+    """A consumable's initial level and capacity, from its raw field.
+
+    A plain number is the initial level with no capacity; an object has
+    ``initial`` and an optional ``max``.
+    """
+    if isinstance(spec, int | float):
+        return float(spec), None
+    return float(spec.initial), None if spec.max is None else float(spec.max)
 
 
 # --------------------------------------------------------------------------

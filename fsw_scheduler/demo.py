@@ -110,7 +110,8 @@ class Executor:
     """
 
     def __init__(self, problem: Problem, scenario: Scenario) -> None:
-        self.levels = dict(problem.resources.consumable)
+        self.levels = problem.resources.initial_levels
+        self.ceilings = problem.resources.ceilings
         self.scenario = scenario
         self.running: dict[str, tuple[int, int, dict[str, float]]] = {}
         self.executed: list[Activity] = []
@@ -154,6 +155,8 @@ class Executor:
                 out.append(messages.ActivityReport(task, "completed", now))
         if "battery" in self.levels and now > 0:
             self.levels["battery"] -= self.scenario.battery_drift
+        for name, top in self.ceilings.items():
+            self.levels[name] = min(top, self.levels[name])  # full: lost
         if now % self.scenario.level_every == 0 and now > 0:
             for name in sorted(self.levels):
                 out.append(

@@ -17,7 +17,11 @@ precedence ``i -> j`` with gap ``g = length_i + offset``:
 A task whose range becomes empty can never be scheduled; with scope
 ``both`` that empties its partner too. So does a consumer that alone needs
 more of a consumable than the initial level plus everything the other
-tasks could generate before it ends (:func:`_over_budget`).
+tasks could generate before it ends (:func:`_over_budget`), or more than
+the consumable's capacity plus what can be generated while it runs
+(:func:`_over_capacity`). A capacity only loses generation, so a level
+with one is never above the level without it, and the first rule stays
+sound as it is.
 
 :func:`cost_caps` adds a bound of another kind: once a plan that leaves
 nothing out is known, no better plan can start a task later than the delay
@@ -105,7 +109,9 @@ def start_domains(
             )
         for task in problem.tasks:
             if not empty(task.id):
-                why = _over_budget(problem, task, high[task.id], following)
+                why = _over_budget(
+                    problem, task, high[task.id], following
+                ) or _over_capacity(problem, task, low[task.id], high[task.id])
                 if why:
                     kill(task.id, why, "consumable")
 
@@ -221,7 +227,7 @@ def _over_budget(
     ``following`` maps a task to its ``(successor, offset, gap)`` links.
     """
     after: set[str] | None = None
-    for resource, initial in problem.resources.consumable.items():
+    for resource, initial in problem.resources.initial_levels.items():
         amount = task.uses.get(resource, 0)
         if amount <= 0:
             continue
@@ -237,6 +243,40 @@ def _over_budget(
             return (
                 f"needs {need:g} {resource} on its own; at most {supply:g} "
                 "can be there (initial level and generation before it ends)"
+            )
+    return ""
+
+
+def _over_capacity(
+    problem: Problem, task: Task, earliest: int, latest: int
+) -> str:
+    """Why ``task`` alone needs more than a full store gives, or "".
+
+    With a capacity ``max`` the level before ``task`` starts is at most
+    ``max``; while it runs, only generation by tasks whose start range
+    lets them overlap its run comes in, each for at most the shorter of
+    the two lengths (the capacity can only lose some of it, and other
+    consumers only take more). So it needs at most ``max`` plus that.
+    """
+    for resource, top in problem.resources.ceilings.items():
+        amount = task.uses.get(resource, 0)
+        if amount <= 0:
+            continue
+        need = amount * task.length  # every task ends inside the horizon
+        first, last = earliest, latest + task.length
+        inflow = 0.0
+        for other in problem.tasks:
+            rate = -other.uses.get(resource, 0)
+            if rate <= 0 or other.id == task.id:
+                continue
+            low, high = problem.start_bounds(other)
+            overlap = min(last, high + other.length) - max(first, low)
+            inflow += rate * max(0, min(other.length, task.length, overlap))
+        if need > top + inflow + 1e-9:
+            return (
+                f"needs {need:g} {resource} on its own; at most "
+                f"{top + inflow:g} can be there (capacity {top:g} and "
+                "generation while it runs)"
             )
     return ""
 

@@ -18,7 +18,9 @@ solve.
   ``multiple`` or ``consumable``), else ``combination``. Precedences come
   first because dropping a resource for every task also lets in a
   partner that cannot be placed, and the resource would then be blamed
-  for what the precedence does.
+  for what the precedence does. For a consumable with a capacity, one
+  more solve without the capacity says whether charge lost while the
+  store is full is what keeps the task out.
 """
 
 from __future__ import annotations
@@ -201,7 +203,8 @@ def _forced(
             return Blocker(
                 task_id,
                 problem.resources.kind_of(name) or "resource",
-                _resource_detail(problem, name),
+                _resource_detail(problem, name)
+                + _capacity_note(forced, name, solve),
             )
     return Blocker(
         task_id,
@@ -273,4 +276,35 @@ def _resource_detail(problem: Problem, name: str) -> str:
         return f"{name} is busy whenever it could run"
     if kind == "multiple":
         return f"{name} capacity {res.multiple[name]:g} would be exceeded"
-    return f"{name} level (initial {res.consumable[name]:g}) would go below 0"
+    ceiling = res.ceiling(name)
+    capacity = "" if ceiling is None else f", capacity {ceiling:g}"
+    return (
+        f"{name} level (initial {res.initial(name):g}{capacity}) would go "
+        "below 0"
+    )
+
+
+def _capacity_note(forced: Problem, name: str, solve: SolveFn) -> str:
+    """What the capacity of consumable ``name`` has to do with it.
+
+    One more solve, without the capacity: when the forced task then fits,
+    the charge a full store loses is what keeps it out.
+    """
+    ceiling = forced.resources.ceiling(name)
+    if ceiling is None:
+        return ""
+    unbounded = forced.replace(
+        resources=msgspec.structs.replace(
+            forced.resources,
+            consumable={
+                **forced.resources.consumable,
+                name: forced.resources.initial(name),
+            },
+        )
+    )
+    if not solve(unbounded).status.has_plan:
+        return ""
+    return (
+        f"; it would fit if the {ceiling:g} capacity did not lose what is "
+        "generated while it is full"
+    )

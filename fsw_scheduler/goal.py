@@ -95,7 +95,9 @@ def validate_goal(goal: Goal) -> list[FieldIssue]:
         issues.append(FieldIssue("goal_id", f"goal id {reason}"))
     # A permissive stand-in problem: every used resource declared, a horizon
     # long enough for any length, so only per-task rules speak.
-    used = {name: 0.0 for t in goal.tasks for name in t.uses}
+    used: dict[str, float | model.Consumable] = {
+        name: 0.0 for t in goal.tasks for name in t.uses
+    }
     lengths = [t.length for t in goal.tasks if t.length > 0]
     stand_in = Problem(
         horizon=max(lengths, default=1),

@@ -92,9 +92,10 @@ class _Board:
         # level[t]: level at the end of unit start + t
         self.level = {
             name: [float(initial)] * span
-            for name, initial in res.consumable.items()
+            for name, initial in res.initial_levels.items()
         }
         self.lowest = {name: list(v) for name, v in self.level.items()}
+        self._capped_init(problem)
 
     def fits(self, items: list[tuple[Task, int]]) -> bool:
         """True if tasks ``(task, start)`` can all be added together.
@@ -139,11 +140,39 @@ class _Board:
             if name in self.used:
                 for t in range(base, base + task.length):
                     self.used[name][t] += amount
+            elif name in self.ceiling:
+                self._add_capped(name, base, task.length, amount)
             elif name in self.level:
                 level = self.level[name]
                 for t in range(base, len(level)):
                     level[t] -= amount * min(t - base + 1, task.length)
                 self._refresh(name)
+
+    def _capped_init(self, problem: Problem) -> None:
+        """Consumables with a capacity: net use per unit, walked again.
+
+        Their level is ``min(max, level - net use)`` unit by unit, which
+        adding a task cannot shift by a constant, so :meth:`add` walks the
+        whole profile again. :meth:`fits` keeps its test: a consumer lowers
+        each later level by at most what it has taken by then (a full store
+        can only absorb a drop), so a placement it accepts is valid.
+        """
+        self.ceiling = problem.resources.ceilings
+        self.initial = problem.resources.initial_levels
+        self.net = {name: [0.0] * problem.horizon for name in self.ceiling}
+
+    def _add_capped(
+        self, name: str, base: int, length: int, amount: float
+    ) -> None:
+        """Book ``amount`` per unit over ``[base, base + length)``."""
+        net, level = self.net[name], self.level[name]
+        for t in range(max(base, 0), min(base + length, len(net))):
+            net[t] += amount
+        value, top = self.initial[name], self.ceiling[name]
+        for t, used in enumerate(net):
+            value = min(top, value - used)
+            level[t] = value
+        self._refresh(name)
 
     def _refresh(self, name: str) -> None:
         """lowest[t] = min(level[t:]), for the constant-drop test."""
@@ -454,7 +483,7 @@ def _by_density(
     A task's share is what it takes of each consumable's initial level
     (amount x length / initial); a knapsack's greedy order.
     """
-    initial = problem.resources.consumable
+    initial = problem.resources.initial_levels
 
     def share(task: Task) -> float:
         return sum(

@@ -16,7 +16,7 @@ import msgspec
 from .errors import FieldIssue, InputError
 
 if TYPE_CHECKING:
-    from collections.abc import Iterable, Iterator
+    from collections.abc import Iterable, Iterator, Mapping
 
 Preemption = Literal["none", "from_start", "from_interrupt", "delete"]
 WindowReading = Literal["task", "start"]
@@ -105,12 +105,82 @@ class Precedence(msgspec.Struct, frozen=True, omit_defaults=True):
     offset: int = 0
 
 
+class Consumable(msgspec.Struct, frozen=True, omit_defaults=True):
+    """A consumable written as an object: initial level and capacity.
+
+    ``{"initial": 8, "max": 10}``. The level at the end of unit ``t`` is
+    ``min(max, level at the end of t-1 - net use during t)``: generation
+    beyond ``max`` is lost, like charge offered to a full battery. Without
+    ``max`` (or written as a plain number) the level has no ceiling.
+
+    Attributes
+    ----------
+    initial
+        Level at the start of the problem, ``0 <= initial <= max``.
+    max
+        The ceiling (capacity), ``>= 0``; None for none.
+    """
+
+    initial: float
+    max: float | None = None
+
+
 class Resources(msgspec.Struct, frozen=True, omit_defaults=True):
-    """The three resource kinds and their capacities / initial levels."""
+    """The three resource kinds and their capacities / initial levels.
+
+    A consumable is its initial level (a number: no ceiling) or a
+    :class:`Consumable` (initial level and optional capacity); read them
+    through :attr:`initial_levels` and :attr:`ceilings`.
+    """
 
     binary: tuple[str, ...] = ()
     multiple: dict[str, float] = {}
-    consumable: dict[str, float] = {}
+    consumable: dict[str, float | Consumable] = {}
+
+    @property
+    def initial_levels(self) -> dict[str, float]:
+        """Initial level of every consumable, in declaration order."""
+        return {
+            name: spec.initial if isinstance(spec, Consumable) else spec
+            for name, spec in self.consumable.items()
+        }
+
+    @property
+    def ceilings(self) -> dict[str, float]:
+        """The capacity of every consumable that has one."""
+        return {
+            name: spec.max
+            for name, spec in self.consumable.items()
+            if isinstance(spec, Consumable) and spec.max is not None
+        }
+
+    def initial(self, name: str) -> float:
+        """Initial level of consumable ``name`` (KeyError if unknown)."""
+        spec = self.consumable[name]
+        return spec.initial if isinstance(spec, Consumable) else spec
+
+    def ceiling(self, name: str) -> float | None:
+        """Capacity of consumable ``name``; None without one."""
+        spec = self.consumable.get(name)
+        return spec.max if isinstance(spec, Consumable) else None
+
+    def with_levels(self, levels: Mapping[str, float]) -> Resources:
+        """A copy with new initial levels, each capacity kept.
+
+        Levels of consumables not in ``levels`` stay; a level above its
+        consumable's capacity is cut to it (the store is full). A
+        consumable written as a plain number stays one.
+        """
+        consumable = dict(self.consumable)
+        for name, level in levels.items():
+            spec = consumable.get(name)
+            if isinstance(spec, Consumable):
+                if spec.max is not None:
+                    level = min(level, spec.max)
+                consumable[name] = msgspec.structs.replace(spec, initial=level)
+            else:
+                consumable[name] = level
+        return msgspec.structs.replace(self, consumable=consumable)
 
     def kind_of(self, name: str) -> ResourceKind | None:
         """Return the kind of resource ``name``, or None if unknown."""
@@ -220,6 +290,7 @@ def key_path(path: str, key: str) -> str:
 
 _PATH_RE = re.compile(r"- at `\$(?P<path>[^`]*)`")
 _GOT_RE = re.compile(r"got `(?P<got>\w+)`")
+_MISSING_RE = re.compile(r"missing required field `(?P<field>\w+)`")
 _SEGMENT_RE = re.compile(r"\.(?P<name>\w+)|\[(?P<idx>\d+)\]")
 _JSON_TYPES = {
     str: "str",
@@ -241,24 +312,46 @@ def _msgspec_issue(error: Exception, data: bytes | str) -> FieldIssue:
     match = _PATH_RE.search(text)
     path = match.group("path").lstrip(".") if match else ""
     reason = _PATH_RE.sub("", text).strip()
-    if path.endswith("[...]"):
-        path = _name_the_key(path[: -len("[...]")], text, data)
+    if "[...]" in path:
+        path = _name_the_key(path, text, data)
     return FieldIssue(path, reason)
 
 
 def _name_the_key(path: str, text: str, data: bytes | str) -> str:
-    """``path.<key>`` for msgspec's ``path[...]`` (a dictionary value).
+    """``path.<key>...`` for msgspec's ``path[...]...`` (a dictionary value).
 
     msgspec does not say which key of a dictionary holds the wrong value;
-    the key is found again in the document: the first whose value has the
-    JSON type the error says it got.
+    the key is found again in the document: the first whose value (or the
+    part of it the rest of the path names) has the JSON type the error
+    says it got, or is an object without the field it says is missing.
     """
+    prefix, _, suffix = path.partition("[...]")
     got = _GOT_RE.search(text)
+    missing = _MISSING_RE.search(text)
     try:
-        node = msgspec.json.decode(data)
+        node = _walk_path(msgspec.json.decode(data), prefix)
     except (msgspec.DecodeError, RecursionError):
-        return path + "[...]"
-    for segment in _SEGMENT_RE.finditer("." + path if path else ""):
+        return path
+    if not isinstance(node, dict) or (got is None and missing is None):
+        return path
+    for key, value in node.items():
+        target = _walk_path(value, suffix)
+        if got is not None:
+            found = _JSON_TYPES.get(type(target)) == got["got"]
+        else:
+            found = isinstance(target, dict) and missing is not None and (
+                missing["field"] not in target
+            )
+        if found:
+            return key_path(prefix, key) + suffix
+    return path
+
+
+def _walk_path(node: object, path: str) -> object:
+    """The part of a decoded document at ``path`` (``a.b[2]``), or None."""
+    for segment in _SEGMENT_RE.finditer(
+        path if path.startswith((".", "[")) or not path else "." + path
+    ):
         if segment.group("name") is not None and isinstance(node, dict):
             node = node.get(segment.group("name"))
         elif segment.group("idx") is not None and isinstance(node, list):
@@ -266,11 +359,7 @@ def _name_the_key(path: str, text: str, data: bytes | str) -> str:
             node = node[idx] if idx < len(node) else None
         else:
             node = None
-    if isinstance(node, dict) and got is not None:
-        for key, value in node.items():
-            if _JSON_TYPES.get(type(value)) == got.group("got"):
-                return key_path(path, key)
-    return path + "[...]"
+    return node
 
 
 def decode_strict(data: bytes | str, kind: type[T], what: str) -> T:
@@ -386,12 +475,35 @@ def _check_resources(resources: Resources) -> Iterator[FieldIssue]:
                 key_path("resources.multiple", name),
                 f"capacity must be >= 0, got {capacity}",
             )
-    for name, level in resources.consumable.items():
-        if level < 0:
-            yield FieldIssue(
-                key_path("resources.consumable", name),
-                f"initial level must be >= 0, got {level}",
-            )
+    for name, spec in resources.consumable.items():
+        yield from _check_consumable(name, spec)
+
+
+def _check_consumable(
+    name: str, spec: float | Consumable
+) -> Iterator[FieldIssue]:
+    path = key_path("resources.consumable", name)
+    if not isinstance(spec, Consumable):
+        if spec < 0:
+            yield FieldIssue(path, f"initial level must be >= 0, got {spec}")
+        return
+    if spec.initial < 0:
+        yield FieldIssue(
+            f"{path}.initial",
+            f"initial level must be >= 0, got {spec.initial}",
+        )
+    if spec.max is None:
+        return
+    if spec.max < 0:
+        yield FieldIssue(
+            f"{path}.max", f"capacity must be >= 0, got {spec.max}"
+        )
+    elif spec.initial > spec.max:
+        yield FieldIssue(
+            f"{path}.initial",
+            f"initial level {spec.initial:g} is above the capacity "
+            f"max {spec.max:g}",
+        )
 
 
 def _check_tasks(problem: Problem, allow_empty: bool) -> list[FieldIssue]:

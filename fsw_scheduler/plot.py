@@ -22,7 +22,7 @@ if TYPE_CHECKING:
     from .model import Problem, Task
     from .solution import Activity, Blocker, Plan
 
-__all__ = ["gantt", "resource_profiles", "timeline_text"]
+__all__ = ["gantt", "lost_charge", "resource_profiles", "timeline_text"]
 
 _INSTALL_HINT = (
     "fsw_scheduler.plot.gantt needs matplotlib; install it with "
@@ -71,7 +71,9 @@ def resource_profiles(problem: Problem, plan: Plan) -> dict[str, list[float]]:
         ``problem.start + i``. A multiple resource gets the summed amount
         of the activities running in that unit; a consumable gets its level
         at the end of that unit: initial level minus amount * units run up
-        to and including it (negative amounts generate). Parts of
+        to and including it (negative amounts generate), and never above
+        the consumable's capacity when it has one (the level at the end of
+        ``t`` is ``min(max, level at t-1 - net use in t)``). Parts of
         activities outside the horizon are ignored.
 
     Raises
@@ -79,10 +81,42 @@ def resource_profiles(problem: Problem, plan: Plan) -> dict[str, list[float]]:
     ValueError
         If an activity names a task that is not in the problem.
     """
+    rate = _rates(problem, plan)
+    profiles: dict[str, list[float]] = {}
+    for name in problem.resources.multiple:
+        profiles[name] = rate[name]
+    for name, levels in _consumable_walk(problem, rate).items():
+        profiles[name] = levels[0]
+    return profiles
+
+
+def lost_charge(problem: Problem, plan: Plan) -> dict[str, list[float]]:
+    """What each consumable with a capacity loses per unit of the plan.
+
+    Generation that a full store cannot take is lost: at index ``i``, the
+    amount cut off at the end of unit ``problem.start + i`` (see
+    :func:`resource_profiles`). Consumables without a capacity lose
+    nothing and are not listed.
+
+    Raises
+    ------
+    ValueError
+        If an activity names a task that is not in the problem.
+    """
+    rate = _rates(problem, plan)
+    ceilings = problem.resources.ceilings
+    return {
+        name: lost
+        for name, (_, lost) in _consumable_walk(problem, rate).items()
+        if name in ceilings
+    }
+
+
+def _rates(problem: Problem, plan: Plan) -> dict[str, list[float]]:
+    """Summed amount of the running activities per unit and resource."""
     resources = problem.resources
-    horizon = problem.horizon
     rate = {
-        name: [0.0] * horizon
+        name: [0.0] * problem.horizon
         for name in (*resources.multiple, *resources.consumable)
     }
     for activity, task in _known_activities(problem, plan.activities):
@@ -94,16 +128,27 @@ def resource_profiles(problem: Problem, plan: Plan) -> dict[str, list[float]]:
                 continue
             for idx in range(first, last):
                 values[idx] += amount
-    profiles: dict[str, list[float]] = {}
-    for name in resources.multiple:
-        profiles[name] = rate[name]
-    for name, initial in resources.consumable.items():
-        level, levels = float(initial), []
+    return rate
+
+
+def _consumable_walk(
+    problem: Problem, rate: Mapping[str, list[float]]
+) -> dict[str, tuple[list[float], list[float]]]:
+    """Level at the end of each unit, and the amount lost at the ceiling."""
+    ceilings = problem.resources.ceilings
+    walks = {}
+    for name, initial in problem.resources.initial_levels.items():
+        top = ceilings.get(name)
+        level, levels, lost = float(initial), [], []
         for used in rate[name]:
             level -= used
+            cut = 0.0
+            if top is not None and level > top:
+                level, cut = top, level - top
             levels.append(level)
-        profiles[name] = levels
-    return profiles
+            lost.append(cut)
+        walks[name] = (levels, lost)
+    return walks
 
 
 def _fmt(value: float) -> str:
@@ -271,7 +316,8 @@ def _resource_lines(
             f"  {name:<{name_w}}  peak {_fmt(peak)}/{_fmt(capacity)}"
             f"{when}{flag}"
         )
-    for name, initial in resources.consumable.items():
+    lost = lost_charge(problem, plan)
+    for name, initial in resources.initial_levels.items():
         levels = profiles[name]
         low = min(levels, default=initial)
         if low >= initial:
@@ -284,9 +330,20 @@ def _resource_lines(
             text = f"{paint['red']}{text} BELOW ZERO{paint['off']}"
         lines.append(
             f"  {name:<{name_w}}  {text} "
-            f"(initial {_fmt(initial)}, final {_fmt(final)})"
+            f"(initial {_fmt(initial)}, final {_fmt(final)}"
+            f"{_capacity_note(resources.ceiling(name), lost.get(name))})"
         )
     return lines
+
+
+def _capacity_note(ceiling: float | None, lost: list[float] | None) -> str:
+    """``, capacity 10, lost 4`` for a consumable with a capacity."""
+    if ceiling is None:
+        return ""
+    wasted = sum(lost or ())
+    return f", capacity {_fmt(ceiling)}" + (
+        f", lost {_fmt(wasted)}" if wasted > 0 else ""
+    )
 
 
 # --------------------------------------------------------------------------
@@ -448,6 +505,7 @@ def gantt(
     previous = [a for a in previous or () if a.task in removed]
     measured = {k: list(v) for k, v in (measured or {}).items()}
     profiles = resource_profiles(problem, plan)
+    lost = lost_charge(problem, plan)
     rows = _row_ids(problem, history)
     rows += [name for name in removed if name not in rows]
     names = [*problem.resources.multiple, *problem.resources.consumable]
@@ -486,7 +544,7 @@ def gantt(
         if name in problem.resources.multiple:
             _draw_multiple(ax, problem, name, profiles[name])
         else:
-            _draw_consumable(ax, problem, name, profiles[name])
+            _draw_consumable(ax, problem, name, profiles[name], lost.get(name))
             if measured.get(name):
                 _draw_measured(ax, measured[name])
 
@@ -754,15 +812,21 @@ def _draw_multiple(
 
 
 def _draw_consumable(
-    ax: Any, problem: Problem, name: str, levels: list[float]
+    ax: Any,
+    problem: Problem,
+    name: str,
+    levels: list[float],
+    lost: list[float] | None = None,
 ) -> None:
     """Level after each unit as steps from the initial level, zero line.
 
     A level at the end of unit ``t`` is drawn over ``[t, t + 1)`` so the
     step ends where the unit ends; the initial level is the dot at
-    ``problem.start``.
+    ``problem.start``. A capacity is a dashed line, and charge lost
+    because the store was full is drawn above it (:func:`_draw_ceiling`).
     """
-    initial = float(problem.resources.consumable[name])
+    initial = float(problem.resources.initial(name))
+    ceiling = problem.resources.ceiling(name)
     edges = _edges(problem)
     ax.stairs(levels, edges, baseline=None, color="#2a9d8f", linewidth=1.4)
     ax.plot(
@@ -788,6 +852,8 @@ def _draw_consumable(
         )
     low = min([0.0, *levels])
     high = max([initial, *levels])
+    if ceiling is not None:
+        high = max(high, _draw_ceiling(ax, problem, ceiling, lost or []))
     pad = 0.3 * (high - low or 1.0)
     ax.set_ylim(low - (0.1 * pad if low < 0 else 0.05 * pad), high + pad)
     ax.set_ylabel("level", fontsize=8)
@@ -796,8 +862,34 @@ def _draw_consumable(
     _label(
         ax,
         f"{name}  (initial {_fmt(initial)}, "
-        f"min {_fmt(min(low_level, initial))}){flag}",
+        f"min {_fmt(min(low_level, initial))}"
+        f"{_capacity_note(ceiling, lost)}){flag}",
     )
+
+
+_LOST = "#e9c46a"
+
+
+def _draw_ceiling(
+    ax: Any, problem: Problem, ceiling: float, lost: list[float]
+) -> float:
+    """The capacity as a dashed line, lost charge as a band above it.
+
+    Returns the highest value drawn (for the axis limits).
+    """
+    ax.axhline(ceiling, color="#333333", linestyle="--", linewidth=1.0)
+    if not any(lost):
+        return ceiling
+    ax.stairs(
+        [ceiling + v for v in lost],
+        _edges(problem),
+        baseline=ceiling,
+        fill=True,
+        color=_LOST,
+        alpha=0.8,
+        label="lost (full)",
+    )
+    return ceiling + max(lost)
 
 
 _REMOVED = "#9a9a9a"

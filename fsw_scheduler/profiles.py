@@ -10,8 +10,9 @@ needs on one channel (``scheduler/levels``, journal only).
 
 Pure: no bus, no clock, no solver. The levels follow the problem format
 (initial level minus amount times the units run; negative amounts
-generate) through :func:`fsw_scheduler.plot.resource_profiles`, the same
-function the Gantt pictures draw.
+generate; never above a consumable's capacity) through
+:func:`fsw_scheduler.plot.resource_profiles`, the same function the Gantt
+pictures draw.
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ if TYPE_CHECKING:
 __all__ = ["LevelCheck", "Profiles", "level_check", "plan_profiles"]
 
 
-class Profiles(msgspec.Struct, frozen=True):
+class Profiles(msgspec.Struct, frozen=True, omit_defaults=True):
     """``scheduler/profiles``: predicted consumable levels over a plan.
 
     Attributes
@@ -47,12 +48,16 @@ class Profiles(msgspec.Struct, frozen=True):
         Consumable name to its predicted level at the start of each unit
         of ``times`` (the first is the problem's initial level), with the
         plan's activities running as planned.
+    capacities
+        The capacity of each consumable that has one (its level never
+        goes above it); absent when none has.
     """
 
     plan_id: int
     issued_at: int
     times: tuple[int, ...]
     levels: dict[str, tuple[float, ...]]
+    capacities: dict[str, float] = {}
 
     def level_at(self, resource: str, at: int) -> float | None:
         """Predicted level of ``resource`` at the start of unit ``at``.
@@ -129,13 +134,16 @@ def plan_profiles(problem: Problem, plan: PlanMessage) -> Profiles:
     )
     levels = {
         name: (float(initial), *(float(v) for v in ends[name]))
-        for name, initial in problem.resources.consumable.items()
+        for name, initial in problem.resources.initial_levels.items()
     }
     return Profiles(
         plan_id=plan.plan_id,
         issued_at=plan.issued_at,
         times=tuple(range(problem.start, problem.end + 1)),
         levels=levels,
+        capacities={
+            name: float(v) for name, v in problem.resources.ceilings.items()
+        },
     )
 
 

@@ -172,7 +172,7 @@ def infeasibility(
         found = _energy(problem, tasks, domains, name, capacity)
         if found:
             return found
-    for name, initial in res.consumable.items():
+    for name, initial in res.initial_levels.items():
         found = _budget(problem, tasks, domains, name, initial)
         if found:
             return found

@@ -168,7 +168,8 @@ def predicted_levels(
 
     ``level = initial - sum(amount * units run before now)`` over the plan's
     activities, the initial level being the problem's (at
-    ``problem.start``).
+    ``problem.start``); a consumable with a capacity is walked unit by
+    unit, ``min(max, level - net use)``.
 
     Parameters
     ----------
@@ -190,7 +191,12 @@ def predicted_levels(
         for a in plan.activities
         if a.start < now
     }
-    return _levels(problem, runs)
+    spans = {
+        a.task: (a.start, min(a.end, now))
+        for a in plan.activities
+        if a.start < now
+    }
+    return _capped(problem, _levels(problem, runs), spans, now)
 
 
 def execution_state(
@@ -253,9 +259,9 @@ def execution_state(
         for s in states
         if s.since is not None
     }
-    levels = _levels(problem, runs)
+    levels = _capped(problem, _levels(problem, runs), _spans(states, now), now)
     if measured:
-        levels.update(measured)
+        levels.update(_cut_to_capacity(problem, measured))
     return ExecutionState(now=now, tasks=tuple(states), levels=levels)
 
 
@@ -294,13 +300,92 @@ def _reported_state(
 
 
 def _levels(problem: Problem, runs: Mapping[str, int]) -> dict[str, float]:
-    levels = dict(problem.resources.consumable)
+    levels = problem.resources.initial_levels
     for task in problem.tasks:
         units = runs.get(task.id, 0)
         for name, amount in task.uses.items():
             if name in levels and units:
                 levels[name] -= amount * units
     return levels
+
+
+def _spans(
+    states: Iterable[TaskState], now: int
+) -> dict[str, tuple[int, int]]:
+    """Task to the units ``[since, until)`` it ran (until ``now`` if it
+    still runs), as :func:`execution_state` counts them."""
+    return {
+        s.task: (s.since, s.until if s.until is not None else now)
+        for s in states
+        if s.since is not None
+    }
+
+
+def _capped(
+    problem: Problem,
+    levels: dict[str, float],
+    spans: Mapping[str, tuple[int, int]],
+    now: int,
+) -> dict[str, float]:
+    """``levels`` with every consumable that has a capacity walked again.
+
+    Units run add up for a consumable without a capacity (``levels`` as
+    :func:`_levels` gives them); with one, generation a full store cannot
+    take is lost, so the level depends on when each unit ran and is
+    walked unit by unit from the problem's start.
+    """
+    for name, top in problem.resources.ceilings.items():
+        levels[name] = _walk_level(
+            problem,
+            spans,
+            name,
+            problem.resources.initial(name),
+            (problem.start, now),
+            top,
+        )
+    return levels
+
+
+def _walk_level(
+    problem: Problem,
+    spans: Mapping[str, tuple[int, int]],
+    name: str,
+    level: float,
+    window: tuple[int, int],
+    top: float,
+) -> float:
+    """Level of ``name`` at the start of ``window[1]`` from ``level`` at
+    the start of ``window[0]``: ``min(top, level - net use)`` per unit,
+    the units each task ran given by ``spans`` (``[since, until)``).
+    """
+    first, last = window
+    rates = [0.0] * max(0, last - first)
+    for task in problem.tasks:
+        amount = task.uses.get(name, 0)
+        span = spans.get(task.id)
+        if not amount or span is None:
+            continue
+        for t in range(max(span[0], first), min(span[1], last)):
+            rates[t - first] += amount
+    level = min(top, level)
+    for used in rates:
+        level = min(top, level - used)
+    return level
+
+
+def _cut_to_capacity(
+    problem: Problem, levels: Mapping[str, float]
+) -> dict[str, float]:
+    """``levels`` with each one above its consumable's capacity cut to it.
+
+    A store cannot hold more than its capacity: a measurement above it
+    (sensor noise) means full.
+    """
+    ceilings = problem.resources.ceilings
+    return {
+        name: min(level, ceilings.get(name, math.inf))
+        for name, level in levels.items()
+    }
 
 
 def _check_now(problem: Problem, now: int) -> None:
@@ -1236,6 +1321,7 @@ def drift(
     """
     tolerance = tolerance or Tolerance()
     predicted = predicted_levels(problem, plan, now)
+    measured = _cut_to_capacity(problem, measured)
     return [
         Drift(name, predicted[name], float(measured[name]))
         for name in sorted(measured)
@@ -1265,9 +1351,22 @@ def _levels_at(
     if issues:
         raise InputError(issues, "event")
     then = schedule.state(at).levels
-    later = schedule.state(now).levels
+    later = schedule.state(now)
+    ceilings = problem.resources.ceilings
     return {
-        name: max(0.0, level + later[name] - then[name])
+        name: max(
+            0.0,
+            level + later.levels[name] - then[name]
+            if name not in ceilings
+            else _walk_level(
+                problem,
+                _spans(later.tasks, now),
+                name,
+                level,
+                (at, now),
+                ceilings[name],
+            ),
+        )
         for name, level in measured.items()
     }
 
@@ -1334,10 +1433,9 @@ def _finish(
     )
     # Float noise, or an overrun reported by telemetry, can predict a level
     # just below zero; a problem cannot start there, so it starts empty.
+    # Each capacity is kept, and a level above it is cut to it.
     levels = {name: max(0.0, level) for name, level in state.levels.items()}
-    resources = msgspec.structs.replace(
-        schedule.problem.resources, consumable=levels
-    )
+    resources = schedule.problem.resources.with_levels(levels)
     problem = schedule.problem.replace(
         start=work.now,
         tasks=tasks,

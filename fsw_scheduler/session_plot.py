@@ -166,10 +166,7 @@ def read_session(path: PathLike) -> Session:
             if known.levels.get(name)
         }
         session.problems[plan_id] = problem.replace(
-            resources=msgspec.structs.replace(
-                problem.resources,
-                consumable={**problem.resources.consumable, **consumable},
-            )
+            resources=problem.resources.with_levels(consumable)
         )
     for task, start in running.items():
         end = planned_end.get(task, start + 1)
@@ -193,7 +190,7 @@ def _stand_in(
         for name in resources.consumable:
             levels = _levels_at_starts(last, before, name)
             consumable[name] = levels[min(max(at, 0), len(levels) - 1)]
-        resources = msgspec.structs.replace(resources, consumable=consumable)
+        resources = resources.with_levels(consumable)
     return Problem(
         horizon=max(plan.horizon_end - plan.horizon_start, 1),
         start=plan.horizon_start,
@@ -375,6 +372,15 @@ def draw_levels(session: Session, path: Path) -> Path:
                 label="measured",
             )
         ax.axhline(0, color="#333333", linewidth=0.8)
+        ceiling = session.initial.resources.ceiling(name)
+        if ceiling is not None:
+            ax.axhline(
+                ceiling,
+                color="#333333",
+                linewidth=0.8,
+                linestyle="--",
+                label=f"capacity {ceiling:g}",
+            )
         ax.set_ylabel(f"{name} level", fontsize=9)
         ax.grid(axis="both", color="#eeeeee", linewidth=0.7)
         ax.set_axisbelow(True)
@@ -407,7 +413,7 @@ def _levels_at_starts(
 ) -> list[float]:
     """Level at the start of each unit ``problem.start .. problem.end``."""
     ends = resource_profiles(problem, _as_plan(plan))[name]
-    return [float(problem.resources.consumable[name]), *ends]
+    return [float(problem.resources.initial(name)), *ends]
 
 
 def attach_pictures(

@@ -12,6 +12,12 @@ The same semantics as the problem format, written independently of the ILP:
   the end of unit ``t`` is ``initial - sum(amount x units run up to and
   including t)``; the reservoir keeps it ``>= 0`` at every event time, which
   covers every ``t`` because the level only changes at event times;
+* consumables with a capacity ``max``: a reservoir cannot lose what a full
+  store is offered, so these get a level variable per time unit instead,
+  ``0 <= L[t] <= max`` and ``L[t] <= L[t-1] - net use in t``, the net use
+  read from one start literal per task and start (exact for feasibility:
+  the true level ``min(max, L[t-1] - net use)`` is the largest value
+  allowed, and a lower one only restricts);
 * precedences: ``tight`` ``s_after == s_before + l_before + offset``, ``lax``
   ``>=``, enforced when both tasks are present; scope ``both`` ties the two
   presence literals, ``at_least_first`` makes ``after`` imply ``before``;
@@ -261,8 +267,20 @@ def _resources(
             [round(a * scale) for _, a in users[name]],
             math.floor(capacity * scale + 1e-9),
         )
-    for name, initial in problem.resources.consumable.items():
+    ceilings = problem.resources.ceilings
+    for name, initial in problem.resources.initial_levels.items():
         if not users[name]:
+            continue
+        if name in ceilings:
+            _capped_levels(
+                model,
+                problem,
+                initial,
+                ceilings[name],
+                users[name],
+                present,
+                starts,
+            )
             continue
         scale = integer_scale([initial, *(a for _, a in users[name])])
         times: list[Any] = []
@@ -280,6 +298,47 @@ def _resources(
         model.add_reservoir_constraint_with_active(
             times, changes, actives, -level0, generation + 1
         )
+
+
+def _capped_levels(
+    model: Any,
+    problem: Problem,
+    initial: float,
+    ceiling: float,
+    users: list[tuple[str, float]],
+    present: dict[str, Any],
+    starts: dict[str, Any],
+) -> None:
+    """Per-unit levels of one consumable with a capacity.
+
+    ``x[i, s]`` is "task ``i`` starts at ``s``" (their sum is the presence
+    literal, and ``start = sum s x[i, s]`` when present); task ``i`` runs
+    at ``t`` iff one of ``x[i, t - length + 1 .. t]`` is set.
+    """
+    amounts = [a for _, a in users]
+    scale = integer_scale([initial, ceiling, *amounts])
+    top = math.floor(ceiling * scale + 1e-9)
+    net: list[list[tuple[int, Any]]] = [[] for _ in range(problem.horizon)]
+    for tid, amount in users:
+        task = problem.task(tid)
+        earliest, latest = problem.start_bounds(task)
+        picks = {
+            s: model.new_bool_var(f"x_{tid}_{s}")
+            for s in range(earliest, latest + 1)
+        }
+        model.add(sum(picks.values()) == present[tid])
+        model.add(
+            starts[tid] == sum(s * x for s, x in picks.items())
+        ).only_enforce_if(present[tid])
+        change = round(amount * scale)
+        for s, x in picks.items():
+            for t in range(s, s + task.length):
+                net[t - problem.start].append((change, x))
+    previous: Any = math.floor(initial * scale + 1e-9)
+    for t, terms in enumerate(net):
+        level = model.new_int_var(0, top, f"L_{t}")
+        model.add(level <= previous - sum(c * x for c, x in terms))
+        previous = level
 
 
 def _precedences(

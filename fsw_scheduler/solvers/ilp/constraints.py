@@ -143,9 +143,11 @@ class Constraints:
         needs two. So a continuous level variable ``L[t] >= 0`` carries it:
         ``L[t] = L[t-1] - sum_i amount_i * R(i, t)``, ``L[start-1]`` being
         the initial level. A resource whose consumers cannot exhaust it
-        even if all are scheduled gets no rows at all.
+        even if all are scheduled gets no rows at all. A consumable with a
+        capacity gets ``L[t] <= L[t-1] - ...`` instead (see
+        :meth:`_level_column`).
         """
-        consumables = self.problem.resources.consumable.items()
+        consumables = self.problem.resources.initial_levels.items()
         for resource, initial in consumables:
             users = self._users(resource)
             worst = sum(a * t.length for t, a in users if a > 0)
@@ -164,15 +166,34 @@ class Constraints:
                 )
             previous: int | None = None
             for used in running:
-                level = self.program.add_column(0)
+                level, sense = self._level_column(resource)
                 # level - previous + sum amount * R = 0 (initial if first)
                 terms: Terms = {level: 1.0}
                 if previous is not None:
                     terms[previous] = -1.0
                 terms.update(used)
                 rhs = initial if previous is None else 0.0
-                self._row(terms, EQ, rhs)
+                self._row(terms, sense, rhs)
                 previous = level
+
+    def _level_column(self, resource: str) -> tuple[int, str]:
+        """A level column of ``resource`` and the sense of its balance row.
+
+        Without a capacity: ``L[t] >= 0`` and the balance is an equality.
+        With one, ``max``: ``0 <= L[t] <= max`` and ``L[t] <= L[t-1] -
+        net use``. That is exact for feasibility: the true level
+        ``min(max, L[t-1] - net use)`` is the largest value the row and
+        the bound allow, and any lower value only restricts later units;
+        so some ``L >= 0`` fits iff the true level stays ``>= 0``. The
+        other rows stay valid: the true level is never above the level
+        without a capacity, so the knapsack row of
+        :meth:`_consumable_total` and the "cannot exhaust it" test (which
+        counts no generation) hold as they are.
+        """
+        ceiling = self.problem.resources.ceiling(resource)
+        if ceiling is None:
+            return self.program.add_column(0), EQ
+        return self.program.add_column(0, ceiling), LE
 
     def _consumable_total(
         self, resource: str, initial: float, users: list[tuple[Task, float]]
