@@ -142,6 +142,13 @@ class _Worker:
                 future.set_exception(error)
 
 
+def _ends_activity(kind: str, payload: bytes) -> bool:
+    """Whether a waiting sample is a report that ends an activity."""
+    return kind == "activity_report" and (
+        b'"failed"' in payload or b'"completed"' in payload
+    )
+
+
 class Inbox:
     """What the Zenoh callbacks hand to the loop: bounded, never blocking.
 
@@ -217,9 +224,19 @@ class Inbox:
         payload: bytes,
         origin: Origin | None = None,
     ) -> None:
-        """Queue a sample; a newer one on the same key replaces it."""
+        """Queue a sample; a newer one on the same key replaces it.
+
+        Except an execution report that ends an activity (``failed``,
+        ``completed``): it is never replaced, the newer sample queues
+        behind it, so that a failure followed at once by a new ``running``
+        still triggers its replan. (The test is on the raw bytes, to stay
+        cheap in the callback; a false match only means less coalescing.)
+        """
         with self._cond:
             pending = self._latest.get(key)
+            if pending is not None and _ends_activity(kind, pending[2]):
+                pending = None
+                del self._latest[key]
             if pending is not None:
                 self.bytes += len(payload) - len(pending[2])
                 pending[2] = payload
