@@ -183,6 +183,7 @@ class World:
         self.printer = printer
         self.inbox: queue.Queue[tuple[str, bytes]] = queue.Queue()
         self.plans: list[messages.PlanMessage] = []
+        self.dispatch_ids: set[str] = set()
         self._sub = session.declare_subscriber(
             topics.key("scheduler/**"),
             zenoh.handlers.Callback(  # type: ignore[arg-type]
@@ -259,11 +260,18 @@ class World:
             kind = self.topics.schema_kind(key)
             if kind == "dispatch":
                 dispatch = msgspec.json.decode(payload, type=messages.Dispatch)
+                # A receiver keeps one dispatch per dispatch_id: a resumed
+                # or new commander sends standing ones again.
+                if dispatch.dispatch_id in self.dispatch_ids:
+                    continue
+                self.dispatch_ids.add(dispatch.dispatch_id)
                 self.printer.dispatch(dispatch)
                 for report in self.executor.on_dispatch(dispatch, now):
                     self.put(self.topics.activity_report(report.task), report)
             elif kind == "plan":
                 plan = msgspec.json.decode(payload, type=messages.PlanMessage)
+                if any(p.plan_id == plan.plan_id for p in self.plans):
+                    continue  # the same plan again (plan ids never reuse)
                 self.plans.append(plan)
                 self.executor.on_plan(plan, now)
                 self.printer.plan(plan)

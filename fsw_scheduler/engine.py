@@ -397,6 +397,47 @@ class Engine:
             explain=pending.explain,
         )
 
+    def resume_commands(self, event: str = "resumed") -> list[Command]:
+        """What a rebuilt engine says first: the status, then its outputs.
+
+        A node saves its state before its outputs reach the bus, so when
+        it died in between, the plan and dispatches of its last step were
+        never seen. They are published again: the current plan (same
+        ``plan_id``) and every dispatch still waiting for its first
+        report, with its ``dispatch_id``, so that a receiver that has it
+        already drops it.
+        """
+        out: list[Command] = [self.resumed(event)]
+        schedule = self.schedule
+        if self._plan_message is not None:
+            out.append(Publish(topics.PLAN, self._plan_message))
+        if schedule is None or self.plan_id is None:
+            return out
+        for activity in schedule.plan.activities:
+            task = activity.task
+            if self._lifecycle.get(task) != "dispatched" or self._sent.get(
+                task
+            ) != (activity.start, activity.end):
+                continue
+            since = self._dispatched.get(task, activity.start)
+            uses = schedule.problem.task(task).uses
+            out.append(
+                Publish(
+                    f"{topics.DISPATCH}/{task}",
+                    Dispatch(
+                        task=task,
+                        plan_id=self.plan_id,
+                        start=activity.start,
+                        end=activity.end,
+                        uses=dict(sorted(uses.items())),
+                        dispatched_at=since,
+                        late=activity.start < since,
+                        dispatch_id=f"{task}:{activity.start}-{activity.end}",
+                    ),
+                )
+            )
+        return out
+
     def resumed(self, event: str = "resumed", **extra: object) -> Command:
         """The status saying this engine was rebuilt and goes on."""
         detail = (

@@ -295,7 +295,7 @@ def verify(
         # that resumed said so first and asked again for the solve that was
         # in flight; after a rotation, that solve is still running.
         if info.resumed:
-            run([engine.resumed(info.resumed)])
+            run(engine.resume_commands(info.resumed))
         pending = engine.pending_solve()
         if pending is not None:
             results[pending.solve_id] = solve(config, pending)

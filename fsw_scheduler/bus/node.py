@@ -997,7 +997,7 @@ class SchedulerNode:
             self.engine.now,
             self.engine.plan_id,
         )
-        commands: list[Command] = [self.engine.resumed(self.resumed)]
+        commands = self.engine.resume_commands(self.resumed)
         pending = self.engine.pending_solve()
         if pending is not None:
             commands.append(pending)
