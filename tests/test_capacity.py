@@ -421,6 +421,35 @@ def test_profiles_and_text_show_the_capacity_and_the_loss() -> None:
     assert "capacity 10, lost 4" in timeline_text(problem, plan)
 
 
+def test_session_levels_draw_the_capacity(tmp_path: Path) -> None:
+    """Tests levels.png of a session whose battery has a capacity."""
+    pytest.importorskip("matplotlib")
+    from fsw_scheduler.messages import PlanMessage
+    from fsw_scheduler.session_plot import Session, draw_levels
+
+    problem = problem_from(_doc(CHARGE_THEN_USE, {"initial": 8, "max": 10}))
+    plan = msgspec.convert(
+        {
+            "plan_id": 1,
+            "issued_at": 0,
+            "horizon_start": 0,
+            "horizon_end": 12,
+            "status": "feasible",
+            "objective": None,
+            "activities": [{"task": "charge", "start": 0, "end": 3}],
+        },
+        PlanMessage,
+    )
+    session = Session(
+        initial=problem,
+        plans=[plan],
+        problems={1: problem},
+        measured={"battery": [(2, 10.0), (4, 9.5)]},
+    )
+    target = draw_levels(session, tmp_path / "levels.png")
+    assert target.read_bytes().startswith(b"\x89PNG")
+
+
 def test_gantt_draws_the_capacity(tmp_path: Path) -> None:
     """Tests that a plan with a full battery draws (capacity, loss)."""
     pytest.importorskip("matplotlib")
