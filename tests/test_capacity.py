@@ -153,6 +153,18 @@ def test_initial_equal_to_max_and_zero_capacity_are_valid() -> None:
     problem_from(_doc([_task("a")], {"initial": 0, "max": 0}))
 
 
+def test_library_api_takes_the_object_form() -> None:
+    """Tests solve and check_plan at the package top on a dict with a
+    capacity, and Consumable re-exported there."""
+    import fsw_scheduler as fs
+
+    doc = json.loads((ROOT / "examples" / "full-battery.json").read_text())
+    plan = fs.solve(doc)
+    assert plan.starts()["Charge"] == 6
+    assert fs.check_plan(doc, plan.to_dict()).ok
+    assert fs.Consumable is Consumable
+
+
 def test_with_levels_keeps_each_form_and_cuts_at_the_capacity() -> None:
     """Tests Resources.with_levels: capacity kept, level cut to it."""
     resources = Resources(
