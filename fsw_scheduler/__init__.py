@@ -54,6 +54,9 @@ from .goal import (
     decode_goal as decode_goal,
 )
 from .model import (
+    Consumable as Consumable,
+)
+from .model import (
     Precedence as Precedence,
 )
 from .model import (

@@ -335,6 +335,40 @@ def test_quick_bench_runs_end_to_end(tmp_path: Path) -> None:
     assert len(list((tmp_path / "problems").glob("*.json"))) == 4
 
 
+def test_bench_capacity_option(tmp_path: Path) -> None:
+    """Tests tools/bench --capacity: consumables get a capacity, plans are
+    checked and the solvers agree."""
+    solvers = "cbc,cpsat" if _has_ortools() else "cbc"
+    result = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "tools" / "bench"),
+            "--quick",
+            "--only",
+            "cons",
+            "--capacity",
+            "1",
+            "--solvers",
+            solvers,
+            "--time-limit",
+            "30",
+            "--out",
+            str(tmp_path),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "check failures: 0" in result.stdout
+    assert "solver disagreements: 0" in result.stdout
+    (saved,) = (tmp_path / "problems").glob("*.json")
+    consumable = json.loads(saved.read_text())["resources"]["consumable"]
+    assert consumable
+    assert all(c["max"] == c["initial"] for c in consumable.values())
+
+
 def test_bench_rejects_unknown_solver() -> None:
     """Tests that tools/bench exits 2 naming an unknown solver."""
     result = subprocess.run(

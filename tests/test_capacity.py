@@ -153,6 +153,18 @@ def test_initial_equal_to_max_and_zero_capacity_are_valid() -> None:
     problem_from(_doc([_task("a")], {"initial": 0, "max": 0}))
 
 
+def test_library_api_takes_the_object_form() -> None:
+    """Tests solve and check_plan at the package top on a dict with a
+    capacity, and Consumable re-exported there."""
+    import fsw_scheduler as fs
+
+    doc = json.loads((ROOT / "examples" / "full-battery.json").read_text())
+    plan = fs.solve(doc)
+    assert plan.starts()["Charge"] == 6
+    assert fs.check_plan(doc, plan.to_dict()).ok
+    assert fs.Consumable is Consumable
+
+
 def test_with_levels_keeps_each_form_and_cuts_at_the_capacity() -> None:
     """Tests Resources.with_levels: capacity kept, level cut to it."""
     resources = Resources(
@@ -419,6 +431,35 @@ def test_profiles_and_text_show_the_capacity_and_the_loss() -> None:
     encoded = msgspec.json.encode(plan_profiles(plain, message))
     assert b"capacities" not in encoded
     assert "capacity 10, lost 4" in timeline_text(problem, plan)
+
+
+def test_session_levels_draw_the_capacity(tmp_path: Path) -> None:
+    """Tests levels.png of a session whose battery has a capacity."""
+    pytest.importorskip("matplotlib")
+    from fsw_scheduler.messages import PlanMessage
+    from fsw_scheduler.session_plot import Session, draw_levels
+
+    problem = problem_from(_doc(CHARGE_THEN_USE, {"initial": 8, "max": 10}))
+    plan = msgspec.convert(
+        {
+            "plan_id": 1,
+            "issued_at": 0,
+            "horizon_start": 0,
+            "horizon_end": 12,
+            "status": "feasible",
+            "objective": None,
+            "activities": [{"task": "charge", "start": 0, "end": 3}],
+        },
+        PlanMessage,
+    )
+    session = Session(
+        initial=problem,
+        plans=[plan],
+        problems={1: problem},
+        measured={"battery": [(2, 10.0), (4, 9.5)]},
+    )
+    target = draw_levels(session, tmp_path / "levels.png")
+    assert target.read_bytes().startswith(b"\x89PNG")
 
 
 def test_gantt_draws_the_capacity(tmp_path: Path) -> None:
