@@ -1248,7 +1248,10 @@ def apply_levels(
         Time unit of the replan.
     at
         When the levels were measured (default ``now``). Earlier readings
-        are carried to ``now`` with the plan's predicted use in between.
+        are carried to ``now`` with the plan's predicted use in between,
+        unit by unit for a consumable with a capacity. A level above its
+        consumable's capacity is read as full; the new problem keeps the
+        capacity.
     keep_running
         Let every running task continue (pinned) whatever its preemption
         policy; see :func:`rule_running_preemption`.
