@@ -43,6 +43,9 @@ Start here:
   fsw-scheduler demo                      the paper scenario on a live bus
   fsw-scheduler solve problem.json --gantt plan.png
   fsw-scheduler check problem.json plan.json
+  fsw-scheduler run --problem resources.json --state /var/lib/fsw
+                                          the bus component, resumable
+  fsw-scheduler demo --scenario failover  two redundant nodes, killed
 """
 
 EPILOG = """\
