@@ -904,14 +904,14 @@ class SchedulerNode:
         self._engine_waiting = self.engine.goals_waiting
 
     def _run(self, commands: list[Command]) -> None:
-        """Carry out a step's commands; durably first with ``--state``.
+        """Carry out a step's commands: journal, then solves, then the bus.
 
-        With a durable journal the step's input and outputs reach the disk
-        before any output reaches the bus (write-ahead): a node killed at
-        any point and resumed from its journal never repeats a dispatch
-        the bus saw. The price: an output on disk but not yet on the bus
-        when the process died is not sent again (a dispatch then waits for
-        its report timeout).
+        The step's outputs (and what the annotator derives from each) are
+        journaled first; with ``--state`` the journal is flushed before any
+        output reaches the bus (write-ahead), so a node killed at any point
+        and resumed from its journal never repeats a dispatch the bus saw.
+        An output on disk but not yet on the bus when the process died is
+        sent again on resume, with its ids (:meth:`Engine.resume_commands`).
         """
         for command in commands:
             message = getattr(command, "message", None)
@@ -924,10 +924,6 @@ class SchedulerNode:
             # The standby's copy first, so that it never lags behind
             # what the bus has seen (same publisher link, in order).
             self._share_snapshot()
-        if not self._durable:
-            for command in commands:
-                self._execute(command)
-            return
         outputs = [
             (
                 command.suffix,
@@ -939,8 +935,8 @@ class SchedulerNode:
         puts: list[tuple[str, bytes]] = []
 
         def stage(suffix: str, payload: bytes) -> None:
-            # Journal order as without --state: each output, then what
-            # the annotator derives from it (replay checks that order).
+            # Each output, then what the annotator derives from it, as
+            # replay derives it.
             key = self.topics.key(suffix)
             self._journal.write(key, payload)
             puts.append((suffix, payload))
@@ -954,13 +950,15 @@ class SchedulerNode:
 
         for suffix, payload in outputs:
             stage(suffix, payload)
-        self._journal.flush()
+        if self._durable:
+            self._journal.flush()
         for command in commands:
             if not isinstance(command, Publish):
                 self._execute(command)
         for suffix, payload in puts:
             self._put(suffix, payload)
-        self._maybe_rotate()
+        if self._durable:
+            self._maybe_rotate()
 
     def _share_snapshot(self) -> None:
         """Publish the engine's state for a hot standby."""
@@ -1016,10 +1014,8 @@ class SchedulerNode:
         )
 
     def _execute(self, command: Command) -> None:
-        if isinstance(command, Publish):
-            message = self._provenance.annotate(command.message)
-            self._publish_raw(command.suffix, messages.encode(message))
-        elif isinstance(command, StartSolve):
+        """Start a solve or an explanation, or log (see :meth:`_run`)."""
+        if isinstance(command, StartSolve):
             future = self._workers.submit(
                 self._solve_scoped, command, self._solve_config(command)
             )
