@@ -824,27 +824,65 @@ def rule_removal_cascade(work: _Work, seeds: Sequence[str]) -> None:
     tasks cannot be interrupted and stop the cascade. Rule
     ``tight_cascade``; it runs transitively.
     """
+    work.precedences = cascade(
+        work.precedences,
+        seeds,
+        live=lambda name: name in work.tasks and name not in work.pinned,
+        remove=lambda name, detail: work.remove(
+            name, "tight_cascade", detail
+        ),
+    )
+
+
+def cascade(
+    precedences: Sequence[Precedence],
+    seeds: Sequence[str],
+    live: Callable[[str], bool],
+    remove: Callable[[str, str], None],
+    cause: str = "removed",
+) -> list[Precedence]:
+    """The removal cascade of :func:`rule_removal_cascade`, on any task set.
+
+    Parameters
+    ----------
+    precedences
+        The precedences among the tasks.
+    seeds
+        Tasks just removed.
+    live
+        Whether a task is still there and may be removed.
+    remove
+        Removes a task taken by the cascade, given the plain-words reason.
+    cause
+        How the reason names a seed's removal (``removed``, ``shed task``).
+
+    Returns
+    -------
+    list of Precedence
+        The precedences that touch no removed task.
+    """
+    kept = list(precedences)
     queue = list(seeds)
     while queue:
         gone = queue.pop(0)
         keep = []
-        for prec in work.precedences:
+        for prec in kept:
             if gone not in (prec.before, prec.after):
                 keep.append(prec)
                 continue
             other = prec.after if prec.before == gone else prec.before
             follows = prec.after == other
             takes = prec.kind == "tight" and (follows or prec.scope == "both")
-            if takes and other in work.tasks and other not in work.pinned:
+            if takes and live(other):
                 how = "follows" if follows else "tightly precedes"
-                work.remove(
+                remove(
                     other,
-                    "tight_cascade",
-                    f"{how} removed {gone} through a tight {prec.scope} "
+                    f"{how} {cause} {gone} through a tight {prec.scope} "
                     "precedence",
                 )
                 queue.append(other)
-        work.precedences = keep
+        kept = keep
+    return kept
 
 
 def rule_tight_chain(work: _Work) -> None:

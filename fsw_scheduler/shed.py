@@ -30,8 +30,8 @@ from __future__ import annotations
 
 import msgspec
 
-from .model import MAX_COST, Precedence, Problem, Task
-from .reschedule import Removal, Replan
+from .model import MAX_COST, Problem, Task
+from .reschedule import Removal, Replan, cascade
 from .solution import Blocker, Plan
 
 #: Cost of losing a mandatory task in the shedding problem.
@@ -139,45 +139,6 @@ def shed_tasks(problem: Problem, shedding_plan: Plan) -> tuple[str, ...]:
     return tuple(t.id for t in problem.tasks if t.mandatory and t.id in out)
 
 
-def _cascade(
-    tasks: dict[str, Task],
-    precedences: list[Precedence],
-    seeds: list[str],
-) -> list[tuple[str, str]]:
-    """The paper's removal cascade over plain lists.
-
-    A task following a removed one through a tight precedence goes, and
-    so does one tightly preceding it through ``both``; every precedence
-    touching a removed task is dropped (lax followers stay). Returns
-    ``(task, detail)`` for each task the cascade took.
-    """
-    taken: list[tuple[str, str]] = []
-    queue = list(seeds)
-    while queue:
-        gone = queue.pop(0)
-        keep = []
-        for prec in precedences:
-            if gone not in (prec.before, prec.after):
-                keep.append(prec)
-                continue
-            other = prec.after if prec.before == gone else prec.before
-            follows = prec.after == other
-            takes = prec.kind == "tight" and (follows or prec.scope == "both")
-            if takes and other in tasks:
-                del tasks[other]
-                how = "follows" if follows else "tightly precedes"
-                taken.append(
-                    (
-                        other,
-                        f"{how} shed task {gone} through a tight "
-                        f"{prec.scope} precedence",
-                    )
-                )
-                queue.append(other)
-        precedences[:] = keep
-    return taken
-
-
 def without_tasks(
     replan: Replan, dropped: tuple[str, ...], why: str
 ) -> Replan:
@@ -200,13 +161,22 @@ def without_tasks(
         ``tight_cascade``), the warm start keeps only remaining tasks.
     """
     tasks = {t.id: t for t in replan.problem.tasks}
-    precedences = list(replan.problem.precedences)
     removed = list(replan.removed)
     for name in dropped:
         if tasks.pop(name, None) is not None:
             removed.append(Removal(name, SHED_RULE, why))
-    for name, detail in _cascade(tasks, precedences, list(dropped)):
+
+    def take(name: str, detail: str) -> None:
+        del tasks[name]
         removed.append(Removal(name, "tight_cascade", detail))
+
+    precedences = cascade(
+        replan.problem.precedences,
+        dropped,
+        lambda name: name in tasks,
+        take,
+        "shed task",
+    )
     problem = replan.problem.replace(
         tasks=tuple(tasks.values()), precedences=tuple(precedences)
     )
