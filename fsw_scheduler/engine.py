@@ -66,7 +66,7 @@ from .snapshot import (
     PendingSolve,
     QueuedChange,
 )
-from .solution import Blocker, Plan, SolverStats, SolveStatus
+from .solution import Activity, Blocker, Plan, SolverStats, SolveStatus
 
 # -- events ------------------------------------------------------------------
 
@@ -420,22 +420,7 @@ class Engine:
             ) != (activity.start, activity.end):
                 continue
             since = self._dispatched.get(task, activity.start)
-            uses = schedule.problem.task(task).uses
-            out.append(
-                Publish(
-                    f"{topics.DISPATCH}/{task}",
-                    Dispatch(
-                        task=task,
-                        plan_id=self.plan_id,
-                        start=activity.start,
-                        end=activity.end,
-                        uses=dict(sorted(uses.items())),
-                        dispatched_at=since,
-                        late=activity.start < since,
-                        dispatch_id=f"{task}:{activity.start}-{activity.end}",
-                    ),
-                )
-            )
+            out.append(self._dispatch(schedule, activity, since))
         return out
 
     def resumed(self, event: str = "resumed", **extra: object) -> Command:
@@ -1211,7 +1196,6 @@ class Engine:
             ):
                 continue
             late = activity.start < self.now
-            task = schedule.problem.task(activity.task)
             self._lifecycle[activity.task] = "dispatched"
             self._dispatched[activity.task] = self.now
             self._sent[activity.task] = (activity.start, activity.end)
@@ -1219,23 +1203,31 @@ class Engine:
                 dispatches=self._counters.dispatches + 1,
                 late_dispatches=self._counters.late_dispatches + late,
             )
-            out.append(
-                Publish(
-                    f"{topics.DISPATCH}/{activity.task}",
-                    Dispatch(
-                        task=activity.task,
-                        plan_id=self.plan_id,
-                        start=activity.start,
-                        end=activity.end,
-                        uses=dict(sorted(task.uses.items())),
-                        dispatched_at=self.now,
-                        late=late,
-                        dispatch_id=(
-                            f"{activity.task}:{activity.start}-{activity.end}"
-                        ),
-                    ),
-                )
-            )
+            out.append(self._dispatch(schedule, activity, self.now))
+
+    def _dispatch(
+        self, schedule: Schedule, activity: Activity, dispatched_at: int
+    ) -> Publish:
+        """The dispatch of ``activity``, sent at ``dispatched_at``.
+
+        Its ``dispatch_id`` (task, start and end) stays the same for as
+        long as the activity keeps its place, so a receiver keeps one.
+        """
+        task = activity.task
+        assert self.plan_id is not None  # dispatches follow a plan
+        return Publish(
+            f"{topics.DISPATCH}/{task}",
+            Dispatch(
+                task=task,
+                plan_id=self.plan_id,
+                start=activity.start,
+                end=activity.end,
+                uses=dict(sorted(schedule.problem.task(task).uses.items())),
+                dispatched_at=dispatched_at,
+                late=activity.start < dispatched_at,
+                dispatch_id=f"{task}:{activity.start}-{activity.end}",
+            ),
+        )
 
     def _forget_history(self) -> None:
         """Keep at most ``max_history`` finished entries (oldest go)."""
