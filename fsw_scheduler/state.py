@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from .recording import _is_finished, recover
-from .replay import Rebuilt, _opening_snapshot, read_node_info, rebuild
+from .replay import Rebuilt, rebuild
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -77,16 +77,26 @@ def _finish_truncated(path: Path) -> bool:
     return True
 
 
-def _starts_with_snapshot(path: Path) -> bool:
-    from .bus.topics import Topics
+def _opening(path: Path) -> tuple[bool, bool]:
+    """(has the node's settings, opens with a snapshot), from its head.
+
+    Only the first messages are read: a journal file starts with the
+    settings, then (written by ``--state``) the engine's snapshot.
+    """
+    from .bus import topics
     from .recording import iter_messages
 
+    has_config = False
     try:
-        recorded = list(iter_messages(path))
-        info, _ = read_node_info(recorded)
+        for message in iter_messages(path):
+            if message.topic.endswith("/" + topics.NODE_INFO):
+                has_config = True
+                continue
+            opens = message.topic.endswith("/" + topics.SNAPSHOT)
+            return has_config, has_config and opens
     except (ValueError, OSError):
-        return False
-    return _opening_snapshot(recorded, Topics(info.spacecraft)) is not None
+        return False, False
+    return has_config, False
 
 
 def open_state(folder: Path, *, keep_runs: int = 20) -> StateStart:
@@ -114,12 +124,13 @@ def open_state(folder: Path, *, keep_runs: int = 20) -> StateStart:
         if _finish_truncated(path):
             start.recovered.append(path)
     # The newest file that opens with a snapshot, and what came after it.
-    base = 0
-    for idx in range(len(files) - 1, -1, -1):
-        if _starts_with_snapshot(files[idx]):
-            base = idx
-            break
-    readable = [p for p in files[base:] if _has_config(p)]
+    heads = [_opening(path) for path in files]
+    base = max((i for i, (_, opens) in enumerate(heads) if opens), default=0)
+    readable = [
+        path
+        for path, (config, _) in list(zip(files, heads, strict=True))[base:]
+        if config
+    ]
     if readable:
         start.rebuilt = rebuild(readable)
     start.next_journal = folder / f"journal-{_run(files[-1]) + 1:04d}.mcap"
@@ -139,13 +150,3 @@ def _run(path: Path) -> int:
     match = _NAME.match(path.name)
     assert match is not None
     return int(match[1])
-
-
-def _has_config(path: Path) -> bool:
-    from .recording import iter_messages
-
-    try:
-        read_node_info(list(iter_messages(path)))
-    except (ValueError, OSError):
-        return False
-    return True
