@@ -447,7 +447,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
             "--profile secure'), or pass --insecure to acknowledge"
         )
     journal = None
-    resume: dict[str, Any] = {}
     if args.state:
         if args.record:
             raise InputError(
@@ -478,7 +477,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         def make_node(shared: Any = None) -> SchedulerNode:
             """The node that commands; from the active's state on takeover."""
             nonlocal journal
-            extra = dict(resume)
+            extra: dict[str, Any] = {}
             if args.state:
                 # Opened only to command: a standby writes no journal.
                 if journal is not None:
