@@ -8,6 +8,7 @@ gives itself back as :meth:`Plan.to_dict` or :meth:`Plan.to_json`.
 Importing the package imports neither PuLP nor Zenoh.
 """
 
+from .analysis.check import CheckReport as CheckReport
 from .api import (
     as_change as as_change,
 )
@@ -25,9 +26,6 @@ from .api import (
 )
 from .api import (
     solve as solve,
-)
-from .check import (
-    CheckReport as CheckReport,
 )
 from .errors import (
     BusError as BusError,
@@ -47,47 +45,19 @@ from .errors import (
 from .errors import (
     SolverError as SolverError,
 )
-from .goal import (
-    Goal as Goal,
-)
-from .goal import (
-    decode_goal as decode_goal,
-)
-from .model import (
-    Consumable as Consumable,
-)
-from .model import (
-    Precedence as Precedence,
-)
-from .model import (
-    Problem as Problem,
-)
-from .model import (
-    Resources as Resources,
-)
-from .model import (
-    Task as Task,
-)
-from .model import (
-    decode_problem as decode_problem,
-)
-from .reschedule import (
-    PlanDiff as PlanDiff,
-)
-from .reschedule import (
-    decode_change as decode_change,
-)
-from .solution import (
-    Activity as Activity,
-)
-from .solution import (
-    Objective as Objective,
-)
-from .solution import (
-    Plan as Plan,
-)
-from .solution import (
-    SolveStatus as SolveStatus,
-)
+from .model.goal import Goal as Goal
+from .model.goal import decode_goal as decode_goal
+from .model.plan import Activity as Activity
+from .model.plan import Objective as Objective
+from .model.plan import Plan as Plan
+from .model.plan import SolveStatus as SolveStatus
+from .model.problem import Consumable as Consumable
+from .model.problem import Precedence as Precedence
+from .model.problem import Problem as Problem
+from .model.problem import Resources as Resources
+from .model.problem import Task as Task
+from .model.problem import decode_problem as decode_problem
+from .replan.triggers import PlanDiff as PlanDiff
+from .replan.triggers import decode_change as decode_change
 
 __version__ = "0.1.0"

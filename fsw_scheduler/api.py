@@ -31,12 +31,18 @@ from typing import Any
 
 import msgspec
 
-from .check import CheckReport
-from .check import check_plan as check_typed
+from .analysis.check import CheckReport
+from .analysis.check import check_plan as check_typed
 from .errors import FieldIssue, InputError
-from .goal import Goal
-from .model import Problem, decode_problem, decode_strict, validate_problem
-from .reschedule import (
+from .model.goal import Goal
+from .model.plan import Plan
+from .model.problem import (
+    Problem,
+    decode_problem,
+    decode_strict,
+    validate_problem,
+)
+from .replan.triggers import (
     ActivityFailed,
     Change,
     LevelsMeasured,
@@ -44,8 +50,7 @@ from .reschedule import (
     decode_change,
     replan_files,
 )
-from .solution import Plan
-from .solve import solve as solve_problem
+from .solving.solve import solve as solve_problem
 
 __all__ = [
     "ChangeLike",

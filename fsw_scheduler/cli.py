@@ -20,8 +20,8 @@ import msgspec
 from mcap.exceptions import McapError
 
 from .errors import ConfigError, FieldIssue, InputError, SchedulerError
-from .model import Problem, decode_problem, decode_strict
-from .solution import Plan
+from .model.plan import Plan
+from .model.problem import Problem, decode_problem, decode_strict
 
 if TYPE_CHECKING:
     import zenoh
@@ -93,7 +93,7 @@ def _need_matplotlib(what: str) -> None:
     MissingDependency
         matplotlib is not installed; the message gives the install command.
     """
-    from .plot import PLOT_INSTALL_HINT, have_matplotlib
+    from .view.gantt import PLOT_INSTALL_HINT, have_matplotlib
 
     if not have_matplotlib():
         raise MissingDependency(
@@ -192,7 +192,7 @@ def _add_solver_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _cmd_solve(args: argparse.Namespace) -> int:
-    from .solve import solve
+    from .solving.solve import solve
 
     if args.gantt:
         _need_matplotlib("--gantt")
@@ -215,7 +215,7 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     for blocker in plan.why:
         log.info("  %s: %s (%s)", blocker.task, blocker.cause, blocker.detail)
     if args.gantt and plan.status.has_plan:
-        from .plot import gantt
+        from .view.gantt import gantt
 
         gantt(problem, plan, Path(args.gantt))
         log.info("wrote %s", args.gantt)
@@ -226,7 +226,7 @@ def _cmd_solve(args: argparse.Namespace) -> int:
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
-    from .check import check_plan, format_report
+    from .analysis.check import check_plan, format_report
 
     problem = load_problem(args.problem)
     plan = load_plan(args.plan)
@@ -239,7 +239,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 
 def _cmd_replan(args: argparse.Namespace) -> int:
-    from .reschedule import decode_change, format_diff, replan_files
+    from .replan.triggers import decode_change, format_diff, replan_files
 
     if args.gantt:
         _need_matplotlib("--gantt")
@@ -260,7 +260,7 @@ def _cmd_replan(args: argparse.Namespace) -> int:
     log.info("%s", _summary(new_plan))
     print(format_diff(diff, new_plan), file=sys.stderr)
     if args.gantt and new_plan.status.has_plan:
-        from .plot import gantt
+        from .view.gantt import gantt
 
         removed = {
             r.task: r.rule
@@ -283,10 +283,10 @@ def _cmd_replan(args: argparse.Namespace) -> int:
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    from .demo import SCENARIOS, run_demo
+    from .app.demo import SCENARIOS, run_demo
 
     if args.scenario == "failover":
-        from .failover_demo import run_failover_demo
+        from .app.failover_demo import run_failover_demo
 
         log.info("demo (failover scenario): state folders in %s", args.out)
         outcome = run_failover_demo(
@@ -298,7 +298,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
                 + ", ".join(f"{t * 1000:.0f} ms" for t in outcome.takeovers)
             )
         return EXIT_OK if outcome.verified else EXIT_NO_PLAN
-    from .plot import PLOT_INSTALL_HINT, have_matplotlib
+    from .view.gantt import PLOT_INSTALL_HINT, have_matplotlib
 
     out = Path(args.out)
     log.info("demo (%s scenario): output in %s", args.scenario, out)
@@ -349,7 +349,7 @@ def _checked_spacecraft(spacecraft: str) -> str:
 
 def _check_spacecraft(spacecraft: str | None) -> None:
     """Refuse a spacecraft id that is not a key-safe id (exit 2)."""
-    from .model import id_issue
+    from .model.problem import id_issue
 
     reason = None if spacecraft is None else id_issue(spacecraft)
     if reason is not None:
@@ -381,10 +381,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     from .bus.node import SchedulerNode
     from .bus.session import settings_file, zenoh_config
-    from .config import load_config
-    from .messages import schema_lookup
-    from .model import Problem
-    from .recording import Recorder
+    from .journal.writer import Recorder
+    from .model.problem import Problem
+    from .runtime.config import load_config
+    from .wire.messages import schema_lookup
 
     try:
         config = load_config(settings_file(args)).replace(
@@ -486,7 +486,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 extra.update(opened)
             if shared is not None:
                 from .bus.node import engine_config
-                from .engine import Engine
+                from .engine.core import Engine
 
                 extra["engine"] = Engine.restore(engine_config(config), shared)
                 extra["resumed_event"] = "took_over"
@@ -584,9 +584,9 @@ def _open_state(
     """
     import time
 
-    from .messages import schema_lookup
-    from .recording import Recorder
-    from .state import open_state
+    from .journal.state import open_state
+    from .journal.writer import Recorder
+    from .wire.messages import schema_lookup
 
     start = open_state(Path(args.state), keep_runs=args.keep_runs)
     for path in start.recovered:
@@ -615,7 +615,7 @@ def _open_state(
             )
         # The rebuilt state, under this start's settings (node id, limits).
         from .bus.node import engine_config
-        from .engine import Engine
+        from .engine.core import Engine
 
         resume["engine"] = Engine.restore(
             engine_config(config), engine.snapshot()
@@ -642,7 +642,7 @@ def _cmd_probe(args: argparse.Namespace) -> int:
 
     from .bus.probe import probe
     from .bus.session import zenoh_config
-    from .bus.topics import Topics
+    from .wire.topics import Topics
 
     kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
     with _open_bus(zenoh_config(args)) as session:
@@ -663,9 +663,9 @@ def _cmd_record(args: argparse.Namespace) -> int:
 
     from .bus.record import record
     from .bus.session import zenoh_config
-    from .bus.topics import Topics
-    from .messages import schema_lookup
-    from .recording import Recorder
+    from .journal.writer import Recorder
+    from .wire.messages import schema_lookup
+    from .wire.topics import Topics
 
     _check_spacecraft(args.spacecraft)
     key = args.key or Topics(args.spacecraft).everything
@@ -713,7 +713,7 @@ def recording_metadata(
     import time
     from datetime import datetime, timezone
 
-    from .foxglove import versions
+    from .journal.annotate import versions
 
     now = datetime.fromtimestamp(time.time(), tz=timezone.utc)
     return {
@@ -742,7 +742,7 @@ def _key_expression(text: str, flag: str) -> str:
 
 def _cmd_replay(args: argparse.Namespace) -> int:
     if args.verify:
-        from .replay import verify
+        from .journal.replay import verify
 
         report = verify(args.files, progress=lambda line: log.info("%s", line))
         print(report.summary())
@@ -751,7 +751,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
 
     from .bus.record import replay
     from .bus.session import zenoh_config
-    from .bus.topics import Topics
+    from .wire.topics import Topics
 
     with zenoh.open(zenoh_config(args)) as session:
         if args.wait_matching:
@@ -783,7 +783,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
 
 
 def _cmd_recover(args: argparse.Namespace) -> int:
-    from .recording import recover
+    from .journal.writer import recover
 
     kept = recover(args.file, args.out)
     print(f"recovered {sum(kept.values())} messages into {args.out}")
@@ -793,7 +793,7 @@ def _cmd_recover(args: argparse.Namespace) -> int:
 
 
 def _cmd_info(args: argparse.Namespace) -> int:
-    from .recording import format_info, info, info_dict
+    from .journal.writer import format_info, info, info_dict
 
     description = info(args.file)
     if args.json:
@@ -816,7 +816,7 @@ def _remap_rule(text: str) -> tuple[str, str]:
 
 def _cmd_plot(args: argparse.Namespace) -> int:
     _need_matplotlib("plot")
-    from .session_plot import plot_session
+    from .view.session import plot_session
 
     try:
         drawn = plot_session(args.file, args.out)
@@ -825,7 +825,7 @@ def _cmd_plot(args: argparse.Namespace) -> int:
     for path in drawn:
         print(path)
     if args.attach_to:
-        from .session_plot import attach_pictures
+        from .view.session import attach_pictures
 
         if Path(args.attach_to).resolve() == Path(args.file).resolve():
             raise InputError(
@@ -837,7 +837,7 @@ def _cmd_plot(args: argparse.Namespace) -> int:
 
 
 def _cmd_schemas(args: argparse.Namespace) -> int:
-    from .messages import schema_files
+    from .wire.messages import schema_files
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

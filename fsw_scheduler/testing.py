@@ -46,8 +46,6 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import msgspec
 import zenoh
 
-from . import messages
-from .bus import topics as keys
 from .bus.node import SchedulerNode, run_solve
 from .bus.session import (
     DEFAULT_TIMEOUT_S,
@@ -56,15 +54,17 @@ from .bus.session import (
     wait_matching,
     wait_until,
 )
-from .config import NodeConfig
-from .model import Problem, decode_problem
+from .model.problem import Problem, decode_problem
+from .runtime.config import NodeConfig
+from .wire import messages
+from .wire import topics as keys
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterator
     from pathlib import Path
 
-    from .engine import StartSolve
-    from .solution import Plan
+    from .engine.core import StartSolve
+    from .model.plan import Plan
 
 __all__ = [
     "SchedulerClient",

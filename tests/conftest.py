@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from fsw_scheduler.model import Problem, decode_problem
+from fsw_scheduler.model.problem import Problem, decode_problem
 
 DATA = Path(__file__).resolve().parents[1] / "fsw_scheduler" / "data"
 

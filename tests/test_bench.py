@@ -11,9 +11,9 @@ from pathlib import Path
 
 import pytest
 
-from fsw_scheduler.check import check_plan
-from fsw_scheduler.model import Problem, decode_problem
-from fsw_scheduler.solution import Activity, Plan, SolveStatus
+from fsw_scheduler.analysis.check import check_plan
+from fsw_scheduler.model.plan import Activity, Plan, SolveStatus
+from fsw_scheduler.model.problem import Problem, decode_problem
 
 ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT / "tools") not in sys.path:
@@ -293,7 +293,7 @@ def test_cpsat_agrees_with_cbc(index: int) -> None:
     """Tests that CP-SAT and CBC prove the same optimum on 5-task problems."""
     pytest.importorskip("ortools")
     cpsat = importlib.import_module("bench_lib.cpsat")
-    from fsw_scheduler.solve import solve
+    from fsw_scheduler.solving.solve import solve
 
     problem = generator.campaign(0)[index].problem()
     mine = cpsat.solve_cpsat(problem, time_limit=30)
@@ -386,7 +386,7 @@ def test_broad_generator_has_the_issue_shape() -> None:
     """Tests that the broad campaign is valid, deterministic and as broad as
     asked: windows, precedences per task, contradicting tight paths, busy
     binary resources and scarce consumables."""
-    from fsw_scheduler.proofs import tight_conflicts
+    from fsw_scheduler.analysis.proofs import tight_conflicts
 
     first = generator.suite("all", 0, "broad")
     assert [p.to_json() for p in first] == [

@@ -21,7 +21,7 @@ from fsw_scheduler.bus.session import (
     zenoh_config,
 )
 from fsw_scheduler.errors import BusError, ConfigError
-from fsw_scheduler.recording import Recorder, info, iter_messages
+from fsw_scheduler.journal.writer import Recorder, info, iter_messages
 
 if TYPE_CHECKING:
     from pathlib import Path

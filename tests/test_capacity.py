@@ -14,23 +14,27 @@ from pathlib import Path
 import msgspec
 import pytest
 
-from fsw_scheduler.check import check_plan
-from fsw_scheduler.domains import start_domains
+from fsw_scheduler.analysis.check import check_plan
+from fsw_scheduler.analysis.domains import start_domains
+from fsw_scheduler.analysis.greedy import greedy_plan
 from fsw_scheduler.errors import InputError
-from fsw_scheduler.greedy import greedy_plan
-from fsw_scheduler.messages import json_schemas
-from fsw_scheduler.model import Consumable, Resources, encode
-from fsw_scheduler.plot import lost_charge, resource_profiles, timeline_text
-from fsw_scheduler.profiles import plan_profiles
-from fsw_scheduler.reschedule import (
+from fsw_scheduler.model.plan import Activity, Plan, SolveStatus
+from fsw_scheduler.model.problem import Consumable, Resources, encode
+from fsw_scheduler.replan.triggers import (
     Schedule,
     apply_levels,
     drift,
     execution_state,
     predicted_levels,
 )
-from fsw_scheduler.solution import Activity, Plan, SolveStatus
-from fsw_scheduler.solve import solve
+from fsw_scheduler.solving.solve import solve
+from fsw_scheduler.view.gantt import (
+    lost_charge,
+    resource_profiles,
+    timeline_text,
+)
+from fsw_scheduler.wire.messages import json_schemas
+from fsw_scheduler.wire.profiles import plan_profiles
 
 from .conftest import problem_from
 
@@ -261,7 +265,7 @@ def test_solver_delays_a_charge_so_that_it_is_not_lost(solver: str) -> None:
 
 def test_level_rows_are_bounded_inequalities() -> None:
     """Tests the ILP rows: L[t] <= max and L[t] <= L[t-1] - net (not =)."""
-    from fsw_scheduler.solvers.ilp.model import BuiltModel
+    from fsw_scheduler.solving.ilp.model import BuiltModel
 
     tasks = [*CHARGE_THEN_USE, _task("more", length=5, uses={"battery": 2})]
     capped = problem_from(_doc(tasks, {"initial": 8, "max": 10}))
@@ -407,7 +411,7 @@ def test_profiles_and_text_show_the_capacity_and_the_loss() -> None:
     assert lost_charge(problem, plan) == {
         "battery": [0, 2, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0]
     }
-    from fsw_scheduler.messages import PlanMessage
+    from fsw_scheduler.wire.messages import PlanMessage
 
     message = msgspec.convert(
         {
@@ -436,8 +440,8 @@ def test_profiles_and_text_show_the_capacity_and_the_loss() -> None:
 def test_session_levels_draw_the_capacity(tmp_path: Path) -> None:
     """Tests levels.png of a session whose battery has a capacity."""
     pytest.importorskip("matplotlib")
-    from fsw_scheduler.messages import PlanMessage
-    from fsw_scheduler.session_plot import Session, draw_levels
+    from fsw_scheduler.view.session import Session, draw_levels
+    from fsw_scheduler.wire.messages import PlanMessage
 
     problem = problem_from(_doc(CHARGE_THEN_USE, {"initial": 8, "max": 10}))
     plan = msgspec.convert(
@@ -465,7 +469,7 @@ def test_session_levels_draw_the_capacity(tmp_path: Path) -> None:
 def test_gantt_draws_the_capacity(tmp_path: Path) -> None:
     """Tests that a plan with a full battery draws (capacity, loss)."""
     pytest.importorskip("matplotlib")
-    from fsw_scheduler.plot import gantt
+    from fsw_scheduler.view.gantt import gantt
 
     problem = problem_from(_doc(CHARGE_THEN_USE, {"initial": 8, "max": 10}))
     target = gantt(
@@ -481,7 +485,7 @@ def test_engine_keeps_the_capacity_through_a_drift_replan() -> None:
     """Tests the engine on the full-battery scenario: a level reported
     above the capacity is full (no replan); a low one replans from it,
     with the capacity kept."""
-    from fsw_scheduler.engine import StartSolve
+    from fsw_scheduler.engine.core import StartSolve
 
     from .test_engine import Driver, statuses
 

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from fsw_scheduler import messages
 from fsw_scheduler.cli import build_parser
+from fsw_scheduler.wire import messages
 
 from .conftest import DATA
 

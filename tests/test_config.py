@@ -6,8 +6,8 @@ from typing import TYPE_CHECKING
 
 import pytest
 
-from fsw_scheduler.config import NodeConfig, load_config
 from fsw_scheduler.errors import ConfigError
+from fsw_scheduler.runtime.config import NodeConfig, load_config
 
 if TYPE_CHECKING:
     from pathlib import Path

@@ -8,9 +8,8 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import msgspec
 import pytest
 
-from fsw_scheduler import messages
 from fsw_scheduler.bus.node import run_solve
-from fsw_scheduler.engine import (
+from fsw_scheduler.engine.core import (
     Command,
     Engine,
     EngineConfig,
@@ -27,13 +26,14 @@ from fsw_scheduler.engine import (
     Tick,
 )
 from fsw_scheduler.errors import FieldIssue
-from fsw_scheduler.goal import decode_goal
-from fsw_scheduler.model import Problem, decode_problem
-from fsw_scheduler.reschedule import predicted_levels
+from fsw_scheduler.model.goal import decode_goal
+from fsw_scheduler.model.problem import Problem, decode_problem
+from fsw_scheduler.replan.triggers import predicted_levels
 from fsw_scheduler.testing import harness_config, paper_goal, paper_problem
+from fsw_scheduler.wire import messages
 
 if TYPE_CHECKING:
-    from fsw_scheduler.solution import Plan
+    from fsw_scheduler.model.plan import Plan
 
 M = TypeVar("M", bound=msgspec.Struct)
 

@@ -10,9 +10,9 @@ from typing import TYPE_CHECKING
 
 import zenoh
 
-from fsw_scheduler.bus import topics as keys
 from fsw_scheduler.bus.session import loopback_config
 from fsw_scheduler.testing import SchedulerClient
+from fsw_scheduler.wire import topics as keys
 
 from .test_node import ping_goal
 from .test_resume import _soak

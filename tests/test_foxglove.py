@@ -14,15 +14,15 @@ from mcap.reader import make_reader
 from mcap.well_known import MessageEncoding, SchemaEncoding
 from mcap.writer import Writer
 
-from fsw_scheduler.bus.topics import Topics
-from fsw_scheduler.demo import failure_scenario, run_demo
-from fsw_scheduler.foxglove import LOG_SCHEMA, Annotator
-from fsw_scheduler.messages import PlanMessage, ResourceLevel
-from fsw_scheduler.model import decode_problem
-from fsw_scheduler.profiles import level_check, plan_profiles
-from fsw_scheduler.recording import info, info_dict
-from fsw_scheduler.replay import verify
-from fsw_scheduler.solution import Activity, SolveStatus
+from fsw_scheduler.app.demo import failure_scenario, run_demo
+from fsw_scheduler.journal.annotate import LOG_SCHEMA, Annotator
+from fsw_scheduler.journal.replay import verify
+from fsw_scheduler.journal.writer import info, info_dict
+from fsw_scheduler.model.plan import Activity, SolveStatus
+from fsw_scheduler.model.problem import decode_problem
+from fsw_scheduler.wire.messages import PlanMessage, ResourceLevel
+from fsw_scheduler.wire.profiles import level_check, plan_profiles
+from fsw_scheduler.wire.topics import Topics
 
 if TYPE_CHECKING:
     from fsw_scheduler.testing import SchedulerHarness

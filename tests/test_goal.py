@@ -7,8 +7,8 @@ import json
 import pytest
 
 from fsw_scheduler.errors import InputError
-from fsw_scheduler.goal import Goal, GoalTask, decode_goal
-from fsw_scheduler.model import Task
+from fsw_scheduler.model.goal import Goal, GoalTask, decode_goal
+from fsw_scheduler.model.problem import Task
 
 
 def _task(**over: object) -> dict:

@@ -6,16 +6,16 @@ from typing import TYPE_CHECKING
 
 from hypothesis import given, settings
 
-from fsw_scheduler.check import check_plan
-from fsw_scheduler.greedy import greedy_plan
-from fsw_scheduler.solution import SolveStatus
-from fsw_scheduler.solve import at_lower_bound, best_start, solve
+from fsw_scheduler.analysis.check import check_plan
+from fsw_scheduler.analysis.greedy import greedy_plan
+from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.solving.solve import at_lower_bound, best_start, solve
 
 from .conftest import problem_from
 from .test_properties import COMMON, _decode, brute_force, problem_docs
 
 if TYPE_CHECKING:
-    from fsw_scheduler.model import Problem
+    from fsw_scheduler.model.problem import Problem
 
 
 def test_table1_greedy_is_valid(table1: Problem) -> None:

@@ -8,13 +8,13 @@ from pathlib import Path
 
 import pytest
 
-from fsw_scheduler.check import check_plan
-from fsw_scheduler.domains import cost_caps, start_domains
-from fsw_scheduler.solution import Objective, Plan, SolveStatus
-from fsw_scheduler.solve import best_start, solve
-from fsw_scheduler.solvers.ilp.cbc import CbcRun
-from fsw_scheduler.solvers.ilp.model import solve_ilp
-from fsw_scheduler.solvers.ilp.program import EQ, GE, LE, Program
+from fsw_scheduler.analysis.check import check_plan
+from fsw_scheduler.analysis.domains import cost_caps, start_domains
+from fsw_scheduler.model.plan import Objective, Plan, SolveStatus
+from fsw_scheduler.solving.ilp.cbc import CbcRun
+from fsw_scheduler.solving.ilp.model import solve_ilp
+from fsw_scheduler.solving.ilp.program import EQ, GE, LE, Program
+from fsw_scheduler.solving.solve import best_start, solve
 
 from .conftest import problem_from
 
@@ -197,7 +197,7 @@ def _twins_doc() -> dict:
 
 def test_identical_tasks_are_found() -> None:
     """Tests that only tasks alike in everything form a class."""
-    from fsw_scheduler.solvers.ilp.constraints import identical_tasks
+    from fsw_scheduler.solving.ilp.constraints import identical_tasks
 
     problem = problem_from(_twins_doc())
     classes = identical_tasks(problem, start_domains(problem))
@@ -219,8 +219,8 @@ def test_identical_tasks_start_in_problem_order(solver: str) -> None:
 
 def test_warm_start_is_put_in_symmetry_order() -> None:
     """Tests that a start breaking the order is permuted, not refused."""
-    from fsw_scheduler.solvers.ilp.constraints import identical_tasks
-    from fsw_scheduler.solvers.ilp.model import in_symmetry_order
+    from fsw_scheduler.solving.ilp.constraints import identical_tasks
+    from fsw_scheduler.solving.ilp.model import in_symmetry_order
 
     problem = problem_from(_twins_doc())
     twins = identical_tasks(problem, start_domains(problem))
@@ -276,8 +276,8 @@ def test_solver_claims_contradicting_the_start_are_not_trusted(
     claim: SolveStatus, total: int | None, kept: str
 ) -> None:
     """Tests that the start plan wins over an impossible solver claim."""
-    from fsw_scheduler.solution import SolverStats
-    from fsw_scheduler.solve import _keep_better
+    from fsw_scheduler.model.plan import SolverStats
+    from fsw_scheduler.solving.solve import _keep_better
 
     start = _plan(SolveStatus.FEASIBLE, 11)
     solver = _plan(claim, total).replace(stats=SolverStats(solver="cbc"))
@@ -292,8 +292,8 @@ def test_solver_claims_contradicting_the_start_are_not_trusted(
 
 def test_fractional_cbc_values_are_refused() -> None:
     """Tests that relaxation values called optimal are never decoded."""
-    from fsw_scheduler.solvers.ilp.cbc import CbcResult
-    from fsw_scheduler.solvers.ilp.model import _integral
+    from fsw_scheduler.solving.ilp.cbc import CbcResult
+    from fsw_scheduler.solving.ilp.model import _integral
 
     program = _small_program()
     whole = CbcResult(SolveStatus.OPTIMAL, [1.0, 0.0, 0.3, 2.0])
@@ -304,8 +304,8 @@ def test_fractional_cbc_values_are_refused() -> None:
 
 def test_consumable_models_branch_on_scheduled_first(tmp_path: Path) -> None:
     """Tests that a consumable budget gives "scheduled" a priority file."""
-    from fsw_scheduler.solvers.ilp.cbc import _write_priorities
-    from fsw_scheduler.solvers.ilp.model import BuiltModel
+    from fsw_scheduler.solving.ilp.cbc import _write_priorities
+    from fsw_scheduler.solving.ilp.model import BuiltModel
 
     doc = {
         "horizon": 10,
@@ -404,7 +404,7 @@ def test_overlapping_generation_still_counts() -> None:
 
 def test_progress_lines_are_parsed() -> None:
     """Tests that incumbent and bound are read from CBC's log lines."""
-    from fsw_scheduler.solvers.ilp.progress import LogState
+    from fsw_scheduler.solving.ilp.progress import LogState
 
     state = LogState(constant=100.0, incumbent=900.0)
     assert state.summary() == "incumbent 900, bound none, gap -"
@@ -425,7 +425,7 @@ def test_limit_bounds_the_whole_call_and_progress_is_logged(
     included, logging CBC's progress meanwhile."""
     import time
 
-    from fsw_scheduler.solvers.ilp import progress
+    from fsw_scheduler.solving.ilp import progress
 
     monkeypatch.setattr(progress, "PROGRESS_S", 0.5)
     # 10 tasks on a busy binary resource: CBC needs over 10 s to prove it.
@@ -467,7 +467,7 @@ def test_neighbourhood_search_logs_progress(
     caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Tests that a long neighbourhood search logs its incumbent."""
-    from fsw_scheduler import improve
+    from fsw_scheduler.solving import improve
 
     monkeypatch.setattr(improve, "PROGRESS_S", 0.3)
     problem = generator.scaling(0, style="broad")[3].problem()

@@ -7,7 +7,7 @@ import copy
 import pytest
 
 from fsw_scheduler.errors import InputError
-from fsw_scheduler.model import decode_problem
+from fsw_scheduler.model.problem import decode_problem
 
 from .conftest import problem_from
 

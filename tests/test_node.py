@@ -18,14 +18,14 @@ import msgspec
 import pytest
 import zenoh
 
-from fsw_scheduler import messages
-from fsw_scheduler.bus import topics as keys
 from fsw_scheduler.bus.session import loopback_config, wait_matching
 from fsw_scheduler.testing import (
     SchedulerClient,
     SchedulerHarness,
     harness_config,
 )
+from fsw_scheduler.wire import messages
+from fsw_scheduler.wire import topics as keys
 
 if TYPE_CHECKING:
     from collections.abc import Iterator

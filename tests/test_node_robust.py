@@ -18,16 +18,16 @@ from typing import TYPE_CHECKING
 import pytest
 import zenoh
 
-from fsw_scheduler.bus import topics as keys
-from fsw_scheduler.model import MAX_ID_LENGTH
+from fsw_scheduler.model.problem import MAX_ID_LENGTH
 from fsw_scheduler.testing import harness_config
+from fsw_scheduler.wire import topics as keys
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
 
-    from fsw_scheduler.config import NodeConfig
-    from fsw_scheduler.engine import StartSolve
-    from fsw_scheduler.solution import Plan
+    from fsw_scheduler.engine.core import StartSolve
+    from fsw_scheduler.model.plan import Plan
+    from fsw_scheduler.runtime.config import NodeConfig
     from fsw_scheduler.testing import SchedulerHarness
 
 pytest_plugins = ["fsw_scheduler.testing"]
@@ -771,7 +771,7 @@ def test_cbc_dies_with_a_killed_node(tmp_path: Path) -> None:
         process.wait(10)
         _wait_for(lambda: not _alive(cbc), 5, "CBC gone with its parent")
         # Its temporary directory is left; the next node removes it.
-        from fsw_scheduler.solvers.ilp.cbc import sweep_stale_dirs
+        from fsw_scheduler.solving.ilp.cbc import sweep_stale_dirs
 
         folder = str(Path(model).parent)
         assert Path(folder).exists()
@@ -790,7 +790,7 @@ def test_sigterm_interrupts_a_solve_and_exits_0(tmp_path: Path) -> None:
     """Tests that SIGTERM during a solve stops within a second, exit 0."""
     import time
 
-    from fsw_scheduler.recording import iter_messages
+    from fsw_scheduler.journal.writer import iter_messages
 
     journal = tmp_path / "journal.mcap"
     session, process = _long_solve_node(tmp_path, "--record", str(journal))
@@ -878,10 +878,10 @@ def test_a_journal_with_busy_and_explained_replays(tmp_path: Path) -> None:
     """Tests that busy rejections and late explanations replay identically."""
     from fsw_scheduler.bus.node import SchedulerNode
     from fsw_scheduler.bus.session import open_peer_pair, wait_matching
-    from fsw_scheduler.messages import schema_lookup
-    from fsw_scheduler.recording import Recorder
-    from fsw_scheduler.replay import verify
+    from fsw_scheduler.journal.replay import verify
+    from fsw_scheduler.journal.writer import Recorder
     from fsw_scheduler.testing import SchedulerClient, paper_problem
+    from fsw_scheduler.wire.messages import schema_lookup
 
     path = tmp_path / "journal.mcap"
     config = harness_config(
@@ -914,7 +914,7 @@ def test_a_journal_with_busy_and_explained_replays(tmp_path: Path) -> None:
     report = verify(path)
     assert report.identical, report.summary()
     assert report.solves >= 2
-    from fsw_scheduler.recording import iter_messages
+    from fsw_scheduler.journal.writer import iter_messages
 
     topics = {m.topic for m in iter_messages(path)}
     assert "fsw/sat1/scheduler/explained" in topics

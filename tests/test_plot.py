@@ -8,15 +8,15 @@ from pathlib import Path
 
 import pytest
 
-from fsw_scheduler.model import Problem, Resources, Task
-from fsw_scheduler.plot import gantt, resource_profiles, timeline_text
-from fsw_scheduler.solution import (
+from fsw_scheduler.model.plan import (
     Activity,
     Blocker,
     Objective,
     Plan,
     SolveStatus,
 )
+from fsw_scheduler.model.problem import Problem, Resources, Task
+from fsw_scheduler.view.gantt import gantt, resource_profiles, timeline_text
 
 from .conftest import TABLE1_PLAN
 
@@ -311,7 +311,7 @@ def test_gantt_missing_matplotlib(
 def test_import_does_not_load_matplotlib() -> None:
     """Tests that importing fsw_scheduler.plot leaves matplotlib unloaded."""
     code = (
-        "import sys, fsw_scheduler.plot; "
+        "import sys, fsw_scheduler.view.gantt; "
         "print('matplotlib' in sys.modules)"
     )
     result = subprocess.run(

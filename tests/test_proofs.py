@@ -8,12 +8,16 @@ import sys
 
 from hypothesis import given, settings
 
-from fsw_scheduler.check import check_plan
-from fsw_scheduler.domains import start_domains
-from fsw_scheduler.greedy import greedy_plan
-from fsw_scheduler.proofs import forced_tasks, infeasibility, tight_conflicts
-from fsw_scheduler.solution import SolveStatus
-from fsw_scheduler.solve import solve
+from fsw_scheduler.analysis.check import check_plan
+from fsw_scheduler.analysis.domains import start_domains
+from fsw_scheduler.analysis.greedy import greedy_plan
+from fsw_scheduler.analysis.proofs import (
+    forced_tasks,
+    infeasibility,
+    tight_conflicts,
+)
+from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.solving.solve import solve
 
 from .conftest import problem_from
 from .test_properties import COMMON, _decode, brute_force, problem_docs

@@ -19,14 +19,14 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from fsw_scheduler.check import check_plan, format_report
+from fsw_scheduler.analysis.check import check_plan, format_report
 from fsw_scheduler.errors import InputError
-from fsw_scheduler.model import decode_problem
-from fsw_scheduler.solution import Activity, Objective, Plan, SolveStatus
-from fsw_scheduler.solve import solve
+from fsw_scheduler.model.plan import Activity, Objective, Plan, SolveStatus
+from fsw_scheduler.model.problem import decode_problem
+from fsw_scheduler.solving.solve import solve
 
 if TYPE_CHECKING:
-    from fsw_scheduler.model import Problem, Task
+    from fsw_scheduler.model.problem import Problem, Task
 
 TOLERANCE = 1e-9
 Assignment = dict[str, int | None]

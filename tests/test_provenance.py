@@ -6,10 +6,10 @@ from types import SimpleNamespace
 
 import zenoh
 
-from fsw_scheduler import messages
 from fsw_scheduler.bus.provenance import MAX_PENDING_GOALS, Provenance
-from fsw_scheduler.engine import GoalArrived, InputRejected
-from fsw_scheduler.goal import Goal
+from fsw_scheduler.engine.core import GoalArrived, InputRejected
+from fsw_scheduler.model.goal import Goal
+from fsw_scheduler.wire import messages
 
 GOALS = "fsw/sat1/scheduler/goals"
 ALLOWED = {GOALS: frozenset({"ground", "autonomy"})}

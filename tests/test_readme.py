@@ -27,10 +27,10 @@ from pathlib import Path
 import msgspec
 import pytest
 
-from fsw_scheduler.config import NodeConfig
-from fsw_scheduler.goal import decode_goal
-from fsw_scheduler.model import decode_problem
-from fsw_scheduler.solve import solve
+from fsw_scheduler.model.goal import decode_goal
+from fsw_scheduler.model.problem import decode_problem
+from fsw_scheduler.runtime.config import NodeConfig
+from fsw_scheduler.solving.solve import solve
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = [

@@ -19,7 +19,7 @@ from mcap.exceptions import McapError
 from mcap.reader import make_reader
 from mcap.well_known import MessageEncoding, SchemaEncoding
 
-from fsw_scheduler.recording import (
+from fsw_scheduler.journal.writer import (
     RecordedMessage,
     Recorder,
     format_info,
@@ -277,7 +277,7 @@ def test_closed_recorder_rejects_writes(tmp_path: Path) -> None:
 _WRITER_SCRIPT = textwrap.dedent(
     """
     import json, sys, time
-    from fsw_scheduler.recording import Recorder
+    from fsw_scheduler.journal.writer import Recorder
 
     rec = Recorder(sys.argv[1], flush_interval_ns=int(sys.argv[2]))
     i = 0

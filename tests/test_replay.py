@@ -14,9 +14,9 @@ from mcap.reader import make_reader
 from mcap.well_known import MessageEncoding, SchemaEncoding
 from mcap.writer import Writer
 
-from fsw_scheduler.bus.topics import Topics
-from fsw_scheduler.demo import run_demo
-from fsw_scheduler.replay import DERIVED_EXCLUDED, EXCLUDED, verify
+from fsw_scheduler.app.demo import run_demo
+from fsw_scheduler.journal.replay import DERIVED_EXCLUDED, EXCLUDED, verify
+from fsw_scheduler.wire.topics import Topics
 
 if TYPE_CHECKING:
     from collections.abc import Callable

@@ -9,11 +9,12 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from fsw_scheduler.check import check_plan
+from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.errors import InputError
-from fsw_scheduler.goal import Goal, decode_goal
-from fsw_scheduler.model import Precedence, Problem
-from fsw_scheduler.reschedule import (
+from fsw_scheduler.model.goal import Goal, decode_goal
+from fsw_scheduler.model.plan import Activity, Objective, Plan, SolveStatus
+from fsw_scheduler.model.problem import Precedence, Problem
+from fsw_scheduler.replan.triggers import (
     ActivityFailed,
     ExecutionReport,
     LevelsMeasured,
@@ -33,8 +34,7 @@ from fsw_scheduler.reschedule import (
     predicted_levels,
     replan_files,
 )
-from fsw_scheduler.solution import Activity, Objective, Plan, SolveStatus
-from fsw_scheduler.solve import solve
+from fsw_scheduler.solving.solve import solve
 
 from .conftest import problem_from
 

@@ -12,9 +12,9 @@ from typing import TYPE_CHECKING
 
 import msgspec
 
-from fsw_scheduler.engine import Engine, EngineConfig
-from fsw_scheduler.snapshot import EngineSnapshot
-from fsw_scheduler.state import journal_files, open_state
+from fsw_scheduler.engine.core import Engine, EngineConfig
+from fsw_scheduler.engine.snapshot import EngineSnapshot
+from fsw_scheduler.journal.state import journal_files, open_state
 
 from .test_engine import Driver, _encoded, small_goal
 

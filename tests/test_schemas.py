@@ -8,9 +8,9 @@ from pathlib import Path
 import msgspec
 import pytest
 
-from fsw_scheduler import messages
-from fsw_scheduler.goal import decode_goal
-from fsw_scheduler.solution import Activity, Objective, SolveStatus
+from fsw_scheduler.model.goal import decode_goal
+from fsw_scheduler.model.plan import Activity, Objective, SolveStatus
+from fsw_scheduler.wire import messages
 
 from .conftest import DATA
 

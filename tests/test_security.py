@@ -32,8 +32,6 @@ from cryptography.hazmat.primitives import hashes, serialization
 from cryptography.hazmat.primitives.asymmetric import ec
 from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
 
-from fsw_scheduler import messages
-from fsw_scheduler.bus import topics as keys
 from fsw_scheduler.bus.node import SchedulerNode
 from fsw_scheduler.bus.probe import probe
 from fsw_scheduler.bus.security import (
@@ -50,14 +48,16 @@ from fsw_scheduler.bus.session import (
     wait_matching,
 )
 from fsw_scheduler.cli import main
-from fsw_scheduler.messages import schema_lookup
-from fsw_scheduler.recording import Recorder, iter_messages
-from fsw_scheduler.replay import read_node_info, verify
+from fsw_scheduler.journal.replay import read_node_info, verify
+from fsw_scheduler.journal.writer import Recorder, iter_messages
 from fsw_scheduler.testing import (
     SchedulerClient,
     harness_config,
     paper_problem,
 )
+from fsw_scheduler.wire import messages
+from fsw_scheduler.wire import topics as keys
+from fsw_scheduler.wire.messages import schema_lookup
 
 if TYPE_CHECKING:
     from collections.abc import Iterator

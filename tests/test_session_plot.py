@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from fsw_scheduler.session_plot import plot_session, read_session
+from fsw_scheduler.view.session import plot_session, read_session
 
 ROOT = Path(__file__).resolve().parents[1]
 FAILURE = ROOT / "replay" / "failure.mcap"
@@ -64,7 +64,7 @@ def test_plot_command(tmp_path: Path) -> None:
     assert result.returncode == 0, result.stderr
     assert result.stdout.split()[-1].endswith("levels.png")
     other = tmp_path / "plain.mcap"
-    from fsw_scheduler.recording import Recorder
+    from fsw_scheduler.journal.writer import Recorder
 
     with Recorder(other) as rec:
         rec.write("a/b", b"{}", log_time_ns=1)
@@ -80,9 +80,9 @@ def test_plot_command(tmp_path: Path) -> None:
 
 def test_attach_pictures_copies_the_journal(tmp_path: Path) -> None:
     """Tests a copy with the pictures attached, messages unchanged."""
-    from fsw_scheduler.recording import info, read_attachments
-    from fsw_scheduler.replay import verify
-    from fsw_scheduler.session_plot import attach_pictures
+    from fsw_scheduler.journal.replay import verify
+    from fsw_scheduler.journal.writer import info, read_attachments
+    from fsw_scheduler.view.session import attach_pictures
 
     picture = tmp_path / "plan-1.png"
     picture.write_bytes(PNG + b"not really")

@@ -7,12 +7,11 @@ import json
 
 import msgspec
 
-from fsw_scheduler import messages
-from fsw_scheduler.check import check_plan
-from fsw_scheduler.engine import EngineConfig
-from fsw_scheduler.model import Problem, decode_problem
-from fsw_scheduler.reschedule import apply_failure
-from fsw_scheduler.shed import (
+from fsw_scheduler.analysis.check import check_plan
+from fsw_scheduler.engine.core import EngineConfig
+from fsw_scheduler.model.plan import Plan, SolveStatus
+from fsw_scheduler.model.problem import Problem, decode_problem
+from fsw_scheduler.replan.shed import (
     MANDATORY_LOSS,
     PARTNER_LOSS,
     mandatory_closure,
@@ -20,8 +19,9 @@ from fsw_scheduler.shed import (
     shedding_problem,
     without_tasks,
 )
-from fsw_scheduler.solution import Plan, SolveStatus
-from fsw_scheduler.solve import solve
+from fsw_scheduler.replan.triggers import apply_failure
+from fsw_scheduler.solving.solve import solve
+from fsw_scheduler.wire import messages
 
 from .test_engine import Driver, published, small_goal, statuses
 
@@ -195,7 +195,7 @@ def test_without_tasks_cascades_tight_followers() -> None:
         )
     )
     plan = solve(problem, "cbc", explain=False)
-    from fsw_scheduler.reschedule import Schedule
+    from fsw_scheduler.replan.triggers import Schedule
 
     schedule = Schedule.begin(problem, plan)
     replan = apply_failure(schedule, "Point", 0, now=1)

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from fsw_scheduler.check import check_plan
-from fsw_scheduler.solution import SolveStatus
-from fsw_scheduler.solve import solve
+from fsw_scheduler.analysis.check import check_plan
+from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.solving.solve import solve
 
 from .conftest import problem_from
 
@@ -392,7 +392,7 @@ def test_cbc_status_line_is_read_honestly(
     first_line: str, status: SolveStatus, has_values: bool
 ) -> None:
     """Tests that a plan found at a limit is feasible, not optimal."""
-    from fsw_scheduler.solvers.ilp.cbc import read_status
+    from fsw_scheduler.solving.ilp.cbc import read_status
 
     assert read_status(first_line) == (status, has_values)
 
@@ -409,8 +409,9 @@ def test_core_does_not_import_solver_or_bus() -> None:
     """Tests that importing the package pulls in neither PuLP nor Zenoh."""
     code = (
         "import sys, fsw_scheduler, fsw_scheduler.model, "
-        "fsw_scheduler.domains, fsw_scheduler.explain, fsw_scheduler.engine, "
-        "fsw_scheduler.reschedule, fsw_scheduler.check, fsw_scheduler.clock;"
+        "fsw_scheduler.analysis.domains, fsw_scheduler.analysis.explain, "
+        "fsw_scheduler.engine, fsw_scheduler.replan, "
+        "fsw_scheduler.analysis.check, fsw_scheduler.runtime.clock;"
         "bad = [m for m in ('pulp', 'zenoh', 'matplotlib', 'mcap') "
         "if m in sys.modules]; print(bad); sys.exit(bool(bad))"
     )
@@ -432,7 +433,7 @@ def _large_problem() -> dict:
 
 def test_time_limit_returns_a_valid_plan_on_a_hard_problem() -> None:
     """Tests that a hard problem under a short limit still gets a plan."""
-    from fsw_scheduler.check import check_plan
+    from fsw_scheduler.analysis.check import check_plan
 
     problem = problem_from(_large_problem())
     plan = solve(problem, time_limit=1)
@@ -443,8 +444,8 @@ def test_time_limit_returns_a_valid_plan_on_a_hard_problem() -> None:
 
 def test_cbc_is_interrupted_at_its_deadline() -> None:
     """Tests that CBC past its wall-clock deadline is stopped, not awaited."""
-    from fsw_scheduler.solvers.ilp.cbc import CbcRun
-    from fsw_scheduler.solvers.ilp.model import BuiltModel
+    from fsw_scheduler.solving.ilp.cbc import CbcRun
+    from fsw_scheduler.solving.ilp.model import BuiltModel
 
     built = BuiltModel(problem_from(_large_problem()))
     run = CbcRun(deadline_s=0.05)
@@ -454,9 +455,9 @@ def test_cbc_is_interrupted_at_its_deadline() -> None:
 
 def test_explanations_share_a_time_budget(table1_doc: dict) -> None:
     """Tests that spent explanation budget gives not_analysed, not guesses."""
-    from fsw_scheduler.explain import explain
-    from fsw_scheduler.solve import _budgeted
-    from fsw_scheduler.solvers.ilp import solve_ilp
+    from fsw_scheduler.analysis.explain import explain
+    from fsw_scheduler.solving.ilp import solve_ilp
+    from fsw_scheduler.solving.solve import _budgeted
 
     doc = copy.deepcopy(table1_doc)
     doc["feasible_interval_applies_to"] = "task"
@@ -499,8 +500,8 @@ def test_reason_names_the_precedence_partner_not_the_resource() -> None:
 def test_independent_parts_are_solved_apart() -> None:
     """Tests that tasks sharing no resource or precedence are solved as
     separate models, and the joined plan is the whole problem's optimum."""
-    from fsw_scheduler.solve import components
-    from fsw_scheduler.solvers.ilp import solve_ilp
+    from fsw_scheduler.solving.ilp import solve_ilp
+    from fsw_scheduler.solving.solve import components
 
     doc = _problem(
         [

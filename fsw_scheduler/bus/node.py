@@ -35,9 +35,7 @@ from typing import TYPE_CHECKING, Any
 import msgspec
 import zenoh
 
-from .. import messages
-from ..clock import UnitClock
-from ..engine import (
+from ..engine.core import (
     Command,
     Engine,
     EngineConfig,
@@ -53,17 +51,18 @@ from ..engine import (
     Tick,
 )
 from ..errors import BusError
-from ..foxglove import Annotator, engine_problem, session_records
-from ..inputs import InputDecoder, goal_id_of
-from ..solvers.ilp.cbc import Cancel, cancel_scope, sweep_stale_dirs
-from . import topics
+from ..journal.annotate import Annotator, engine_problem, session_records
+from ..runtime.clock import UnitClock
+from ..runtime.inputs import InputDecoder, goal_id_of
+from ..solving.ilp.cbc import Cancel, cancel_scope, sweep_stale_dirs
+from ..wire import messages, topics
 from .provenance import Origin, Provenance, capture
 
 if TYPE_CHECKING:
-    from ..config import NodeConfig
-    from ..model import Problem
-    from ..recording import Recorder
-    from ..solution import Blocker, Plan
+    from ..journal.writer import Recorder
+    from ..model.plan import Blocker, Plan
+    from ..model.problem import Problem
+    from ..runtime.config import NodeConfig
 
 log = logging.getLogger("fsw_scheduler.node")
 
@@ -362,7 +361,7 @@ def run_solve(config: NodeConfig, command: StartSolve) -> Plan:
     explains it once published); a solve that gives no plan is explained
     here, since the rejection it causes names the blockers.
     """
-    from ..solve import solve
+    from ..solving.solve import solve
 
     later = config.explain_after_plan
     plan = solve(
@@ -387,10 +386,10 @@ def run_explain(
     config: NodeConfig, problem: Problem, plan: Plan
 ) -> tuple[Blocker, ...]:
     """Why tasks of ``plan`` are out, within ``config.explain_budget``."""
-    from ..explain import explain
-    from ..solution import Plan as PlanType
-    from ..solution import SolveStatus
-    from ..solvers.ilp import solve_ilp
+    from ..analysis.explain import explain
+    from ..model.plan import Plan as PlanType
+    from ..model.plan import SolveStatus
+    from ..solving.ilp import solve_ilp
 
     deadline = time.monotonic() + config.explain_budget
 

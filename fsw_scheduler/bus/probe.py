@@ -22,8 +22,8 @@ from typing import TYPE_CHECKING
 import msgspec
 import zenoh
 
-from .. import messages
-from . import topics as keys
+from ..wire import messages
+from ..wire import topics as keys
 from .session import wait_matching
 
 if TYPE_CHECKING:

@@ -34,13 +34,13 @@ from typing import TYPE_CHECKING, Any
 import msgspec
 import zenoh
 
-from .. import messages
-from ..engine import GoalArrived, InputRejected
+from ..engine.core import GoalArrived, InputRejected
+from ..wire import messages
 
 if TYPE_CHECKING:
     from collections.abc import Callable
 
-    from ..engine import Event
+    from ..engine.core import Event
 
 log = logging.getLogger("fsw_scheduler.node")
 

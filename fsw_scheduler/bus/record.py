@@ -26,8 +26,8 @@ from typing import TYPE_CHECKING
 import zenoh
 
 from ..errors import BusError
-from ..recording import PathLike, RecordedMessage, iter_messages
-from ..recording import info as recording_info
+from ..journal.writer import PathLike, RecordedMessage, iter_messages
+from ..journal.writer import info as recording_info
 
 if TYPE_CHECKING:
     import threading
@@ -39,7 +39,7 @@ if TYPE_CHECKING:
         Sequence,
     )
 
-    from ..recording import Recorder
+    from ..journal.writer import Recorder
 
 __all__ = [
     "KeyFilter",

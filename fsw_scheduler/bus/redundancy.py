@@ -43,9 +43,8 @@ from typing import TYPE_CHECKING, NamedTuple
 import msgspec
 import zenoh
 
-from .. import messages
-from ..snapshot import EngineSnapshot
-from . import topics
+from ..engine.snapshot import EngineSnapshot
+from ..wire import messages, topics
 
 if TYPE_CHECKING:
     from collections.abc import Callable

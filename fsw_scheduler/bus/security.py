@@ -40,10 +40,9 @@ from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .. import messages
 from ..errors import ConfigError
-from ..model import id_issue
-from . import topics
+from ..model.problem import id_issue
+from ..wire import messages, topics
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterable, Mapping

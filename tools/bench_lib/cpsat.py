@@ -34,7 +34,7 @@ import math
 import time
 from typing import TYPE_CHECKING, Any
 
-from fsw_scheduler.solution import (
+from fsw_scheduler.model.plan import (
     Activity,
     Objective,
     Plan,
@@ -44,7 +44,7 @@ from fsw_scheduler.solution import (
 )
 
 if TYPE_CHECKING:
-    from fsw_scheduler.model import Problem
+    from fsw_scheduler.model.problem import Problem
 
 MAX_SCALE_DIGITS = 6
 

@@ -33,7 +33,7 @@ import zlib
 from dataclasses import dataclass
 from typing import Any
 
-from fsw_scheduler.model import Problem, decode_problem
+from fsw_scheduler.model.problem import Problem, decode_problem
 
 from . import broad
 

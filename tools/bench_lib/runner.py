@@ -21,13 +21,13 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, TextIO
 
-from fsw_scheduler.check import check_plan
-from fsw_scheduler.model import decode_problem
-from fsw_scheduler.solution import SolveStatus
+from fsw_scheduler.analysis.check import check_plan
+from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.model.problem import decode_problem
 
 if TYPE_CHECKING:
-    from fsw_scheduler.model import Problem
-    from fsw_scheduler.solution import Plan
+    from fsw_scheduler.model.plan import Plan
+    from fsw_scheduler.model.problem import Problem
 
     from .generator import BenchProblem
 
@@ -114,7 +114,7 @@ def solver_fn(name: str) -> SolveFn:
         For an unknown solver name.
     """
     if name in ILP_SOLVERS:
-        from fsw_scheduler.solve import solve
+        from fsw_scheduler.solving.solve import solve
 
         def ilp(problem: Problem, limit: float | None, seed: int) -> Plan:
             return solve(

@@ -1,0 +1,580 @@
+"""Independent plan checker: does a plan obey every rule of the problem?
+
+:func:`check_plan` re-derives every constraint of the problem format from
+the raw fields of the :class:`~fsw_scheduler.model.Problem` and walks the
+horizon one time unit at a time. It deliberately shares no code with the
+ILP builder (no ``pulp``, nothing from ``solve`` or ``solvers``, not even
+:meth:`Problem.start_bounds`): a bug in the formulation then cannot hide
+itself by being repeated here. It is the oracle of the property tests and
+the engine of ``fsw-scheduler check``.
+
+Every violation is reported, not just the first. Rule names:
+
+``coverage``
+    every task exactly once across ``activities`` and ``unscheduled``;
+    no unknown task ids.
+``length``
+    ``end - start == length``.
+``horizon``
+    ``start >= problem.start`` and ``end <= problem.start + horizon``.
+``window``
+    the feasible interval ``[a, b]``: with the ``task`` reading
+    ``start >= a`` and ``end <= b``; with the ``start`` reading
+    ``a <= start <= b``. A task's own ``feasible_interval_applies_to``
+    overrides the problem's.
+``fixed_start``
+    a pinned task is scheduled and starts exactly at its pin.
+``mandatory``
+    a task with ``schedule_cost`` 0 is scheduled.
+``binary``
+    at most one running user of a binary resource per time unit.
+``multiple``
+    the summed amounts of running users stay within capacity.
+``consumable``
+    the level at the end of every time unit stays >= 0; with a capacity
+    the level at the end of unit ``t`` is ``min(max, level at t-1 - net
+    use in t)`` (what a full store cannot take is lost).
+``precedence``
+    tight: ``s_after == s_before + l_before + offset``; lax: ``>=``.
+    Only checked when both tasks are scheduled.
+``scope``
+    ``both``: both tasks or neither are scheduled; ``at_least_first``:
+    ``after`` scheduled needs ``before`` scheduled.
+``objective``
+    the plan's reported objective equals the recomputed one.
+
+Conventions for malformed plans (documented so that reports are stable):
+
+* An activity runs over the interval it reports, ``[start, end)``; that is
+  what would be dispatched. A wrong ``end`` is a ``length`` violation, and
+  resources are still checked on the reported interval.
+* Precedences use the problem's ``length`` of ``before`` (the formula of
+  the problem format) and the first activity listed for each task.
+* Activities listed twice are both counted for resources (both would be
+  dispatched); activities of unknown tasks use no resource.
+* Resources are walked over the horizon. Units an activity runs before the
+  horizon still drain consumables (they are counted at the first unit);
+  anything outside the horizon is also a ``horizon`` violation.
+* A task is *scheduled* when it has an activity; everything else is *left
+  out* for the objective, whether or not ``unscheduled`` lists it.
+* Plans whose status carries no plan (``infeasible``, ``unknown``) are
+  checked for ``coverage`` only, plus ``objective`` when they report one:
+  the solver gave up or proved that mandatory tasks cannot be placed, so
+  mandatory, pin and placement rules would only restate that status.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from typing import TYPE_CHECKING, NamedTuple
+
+import msgspec
+
+from ..model.plan import Objective, objective_weight
+
+if TYPE_CHECKING:
+    from collections.abc import Iterable, Iterator, Sequence
+
+    from ..model.plan import Activity, Plan
+    from ..model.problem import Consumable, Precedence, Problem, Task
+
+RULES = (
+    "coverage",
+    "length",
+    "horizon",
+    "window",
+    "fixed_start",
+    "mandatory",
+    "binary",
+    "multiple",
+    "consumable",
+    "precedence",
+    "scope",
+    "objective",
+)
+"""Every rule name :func:`check_plan` may report, in report order."""
+
+TOLERANCE = 1e-9
+"""Slack allowed on float resource sums (capacity and consumable level)."""
+
+
+class Violation(msgspec.Struct, frozen=True):
+    """One broken rule.
+
+    Attributes
+    ----------
+    rule
+        One of :data:`RULES`.
+    task
+        The task at fault, or None when several tasks share the blame
+        (resources) or the rule is about the whole plan (objective).
+    time
+        The first time unit concerned, or None when time plays no part.
+    detail
+        What is wrong, in plain words, with the numbers involved.
+    """
+
+    rule: str
+    task: str | None
+    time: int | None
+    detail: str
+
+
+class CheckReport(msgspec.Struct, frozen=True):
+    """Result of :func:`check_plan`.
+
+    Attributes
+    ----------
+    violations
+        Every violation found, grouped by rule in :data:`RULES` order.
+    objective
+        The objective recomputed from the plan's activities (the
+        problem format's objective), whatever the plan itself reports.
+    """
+
+    violations: tuple[Violation, ...]
+    objective: Objective
+
+    @property
+    def ok(self) -> bool:
+        """True when the plan breaks no rule."""
+        return not self.violations
+
+    @property
+    def rules(self) -> frozenset[str]:
+        """The names of the rules that are broken."""
+        return frozenset(v.rule for v in self.violations)
+
+    def of_rule(self, rule: str) -> tuple[Violation, ...]:
+        """The violations of ``rule``."""
+        return tuple(v for v in self.violations if v.rule == rule)
+
+
+def check_plan(problem: Problem, plan: Plan) -> CheckReport:
+    """Check ``plan`` against every constraint of ``problem``.
+
+    Parameters
+    ----------
+    problem
+        The problem the plan claims to solve.
+    plan
+        The plan to check; it may be malformed in any way (unknown or
+        duplicated tasks, wrong ends, times outside the horizon).
+
+    Returns
+    -------
+    CheckReport
+        Every violation found and the recomputed objective. See the module
+        docstring for the rules and the conventions on malformed plans.
+    """
+    tasks = {task.id: task for task in problem.tasks}
+    known = [a for a in plan.activities if a.task in tasks]
+    first: dict[str, Activity] = {}
+    for activity in known:
+        first.setdefault(activity.task, activity)
+    objective = _objective(problem, first)
+
+    violations = list(_coverage(problem, plan))
+    if plan.status.has_plan:
+        violations += _placement(problem, tasks, known)
+        violations += _selection(problem, first)
+        violations += _binary(problem, tasks, known)
+        violations += _multiple(problem, tasks, known)
+        violations += _consumable(problem, tasks, known)
+        violations += _precedences(problem, tasks, first)
+    if plan.objective is not None and plan.objective != objective:
+        violations.append(
+            Violation(
+                "objective",
+                None,
+                None,
+                f"plan reports {_show(plan.objective)} but its activities "
+                f"give {_show(objective)}",
+            )
+        )
+    order = {rule: idx for idx, rule in enumerate(RULES)}
+    violations.sort(key=lambda v: order.get(v.rule, len(order)))
+    return CheckReport(tuple(violations), objective)
+
+
+def format_report(report: CheckReport) -> str:
+    """Render ``report`` for a human, one violation per line.
+
+    Parameters
+    ----------
+    report
+        A result of :func:`check_plan`.
+
+    Returns
+    -------
+    str
+        A first line with the verdict and the recomputed objective, then
+        one ``[rule] task @t: detail`` line per violation.
+    """
+    head = f"objective {_show(report.objective)}"
+    if report.ok:
+        return f"plan is valid; {head}"
+    count = len(report.violations)
+    plural = "s" * (count != 1)
+    lines = [f"plan has {count} violation{plural}; {head}"]
+    for v in report.violations:
+        where = "".join(
+            (
+                f" {v.task}" if v.task is not None else "",
+                f" @t={v.time}" if v.time is not None else "",
+            )
+        )
+        lines.append(f"  [{v.rule}]{where}: {v.detail}")
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------
+# Objective
+
+
+def _objective(problem: Problem, first: dict[str, Activity]) -> Objective:
+    left_out = sum(t.schedule_cost for t in problem.tasks if t.id not in first)
+    delay = sum(
+        task.delay_cost * (first[task.id].start - problem.start)
+        for task in problem.tasks
+        if task.id in first
+    )
+    weight = objective_weight(
+        [t.delay_cost for t in problem.tasks], problem.horizon
+    )
+    return Objective(left_out, delay, weight * left_out + delay)
+
+
+def _show(objective: Objective) -> str:
+    return (
+        f"(unscheduled_cost={objective.unscheduled_cost}, "
+        f"delay_cost={objective.delay_cost}, total={objective.total})"
+    )
+
+
+# --------------------------------------------------------------------------
+# Rules on the listing and on each activity on its own
+
+
+def _coverage(problem: Problem, plan: Plan) -> Iterator[Violation]:
+    ids = {task.id for task in problem.tasks}
+    placed = Counter(a.task for a in plan.activities)
+    dropped = Counter(plan.unscheduled)
+    for task in problem.tasks:
+        n_placed, n_dropped = placed[task.id], dropped[task.id]
+        if n_placed + n_dropped == 1:
+            continue
+        if n_placed + n_dropped == 0:
+            detail = "appears neither in activities nor in unscheduled"
+        elif n_placed and n_dropped:
+            detail = (
+                f"appears in both activities ({n_placed}x) and "
+                f"unscheduled ({n_dropped}x)"
+            )
+        elif n_placed:
+            detail = f"appears {n_placed} times in activities"
+        else:
+            detail = f"appears {n_dropped} times in unscheduled"
+        yield Violation("coverage", task.id, None, detail)
+    for where, counts in (("activities", placed), ("unscheduled", dropped)):
+        for name in counts:
+            if name not in ids:
+                yield Violation(
+                    "coverage", name, None, f"unknown task id in {where}"
+                )
+
+
+def _placement(
+    problem: Problem, tasks: dict[str, Task], known: Sequence[Activity]
+) -> Iterator[Violation]:
+    end = problem.start + problem.horizon
+    for activity in known:
+        task = tasks[activity.task]
+        name, start = activity.task, activity.start
+        span = f"[{start}, {activity.end})"
+        if activity.end - start != task.length:
+            yield Violation(
+                "length",
+                name,
+                start,
+                f"runs {span} ({activity.end - start} units) but its "
+                f"length is {task.length}",
+            )
+        if start < problem.start or activity.end > end:
+            yield Violation(
+                "horizon",
+                name,
+                start,
+                f"runs {span}, outside the horizon [{problem.start}, {end})",
+            )
+        yield from _window(problem, task, activity)
+        if task.fixed_start is not None and start != task.fixed_start:
+            yield Violation(
+                "fixed_start",
+                name,
+                start,
+                f"starts at {start} but is pinned to {task.fixed_start}",
+            )
+
+
+def _window(
+    problem: Problem, task: Task, activity: Activity
+) -> Iterator[Violation]:
+    if task.feasible_interval is None:
+        return
+    low, high = task.feasible_interval
+    reading = (
+        task.feasible_interval_applies_to
+        or problem.feasible_interval_applies_to
+    )
+    start = activity.start
+    if reading == "task":
+        if start < low or activity.end > high:
+            yield Violation(
+                "window",
+                task.id,
+                start,
+                f"runs [{start}, {activity.end}), not inside its feasible "
+                f"interval [{low}, {high}] (whole-task reading)",
+            )
+    elif not low <= start <= high:
+        yield Violation(
+            "window",
+            task.id,
+            start,
+            f"starts at {start}, outside its feasible interval "
+            f"[{low}, {high}] (start reading)",
+        )
+
+
+def _selection(
+    problem: Problem, first: dict[str, Activity]
+) -> Iterator[Violation]:
+    for task in problem.tasks:
+        if task.id in first:
+            continue
+        if task.fixed_start is not None:
+            yield Violation(
+                "fixed_start",
+                task.id,
+                task.fixed_start,
+                f"is pinned to start at {task.fixed_start} but is not "
+                "scheduled",
+            )
+        if task.schedule_cost == 0:
+            yield Violation(
+                "mandatory",
+                task.id,
+                None,
+                "is mandatory (schedule_cost 0) but is not scheduled",
+            )
+
+
+# --------------------------------------------------------------------------
+# Resources: walk the horizon one time unit at a time
+
+
+def _users(
+    tasks: dict[str, Task], known: Sequence[Activity], resource: str
+) -> list[tuple[Activity, float]]:
+    return [
+        (a, tasks[a.task].uses[resource])
+        for a in known
+        if resource in tasks[a.task].uses
+    ]
+
+
+class _Hit(NamedTuple):
+    """One time unit where a resource rule is broken."""
+
+    t: int
+    key: tuple[str, ...]  # who is running: consecutive equal keys merge
+    value: float  # use (multiple) or level (consumable); count (binary)
+
+
+def _runs(hits: Sequence[_Hit]) -> Iterator[list[_Hit]]:
+    """Group consecutive time units with the same running tasks.
+
+    One overlap of two long tasks would otherwise fill a report with a
+    line per time unit; a run becomes one violation naming its span.
+    """
+    run: list[_Hit] = []
+    for hit in hits:
+        if run and (hit.t != run[-1].t + 1 or hit.key != run[-1].key):
+            yield run
+            run = []
+        run.append(hit)
+    if run:
+        yield run
+
+
+def _span(run: Sequence[_Hit]) -> str:
+    first, last = run[0].t, run[-1].t
+    return f"t={first}" if first == last else f"t={first}..{last}"
+
+
+def _walk(
+    problem: Problem, users: Sequence[tuple[Activity, float]]
+) -> Iterator[tuple[int, list[tuple[Activity, float]]]]:
+    """Yield each time unit of the horizon with the users running in it."""
+    for t in range(problem.start, problem.start + problem.horizon):
+        yield t, [(a, amount) for a, amount in users if a.start <= t < a.end]
+
+
+def _key(running: Iterable[tuple[Activity, float]]) -> tuple[str, ...]:
+    return tuple(a.task for a, _ in running)
+
+
+def _binary(
+    problem: Problem, tasks: dict[str, Task], known: Sequence[Activity]
+) -> Iterator[Violation]:
+    for resource in problem.resources.binary:
+        hits = [
+            _Hit(t, _key(running), len(running))
+            for t, running in _walk(problem, _users(tasks, known, resource))
+            if len(running) > 1
+        ]
+        for run in _runs(hits):
+            yield Violation(
+                "binary",
+                None,
+                run[0].t,
+                f"{resource!r} at {_span(run)}: {int(run[0].value)} users "
+                f"at once ({', '.join(run[0].key)}), at most 1 allowed",
+            )
+
+
+def _multiple(
+    problem: Problem, tasks: dict[str, Task], known: Sequence[Activity]
+) -> Iterator[Violation]:
+    for resource, capacity in problem.resources.multiple.items():
+        hits = []
+        for t, running in _walk(problem, _users(tasks, known, resource)):
+            used = sum(amount for _, amount in running)
+            if used > capacity + TOLERANCE:
+                hits.append(_Hit(t, _key(running), used))
+        for run in _runs(hits):
+            yield Violation(
+                "multiple",
+                None,
+                run[0].t,
+                f"{resource!r} at {_span(run)}: use {run[0].value:g} "
+                f"exceeds capacity {capacity:g} ({', '.join(run[0].key)})",
+            )
+
+
+def _consumable(
+    problem: Problem, tasks: dict[str, Task], known: Sequence[Activity]
+) -> Iterator[Violation]:
+    for resource, spec in problem.resources.consumable.items():
+        initial, ceiling = _initial_and_ceiling(spec)
+        top = math.inf if ceiling is None else ceiling
+        users = _users(tasks, known, resource)
+        # Units run before the horizon (already a horizon violation) still
+        # drained the resource; count them at the first unit.
+        level = initial - sum(
+            amount * max(0, min(a.end, problem.start) - a.start)
+            for a, amount in users
+        )
+        level = min(top, level)
+        hits = []
+        for t, running in _walk(problem, users):
+            # Net use of the unit, then the ceiling: what a full store
+            # cannot take is lost.
+            level = min(top, level - sum(amount for _, amount in running))
+            if level < -TOLERANCE:
+                # The level keeps falling while the same tasks run: merge
+                # on "below zero" alone, not on who runs.
+                hits.append(_Hit(t, (), level))
+        for run in _runs(hits):
+            lowest = min(hit.value for hit in run)
+            yield Violation(
+                "consumable",
+                None,
+                run[0].t,
+                f"{resource!r} at {_span(run)}: level below 0 (first "
+                f"{run[0].value:g}, lowest {lowest:g}; initial "
+                f"{initial:g}"
+                + ("" if ceiling is None else f", capacity {ceiling:g}")
+                + ")",
+            )
+
+
+def _initial_and_ceiling(
+    spec: float | Consumable,
+) -> tuple[float, float | None]:
+    """A consumable's initial level and capacity, from its raw field.
+
+    A plain number is the initial level with no capacity; an object has
+    ``initial`` and an optional ``max``.
+    """
+    if isinstance(spec, int | float):
+        return float(spec), None
+    return float(spec.initial), None if spec.max is None else float(spec.max)
+
+
+# --------------------------------------------------------------------------
+# Precedences
+
+
+def _precedences(
+    problem: Problem, tasks: dict[str, Task], first: dict[str, Activity]
+) -> Iterator[Violation]:
+    for prec in problem.precedences:
+        if prec.before not in tasks or prec.after not in tasks:
+            continue
+        before, after = first.get(prec.before), first.get(prec.after)
+        yield from _scope(prec, before, after)
+        if before is None or after is None:
+            continue
+        target = before.start + tasks[prec.before].length + prec.offset
+        relation = f"{_edge(prec)}: start({prec.after}) = {after.start}"
+        if prec.kind == "tight" and after.start != target:
+            yield Violation(
+                "precedence",
+                prec.after,
+                after.start,
+                f"{relation}, must be exactly {target}",
+            )
+        elif prec.kind == "lax" and after.start < target:
+            yield Violation(
+                "precedence",
+                prec.after,
+                after.start,
+                f"{relation}, must be >= {target}",
+            )
+
+
+def _scope(
+    prec: Precedence, before: Activity | None, after: Activity | None
+) -> Iterator[Violation]:
+    if prec.scope == "both" and (before is None) != (after is None):
+        missing, present = (
+            (prec.before, prec.after)
+            if before is None
+            else (prec.after, prec.before)
+        )
+        yield Violation(
+            "scope",
+            missing,
+            None,
+            f"{_edge(prec)}: {present!r} is scheduled but {missing!r} is "
+            "not (scope both: both or neither)",
+        )
+    elif prec.scope == "at_least_first" and after and before is None:
+        yield Violation(
+            "scope",
+            prec.before,
+            None,
+            f"{_edge(prec)}: {prec.after!r} is scheduled without "
+            f"{prec.before!r} (scope at_least_first)",
+        )
+
+
+def _edge(prec: Precedence) -> str:
+    sign = "+" if prec.offset >= 0 else "-"
+    return (
+        f"{prec.kind} {prec.before} -> {prec.after} "
+        f"(offset {sign}{abs(prec.offset)})"
+    )

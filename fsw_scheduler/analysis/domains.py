@@ -1,0 +1,300 @@
+"""Start-time domains tightened by precedences (pure).
+
+Every task starts in ``[earliest, latest]`` given by horizon, feasible
+interval and pin (:meth:`Problem.start_bounds`). Precedences shrink these
+ranges further whenever both ends would be scheduled together; the ILP uses
+the result to create fewer variables, and the explanations use it to say
+when a precedence alone makes a task impossible. The rules, for a
+precedence ``i -> j`` with gap ``g = length_i + offset``:
+
+* any kind: ``j`` scheduled implies ``i`` scheduled with ``s_j >= s_i + g``,
+  so ``earliest_j >= earliest_i + g``;
+* tight: also ``s_j <= s_i + g``, so ``latest_j <= latest_i + g``;
+* scope ``both``: ``i`` scheduled implies ``j`` scheduled, so
+  ``latest_i <= latest_j - g`` and, when tight,
+  ``earliest_i >= earliest_j - g``.
+
+A task whose range becomes empty can never be scheduled; with scope
+``both`` that empties its partner too. So does a consumer that alone needs
+more of a consumable than the initial level plus everything the other
+tasks could generate before it ends (:func:`_over_budget`), or more than
+the consumable's capacity plus what can be generated while it runs
+(:func:`_over_capacity`). A capacity only loses generation, so a level
+with one is never above the level without it, and the first rule stays
+sound as it is.
+
+:func:`cost_caps` adds a bound of another kind: once a plan that leaves
+nothing out is known, no better plan can start a task later than the delay
+that plan leaves to spare (see there).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import msgspec
+
+if TYPE_CHECKING:
+    from collections.abc import Mapping
+
+    from ..model.plan import Plan
+    from ..model.problem import Problem, Task
+
+
+class Domain(msgspec.Struct, frozen=True):
+    """Allowed start times ``[earliest, latest]`` of one task.
+
+    ``cause`` says what emptied the range (``window`` or ``precedence``)
+    and ``detail`` says how, when :attr:`empty`.
+    """
+
+    earliest: int
+    latest: int
+    cause: str = ""
+    detail: str = ""
+
+    @property
+    def empty(self) -> bool:
+        """True when no start time is allowed."""
+        return self.earliest > self.latest
+
+
+def start_domains(
+    problem: Problem, caps: Mapping[str, int] | None = None
+) -> dict[str, Domain]:
+    """Return each task's start domain after precedence propagation.
+
+    Parameters
+    ----------
+    problem
+        A validated problem.
+    caps
+        Extra latest starts by task id (see :func:`cost_caps`), propagated
+        like the windows.
+
+    Returns
+    -------
+    dict[str, Domain]
+        Keyed by task id, in problem task order.
+    """
+    length = {task.id: task.length for task in problem.tasks}
+    low: dict[str, int] = {}
+    high: dict[str, int] = {}
+    cause: dict[str, tuple[str, str]] = {}
+    for task in problem.tasks:
+        low[task.id], high[task.id] = problem.start_bounds(task)
+        if caps is not None and task.id in caps:
+            high[task.id] = min(high[task.id], caps[task.id])
+        if low[task.id] > high[task.id]:
+            cause[task.id] = (
+                "window",
+                "feasible interval and horizon leave no start time",
+            )
+
+    def empty(name: str) -> bool:
+        return low[name] > high[name]
+
+    def kill(name: str, why: str, kind: str = "precedence") -> bool:
+        if empty(name):
+            return False
+        high[name] = low[name] - 1
+        cause[name] = (kind, why)
+        return True
+
+    if problem.resources.consumable:
+        following: dict[str, list[tuple[str, int, int]]] = {}
+        for prec in problem.precedences:
+            following.setdefault(prec.before, []).append(
+                (prec.after, prec.offset, length[prec.before] + prec.offset)
+            )
+        for task in problem.tasks:
+            if not empty(task.id):
+                why = _over_budget(
+                    problem, task, high[task.id], following
+                ) or _over_capacity(problem, task, low[task.id], high[task.id])
+                if why:
+                    kill(task.id, why, "consumable")
+
+    # Each pass only shrinks ranges, so this terminates; the cap bounds
+    # the work on long positive lax cycles, where any intermediate state
+    # is still a valid relaxation.
+    for _ in range(2 * len(length) + 4):
+        changed = False
+        for prec in problem.precedences:
+            i, j = prec.before, prec.after
+            gap = length[i] + prec.offset
+            if empty(i):
+                changed |= kill(j, f"needs {i}, which cannot be placed")
+            if prec.scope == "both" and empty(j):
+                changed |= kill(
+                    i, f"must be scheduled with {j}, which cannot be placed"
+                )
+            if empty(i) or empty(j):
+                continue
+            bounds = [(j, "low", low[i] + gap)]
+            if prec.kind == "tight":
+                bounds.append((j, "high", high[i] + gap))
+            if prec.scope == "both":
+                bounds.append((i, "high", high[j] - gap))
+                if prec.kind == "tight":
+                    bounds.append((i, "low", low[j] - gap))
+            for name, side, value in bounds:
+                if side == "low" and value > low[name]:
+                    low[name], changed = value, True
+                elif side == "high" and value < high[name]:
+                    high[name], changed = value, True
+                if empty(name) and name not in cause:
+                    cause[name] = (
+                        "precedence",
+                        f"{prec.kind} precedence {i} -> {j} "
+                        f"(offset {prec.offset}) leaves no start time "
+                        "inside the windows",
+                    )
+        if not changed:
+            break
+    return {
+        name: Domain(low[name], high[name], *cause.get(name, ("", "")))
+        for name in length
+    }
+
+
+def cost_caps(
+    problem: Problem, domains: Mapping[str, Domain], plan: Plan
+) -> dict[str, int] | None:
+    """Latest starts that every plan at least as good as ``plan`` keeps.
+
+    Only for a ``plan`` that leaves no cost out (else None). Any plan as
+    good must then leave nothing of cost out either, so it schedules every
+    task of positive schedule cost, and every mandatory one, at or after
+    its earliest start ``e``; that already costs ``D_min = sum d (e -
+    start)`` in delay. Whatever ``plan``'s delay ``D`` has beyond that,
+    ``slack = D - D_min``, bounds how late any one task may start: ``e +
+    slack // d`` for a task that must be scheduled, ``start + slack // d``
+    for one that may be left out. Tasks without delay cost get no cap.
+
+    Parameters
+    ----------
+    problem
+        A validated problem.
+    domains
+        Its :func:`start_domains`.
+    plan
+        A valid plan of ``problem`` with its objective.
+
+    Returns
+    -------
+    dict[str, int] | None
+        Task id to latest start, for tasks with a delay cost.
+    """
+    objective = plan.objective
+    if objective is None or objective.unscheduled_cost != 0:
+        return None
+
+    def must(task_id: str) -> bool:
+        task = problem.task(task_id)
+        return task.mandatory or task.schedule_cost > 0
+
+    floor = {
+        task.id: domains[task.id].earliest - problem.start
+        if must(task.id) and not domains[task.id].empty
+        else 0
+        for task in problem.tasks
+    }
+    least = sum(task.delay_cost * floor[task.id] for task in problem.tasks)
+    slack = objective.delay_cost - least
+    if slack < 0:
+        return None  # not a valid plan of this problem
+    return {
+        task.id: problem.start + floor[task.id] + slack // task.delay_cost
+        for task in problem.tasks
+        if task.delay_cost > 0
+    }
+
+
+def _over_budget(
+    problem: Problem,
+    task: Task,
+    latest: int,
+    following: Mapping[str, list[tuple[str, int, int]]],
+) -> str:
+    """Why ``task`` alone exhausts a consumable, or "" if it does not.
+
+    Started at ``latest`` it runs the fewest units inside the horizon; by
+    its end the level is at most the initial level plus all generation by
+    tasks that can run before it ends, minus what it took. Tasks that
+    follow it through precedences starting no earlier than its end (the
+    first link with offset >= 0, later links with gap >= 0) cannot help;
+    ``following`` maps a task to its ``(successor, offset, gap)`` links.
+    """
+    after: set[str] | None = None
+    for resource, initial in problem.resources.initial_levels.items():
+        amount = task.uses.get(resource, 0)
+        if amount <= 0:
+            continue
+        if after is None:
+            after = _after_end(task.id, following)
+        need = amount * max(0, min(task.length, problem.end - latest))
+        supply = initial + sum(
+            -other.uses.get(resource, 0) * other.length
+            for other in problem.tasks
+            if other.uses.get(resource, 0) < 0 and other.id not in after
+        )
+        if need > supply + 1e-9:
+            return (
+                f"needs {need:g} {resource} on its own; at most {supply:g} "
+                "can be there (initial level and generation before it ends)"
+            )
+    return ""
+
+
+def _over_capacity(
+    problem: Problem, task: Task, earliest: int, latest: int
+) -> str:
+    """Why ``task`` alone needs more than a full store gives, or "".
+
+    With a capacity ``max`` the level before ``task`` starts is at most
+    ``max``; while it runs, only generation by tasks whose start range
+    lets them overlap its run comes in, each for at most the shorter of
+    the two lengths (the capacity can only lose some of it, and other
+    consumers only take more). So it needs at most ``max`` plus that.
+    """
+    for resource, top in problem.resources.ceilings.items():
+        amount = task.uses.get(resource, 0)
+        if amount <= 0:
+            continue
+        need = amount * task.length  # every task ends inside the horizon
+        first, last = earliest, latest + task.length
+        inflow = 0.0
+        for other in problem.tasks:
+            rate = -other.uses.get(resource, 0)
+            if rate <= 0 or other.id == task.id:
+                continue
+            low, high = problem.start_bounds(other)
+            overlap = min(last, high + other.length) - max(first, low)
+            inflow += rate * max(0, min(other.length, task.length, overlap))
+        if need > top + inflow + 1e-9:
+            return (
+                f"needs {need:g} {resource} on its own; at most "
+                f"{top + inflow:g} can be there (capacity {top:g} and "
+                "generation while it runs)"
+            )
+    return ""
+
+
+def _after_end(
+    task_id: str, following: Mapping[str, list[tuple[str, int, int]]]
+) -> set[str]:
+    """Tasks that can only start once ``task_id`` has ended."""
+    found: set[str] = set()
+    frontier = [
+        after for after, offset, _ in following.get(task_id, ()) if offset >= 0
+    ]
+    while frontier:
+        name = frontier.pop()
+        if name in found or name == task_id:
+            continue
+        found.add(name)
+        frontier += [
+            after for after, _, gap in following.get(name, ()) if gap >= 0
+        ]
+    return found

@@ -1,0 +1,1 @@
+"""Composition: the command line, the node's composition root, demos."""

@@ -1,0 +1,1 @@
+"""MCAP journals: writing, recovering, reading, annotating, replay."""

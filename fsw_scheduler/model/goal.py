@@ -1,0 +1,181 @@
+"""Goals: new tasks arriving while a plan runs (the goal format).
+
+A goal carries tasks (the fields of a problem task plus ``obsoletes``, the
+ids of live tasks the new task replaces) and precedences. :func:`decode_goal`
+checks what can be checked without the running problem: the document shape,
+each task on its own and each precedence on its own. What depends on the
+running problem (resource names, windows inside the new horizon, id
+collisions, unknown references, tight cycles) is checked when the goal is
+merged, by :func:`fsw_scheduler.reschedule.apply_goal`, with the same field
+paths. This module is pure: no solver, no bus, no clock.
+"""
+
+from __future__ import annotations
+
+import msgspec
+
+from ..errors import FieldIssue, InputError
+from . import problem as model
+from .problem import Precedence, Problem, Resources, Task, decode_strict
+
+__all__ = ["Goal", "GoalTask", "decode_goal", "validate_goal"]
+
+
+class GoalTask(Task, frozen=True, omit_defaults=True):
+    """A task brought by a goal: a problem task plus what it replaces.
+
+    Attributes
+    ----------
+    obsoletes
+        Ids of tasks already accepted that this task makes obsolete; they
+        leave the pending list (paper, "Online rescheduling", last case).
+    """
+
+    obsoletes: tuple[str, ...] = ()
+
+    def to_task(self) -> Task:
+        """The plain problem task, without ``obsoletes``."""
+        fields = msgspec.structs.asdict(self)
+        del fields["obsoletes"]
+        return Task(**fields)
+
+
+class Goal(msgspec.Struct, frozen=True, omit_defaults=True):
+    """A goal: tasks and precedences to co-schedule with the live plan.
+
+    Attributes
+    ----------
+    goal_id
+        Name of the goal, used in reports; a key-safe id
+        (:func:`fsw_scheduler.model.id_issue`).
+    tasks
+        New tasks; their ids must not collide with live tasks unless a task
+        of this goal makes the live one obsolete.
+    precedences
+        Precedences between goal tasks, or between a goal task and a live
+        task.
+    issued_at
+        Time unit at which the goal was issued, if known.
+    """
+
+    goal_id: str
+    tasks: tuple[GoalTask, ...]
+    precedences: tuple[Precedence, ...] = ()
+    issued_at: int | None = None
+
+    @property
+    def obsoleted(self) -> tuple[str, ...]:
+        """Every id made obsolete by a task of the goal, in order, once."""
+        return tuple(
+            dict.fromkeys(name for t in self.tasks for name in t.obsoletes)
+        )
+
+
+# Issues of model._check_task that depend on the running problem (resource
+# names, the horizon, the window reading) are left to the merge.
+_MERGE_ONLY = (".uses.", ".feasible_interval", ".fixed_start")
+
+
+def validate_goal(goal: Goal) -> list[FieldIssue]:
+    """Return every issue found in ``goal`` alone (empty when valid).
+
+    Parameters
+    ----------
+    goal
+        A decoded goal.
+
+    Returns
+    -------
+    list of FieldIssue
+        Paths are relative to the goal document (``tasks[0].length``).
+    """
+    issues: list[FieldIssue] = []
+    reason = model.id_issue(goal.goal_id)
+    if reason is not None:
+        issues.append(FieldIssue("goal_id", f"goal id {reason}"))
+    # A permissive stand-in problem: every used resource declared, a horizon
+    # long enough for any length, so only per-task rules speak.
+    used: dict[str, float | model.Consumable] = {
+        name: 0.0 for t in goal.tasks for name in t.uses
+    }
+    lengths = [t.length for t in goal.tasks if t.length > 0]
+    stand_in = Problem(
+        horizon=max(lengths, default=1),
+        tasks=(),
+        resources=Resources(consumable=used),
+    )
+    issues += model.duplicate_ids(goal.tasks)
+    for idx, task in enumerate(goal.tasks):
+        path = f"tasks[{idx}]"
+        issues += [
+            issue
+            for issue in model._check_task(stand_in, task.to_task(), path)
+            if not any(part in issue.path for part in _MERGE_ONLY)
+        ]
+        for name in task.uses:
+            reason = model.id_issue(name)
+            if reason is not None:
+                issues.append(
+                    FieldIssue(
+                        model.key_path(f"{path}.uses", name),
+                        f"resource name {reason}",
+                    )
+                )
+        for pos, name in enumerate(task.obsoletes):
+            reason = model.id_issue(name)
+            if reason is not None:
+                issues.append(
+                    FieldIssue(f"{path}.obsoletes[{pos}]", f"task id {reason}")
+                )
+        if task.feasible_interval is not None:
+            low, high = task.feasible_interval
+            if low > high:
+                issues.append(
+                    FieldIssue(
+                        f"{path}.feasible_interval",
+                        f"start {low} is after end {high}",
+                    )
+                )
+    for idx, prec in enumerate(goal.precedences):
+        for end in ("before", "after"):
+            reason = model.id_issue(getattr(prec, end))
+            if reason is not None:
+                issues.append(
+                    FieldIssue(
+                        f"precedences[{idx}].{end}", f"task id {reason}"
+                    )
+                )
+        if prec.before == prec.after:
+            issues.append(
+                FieldIssue(
+                    f"precedences[{idx}].after",
+                    f"task {prec.after!r} cannot precede itself",
+                )
+            )
+    return issues
+
+
+def decode_goal(data: bytes | str) -> Goal:
+    """Decode and check a goal document (the goal format).
+
+    Parameters
+    ----------
+    data
+        The goal JSON.
+
+    Returns
+    -------
+    Goal
+        A goal that passed :func:`validate_goal`.
+
+    Raises
+    ------
+    InputError
+        With one :class:`FieldIssue` per problem, paths naming the field
+        (``tasks[0].length``).
+    """
+    goal = decode_strict(data, Goal, "goal")
+    issues = validate_goal(goal)
+    if issues:
+        raise InputError(issues, "goal")
+    return goal

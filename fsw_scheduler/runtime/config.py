@@ -1,0 +1,235 @@
+"""Scheduler node settings: a strict TOML file plus command-line overrides.
+
+Zenoh's own settings stay in Zenoh's JSON5 and its standard flags (see
+:mod:`fsw_scheduler.bus.session`); this file only holds what the scheduler
+itself needs. Unknown keys are an error here (unlike bus messages) so a
+typo in a configuration file is caught at start-up.
+
+Example ``scheduler.toml``::
+
+    spacecraft = "sat1"
+    solver = "cbc"          # or "highs"
+    time-limit = 10.0       # seconds per solve
+    clock = "wall"          # or "bus": time from fsw/<sc>/clock
+    time-unit = 1.0         # seconds per time unit with the wall clock
+    report-timeout = 5      # units after a dispatch without a report
+    drift-absolute = 0.5    # level departure that triggers a replan
+    replan-lead = 1         # units a solve may take before its plan starts
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Literal
+
+import msgspec
+
+from ..errors import ConfigError
+from ..model.problem import id_issue
+from ..replan.triggers import Tolerance
+
+
+class NodeConfig(
+    msgspec.Struct, frozen=True, forbid_unknown_fields=True, rename="kebab"
+):
+    """Settings of ``fsw-scheduler run``.
+
+    Attributes
+    ----------
+    spacecraft
+        Second key chunk: keys are ``fsw/<spacecraft>/...``; a key-safe id
+        (``[A-Za-z0-9_.-]``, at most 64 characters).
+    horizon
+        Horizon length H in time units; default: the problem file's.
+    solver, time_limit, seed, threads
+        Passed to every solve; ``threads = 1`` keeps plans reproducible.
+    explain
+        Say why tasks are left out (extra solves after each plan).
+    explain_budget
+        Seconds those extra solves may take per plan. They run after the
+        plan is published (``explain_after_plan``), on their own thread,
+        so they never delay it; the status then reports ``explained``.
+        When a solve gives no plan, they run before the rejection (it
+        names the blockers), within what is left of the response
+        deadline.
+    explain_after_plan
+        False: explanations run inside the solve, before the plan is
+        published (the behaviour of older recordings).
+    response_deadline
+        Seconds from a goal's arrival to its verdict and plan: decoding,
+        merging, the start plan, the model and the solver all come out of
+        it (the solve's limit is cut to what is left). None: only
+        ``time_limit`` bounds the solve.
+    clock
+        ``bus`` (time from ``fsw/<sc>/clock``) or ``wall`` (the node's
+        monotonic clock, ``time_unit`` seconds per unit).
+    time_unit
+        Seconds per time unit with the wall clock.
+    report_timeout
+        Units after a dispatch with no execution report before the activity
+        counts as failed; None waits forever.
+    drift_absolute, drift_relative
+        A measured level departs from the prediction when
+        ``|measured - predicted| > absolute + relative * |predicted|``.
+    inbox_capacity
+        Goals waiting to be decoded by the event loop; a goal beyond it
+        gets ``goal_rejected`` with ``busy: N goals waiting``.
+    inbox_bytes
+        Payload bytes waiting for the loop (goals and telemetry). A goal
+        beyond it is rejected as busy; a telemetry sample on a key with
+        nothing waiting is dropped and counted (``inputs_dropped``).
+        Telemetry and clock samples never queue up: the latest per key
+        replaces the one waiting (``telemetry_superseded``).
+    tasks_per_goal, live_tasks
+        A goal with more tasks, or one that would make the plan hold more
+        live tasks (planned, running or deferred), is rejected with the
+        reason.
+    goals_waiting
+        Decoded goals queued behind a solve (each gets ``goal_queued``);
+        one more is rejected ``busy: N goals waiting``.
+    goals_per_solve
+        Goals merged into one solve; the others wait for the next one.
+    max_clock_step
+        Largest forward step of one bus clock message, in units; a bigger
+        one is rejected (``input_rejected``, path ``now``) and time stays.
+    clock_stall
+        Seconds without a bus clock message after which the status turns
+        ``degraded`` (event ``clock_stalled``) until the next one; None
+        never.
+    heartbeat
+        Units between periodic status messages (0: none).
+    replan_lead
+        Units between a trigger (goal, failure, drift) and the start of the
+        plan it causes, so that a solve may take that long without the new
+        plan's first activities being late. Default: 1 with the wall clock,
+        0 with the bus clock (which can wait for the scheduler).
+    node_id
+        This node's name among redundant schedulers of the spacecraft
+        (key-safe); default: ``<host>-<pid>``.
+    rank
+        Preference among redundant schedulers: the lowest rank commands
+        when none does yet (ties: the earliest start, then the id).
+    standby
+        Take part in the one-commander protocol (hot standby); off for a
+        node that must command whatever else is on the bus.
+    discovery
+        Seconds a starting node looks for other schedulers before it
+        decides to command or to stand by.
+    """
+
+    spacecraft: str = "sat1"
+    horizon: int | None = None
+    solver: Literal["cbc", "highs"] = "cbc"
+    time_limit: float | None = 10.0
+    seed: int = 0
+    threads: int = 1
+    explain: bool = True
+    explain_budget: float = 2.0
+    clock: Literal["bus", "wall"] = "wall"
+    time_unit: float = 1.0
+    report_timeout: int | None = None
+    drift_absolute: float = 0.5
+    drift_relative: float = 0.0
+    inbox_capacity: int = 256
+    inbox_bytes: int = 64 << 20
+    tasks_per_goal: int = 100
+    live_tasks: int = 300
+    goals_waiting: int = 64
+    goals_per_solve: int = 16
+    max_clock_step: int | None = 100
+    clock_stall: float | None = 30.0
+    response_deadline: float | None = 15.0
+    explain_after_plan: bool = True
+    heartbeat: int = 10
+    replan_lead: int | None = None
+    node_id: str | None = None
+    rank: int = 0
+    standby: bool = True
+    discovery: float = 1.0
+
+    def __post_init__(self) -> None:
+        problems = []
+        reason = id_issue(self.spacecraft)
+        if reason is not None:
+            problems.append(f"spacecraft: the spacecraft id {reason}")
+        if self.node_id is not None:
+            reason = id_issue(self.node_id)
+            if reason is not None:
+                problems.append(f"node-id: the node id {reason}")
+        if self.rank < 0:
+            problems.append("rank must be >= 0")
+        if self.discovery < 0:
+            problems.append("discovery must be >= 0")
+        if self.time_unit <= 0:
+            problems.append("time-unit must be > 0")
+        if self.explain_budget < 0:
+            problems.append("explain-budget must be >= 0")
+        if self.time_limit is not None and self.time_limit <= 0:
+            problems.append("time-limit must be > 0")
+        if self.horizon is not None and self.horizon <= 0:
+            problems.append("horizon must be > 0")
+        if self.replan_lead is not None and self.replan_lead < 0:
+            problems.append("replan-lead must be >= 0")
+        if self.inbox_capacity < 1:
+            problems.append("inbox-capacity must be >= 1")
+        for name in (
+            "tasks_per_goal",
+            "live_tasks",
+            "goals_waiting",
+            "goals_per_solve",
+        ):
+            if getattr(self, name) < 1:
+                problems.append(f"{name.replace('_', '-')} must be >= 1")
+        if self.response_deadline is not None and self.response_deadline <= 0:
+            problems.append("response-deadline must be > 0")
+        if self.max_clock_step is not None and self.max_clock_step < 1:
+            problems.append("max-clock-step must be >= 1")
+        if self.clock_stall is not None and self.clock_stall <= 0:
+            problems.append("clock-stall must be > 0")
+        if self.inbox_bytes < 1 << 20:
+            problems.append("inbox-bytes must be >= 1048576 (one payload)")
+        if problems:
+            raise ValueError("; ".join(problems))
+
+    @property
+    def lead(self) -> int:
+        """The replan lead in units, with its clock-dependent default."""
+        if self.replan_lead is not None:
+            return self.replan_lead
+        return 1 if self.clock == "wall" else 0
+
+    @property
+    def tolerance(self) -> Tolerance:
+        """The drift tolerance as the rescheduling core takes it."""
+        return Tolerance(
+            absolute=self.drift_absolute, relative=self.drift_relative
+        )
+
+    def replace(self, **changes: object) -> NodeConfig:
+        """A copy with ``changes`` (None values are ignored)."""
+        kept = {k: v for k, v in changes.items() if v is not None}
+        return msgspec.structs.replace(self, **kept)
+
+
+def load_config(path: str | Path | None) -> NodeConfig:
+    """Read a TOML settings file (None: defaults).
+
+    Raises
+    ------
+    ConfigError
+        Unreadable file, bad TOML, unknown key or bad value; the message
+        names the key.
+    """
+    if path is None:
+        return NodeConfig()
+    try:
+        data = tomllib.loads(Path(path).read_text())
+    except OSError as error:
+        raise ConfigError(f"cannot read {path}: {error.strerror}") from None
+    except tomllib.TOMLDecodeError as error:
+        raise ConfigError(f"{path}: {error}") from None
+    try:
+        return msgspec.convert(data, NodeConfig)
+    except msgspec.ValidationError as error:
+        raise ConfigError(f"{path}: {error}") from None

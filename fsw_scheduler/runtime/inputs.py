@@ -1,0 +1,183 @@
+"""From bus samples to engine events (shared by the node and replay).
+
+The node and deterministic replay must turn the same bytes into the same
+events, so the decoding rules live here once: oversized or malformed
+payloads, wrong types, a report on another task's key, a clock going back
+all become :class:`~fsw_scheduler.engine.InputRejected` events, which the
+engine reports on the status key; nothing here raises.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+import msgspec
+
+from ..engine.core import (
+    ClockStalled,
+    Event,
+    Explained,
+    GoalArrived,
+    InputRejected,
+    LevelArrived,
+    ReportArrived,
+    Tick,
+)
+from ..errors import FieldIssue, InputError
+from ..model.problem import MAX_ID_LENGTH, MAX_TIME
+from ..wire import messages
+from ..wire.topics import GOALS, Topics, input_kind
+
+
+class InputDecoder:
+    """Decodes input samples into events, keeping the bus clock's state.
+
+    Parameters
+    ----------
+    topics
+        The spacecraft's keys.
+    clock
+        ``bus``: clock messages are ticks; ``wall``: the node keeps its own
+        time, clock messages are ignored and its ticks come from the
+        ``scheduler/ticks`` journal channel.
+    max_clock_step
+        Largest forward step of one bus clock message, in units (None: no
+        limit); a bigger step is rejected and time stays where it was.
+        Clock values are integers in ``[0, MAX_TIME]`` in any case.
+    """
+
+    def __init__(
+        self, topics: Topics, clock: str, max_clock_step: int | None = None
+    ) -> None:
+        self.topics = topics
+        self.clock = clock
+        self.max_clock_step = max_clock_step
+        self.bus_now: int | None = None
+
+    def event(self, key: str, payload: bytes) -> Event | None:
+        """The event for a sample on ``key`` (None: not an input)."""
+        kind = input_kind(self.topics, key, self.clock)
+        if kind is None:
+            return None
+        try:
+            message = messages.decode_input(
+                "clock" if kind == "tick" else kind, payload
+            )
+            return self._event(kind, key, message)
+        except InputError as error:
+            return InputRejected(
+                key, kind, tuple(error.issues), _goal_id(kind, payload)
+            )
+
+    def _event(self, kind: str, key: str, message: Any) -> Event | None:
+        if kind == "tick":
+            return Tick(message.now)
+        if kind == "stalled":
+            return ClockStalled(message.seconds, message.last)
+        if kind == "explanation":
+            return Explained(message.solve_id, message.plan_id, message.why)
+        if kind == "clock":
+            self._check_clock(message.now)
+            if self.bus_now is not None and message.now < self.bus_now:
+                raise InputError(
+                    [
+                        FieldIssue(
+                            "now",
+                            f"clock went back from {self.bus_now} to "
+                            f"{message.now}",
+                        )
+                    ],
+                    "clock",
+                )
+            self.bus_now = message.now
+            return Tick(message.now)
+        if kind == "goal":
+            return GoalArrived(message)
+        if kind == "busy":
+            return InputRejected(
+                self.topics.key(GOALS),
+                "goal",
+                (
+                    FieldIssue(
+                        "", f"busy: {message.waiting} goals waiting"
+                    ),
+                ),
+                message.goal_id,
+            )
+        name = key.rsplit("/", 1)[-1]
+        field = "task" if kind == "activity_report" else "resource"
+        value = getattr(message, field)
+        if value != name:
+            raise InputError(
+                [
+                    FieldIssue(
+                        field, f"{value!r} reported on the key of {name!r}"
+                    )
+                ],
+                kind,
+            )
+        if kind == "activity_report":
+            return ReportArrived(message)
+        return LevelArrived(message)
+
+    def _check_clock(self, now: int) -> None:
+        if not 0 <= now <= MAX_TIME:
+            raise InputError(
+                [FieldIssue("now", f"{now} is outside [0, {MAX_TIME}]")],
+                "clock",
+            )
+        step = self.max_clock_step
+        if (
+            step is not None
+            and self.bus_now is not None
+            and now - self.bus_now > step
+        ):
+            raise InputError(
+                [
+                    FieldIssue(
+                        "now",
+                        f"clock jumped from {self.bus_now} to {now}: more "
+                        f"than {step} units in one message "
+                        "(max-clock-step)",
+                    )
+                ],
+                "clock",
+            )
+
+
+class _GoalHead(msgspec.Struct):
+    goal_id: str
+
+
+_GOAL_ID_RE = re.compile(rb'"goal_id"\s*:\s*"((?:[^"\\]|\\.){0,256})"')
+
+
+def goal_id_of(payload: bytes) -> str | None:
+    """Best-effort goal id of a goal document that may be invalid.
+
+    Used to name the goal in a rejection. A document too deep for the
+    decoder is searched as text. Ids longer than four times the id limit
+    are cut (and marked ``...``) so a rejection never echoes a huge string.
+    """
+    try:
+        head = msgspec.json.decode(payload, type=_GoalHead)
+        found: str | None = head.goal_id
+    except (msgspec.DecodeError, RecursionError):
+        match = _GOAL_ID_RE.search(payload)
+        try:
+            found = (
+                msgspec.json.decode(b'"' + match.group(1) + b'"', type=str)
+                if match
+                else None
+            )
+        except msgspec.DecodeError:
+            found = None
+    if found is not None and len(found) > 4 * MAX_ID_LENGTH:
+        found = found[: 4 * MAX_ID_LENGTH] + "..."
+    return found
+
+
+def _goal_id(kind: str, payload: bytes) -> str | None:
+    """Best-effort goal id of a goal that failed to decode."""
+    return goal_id_of(payload) if kind == "goal" else None

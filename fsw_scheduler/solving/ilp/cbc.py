@@ -1,0 +1,536 @@
+"""Running the CBC executable with a time limit it cannot overrun.
+
+The program is written as MPS (:meth:`Program.mps`), CBC runs as a child
+process, and its solution file is read back. A separate process is what
+makes the limit enforceable on board:
+
+* CBC's ``-sec`` is honoured during the root LP only when the time is
+  counted in CPU seconds: with ``-timeMode elapsed`` CBC prints "Problem is
+  stopped" and then carries on, and large models were seen running four
+  times past their limit. The limit is therefore given in CPU time (one
+  thread, so close to wall time on an idle core).
+* Even so CBC checks its clock only now and then, and nothing stops a CBC
+  that hangs or starves. Here the process runs under a wall-clock
+  deadline of its limit less ``STOP_MARGIN_S``; past it CBC gets
+  SIGINT (it then stops as at a limit and writes its best solution), and
+  ``GRACE_S`` later it is killed, which reads as "no solution found".
+
+Starting the process costs a few milliseconds; writing and reading the
+files a few more (tools/bench reports both as solver overhead).
+
+Process lifetime: on Linux CBC asks the kernel to kill it when the thread
+that started it goes (``PR_SET_PDEATHSIG``), so a node killed with
+SIGKILL leaves no CBC running on; and a :class:`Cancel` installed with
+:func:`cancel_scope` stops every CBC run of its scope at once (a node
+being stopped), and refuses to start new ones.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import functools
+import logging
+import os
+import re
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ...errors import SolverError
+from ...model.plan import SolveStatus
+
+if TYPE_CHECKING:
+    from collections.abc import Callable, Iterator, Sequence
+
+    from .program import Program
+
+#: Seconds before the end of its share at which CBC gets SIGINT: it checks
+#: its own clock only now and then (a root LP of a 1440-unit, 60-task
+#: model ran 0.8 s past a 1 s limit), and needs a moment to stop.
+STOP_MARGIN_S = 0.3
+
+#: Wall-clock seconds from SIGINT to kill, for CBC to write its solution.
+GRACE_S = 1.0
+
+#: CBC reads about a million matrix entries a second from MPS.
+READ_S_PER_ENTRY = 1e-6
+
+#: CBC is not started with less time than this left of its limit.
+MIN_CBC_S = 0.05
+
+#: An option that speeds CBC up but can crash it; dropped on a retry.
+FRAGILE = "preprocess off"
+
+# Every objective coefficient is an integer, so an absolute gap below one
+# already proves the optimum; a relative gap would stop early on the big
+# weight of the lexicographic objective.
+ABS_GAP = 0.5
+
+log = logging.getLogger("fsw_scheduler.solver")
+
+_SECONDS = re.compile(r"Time \(Wallclock seconds\):\s+([0-9.eE+-]+)")
+_BOUND = re.compile(r"Lower bound:\s+([0-9.eE+-]+)")
+
+
+class Cancel:
+    """Stops the CBC runs started under it (see :func:`cancel_scope`)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._running: set[subprocess.Popen] = set()
+        self.cancelled = False
+
+    def cancel(self) -> None:
+        """Kill every run of the scope now; start no new one."""
+        with self._lock:
+            self.cancelled = True
+            running = list(self._running)
+        for process in running:
+            with contextlib.suppress(OSError):
+                process.kill()
+
+    def _enter(self, process: subprocess.Popen) -> bool:
+        with self._lock:
+            if not self.cancelled:
+                self._running.add(process)
+            return not self.cancelled
+
+    def _leave(self, process: subprocess.Popen) -> None:
+        with self._lock:
+            self._running.discard(process)
+
+
+_scope = threading.local()
+
+
+@contextlib.contextmanager
+def cancel_scope(cancel: Cancel) -> Iterator[Cancel]:
+    """Run the CBC solves of this thread under ``cancel``."""
+    outer = getattr(_scope, "cancel", None)
+    _scope.cancel = cancel
+    try:
+        yield cancel
+    finally:
+        _scope.cancel = outer
+
+
+def _dir_prefix() -> str:
+    """Temporary directories carry the pid that made them."""
+    return f"fsw-cbc-{os.getpid()}-"
+
+
+def sweep_stale_dirs(root: str | None = None) -> list[str]:
+    """Remove CBC directories left by processes that no longer run.
+
+    A process killed with SIGKILL cannot remove its temporary directory;
+    the next one started cleans up after it. Only directories whose pid
+    is gone are touched.
+
+    Returns
+    -------
+    list of str
+        The directories removed.
+    """
+    import shutil
+
+    base = Path(root or tempfile.gettempdir())
+    removed = []
+    for path in base.glob("fsw-cbc-*-*"):
+        pid = path.name.split("-")[2]
+        if not pid.isdigit() or _running(int(pid)):
+            continue
+        shutil.rmtree(path, ignore_errors=True)
+        removed.append(str(path))
+    return removed
+
+
+def _running(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # exists, owned by someone else
+        return True
+    return True
+
+
+@functools.cache
+def _prctl() -> Callable[..., int] | None:
+    """libc's ``prctl`` (Linux), None elsewhere."""
+    if not sys.platform.startswith("linux"):
+        return None
+    try:
+        return ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):
+        return None
+
+
+def _die_with_parent() -> Callable[[], None] | None:
+    """A ``preexec_fn`` asking the kernel to kill CBC with its parent.
+
+    The signal comes when the thread that started CBC ends, which for a
+    solve is never before CBC does, or when the process dies, SIGKILL
+    included.
+    """
+    prctl = _prctl()
+    if prctl is None:
+        return None
+    parent = os.getpid()
+
+    def preexec() -> None:
+        # Runs in the child between fork and exec: a system call and a
+        # comparison, nothing that could need a lock held by a thread.
+        prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
+        if os.getppid() != parent:  # the parent died before the prctl
+            os._exit(1)
+
+    return preexec
+
+
+_PR_SET_PDEATHSIG = 1
+
+
+@functools.cache
+def cbc_path() -> str:
+    """The CBC executable: PuLP's bundled binary, else ``cbc`` on PATH.
+
+    Looked up once per process: finding the bundled binary imports PuLP.
+    """
+    import shutil
+
+    from pulp.apis import coin_api
+
+    bundled = Path(coin_api.pulp_cbc_path)
+    if bundled.is_file() and os.access(bundled, os.X_OK):
+        return str(bundled.resolve())
+    found = shutil.which("cbc")
+    if found is None:
+        raise SolverError(
+            "no CBC executable: PuLP's bundled one is missing and 'cbc' is "
+            "not on PATH (pip install 'pulp[cbc]' or apt install coinor-cbc)"
+        )
+    return found
+
+
+@dataclass
+class CbcResult:
+    """What one CBC run gave.
+
+    Attributes
+    ----------
+    status
+        Read from the first line of CBC's solution file.
+    values
+        Column values when CBC wrote a solution (``has_plan`` statuses).
+    seconds
+        CBC's own wall-clock time, from its log.
+    bound
+        CBC's lower bound on the objective, constant included.
+    interrupted
+        True when the deadline passed and CBC was interrupted.
+    retried
+        True when CBC crashed and was run again with its defaults.
+    """
+
+    status: SolveStatus
+    values: list[float] | None
+    seconds: float | None = None
+    bound: float | None = None
+    interrupted: bool = False
+    retried: bool = False
+    solver_status: str = ""
+
+
+def read_status(first_line: str) -> tuple[SolveStatus, bool]:
+    """(status, has values) from the first line of a CBC solution file.
+
+    "Stopped on time - objective value 12" is a plan found at a limit;
+    "Stopped on time - no solution" has none; "Integer infeasible" is a
+    proven infeasibility like "Infeasible".
+    """
+    words = first_line.split()
+    head = words[0] if words else ""
+    if head == "Optimal":
+        return SolveStatus.OPTIMAL, True
+    if head in ("Infeasible", "Integer"):
+        return SolveStatus.INFEASIBLE, False
+    if head == "Stopped" and len(words) >= 5 and words[4] == "objective":
+        return SolveStatus.FEASIBLE, True
+    return SolveStatus.UNKNOWN, False
+
+
+def _read_solution(path: str, columns: int) -> tuple[str, list[float]]:
+    values = [0.0] * columns
+    with open(path) as lines:
+        first = lines.readline()
+        for line in lines:
+            words = line.split()
+            if len(words) < 3:
+                break
+            if words[0] == "**":  # marks a value breaking its bounds
+                words = words[1:]
+            name = words[1]
+            if name.startswith("X"):
+                values[int(name[1:])] = float(words[2])
+    return first, values
+
+
+def _read_log(path: str) -> tuple[float | None, float | None]:
+    """(solve seconds, lower bound) from a CBC log, when it states them."""
+    try:
+        text = Path(path).read_text(errors="replace")
+    except OSError:
+        return None, None
+    seconds = _SECONDS.findall(text)
+    bound = _BOUND.findall(text)
+    return (
+        float(seconds[-1]) if seconds else None,
+        float(bound[-1]) if bound else None,
+    )
+
+
+class CbcRun:
+    """One configured CBC: options, seed, time limit and deadline.
+
+    Parameters
+    ----------
+    time_limit
+        Seconds for :meth:`solve`, None for no limit. Writing the files
+        comes out of it; CBC gets the rest as CPU seconds (``-sec``).
+    deadline_s
+        Wall-clock seconds after CBC starts at which it is interrupted;
+        None waits for CBC however long it takes. Defaults to CBC's share
+        of the limit less ``STOP_MARGIN_S``; ``GRACE_S`` later it is
+        killed.
+    threads
+        CBC threads; 1 keeps results reproducible.
+    seed
+        Seed of CBC's random choices.
+    path
+        The executable (default :func:`cbc_path`).
+    """
+
+    def __init__(
+        self,
+        *,
+        time_limit: float | None = None,
+        deadline_s: float | None = None,
+        threads: int = 1,
+        seed: int = 0,
+        path: str | None = None,
+    ) -> None:
+        self.path = path or cbc_path()
+        self.time_limit = time_limit
+        self.deadline_s = deadline_s
+        self.options = [
+            # CBC's own seeds: the same input gives the same plan.
+            f"randomSeed {seed + 1}",
+            f"randomCbcSeed {seed + 1}",
+            # CGL preprocessing costs more than it saves on these models:
+            # half the median time on the paper's campaign (tools/bench,
+            # 15 tasks: 0.67 s -> 0.31 s).
+            FRAGILE,
+            # Nor does CLP's presolve of each LP pay on these sparse
+            # models (campaign, 10 and 15 tasks: median CBC run 0.051 ->
+            # 0.045 s, none slower beyond noise but one).
+            "presolve off",
+            "timeMode cpu",
+            "ratio 0",
+            f"allow {ABS_GAP}",
+            f"threads {threads}",
+        ]
+        self.interrupted = False
+
+    def solve(
+        self, program: Program, warm: Sequence[float] | None = None
+    ) -> CbcResult:
+        """Solve ``program``, starting from ``warm`` column values if given.
+
+        Raises
+        ------
+        SolverError
+            When CBC fails without being interrupted, even on a retry.
+        """
+        began = time.monotonic()
+        if self.time_limit is not None and self.time_limit < MIN_CBC_S:
+            return _not_started()
+        with tempfile.TemporaryDirectory(prefix=_dir_prefix()) as tmp:
+            files = {
+                kind: os.path.join(tmp, f"model.{kind}")
+                for kind in ("mps", "mst", "prio", "sol", "log")
+            }
+            Path(files["mps"]).write_text(program.mps())
+            head = [self.path, files["mps"]]
+            if warm is not None:
+                _write_start(files["mst"], program, warm)
+                head += ["-mips", files["mst"]]
+            if program.priorities:
+                _write_priorities(files["prio"], program)
+                head += ["-priorityIn", files["prio"]]
+            deadline = self.deadline_s
+            if self.time_limit is not None:
+                # Large models take a while to write, and CBC to read:
+                # it gets the rest as CPU time, and SIGINT a little before
+                # the end of its share in case its clock lags.
+                left = self.time_limit - (time.monotonic() - began)
+                reading = READ_S_PER_ENTRY * program.num_entries
+                cpu_limit = round(left - reading - STOP_MARGIN_S, 3)
+                if cpu_limit < MIN_CBC_S:
+                    # CBC would only read the model and stop.
+                    return _not_started()
+                head += ["-sec", str(cpu_limit)]
+                if deadline is None:
+                    deadline = left - STOP_MARGIN_S
+            tail = ["-solve", "-solution", files["sol"]]
+            options = list(self.options)
+            code = self._run(
+                head + _flags(options) + tail, files["log"], deadline
+            )
+            retried = False
+            if self._failed(code, files["sol"]) and not self.interrupted:
+                # CBC 2.10 can crash without preprocessing on some
+                # infeasible models: retry once with its defaults.
+                log.warning(
+                    "cbc exited with %s; retrying with preprocessing", code
+                )
+                options.remove(FRAGILE)
+                retried = True
+                code = self._run(
+                    head + _flags(options) + tail, files["log"], deadline
+                )
+            seconds, bound = _read_log(files["log"])
+            if bound is not None:
+                bound += program.constant
+            if self._failed(code, files["sol"]):
+                if not self.interrupted:
+                    raise SolverError(f"cbc exited with code {code}")
+                return CbcResult(
+                    SolveStatus.UNKNOWN,
+                    None,
+                    seconds,
+                    bound,
+                    interrupted=True,
+                    retried=retried,
+                    solver_status="killed at the deadline",
+                )
+            first, values = _read_solution(files["sol"], program.num_columns)
+        status, has_values = read_status(first)
+        line, _, value = first.strip().partition(" - objective value ")
+        if bound is None and "continuous used" in line and value:
+            # Stopped before any integer solution: the value is that of
+            # the LP relaxation, still a valid lower bound.
+            with contextlib.suppress(ValueError):
+                bound = float(value) + program.constant
+        return CbcResult(
+            status,
+            values if has_values else None,
+            seconds,
+            bound,
+            interrupted=self.interrupted,
+            retried=retried,
+            solver_status=line,
+        )
+
+    def _failed(self, code: int, solution: str) -> bool:
+        """No usable solution file (crash, or killed at the deadline)."""
+        empty = not os.path.exists(solution) or os.path.getsize(solution) == 0
+        return empty or (code != 0 and not self.interrupted)
+
+    def _run(
+        self, args: list[str], log_path: str, deadline: float | None
+    ) -> int:
+        cancel: Cancel | None = getattr(_scope, "cancel", None)
+        if cancel is not None and cancel.cancelled:
+            self.interrupted = True
+            return -signal.SIGKILL
+        with open(log_path, "w") as out:
+            process = subprocess.Popen(
+                args,
+                stdout=out,
+                stderr=out,
+                stdin=subprocess.DEVNULL,
+                preexec_fn=_die_with_parent(),
+            )
+            if cancel is not None and not cancel._enter(process):
+                process.kill()
+            try:
+                self._wait(process, deadline)
+            finally:
+                if cancel is not None:
+                    cancel._leave(process)
+        if cancel is not None and cancel.cancelled:
+            self.interrupted = True
+        return process.returncode
+
+    def _wait(self, process: subprocess.Popen, deadline: float | None) -> None:
+        """Wait for CBC; past the deadline interrupt it, then kill it.
+
+        The wait itself blocks in ``waitpid``: ``Popen.wait(timeout)``
+        polls with sleeps of up to 50 ms, which added about 20 ms to every
+        small solve. A timer thread enforces the deadline instead.
+        """
+        if deadline is None:
+            process.wait()
+            return
+        timer = threading.Timer(deadline, self._stop, (process,))
+        timer.daemon = True
+        timer.start()
+        try:
+            process.wait()
+        finally:
+            timer.cancel()
+
+    def _stop(self, process: subprocess.Popen) -> None:
+        """SIGINT (CBC then writes its best solution), kill after grace."""
+        if process.poll() is not None:
+            return
+        self.interrupted = True
+        process.send_signal(signal.SIGINT)
+        try:
+            process.wait(GRACE_S)
+        except subprocess.TimeoutExpired:
+            process.kill()
+
+
+def _not_started() -> CbcResult:
+    return CbcResult(
+        SolveStatus.UNKNOWN,
+        None,
+        solver_status="time limit spent before CBC started",
+    )
+
+
+def _flags(options: list[str]) -> list[str]:
+    return [word for option in options for word in ("-" + option).split()]
+
+
+def _write_start(path: str, program: Program, values: Sequence[float]) -> None:
+    """A MIP start in CBC's solution-file format (read by ``-mips``).
+
+    Only the integer columns are given: CBC fixes them and computes the
+    continuous ones (consumable levels) itself.
+    """
+    lines = ["Stopped on time - objective value 0\n"]
+    lines += [
+        f"{col} {program.column_name(col)} {value:g}\n"
+        for col, value in enumerate(values)
+        if program.integer[col]
+    ]
+    Path(path).write_text("".join(lines))
+
+
+def _write_priorities(path: str, program: Program) -> None:
+    """Branching priorities in CBC's CSV format (read by ``-priorityIn``)."""
+    lines = ["name,priority\n"]
+    lines += [
+        f"{program.column_name(col)},{priority}\n"
+        for col, priority in sorted(program.priorities.items())
+    ]
+    Path(path).write_text("".join(lines))

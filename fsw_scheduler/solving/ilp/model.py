@@ -1,0 +1,416 @@
+"""Build the ILP, run CBC or HiGHS, and read the solver's own status.
+
+CBC runs as a child process on an MPS file (:mod:`.cbc`); HiGHS is reached
+through PuLP, whose ``sol_status`` (not its ``status``, which says
+"Optimal" whenever an integer solution was found, even when a time limit
+stopped the search) tells proven optimality from "best found at the
+limit".
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import sys
+import time
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from ...analysis.domains import start_domains
+from ...errors import SolverError
+from ...model.plan import Activity, Objective, Plan, SolverStats, SolveStatus
+from .cbc import ABS_GAP, MIN_CBC_S, CbcResult
+from .constraints import Constraints
+from .objective import objective, weight
+from .program import Program
+from .progress import WITH_START, WatchedCbcRun
+from .variables import Variables
+
+if TYPE_CHECKING:
+    from collections.abc import Iterator, Sequence
+
+    import pulp
+
+    from ...analysis.domains import Domain
+    from ...model.problem import Problem
+
+SOLVERS = ("cbc", "highs")
+
+#: Seconds to build and write a model, per column (measured: 2.9 s for the
+#: 158 000 columns of 200 tasks at H = 1440, 18 us each; rounded up).
+BUILD_S_PER_COLUMN = 2.5e-5
+
+
+def _pulp_status(lp: pulp.LpProblem) -> SolveStatus:
+    """The status of a solve through PuLP, from the solution status first.
+
+    A proven infeasibility can leave ``sol_status`` at "no solution found"
+    with ``status`` infeasible, so that is read from ``status``.
+    """
+    import pulp
+
+    if lp.status == pulp.LpStatusInfeasible:
+        return SolveStatus.INFEASIBLE
+    return {
+        pulp.LpSolutionOptimal: SolveStatus.OPTIMAL,
+        pulp.LpSolutionIntegerFeasible: SolveStatus.FEASIBLE,
+        pulp.LpSolutionInfeasible: SolveStatus.INFEASIBLE,
+    }.get(lp.sol_status, SolveStatus.UNKNOWN)
+
+
+class BuiltModel:
+    """A problem's ILP: the program plus the variables that decode it.
+
+    Parameters
+    ----------
+    problem
+        A validated problem.
+    domains
+        Start domains to model (default :func:`start_domains`); narrower
+        ones, such as those of :func:`fsw_scheduler.domains.cost_caps`,
+        give a smaller model with the same optimum.
+    """
+
+    def __init__(
+        self, problem: Problem, domains: dict[str, Domain] | None = None
+    ) -> None:
+        self.problem = problem
+        self.domains = (
+            domains if domains is not None else start_domains(problem)
+        )
+        self.program = Program()
+        self.vars = Variables(self.program, problem, self.domains)
+        self.constraints = Constraints(self.program, problem, self.vars)
+        self.constraints.add_all()
+        self.program.set_objective(*objective(problem, self.vars))
+
+    @property
+    def num_variables(self) -> int:
+        """Number of variables handed to the solver."""
+        return self.program.num_columns
+
+    @property
+    def num_constraints(self) -> int:
+        """Number of rows handed to the solver."""
+        return self.program.num_rows
+
+    def decode(self, status: SolveStatus, values: Sequence[float]) -> Plan:
+        """Read solution ``values`` into a Plan, objective recomputed."""
+        activities, unscheduled = [], []
+        delay = unscheduled_cost = 0
+        for task in self.problem.tasks:
+            start = self.vars.start_of(task.id, values)
+            if start is None:
+                unscheduled.append(task.id)
+                unscheduled_cost += task.schedule_cost
+                continue
+            activities.append(Activity(task.id, start, start + task.length))
+            delay += task.delay_cost * (start - self.problem.start)
+        activities.sort(key=lambda a: (a.start, a.task))
+        total = weight(self.problem) * unscheduled_cost + delay
+        return Plan(
+            status=status,
+            objective=Objective(unscheduled_cost, delay, total),
+            activities=tuple(activities),
+            unscheduled=tuple(unscheduled),
+        )
+
+
+@contextlib.contextmanager
+def _stdout_to_stderr() -> Iterator[None]:
+    """Send fd 1 to stderr meanwhile.
+
+    The HiGHS library prints its banner from C++ when the solver object is
+    created, before any option can silence it; on stdout it would corrupt
+    the plan JSON that ``fsw-scheduler solve`` prints.
+    """
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        os.dup2(2, 1)
+        yield
+    finally:
+        sys.stdout.flush()
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
+def _highs_bound(lp: pulp.LpProblem) -> float | None:
+    model = getattr(lp, "solverModel", None)
+    if model is None:
+        return None
+    try:
+        return float(model.getInfo().mip_dual_bound)
+    except (AttributeError, TypeError, ValueError):
+        return None
+
+
+def in_symmetry_order(
+    twins: list[list[str]], starts: dict[str, int]
+) -> dict[str, int]:
+    """``starts`` with identical tasks' starts sorted into problem order.
+
+    The symmetry rows want the first of identical tasks (``twins``, from
+    :func:`identical_tasks`) to start first; a MIP start breaking them
+    would be refused. Swapping the starts of identical tasks changes
+    nothing else, so the start is kept as good.
+    """
+    reordered = dict(starts)
+    for group in twins:
+        placed = [name for name in group if name in starts]
+        times = sorted(starts[name] for name in placed)
+        # The first len(placed) tasks of the class get the starts.
+        for name in group:
+            reordered.pop(name, None)
+        for name, time_ in zip(group, times, strict=False):
+            reordered[name] = time_
+    return reordered
+
+
+@dataclass
+class _Outcome:
+    status: SolveStatus
+    values: Sequence[float] | None
+    seconds: float | None
+    bound: float | None
+    solver_status: str
+
+
+def _run_cbc(
+    built: BuiltModel,
+    time_limit: float | None,
+    threads: int,
+    seed: int,
+    warm: dict[str, int] | None,
+) -> _Outcome:
+    start = None
+    if warm:
+        warm = in_symmetry_order(built.constraints.twins, warm)
+        start = built.vars.initial(warm, built.program.num_columns)
+    program = built.program
+    run = WatchedCbcRun(
+        constant=program.constant,
+        incumbent=None
+        if start is None
+        else program.constant
+        + sum(c * v for c, v in zip(program.cost, start, strict=True)),
+        time_limit=time_limit,
+        threads=threads,
+        seed=seed,
+        extra=None if start is None else WITH_START,
+    )
+    result = run.solve(built.program, start)
+    notes = [result.solver_status]
+    if result.values is not None and not _integral(built.program, result):
+        # Seen on large models stopped during root cuts: CBC wrote its LP
+        # relaxation and called it optimal. Not a solution; never decoded.
+        notes.append("fractional values refused")
+        result.status, result.values = SolveStatus.UNKNOWN, None
+    if result.retried:
+        notes.append("retried with preprocessing")
+    if result.interrupted:
+        notes.append("interrupted at the deadline")
+    return _Outcome(
+        result.status,
+        result.values,
+        result.seconds,
+        result.bound,
+        "; ".join(notes),
+    )
+
+
+def _integral(program: Program, result: CbcResult) -> bool:
+    """True if every integer column of the result has an integer value."""
+    values = result.values or []
+    return all(
+        abs(value - round(value)) <= 1e-6
+        for value, integer in zip(values, program.integer, strict=True)
+        if integer
+    )
+
+
+def _run_highs(
+    built: BuiltModel, time_limit: float | None, threads: int, seed: int
+) -> _Outcome:
+    import pulp
+
+    if not pulp.HiGHS().available():
+        raise SolverError(
+            "HiGHS is not installed: pip install 'fsw-scheduler[highs]'"
+        )
+    lp, columns = built.program.to_pulp()
+    backend = pulp.HiGHS(
+        msg=False,
+        threads=threads,
+        timeLimit=time_limit,
+        gapRel=0.0,
+        gapAbs=ABS_GAP,
+        random_seed=seed,
+    )
+    began = time.perf_counter()
+    try:
+        with _stdout_to_stderr():
+            lp.solve(backend)
+    except pulp.PulpSolverError as error:
+        raise SolverError(f"highs failed: {error}") from error
+    status = _pulp_status(lp)
+    values = None
+    if status.has_plan:
+        # PuLP leaves out a column in no row and not in the objective:
+        # any value in its bounds is optimal, and the lower one is valid.
+        program = built.program
+        values = [
+            program.lower[col] if column.varValue is None else column.varValue
+            for col, column in enumerate(columns)
+        ]
+    return _Outcome(
+        status,
+        values,
+        time.perf_counter() - began,
+        _highs_bound(lp),
+        pulp.LpStatus.get(lp.status, "?") + f"/{lp.sol_status}",
+    )
+
+
+def solve_ilp(
+    problem: Problem,
+    solver: str = "cbc",
+    *,
+    time_limit: float | None = None,
+    threads: int = 1,
+    seed: int = 0,
+    warm: dict[str, int] | None = None,
+    domains: dict[str, Domain] | None = None,
+) -> Plan:
+    """Build and solve the ILP of ``problem``.
+
+    Parameters
+    ----------
+    problem
+        A validated problem.
+    solver
+        ``cbc`` (default) or ``highs``.
+    time_limit
+        Seconds for the whole call, model building included (the solver
+        gets what is left, and is not started when nothing is); at the
+        best plan found is returned with status ``feasible``, or status
+        ``unknown`` if none was found.
+    threads
+        Solver threads; 1 keeps results reproducible.
+    seed
+        Solver random seed.
+    warm
+        Task id to start time of a known plan, used as a MIP start (CBC).
+    domains
+        Start domains to model (default: :func:`start_domains`). Narrower
+        domains must keep at least one optimal plan.
+
+    Returns
+    -------
+    Plan
+        With ``stats`` filled; without ``why`` (see
+        :mod:`fsw_scheduler.explain`).
+    """
+    if solver not in SOLVERS:
+        raise SolverError(f"unknown solver {solver!r} (choose from {SOLVERS})")
+    began = time.perf_counter()
+    if domains is None:
+        domains = start_domains(problem)
+    if time_limit is not None:
+        columns = sum(
+            d.latest - d.earliest + 1 for d in domains.values() if not d.empty
+        )
+        if BUILD_S_PER_COLUMN * columns > time_limit:
+            # Building alone would overrun the limit (200 tasks at
+            # H = 1440: 158 000 columns, 2.9 s).
+            return _without_plan(
+                problem,
+                SolveStatus.UNKNOWN,
+                dict(
+                    solver=solver,
+                    time_limit_s=time_limit,
+                    solver_status=f"time limit too short to build a model "
+                    f"of {columns} columns",
+                ),
+                began,
+            )
+    built = BuiltModel(problem, domains)
+    built_at = time.perf_counter()
+    impossible = [
+        task.id
+        for task in problem.tasks
+        if task.mandatory and not built.vars.placeable(task.id)
+    ]
+    stats: dict[str, Any] = dict(
+        solver=solver,
+        build_s=built_at - began,
+        num_variables=built.num_variables,
+        num_constraints=built.num_constraints,
+        time_limit_s=time_limit,
+    )
+    if impossible:
+        # No need to ask the solver: a mandatory task has no start time.
+        return _without_plan(problem, SolveStatus.INFEASIBLE, stats, began)
+    if not built.vars.steps:
+        plan = built.decode(SolveStatus.OPTIMAL, [])
+        return plan.replace(
+            stats=SolverStats(
+                **stats,
+                wall_s=time.perf_counter() - began,
+                solver_status="trivial",
+            )
+        )
+    solver_limit = time_limit
+    if time_limit is not None:
+        # The limit is the whole call's: building took some of it, and
+        # reading the solution back and CBC's coarse clock need a margin.
+        left = time_limit - (built_at - began)
+        solver_limit = max(left - min(0.25, 0.1 * left), 0.0)
+    if solver_limit is not None and solver_limit < MIN_CBC_S:
+        outcome = _Outcome(
+            SolveStatus.UNKNOWN,
+            None,
+            0.0,
+            None,
+            "time limit spent before the solver started",
+        )
+    elif solver == "cbc":
+        outcome = _run_cbc(built, solver_limit, threads, seed, warm)
+    else:
+        outcome = _run_highs(built, solver_limit, threads, seed)
+    call = time.perf_counter() - built_at
+    solve_s = outcome.seconds if outcome.seconds is not None else call
+    stats.update(
+        solve_s=solve_s,
+        overhead_s=max(call - solve_s, 0.0),
+        solver_status=outcome.solver_status,
+    )
+    if not outcome.status.has_plan or outcome.values is None:
+        stats.update(bound=outcome.bound)
+        status = outcome.status
+        if status.has_plan:
+            status = SolveStatus.UNKNOWN
+        return _without_plan(problem, status, stats, began)
+    plan = built.decode(outcome.status, outcome.values)
+    bound = outcome.bound
+    if outcome.status is SolveStatus.OPTIMAL and plan.objective:
+        bound = plan.objective.total
+    return plan.replace(
+        stats=SolverStats(
+            **stats, bound=bound, wall_s=time.perf_counter() - began
+        )
+    )
+
+
+def _without_plan(
+    problem: Problem,
+    status: SolveStatus,
+    stats: dict[str, Any],
+    began: float,
+) -> Plan:
+    return Plan(
+        status=status,
+        objective=None,
+        unscheduled=tuple(task.id for task in problem.tasks),
+        stats=SolverStats(**stats, wall_s=time.perf_counter() - began),
+    )

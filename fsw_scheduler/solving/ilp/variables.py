@@ -1,0 +1,151 @@
+"""Decision variables: one step variable per task and allowed start time.
+
+For task ``i`` with start domain ``[e, l]``, ``z[i, t] = 1`` iff the task is
+scheduled and has started by time ``t`` (``t in [e, l]``). The steps are
+monotone, ``z[i, l]`` is "scheduled", and expressions outside the domain
+are constants: 0 before ``e`` and ``z[i, l]`` from ``l`` on. The start
+indicator is ``z[i, t] - z[i, t-1]`` and the task runs at ``t`` iff
+``z[i, t] - z[i, t - length] = 1``, so each resource row has two non-zeros
+per task instead of ``length`` (this is the step, or "aggregated", form of
+the classic time-indexed model, with the same LP bound).
+
+Feasible intervals (both readings), horizon and pins are enforced here, by
+the domain: :func:`fsw_scheduler.domains.start_domains`.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from ...analysis.domains import Domain
+    from ...model.problem import Problem, Task
+    from .program import Program, Terms
+
+
+class Variables:
+    """Step variables of every task with a non-empty start domain.
+
+    Parameters
+    ----------
+    program
+        The program that owns the columns.
+    problem
+        The problem being modelled.
+    domains
+        Start domains from :func:`~fsw_scheduler.domains.start_domains`.
+    """
+
+    def __init__(
+        self,
+        program: Program,
+        problem: Problem,
+        domains: dict[str, Domain],
+    ) -> None:
+        self.problem = problem
+        self.domains = domains
+        self.tasks: list[Task] = list(problem.tasks)
+        self.steps: dict[str, list[int]] = {}
+        for task in self.tasks:
+            domain = domains[task.id]
+            if domain.empty:
+                continue
+            self.steps[task.id] = list(
+                program.add_binaries(domain.latest - domain.earliest + 1)
+            )
+            if task.mandatory:
+                program.lower[self.scheduled(task.id)] = 1
+        self._spans = {
+            task_id: (
+                domains[task_id].earliest,
+                steps[0],
+                domains[task_id].latest,
+            )
+            for task_id, steps in self.steps.items()
+        }
+
+    def placeable(self, task_id: str) -> bool:
+        """True if the task has at least one allowed start time."""
+        return task_id in self.steps
+
+    def scheduled(self, task_id: str) -> int:
+        """The column that is 1 iff the task is scheduled."""
+        return self.steps[task_id][-1]
+
+    def step(self, task_id: str, time: int) -> int | None:
+        """``z[task, time]`` as a column, or None where it is 0."""
+        span = self._spans.get(task_id)
+        if span is None or time < span[0]:
+            return None
+        first, column, last = span
+        # A task's steps are consecutive columns.
+        return column + (min(time, last) - first)
+
+    def add_step(
+        self, terms: Terms, task_id: str, time: int, coef: float
+    ) -> None:
+        """Add ``coef * z[task, time]`` to ``terms`` (skipping zeros)."""
+        var = self.step(task_id, time)
+        if var is not None:
+            terms[var] = terms.get(var, 0.0) + coef
+
+    def add_running(
+        self, rows: list[Terms], task: Task, amount: float, origin: int
+    ) -> range:
+        """Add ``amount * R(task, t)`` to ``rows[t - origin]`` for every t.
+
+        ``R(i, t) = Z(i, t) - Z(i, t - length)`` is "runs at t"; only the
+        units at which some allowed start makes the task run get terms.
+        Returns those units (within the rows).
+        """
+        first, column, last = self._spans[task.id]
+        times = range(
+            max(first, origin), min(last + task.length, origin + len(rows))
+        )
+        for time in times:
+            terms = rows[time - origin]
+            # The steps are the consecutive columns of [first, last],
+            # clamped at the ends.
+            on = column + min(time, last) - first
+            terms[on] = terms.get(on, 0.0) + amount
+            if time - task.length >= first:
+                off = column + min(time - task.length, last) - first
+                terms[off] = terms.get(off, 0.0) - amount
+        return times
+
+    def start_of(self, task_id: str, values: Sequence[float]) -> int | None:
+        """The start time in solution ``values``, None if unscheduled."""
+        steps = self.steps.get(task_id)
+        if steps is None or values[steps[-1]] < 0.5:
+            return None
+        first = self.domains[task_id].earliest
+        for offset, col in enumerate(steps):
+            if values[col] >= 0.5:
+                return first + offset
+        return None  # unreachable: the last step is 1
+
+    def initial(self, starts: dict[str, int], columns: int) -> list[float]:
+        """Column values of a warm start from ``starts``.
+
+        Tasks absent from ``starts`` start as unscheduled (mandatory ones at
+        their earliest start); starts outside a task's domain are ignored.
+        Columns other than steps are left at 0 for the solver to fill.
+        """
+        values = [0.0] * columns
+        for task in self.tasks:
+            steps = self.steps.get(task.id)
+            if steps is None:
+                continue
+            first = self.domains[task.id].earliest
+            start = starts.get(task.id)
+            if start is None or not first <= start < first + len(steps):
+                if not task.mandatory:
+                    continue
+                # A mandatory task new to this problem: suggest its earliest
+                # start rather than an unscheduled value below its bound.
+                start = first
+            for col in steps[start - first :]:
+                values[col] = 1.0
+        return values

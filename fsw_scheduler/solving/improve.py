@@ -1,0 +1,213 @@
+"""Large-neighbourhood search: better plans for large problems (core).
+
+From 30 tasks on, the whole time-indexed model is too large for CBC to
+improve the start plan within seconds (its root LP alone took longer than
+the limit). Here CBC solves small models instead: the same ILP, with every
+task outside a *neighbourhood* pinned to its place in the incumbent (a
+one-start domain, so CBC may still drop it) or kept out, and the tasks in
+the neighbourhood free over a part of their domain around the window.
+Any solution of such a model is a plan of the whole problem (the model is
+the full one with narrower domains), so an improvement is taken as soon
+as it is found and checked, and the next window starts from it.
+
+Neighbourhoods are time windows swept over the horizon, each holding the
+tasks the incumbent runs there and the left-out tasks that could start
+there, up to :data:`MAX_FREE` of them, in a fixed order: the same input
+and the same number of rounds give the same plan.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from typing import TYPE_CHECKING
+
+from ..analysis.check import check_plan
+from ..analysis.domains import Domain
+from ..model.plan import Plan, SolveStatus
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from ..model.problem import Problem
+
+    SolveIlp = Callable[..., Plan]
+
+#: Tasks set free in one neighbourhood: at first, at most, and the step
+#: by which a sweep that found nothing grows it.
+MIN_FREE, MAX_FREE, STEP_FREE = 6, 18, 4
+#: Time units a free task may move beyond the window, either way.
+MARGIN = 15
+#: Seconds one sub-model may take.
+ROUND_S = 1.0
+#: Below this much time left no round is started.
+MIN_ROUND_S = 0.15
+#: Seconds between two progress lines on the solver's logger.
+PROGRESS_S = 3.0
+
+log = logging.getLogger("fsw_scheduler.solver")
+
+
+def improve(
+    problem: Problem,
+    incumbent: Plan,
+    domains: dict[str, Domain],
+    run: SolveIlp,
+    deadline: float,
+) -> tuple[Plan, int]:
+    """Improve ``incumbent`` by solving sub-models until ``deadline``.
+
+    Parameters
+    ----------
+    problem
+        A validated problem.
+    incumbent
+        A valid plan of it, with its objective.
+    domains
+        The problem's start domains.
+    run
+        :func:`~fsw_scheduler.solvers.ilp.solve_ilp` with the solver
+        settings bound: called with the problem, ``domains``, ``warm`` and
+        ``time_limit``.
+    deadline
+        :func:`time.perf_counter` value by which to return.
+
+    Returns
+    -------
+    tuple[Plan, int]
+        The best plan found (status ``feasible``) and the number of rounds
+        that improved it.
+    """
+    best = incumbent
+    improved = 0
+    began = last_log = time.perf_counter()
+    size = MIN_FREE
+    windows = _windows(problem, size)
+    stale = index = 0
+    while True:
+        now = time.perf_counter()
+        left = deadline - now
+        if left < MIN_ROUND_S:
+            break
+        if now - last_log >= PROGRESS_S and best.objective is not None:
+            last_log = now
+            log.info(
+                "neighbourhood search %.0f s on %d tasks: incumbent left-out "
+                "cost %d, delay %d; %d improvements, neighbourhoods of %d "
+                "tasks, no bound",
+                now - began,
+                problem.num_tasks,
+                best.objective.unscheduled_cost,
+                best.objective.delay_cost,
+                improved,
+                size,
+            )
+        if stale >= len(windows):
+            # A whole sweep found nothing: larger neighbourhoods.
+            if size >= MAX_FREE:
+                break
+            size = min(MAX_FREE, size + STEP_FREE)
+            windows = _windows(problem, size)
+            stale = index = 0
+        low, high = windows[index % len(windows)]
+        index += 1
+        narrowed = _neighbourhood(problem, best, domains, low, high, size)
+        if narrowed is None:
+            stale += 1
+            continue
+        plan = run(
+            problem,
+            domains=narrowed,
+            warm=best.starts(),
+            time_limit=min(ROUND_S, left),
+        )
+        better = (
+            plan.status.has_plan
+            and plan.objective is not None
+            and best.objective is not None
+            and plan.objective.total < best.objective.total
+            and check_plan(problem, plan).ok
+        )
+        if better:
+            best = plan.replace(status=SolveStatus.FEASIBLE, why=())
+            improved += 1
+            stale = 0
+        else:
+            stale += 1
+    return best, improved
+
+
+def _windows(problem: Problem, size: int) -> list[tuple[int, int]]:
+    """Windows over the horizon, overlapping by half.
+
+    A window of width ``w`` meets about ``n (mean length + w) / H`` tasks;
+    ``w`` is chosen for about ``size`` of them.
+    """
+    span, count = problem.horizon, problem.num_tasks
+    mean = sum(t.length for t in problem.tasks) / count
+    width = int(min(span, max(8, size * span / count - mean)))
+    step = max(1, width // 2)
+    return [
+        (problem.start + low, problem.start + min(span, low + width))
+        for low in range(0, max(1, span - step), step)
+    ]
+
+
+def _neighbourhood(
+    problem: Problem,
+    plan: Plan,
+    domains: dict[str, Domain],
+    low: int,
+    high: int,
+    size: int,
+) -> dict[str, Domain] | None:
+    """Domains freeing up to ``size`` tasks around ``[low, high)``,
+    pinning the rest.
+
+    None when nothing there can change.
+    """
+    tasks = {t.id: t for t in problem.tasks}
+    starts = plan.starts()
+    lengths = {t.id: t.length for t in problem.tasks}
+    placed = [
+        name
+        for name, start in starts.items()
+        if start < high and start + lengths[name] > low
+    ]
+    waiting = [
+        t.id
+        for t in problem.tasks
+        if t.id not in starts
+        and not domains[t.id].empty
+        and domains[t.id].earliest < high
+        and domains[t.id].latest + t.length > low
+    ]
+    # Left-out tasks first, the most valuable first: leaving less out is
+    # the objective's first criterion; then the tasks in their way.
+    waiting.sort(key=lambda name: -tasks[name].schedule_cost)
+    free = set(waiting[: size // 2])
+    for name in placed:
+        if len(free) >= size:
+            break
+        free.add(name)
+    for name in waiting:
+        if len(free) >= size:
+            break
+        free.add(name)
+    if not free:
+        return None
+    narrowed: dict[str, Domain] = {}
+    for task in problem.tasks:
+        domain = domains[task.id]
+        start = starts.get(task.id)
+        if task.id in free and not domain.empty:
+            first = max(domain.earliest, low - MARGIN - task.length)
+            last = min(domain.latest, high + MARGIN)
+            if start is not None:
+                first, last = min(first, start), max(last, start)
+            narrowed[task.id] = Domain(first, last)
+        elif start is not None:
+            narrowed[task.id] = Domain(start, start)
+        else:
+            narrowed[task.id] = Domain(1, 0, "lns", "kept out")
+    return narrowed

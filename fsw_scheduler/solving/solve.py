@@ -1,0 +1,580 @@
+"""The solve entry point: one call from problem to explained plan."""
+
+from __future__ import annotations
+
+import functools
+import logging
+import time
+from typing import TYPE_CHECKING
+
+import msgspec
+
+from ..analysis.check import check_plan
+from ..analysis.domains import cost_caps, start_domains
+from ..analysis.explain import explain as explain_plan
+from ..analysis.greedy import greedy_plan
+from ..analysis.proofs import infeasibility
+from ..model.plan import (
+    Objective,
+    Plan,
+    SolverStats,
+    SolveStatus,
+    objective_weight,
+)
+from .improve import improve
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from ..analysis.domains import Domain
+    from ..model.problem import Problem
+
+
+log = logging.getLogger("fsw_scheduler.solver")
+
+#: Seconds all explanation solves may take together when the solve itself
+#: has no time limit (with one, they share that much again).
+EXPLAIN_BUDGET_S = 10.0
+#: Below this much budget left, an explanation solve is not started.
+MIN_SOLVE_S = 0.05
+#: Share of the time limit the start heuristic may take (its trivial plan,
+#: the forced tasks alone, is always completed).
+GREEDY_SHARE = 0.4
+#: From this many tasks on, a solve under a time limit improves the start
+#: plan by neighbourhood search (:mod:`fsw_scheduler.improve`) instead of
+#: handing the whole model to the solver.
+LNS_MIN_TASKS = 30
+#: Seconds of the limit left when the neighbourhood search stops.
+LNS_MARGIN_S = 0.2
+
+
+def solve(
+    problem: Problem,
+    solver: str = "cbc",
+    *,
+    time_limit: float | None = None,
+    threads: int = 1,
+    seed: int = 0,
+    explain: bool = False,
+    warm: Plan | None = None,
+    explain_budget: float | None = None,
+) -> Plan:
+    """Solve ``problem`` and return its plan with an honest status.
+
+    Parameters
+    ----------
+    problem
+        A validated problem (see :func:`fsw_scheduler.model.decode_problem`).
+    solver
+        ``cbc`` (default, through PuLP) or ``highs``.
+    time_limit
+        Seconds for the solve, start plan and model building included. At
+        the limit the best plan found is returned with status ``feasible``,
+        or ``unknown`` when none was found.
+    threads
+        Solver threads; keep 1 for reproducible plans.
+    seed
+        Solver random seed.
+    explain
+        Also say why each left-out task is out (and, when infeasible, which
+        mandatory tasks cannot be placed); costs extra solves.
+    warm
+        A previous plan, a candidate MIP start (see :func:`best_start`).
+    explain_budget
+        Seconds all explanation solves may take together (default: the
+        time limit, else :data:`EXPLAIN_BUDGET_S`).
+
+    Returns
+    -------
+    Plan
+        Every task appears once, in ``activities`` or ``unscheduled``.
+    """
+    # The backend is imported here so that importing fsw_scheduler does not
+    # import PuLP (the pure core must stay free of it).
+    from .ilp import solve_ilp
+
+    run = functools.partial(
+        solve_ilp,
+        solver=solver,
+        time_limit=time_limit,
+        threads=threads,
+        seed=seed,
+    )
+    began = time.perf_counter()
+    domains = start_domains(problem)
+    proof = infeasibility(problem, domains)
+    if proof:
+        # Tasks every plan must hold cannot all be placed: no solve.
+        return Plan(
+            status=SolveStatus.INFEASIBLE,
+            objective=None,
+            unscheduled=tuple(task.id for task in problem.tasks),
+            why=proof,
+            stats=SolverStats(
+                solver="proof",
+                wall_s=time.perf_counter() - began,
+                solver_status=f"infeasible without a solve: {proof[0].detail}",
+                time_limit_s=time_limit,
+            ),
+        )
+    parts = components(problem)
+    if len(parts) > 1:
+        plan = _solve_parts(
+            problem, parts, run, began, time_limit, warm, domains
+        )
+    else:
+        plan = _solve_whole(problem, run, began, time_limit, warm, domains)
+    if explain and (plan.unscheduled or not plan.status.has_plan):
+        budget = explain_budget
+        if budget is None:
+            # Explanations share the caller's limit: whatever the solve
+            # left of it (tasks get not_analysed when nothing is left).
+            budget = (
+                EXPLAIN_BUDGET_S
+                if time_limit is None
+                else time_limit - (time.perf_counter() - began)
+            )
+        plan = plan.replace(
+            why=explain_plan(problem, plan, _budgeted(run, budget))
+        )
+    return plan
+
+
+def components(problem: Problem) -> list[list[str]]:
+    """Independent parts: tasks linked by a precedence or a shared resource.
+
+    No constraint crosses two parts, and the lexicographic objective is a
+    sum over tasks, so the best plan of the whole is the union of the best
+    plans of the parts (least left out in each, then least delay in each).
+    Parts are listed by their first task, tasks in problem order.
+    """
+    parent = {task.id: task.id for task in problem.tasks}
+
+    def find(name: str) -> str:
+        while parent[name] != name:
+            parent[name] = parent[parent[name]]
+            name = parent[name]
+        return name
+
+    def join(a: str, b: str) -> None:
+        root_a, root_b = find(a), find(b)
+        if root_a != root_b:
+            parent[max(root_a, root_b)] = min(root_a, root_b)
+
+    for prec in problem.precedences:
+        join(prec.before, prec.after)
+    first_user: dict[str, str] = {}
+    for task in problem.tasks:
+        for name, amount in task.uses.items():
+            if amount:
+                join(task.id, first_user.setdefault(name, task.id))
+    parts: dict[str, list[str]] = {}
+    for task in problem.tasks:
+        parts.setdefault(find(task.id), []).append(task.id)
+    return list(parts.values())
+
+
+def _solve_parts(
+    problem: Problem,
+    parts: list[list[str]],
+    run: functools.partial[Plan],
+    began: float,
+    time_limit: float | None,
+    warm: Plan | None,
+    domains: dict[str, Domain],
+) -> Plan:
+    """Solve each independent part alone and join the plans.
+
+    Smaller models are solved much faster than their union (the search
+    of one part no longer branches over the others'), and parts without
+    a resource or a precedence need no solver at all. Each part gets a
+    share of what is left of the limit, by its number of start times,
+    the smallest first.
+    """
+    weights = [
+        1
+        + sum(
+            max(0, domains[n].latest - domains[n].earliest + 1) for n in part
+        )
+        for part in parts
+    ]
+    # Smallest parts first: they are done at once, and what they leave of
+    # the limit goes to the large one instead of waiting unused.
+    order = sorted(range(len(parts)), key=lambda k: (weights[k], k))
+    weights = [weights[k] for k in order]
+    plans = []
+    for idx, part in enumerate(parts[k] for k in order):
+        members = set(part)
+        sub = problem.replace(
+            tasks=tuple(t for t in problem.tasks if t.id in members),
+            precedences=tuple(
+                p for p in problem.precedences if p.before in members
+            ),
+        )
+        sub_warm = None
+        if warm is not None:
+            sub_warm = warm.replace(
+                objective=None,
+                activities=tuple(
+                    a for a in warm.activities if a.task in members
+                ),
+                unscheduled=tuple(n for n in warm.unscheduled if n in members),
+                why=(),
+            )
+        limit = None
+        now = time.perf_counter()
+        if time_limit is not None:
+            left = time_limit - (now - began)
+            limit = max(0.0, left * weights[idx] / sum(weights[idx:]))
+        plans.append(
+            _solve_whole(
+                sub,
+                run,
+                now,
+                limit,
+                sub_warm,
+                {n: domains[n] for n in part},
+            )
+        )
+    return _joined(problem, plans, began, time_limit)
+
+
+def _joined(
+    problem: Problem,
+    plans: list[Plan],
+    began: float,
+    time_limit: float | None,
+) -> Plan:
+    """One plan of ``problem`` from the plans of its parts (smallest
+    first: the status line ends with the largest part's)."""
+    statuses = {plan.status for plan in plans}
+    stats = [plan.stats for plan in plans if plan.stats is not None]
+    summary = SolverStats(
+        solver="+".join(sorted({s.solver for s in stats})) or "none",
+        build_s=sum(s.build_s for s in stats),
+        solve_s=sum(s.solve_s for s in stats),
+        wall_s=time.perf_counter() - began,
+        num_variables=sum(s.num_variables for s in stats),
+        num_constraints=sum(s.num_constraints for s in stats),
+        solver_status=f"{len(plans)} independent parts: "
+        + ", ".join(
+            f"{sum(p.status is status for p in plans)} {status.value}"
+            for status in SolveStatus
+            if status in statuses
+        )
+        + (f"; largest: {stats[-1].solver_status}" if stats else ""),
+        time_limit_s=time_limit,
+    )
+    everything = tuple(task.id for task in problem.tasks)
+    for status in (SolveStatus.INFEASIBLE, SolveStatus.UNKNOWN):
+        if status in statuses:
+            return Plan(status, None, unscheduled=everything, stats=summary)
+    left_out = {name for plan in plans for name in plan.unscheduled}
+    activities = tuple(
+        sorted(
+            (a for plan in plans for a in plan.activities),
+            key=lambda a: (a.start, a.task),
+        )
+    )
+    missed = sum(t.schedule_cost for t in problem.tasks if t.id in left_out)
+    delay = sum(
+        problem.task(a.task).delay_cost * (a.start - problem.start)
+        for a in activities
+    )
+    weight = objective_weight(
+        [t.delay_cost for t in problem.tasks], problem.horizon
+    )
+    optimal = statuses == {SolveStatus.OPTIMAL}
+    total = weight * missed + delay
+    return Plan(
+        status=SolveStatus.OPTIMAL if optimal else SolveStatus.FEASIBLE,
+        objective=Objective(missed, delay, total),
+        activities=activities,
+        unscheduled=tuple(n for n in everything if n in left_out),
+        stats=msgspec.structs.replace(
+            summary, bound=total if optimal else None
+        ),
+    )
+
+
+def _solve_whole(
+    problem: Problem,
+    run: functools.partial[Plan],
+    began: float,
+    time_limit: float | None,
+    warm: Plan | None,
+    domains: dict[str, Domain],
+) -> Plan:
+    """Start plan, then the solver or the neighbourhood search; no ``why``."""
+    stop = None
+    if time_limit is not None:
+        # The heuristic gets a share of the limit; its trivial plan (the
+        # forced tasks alone) is always completed.
+        greedy_end = began + GREEDY_SHARE * time_limit
+
+        def stop() -> bool:
+            return time.perf_counter() > greedy_end
+
+    start = best_start(problem, warm, stop=stop, domains=domains)
+    if start is not None and at_lower_bound(problem, start, domains):
+        plan = start.replace(
+            status=SolveStatus.OPTIMAL,
+            stats=SolverStats(
+                solver="greedy",
+                wall_s=time.perf_counter() - began,
+                bound=start.objective.total if start.objective else None,
+                solver_status="every task at its earliest start: no solve",
+                time_limit_s=time_limit,
+            ),
+        )
+    elif (
+        start is not None
+        and time_limit is not None
+        and time.perf_counter() - began >= time_limit
+    ):
+        # The start plan took the whole limit (hundreds of tasks).
+        plan = start.replace(
+            stats=SolverStats(
+                solver="greedy",
+                wall_s=time.perf_counter() - began,
+                solver_status="time limit spent on the start plan: no solve",
+                time_limit_s=time_limit,
+            )
+        )
+    elif (
+        start is not None
+        and time_limit is not None
+        and problem.num_tasks >= LNS_MIN_TASKS
+    ):
+        plan = _improved(problem, start, domains, run, began, time_limit)
+    else:
+        plan = _keep_better(
+            _checked(
+                problem,
+                run(
+                    problem,
+                    warm=start.starts() if start else None,
+                    domains=_narrowed(problem, start, domains),
+                    # The start plan's time counts against the limit.
+                    time_limit=None
+                    if time_limit is None
+                    else time_limit - (time.perf_counter() - began),
+                ),
+            ),
+            start,
+        )
+        if start is None and not plan.status.has_plan and plan.stats:
+            # Rare: say why there is not even the start plan to fly.
+            plan = plan.replace(
+                stats=msgspec.structs.replace(
+                    plan.stats,
+                    solver_status=f"{plan.stats.solver_status}; no start "
+                    "plan: list scheduling could not place the tasks every "
+                    "plan must hold",
+                )
+            )
+        if plan.stats is not None:
+            # Report the limit the caller set, and the whole call's time.
+            bound = plan.stats.bound
+            if (
+                bound is not None
+                and plan.objective is not None
+                and bound > plan.objective.total + 0.5
+            ):
+                # A stopped CBC can report the value of an LP that is not
+                # the root's; above a valid plan, it bounds nothing.
+                bound = None
+            plan = plan.replace(
+                stats=msgspec.structs.replace(
+                    plan.stats,
+                    time_limit_s=time_limit,
+                    wall_s=time.perf_counter() - began,
+                    bound=bound,
+                )
+            )
+    return plan
+
+
+def _improved(
+    problem: Problem,
+    start: Plan,
+    domains: dict[str, Domain],
+    run: Callable[..., Plan],
+    began: float,
+    time_limit: float,
+) -> Plan:
+    """The start plan improved by :func:`fsw_scheduler.improve.improve`.
+
+    For large problems under a limit: the whole model does not get
+    through CBC's root LP in seconds (on the scaling set CBC never
+    improved the start plan), small neighbourhood models do.
+    """
+    deadline = began + time_limit - LNS_MARGIN_S
+    best, improved = improve(problem, start, domains, run, deadline)
+    return best.replace(
+        status=SolveStatus.FEASIBLE,
+        stats=SolverStats(
+            solver=f"{run.keywords.get('solver', 'cbc')}-lns"
+            if isinstance(run, functools.partial)
+            else "lns",
+            wall_s=time.perf_counter() - began,
+            solver_status=f"neighbourhood search: {improved} improvements "
+            "of the start plan",
+            time_limit_s=time_limit,
+        ),
+    )
+
+
+def _budgeted(
+    run: Callable[..., Plan], budget_s: float
+) -> Callable[[Problem], Plan]:
+    """``run`` sharing one time budget over all its calls.
+
+    Explanations take several solves per left-out task; on board they must
+    not hold a new plan back for long. Once the budget is spent, a call
+    answers ``unknown`` at once and the task is reported ``not_analysed``.
+    """
+    deadline = time.monotonic() + budget_s
+
+    def attempt(problem: Problem) -> Plan:
+        left = deadline - time.monotonic()
+        if left <= MIN_SOLVE_S:
+            return Plan(
+                status=SolveStatus.UNKNOWN,
+                objective=None,
+                unscheduled=tuple(t.id for t in problem.tasks),
+            )
+        return run(problem, time_limit=left)
+
+    return attempt
+
+
+def at_lower_bound(
+    problem: Problem,
+    plan: Plan,
+    domains: dict[str, Domain] | None = None,
+) -> bool:
+    """True if ``plan`` is optimal by a bound that needs no solver.
+
+    When every task is scheduled at the earliest start its domain allows
+    (windows, horizon and precedences: :func:`start_domains`, computed
+    unless given as ``domains``), or left out because its domain is empty
+    (no plan can hold it), no plan can leave less out or start anything
+    sooner, so the plan is optimal. (The second case spared the solver on
+    13 of the 69 parts of the broad campaign that needed one.)
+    """
+    if domains is None:
+        domains = start_domains(problem)
+    starts = plan.starts()
+    return all(
+        domains[task.id].empty
+        if task.id not in starts
+        else starts[task.id] == domains[task.id].earliest
+        for task in problem.tasks
+    )
+
+
+def _narrowed(
+    problem: Problem, start: Plan | None, domains: dict[str, Domain]
+) -> dict[str, Domain]:
+    """``domains`` cut by what ``start`` already achieves, if it can.
+
+    Every plan at least as good as ``start`` fits in them
+    (:func:`cost_caps`), so the model gets smaller and keeps its optimum.
+    """
+    caps = None if start is None else cost_caps(problem, domains, start)
+    return domains if caps is None else start_domains(problem, caps)
+
+
+def best_start(
+    problem: Problem,
+    warm: Plan | None,
+    *,
+    stop: Callable[[], bool] | None = None,
+    domains: dict[str, Domain] | None = None,
+) -> Plan | None:
+    """The better valid plan of ``warm`` and the greedy heuristic's.
+
+    The greedy plan is valid by construction (:func:`greedy_plan` returns
+    only plans the checker accepts); ``warm`` is used only if the checker
+    accepts it on ``problem``, with its objective recomputed there. None
+    when neither is valid. ``stop`` and ``domains`` are passed on to
+    :func:`greedy_plan`.
+    """
+    candidates = []
+    if warm is not None:
+        report = check_plan(problem, warm)
+        if report.ok:
+            candidates.append(
+                warm.replace(
+                    status=SolveStatus.FEASIBLE, objective=report.objective
+                )
+            )
+    greedy = greedy_plan(problem, stop=stop, domains=domains)
+    if greedy is not None:
+        candidates.append(greedy)  # on a tie, the previous plan is kept
+    if not candidates:
+        return None
+    return min(
+        candidates,
+        key=lambda p: p.objective.total if p.objective else float("inf"),
+    )
+
+
+def _checked(problem: Problem, plan: Plan) -> Plan:
+    """The solver's plan if the independent checker accepts it.
+
+    CBC stopped by its time limit before any integer solution can hand back
+    the values of its last relaxation; read as a plan they break
+    constraints. Such a plan is refused (status ``unknown``), never flown.
+    """
+    if not plan.status.has_plan:
+        return plan
+    report = check_plan(problem, plan)
+    if report.ok:
+        return plan
+    rules = ", ".join(sorted(report.rules))
+    stats = plan.stats
+    if stats is not None:
+        stats = msgspec.structs.replace(
+            stats,
+            solver_status=f"{stats.solver_status}; refused: breaks {rules}",
+        )
+    return Plan(
+        status=SolveStatus.UNKNOWN,
+        objective=None,
+        unscheduled=tuple(t.id for t in problem.tasks),
+        stats=stats,
+    )
+
+
+def _keep_better(plan: Plan, start: Plan | None) -> Plan:
+    """The solver's plan, unless the start plan is better or contradicts it.
+
+    At a time limit CBC may return no plan, or a worse one than its own MIP
+    start; the start is a valid plan, so it is kept, with status
+    ``feasible``, the solver's statistics and a note saying so. The same
+    holds when CBC's claim cannot be true: "infeasible" although the start
+    plan is valid, or "optimal" for a plan worse than the start (both seen
+    when numerical trouble in root cuts cut off every solution).
+    """
+    if start is None or start.objective is None:
+        return plan
+    if plan.objective is not None and (
+        plan.objective.total <= start.objective.total
+    ):
+        return plan
+    if plan.status is SolveStatus.INFEASIBLE:
+        note = "solver said infeasible, but the start plan is valid"
+    elif plan.status is SolveStatus.OPTIMAL:
+        note = "solver's optimum is worse than the start plan"
+    else:
+        note = "start plan kept"
+    if plan.status in (SolveStatus.OPTIMAL, SolveStatus.INFEASIBLE):
+        log.warning("%s; keeping the start plan as feasible", note)
+    stats = plan.stats
+    if stats is not None:
+        stats = msgspec.structs.replace(
+            stats, solver_status=f"{stats.solver_status}; {note}"
+        )
+    return start.replace(status=SolveStatus.FEASIBLE, stats=stats, why=())
