@@ -45,6 +45,7 @@ from .errors import (
 from .errors import (
     SolverError as SolverError,
 )
+from .model.change import decode_change as decode_change
 from .model.goal import Goal as Goal
 from .model.goal import decode_goal as decode_goal
 from .model.plan import Activity as Activity
@@ -57,7 +58,6 @@ from .model.problem import Problem as Problem
 from .model.problem import Resources as Resources
 from .model.problem import Task as Task
 from .model.problem import decode_problem as decode_problem
-from .replan.triggers import PlanDiff as PlanDiff
-from .replan.triggers import decode_change as decode_change
+from .replan.diff import PlanDiff as PlanDiff
 
 __version__ = "0.1.0"

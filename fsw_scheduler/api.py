@@ -25,7 +25,7 @@ the first time later would rebind it to the module.)
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +34,7 @@ import msgspec
 from .analysis.check import CheckReport
 from .analysis.check import check_plan as check_typed
 from .errors import FieldIssue, InputError
+from .model.change import ActivityFailed, Change, LevelsMeasured, decode_change
 from .model.goal import Goal
 from .model.plan import Plan
 from .model.problem import (
@@ -42,14 +43,9 @@ from .model.problem import (
     decode_strict,
     validate_problem,
 )
-from .replan.triggers import (
-    ActivityFailed,
-    Change,
-    LevelsMeasured,
-    PlanDiff,
-    decode_change,
-    replan_files,
-)
+from .replan.diff import PlanDiff, diff_plans
+from .replan.schedule import Schedule, empty_plan
+from .replan.triggers import apply_change
 from .solving.solve import solve as solve_problem
 
 __all__ = [
@@ -270,7 +266,7 @@ def replan(
     InputError
         A malformed input, or a change the rules reject (nothing solved).
     """
-    return replan_files(
+    return replan_typed(
         as_problem(problem),
         as_plan(plan),
         as_change(change),
@@ -278,3 +274,57 @@ def replan(
         solver=solver,
         time_limit=time_limit,
     )
+
+
+SolveFn = Callable[..., Plan]
+
+
+def replan_typed(
+    problem: Problem,
+    plan: Plan,
+    change: Change,
+    now: int,
+    *,
+    solver: str = "cbc",
+    time_limit: float | None = None,
+    solve_fn: SolveFn | None = None,
+) -> tuple[Problem, Plan, PlanDiff]:
+    """One replan on typed objects: :func:`replan` once its inputs are read.
+
+    Parameters
+    ----------
+    problem, plan
+        The running problem and its plan (the start of a session).
+    change
+        From :func:`~fsw_scheduler.model.change.decode_change`.
+    now
+        Time unit of the replan.
+    solver, time_limit
+        Passed to the solver.
+    solve_fn
+        The solve function (default
+        :func:`fsw_scheduler.solving.solve.solve`).
+
+    Returns
+    -------
+    tuple
+        The new problem, its plan and the difference with ``plan``.
+
+    Raises
+    ------
+    InputError
+        The change is rejected; nothing was solved.
+    """
+    if solve_fn is None:
+        solve_fn = solve_problem
+    replan = apply_change(Schedule.begin(problem, plan), change, now)
+    if replan.problem.tasks:
+        new_plan = solve_fn(
+            replan.problem, solver, time_limit=time_limit, warm=replan.warm
+        )
+    else:
+        new_plan = empty_plan()
+    diff = diff_plans(
+        plan, new_plan, replan.removed, continuing=replan.continuing
+    )
+    return replan.problem, new_plan, diff

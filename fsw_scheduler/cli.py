@@ -239,14 +239,16 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 
 def _cmd_replan(args: argparse.Namespace) -> int:
-    from .replan.triggers import decode_change, format_diff, replan_files
+    from .api import replan_typed
+    from .model.change import decode_change
+    from .replan.diff import format_diff
 
     if args.gantt:
         _need_matplotlib("--gantt")
     problem = load_problem(args.problem)
     plan = load_plan(args.plan)
     change = decode_change(_read_bytes(args.change))
-    new_problem, new_plan, diff = replan_files(
+    new_problem, new_plan, diff = replan_typed(
         problem,
         plan,
         change,

@@ -18,21 +18,17 @@ from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.analysis.greedy import greedy_plan
 from fsw_scheduler.errors import InputError
+from fsw_scheduler.model.levels import (
+    lost_charge,
+    predicted_levels,
+    resource_profiles,
+)
 from fsw_scheduler.model.plan import Activity, Plan, SolveStatus
 from fsw_scheduler.model.problem import Consumable, Resources, encode
-from fsw_scheduler.replan.triggers import (
-    Schedule,
-    apply_levels,
-    drift,
-    execution_state,
-    predicted_levels,
-)
+from fsw_scheduler.replan.schedule import Schedule, execution_state
+from fsw_scheduler.replan.triggers import apply_levels, drift
 from fsw_scheduler.solving.solve import solve
-from fsw_scheduler.view.gantt import (
-    lost_charge,
-    resource_profiles,
-    timeline_text,
-)
+from fsw_scheduler.view.timeline import timeline_text
 from fsw_scheduler.wire.messages import json_schemas
 from fsw_scheduler.wire.profiles import plan_profiles
 

@@ -27,8 +27,8 @@ from fsw_scheduler.engine.core import (
 )
 from fsw_scheduler.errors import FieldIssue
 from fsw_scheduler.model.goal import decode_goal
+from fsw_scheduler.model.levels import predicted_levels
 from fsw_scheduler.model.problem import Problem, decode_problem
-from fsw_scheduler.replan.triggers import predicted_levels
 from fsw_scheduler.testing import harness_config, paper_goal, paper_problem
 from fsw_scheduler.wire import messages
 

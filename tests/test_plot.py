@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from fsw_scheduler.model.levels import resource_profiles
 from fsw_scheduler.model.plan import (
     Activity,
     Blocker,
@@ -16,7 +17,8 @@ from fsw_scheduler.model.plan import (
     SolveStatus,
 )
 from fsw_scheduler.model.problem import Problem, Resources, Task
-from fsw_scheduler.view.gantt import gantt, resource_profiles, timeline_text
+from fsw_scheduler.view.gantt import gantt
+from fsw_scheduler.view.timeline import timeline_text
 
 from .conftest import TABLE1_PLAN
 

@@ -10,29 +10,32 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from fsw_scheduler.analysis.check import check_plan
+from fsw_scheduler.api import replan_typed
 from fsw_scheduler.errors import InputError
-from fsw_scheduler.model.goal import Goal, decode_goal
-from fsw_scheduler.model.plan import Activity, Objective, Plan, SolveStatus
-from fsw_scheduler.model.problem import Precedence, Problem
-from fsw_scheduler.replan.triggers import (
+from fsw_scheduler.model.change import (
     ActivityFailed,
     ExecutionReport,
     LevelsMeasured,
     Removal,
+    decode_change,
+)
+from fsw_scheduler.model.goal import Goal, decode_goal
+from fsw_scheduler.model.levels import predicted_levels
+from fsw_scheduler.model.plan import Activity, Objective, Plan, SolveStatus
+from fsw_scheduler.model.problem import Precedence, Problem
+from fsw_scheduler.replan.diff import diff_plans, format_diff
+from fsw_scheduler.replan.schedule import (
     Replan,
     Schedule,
+    empty_plan,
+    execution_state,
+)
+from fsw_scheduler.replan.triggers import (
     Tolerance,
     apply_failure,
     apply_goal,
     apply_levels,
-    decode_change,
-    diff_plans,
     drift,
-    empty_plan,
-    execution_state,
-    format_diff,
-    predicted_levels,
-    replan_files,
 )
 from fsw_scheduler.solving.solve import solve
 
@@ -654,7 +657,7 @@ def test_decode_change_tells_documents_apart(table2_goal_doc: dict) -> None:
     assert info.value.what == "event"
 
 
-def test_replan_files_with_injected_solver(
+def test_replan_typed_with_injected_solver(
     table1: Problem, table1_plan: Plan
 ) -> None:
     """Tests the CLI helper with a stand-in solve function."""
@@ -667,7 +670,7 @@ def test_replan_files_with_injected_solver(
         )
 
     change = ActivityFailed("BatteryCharge", 10)
-    problem, _, diff = replan_files(
+    problem, _, diff = replan_typed(
         table1, table1_plan, change, 10, time_limit=2.0, solve_fn=fake
     )
     assert seen == [("cbc", 2.0)]
@@ -681,12 +684,12 @@ def test_replan_files_with_injected_solver(
     )
 
 
-def test_replan_files_table2(
+def test_replan_typed_table2(
     table1: Problem, table1_plan: Plan, table2_goal_doc: dict
 ) -> None:
     """Tests the CLI helper end to end on Table 2 with CBC."""
     change = decode_change(json.dumps(table2_goal_doc))
-    problem, plan, diff = replan_files(table1, table1_plan, change, 15)
+    problem, plan, diff = replan_typed(table1, table1_plan, change, 15)
     assert check_plan(problem, plan).violations == ()
     assert diff.continued == ("BatteryCharge",)
 

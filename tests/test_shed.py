@@ -195,7 +195,7 @@ def test_without_tasks_cascades_tight_followers() -> None:
         )
     )
     plan = solve(problem, "cbc", explain=False)
-    from fsw_scheduler.replan.triggers import Schedule
+    from fsw_scheduler.replan.schedule import Schedule
 
     schedule = Schedule.begin(problem, plan)
     replan = apply_failure(schedule, "Point", 0, now=1)

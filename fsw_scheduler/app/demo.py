@@ -454,7 +454,7 @@ def _draw(
     pictures drawn.
     """
     from ..journal.writer import iter_messages
-    from ..view.gantt import timeline_text
+    from ..view.timeline import timeline_text
 
     problems: dict[int, Problem] = {}
     for message in iter_messages(journal_path):

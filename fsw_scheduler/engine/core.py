@@ -29,9 +29,11 @@ from typing import Any, Literal
 import msgspec
 
 from ..errors import FieldIssue, InputError
+from ..model.change import ExecutionReport, Removal
 from ..model.goal import Goal
 from ..model.plan import Activity, Blocker, Plan, SolverStats, SolveStatus
 from ..model.problem import Problem
+from ..replan.schedule import Replan, Schedule, empty_plan
 from ..replan.shed import (
     shed_blockers,
     shed_tasks,
@@ -39,16 +41,11 @@ from ..replan.shed import (
     without_tasks,
 )
 from ..replan.triggers import (
-    ExecutionReport,
-    Removal,
-    Replan,
-    Schedule,
     Tolerance,
     apply_failure,
     apply_goal,
     apply_levels,
     drift,
-    empty_plan,
 )
 from ..wire import topics
 from ..wire.messages import (

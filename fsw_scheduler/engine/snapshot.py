@@ -16,7 +16,7 @@ import msgspec
 from ..model.goal import Goal
 from ..model.plan import Plan
 from ..model.problem import Problem
-from ..replan.triggers import Replan, Schedule
+from ..replan.schedule import Replan, Schedule
 from ..wire.messages import Counters, PlanMessage, SolveSummary
 
 #: Bumped when a field's meaning changes; new fields get defaults instead.

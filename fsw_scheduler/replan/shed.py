@@ -28,11 +28,17 @@ explanation where it named the task). Pure: no solver, no bus, no clock.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import msgspec
 
+from ..model.change import Removal
 from ..model.plan import Blocker, Plan
 from ..model.problem import MAX_COST, Problem, Task
-from .triggers import Removal, Replan, cascade
+from .rules import cascade
+
+if TYPE_CHECKING:
+    from .schedule import Replan
 
 #: Cost of losing a mandatory task in the shedding problem.
 MANDATORY_LOSS = MAX_COST

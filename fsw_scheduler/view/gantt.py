@@ -1,10 +1,10 @@
-"""Pictures and text views of a plan.
+"""A Gantt chart of a plan, drawn with matplotlib.
 
-:func:`resource_profiles` and :func:`timeline_text` are pure and need
-nothing beyond the standard library. :func:`gantt` draws a PNG with
-matplotlib, which is an optional dependency (``fsw-scheduler[plot]``) and
-is imported only when :func:`gantt` is called, so ``import
-fsw_scheduler.plot`` stays cheap and works without it.
+matplotlib is an optional dependency (``fsw-scheduler[plot]``) and is
+imported only when :func:`gantt` is called, so importing this module
+stays cheap and works without it. The levels it draws come from
+:mod:`fsw_scheduler.model.levels`, the same arithmetic the replan rules
+and the published profiles use.
 
 Time convention (problem format): an activity ``[start, end)`` runs in
 the time units ``start .. end - 1``; a profile value at index ``i`` belongs
@@ -17,12 +17,17 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from collections.abc import Iterable, Mapping, Sequence
+    from collections.abc import Mapping, Sequence
 
-    from ..model.plan import Activity, Blocker, Plan
+    from ..model.plan import Activity, Plan
     from ..model.problem import Problem, Task
+from ..model.levels import _task_map, lost_charge, resource_profiles
+from .timeline import _capacity_note, _fmt, _left_out, _objective_line
 
-__all__ = ["gantt", "lost_charge", "resource_profiles", "timeline_text"]
+__all__ = [
+    "gantt",
+]
+
 
 _INSTALL_HINT = (
     "fsw_scheduler.plot.gantt needs matplotlib; install it with "
@@ -30,324 +35,6 @@ _INSTALL_HINT = (
 )
 
 
-# --------------------------------------------------------------------------
-# Pure part
-
-
-def _task_map(problem: Problem) -> dict[str, Task]:
-    return {task.id: task for task in problem.tasks}
-
-
-def _known_activities(
-    problem: Problem, activities: Iterable[Activity]
-) -> list[tuple[Activity, Task]]:
-    tasks = _task_map(problem)
-    pairs = []
-    for activity in activities:
-        task = tasks.get(activity.task)
-        if task is None:
-            raise ValueError(
-                f"plan activity {activity.task!r} is not a task of the problem"
-            )
-        pairs.append((activity, task))
-    return pairs
-
-
-def resource_profiles(problem: Problem, plan: Plan) -> dict[str, list[float]]:
-    """Usage of each multiple resource and level of each consumable.
-
-    Parameters
-    ----------
-    problem
-        The problem the plan solves.
-    plan
-        The plan; only its activities are read.
-
-    Returns
-    -------
-    dict[str, list[float]]
-        One list of ``problem.horizon`` values per multiple and consumable
-        resource, in declaration order. Index ``i`` is time unit
-        ``problem.start + i``. A multiple resource gets the summed amount
-        of the activities running in that unit; a consumable gets its level
-        at the end of that unit: initial level minus amount * units run up
-        to and including it (negative amounts generate), and never above
-        the consumable's capacity when it has one (the level at the end of
-        ``t`` is ``min(max, level at t-1 - net use in t)``). Parts of
-        activities outside the horizon are ignored.
-
-    Raises
-    ------
-    ValueError
-        If an activity names a task that is not in the problem.
-    """
-    rate = _rates(problem, plan)
-    profiles: dict[str, list[float]] = {}
-    for name in problem.resources.multiple:
-        profiles[name] = rate[name]
-    for name, levels in _consumable_walk(problem, rate).items():
-        profiles[name] = levels[0]
-    return profiles
-
-
-def lost_charge(problem: Problem, plan: Plan) -> dict[str, list[float]]:
-    """What each consumable with a capacity loses per unit of the plan.
-
-    Generation that a full store cannot take is lost: at index ``i``, the
-    amount cut off at the end of unit ``problem.start + i`` (see
-    :func:`resource_profiles`). Consumables without a capacity lose
-    nothing and are not listed.
-
-    Raises
-    ------
-    ValueError
-        If an activity names a task that is not in the problem.
-    """
-    rate = _rates(problem, plan)
-    ceilings = problem.resources.ceilings
-    return {
-        name: lost
-        for name, (_, lost) in _consumable_walk(problem, rate).items()
-        if name in ceilings
-    }
-
-
-def _rates(problem: Problem, plan: Plan) -> dict[str, list[float]]:
-    """Summed amount of the running activities per unit and resource."""
-    resources = problem.resources
-    rate = {
-        name: [0.0] * problem.horizon
-        for name in (*resources.multiple, *resources.consumable)
-    }
-    for activity, task in _known_activities(problem, plan.activities):
-        first = max(activity.start, problem.start) - problem.start
-        last = min(activity.end, problem.end) - problem.start
-        for name, amount in task.uses.items():
-            values = rate.get(name)
-            if values is None:  # binary resources have no profile
-                continue
-            for idx in range(first, last):
-                values[idx] += amount
-    return rate
-
-
-def _consumable_walk(
-    problem: Problem, rate: Mapping[str, list[float]]
-) -> dict[str, tuple[list[float], list[float]]]:
-    """Level at the end of each unit, and the amount lost at the ceiling."""
-    ceilings = problem.resources.ceilings
-    walks = {}
-    for name, initial in problem.resources.initial_levels.items():
-        top = ceilings.get(name)
-        level, levels, lost = float(initial), [], []
-        for used in rate[name]:
-            level -= used
-            cut = 0.0
-            if top is not None and level > top:
-                level, cut = top, level - top
-            levels.append(level)
-            lost.append(cut)
-        walks[name] = (levels, lost)
-    return walks
-
-
-def _fmt(value: float) -> str:
-    """Short number: integers without a decimal point."""
-    return f"{value:g}"
-
-
-def _objective_line(plan: Plan) -> str:
-    status = getattr(plan.status, "value", plan.status)
-    parts = [f"status {status}"]
-    if plan.objective is not None:
-        obj = plan.objective
-        parts += [
-            f"unscheduled cost {obj.unscheduled_cost}",
-            f"delay cost {obj.delay_cost}",
-            f"total {obj.total}",
-        ]
-    return ", ".join(parts)
-
-
-def _left_out(plan: Plan) -> list[tuple[str, list[Blocker]]]:
-    """Unscheduled tasks, then other blocked tasks, with their reasons.
-
-    An infeasible plan explains mandatory tasks in ``why`` that may not be
-    listed in ``unscheduled``; they are shown too.
-    """
-    reasons: dict[str, list[Blocker]] = {}
-    for blocker in plan.why:
-        reasons.setdefault(blocker.task, []).append(blocker)
-    scheduled = {a.task for a in plan.activities}
-    names = list(plan.unscheduled)
-    names += [
-        name
-        for name in reasons
-        if name not in scheduled and name not in plan.unscheduled
-    ]
-    return [(name, reasons.get(name, [])) for name in names]
-
-
-def _bar(start: int, end: int, origin: int, horizon: int, cells: int) -> str:
-    """ASCII bar of ``[start, end)`` on ``cells`` characters.
-
-    Cell ``c`` stands for the time ``origin + (c + 1/2) * horizon / cells``
-    (its centre) and is filled when the activity runs then; an activity too
-    short to cover any centre still gets the cell where it starts, so
-    nothing disappears however coarse the scale. Integer arithmetic keeps
-    the output exact.
-    """
-    lo, hi = start - origin, end - origin
-    filled = [
-        lo * 2 * cells <= (2 * c + 1) * horizon < hi * 2 * cells
-        for c in range(cells)
-    ]
-    if not any(filled) and hi > 0 and lo < horizon:
-        filled[min(cells - 1, max(0, lo * cells // horizon))] = True
-    return "".join("#" if f else "." for f in filled)
-
-
-_ANSI = {
-    "bold": "\x1b[1m",
-    "dim": "\x1b[2m",
-    "red": "\x1b[31m",
-    "green": "\x1b[32m",
-    "off": "\x1b[0m",
-}
-
-
-def timeline_text(
-    problem: Problem,
-    plan: Plan,
-    *,
-    width: int | None = None,
-    color: bool = False,
-) -> str:
-    """A fixed-width text timeline of a plan, for terminals and logs.
-
-    Parameters
-    ----------
-    problem
-        The problem the plan solves.
-    plan
-        The plan to show.
-    width
-        Total line width in characters (default 80, not the terminal's,
-        so the output is deterministic). The bar shrinks to fit; with room
-        to spare it uses a whole number of characters per time unit.
-    color
-        Add ANSI colours (bars green, levels below zero red). Off by
-        default so the text is plain ASCII.
-
-    Returns
-    -------
-    str
-        A header with status and objective; one line per scheduled task,
-        sorted by (start, task id), with ``start-end`` and a bar over the
-        horizon; the unscheduled tasks with the reasons found in
-        ``plan.why``; one line per multiple resource (peak use) and per
-        consumable (lowest level and when). Ends with a newline.
-    """
-    paint = _ANSI if color else dict.fromkeys(_ANSI, "")
-    horizon, origin = problem.horizon, problem.start
-    activities = sorted(plan.activities, key=lambda a: (a.start, a.task))
-    ids = [a.task for a in activities] + ["task"]
-    id_w = max(len(name) for name in ids)
-    num_w = len(str(max(problem.end, *(a.end for a in activities), 0)))
-    span_w = max(len("time"), 2 * num_w + 1)
-    prefix = id_w + 2 + span_w + 2 + 1  # "id  s-e  |"
-    room = max(10, (width or 80) - prefix - 1)
-    cells = horizon * (room // horizon) if room >= horizon else room
-
-    lines = [
-        f"{paint['bold']}Plan: {_objective_line(plan)}{paint['off']}",
-        f"horizon [{origin}, {problem.end}), "
-        f"{len(activities)} scheduled, {len(plan.unscheduled)} unscheduled",
-        "",
-    ]
-    left, right = str(origin), str(problem.end)
-    ruler = left + " " * max(1, cells - len(left) - len(right)) + right
-    lines.append(f"{'task':<{id_w}}  {'time':<{span_w}}  |{ruler}|")
-    for act in activities:
-        bar = _bar(act.start, act.end, origin, horizon, cells)
-        bar = (
-            bar.replace("#", f"{paint['green']}#{paint['off']}")
-            if (color)
-            else bar
-        )
-        span = f"{act.start}-{act.end}"
-        lines.append(f"{act.task:<{id_w}}  {span:<{span_w}}  |{bar}|")
-
-    left_out = _left_out(plan)
-    if left_out:
-        lines += ["", "unscheduled:"]
-        tasks = _task_map(problem)
-        for name, blockers in left_out:
-            task = tasks.get(name)
-            cost = "" if task is None else f" (cost {task.schedule_cost})"
-            if not blockers:
-                lines.append(f"  {name}{cost}")
-            for blocker in blockers:
-                lines.append(
-                    f"  {name}{cost}: {blocker.cause}: {blocker.detail}"
-                )
-
-    lines += _resource_lines(problem, plan, paint)
-    return "\n".join(lines) + "\n"
-
-
-def _resource_lines(
-    problem: Problem, plan: Plan, paint: dict[str, str]
-) -> list[str]:
-    resources = problem.resources
-    if not resources.multiple and not resources.consumable:
-        return []
-    profiles = resource_profiles(problem, plan)
-    name_w = max(len(n) for n in (*resources.multiple, *resources.consumable))
-    lines = ["", "resources:"]
-    for name, capacity in resources.multiple.items():
-        use = profiles[name]
-        peak = max(use, default=0.0)
-        at = use.index(peak) + problem.start if peak > 0 else None
-        when = f" at t={at}" if at is not None else ""
-        over = peak > capacity
-        flag = f" {paint['red']}OVER CAPACITY{paint['off']}" if over else ""
-        lines.append(
-            f"  {name:<{name_w}}  peak {_fmt(peak)}/{_fmt(capacity)}"
-            f"{when}{flag}"
-        )
-    lost = lost_charge(problem, plan)
-    for name, initial in resources.initial_levels.items():
-        levels = profiles[name]
-        low = min(levels, default=initial)
-        if low >= initial:
-            low, when = float(initial), f"at start t={problem.start}"
-        else:
-            when = f"at end of t={levels.index(low) + problem.start}"
-        final = levels[-1] if levels else initial
-        text = f"min {_fmt(low)} {when}"
-        if low < 0:
-            text = f"{paint['red']}{text} BELOW ZERO{paint['off']}"
-        lines.append(
-            f"  {name:<{name_w}}  {text} "
-            f"(initial {_fmt(initial)}, final {_fmt(final)}"
-            f"{_capacity_note(resources.ceiling(name), lost.get(name))})"
-        )
-    return lines
-
-
-def _capacity_note(ceiling: float | None, lost: list[float] | None) -> str:
-    """``, capacity 10, lost 4`` for a consumable with a capacity."""
-    if ceiling is None:
-        return ""
-    wasted = sum(lost or ())
-    return f", capacity {_fmt(ceiling)}" + (
-        f", lost {_fmt(wasted)}" if wasted > 0 else ""
-    )
-
-
-# --------------------------------------------------------------------------
-# Picture (matplotlib, imported lazily)
 
 
 def have_matplotlib() -> bool:
@@ -401,8 +88,14 @@ _PALETTE = (
     "#d62728",
     "#9467bd",
 )
+
+
 _NO_BINARY = "#7f7f7f"
+
+
 _UNSCHEDULED = "#d9d9d9"
+
+
 _NOW = "#c0392b"
 
 
@@ -893,6 +586,8 @@ def _draw_ceiling(
 
 
 _REMOVED = "#9a9a9a"
+
+
 _MEASURED = "#D55E00"
 
 

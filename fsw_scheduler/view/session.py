@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 import msgspec
 
 from ..journal.writer import iter_messages
+from ..model.levels import resource_profiles
 from ..model.plan import Activity, Plan
 from ..model.problem import Problem, Resources, Task
 from ..wire import topics as keys
@@ -38,7 +39,7 @@ from ..wire.messages import (
     SolveRecord,
 )
 from ..wire.profiles import Profiles
-from .gantt import _PALETTE, _load_matplotlib, gantt, resource_profiles
+from .gantt import _PALETTE, _load_matplotlib, gantt
 
 if TYPE_CHECKING:
     from collections.abc import Sequence

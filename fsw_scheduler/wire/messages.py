@@ -16,6 +16,7 @@ from typing import Any, Literal
 import msgspec
 
 from ..errors import FieldIssue, InputError
+from ..model.change import Removal
 from ..model.goal import Goal
 from ..model.plan import (
     Activity,
@@ -26,7 +27,6 @@ from ..model.plan import (
     SolveStatus,
 )
 from ..model.problem import Problem, decode_strict
-from ..replan.triggers import Removal
 from .profiles import LevelCheck, Profiles
 
 #: Largest payload accepted on an input key; bigger ones are rejected

@@ -21,8 +21,8 @@ from typing import TYPE_CHECKING
 
 import msgspec
 
+from ..model.levels import resource_profiles
 from ..model.plan import Plan
-from ..view.gantt import resource_profiles
 
 if TYPE_CHECKING:
     from ..model.problem import Problem

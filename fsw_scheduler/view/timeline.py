@@ -1,0 +1,217 @@
+"""A plan as text: one bar per task, resource lines, what was left out.
+
+Pure and needs nothing beyond the standard library (``fsw-scheduler
+solve --timeline``).
+
+Time convention (problem format): an activity ``[start, end)`` runs in
+the time units ``start .. end - 1``.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+
+    from ..model.plan import Blocker, Plan
+    from ..model.problem import Problem
+from ..model.levels import _task_map, lost_charge, resource_profiles
+
+__all__ = [
+    "timeline_text",
+]
+
+
+_ANSI = {
+    "bold": "\x1b[1m",
+    "dim": "\x1b[2m",
+    "red": "\x1b[31m",
+    "green": "\x1b[32m",
+    "off": "\x1b[0m",
+}
+
+
+def _fmt(value: float) -> str:
+    """Short number: integers without a decimal point."""
+    return f"{value:g}"
+
+
+def _objective_line(plan: Plan) -> str:
+    status = getattr(plan.status, "value", plan.status)
+    parts = [f"status {status}"]
+    if plan.objective is not None:
+        obj = plan.objective
+        parts += [
+            f"unscheduled cost {obj.unscheduled_cost}",
+            f"delay cost {obj.delay_cost}",
+            f"total {obj.total}",
+        ]
+    return ", ".join(parts)
+
+
+def _left_out(plan: Plan) -> list[tuple[str, list[Blocker]]]:
+    """Unscheduled tasks, then other blocked tasks, with their reasons.
+
+    An infeasible plan explains mandatory tasks in ``why`` that may not be
+    listed in ``unscheduled``; they are shown too.
+    """
+    reasons: dict[str, list[Blocker]] = {}
+    for blocker in plan.why:
+        reasons.setdefault(blocker.task, []).append(blocker)
+    scheduled = {a.task for a in plan.activities}
+    names = list(plan.unscheduled)
+    names += [
+        name
+        for name in reasons
+        if name not in scheduled and name not in plan.unscheduled
+    ]
+    return [(name, reasons.get(name, [])) for name in names]
+
+
+def _bar(start: int, end: int, origin: int, horizon: int, cells: int) -> str:
+    """ASCII bar of ``[start, end)`` on ``cells`` characters.
+
+    Cell ``c`` stands for the time ``origin + (c + 1/2) * horizon / cells``
+    (its centre) and is filled when the activity runs then; an activity too
+    short to cover any centre still gets the cell where it starts, so
+    nothing disappears however coarse the scale. Integer arithmetic keeps
+    the output exact.
+    """
+    lo, hi = start - origin, end - origin
+    filled = [
+        lo * 2 * cells <= (2 * c + 1) * horizon < hi * 2 * cells
+        for c in range(cells)
+    ]
+    if not any(filled) and hi > 0 and lo < horizon:
+        filled[min(cells - 1, max(0, lo * cells // horizon))] = True
+    return "".join("#" if f else "." for f in filled)
+
+
+def timeline_text(
+    problem: Problem,
+    plan: Plan,
+    *,
+    width: int | None = None,
+    color: bool = False,
+) -> str:
+    """A fixed-width text timeline of a plan, for terminals and logs.
+
+    Parameters
+    ----------
+    problem
+        The problem the plan solves.
+    plan
+        The plan to show.
+    width
+        Total line width in characters (default 80, not the terminal's,
+        so the output is deterministic). The bar shrinks to fit; with room
+        to spare it uses a whole number of characters per time unit.
+    color
+        Add ANSI colours (bars green, levels below zero red). Off by
+        default so the text is plain ASCII.
+
+    Returns
+    -------
+    str
+        A header with status and objective; one line per scheduled task,
+        sorted by (start, task id), with ``start-end`` and a bar over the
+        horizon; the unscheduled tasks with the reasons found in
+        ``plan.why``; one line per multiple resource (peak use) and per
+        consumable (lowest level and when). Ends with a newline.
+    """
+    paint = _ANSI if color else dict.fromkeys(_ANSI, "")
+    horizon, origin = problem.horizon, problem.start
+    activities = sorted(plan.activities, key=lambda a: (a.start, a.task))
+    ids = [a.task for a in activities] + ["task"]
+    id_w = max(len(name) for name in ids)
+    num_w = len(str(max(problem.end, *(a.end for a in activities), 0)))
+    span_w = max(len("time"), 2 * num_w + 1)
+    prefix = id_w + 2 + span_w + 2 + 1  # "id  s-e  |"
+    room = max(10, (width or 80) - prefix - 1)
+    cells = horizon * (room // horizon) if room >= horizon else room
+
+    lines = [
+        f"{paint['bold']}Plan: {_objective_line(plan)}{paint['off']}",
+        f"horizon [{origin}, {problem.end}), "
+        f"{len(activities)} scheduled, {len(plan.unscheduled)} unscheduled",
+        "",
+    ]
+    left, right = str(origin), str(problem.end)
+    ruler = left + " " * max(1, cells - len(left) - len(right)) + right
+    lines.append(f"{'task':<{id_w}}  {'time':<{span_w}}  |{ruler}|")
+    for act in activities:
+        bar = _bar(act.start, act.end, origin, horizon, cells)
+        bar = (
+            bar.replace("#", f"{paint['green']}#{paint['off']}")
+            if (color)
+            else bar
+        )
+        span = f"{act.start}-{act.end}"
+        lines.append(f"{act.task:<{id_w}}  {span:<{span_w}}  |{bar}|")
+
+    left_out = _left_out(plan)
+    if left_out:
+        lines += ["", "unscheduled:"]
+        tasks = _task_map(problem)
+        for name, blockers in left_out:
+            task = tasks.get(name)
+            cost = "" if task is None else f" (cost {task.schedule_cost})"
+            if not blockers:
+                lines.append(f"  {name}{cost}")
+            for blocker in blockers:
+                lines.append(
+                    f"  {name}{cost}: {blocker.cause}: {blocker.detail}"
+                )
+
+    lines += _resource_lines(problem, plan, paint)
+    return "\n".join(lines) + "\n"
+
+
+def _resource_lines(
+    problem: Problem, plan: Plan, paint: dict[str, str]
+) -> list[str]:
+    resources = problem.resources
+    if not resources.multiple and not resources.consumable:
+        return []
+    profiles = resource_profiles(problem, plan)
+    name_w = max(len(n) for n in (*resources.multiple, *resources.consumable))
+    lines = ["", "resources:"]
+    for name, capacity in resources.multiple.items():
+        use = profiles[name]
+        peak = max(use, default=0.0)
+        at = use.index(peak) + problem.start if peak > 0 else None
+        when = f" at t={at}" if at is not None else ""
+        over = peak > capacity
+        flag = f" {paint['red']}OVER CAPACITY{paint['off']}" if over else ""
+        lines.append(
+            f"  {name:<{name_w}}  peak {_fmt(peak)}/{_fmt(capacity)}"
+            f"{when}{flag}"
+        )
+    lost = lost_charge(problem, plan)
+    for name, initial in resources.initial_levels.items():
+        levels = profiles[name]
+        low = min(levels, default=initial)
+        if low >= initial:
+            low, when = float(initial), f"at start t={problem.start}"
+        else:
+            when = f"at end of t={levels.index(low) + problem.start}"
+        final = levels[-1] if levels else initial
+        text = f"min {_fmt(low)} {when}"
+        if low < 0:
+            text = f"{paint['red']}{text} BELOW ZERO{paint['off']}"
+        lines.append(
+            f"  {name:<{name_w}}  {text} "
+            f"(initial {_fmt(initial)}, final {_fmt(final)}"
+            f"{_capacity_note(resources.ceiling(name), lost.get(name))})"
+        )
+    return lines
+
+
+def _capacity_note(ceiling: float | None, lost: list[float] | None) -> str:
+    """``, capacity 10, lost 4`` for a consumable with a capacity."""
+    if ceiling is None:
+        return ""
+    wasted = sum(lost or ())
+    return f", capacity {_fmt(ceiling)}" + (
+        f", lost {_fmt(wasted)}" if wasted > 0 else ""
+    )
