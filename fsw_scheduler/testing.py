@@ -63,7 +63,7 @@ if TYPE_CHECKING:
     from collections.abc import Callable, Iterator
     from pathlib import Path
 
-    from .engine.core import StartSolve
+    from .engine.events import StartSolve
     from .model.plan import Plan
 
 __all__ = [

@@ -481,7 +481,7 @@ def test_engine_keeps_the_capacity_through_a_drift_replan() -> None:
     """Tests the engine on the full-battery scenario: a level reported
     above the capacity is full (no replan); a low one replans from it,
     with the capacity kept."""
-    from fsw_scheduler.engine.core import StartSolve
+    from fsw_scheduler.engine.events import StartSolve
 
     from .test_engine import Driver, statuses
 

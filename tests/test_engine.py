@@ -9,10 +9,10 @@ import msgspec
 import pytest
 
 from fsw_scheduler.bus.node import run_solve
-from fsw_scheduler.engine.core import (
+from fsw_scheduler.engine.config import EngineConfig
+from fsw_scheduler.engine.core import Engine
+from fsw_scheduler.engine.events import (
     Command,
-    Engine,
-    EngineConfig,
     Event,
     GoalArrived,
     InputRejected,
@@ -551,9 +551,9 @@ def test_input_rejected_reported_in_status(
 
 def test_dropped_inputs_count_is_a_total(started: Driver) -> None:
     """Tests that the dropped-input counter follows the shell's total."""
-    started.engine.count_dropped(3)
+    started.engine.count_shell(inputs_dropped=3)
     assert started.engine.status().counters.inputs_dropped == 3
-    started.engine.count_dropped(5)
+    started.engine.count_shell(inputs_dropped=5)
     assert started.engine.status().counters.inputs_dropped == 5
 
 

@@ -25,7 +25,7 @@ from fsw_scheduler.wire import topics as keys
 if TYPE_CHECKING:
     from collections.abc import Iterator
 
-    from fsw_scheduler.engine.core import StartSolve
+    from fsw_scheduler.engine.events import StartSolve
     from fsw_scheduler.model.plan import Plan
     from fsw_scheduler.runtime.config import NodeConfig
     from fsw_scheduler.testing import SchedulerHarness

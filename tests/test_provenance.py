@@ -7,7 +7,7 @@ from types import SimpleNamespace
 import zenoh
 
 from fsw_scheduler.bus.provenance import MAX_PENDING_GOALS, Provenance
-from fsw_scheduler.engine.core import GoalArrived, InputRejected
+from fsw_scheduler.engine.events import GoalArrived, InputRejected
 from fsw_scheduler.model.goal import Goal
 from fsw_scheduler.wire import messages
 

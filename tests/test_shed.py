@@ -8,7 +8,7 @@ import json
 import msgspec
 
 from fsw_scheduler.analysis.check import check_plan
-from fsw_scheduler.engine.core import EngineConfig
+from fsw_scheduler.engine.config import EngineConfig
 from fsw_scheduler.model.plan import Plan, SolveStatus
 from fsw_scheduler.model.problem import Problem, decode_problem
 from fsw_scheduler.replan.shed import (

@@ -35,10 +35,10 @@ from typing import TYPE_CHECKING, Any
 import msgspec
 import zenoh
 
-from ..engine.core import (
+from ..engine.config import EngineConfig
+from ..engine.core import Engine
+from ..engine.events import (
     Command,
-    Engine,
-    EngineConfig,
     Event,
     Explained,
     GoalArrived,

@@ -34,13 +34,13 @@ from typing import TYPE_CHECKING, Any
 import msgspec
 import zenoh
 
-from ..engine.core import GoalArrived, InputRejected
+from ..engine.events import GoalArrived, InputRejected
 from ..wire import messages
 
 if TYPE_CHECKING:
     from collections.abc import Callable
 
-    from ..engine.core import Event
+    from ..engine.events import Event
 
 log = logging.getLogger("fsw_scheduler.node")
 

@@ -45,7 +45,8 @@ from typing import Any
 
 import msgspec
 
-from ..engine.core import Engine, Publish, SolveDone, StartSolve
+from ..engine.core import Engine
+from ..engine.events import Publish, SolveDone, StartSolve
 from ..engine.snapshot import EngineSnapshot
 from ..model.plan import Plan
 from ..runtime.config import NodeConfig

@@ -14,7 +14,7 @@ from typing import Any
 
 import msgspec
 
-from ..engine.core import (
+from ..engine.events import (
     ClockStalled,
     Event,
     Explained,

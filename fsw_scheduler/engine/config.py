@@ -1,0 +1,59 @@
+"""The engine's settings: limits, tolerances and time budgets.
+
+Built from the node's settings by
+:func:`fsw_scheduler.runtime.policy.engine_config`, and recorded in the
+journal so that replay runs the same engine.
+"""
+
+from __future__ import annotations
+
+import msgspec
+
+from ..replan.triggers import (
+    Tolerance,
+)
+
+
+class EngineConfig(msgspec.Struct, frozen=True):
+    """Settings of the functional core.
+
+    Attributes
+    ----------
+    report_timeout
+        Units after a dispatch without any execution report before the
+        activity counts as failed; None waits forever.
+    tolerance
+        How far a measured level may depart from the prediction before a
+        replan.
+    heartbeat
+        Units between periodic status messages (0: none).
+    replan_lead
+        Units between a trigger and the start of the plan it causes: the
+        time a solve may take without its first activities being late.
+    max_tasks_per_goal, max_live_tasks
+        A goal with more tasks, or one that would make the plan hold more
+        live tasks (planned, running or deferred), is rejected with the
+        reason (None: no limit).
+    max_goals_waiting
+        Goals queued behind a solve; one more is rejected ``busy``.
+    max_goals_per_solve
+        Goals merged into one solve; the others wait for the next.
+    max_history
+        Finished activities (completed, failed, preempted, obsolete) kept
+        in the lifecycle map; the oldest leave it first.
+    explain_after_plan
+        Ask for the explanation of a plan's left-out tasks after it is
+        published (:class:`StartExplain`) instead of inside the solve.
+    """
+
+    report_timeout: int | None = None
+    tolerance: Tolerance = Tolerance(absolute=0.5)
+    heartbeat: int = 0
+    replan_lead: int = 0
+    max_tasks_per_goal: int | None = None
+    max_live_tasks: int | None = None
+    max_goals_waiting: int | None = None
+    max_goals_per_solve: int | None = None
+    node_id: str | None = None
+    max_history: int = 1000
+    explain_after_plan: bool = False

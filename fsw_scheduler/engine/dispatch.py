@@ -1,0 +1,200 @@
+"""The dispatch lifecycle: where each activity stands between plan and report.
+
+An activity goes ``planned -> dispatched -> running -> completed |
+failed``, or ``preempted`` / ``obsolete`` when a replan takes it away.
+:class:`Dispatches` keeps that map and the bookkeeping around it (when each
+dispatch was sent, which one still stands, what the last status said);
+the :class:`~fsw_scheduler.engine.Engine` decides *when* each step
+happens. Kept apart so that the rules of the lifecycle (a dispatch that a
+replan leaves in place is not sent again; a dispatch with no report in
+time counts as failed) sit in one place.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from ..wire import topics
+from ..wire.messages import Dispatch
+from .events import Publish
+
+if TYPE_CHECKING:
+    from collections.abc import Iterable
+
+    from ..model.change import Removal
+    from ..model.plan import Activity, Plan
+    from ..model.problem import Problem
+    from .snapshot import Lifecycle
+
+#: The states in which an activity is still to be flown.
+LIVE = ("planned", "dispatched", "running")
+
+
+class Dispatches:
+    """The lifecycle map of every known activity, with its bookkeeping.
+
+    Parameters
+    ----------
+    lifecycle
+        Task to its state.
+    dispatched
+        Task to the time unit its standing dispatch was sent (until a
+        report arrives).
+    sent
+        Task to the ``(start, end)`` of its dispatch still standing.
+    reported
+        The lifecycle as the last published status gave it: statuses
+        carry the difference.
+    """
+
+    __slots__ = ("dispatched", "lifecycle", "reported", "sent")
+
+    def __init__(
+        self,
+        lifecycle: dict[str, Lifecycle] | None = None,
+        dispatched: dict[str, int] | None = None,
+        sent: dict[str, tuple[int, int]] | None = None,
+        reported: dict[str, Lifecycle] | None = None,
+    ) -> None:
+        self.lifecycle = dict(lifecycle or {})
+        self.dispatched = dict(dispatched or {})
+        self.sent = dict(sent or {})
+        self.reported = dict(reported or {})
+
+    def adopt(
+        self,
+        plan: Plan,
+        continuing: Iterable[str],
+        removed: Iterable[Removal],
+        max_history: int,
+    ) -> None:
+        """Take a new plan: removed tasks leave, planned ones wait again.
+
+        A dispatch that the new plan leaves exactly in place stands and is
+        not sent again (sending it again with each replan made storms).
+        At most ``max_history`` finished entries are kept (oldest go).
+        """
+        for removal in removed:
+            if removal.rule in ("obsolete", "tight_cascade"):
+                self.lifecycle[removal.task] = "obsolete"
+            elif removal.rule != "finished":
+                self.lifecycle.setdefault(removal.task, "preempted")
+                if self.lifecycle[removal.task] in ("running", "dispatched"):
+                    self.lifecycle[removal.task] = "preempted"
+        keep = set(continuing)
+        for activity in plan.activities:
+            if activity.task in keep:
+                continue
+            state = self.lifecycle.get(activity.task)
+            if state == "dispatched" and self.sent.get(activity.task) == (
+                activity.start,
+                activity.end,
+            ):
+                continue
+            self.lifecycle[activity.task] = "planned"
+            self.dispatched.pop(activity.task, None)
+            self.sent.pop(activity.task, None)
+        self._forget_history(max_history)
+
+    def due(
+        self, plan: Plan, continuing: Iterable[str], now: int
+    ) -> list[Activity]:
+        """Mark dispatched, and return, each planned activity due by now."""
+        keep = set(continuing)
+        due = []
+        for activity in plan.activities:
+            if activity.start > now:
+                break  # activities are sorted by start
+            if (
+                activity.task in keep
+                or self.lifecycle.get(activity.task) != "planned"
+            ):
+                continue
+            self.lifecycle[activity.task] = "dispatched"
+            self.dispatched[activity.task] = now
+            self.sent[activity.task] = (activity.start, activity.end)
+            due.append(activity)
+        return due
+
+    def standing(self, plan: Plan) -> list[tuple[Activity, int]]:
+        """Each activity whose dispatch still stands, with when it was sent."""
+        out = []
+        for activity in plan.activities:
+            task = activity.task
+            if self.lifecycle.get(task) != "dispatched" or self.sent.get(
+                task
+            ) != (activity.start, activity.end):
+                continue
+            out.append((activity, self.dispatched.get(task, activity.start)))
+        return out
+
+    def report(self, task: str, state: Lifecycle) -> None:
+        """A report on ``task``: its dispatch no longer waits for one."""
+        self.dispatched.pop(task, None)
+        self.sent.pop(task, None)
+        self.lifecycle[task] = state
+
+    def note(self, task: str, state: Lifecycle) -> None:
+        """Record a state without touching the dispatch bookkeeping."""
+        self.lifecycle[task] = state
+
+    def timed_out(self, now: int, timeout: int) -> list[tuple[str, int]]:
+        """Dispatches with no report for more than ``timeout`` units.
+
+        Each is marked ``failed`` and returned with its dispatch time,
+        oldest task name first.
+        """
+        late = []
+        for task, since in sorted(self.dispatched.items()):
+            if now - since > timeout:
+                del self.dispatched[task]
+                self.sent.pop(task, None)
+                self.lifecycle[task] = "failed"
+                late.append((task, since))
+        return late
+
+    def changed(self) -> dict[str, Lifecycle]:
+        """Entries changed since the last call: what a status carries."""
+        changed = {
+            k: v
+            for k, v in sorted(self.lifecycle.items())
+            if self.reported.get(k) != v
+        }
+        self.reported = dict(self.lifecycle)
+        return changed
+
+    def _forget_history(self, max_history: int) -> None:
+        finished = [
+            task
+            for task, state in self.lifecycle.items()
+            if state not in LIVE
+        ]
+        excess = max(0, len(finished) - max_history)
+        for task in finished[:excess]:
+            del self.lifecycle[task]
+            self.reported.pop(task, None)
+            self.sent.pop(task, None)
+
+
+def dispatch_message(
+    plan_id: int, problem: Problem, activity: Activity, dispatched_at: int
+) -> Publish:
+    """The dispatch of ``activity``, sent at ``dispatched_at``.
+
+    Its ``dispatch_id`` (task, start and end) stays the same for as long
+    as the activity keeps its place, so a receiver keeps one.
+    """
+    task = activity.task
+    return Publish(
+        f"{topics.DISPATCH}/{task}",
+        Dispatch(
+            task=task,
+            plan_id=plan_id,
+            start=activity.start,
+            end=activity.end,
+            uses=dict(sorted(problem.task(task).uses.items())),
+            dispatched_at=dispatched_at,
+            late=activity.start < dispatched_at,
+            dispatch_id=f"{task}:{activity.start}-{activity.end}",
+        ),
+    )
