@@ -785,7 +785,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
 
 
 def _cmd_recover(args: argparse.Namespace) -> int:
-    from .journal.writer import recover
+    from .journal.recover import recover
 
     kept = recover(args.file, args.out)
     print(f"recovered {sum(kept.values())} messages into {args.out}")
@@ -795,7 +795,7 @@ def _cmd_recover(args: argparse.Namespace) -> int:
 
 
 def _cmd_info(args: argparse.Namespace) -> int:
-    from .journal.writer import format_info, info, info_dict
+    from .journal.info import format_info, info, info_dict
 
     description = info(args.file)
     if args.json:

@@ -21,7 +21,9 @@ from fsw_scheduler.bus.session import (
     zenoh_config,
 )
 from fsw_scheduler.errors import BusError, ConfigError
-from fsw_scheduler.journal.writer import Recorder, info, iter_messages
+from fsw_scheduler.journal.info import info
+from fsw_scheduler.journal.reader import iter_messages
+from fsw_scheduler.journal.writer import Recorder
 
 if TYPE_CHECKING:
     from pathlib import Path

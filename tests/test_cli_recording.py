@@ -26,7 +26,7 @@ from fsw_scheduler.bus.session import (
     loopback_config,
     wait_until,
 )
-from fsw_scheduler.journal.writer import format_info, info
+from fsw_scheduler.journal.info import format_info, info
 
 if TYPE_CHECKING:
     from collections.abc import Iterator

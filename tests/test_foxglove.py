@@ -16,8 +16,8 @@ from mcap.writer import Writer
 
 from fsw_scheduler.app.demo import failure_scenario, run_demo
 from fsw_scheduler.journal.annotate import LOG_SCHEMA, Annotator
+from fsw_scheduler.journal.info import info, info_dict
 from fsw_scheduler.journal.replay import verify
-from fsw_scheduler.journal.writer import info, info_dict
 from fsw_scheduler.model.plan import Activity, SolveStatus
 from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.wire.messages import PlanMessage, ResourceLevel

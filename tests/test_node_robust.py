@@ -790,7 +790,7 @@ def test_sigterm_interrupts_a_solve_and_exits_0(tmp_path: Path) -> None:
     """Tests that SIGTERM during a solve stops within a second, exit 0."""
     import time
 
-    from fsw_scheduler.journal.writer import iter_messages
+    from fsw_scheduler.journal.reader import iter_messages
 
     journal = tmp_path / "journal.mcap"
     session, process = _long_solve_node(tmp_path, "--record", str(journal))
@@ -914,7 +914,7 @@ def test_a_journal_with_busy_and_explained_replays(tmp_path: Path) -> None:
     report = verify(path)
     assert report.identical, report.summary()
     assert report.solves >= 2
-    from fsw_scheduler.journal.writer import iter_messages
+    from fsw_scheduler.journal.reader import iter_messages
 
     topics = {m.topic for m in iter_messages(path)}
     assert "fsw/sat1/scheduler/explained" in topics

@@ -19,15 +19,10 @@ from mcap.exceptions import McapError
 from mcap.reader import make_reader
 from mcap.well_known import MessageEncoding, SchemaEncoding
 
-from fsw_scheduler.journal.writer import (
-    RecordedMessage,
-    Recorder,
-    format_info,
-    info,
-    iter_messages,
-    recover,
-    split_name,
-)
+from fsw_scheduler.journal.info import format_info, info
+from fsw_scheduler.journal.reader import iter_messages
+from fsw_scheduler.journal.recover import recover
+from fsw_scheduler.journal.writer import RecordedMessage, Recorder, split_name
 
 if TYPE_CHECKING:
     from pathlib import Path

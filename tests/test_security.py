@@ -48,8 +48,9 @@ from fsw_scheduler.bus.session import (
     wait_matching,
 )
 from fsw_scheduler.cli import main
+from fsw_scheduler.journal.reader import iter_messages
 from fsw_scheduler.journal.replay import read_node_info, verify
-from fsw_scheduler.journal.writer import Recorder, iter_messages
+from fsw_scheduler.journal.writer import Recorder
 from fsw_scheduler.testing import (
     SchedulerClient,
     harness_config,

@@ -80,8 +80,8 @@ def test_plot_command(tmp_path: Path) -> None:
 
 def test_attach_pictures_copies_the_journal(tmp_path: Path) -> None:
     """Tests a copy with the pictures attached, messages unchanged."""
+    from fsw_scheduler.journal.info import info, read_attachments
     from fsw_scheduler.journal.replay import verify
-    from fsw_scheduler.journal.writer import info, read_attachments
     from fsw_scheduler.view.session import attach_pictures
 
     picture = tmp_path / "plan-1.png"

@@ -453,7 +453,7 @@ def _draw(
     The problems come from the solve records of the journal. Returns the
     pictures drawn.
     """
-    from ..journal.writer import iter_messages
+    from ..journal.reader import iter_messages
     from ..view.timeline import timeline_text
 
     problems: dict[int, Problem] = {}

@@ -26,8 +26,9 @@ from typing import TYPE_CHECKING
 import zenoh
 
 from ..errors import BusError
-from ..journal.writer import PathLike, RecordedMessage, iter_messages
-from ..journal.writer import info as recording_info
+from ..journal.info import info as recording_info
+from ..journal.reader import iter_messages
+from ..journal.writer import PathLike, RecordedMessage
 
 if TYPE_CHECKING:
     import threading

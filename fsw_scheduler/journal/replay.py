@@ -41,7 +41,7 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import msgspec
 
@@ -54,7 +54,10 @@ from ..runtime.inputs import InputDecoder
 from ..wire import messages
 from ..wire import topics as keys
 from .annotate import DERIVED, Annotator, engine_problem
-from .writer import PathLike, RecordedMessage, iter_messages
+from .reader import iter_messages
+
+if TYPE_CHECKING:
+    from .writer import PathLike, RecordedMessage
 
 #: Fields left out of the comparison, per output kind (dotted paths).
 EXCLUDED: dict[str, tuple[str, ...]] = {

@@ -19,8 +19,8 @@ import shutil
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from .recover import _is_finished, recover
 from .replay import Rebuilt, rebuild
-from .writer import _is_finished, recover
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -84,7 +84,7 @@ def _opening(path: Path) -> tuple[bool, bool]:
     settings, then (written by ``--state``) the engine's snapshot.
     """
     from ..wire import topics
-    from .writer import iter_messages
+    from .reader import iter_messages
 
     has_config = False
     try:

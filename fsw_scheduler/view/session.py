@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING
 
 import msgspec
 
-from ..journal.writer import iter_messages
+from ..journal.reader import iter_messages
 from ..model.levels import resource_profiles
 from ..model.plan import Activity, Plan
 from ..model.problem import Problem, Resources, Task
@@ -436,7 +436,7 @@ def attach_pictures(
     Path
         ``dst``.
     """
-    from ..journal.writer import recover
+    from ..journal.recover import recover
 
     recover(
         journal,
