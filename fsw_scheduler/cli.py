@@ -473,7 +473,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
     with _open_bus(zenoh_settings) as session:
-
         redundancy: Any = None
 
         def make_node(shared: Any = None) -> SchedulerNode:
@@ -487,8 +486,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 journal, opened = _open_state(args, config)
                 extra.update(opened)
             if shared is not None:
-                from .bus.node import engine_config
                 from .engine.core import Engine
+                from .runtime.policy import engine_config
 
                 extra["engine"] = Engine.restore(engine_config(config), shared)
                 extra["resumed_event"] = "took_over"
@@ -616,8 +615,8 @@ def _open_state(
                 "arguments",
             )
         # The rebuilt state, under this start's settings (node id, limits).
-        from .bus.node import engine_config
         from .engine.core import Engine
+        from .runtime.policy import engine_config
 
         resume["engine"] = Engine.restore(
             engine_config(config), engine.snapshot()
@@ -1524,7 +1523,7 @@ switches the monitor's own policy off to test the scheduler's):
         const=1.0,
         type=positive_float,
         metavar="S",
-        help="also publish a bus clock ({\"now\": n}) on --clock-key, unit n "
+        help='also publish a bus clock ({"now": n}) on --clock-key, unit n '
         "at S*n seconds of recording time from its start (S default 1); "
         "recorded messages on that key are not replayed",
     )

@@ -46,7 +46,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import msgspec
 import zenoh
 
-from .bus.node import SchedulerNode, run_solve
+from .bus.node import SchedulerNode
 from .bus.session import (
     DEFAULT_TIMEOUT_S,
     listening_endpoints,
@@ -56,6 +56,7 @@ from .bus.session import (
 )
 from .model.problem import Problem, decode_problem
 from .runtime.config import NodeConfig
+from .runtime.policy import run_solve
 from .wire import messages
 from .wire import topics as keys
 

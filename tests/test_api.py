@@ -16,10 +16,20 @@ TINY = {
     "horizon": 6,
     "resources": {"binary": ["camera"]},
     "tasks": [
-        {"id": "a", "length": 2, "delay_cost": 1, "schedule_cost": 1,
-         "uses": {"camera": 1}},
-        {"id": "b", "length": 3, "delay_cost": 2, "schedule_cost": 1,
-         "uses": {"camera": 1}},
+        {
+            "id": "a",
+            "length": 2,
+            "delay_cost": 1,
+            "schedule_cost": 1,
+            "uses": {"camera": 1},
+        },
+        {
+            "id": "b",
+            "length": 3,
+            "delay_cost": 2,
+            "schedule_cost": 1,
+            "uses": {"camera": 1},
+        },
     ],
 }
 

@@ -128,9 +128,7 @@ def test_record_then_replay_on_bus(tmp_path: Path) -> None:
         assert sum(stats.by_key.values()) == n
 
         recorded = list(iter_messages(path))
-        assert [json.loads(m.payload)["i"] for m in recorded] == list(
-            range(n)
-        )
+        assert [json.loads(m.payload)["i"] for m in recorded] == list(range(n))
         assert [m.topic for m in recorded] == [
             KEYS[i % len(KEYS)] for i in range(n)
         ]
@@ -226,8 +224,9 @@ def test_record_bad_key_raises_bus_error(tmp_path: Path) -> None:
     """Tests that an invalid key expression surfaces as BusError."""
     session = zenoh.open(loopback_config(listen=None))
     try:
-        with Recorder(tmp_path / "x.mcap") as recorder, pytest.raises(
-            BusError
+        with (
+            Recorder(tmp_path / "x.mcap") as recorder,
+            pytest.raises(BusError),
         ):
             record(session, "fsw//bad", recorder, threading.Event())
     finally:
@@ -506,9 +505,7 @@ def test_replay_remaps_keys_and_publishes_a_clock(tmp_path: Path) -> None:
         ("battery", b'{"i": 2}'),
     ]
     with open_peer_pair() as (a, b):
-        sub = b.declare_subscriber(
-            "fsw/**", zenoh.handlers.FifoChannel(64)
-        )
+        sub = b.declare_subscriber("fsw/**", zenoh.handlers.FifoChannel(64))
         wait_matching(a, "fsw/sat2/clock", TIMEOUT_S)
         count = replay(
             a,

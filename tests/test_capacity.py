@@ -269,9 +269,7 @@ def test_level_rows_are_bounded_inequalities() -> None:
     program = BuiltModel(capped).program
     levels = [c for c, up in enumerate(program.upper) if up == 10.0]
     assert len(levels) == capped.horizon
-    senses = {
-        sense for terms, sense, _ in program.rows if levels[0] in terms
-    }
+    senses = {sense for terms, sense, _ in program.rows if levels[0] in terms}
     assert senses == {"L"}
     other = BuiltModel(plain).program
     assert 10.0 not in other.upper
@@ -302,10 +300,8 @@ def test_consumer_bigger_than_the_capacity_gets_no_domain() -> None:
     """Tests the capacity rule of domains.py: 12 needed, 10 held, and the
     only generation cannot overlap it."""
     tasks = [
-        _task("big", length=4, feasible_interval=[6, 12],
-              uses={"battery": 3}),
-        _task("gen", length=3, feasible_interval=[0, 3],
-              uses={"battery": -4}),
+        _task("big", length=4, feasible_interval=[6, 12], uses={"battery": 3}),
+        _task("gen", length=3, feasible_interval=[0, 3], uses={"battery": -4}),
     ]
     capped = problem_from(_doc(tasks, {"initial": 10, "max": 10}))
     domain = start_domains(capped)["big"]
@@ -326,10 +322,19 @@ def test_explanation_names_the_capacity() -> None:
     the charge, all lost, leaves 10 for 12 of mandatory and optional use
     (16 without the capacity)."""
     tasks = [
-        _task("charge", length=3, schedule_cost=0,
-              feasible_interval=[0, 3], uses={"battery": -2}),
-        _task("must", schedule_cost=0, feasible_interval=[3, 12],
-              uses={"battery": 3}),
+        _task(
+            "charge",
+            length=3,
+            schedule_cost=0,
+            feasible_interval=[0, 3],
+            uses={"battery": -2},
+        ),
+        _task(
+            "must",
+            schedule_cost=0,
+            feasible_interval=[3, 12],
+            uses={"battery": 3},
+        ),
         _task("may", feasible_interval=[3, 12], uses={"battery": 3}),
     ]
     problem = problem_from(_doc(tasks, {"initial": 10, "max": 10}))

@@ -27,7 +27,6 @@ if TYPE_CHECKING:
     from fsw_scheduler.model.problem import Problem
 
 
-
 def _task(name: str, **over: object) -> dict:
     task = {"id": name, "length": 2, "delay_cost": 1, "schedule_cost": 1}
     task.update(over)

@@ -35,8 +35,18 @@ def test_help_teaches() -> None:
     """Tests that --help lists the commands and shows examples."""
     result = cli("--help")
     assert result.returncode == 0
-    for word in ("solve", "check", "replan", "run", "demo", "record",
-                 "replay", "recover", "info", "exit codes"):
+    for word in (
+        "solve",
+        "check",
+        "replan",
+        "run",
+        "demo",
+        "record",
+        "replay",
+        "recover",
+        "info",
+        "exit codes",
+    ):
         assert word in result.stdout
     sub = cli("run", "--help")
     assert "--clock" in sub.stdout and "--connect" in sub.stdout
@@ -78,10 +88,20 @@ def test_infeasible_exits_one_and_says_why(tmp_path: Path) -> None:
         "horizon": 4,
         "resources": {"binary": ["cam"]},
         "tasks": [
-            {"id": "a", "length": 3, "delay_cost": 1, "schedule_cost": 0,
-             "uses": {"cam": 1}},
-            {"id": "b", "length": 3, "delay_cost": 1, "schedule_cost": 0,
-             "uses": {"cam": 1}},
+            {
+                "id": "a",
+                "length": 3,
+                "delay_cost": 1,
+                "schedule_cost": 0,
+                "uses": {"cam": 1},
+            },
+            {
+                "id": "b",
+                "length": 3,
+                "delay_cost": 1,
+                "schedule_cost": 0,
+                "uses": {"cam": 1},
+            },
         ],
     }
     result = cli("solve", _write(tmp_path / "p.json", doc))
@@ -95,11 +115,15 @@ def test_infeasible_exits_one_and_says_why(tmp_path: Path) -> None:
     ("mutate", "path"),
     [
         (lambda d: d["tasks"][0].update(length=-1), "tasks[0].length"),
-        (lambda d: d["tasks"][1].update(uses={"laser": 1}),
-         "tasks[1].uses.laser"),
+        (
+            lambda d: d["tasks"][1].update(uses={"laser": 1}),
+            "tasks[1].uses.laser",
+        ),
         (lambda d: d.update(horizon="fifty"), "horizon"),
-        (lambda d: d["precedences"][0].update(after="Nope"),
-         "precedences[0].after"),
+        (
+            lambda d: d["precedences"][0].update(after="Nope"),
+            "precedences[0].after",
+        ),
     ],
 )
 def test_bad_input_exits_two_naming_field(
@@ -137,8 +161,16 @@ def test_replan_paper_table2(tmp_path: Path) -> None:
     assert cli("solve", TABLE1, "--out", str(plan1)).returncode == 0
     problem2, plan2 = tmp_path / "problem2.json", tmp_path / "plan2.json"
     result = cli(
-        "replan", TABLE1, str(plan1), TABLE2, "--now", "15",
-        "--out", str(plan2), "--problem-out", str(problem2),
+        "replan",
+        TABLE1,
+        str(plan1),
+        TABLE2,
+        "--now",
+        "15",
+        "--out",
+        str(plan2),
+        "--problem-out",
+        str(problem2),
     )
     assert result.returncode == 0, result.stderr
     assert "obsolete" in result.stderr and "tight_cascade" in result.stderr
@@ -162,8 +194,12 @@ def test_replan_rejects_colliding_goal(tmp_path: Path) -> None:
     goal = json.loads(Path(TABLE2).read_text())
     goal["tasks"][2]["id"] = "DownlinkSat2Ground"
     result = cli(
-        "replan", TABLE1, str(plan1), _write(tmp_path / "g.json", goal),
-        "--now", "15",
+        "replan",
+        TABLE1,
+        str(plan1),
+        _write(tmp_path / "g.json", goal),
+        "--now",
+        "15",
     )
     assert result.returncode == 2
     assert "tasks[2].id" in result.stderr
@@ -173,9 +209,16 @@ def test_replay_wait_matching_times_out_cleanly() -> None:
     """Tests that replay --wait-matching with no subscriber exits 1."""
     golden = Path(__file__).resolve().parents[1] / "replay" / "paper.mcap"
     result = cli(
-        "replay", str(golden), "--burst", "--wait-matching", "0.3",
-        "--wait-key", "fsw/nobody/**", "--no-multicast-scouting",
-        "--listen", "tcp/127.0.0.1:0",
+        "replay",
+        str(golden),
+        "--burst",
+        "--wait-matching",
+        "0.3",
+        "--wait-key",
+        "fsw/nobody/**",
+        "--no-multicast-scouting",
+        "--listen",
+        "tcp/127.0.0.1:0",
     )
     assert result.returncode == 1, result.stderr
     assert "timed out" in result.stderr

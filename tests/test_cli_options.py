@@ -46,7 +46,10 @@ def test_solve_gantt_without_matplotlib_stops_before_solving(
 ) -> None:
     """Tests that solve --gantt without matplotlib exits 2 with the hint."""
     result = run(
-        "solve", TABLE1, "--gantt", str(tmp_path / "p.png"),
+        "solve",
+        TABLE1,
+        "--gantt",
+        str(tmp_path / "p.png"),
         code=WITHOUT_MATPLOTLIB,
     )
     assert result.returncode == 2, result.stderr
@@ -69,7 +72,12 @@ def test_demo_without_matplotlib_runs_without_pictures(
     """Tests that demo without matplotlib says so and still completes."""
     out = tmp_path / "demo"
     result = run(
-        "demo", "--out", str(out), "--quiet", "--time-unit", "0.01",
+        "demo",
+        "--out",
+        str(out),
+        "--quiet",
+        "--time-unit",
+        "0.01",
         code=WITHOUT_MATPLOTLIB,
     )
     assert result.returncode == 0, result.stderr
@@ -150,9 +158,7 @@ def test_every_command_has_an_example() -> None:
     """Tests that every command's --help ends with examples (the epilog)."""
     parser = build_parser()
     (sub,) = (
-        a
-        for a in parser._actions
-        if isinstance(a, argparse._SubParsersAction)
+        a for a in parser._actions if isinstance(a, argparse._SubParsersAction)
     )
     without = [
         name
@@ -179,9 +185,22 @@ def test_settings_flag_and_deprecated_toml_config(tmp_path: Path) -> None:
 def test_zenoh_short_flags_parse() -> None:
     """Tests the zenoh examples' short flags on a bus command."""
     args = build_parser().parse_args(
-        ["record", "--out", "x.mcap", "-m", "client", "-e", "tcp/1.2.3.4:7447",
-         "-l", "tcp/0.0.0.0:0", "-c", "z.json5", "--no-multicast-scouting",
-         "--exclude", "fsw/sat1/clock"]
+        [
+            "record",
+            "--out",
+            "x.mcap",
+            "-m",
+            "client",
+            "-e",
+            "tcp/1.2.3.4:7447",
+            "-l",
+            "tcp/0.0.0.0:0",
+            "-c",
+            "z.json5",
+            "--no-multicast-scouting",
+            "--exclude",
+            "fsw/sat1/clock",
+        ]
     )
     assert args.mode == "client" and args.connect == ["tcp/1.2.3.4:7447"]
     assert args.listen == ["tcp/0.0.0.0:0"] and args.config == ["z.json5"]

@@ -8,7 +8,6 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import msgspec
 import pytest
 
-from fsw_scheduler.bus.node import run_solve
 from fsw_scheduler.engine.config import EngineConfig
 from fsw_scheduler.engine.core import Engine
 from fsw_scheduler.engine.events import (
@@ -29,6 +28,7 @@ from fsw_scheduler.errors import FieldIssue
 from fsw_scheduler.model.goal import decode_goal
 from fsw_scheduler.model.levels import predicted_levels
 from fsw_scheduler.model.problem import Problem, decode_problem
+from fsw_scheduler.runtime.policy import run_solve
 from fsw_scheduler.testing import harness_config, paper_goal, paper_problem
 from fsw_scheduler.wire import messages
 
@@ -669,8 +669,13 @@ def test_deferred_goal_task_enters_when_the_horizon_reaches_it() -> None:
     goal = {
         "goal_id": "late-pass",
         "tasks": [
-            {"id": "Pass", "length": 2, "delay_cost": 1, "schedule_cost": 3,
-             "feasible_interval": [60, 70]},
+            {
+                "id": "Pass",
+                "length": 2,
+                "delay_cost": 1,
+                "schedule_cost": 3,
+                "feasible_interval": [60, 70],
+            },
         ],
     }
     (plan,) = published(driver.goal(goal, 3), messages.PlanMessage)

@@ -41,10 +41,20 @@ PROBLEM = decode_problem(
             "start": 10,
             "resources": {"consumable": {"battery": 10}},
             "tasks": [
-                {"id": "use", "length": 2, "delay_cost": 1,
-                 "schedule_cost": 1, "uses": {"battery": 3}},
-                {"id": "charge", "length": 2, "delay_cost": 1,
-                 "schedule_cost": 1, "uses": {"battery": -1}},
+                {
+                    "id": "use",
+                    "length": 2,
+                    "delay_cost": 1,
+                    "schedule_cost": 1,
+                    "uses": {"battery": 3},
+                },
+                {
+                    "id": "charge",
+                    "length": 2,
+                    "delay_cost": 1,
+                    "schedule_cost": 1,
+                    "uses": {"battery": -1},
+                },
             ],
         }
     )
@@ -88,9 +98,7 @@ def test_plan_profiles_are_levels_at_unit_starts() -> None:
     profiles = plan_profiles(PROBLEM, PLAN)
     assert profiles.plan_id == 4 and profiles.issued_at == 10
     assert profiles.times == tuple(range(10, 17))
-    assert profiles.levels == {
-        "battery": (10.0, 7.0, 4.0, 4.0, 5.0, 6.0, 6.0)
-    }
+    assert profiles.levels == {"battery": (10.0, 7.0, 4.0, 4.0, 5.0, 6.0, 6.0)}
     assert profiles.level_at("battery", 12) == 4.0
     assert profiles.level_at("battery", 17) is None
     assert profiles.level_at("propellant", 12) is None
@@ -174,9 +182,7 @@ def test_journal_has_derived_channels(session: Path) -> None:
 def test_existing_channels_unchanged(session: Path) -> None:
     """Tests that the earlier channels keep their schemas and encoding."""
     _, _, messages = _read(session)
-    names = {
-        ch.topic: s.name for s, ch, _ in messages if s is not None
-    }
+    names = {ch.topic: s.name for s, ch, _ in messages if s is not None}
     assert names["fsw/sat1/scheduler/plan"] == "fsw_scheduler.plan"
     assert names["fsw/sat1/clock"] == "fsw_scheduler.clock"
     assert all(ch.message_encoding == "json" for _, ch, _ in messages)
@@ -217,7 +223,9 @@ def test_verify_checks_the_derived_channels(
                 data = json.dumps(doc).encode()
                 changed = True
             writer.add_message(
-                channel_ids[channel.id], message.log_time, data,
+                channel_ids[channel.id],
+                message.log_time,
+                data,
                 message.publish_time,
             )
         writer.finish()
@@ -305,7 +313,12 @@ def test_log_schema_is_foxgloves() -> None:
     """Tests the foxglove.Log schema's name and required fields."""
     assert LOG_SCHEMA["title"] == "foxglove.Log"
     assert LOG_SCHEMA["required"] == [
-        "timestamp", "level", "message", "name", "file", "line"
+        "timestamp",
+        "level",
+        "message",
+        "name",
+        "file",
+        "line",
     ]
     levels = LOG_SCHEMA["properties"]["level"]["oneOf"]
     assert [lv["const"] for lv in levels] == list(range(6))

@@ -373,8 +373,7 @@ def _budget_doc(offset: int) -> dict:
             _task("small", length=1, uses={"fuel": 2}),
         ],
         "precedences": [
-            {"before": "big", "after": "gen", "kind": "lax",
-             "offset": offset}
+            {"before": "big", "after": "gen", "kind": "lax", "offset": offset}
         ],
     }
 

@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-from fsw_scheduler.bus.node import Inbox
+from fsw_scheduler.bus.inbox import Inbox
 
 KEY = "fsw/sat1/telemetry/activities/Downlink"
 
 
 def _report(state: str) -> bytes:
-    return (
-        b'{"task": "Downlink", "state": "' + state.encode() + b'", "at": 4}'
-    )
+    return b'{"task": "Downlink", "state": "' + state.encode() + b'", "at": 4}'
 
 
 def _drain(inbox: Inbox) -> list[bytes]:

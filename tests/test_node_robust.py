@@ -508,7 +508,7 @@ def test_goals_behind_a_solve_are_queued_at_once(
     scheduler_problem: object,
 ) -> None:
     """Tests goal_queued for a goal waiting behind a running solve."""
-    from fsw_scheduler.bus.node import run_solve
+    from fsw_scheduler.runtime.policy import run_solve
     from fsw_scheduler.testing import SchedulerHarness
 
     release = threading.Event()
@@ -538,8 +538,9 @@ def test_goals_behind_a_solve_are_queued_at_once(
         release.set()
         for goal_id in ("first", "second"):
             h.wait_status(
-                lambda s, g=goal_id: s.event == "goal_accepted"
-                and s.goal_id == g
+                lambda s, g=goal_id: (
+                    s.event == "goal_accepted" and s.goal_id == g
+                )
             )
         # 9 tasks of Table 1, A and B: the limit of 11 live tasks is full.
         status = rejection(h, goal_of("third", task("F")), "third")
@@ -634,9 +635,7 @@ def test_clock_jumps_are_rejected_and_time_stays(
     assert {d.task for d in h.dispatches} == first
 
 
-@pytest.mark.parametrize(
-    "scheduler_config", [harness_config(clock_stall=0.3)]
-)
+@pytest.mark.parametrize("scheduler_config", [harness_config(clock_stall=0.3)])
 def test_a_stalled_bus_clock_degrades_the_status(
     started: SchedulerHarness, scheduler_config: NodeConfig
 ) -> None:
@@ -671,8 +670,6 @@ def _cmdline(pid: int) -> str:
     except OSError:
         return ""
     return raw.decode(errors="replace")
-
-
 
 
 def _alive(pid: int) -> bool:
@@ -903,8 +900,10 @@ def test_a_journal_with_busy_and_explained_replays(tmp_path: Path) -> None:
                 client.publish_goal(goal_of(f"b{n}", task(f"B{n}")))
             client.wait_status(lambda s: s.event == "explained")
             client.wait_status(
-                lambda s: s.event == "goal_rejected"
-                and s.errors[0].reason.startswith("busy")
+                lambda s: (
+                    s.event == "goal_rejected"
+                    and s.errors[0].reason.startswith("busy")
+                )
             )
             client.settle(0)
             client.tick(1)
@@ -923,8 +922,8 @@ def test_a_journal_with_busy_and_explained_replays(tmp_path: Path) -> None:
 
 def test_inbox_bounds_without_blocking() -> None:
     """Tests the inbox's coalescing, goal limits and key bound directly."""
-    from fsw_scheduler.bus import node as node_module
-    from fsw_scheduler.bus.node import Inbox
+    from fsw_scheduler.bus import inbox
+    from fsw_scheduler.bus.inbox import Inbox
 
     inbox = Inbox(max_goals=2, max_bytes=100)
     assert inbox.put_goal("g", b"x" * 40, 0.0)
@@ -945,6 +944,6 @@ def test_inbox_bounds_without_blocking() -> None:
     assert kinds[2] is not None and kinds[2][2] == b"b" * 15
     assert (inbox.goals, inbox.bytes, len(inbox)) == (0, 0, 0)
     big = Inbox(max_goals=1, max_bytes=1 << 30)
-    for n in range(node_module.MAX_PENDING_KEYS + 5):
+    for n in range(inbox.MAX_PENDING_KEYS + 5):
         big.put_latest("resource_level", f"k{n}", b"1")
     assert big.lost == 5

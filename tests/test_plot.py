@@ -25,7 +25,6 @@ from .conftest import TABLE1_PLAN
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
-
 def _plan(
     activities: tuple[tuple[str, int, int], ...],
     *,
@@ -139,8 +138,7 @@ def test_timeline_table1(table1: Problem, table1_plan: Plan) -> None:
     text = timeline_text(table1, table1_plan)
     lines = text.splitlines()
     assert lines[0] == (
-        "Plan: status optimal, unscheduled cost 0, delay cost 359, "
-        "total 359"
+        "Plan: status optimal, unscheduled cost 0, delay cost 359, total 359"
     )
     rows = [line for line in lines if line.endswith("|") and "#" in line]
     order = [row.split()[0] for row in rows]
@@ -161,9 +159,7 @@ def test_timeline_table1(table1: Problem, table1_plan: Plan) -> None:
     assert text == timeline_text(table1, table1_plan)
 
 
-def test_timeline_width_scales_bar(
-    table1: Problem, table1_plan: Plan
-) -> None:
+def test_timeline_width_scales_bar(table1: Problem, table1_plan: Plan) -> None:
     """Tests that a narrow width shrinks bars without losing tasks."""
     text = timeline_text(table1, table1_plan, width=50)
     rows = [line for line in text.splitlines() if line.endswith("|")]
@@ -241,9 +237,7 @@ def test_gantt_table1_png(
     _check_png(out)
 
 
-def test_gantt_replan_with_history(
-    tmp_path: Path, table1: Problem
-) -> None:
+def test_gantt_replan_with_history(tmp_path: Path, table1: Problem) -> None:
     """Tests a replan picture with a now line, history and left-out tasks."""
     problem = table1.replace(start=10, horizon=40)
     plan = _plan(
@@ -388,8 +382,9 @@ def test_gantt_binary_lanes_removed_and_measured(
     assert labels["SetPositionZ"].get_style() == "normal"
     # Dots at the measured times, on the battery panel.
     battery = next(
-        ax for ax in figure.axes if any("battery" in t.get_text()
-                                         for t in ax.texts)
+        ax
+        for ax in figure.axes
+        if any("battery" in t.get_text() for t in ax.texts)
     )
     dots = [line for line in battery.lines if line.get_label() == "measured"]
     assert list(dots[0].get_xdata()) == [5, 15]

@@ -107,8 +107,7 @@ def test_json_blocks_are_valid_documents(where: str, body: str) -> None:
     else:
         pytest.fail(f"{where}: a JSON block of an unknown kind")
     shipped = [
-        json.loads(p.read_text())
-        for p in (ROOT / "examples").glob("*.json")
+        json.loads(p.read_text()) for p in (ROOT / "examples").glob("*.json")
     ]
     if doc.get("tasks"):
         assert doc in shipped, f"{where}: not the same as an examples/ file"

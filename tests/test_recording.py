@@ -107,8 +107,7 @@ def test_channels_and_schemas(tmp_path: Path) -> None:
     by_topic = {ch.topic: ch for ch in summary.channels.values()}
     assert len(by_topic) == 4
     assert all(
-        ch.message_encoding == MessageEncoding.JSON
-        for ch in by_topic.values()
+        ch.message_encoding == MessageEncoding.JSON for ch in by_topic.values()
     )
     assert by_topic["fsw/sat1/clock"].schema_id == 0
     assert by_topic["fsw/sat1/telemetry/resources/a"].schema_id == schema.id

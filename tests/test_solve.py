@@ -456,14 +456,14 @@ def test_cbc_is_interrupted_at_its_deadline() -> None:
 def test_explanations_share_a_time_budget(table1_doc: dict) -> None:
     """Tests that spent explanation budget gives not_analysed, not guesses."""
     from fsw_scheduler.analysis.explain import explain
+    from fsw_scheduler.solving.budget import BUDGET
     from fsw_scheduler.solving.ilp import solve_ilp
-    from fsw_scheduler.solving.solve import _budgeted
 
     doc = copy.deepcopy(table1_doc)
     doc["feasible_interval_applies_to"] = "task"
     problem = problem_from(doc)
     plan = solve(problem)
-    spent = _budgeted(solve_ilp, 0.0)
+    spent = BUDGET.budgeted(solve_ilp, 0.0)
     assert spent(problem).status is SolveStatus.UNKNOWN
     why = explain(problem, plan, spent)
     assert {b.task for b in why} == set(plan.unscheduled)

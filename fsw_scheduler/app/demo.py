@@ -190,7 +190,7 @@ class World:
                 lambda s: self.inbox.put(
                     (str(s.key_expr), s.payload.to_bytes())
                 ),
-                indirect=False,  # keep arrival order (see bus.node._direct)
+                indirect=False,  # keep arrival order (see bus.inbox.direct)
             ),
         )
 

@@ -1,41 +1,31 @@
 """The scheduler as a Zenoh component: a thin shell around the engine.
 
 One thread (the event loop) owns the :class:`~fsw_scheduler.engine.Engine`.
-Zenoh callbacks only put raw samples and queries into the :class:`Inbox`
-and never call Zenoh or the engine, and never block: telemetry and clock
-samples are coalesced (the latest per key wins; the others are counted
-as superseded), goals wait up to a count and byte limit and beyond it are
-refused by name (``goal_rejected``, ``busy: N goals waiting``), never
-dropped silently. Solves run on a worker thread so that dispatches keep
-their timing; their results come back through the same inbox. Every input
-the loop processes and every output it publishes can be written, in
-processing order, to an MCAP *journal*: that linear record is what makes
-:mod:`fsw_scheduler.replay` exact.
+Zenoh callbacks only put what arrives into the
+:class:`~fsw_scheduler.bus.inbox.Inbox` (coalesced, bounded, never
+dropped silently); solves run on a worker thread. Every input the loop
+processes and every output it publishes is written, in processing order,
+to an MCAP *journal*: that linear record is what makes
+:mod:`fsw_scheduler.journal.replay` exact.
 
-The loop survives what native code raises (a Rust panic in zenoh-python is
-a ``BaseException``): each input is handled under its own guard. If the
-loop stops anyway (a fault escaping the guard, or
-:data:`MAX_CONSECUTIVE_FAULTS` inputs failing in a row), it does not leave
-a live-looking node behind: it publishes ``state: error``, withdraws its
-liveliness token and marks the node :attr:`SchedulerNode.failed`, which
-makes ``fsw-scheduler run`` exit non-zero so a supervisor restarts it.
+Each input is handled under its own guard (a Rust panic in zenoh-python is
+a ``BaseException``). If the loop stops anyway (a fault escaping the
+guard, or :data:`MAX_CONSECUTIVE_FAULTS` inputs failing in a row), it
+publishes ``state: error``, withdraws its liveliness token and marks the
+node :attr:`SchedulerNode.failed`, which makes ``fsw-scheduler run`` exit
+non-zero so a supervisor restarts it.
 """
 
 from __future__ import annotations
 
-import concurrent.futures
 import logging
-import queue
 import threading
 import time
-from collections import deque
-from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import msgspec
 import zenoh
 
-from ..engine.config import EngineConfig
 from ..engine.core import Engine
 from ..engine.events import (
     Command,
@@ -52,403 +42,44 @@ from ..engine.events import (
 )
 from ..errors import BusError
 from ..journal.annotate import Annotator, engine_problem, session_records
+from ..journal.writer import OrderedWriter
 from ..runtime.clock import UnitClock
 from ..runtime.inputs import InputDecoder, goal_id_of
+from ..runtime.policy import engine_config, node_info, run_explain, run_solve
+from ..solving.budget import BUDGET
 from ..solving.ilp.cbc import Cancel, cancel_scope, sweep_stale_dirs
 from ..wire import messages, topics
+from .inbox import Inbox, Worker, direct
 from .provenance import Origin, Provenance, capture
 
 if TYPE_CHECKING:
+    import concurrent.futures
+    from collections.abc import Callable
+
     from ..journal.writer import Recorder
-    from ..model.plan import Blocker, Plan
+    from ..model.plan import Plan
     from ..model.problem import Problem
     from ..runtime.config import NodeConfig
 
 log = logging.getLogger("fsw_scheduler.node")
 
+
 JSON = zenoh.Encoding.APPLICATION_JSON
 
-SolveFn = Callable[..., "Plan"]
 
 #: Inputs failing in a row (or publishes failing in a row) after which
 #: the loop counts as unable to go on: it stops, says ``state: error``
 #: and withdraws its token.
 MAX_CONSECUTIVE_FAULTS = 20
 
-#: Seconds of the response deadline kept for what a solve's limit does
-#: not cover: the start plan of a large merged problem, reading CBC's
-#: answer back, publishing (the soak's p99 overran 0.2 s by 0.3 s).
-PUBLISH_MARGIN_S = 1.0
-
-#: A solve gets at least this long, deadline or not (the start plan).
-MIN_SOLVE_S = 0.05
-
-#: Queries waiting for the loop; more are dropped (the querier gets no
-#: reply) and counted.
-MAX_WAITING_QUERIES = 256
-
-#: Telemetry and clock keys with a sample waiting; a sample on one more
-#: key is dropped and counted (``inputs_dropped``). Far above the keys a
-#: node has (one per live task and consumable), it bounds the memory a
-#: flood of made-up keys can take.
-MAX_PENDING_KEYS = 4096
-
-#: Goals refused unread whose rejection waits to be published; more are
-#: counted as lost (never seen in practice: publishing one takes far less
-#: time than receiving one).
-MAX_BUSY_NOTICES = 65536
 
 #: Inbox kinds that are samples from the bus (the others are the node's
 #: own notices: busy, stalled, explained...): only these have a source.
 _BUS_INPUTS = frozenset({"goal", "clock", "activity_report", "resource_level"})
 
+
 # Faults that end the loop at once instead of being survived.
 _FATAL = (KeyboardInterrupt, SystemExit)
-
-
-class _Worker:
-    """One daemon thread running jobs in order (the solves).
-
-    Daemon, unlike ``ThreadPoolExecutor``'s threads, which the interpreter
-    joins at exit: a stopping node must not wait for a solve to finish.
-    """
-
-    def __init__(self, name: str) -> None:
-        self._jobs: queue.SimpleQueue[Any] = queue.SimpleQueue()
-        self._thread = threading.Thread(
-            target=self._run, name=name, daemon=True
-        )
-        self._thread.start()
-
-    def submit(
-        self, fn: Callable[..., Any], *args: Any
-    ) -> concurrent.futures.Future:
-        future: concurrent.futures.Future = concurrent.futures.Future()
-        self._jobs.put((future, fn, args))
-        return future
-
-    def shutdown(self) -> None:
-        self._jobs.put(None)
-
-    def _run(self) -> None:
-        while (job := self._jobs.get()) is not None:
-            future, fn, args = job
-            if not future.set_running_or_notify_cancel():
-                continue
-            try:
-                future.set_result(fn(*args))
-            except BaseException as error:  # reported as SolveFailed
-                future.set_exception(error)
-
-
-def _ends_activity(kind: str, payload: bytes) -> bool:
-    """Whether a waiting sample is a report that ends an activity."""
-    return kind == "activity_report" and (
-        b'"failed"' in payload or b'"completed"' in payload
-    )
-
-
-class Inbox:
-    """What the Zenoh callbacks hand to the loop: bounded, never blocking.
-
-    Parameters
-    ----------
-    max_goals
-        Undecoded goals that may wait.
-    max_bytes
-        Payload bytes that may wait (goals and telemetry together).
-
-    Every method is safe from any thread and returns at once; the loop
-    takes items with :meth:`get`. Items are lists ``[kind, key, payload,
-    arrived, origin]`` (``payload`` is any object for internal kinds;
-    ``origin`` what a bus sample says of its sender, see
-    :mod:`~fsw_scheduler.bus.provenance`).
-    """
-
-    def __init__(self, max_goals: int, max_bytes: int) -> None:
-        self.max_goals = max_goals
-        self.max_bytes = max_bytes
-        self._cond = threading.Condition(threading.Lock())
-        self._items: deque[list[Any]] = deque()
-        self._latest: dict[str, list[Any]] = {}
-        self.goals = 0
-        self.bytes = 0
-        self.queries = 0
-        self.busy_notices = 0
-        self.superseded = 0
-        self.clock_superseded = 0
-        self.lost = 0
-        self.busy = 0
-        self.goals_lost = 0
-        self.queries_dropped = 0
-
-    def __len__(self) -> int:
-        return len(self._items)
-
-    def put_goal(
-        self,
-        key: str,
-        payload: bytes,
-        arrived: float,
-        origin: Origin | None = None,
-    ) -> bool:
-        """Queue a goal; False when the limits are reached (not queued)."""
-        with self._cond:
-            if (
-                self.goals >= self.max_goals
-                or self.bytes + len(payload) > self.max_bytes
-            ):
-                return False
-            self.goals += 1
-            self.bytes += len(payload)
-            self._items.append(["goal", key, payload, arrived, origin])
-            self._cond.notify()
-            return True
-
-    def put_busy(self, goal_id: str | None, waiting: int) -> None:
-        """Queue the rejection of a goal refused by :meth:`put_goal`."""
-        with self._cond:
-            self.busy += 1
-            if self.busy_notices >= MAX_BUSY_NOTICES:
-                self.goals_lost += 1
-                return
-            self.busy_notices += 1
-            self._items.append(["busy", goal_id, waiting, 0.0, None])
-            self._cond.notify()
-
-    def put_latest(
-        self,
-        kind: str,
-        key: str,
-        payload: bytes,
-        origin: Origin | None = None,
-    ) -> None:
-        """Queue a sample; a newer one on the same key replaces it.
-
-        Except an execution report that ends an activity (``failed``,
-        ``completed``): it is never replaced, the newer sample queues
-        behind it, so that a failure followed at once by a new ``running``
-        still triggers its replan. (The test is on the raw bytes, to stay
-        cheap in the callback; a false match only means less coalescing.)
-        """
-        with self._cond:
-            pending = self._latest.get(key)
-            if pending is not None and _ends_activity(kind, pending[2]):
-                pending = None
-                del self._latest[key]
-            if pending is not None:
-                self.bytes += len(payload) - len(pending[2])
-                pending[2] = payload
-                pending[4] = origin
-                if kind == "clock":
-                    self.clock_superseded += 1
-                else:
-                    self.superseded += 1
-                return
-            if (
-                self.bytes + len(payload) > self.max_bytes
-                or len(self._latest) >= MAX_PENDING_KEYS
-            ):
-                self.lost += 1
-                return
-            self.bytes += len(payload)
-            item = [kind, key, payload, 0.0, origin]
-            self._latest[key] = item
-            self._items.append(item)
-            self._cond.notify()
-
-    def put_query(self, item: Any) -> bool:
-        """Queue a query; False when too many wait (caller drops it)."""
-        with self._cond:
-            if self.queries >= MAX_WAITING_QUERIES:
-                self.queries_dropped += 1
-                return False
-            self.queries += 1
-            self._items.append(["query", "", item, 0.0, None])
-            self._cond.notify()
-            return True
-
-    def put(self, kind: str, item: Any) -> None:
-        """Queue an internal item (solve results, wake-ups): unbounded."""
-        with self._cond:
-            self._items.append([kind, "", item, 0.0, None])
-            self._cond.notify()
-
-    def get(self, timeout: float) -> list[Any] | None:
-        """The oldest item, waiting up to ``timeout`` s (None: nothing)."""
-        with self._cond:
-            if not self._items and not self._cond.wait_for(
-                lambda: bool(self._items), timeout
-            ):
-                return None
-            item = self._items.popleft()
-            kind = item[0]
-            if kind == "goal":
-                self.goals -= 1
-                self.bytes -= len(item[2])
-            elif kind == "busy":
-                self.busy_notices -= 1
-            elif kind == "query":
-                self.queries -= 1
-            elif self._latest.get(item[1]) is item:
-                del self._latest[item[1]]
-                self.bytes -= len(item[2])
-            return item
-
-
-def engine_config(config: NodeConfig) -> EngineConfig:
-    """The engine settings carried by a node configuration."""
-    return EngineConfig(
-        report_timeout=config.report_timeout,
-        tolerance=config.tolerance,
-        heartbeat=config.heartbeat,
-        replan_lead=config.lead,
-        max_tasks_per_goal=config.tasks_per_goal,
-        max_live_tasks=config.live_tasks,
-        max_goals_waiting=config.goals_waiting,
-        max_goals_per_solve=config.goals_per_solve,
-        node_id=config.node_id,
-        explain_after_plan=config.explain and config.explain_after_plan,
-    )
-
-
-def node_info(
-    config: NodeConfig,
-    problem: Problem,
-    security: messages.SecurityInfo | None = None,
-    *,
-    resumed: str = "",
-) -> messages.NodeInfo:
-    """What a recording needs to replay this node's decisions.
-
-    ``resumed``: the status event (``resumed``, ``took_over``) a node
-    whose state was rebuilt starts with (replay then expects it first).
-    """
-    from .. import __version__
-
-    return messages.NodeInfo(
-        spacecraft=config.spacecraft,
-        solver=config.solver,
-        time_limit_s=config.time_limit,
-        seed=config.seed,
-        explain=config.explain,
-        explain_budget=config.explain_budget,
-        clock=config.clock,
-        report_timeout=config.report_timeout,
-        drift_absolute=config.drift_absolute,
-        drift_relative=config.drift_relative,
-        heartbeat=config.heartbeat,
-        replan_lead=config.lead,
-        tasks_per_goal=config.tasks_per_goal,
-        live_tasks=config.live_tasks,
-        goals_waiting=config.goals_waiting,
-        goals_per_solve=config.goals_per_solve,
-        max_clock_step=config.max_clock_step,
-        explain_after_plan=config.explain_after_plan,
-        response_deadline=config.response_deadline,
-        version=__version__,
-        problem=problem,
-        resumed=resumed,
-        node_id=config.node_id,
-        security=security,
-    )
-
-
-def run_solve(config: NodeConfig, command: StartSolve) -> Plan:
-    """Solve as the node does (shared with deterministic replay).
-
-    With ``explain_after_plan`` a plan comes back unexplained (the node
-    explains it once published); a solve that gives no plan is explained
-    here, since the rejection it causes names the blockers.
-    """
-    from ..solving.solve import solve
-
-    later = config.explain_after_plan
-    plan = solve(
-        command.problem,
-        config.solver,
-        time_limit=config.time_limit,
-        threads=config.threads,
-        seed=config.seed,
-        # The shedding solve explains at once: its alarm must say why.
-        explain=(config.explain and not later) or command.explain,
-        warm=command.warm,
-        explain_budget=config.explain_budget,
-    )
-    if config.explain and later and not plan.status.has_plan:
-        plan = plan.replace(
-            why=run_explain(config, command.problem, plan)
-        )
-    return plan
-
-
-def run_explain(
-    config: NodeConfig, problem: Problem, plan: Plan
-) -> tuple[Blocker, ...]:
-    """Why tasks of ``plan`` are out, within ``config.explain_budget``."""
-    from ..analysis.explain import explain
-    from ..model.plan import Plan as PlanType
-    from ..model.plan import SolveStatus
-    from ..solving.ilp import solve_ilp
-
-    deadline = time.monotonic() + config.explain_budget
-
-    def attempt(relaxed: Problem) -> Plan:
-        left = deadline - time.monotonic()
-        if left <= 0.05:  # budget spent: the task is not analysed
-            return PlanType(
-                status=SolveStatus.UNKNOWN,
-                objective=None,
-                unscheduled=tuple(t.id for t in relaxed.tasks),
-            )
-        return solve_ilp(
-            relaxed,
-            config.solver,
-            time_limit=left,
-            threads=config.threads,
-            seed=config.seed,
-        )
-
-    return explain(problem, plan, attempt)
-
-
-def _direct(callback: Callable[[Any], None]) -> zenoh.handlers.Callback:
-    """Run ``callback`` on the Zenoh network thread itself.
-
-    By default zenoh-python hands every callback to a thread of its own, so
-    samples of different keys (a clock tick, then a goal, then a status
-    query) could reach the inbox out of their arrival order, and the loop
-    would see another order than the bus did. Our callbacks only enqueue,
-    so running them directly is cheap and keeps the order.
-    """
-    return zenoh.handlers.Callback(callback, indirect=False)
-
-
-class _Journal:
-    """Writes inputs and outputs in processing order, log times rising."""
-
-    def __init__(
-        self, recorder: Recorder | None, wall_ns: Callable[[], int]
-    ) -> None:
-        self.recorder = recorder
-        self._wall_ns = wall_ns
-        self._last = 0
-
-    def write(self, key: str, payload: bytes) -> None:
-        if self.recorder is None:
-            return
-        stamp = max(self._wall_ns(), self._last + 1)
-        self._last = stamp
-        self.recorder.write(key, payload, log_time_ns=stamp)
-
-    def flush(self) -> None:
-        if self.recorder is not None:
-            self.recorder.flush()
-
-    @property
-    def last_ns(self) -> int:
-        """Log time of the last message written."""
-        return self._last
 
 
 class SchedulerNode:
@@ -481,7 +112,7 @@ class SchedulerNode:
     --------
     >>> with zenoh.open(config) as session:                # doctest: +SKIP
     ...     with SchedulerNode(session, problem, NodeConfig()) as node:
-    ...         node.wait_closed()
+    ...         node.wait_stopped()
     """
 
     def __init__(
@@ -521,7 +152,7 @@ class SchedulerNode:
         self._durable = durable and journal is not None
         self._journal_max_bytes = journal_max_bytes
         self._clock_start = clock_start
-        self._journal = _Journal(journal, wall_ns)
+        self._journal = OrderedWriter(journal, wall_ns)
         self._wall_ns = wall_ns
         # Profiles (published), level checks and log entries (journaled)
         # derived from what the loop handles; replay derives the same.
@@ -539,9 +170,9 @@ class SchedulerNode:
         self._publish_failures_in_a_row = 0
         self._closed = threading.Event()
         self._thread: threading.Thread | None = None
-        self._workers = _Worker("fsw-solve")
+        self._workers = Worker("fsw-solve")
         # Explanations on their own thread: they never hold a solve back.
-        self._explainer = _Worker("fsw-explain")
+        self._explainer = Worker("fsw-explain")
         # Goal id -> monotonic arrival (s), for the response deadline.
         self._arrivals: dict[str, float] = {}
         # Goals queued in the engine, as of the loop's last step (read by
@@ -586,7 +217,7 @@ class SchedulerNode:
         for suffix, kind in inputs:
             self._declared.append(
                 session.declare_subscriber(
-                    key(suffix), _direct(self._sample_callback(kind))
+                    key(suffix), direct(self._sample_callback(kind))
                 )
             )
         queryables = [topics.PLAN, topics.STATUS]
@@ -596,7 +227,7 @@ class SchedulerNode:
         for suffix in queryables:
             self._declared.append(
                 session.declare_queryable(
-                    key(suffix), _direct(self._query_callback(suffix))
+                    key(suffix), direct(self._query_callback(suffix))
                 )
             )
         self._token = session.liveliness().declare_token(key(topics.ALIVE))
@@ -669,11 +300,6 @@ class SchedulerNode:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    def request_stop(self) -> None:
-        """Ask the loop to stop (safe from signal handlers)."""
-        self._stop.set()
-        self._inbox.put("wake", None)
-
     def wait_stopped(self, timeout: float | None = None) -> bool:
         """Block until the loop has been asked to stop (or has died)."""
         return self._stop.wait(timeout)
@@ -707,9 +333,7 @@ class SchedulerNode:
                 origin = capture(sample)
                 if kind != "goal":
                     inbox.put_latest(kind, key, payload, origin)
-                elif not inbox.put_goal(
-                    key, payload, self._seconds(), origin
-                ):
+                elif not inbox.put_goal(key, payload, self._seconds(), origin):
                     # Refused unread, but never silently: the loop
                     # publishes a goal_rejected naming it.
                     waiting = inbox.goals + self._engine_waiting
@@ -1046,8 +670,8 @@ class SchedulerNode:
         # Goals queued behind this solve need solves of their own within
         # their deadlines: each batch gets an equal share of what is left.
         batches = -(-self.engine.goals_waiting // config.goals_per_solve)
-        limit = max((left - PUBLISH_MARGIN_S) / (1 + batches), MIN_SOLVE_S)
-        if config.time_limit is not None and config.time_limit <= limit:
+        limit = BUDGET.deadline_limit(left, batches, config.time_limit)
+        if limit == config.time_limit:
             return config
         return config.replace(time_limit=limit)
 

@@ -336,9 +336,7 @@ def clock_ticks(
             due = max(0, -(-(message.log_time_ns - origin_ns) // unit_ns))
         while origin_ns + due * unit_ns <= message.log_time_ns:
             stamp = origin_ns + due * unit_ns
-            yield RecordedMessage(
-                key, b'{"now":%d}' % due, stamp, stamp
-            )
+            yield RecordedMessage(key, b'{"now":%d}' % due, stamp, stamp)
             due += 1
         if message.topic != key:
             yield message

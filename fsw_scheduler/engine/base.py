@@ -39,8 +39,6 @@ if TYPE_CHECKING:
     from .config import EngineConfig
 
 
-
-
 class EngineState:
     """The state of an :class:`~fsw_scheduler.engine.Engine` and its views.
 

@@ -63,8 +63,6 @@ if TYPE_CHECKING:
     from .config import EngineConfig
 
 
-
-
 class Engine(SolveQueue):
     """The scheduler's state machine.
 
@@ -78,12 +76,7 @@ class Engine(SolveQueue):
         tick if the clock is already past its start).
     """
 
-
     # -- read-only views (for queryables) ---------------------------------
-
-
-
-
 
     # -- snapshots (resume, hot standby) ------------------------------------
 
@@ -111,9 +104,7 @@ class Engine(SolveQueue):
         )
 
     @classmethod
-    def restore(
-        cls, config: EngineConfig, snapshot: EngineSnapshot
-    ) -> Engine:
+    def restore(cls, config: EngineConfig, snapshot: EngineSnapshot) -> Engine:
         """An engine in the state ``snapshot`` was taken in.
 
         Parameters
@@ -145,7 +136,6 @@ class Engine(SolveQueue):
         engine._health_detail = snapshot.health_detail
         engine._plan_message = snapshot.plan_message
         return engine
-
 
     def resume_commands(self, event: str = "resumed") -> list[Command]:
         """What a rebuilt engine says first: the status, then its outputs.
@@ -189,10 +179,6 @@ class Engine(SolveQueue):
                 **extra,
             ),
         )
-
-
-
-
 
     # -- the step ------------------------------------------------------------
 
@@ -375,7 +361,6 @@ class Engine(SolveQueue):
                 )
             )
 
-
     def _on_report(self, report: ActivityReport, out: list[Command]) -> None:
         schedule = self.schedule
         if (
@@ -467,36 +452,11 @@ class Engine(SolveQueue):
         else:
             self._reject_input(event.key, event.kind, event.errors, out)
 
-
-
     # -- solving -------------------------------------------------------------
 
-
-
-
-
-
-
-
-
     # -- adopting and dispatching --------------------------------------------
-
-
-
 
     # -- status helpers ------------------------------------------------------
 
 
-
-
-
-
-
-
 _STALLED = "bus clock stalled"
-
-
-
-
-
-

@@ -165,9 +165,7 @@ class Dispatches:
 
     def _forget_history(self, max_history: int) -> None:
         finished = [
-            task
-            for task, state in self.lifecycle.items()
-            if state not in LIVE
+            task for task, state in self.lifecycle.items() if state not in LIVE
         ]
         excess = max(0, len(finished) - max_history)
         for task in finished[:excess]:

@@ -51,8 +51,6 @@ if TYPE_CHECKING:
     from ..model.problem import Problem
 
 
-
-
 def problem_hash(problem: Problem) -> str:
     """SHA-256 of the compact JSON of ``problem`` (solve records)."""
     return hashlib.sha256(msgspec.json.encode(problem)).hexdigest()
@@ -67,8 +65,6 @@ def _merge_goals(goals: list[Goal]) -> Goal:
         tasks=tuple(t for g in goals for t in g.tasks),
         precedences=tuple(p for g in goals for p in g.precedences),
     )
-
-
 
 
 def _no_plan_reason(plan: Plan) -> str:

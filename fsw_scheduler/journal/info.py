@@ -22,12 +22,14 @@ from mcap.records import (
 )
 from mcap.well_known import MessageEncoding
 
+from .recover import _is_finished, _iter_complete_records, _scan_messages
+
 if TYPE_CHECKING:
     from collections.abc import Mapping, Sequence
 
     from .writer import PathLike
+
     pass
-from .recover import _is_finished, _iter_complete_records, _scan_messages
 
 __all__ = [
     "AttachmentInfo",
@@ -323,8 +325,7 @@ def format_info(description: McapInfo) -> str:
             else f"  [{ch.message_encoding}]"
         )
         lines.append(
-            f"  {ch.topic:<{width}}  {ch.message_count:>8}  {schema}"
-            f"{encoding}"
+            f"  {ch.topic:<{width}}  {ch.message_count:>8}  {schema}{encoding}"
         )
     if d.metadata:
         lines.append(f"metadata:  {len(d.metadata)}")

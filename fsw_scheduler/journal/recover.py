@@ -27,11 +27,12 @@ from mcap.records import (
 from mcap.stream_reader import StreamReader, breakup_chunk
 from mcap.writer import CompressionType, Writer
 
+from .writer import _LIBRARY, _MAGIC, _RECORD_HEAD, PathLike
+
 if TYPE_CHECKING:
     from collections.abc import Iterator, Sequence
 
     from mcap.records import McapRecord
-from .writer import _LIBRARY, _MAGIC, _RECORD_HEAD, PathLike
 
 __all__ = [
     "recover",

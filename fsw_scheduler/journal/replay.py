@@ -251,7 +251,7 @@ def verify(
     VerifyReport
         ``identical`` is True when every output matched.
     """
-    from ..bus.node import run_solve
+    from ..runtime.policy import run_solve
 
     start = _Start.of(paths)
     recorded, info, info_topic = start.recorded, start.info, start.info_topic
@@ -359,7 +359,7 @@ class _Start:
     def of(cls, paths: PathLike | Sequence[PathLike]) -> _Start:
         """Read ``paths``; the engine starts from the opening snapshot, or
         from the initial problem of ``scheduler/config``."""
-        from ..bus.node import engine_config
+        from ..runtime.policy import engine_config
 
         recorded = list(iter_messages(paths))
         info, info_topic = read_node_info(recorded)
@@ -459,7 +459,7 @@ def rebuild(
     -------
     Rebuilt
     """
-    from ..bus.node import run_solve
+    from ..runtime.policy import run_solve
 
     start = _Start.of(paths)
     recorded, info_topic = start.recorded, start.info_topic

@@ -578,3 +578,35 @@ def _schema_lookup(
     if isinstance(schemas, Mapping):
         return schemas.get
     return schemas
+
+
+class OrderedWriter:
+    """Writes inputs and outputs in processing order, log times rising.
+
+    The node's journal: ``log_time`` is the wall clock, but never equal
+    to or before the previous message's, so the file's log-time order is
+    the processing order replay needs. With no recorder it writes nothing.
+    """
+
+    def __init__(
+        self, recorder: Recorder | None, wall_ns: Callable[[], int]
+    ) -> None:
+        self.recorder = recorder
+        self._wall_ns = wall_ns
+        self._last = 0
+
+    def write(self, key: str, payload: bytes) -> None:
+        if self.recorder is None:
+            return
+        stamp = max(self._wall_ns(), self._last + 1)
+        self._last = stamp
+        self.recorder.write(key, payload, log_time_ns=stamp)
+
+    def flush(self) -> None:
+        if self.recorder is not None:
+            self.recorder.flush()
+
+    @property
+    def last_ns(self) -> int:
+        """Log time of the last message written."""
+        return self._last

@@ -269,8 +269,7 @@ def id_issue(value: str) -> str | None:
         return "must not be empty"
     if len(value) > MAX_ID_LENGTH:
         return (
-            f"is {len(value)} characters long; ids are at most "
-            f"{MAX_ID_LENGTH}"
+            f"is {len(value)} characters long; ids are at most {MAX_ID_LENGTH}"
         )
     if _ID_RE.fullmatch(value) is None:
         bad = "".join(dict.fromkeys(_BAD_ID_CHAR.findall(value)))
@@ -339,8 +338,10 @@ def _name_the_key(path: str, text: str, data: bytes | str) -> str:
         if got is not None:
             found = _JSON_TYPES.get(type(target)) == got["got"]
         else:
-            found = isinstance(target, dict) and missing is not None and (
-                missing["field"] not in target
+            found = (
+                isinstance(target, dict)
+                and missing is not None
+                and (missing["field"] not in target)
             )
         if found:
             return key_path(prefix, key) + suffix

@@ -1,5 +1,4 @@
-"""What changed between two plans: moved, added and removed tasks.
-"""
+"""What changed between two plans: moved, added and removed tasks."""
 
 from __future__ import annotations
 

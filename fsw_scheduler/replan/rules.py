@@ -307,9 +307,7 @@ def rule_removal_cascade(work: _Work, seeds: Sequence[str]) -> None:
         work.precedences,
         seeds,
         live=lambda name: name in work.tasks and name not in work.pinned,
-        remove=lambda name, detail: work.remove(
-            name, "tight_cascade", detail
-        ),
+        remove=lambda name, detail: work.remove(name, "tight_cascade", detail),
     )
 
 

@@ -119,9 +119,7 @@ def shedding_problem(problem: Problem) -> Problem:
         if t.id in keep
     )
     precedences = tuple(
-        p
-        for p in problem.precedences
-        if p.before in keep and p.after in keep
+        p for p in problem.precedences if p.before in keep and p.after in keep
     )
     return problem.replace(tasks=tasks, precedences=precedences)
 

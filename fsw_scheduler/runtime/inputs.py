@@ -98,11 +98,7 @@ class InputDecoder:
             return InputRejected(
                 self.topics.key(GOALS),
                 "goal",
-                (
-                    FieldIssue(
-                        "", f"busy: {message.waiting} goals waiting"
-                    ),
-                ),
+                (FieldIssue("", f"busy: {message.waiting} goals waiting"),),
                 message.goal_id,
             )
         name = key.rsplit("/", 1)[-1]

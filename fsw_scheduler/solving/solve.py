@@ -21,6 +21,7 @@ from ..model.plan import (
     SolveStatus,
     objective_weight,
 )
+from .budget import BUDGET
 from .improve import improve
 
 if TYPE_CHECKING:
@@ -31,21 +32,6 @@ if TYPE_CHECKING:
 
 
 log = logging.getLogger("fsw_scheduler.solver")
-
-#: Seconds all explanation solves may take together when the solve itself
-#: has no time limit (with one, they share that much again).
-EXPLAIN_BUDGET_S = 10.0
-#: Below this much budget left, an explanation solve is not started.
-MIN_SOLVE_S = 0.05
-#: Share of the time limit the start heuristic may take (its trivial plan,
-#: the forced tasks alone, is always completed).
-GREEDY_SHARE = 0.4
-#: From this many tasks on, a solve under a time limit improves the start
-#: plan by neighbourhood search (:mod:`fsw_scheduler.improve`) instead of
-#: handing the whole model to the solver.
-LNS_MIN_TASKS = 30
-#: Seconds of the limit left when the neighbourhood search stops.
-LNS_MARGIN_S = 0.2
 
 
 def solve(
@@ -82,7 +68,8 @@ def solve(
         A previous plan, a candidate MIP start (see :func:`best_start`).
     explain_budget
         Seconds all explanation solves may take together (default: the
-        time limit, else :data:`EXPLAIN_BUDGET_S`).
+        time limit, else
+        :attr:`~fsw_scheduler.solving.budget.SolveBudget.explain_budget_s`).
 
     Returns
     -------
@@ -130,12 +117,12 @@ def solve(
             # Explanations share the caller's limit: whatever the solve
             # left of it (tasks get not_analysed when nothing is left).
             budget = (
-                EXPLAIN_BUDGET_S
+                BUDGET.explain_budget_s
                 if time_limit is None
                 else time_limit - (time.perf_counter() - began)
             )
         plan = plan.replace(
-            why=explain_plan(problem, plan, _budgeted(run, budget))
+            why=explain_plan(problem, plan, BUDGET.budgeted(run, budget))
         )
     return plan
 
@@ -310,7 +297,7 @@ def _solve_whole(
     if time_limit is not None:
         # The heuristic gets a share of the limit; its trivial plan (the
         # forced tasks alone) is always completed.
-        greedy_end = began + GREEDY_SHARE * time_limit
+        greedy_end = began + BUDGET.greedy_share * time_limit
 
         def stop() -> bool:
             return time.perf_counter() > greedy_end
@@ -344,7 +331,7 @@ def _solve_whole(
     elif (
         start is not None
         and time_limit is not None
-        and problem.num_tasks >= LNS_MIN_TASKS
+        and problem.num_tasks >= BUDGET.lns_min_tasks
     ):
         plan = _improved(problem, start, domains, run, began, time_limit)
     else:
@@ -409,7 +396,7 @@ def _improved(
     through CBC's root LP in seconds (on the scaling set CBC never
     improved the start plan), small neighbourhood models do.
     """
-    deadline = began + time_limit - LNS_MARGIN_S
+    deadline = began + time_limit - BUDGET.lns_margin_s
     best, improved = improve(problem, start, domains, run, deadline)
     return best.replace(
         status=SolveStatus.FEASIBLE,
@@ -423,30 +410,6 @@ def _improved(
             time_limit_s=time_limit,
         ),
     )
-
-
-def _budgeted(
-    run: Callable[..., Plan], budget_s: float
-) -> Callable[[Problem], Plan]:
-    """``run`` sharing one time budget over all its calls.
-
-    Explanations take several solves per left-out task; on board they must
-    not hold a new plan back for long. Once the budget is spent, a call
-    answers ``unknown`` at once and the task is reported ``not_analysed``.
-    """
-    deadline = time.monotonic() + budget_s
-
-    def attempt(problem: Problem) -> Plan:
-        left = deadline - time.monotonic()
-        if left <= MIN_SOLVE_S:
-            return Plan(
-                status=SolveStatus.UNKNOWN,
-                objective=None,
-                unscheduled=tuple(t.id for t in problem.tasks),
-            )
-        return run(problem, time_limit=left)
-
-    return attempt
 
 
 def at_lower_bound(

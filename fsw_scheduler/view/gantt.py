@@ -16,13 +16,14 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ..model.levels import _task_map, lost_charge, resource_profiles
+from .timeline import _capacity_note, _fmt, _left_out, _objective_line
+
 if TYPE_CHECKING:
     from collections.abc import Mapping, Sequence
 
     from ..model.plan import Activity, Plan
     from ..model.problem import Problem, Task
-from ..model.levels import _task_map, lost_charge, resource_profiles
-from .timeline import _capacity_note, _fmt, _left_out, _objective_line
 
 __all__ = [
     "gantt",
@@ -33,8 +34,6 @@ _INSTALL_HINT = (
     "fsw_scheduler.plot.gantt needs matplotlib; install it with "
     "pip install 'fsw-scheduler[plot]'"
 )
-
-
 
 
 def have_matplotlib() -> bool:

@@ -112,9 +112,7 @@ def read_session(path: PathLike) -> Session:
         kind = topics.schema_kind(message.topic)
         try:
             if kind == "solve_record":
-                record = msgspec.json.decode(
-                    message.payload, type=SolveRecord
-                )
+                record = msgspec.json.decode(message.payload, type=SolveRecord)
                 if record.plan_id is not None:
                     session.problems[record.plan_id] = record.problem
                 session.tasks.update((t.id, t) for t in record.problem.tasks)
@@ -122,7 +120,8 @@ def read_session(path: PathLike) -> Session:
                 plan = msgspec.json.decode(message.payload, type=PlanMessage)
                 if plan.plan_id not in session.problems:
                     session.problems[plan.plan_id] = _stand_in(
-                        last, session.plans[-1] if session.plans else None,
+                        last,
+                        session.plans[-1] if session.plans else None,
                         plan,
                     )
                     stand_ins.append(plan.plan_id)
@@ -259,8 +258,9 @@ def plot_session(path: PathLike, out_dir: PathLike) -> list[Path]:
         ]
         target = out / f"plan-{plan.plan_id}.png"
         in_force = (
-            f"in force t={now}..{until}" if until is not None else
-            f"from t={now}"
+            f"in force t={now}..{until}"
+            if until is not None
+            else f"from t={now}"
         )
         gantt(
             problem,
@@ -314,16 +314,16 @@ def draw_levels(session: Session, path: Path) -> Path:
                 continue
             levels = _levels_at_starts(problem, plan, name)
             times = list(range(problem.start, problem.end + 1))
-            until = (
-                plans[idx + 1].issued_at if idx + 1 < len(plans) else None
-            )
+            until = plans[idx + 1].issued_at if idx + 1 < len(plans) else None
             colour = _PALETTE[idx % 2]
             flown = [
-                (t, v) for t, v in zip(times, levels, strict=True)
+                (t, v)
+                for t, v in zip(times, levels, strict=True)
                 if until is None or t <= until
             ]
             after = [
-                (t, v) for t, v in zip(times, levels, strict=True)
+                (t, v)
+                for t, v in zip(times, levels, strict=True)
                 if until is not None and t >= until
             ]
             if flown:

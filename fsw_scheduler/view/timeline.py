@@ -11,11 +11,11 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:
+from ..model.levels import _task_map, lost_charge, resource_profiles
 
+if TYPE_CHECKING:
     from ..model.plan import Blocker, Plan
     from ..model.problem import Problem
-from ..model.levels import _task_map, lost_charge, resource_profiles
 
 __all__ = [
     "timeline_text",

@@ -1,0 +1,128 @@
+"""The node's policy, without Zenoh: settings to engine, solve, explain.
+
+One mapping from the node's settings to what decides: the engine's
+settings (:func:`engine_config`), the journal's record of them
+(:func:`node_info`) and back (:func:`config_from_info`, for replay), and
+the solve and explanation calls (:func:`run_solve`, :func:`run_explain`).
+The bus node and deterministic replay both call these, so that
+``replay --verify`` runs the same decisions without importing Zenoh.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from ..engine.config import EngineConfig
+from ..solving.budget import BUDGET
+from ..wire import messages
+
+if TYPE_CHECKING:
+    from ..engine.events import (
+        StartSolve,
+    )
+    from ..model.plan import Blocker, Plan
+    from ..model.problem import Problem
+    from ..runtime.config import NodeConfig
+
+
+def engine_config(config: NodeConfig) -> EngineConfig:
+    """The engine settings carried by a node configuration."""
+    return EngineConfig(
+        report_timeout=config.report_timeout,
+        tolerance=config.tolerance,
+        heartbeat=config.heartbeat,
+        replan_lead=config.lead,
+        max_tasks_per_goal=config.tasks_per_goal,
+        max_live_tasks=config.live_tasks,
+        max_goals_waiting=config.goals_waiting,
+        max_goals_per_solve=config.goals_per_solve,
+        node_id=config.node_id,
+        explain_after_plan=config.explain and config.explain_after_plan,
+    )
+
+
+def node_info(
+    config: NodeConfig,
+    problem: Problem,
+    security: messages.SecurityInfo | None = None,
+    *,
+    resumed: str = "",
+) -> messages.NodeInfo:
+    """What a recording needs to replay this node's decisions.
+
+    ``resumed``: the status event (``resumed``, ``took_over``) a node
+    whose state was rebuilt starts with (replay then expects it first).
+    """
+    from .. import __version__
+
+    return messages.NodeInfo(
+        spacecraft=config.spacecraft,
+        solver=config.solver,
+        time_limit_s=config.time_limit,
+        seed=config.seed,
+        explain=config.explain,
+        explain_budget=config.explain_budget,
+        clock=config.clock,
+        report_timeout=config.report_timeout,
+        drift_absolute=config.drift_absolute,
+        drift_relative=config.drift_relative,
+        heartbeat=config.heartbeat,
+        replan_lead=config.lead,
+        tasks_per_goal=config.tasks_per_goal,
+        live_tasks=config.live_tasks,
+        goals_waiting=config.goals_waiting,
+        goals_per_solve=config.goals_per_solve,
+        max_clock_step=config.max_clock_step,
+        explain_after_plan=config.explain_after_plan,
+        response_deadline=config.response_deadline,
+        version=__version__,
+        problem=problem,
+        resumed=resumed,
+        node_id=config.node_id,
+        security=security,
+    )
+
+
+def run_solve(config: NodeConfig, command: StartSolve) -> Plan:
+    """Solve as the node does (shared with deterministic replay).
+
+    With ``explain_after_plan`` a plan comes back unexplained (the node
+    explains it once published); a solve that gives no plan is explained
+    here, since the rejection it causes names the blockers.
+    """
+    from ..solving.solve import solve
+
+    later = config.explain_after_plan
+    plan = solve(
+        command.problem,
+        config.solver,
+        time_limit=config.time_limit,
+        threads=config.threads,
+        seed=config.seed,
+        # The shedding solve explains at once: its alarm must say why.
+        explain=(config.explain and not later) or command.explain,
+        warm=command.warm,
+        explain_budget=config.explain_budget,
+    )
+    if config.explain and later and not plan.status.has_plan:
+        plan = plan.replace(why=run_explain(config, command.problem, plan))
+    return plan
+
+
+def run_explain(
+    config: NodeConfig, problem: Problem, plan: Plan
+) -> tuple[Blocker, ...]:
+    """Why tasks of ``plan`` are out, within ``config.explain_budget``."""
+    from ..analysis.explain import explain
+    from ..solving.ilp import solve_ilp
+
+    def run(relaxed: Problem, time_limit: float) -> Plan:
+        return solve_ilp(
+            relaxed,
+            config.solver,
+            time_limit=time_limit,
+            threads=config.threads,
+            seed=config.seed,
+        )
+
+    return explain(problem, plan, BUDGET.budgeted(run, config.explain_budget))

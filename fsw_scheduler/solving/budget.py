@@ -1,0 +1,118 @@
+"""Every time budget of a solve, in one small policy object.
+
+A solve on board answers within a limit; the pieces that share it are
+set here and nowhere else: the start heuristic's share, when and how long
+neighbourhood search runs, how long explanations may take together, the
+floor below which no solve is started, and the margin a node keeps to
+publish before a goal's response deadline. :func:`fsw_scheduler.solving.
+solve.solve`, the node's solve policy (:mod:`fsw_scheduler.runtime.policy`)
+and replay all read the one :data:`BUDGET`.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from ..model.plan import Plan, SolveStatus
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from ..model.problem import Problem
+
+
+@dataclass(frozen=True)
+class SolveBudget:
+    """How a solve's time is shared out.
+
+    Attributes
+    ----------
+    greedy_share
+        Share of the time limit the start heuristic may take (its trivial
+        plan, the forced tasks alone, is always completed).
+    lns_min_tasks
+        From this many tasks on, a solve under a time limit improves the
+        start plan by neighbourhood search
+        (:mod:`fsw_scheduler.solving.improve`) instead of handing the whole
+        model to the solver.
+    lns_margin_s
+        Seconds of the limit left when the neighbourhood search stops.
+    explain_budget_s
+        Seconds all explanation solves may take together when the solve
+        itself has no time limit (with one, they share what it left).
+    min_solve_s
+        No solve is started with less than this left: an explanation
+        answers ``unknown`` instead, and a deadline-cut solve gets at least
+        this long (its start plan).
+    publish_margin_s
+        Seconds of a goal's response deadline kept for what a solve's
+        limit does not cover: the start plan of a large merged problem,
+        reading CBC's answer back, publishing (the soak's p99 overran
+        0.2 s by 0.3 s).
+    """
+
+    greedy_share: float = 0.4
+    lns_min_tasks: int = 30
+    lns_margin_s: float = 0.2
+    explain_budget_s: float = 10.0
+    min_solve_s: float = 0.05
+    publish_margin_s: float = 1.0
+
+    def budgeted(
+        self, run: Callable[..., Plan], budget_s: float
+    ) -> Callable[[Problem], Plan]:
+        """``run`` sharing one time budget of ``budget_s`` over its calls.
+
+        Explanations take several solves per left-out task; on board they
+        must not hold a new plan back for long. Once the budget is spent, a
+        call answers ``unknown`` at once and the task is reported
+        ``not_analysed``. ``run`` is called as ``run(problem,
+        time_limit=left)``.
+        """
+        deadline = time.monotonic() + budget_s
+
+        def attempt(problem: Problem) -> Plan:
+            left = deadline - time.monotonic()
+            if left <= self.min_solve_s:
+                return Plan(
+                    status=SolveStatus.UNKNOWN,
+                    objective=None,
+                    unscheduled=tuple(t.id for t in problem.tasks),
+                )
+            return run(problem, time_limit=left)
+
+        return attempt
+
+    def deadline_limit(
+        self, left_s: float, batches: int, time_limit: float | None
+    ) -> float | None:
+        """A solve's limit cut to the response deadline of its goals.
+
+        Parameters
+        ----------
+        left_s
+            Seconds left until the oldest goal's deadline.
+        batches
+            Solves queued behind this one: each batch gets an equal share
+            of what is left.
+        time_limit
+            The configured limit (None: none).
+
+        Returns
+        -------
+        float or None
+            The configured limit when it is already the shorter, else the
+            cut one (never below :attr:`min_solve_s`).
+        """
+        limit = max(
+            (left_s - self.publish_margin_s) / (1 + batches), self.min_solve_s
+        )
+        if time_limit is not None and time_limit <= limit:
+            return time_limit
+        return limit
+
+
+#: The budgets every solve uses.
+BUDGET = SolveBudget()
