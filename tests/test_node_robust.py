@@ -922,7 +922,7 @@ def test_a_journal_with_busy_and_explained_replays(tmp_path: Path) -> None:
 
 def test_inbox_bounds_without_blocking() -> None:
     """Tests the inbox's coalescing, goal limits and key bound directly."""
-    from fsw_scheduler.bus import inbox
+    from fsw_scheduler.bus import inbox as inbox_module
     from fsw_scheduler.bus.inbox import Inbox
 
     inbox = Inbox(max_goals=2, max_bytes=100)
@@ -944,6 +944,6 @@ def test_inbox_bounds_without_blocking() -> None:
     assert kinds[2] is not None and kinds[2][2] == b"b" * 15
     assert (inbox.goals, inbox.bytes, len(inbox)) == (0, 0, 0)
     big = Inbox(max_goals=1, max_bytes=1 << 30)
-    for n in range(inbox.MAX_PENDING_KEYS + 5):
+    for n in range(inbox_module.MAX_PENDING_KEYS + 5):
         big.put_latest("resource_level", f"k{n}", b"1")
     assert big.lost == 5
