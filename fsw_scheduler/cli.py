@@ -383,10 +383,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     from .bus.node import SchedulerNode
     from .bus.session import settings_file, zenoh_config
+    from .journal.annotate import schema_lookup
     from .journal.writer import Recorder
     from .model.problem import Problem
     from .runtime.config import load_config
-    from .wire.messages import schema_lookup
 
     try:
         config = load_config(settings_file(args)).replace(
@@ -585,9 +585,9 @@ def _open_state(
     """
     import time
 
+    from .journal.annotate import schema_lookup
     from .journal.state import open_state
     from .journal.writer import Recorder
-    from .wire.messages import schema_lookup
 
     start = open_state(Path(args.state), keep_runs=args.keep_runs)
     for path in start.recovered:
@@ -664,8 +664,8 @@ def _cmd_record(args: argparse.Namespace) -> int:
 
     from .bus.record import record
     from .bus.session import zenoh_config
+    from .journal.annotate import schema_lookup
     from .journal.writer import Recorder
-    from .wire.messages import schema_lookup
     from .wire.topics import Topics
 
     _check_spacecraft(args.spacecraft)
@@ -838,7 +838,7 @@ def _cmd_plot(args: argparse.Namespace) -> int:
 
 
 def _cmd_schemas(args: argparse.Namespace) -> int:
-    from .wire.messages import schema_files
+    from .runtime.schemas import schema_files
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -27,9 +27,9 @@ from fsw_scheduler.model.plan import Activity, Plan, SolveStatus
 from fsw_scheduler.model.problem import Consumable, Resources, encode
 from fsw_scheduler.replan.schedule import Schedule, execution_state
 from fsw_scheduler.replan.triggers import apply_levels, drift
+from fsw_scheduler.runtime.schemas import json_schemas
 from fsw_scheduler.solving.solve import solve
 from fsw_scheduler.view.timeline import timeline_text
-from fsw_scheduler.wire.messages import json_schemas
 from fsw_scheduler.wire.profiles import plan_profiles
 
 from .conftest import problem_from

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from fsw_scheduler.cli import build_parser
-from fsw_scheduler.wire import messages
+from fsw_scheduler.runtime import schemas
 
 from .conftest import DATA
 
@@ -226,7 +226,7 @@ def test_schemas_command_writes_the_shipped_schemas(tmp_path: Path) -> None:
     shipped = {
         p.name: p.read_text() for p in (ROOT / "schemas").glob("*.json")
     }
-    assert written == shipped == messages.schema_files()
+    assert written == shipped == schemas.schema_files()
 
 
 def test_output_to_a_closed_pipe_is_quiet() -> None:

@@ -875,10 +875,10 @@ def test_a_journal_with_busy_and_explained_replays(tmp_path: Path) -> None:
     """Tests that busy rejections and late explanations replay identically."""
     from fsw_scheduler.bus.node import SchedulerNode
     from fsw_scheduler.bus.session import open_peer_pair, wait_matching
+    from fsw_scheduler.journal.annotate import schema_lookup
     from fsw_scheduler.journal.replay import verify
     from fsw_scheduler.journal.writer import Recorder
     from fsw_scheduler.testing import SchedulerClient, paper_problem
-    from fsw_scheduler.wire.messages import schema_lookup
 
     path = tmp_path / "journal.mcap"
     config = harness_config(

@@ -10,6 +10,7 @@ import pytest
 
 from fsw_scheduler.model.goal import decode_goal
 from fsw_scheduler.model.plan import Activity, Objective, SolveStatus
+from fsw_scheduler.runtime import schemas
 from fsw_scheduler.wire import messages
 
 from .conftest import DATA
@@ -21,7 +22,7 @@ SCHEMAS = ROOT / "schemas"
 def test_schema_files_match_code() -> None:
     """Tests that every schema file equals json_schemas() output."""
     # Through JSON text, as on disk (tuples become lists).
-    generated = json.loads(json.dumps(messages.json_schemas()))
+    generated = json.loads(json.dumps(schemas.json_schemas()))
     on_disk = {
         p.name.removesuffix(".schema.json"): json.loads(p.read_text())
         for p in SCHEMAS.glob("*.schema.json")
@@ -112,8 +113,8 @@ def test_normalise_makes_schemas_independent_of_msgspec_formatting() -> None:
         "anyOf": [{"type": "integer"}, {"type": "null"}],
         "description": "Title.\n\nAttributes\n----------\nx : int",
     }
-    assert messages._normalise(indented) == messages._normalise(dedented)
-    out = messages._normalise(indented)
+    assert schemas._normalise(indented) == schemas._normalise(dedented)
+    out = schemas._normalise(indented)
     assert out["description"] == dedented["description"]
     # enum order is meaningful to readers and kept as written
     assert out["enum"] == ["z", "a"]

@@ -48,6 +48,7 @@ from fsw_scheduler.bus.session import (
     wait_matching,
 )
 from fsw_scheduler.cli import main
+from fsw_scheduler.journal.annotate import schema_lookup
 from fsw_scheduler.journal.reader import iter_messages
 from fsw_scheduler.journal.replay import read_node_info, verify
 from fsw_scheduler.journal.writer import Recorder
@@ -58,7 +59,6 @@ from fsw_scheduler.testing import (
 )
 from fsw_scheduler.wire import messages
 from fsw_scheduler.wire import topics as keys
-from fsw_scheduler.wire.messages import schema_lookup
 
 if TYPE_CHECKING:
     from collections.abc import Iterator

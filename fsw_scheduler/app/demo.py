@@ -33,6 +33,7 @@ import zenoh
 
 from ..bus.node import SchedulerNode
 from ..bus.session import open_peer_pair, wait_matching
+from ..journal.annotate import schema_lookup
 from ..journal.writer import Recorder
 from ..model.plan import Activity, Plan
 from ..model.problem import Problem, decode_problem
@@ -406,7 +407,7 @@ def run_demo(
     )
     journal_path = out_dir / "session.mcap"
     journal = Recorder(
-        journal_path, schemas=messages.schema_lookup(spacecraft)
+        journal_path, schemas=schema_lookup(spacecraft)
     )
     printer = Printer(stream, quiet)
     executor = Executor(problem, scenario)

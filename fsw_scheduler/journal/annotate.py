@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import msgspec
 
+from ..runtime.schemas import json_schemas
 from ..wire import topics as keys
 from ..wire.messages import (
     ActivityReport,
@@ -41,6 +42,7 @@ from ..wire.messages import (
     Status,
 )
 from ..wire.profiles import Profiles, level_check, plan_profiles
+from ..wire.topics import Topics
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -447,3 +449,16 @@ def session_records(
         ("settings.toml", "application/toml", settings_toml(config).encode()),
     ]
     return metadata, attachments
+
+
+def schema_lookup(spacecraft: str) -> Any:
+    """Topic -> JSON Schema (or None) for MCAP channels of a spacecraft."""
+    topics = Topics(spacecraft)
+    # foxglove.Log is the well-known schema, not one generated here.
+    schemas = {**json_schemas(), "log": LOG_SCHEMA}
+
+    def lookup(topic: str) -> dict | None:
+        kind = topics.schema_kind(topic)
+        return schemas.get(kind) if kind else None
+
+    return lookup

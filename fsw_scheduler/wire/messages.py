@@ -9,15 +9,13 @@ in ``schemas/``; a test keeps them identical.
 
 from __future__ import annotations
 
-import inspect
-import json
 from typing import Any, Literal
 
 import msgspec
 
 from ..errors import FieldIssue, InputError
 from ..model.change import Removal
-from ..model.goal import Goal
+from ..model.goal import Goal, decode_goal
 from ..model.plan import (
     Activity,
     Blocker,
@@ -413,98 +411,17 @@ def decode_input(kind: str, payload: bytes) -> Any:
             kind,
         )
     if kind == "goal":
-        from ..model.goal import decode_goal
-
         return decode_goal(payload)
     return decode_strict(payload, SCHEMA_TYPES[kind], kind)
 
 
-def json_schemas() -> dict[str, dict]:
-    """One JSON Schema per message kind, self-contained (``$defs``).
-
-    Returns
-    -------
-    dict[str, dict]
-        Kind name to schema; each has ``title`` and ``$id``.
-    """
-    schemas = {}
-    for name, kind in _all_schema_types().items():
-        (ref,), defs = msgspec.json.schema_components([kind])
-        schema: dict[str, Any] = {
-            "$schema": "https://json-schema.org/draft/2020-12/schema",
-            "$id": f"fsw_scheduler/{name}.schema.json",
-            "title": f"fsw_scheduler.{name}",
-            **ref,
-            "$defs": defs,
-        }
-        schemas[name] = _normalise(schema)
-    return schemas
 
 
-def _all_schema_types() -> dict[str, Any]:
-    """Bus message kinds plus the journal's engine snapshot.
-
-    The snapshot type is built from the engine's state types, which
-    import this module; it is looked up late to keep imports one-way.
-    """
-    from ..engine.snapshot import EngineSnapshot
-
-    return {**SCHEMA_TYPES, "snapshot": EngineSnapshot}
 
 
-def schema_files() -> dict[str, str]:
-    """File name -> text of every schema, as ``schemas/`` holds them.
-
-    Returns
-    -------
-    dict[str, str]
-        ``<kind>.schema.json`` -> indented JSON with sorted keys and a
-        final newline.
-    """
-    return {
-        f"{name}.schema.json": json.dumps(schema, indent=2, sort_keys=True)
-        + "\n"
-        for name, schema in json_schemas().items()
-    }
 
 
-def _normalise(node: Any, key: str | None = None) -> Any:
-    """Make a generated schema independent of the msgspec version.
-
-    msgspec's output changes between releases (0.23 dedents docstrings,
-    releases before 0.22 order ``anyOf`` differently). The same code must
-    write the same files under every version ``pyproject.toml`` allows, so
-    descriptions are cleaned with ``inspect.cleandoc``, keys are sorted, and
-    the members of unordered lists (``anyOf``, ``required``) are sorted by
-    their canonical JSON text.
-    """
-    if isinstance(node, dict):
-        return {k: _normalise(node[k], k) for k in sorted(node)}
-    if isinstance(node, list):
-        items = [_normalise(v) for v in node]
-        if key in _UNORDERED_KEYWORDS:
-            items.sort(key=lambda v: json.dumps(v, sort_keys=True))
-        return items
-    if isinstance(node, str) and key == "description":
-        return inspect.cleandoc(node)
-    return node
 
 
-# JSON Schema keywords whose list order carries no meaning.
-_UNORDERED_KEYWORDS = frozenset({"anyOf", "oneOf", "required"})
 
 
-def schema_lookup(spacecraft: str) -> Any:
-    """Topic -> JSON Schema (or None) for MCAP channels of a spacecraft."""
-    from ..journal.annotate import LOG_SCHEMA
-    from .topics import Topics
-
-    topics = Topics(spacecraft)
-    # foxglove.Log is the well-known schema, not one generated here.
-    schemas = {**json_schemas(), "log": LOG_SCHEMA}
-
-    def lookup(topic: str) -> dict | None:
-        kind = topics.schema_kind(topic)
-        return schemas.get(kind) if kind else None
-
-    return lookup
