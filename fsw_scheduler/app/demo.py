@@ -406,9 +406,7 @@ def run_demo(
         drift_absolute=scenario.drift_absolute,
     )
     journal_path = out_dir / "session.mcap"
-    journal = Recorder(
-        journal_path, schemas=schema_lookup(spacecraft)
-    )
+    journal = Recorder(journal_path, schemas=schema_lookup(spacecraft))
     printer = Printer(stream, quiet)
     executor = Executor(problem, scenario)
     with open_peer_pair() as (bus_a, bus_b):

@@ -413,15 +413,3 @@ def decode_input(kind: str, payload: bytes) -> Any:
     if kind == "goal":
         return decode_goal(payload)
     return decode_strict(payload, SCHEMA_TYPES[kind], kind)
-
-
-
-
-
-
-
-
-
-
-
-

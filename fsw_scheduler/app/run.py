@@ -1,0 +1,253 @@
+"""The node's composition root: ``fsw-scheduler run``.
+
+Loads the settings, assesses the security profile, opens the state folder
+and its journal, sets the signals, and runs one node alone or a redundant
+member that takes over when the commander goes; on a takeover or resume
+the engine is rebuilt from the journal first.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from ..errors import FieldIssue, InputError
+from ..model.problem import Problem, decode_problem
+
+if TYPE_CHECKING:
+    import argparse
+
+    pass
+from .cli.commands import (
+    EXIT_BAD_INPUT,
+    EXIT_NO_PLAN,
+    EXIT_OK,
+    _open_bus,
+    _read_bytes,
+    log,
+)
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    import signal
+    import threading
+    import time
+
+    from ..bus.node import SchedulerNode
+    from ..bus.session import settings_file, zenoh_config
+    from ..journal.annotate import schema_lookup
+    from ..journal.writer import Recorder
+    from ..runtime.config import load_config
+
+    try:
+        config = load_config(settings_file(args)).replace(
+            spacecraft=args.spacecraft,
+            clock=args.clock,
+            time_unit=args.time_unit,
+            solver=args.solver,
+            time_limit=args.time_limit,
+            horizon=args.horizon,
+            node_id=args.node_id,
+            rank=args.rank,
+            discovery=args.discovery,
+            response_deadline=args.response_deadline,
+            tasks_per_goal=args.tasks_per_goal,
+            live_tasks=args.live_tasks,
+            goals_waiting=args.goals_waiting,
+            max_clock_step=args.max_clock_step,
+            clock_stall=args.clock_stall,
+        )
+        if args.no_standby:
+            config = config.replace(standby=False)
+    except ValueError as error:  # a bad value given as a flag
+        raise InputError([FieldIssue("", str(error))], "arguments") from None
+    if config.node_id is None:
+        from ..bus.redundancy import default_node_id
+
+        config = config.replace(node_id=default_node_id())
+    if args.problem:
+        problem = decode_problem(_read_bytes(args.problem), allow_empty=True)
+    else:
+        if config.horizon is None:
+            raise InputError(
+                [FieldIssue("horizon", "give --problem or --horizon")],
+                "arguments",
+            )
+        problem = Problem(horizon=config.horizon, tasks=())
+    from ..bus.security import assess, policy_publishers
+
+    zenoh_settings = zenoh_config(args)
+    security = assess(zenoh_settings, acknowledged=args.insecure)
+    if security.warnings and args.require_secure:
+        for warning in security.warnings:
+            print(f"fsw-scheduler: insecure bus: {warning}", file=sys.stderr)
+        print(
+            "fsw-scheduler: --require-secure: not starting (see 'fsw-"
+            "scheduler config --profile secure' and the README, 'Deploying "
+            "securely')",
+            file=sys.stderr,
+        )
+        return EXIT_BAD_INPUT
+    for warning in security.warnings:
+        if args.insecure:
+            log.info("running open (--insecure): %s", warning)
+        else:
+            log.warning("INSECURE: %s", warning)
+    if security.warnings and not args.insecure:
+        log.warning(
+            "INSECURE: anyone who reaches this bus can command the "
+            "scheduler; use a secure profile ('fsw-scheduler config "
+            "--profile secure'), or pass --insecure to acknowledge"
+        )
+    journal = None
+    if args.state:
+        if args.record:
+            raise InputError(
+                [
+                    FieldIssue(
+                        "--record",
+                        "--state keeps its own journal; give one of them",
+                    )
+                ],
+                "arguments",
+            )
+    elif args.record:
+        journal = Recorder(
+            args.record, schemas=schema_lookup(config.spacecraft)
+        )
+    stop = threading.Event()
+
+    def on_signal(signum: int, _frame: object) -> None:
+        log.info("signal %d: stopping", signum)
+        stop.set()
+
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
+    with _open_bus(zenoh_settings) as session:
+        redundancy: Any = None
+
+        def make_node(shared: Any = None) -> SchedulerNode:
+            """The node that commands; from the active's state on takeover."""
+            nonlocal journal
+            extra: dict[str, Any] = {}
+            if args.state:
+                # Opened only to command: a standby writes no journal.
+                if journal is not None:
+                    journal.close()
+                journal, opened = _open_state(args, config)
+                extra.update(opened)
+            if shared is not None:
+                from ..engine.core import Engine
+                from ..runtime.policy import engine_config
+
+                extra["engine"] = Engine.restore(engine_config(config), shared)
+                extra["resumed_event"] = "took_over"
+                extra.pop("clock_start", None)
+                if config.clock == "wall" and shared.now is not None:
+                    extra["clock_start"] = shared.now
+            return SchedulerNode(
+                session,
+                problem,
+                config,
+                journal=journal,
+                security=security,
+                publishers=policy_publishers(zenoh_settings),
+                share_state=(
+                    redundancy.has_peers if redundancy is not None else False
+                ),
+                **extra,
+            )
+
+        node: SchedulerNode | None
+        if not config.standby:
+            node = make_node()
+            node.start()
+            try:
+                # The node stops itself when its loop cannot go on.
+                while not stop.is_set() and not node.wait_stopped(0.2):
+                    pass
+            finally:
+                node.close()
+        else:
+            from ..bus.redundancy import Member, Redundancy, serve
+
+            member = Member(config.rank, time.time_ns(), config.node_id or "")
+            redundancy = Redundancy(session, config.spacecraft, member)
+            redundancy.join()
+            node = None
+            try:
+                node = serve(redundancy, make_node, stop, config.discovery)
+            finally:
+                if node is not None:
+                    node.close()
+                redundancy.close()
+        if node is None:
+            return EXIT_OK
+    if node.failed is not None:
+        print(f"fsw-scheduler: error: {node.failed}", file=sys.stderr)
+        return EXIT_NO_PLAN
+    return EXIT_OK
+
+
+def _open_state(
+    args: argparse.Namespace, config: Any
+) -> tuple[Any, dict[str, Any]]:
+    """Open ``--state DIR``: rebuild from its journal, start a new file.
+
+    Returns the recorder and the resume arguments of the node.
+    """
+    import time
+
+    from ..journal.annotate import schema_lookup
+    from ..journal.state import open_state
+    from ..journal.writer import Recorder
+
+    start = open_state(Path(args.state), keep_runs=args.keep_runs)
+    for path in start.recovered:
+        log.warning("recovered truncated journal %s", path)
+    journal = Recorder(
+        start.next_journal, schemas=schema_lookup(config.spacecraft)
+    )
+    resume: dict[str, Any] = {
+        "durable": True,
+        "journal_max_bytes": args.journal_max_size,
+    }
+    rebuilt = start.rebuilt
+    if rebuilt is not None:
+        engine = rebuilt.engine
+        if rebuilt.config.spacecraft != config.spacecraft:
+            raise InputError(
+                [
+                    FieldIssue(
+                        "--state",
+                        f"holds the journal of spacecraft "
+                        f"{rebuilt.config.spacecraft!r}, not "
+                        f"{config.spacecraft!r}",
+                    )
+                ],
+                "arguments",
+            )
+        # The rebuilt state, under this start's settings (node id, limits).
+        from ..engine.core import Engine
+        from ..runtime.policy import engine_config
+
+        resume["engine"] = Engine.restore(
+            engine_config(config), engine.snapshot()
+        )
+        if config.clock == "wall" and rebuilt.last_tick is not None:
+            # Time went on while the node was down.
+            down_s = max(time.time_ns() - rebuilt.last_log_time_ns, 0) / 1e9
+            resume["clock_start"] = rebuilt.last_tick + int(
+                down_s // config.time_unit
+            )
+        log.info(
+            "resuming from %s: plan %s at t=%s (%d journal messages read)",
+            args.state,
+            engine.plan_id,
+            engine.now,
+            rebuilt.messages,
+        )
+    else:
+        log.info("new state folder %s", args.state)
+    return journal, resume
