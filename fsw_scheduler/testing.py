@@ -37,14 +37,12 @@ from __future__ import annotations
 
 import contextlib
 import json
-import logging
 import threading
 import time
 from importlib import resources
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, Any
 
 import msgspec
-import zenoh
 
 from .bus.node import SchedulerNode
 from .bus.session import (
@@ -52,20 +50,21 @@ from .bus.session import (
     listening_endpoints,
     open_peer_pair,
     wait_matching,
-    wait_until,
 )
 from .model.problem import Problem, decode_problem
 from .runtime.config import NodeConfig
 from .runtime.policy import run_solve
-from .wire import messages
 from .wire import topics as keys
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterator
     from pathlib import Path
 
+    import zenoh
+
     from .engine.events import StartSolve
     from .model.plan import Plan
+from .bus.client import WAIT_S, SchedulerClient
 
 __all__ = [
     "SchedulerClient",
@@ -75,16 +74,6 @@ __all__ = [
     "paper_problem",
     "pytest_configure",
 ]
-
-log = logging.getLogger("fsw_scheduler.testing")
-
-JSON = zenoh.Encoding.APPLICATION_JSON
-
-T = TypeVar("T")
-
-#: Default deadline of the harness's waits, in seconds. Generous: a busy
-#: CI machine may take a few seconds for a solve.
-WAIT_S = 10.0
 
 
 def paper_problem() -> Problem:
@@ -122,388 +111,6 @@ def harness_config(**changes: Any) -> NodeConfig:
 
 def _data(name: str) -> bytes:
     return resources.files("fsw_scheduler").joinpath("data", name).read_bytes()
-
-
-def _payload(message: object) -> bytes:
-    """JSON bytes of a dict, a Struct, a str or bytes (passed through)."""
-    if isinstance(message, bytes):
-        return message
-    if isinstance(message, str):
-        return message.encode()
-    if isinstance(message, msgspec.Struct):
-        return messages.encode(message)
-    return json.dumps(message).encode()
-
-
-class SchedulerClient:
-    """The rest of the spacecraft, as the scheduler sees it, on a session.
-
-    Publishes clock ticks, goals and telemetry; records every plan,
-    dispatch, status and solve record the scheduler publishes; asks its
-    queryables. Works with any scheduler reachable from ``session``: the
-    in-process one of :class:`SchedulerHarness` or a separate process.
-    Create it before the scheduler publishes anything: :meth:`settle`
-    waits until every plan and dispatch the scheduler has counted since
-    its start has been received.
-
-    Parameters
-    ----------
-    session
-        An open Zenoh session (the caller owns it).
-    spacecraft
-        The spacecraft id of the scheduler's keys.
-    timeout
-        Default deadline of every wait, in seconds.
-
-    Attributes
-    ----------
-    plans, dispatches, statuses, solves
-        Every message received on ``scheduler/plan``,
-        ``scheduler/dispatch/*``, ``scheduler/status`` and
-        ``scheduler/solves``, in arrival order (the lists only grow).
-    samples
-        Every ``(key, payload)`` received under ``fsw/<sc>/scheduler/**``.
-    decode_errors
-        Samples that could not be decoded, as ``(key, error)``.
-    """
-
-    def __init__(
-        self,
-        session: zenoh.Session,
-        spacecraft: str = keys.DEFAULT_SPACECRAFT,
-        *,
-        timeout: float = WAIT_S,
-    ) -> None:
-        self.client = session
-        self.topics = keys.Topics(spacecraft)
-        self.timeout = timeout
-        self._cond = threading.Condition()
-        self.plans: list[messages.PlanMessage] = []
-        self.dispatches: list[messages.Dispatch] = []
-        self.statuses: list[messages.Status] = []
-        self.solves: list[messages.SolveRecord] = []
-        self.samples: list[tuple[str, bytes]] = []
-        self.decode_errors: list[tuple[str, str]] = []
-        self._subscriber: Any = session.declare_subscriber(
-            self.topics.key("scheduler/**"), self._on_sample
-        )
-
-    def close(self) -> None:
-        """Stop listening (idempotent); the session stays open."""
-        subscriber, self._subscriber = self._subscriber, None
-        if subscriber is not None:
-            _undeclare(subscriber)
-
-    def __enter__(self) -> SchedulerClient:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-    def wait_scheduler(self, timeout: float | None = None) -> None:
-        """Wait until a scheduler's inputs and queryables are reachable.
-
-        Raises
-        ------
-        TimeoutError
-            If no scheduler shows up in time.
-        """
-        timeout = timeout or self.timeout
-        for key in (
-            self.topics.key(keys.CLOCK),
-            self.topics.key(keys.GOALS),
-            self.topics.activity_report("probe"),
-            self.topics.resource_level("probe"),
-        ):
-            wait_matching(self.client, key, timeout)
-        for suffix in (keys.STATUS, keys.PLAN):
-            self._wait_queryable(self.topics.key(suffix), timeout)
-
-    # -- publishing ----------------------------------------------------------
-
-    def put(self, key: str, message: object) -> None:
-        """Publish ``message`` as JSON on ``key``.
-
-        Parameters
-        ----------
-        key
-            A full key (``fsw/sat1/clock``) or a suffix (``clock``).
-        message
-            A dict, a msgspec Struct, or raw bytes / str sent as given.
-        """
-        if self.topics.suffix(key) is None:
-            key = self.topics.key(key)
-        # Blocking congestion control: a test's inputs must never be
-        # dropped by Zenoh's transmit queue, only by the node itself.
-        self.client.put(
-            key,
-            _payload(message),
-            encoding=JSON,
-            congestion_control=zenoh.CongestionControl.BLOCK,
-        )
-
-    def clock(self, now: int) -> None:
-        """Publish ``{"now": now}`` on the clock key, without waiting."""
-        self.put(keys.CLOCK, {"now": now})
-
-    def tick(self, now: int, timeout: float | None = None) -> messages.Status:
-        """Move the bus clock to ``now`` and wait until the node is idle.
-
-        A clock going back is rejected by the scheduler, so ``tick`` would
-        time out; send such a tick with :meth:`clock` and call
-        :meth:`settle` without ``now``.
-
-        Returns
-        -------
-        Status
-            The node's status once it has processed the tick, no solve is
-            running, and every plan and dispatch it reports has arrived.
-        """
-        self.clock(now)
-        return self.settle(now, timeout)
-
-    def publish_goal(self, goal: dict | bytes | str | msgspec.Struct) -> None:
-        """Publish a goal document on ``scheduler/goals``."""
-        self.put(keys.GOALS, goal)
-
-    def report(
-        self, task: str, state: str, at: int, *, key_task: str | None = None
-    ) -> None:
-        """Publish an execution report of ``task``.
-
-        ``key_task`` publishes it on another task's key (a faulty
-        executor).
-        """
-        self.put(
-            self.topics.activity_report(key_task or task),
-            {"task": task, "state": state, "at": at},
-        )
-
-    def level(
-        self,
-        resource: str,
-        level: float,
-        at: int,
-        *,
-        key_resource: str | None = None,
-    ) -> None:
-        """Publish a measured level of ``resource``."""
-        self.put(
-            self.topics.resource_level(key_resource or resource),
-            {"resource": resource, "level": level, "at": at},
-        )
-
-    # -- queries -------------------------------------------------------------
-
-    def query_status(self, timeout: float | None = None) -> messages.Status:
-        """Ask the node for its status.
-
-        Raises
-        ------
-        TimeoutError
-            If the node does not answer.
-        """
-        payload = self._query(keys.STATUS, timeout)
-        if payload is None:
-            raise TimeoutError("the scheduler did not answer a status query")
-        return msgspec.json.decode(payload, type=messages.Status)
-
-    def query_plan(
-        self, timeout: float | None = None
-    ) -> messages.PlanMessage | None:
-        """Ask the node for its plan (None before the first plan)."""
-        payload = self._query(keys.PLAN, timeout)
-        if payload is None:
-            return None
-        return msgspec.json.decode(payload, type=messages.PlanMessage)
-
-    def _query(self, suffix: str, timeout: float | None) -> bytes | None:
-        replies = self.client.get(
-            self.topics.key(suffix), timeout=timeout or self.timeout
-        )
-        found = None
-        for reply in replies:
-            if reply.ok is not None and found is None:
-                found = reply.ok.payload.to_bytes()
-        return found
-
-    # -- waiting -------------------------------------------------------------
-
-    def settle(
-        self, now: int | None = None, timeout: float | None = None
-    ) -> messages.Status:
-        """Wait until the node has caught up and is not solving.
-
-        The status query travels on the same link as the client's earlier
-        puts and lands in the node's inbox behind them, so its answer
-        reflects every input sent before. If a solve is running, the
-        harness waits for the node's next output and asks again.
-
-        Parameters
-        ----------
-        now
-            Also wait until the node's time is ``now``.
-        timeout
-            Deadline in seconds.
-
-        Returns
-        -------
-        Status
-            The settled status.
-        """
-        deadline = time.monotonic() + (timeout or self.timeout)
-        while True:
-            seen = len(self.samples)
-            status = self.query_status(max(deadline - time.monotonic(), 0.1))
-            if not status.busy and (now is None or status.now == now):
-                break
-            if time.monotonic() >= deadline:
-                raise TimeoutError(
-                    f"scheduler did not settle at now={now}: {status}"
-                )
-            # A solve finishing always publishes something: wake on it,
-            # and re-ask at least every 50 ms anyway.
-            with self._cond:
-                self._cond.wait_for(
-                    lambda seen=seen: len(self.samples) > seen,  # type: ignore[misc]
-                    min(0.05, max(deadline - time.monotonic(), 0.0)),
-                )
-        self._await_outputs(status, deadline)
-        return status
-
-    def _await_outputs(self, status: messages.Status, deadline: float) -> None:
-        """Wait until the client has every plan and dispatch counted."""
-
-        def caught_up() -> bool:
-            plans_ok = status.plan_id is None or any(
-                p.plan_id >= status.plan_id for p in self.plans
-            )
-            return plans_ok and (
-                len(self.dispatches) >= status.counters.dispatches
-            )
-
-        with self._cond:
-            if not self._cond.wait_for(
-                caught_up, max(deadline - time.monotonic(), 0.0)
-            ):
-                raise TimeoutError(
-                    f"outputs missing: status says plan {status.plan_id} "
-                    f"and {status.counters.dispatches} dispatches, client "
-                    f"has {[p.plan_id for p in self.plans]} and "
-                    f"{len(self.dispatches)}"
-                )
-
-    def wait_plan(
-        self,
-        predicate: Callable[[messages.PlanMessage], bool] | None = None,
-        timeout: float | None = None,
-        *,
-        since: int = 0,
-    ) -> messages.PlanMessage:
-        """The newest received plan satisfying ``predicate``.
-
-        Parameters
-        ----------
-        predicate
-            Condition on the plan; None accepts any plan.
-        timeout
-            Deadline in seconds.
-        since
-            Ignore plans received before ``self.plans[since]``.
-        """
-        return self._wait_for(
-            self.plans, predicate or (lambda _: True), timeout, since, "plan"
-        )
-
-    def wait_dispatch(
-        self,
-        task: str,
-        timeout: float | None = None,
-        *,
-        plan_id: int | None = None,
-        since: int = 0,
-    ) -> messages.Dispatch:
-        """The newest received dispatch of ``task`` (of ``plan_id``)."""
-        return self._wait_for(
-            self.dispatches,
-            lambda d: (
-                d.task == task and (plan_id is None or d.plan_id == plan_id)
-            ),
-            timeout,
-            since,
-            f"dispatch of {task}",
-        )
-
-    def wait_status(
-        self,
-        predicate: Callable[[messages.Status], bool],
-        timeout: float | None = None,
-        *,
-        since: int = 0,
-    ) -> messages.Status:
-        """The newest received status message satisfying ``predicate``."""
-        return self._wait_for(
-            self.statuses, predicate, timeout, since, "status"
-        )
-
-    def _wait_for(
-        self,
-        items: list[T],
-        predicate: Callable[[T], bool],
-        timeout: float | None,
-        since: int,
-        what: str,
-    ) -> T:
-        found: list[T] = []
-
-        def ready() -> bool:
-            found[:] = [m for m in items[since:] if predicate(m)][-1:]
-            return bool(found)
-
-        with self._cond:
-            if self._cond.wait_for(ready, timeout or self.timeout):
-                return found[0]
-        raise TimeoutError(
-            f"no matching {what} within {timeout or self.timeout} s "
-            f"(received {len(items) - since})"
-        )
-
-    def _wait_queryable(self, key: str, timeout: float) -> None:
-        querier = self.client.declare_querier(key)
-        try:
-            wait_until(
-                lambda: _matching(querier.matching_status),
-                timeout,
-                what=f"a queryable on {key}",
-            )
-        finally:
-            querier.undeclare()
-
-    # -- the client's subscriber (runs on a Zenoh thread) --------------------
-
-    def _on_sample(self, sample: zenoh.Sample) -> None:
-        # Zenoh only logs an exception raised here; keep it visible to the
-        # test through decode_errors instead.
-        key = str(sample.key_expr)
-        try:
-            payload = sample.payload.to_bytes()
-            kind = self.topics.schema_kind(key)
-            decoded: Any = None
-            target: list[Any] | None = None
-            if kind in _KINDS:
-                target = getattr(self, _KINDS[kind][0])
-                decoded = msgspec.json.decode(payload, type=_KINDS[kind][1])
-        except Exception as error:
-            log.exception("cannot decode a sample on %s", key)
-            with self._cond:
-                self.decode_errors.append((key, repr(error)))
-                self._cond.notify_all()
-            return
-        with self._cond:
-            if target is not None:
-                target.append(decoded)
-            self.samples.append((key, payload))
-            self._cond.notify_all()
 
 
 class SchedulerHarness(SchedulerClient):
@@ -623,26 +230,6 @@ class SchedulerHarness(SchedulerClient):
         return listening_endpoints(self.server)
 
 
-_KINDS: dict[str, tuple[str, type]] = {
-    "plan": ("plans", messages.PlanMessage),
-    "dispatch": ("dispatches", messages.Dispatch),
-    "status": ("statuses", messages.Status),
-    "solve_record": ("solves", messages.SolveRecord),
-}
-
-
-def _matching(status: object) -> bool:
-    # Zenoh releases differ: a bool, or an object with ``.matching``.
-    return bool(getattr(status, "matching", status))
-
-
-def _undeclare(entity: Any) -> None:
-    try:
-        entity.undeclare()
-    except zenoh.ZError as error:  # the session is already closed
-        log.debug("undeclare: %s", error)
-
-
 def _load_problem(problem: Problem | bytes | str | Path | None) -> Problem:
     if problem is None:
         return paper_problem()
@@ -659,9 +246,6 @@ def _load_problem(problem: Problem | bytes | str | Path | None) -> Problem:
         Path(problem).read_bytes(),  # type: ignore[arg-type]
         allow_empty=True,
     )
-
-
-# -- pytest plugin -----------------------------------------------------------
 
 
 def pytest_configure(config: Any) -> None:
