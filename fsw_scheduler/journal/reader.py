@@ -11,6 +11,9 @@ import heapq
 import os
 from typing import TYPE_CHECKING
 
+# Re-exported: what a damaged or foreign journal raises, for callers above
+# the journal that report it without importing mcap themselves.
+from mcap.exceptions import McapError as McapError
 from mcap.reader import make_reader
 from mcap.well_known import MessageEncoding
 

@@ -1,5 +1,4 @@
-"""What the world reports and what a replan removes: execution reports,
-removals, change documents.
+"""Execution reports, removals and change documents.
 
 These are formats, shared by the replan rules, the engine and the bus
 messages: an :class:`ExecutionReport` from the spacecraft, a

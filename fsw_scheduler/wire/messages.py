@@ -1,4 +1,4 @@
-"""Bus messages (the bus keys): msgspec Structs, codecs and schemas.
+"""Bus messages (the bus keys): msgspec Structs and their codec.
 
 Evolution rules: a new field always has a default and a field's type
 never changes, so older recordings still decode. Unknown fields are

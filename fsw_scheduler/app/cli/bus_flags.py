@@ -1,6 +1,7 @@
-"""Flags of the commands that talk to the bus: run, config, probe, record,
-replay (zenoh's own flag names: ``--mode``, ``--connect``, ``--listen``,
-``--config``, ``--cfg``).
+"""Flags of the commands on the bus: run, config, probe, record, replay.
+
+Zenoh's own flag names: ``--mode``, ``--connect``, ``--listen``,
+``--config``, ``--cfg``.
 """
 
 from __future__ import annotations
@@ -22,7 +23,6 @@ if TYPE_CHECKING:
     from .files_flags import Add
 
     pass
-from ..run import _cmd_run
 from .commands import (
     _cmd_config,
     _cmd_probe,
@@ -34,6 +34,7 @@ from .commands import (
     positive_float,
     positive_int,
 )
+from .run import _cmd_run
 
 
 def add_run_command(add: Add) -> None:

@@ -1,7 +1,7 @@
 """The handlers of ``fsw-scheduler``'s commands on files and recordings.
 
 Each subcommand is one ``_cmd_*`` function taking the parsed arguments and
-returning the exit code (``run`` is in :mod:`fsw_scheduler.app.run`, the
+returning the exit code (``run`` is in :mod:`fsw_scheduler.app.cli.run`, the
 node's composition root). Exit codes: 0 success, 1 infeasible / unknown /
 violations, 2 bad input (the message on stderr names the field) or a
 missing optional dependency.

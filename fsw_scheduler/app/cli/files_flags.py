@@ -1,5 +1,6 @@
-"""Flags of the commands that work on files: solve, check, replan, demo,
-plot, info, recover, schemas.
+"""Flags of the commands on files: solve, check, replan, demo, plot, ...
+
+Also info, recover and schemas.
 """
 
 from __future__ import annotations

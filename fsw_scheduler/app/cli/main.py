@@ -10,9 +10,8 @@ import logging
 import sys
 from typing import TYPE_CHECKING
 
-from mcap.exceptions import McapError
-
 from ...errors import ConfigError, InputError, SchedulerError
+from ...journal.reader import McapError
 from .commands import EXIT_BAD_INPUT, EXIT_NO_PLAN, MissingDependency
 from .parser import build_parser
 

@@ -12,14 +12,14 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..errors import FieldIssue, InputError
-from ..model.problem import Problem, decode_problem
+from ...errors import FieldIssue, InputError
+from ...model.problem import Problem, decode_problem
 
 if TYPE_CHECKING:
     import argparse
 
     pass
-from .cli.commands import (
+from .commands import (
     EXIT_BAD_INPUT,
     EXIT_NO_PLAN,
     EXIT_OK,
@@ -34,11 +34,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
     import threading
     import time
 
-    from ..bus.node import SchedulerNode
-    from ..bus.session import settings_file, zenoh_config
-    from ..journal.annotate import schema_lookup
-    from ..journal.writer import Recorder
-    from ..runtime.config import load_config
+    from ...bus.node import SchedulerNode
+    from ...bus.session import settings_file, zenoh_config
+    from ...journal.annotate import schema_lookup
+    from ...journal.writer import Recorder
+    from ...runtime.config import load_config
 
     try:
         config = load_config(settings_file(args)).replace(
@@ -63,7 +63,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     except ValueError as error:  # a bad value given as a flag
         raise InputError([FieldIssue("", str(error))], "arguments") from None
     if config.node_id is None:
-        from ..bus.redundancy import default_node_id
+        from ...bus.redundancy import default_node_id
 
         config = config.replace(node_id=default_node_id())
     if args.problem:
@@ -75,7 +75,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 "arguments",
             )
         problem = Problem(horizon=config.horizon, tasks=())
-    from ..bus.security import assess, policy_publishers
+    from ...bus.security import assess, policy_publishers
 
     zenoh_settings = zenoh_config(args)
     security = assess(zenoh_settings, acknowledged=args.insecure)
@@ -138,8 +138,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 journal, opened = _open_state(args, config)
                 extra.update(opened)
             if shared is not None:
-                from ..engine.core import Engine
-                from ..runtime.policy import engine_config
+                from ...engine.core import Engine
+                from ...runtime.policy import engine_config
 
                 extra["engine"] = Engine.restore(engine_config(config), shared)
                 extra["resumed_event"] = "took_over"
@@ -170,7 +170,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             finally:
                 node.close()
         else:
-            from ..bus.redundancy import Member, Redundancy, serve
+            from ...bus.redundancy import Member, Redundancy, serve
 
             member = Member(config.rank, time.time_ns(), config.node_id or "")
             redundancy = Redundancy(session, config.spacecraft, member)
@@ -199,9 +199,9 @@ def _open_state(
     """
     import time
 
-    from ..journal.annotate import schema_lookup
-    from ..journal.state import open_state
-    from ..journal.writer import Recorder
+    from ...journal.annotate import schema_lookup
+    from ...journal.state import open_state
+    from ...journal.writer import Recorder
 
     start = open_state(Path(args.state), keep_runs=args.keep_runs)
     for path in start.recovered:
@@ -229,8 +229,8 @@ def _open_state(
                 "arguments",
             )
         # The rebuilt state, under this start's settings (node id, limits).
-        from ..engine.core import Engine
-        from ..runtime.policy import engine_config
+        from ...engine.core import Engine
+        from ...runtime.policy import engine_config
 
         resume["engine"] = Engine.restore(
             engine_config(config), engine.snapshot()

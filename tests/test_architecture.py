@@ -1,0 +1,128 @@
+"""Tests that the package keeps its layers: import-linter's contracts hold
+and no module takes part in an import cycle, function-level ones included."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "fsw_scheduler"
+
+
+def test_import_contracts_hold() -> None:
+    """Tests that every import-linter contract in pyproject.toml is kept."""
+    tool = shutil.which("lint-imports", path=str(Path(sys.executable).parent))
+    if tool is None:
+        pytest.skip(
+            "import-linter is not installed (pip install -e '.[test]')"
+        )
+    result = subprocess.run(
+        [tool, "--no-cache"], cwd=ROOT, capture_output=True, text=True
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert "0 broken" in result.stdout
+
+
+def _graph() -> dict[str, set[str]]:
+    """Module -> the package modules it imports (any level, not typing)."""
+    grimp = pytest.importorskip("grimp")
+    graph = grimp.build_graph(
+        "fsw_scheduler", exclude_type_checking_imports=True
+    )
+    return {
+        m: set(graph.find_modules_directly_imported_by(m))
+        for m in graph.modules
+    }
+
+
+def test_no_import_cycle_between_modules() -> None:
+    """Tests that no module reaches itself through imports (Tarjan's SCCs);
+    a package's own __init__ re-exporting its modules is not a cycle."""
+    edges = _graph()
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on: set[str] = set()
+    cycles: list[list[str]] = []
+    counter = [0]
+    sys.setrecursionlimit(10000)
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in edges.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            scc = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                scc.append(w)
+                if w == v:
+                    break
+            if len(scc) > 1:
+                cycles.append(sorted(scc))
+
+    for v in sorted(edges):
+        if v not in index:
+            visit(v)
+    assert cycles == []
+
+
+def test_top_of_the_package_is_small() -> None:
+    """Tests that at most 8 plain modules sit at the package top and that
+    no module is over 800 lines."""
+    top = sorted(p.name for p in PACKAGE.glob("*.py"))
+    assert len(top) <= 8, top
+    long = {
+        str(p.relative_to(ROOT)): n
+        for p in PACKAGE.rglob("*.py")
+        if (n := len(p.read_text().splitlines())) > 800
+    }
+    assert long == {}
+
+
+def test_readme_module_map_matches_the_tree() -> None:
+    """Tests that the README's module map lists every module, and only
+    modules that exist, each with its docstring's first line."""
+    import ast
+    import re
+
+    text = (ROOT / "README.md").read_text()
+    block = text.split("<!-- module-map -->")[1].split("<!-- /module-map -->")[
+        0
+    ]
+    listed: dict[str, str] = {}
+    folder = ""
+    for line in block.splitlines():
+        top = re.match(r"^  (\S+\.py)\s+(.*)$", line)
+        sub = re.match(r"^  (\S+/)$", line)
+        mod = re.match(r"^    (\S+\.py)\s+(.*)$", line)
+        if sub:
+            folder = sub.group(1)
+        elif top:
+            listed[top.group(1)] = top.group(2)
+        elif mod:
+            listed[folder + mod.group(1)] = mod.group(2)
+    files = {
+        str(p.relative_to(PACKAGE)): p
+        for p in PACKAGE.rglob("*.py")
+        if p.name != "__init__.py" or p.parent == PACKAGE
+    }
+    assert set(listed) == set(files)
+    for name, summary in listed.items():
+        doc = ast.get_docstring(ast.parse(files[name].read_text())) or ""
+        first = doc.splitlines()[0].rstrip(".") if doc else ""
+        prefix = summary.rstrip(". ").removesuffix("...").rstrip(", ")
+        assert first.startswith(prefix), (name, summary, first)
