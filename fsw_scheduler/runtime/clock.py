@@ -8,18 +8,10 @@ can drive it) into time units; the bus clock needs no class: each
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from collections.abc import Callable
-
-
-class Clock(Protocol):
-    """Anything that tells the current time unit."""
-
-    def now(self) -> int:
-        """The current time unit."""
-        ...
 
 
 class UnitClock:
