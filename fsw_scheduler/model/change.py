@@ -13,8 +13,8 @@ from typing import Literal
 
 import msgspec
 
-from ..model.goal import Goal, decode_goal
-from ..model.problem import (
+from .goal import Goal, decode_goal
+from .problem import (
     decode_strict,
 )
 

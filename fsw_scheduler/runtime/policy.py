@@ -22,7 +22,7 @@ if TYPE_CHECKING:
     )
     from ..model.plan import Blocker, Plan
     from ..model.problem import Problem
-    from ..runtime.config import NodeConfig
+    from .config import NodeConfig
 
 
 def engine_config(config: NodeConfig) -> EngineConfig:
