@@ -3,9 +3,10 @@
 :func:`solve`, :func:`check_plan` and :func:`replan` accept a problem, a plan,
 a goal or an event in any of the forms a caller is likely to hold:
 
-* the typed object (:class:`~fsw_scheduler.model.Problem`,
-  :class:`~fsw_scheduler.solution.Plan`, :class:`~fsw_scheduler.goal.Goal`,
-  an event of :mod:`fsw_scheduler.reschedule`), used as it is;
+* the typed object (:class:`~fsw_scheduler.model.problem.Problem`,
+  :class:`~fsw_scheduler.model.plan.Plan`,
+  :class:`~fsw_scheduler.model.goal.Goal`,
+  an event of :mod:`fsw_scheduler.replan`), used as it is;
 * a plain ``dict`` as :func:`json.load` returns it;
 * JSON text (``str`` or ``bytes``), as read from a file or the bus;
 * a :class:`pathlib.Path` to a JSON file (a ``str`` is always JSON text,
@@ -15,9 +16,9 @@ Dicts and text go through the same strict decoding and validation as the
 command line, so a mistake raises :class:`~fsw_scheduler.errors.InputError`
 naming every field path and reason, never a bare ``KeyError``.
 
-Like :mod:`fsw_scheduler.solve`, this module imports the solver backend
+Like :mod:`fsw_scheduler.solving.solve`, this module imports the solver backend
 only when a solve runs, so ``import fsw_scheduler`` stays free of PuLP.
-(It imports :mod:`fsw_scheduler.solve` eagerly on purpose: the package
+(It imports :mod:`fsw_scheduler.solving.solve` eagerly on purpose: the package
 top binds the name ``solve`` to a function, and a submodule imported for
 the first time later would rebind it to the module.)
 """
@@ -172,7 +173,7 @@ def solve(
     problem
         A :class:`Problem`, a dict in the problem format, or JSON text.
     solver, time_limit, threads, seed, explain, explain_budget
-        As :func:`fsw_scheduler.solve.solve`.
+        As :func:`fsw_scheduler.solving.solve.solve`.
     warm
         A plan to start from, in any form :func:`as_plan` takes.
 
@@ -222,7 +223,7 @@ def check_plan(problem: ProblemLike, plan: PlanLike) -> CheckReport:
     CheckReport
         ``ok`` when no constraint is violated; every violation by name and
         the objective recomputed from the activities
-        (see :func:`fsw_scheduler.check.check_plan`).
+        (see :func:`fsw_scheduler.analysis.check.check_plan`).
     """
     return check_typed(as_problem(problem), as_plan(plan))
 

@@ -1,7 +1,7 @@
 """Exception tree of fsw_scheduler.
 
 Infeasibility and time limits are *statuses* (see
-:mod:`fsw_scheduler.solution`),
+:mod:`fsw_scheduler.model.plan`),
 not exceptions. Exceptions are kept for invalid data and environment faults.
 """
 

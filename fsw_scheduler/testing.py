@@ -97,7 +97,7 @@ def harness_config(**changes: Any) -> NodeConfig:
     Parameters
     ----------
     **changes
-        Any :class:`~fsw_scheduler.config.NodeConfig` field.
+        Any :class:`~fsw_scheduler.runtime.config.NodeConfig` field.
     """
     base = NodeConfig(
         clock="bus",
@@ -122,7 +122,8 @@ class SchedulerHarness(SchedulerClient):
     Parameters
     ----------
     problem
-        The node's problem: a :class:`~fsw_scheduler.model.Problem`, its
+        The node's problem: a :class:`~fsw_scheduler.model.problem.Problem`,
+        its
         JSON (bytes or str), a path to a JSON file, or None for the paper's
         Table 1.
     config

@@ -1,7 +1,8 @@
 """Independent plan checker: does a plan obey every rule of the problem?
 
 :func:`check_plan` re-derives every constraint of the problem format from
-the raw fields of the :class:`~fsw_scheduler.model.Problem` and walks the
+the raw fields of the :class:`~fsw_scheduler.model.problem.Problem` and walks
+the
 horizon one time unit at a time. It deliberately shares no code with the
 ILP builder (no ``pulp``, nothing from ``solve`` or ``solvers``, not even
 :meth:`Problem.start_bounds`): a bug in the formulation then cannot hide

@@ -5,7 +5,7 @@ solve.
 
 * A task with no allowed start time is blocked by its ``window`` (feasible
   interval and horizon) or by a ``precedence`` (see
-  :mod:`fsw_scheduler.domains`).
+  :mod:`fsw_scheduler.analysis.domains`).
 * For an infeasible problem, the mandatory tasks are made optional and the
   relaxed model is solved: the mandatory tasks it leaves out are the ones
   that cannot all be placed.

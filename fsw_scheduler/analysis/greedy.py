@@ -192,7 +192,8 @@ def greedy_plan(
     """The best valid plan list scheduling finds, or None.
 
     First the *trivial* plan: the tasks every plan must hold
-    (:func:`~fsw_scheduler.proofs.forced_tasks`) alone, by the deadline
+    (:func:`~fsw_scheduler.analysis.proofs.forced_tasks`) alone, by the
+    deadline
     rule. Then each rule of :data:`RULES` gives one plan (see
     :func:`_rule_plan`); the one with the lowest objective is returned,
     the earliest rule on a tie and the trivial plan last. A plan with
@@ -442,7 +443,7 @@ def _mandatory_first(
     """A group's key: mandatory groups first, then ``rest`` of members.
 
     Only mandatory tasks, not every forced one
-    (:func:`~fsw_scheduler.proofs.forced_tasks`): putting the optional
+    (:func:`~fsw_scheduler.analysis.proofs.forced_tasks`): putting the optional
     tasks they need first too made plans worse where an optional task
     fits before them; the ``forced-first`` rule covers the other case.
     """

@@ -12,7 +12,7 @@ the model and the heuristic handle by leaving one of them out.
 without a solver, in time polynomial in their number:
 
 * a forced task without a start time (``window``, ``precedence`` or
-  ``consumable``, from :func:`fsw_scheduler.domains.start_domains`);
+  ``consumable``, from :func:`fsw_scheduler.analysis.domains.start_domains`);
 * tight precedences among forced tasks that fix the same start difference
   in two different ways (:func:`tight_conflicts`);
 * binary and multiple resources: over an interval ``[a, b)``, the work
@@ -24,7 +24,7 @@ without a solver, in time polynomial in their number:
   consumers, their consumption exceeding the initial level plus all the
   generation any task could have delivered by then.
 
-Each proof is reported as :class:`~fsw_scheduler.solution.Blocker`\\ s
+Each proof is reported as :class:`~fsw_scheduler.model.plan.Blocker`\\ s
 naming the tasks and the constraint.
 """
 
@@ -133,7 +133,7 @@ def infeasibility(
     problem
         A validated problem.
     domains
-        Its :func:`~fsw_scheduler.domains.start_domains`.
+        Its :func:`~fsw_scheduler.analysis.domains.start_domains`.
 
     Returns
     -------

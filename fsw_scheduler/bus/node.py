@@ -95,7 +95,7 @@ class SchedulerNode:
         Node settings.
     journal
         Optional MCAP recorder receiving every input and output in
-        processing order (see :mod:`fsw_scheduler.replay`).
+        processing order (see :mod:`fsw_scheduler.journal.replay`).
     seconds
         Monotonic clock in seconds for the wall time source.
     wall_ns

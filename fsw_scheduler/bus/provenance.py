@@ -20,7 +20,7 @@ is the router's: the identity is the router's name.
 
 The node calls :func:`capture` in its Zenoh callback (reading
 the sample only) and the rest on its event loop: it journals each input's
-:class:`~fsw_scheduler.messages.Source` and sets ``source`` on the status
+:class:`~fsw_scheduler.wire.messages.Source` and sets ``source`` on the status
 verdicts about that input, including a goal's later acceptance.
 """
 

@@ -3,13 +3,14 @@
 :func:`record` subscribes with a bounded FIFO channel, so Zenoh's network
 thread only enqueues samples and never runs our code; a single loop in the
 calling thread drains the channel and writes to a
-:class:`~fsw_scheduler.recording.Recorder`. :func:`replay` publishes a
+:class:`~fsw_scheduler.journal.writer.Recorder`. :func:`replay` publishes a
 recording back in log-time order, re-creating the recorded gaps (scaled by
 ``rate``) from an injectable clock and sleep function.
 
 Encodings: each sample is recorded with its own Zenoh encoding (JSON ones
 on ``json`` channels with their schema, others under their own encoding,
-see :func:`~fsw_scheduler.recording.mcap_encoding`), and a replay puts each
+see :func:`~fsw_scheduler.journal.writer.mcap_encoding`), and a replay puts
+each
 message back with the encoding it was recorded with.
 
 Key-expression pitfall: ``fsw/**`` never matches keys starting with ``@``

@@ -6,7 +6,7 @@ unit and returns the commands for the shell to carry out: publish a
 message, start a solve, log a line. It never solves, publishes, decodes or
 reads a clock, so the same sequence of events always gives the same
 commands; the bus node (:mod:`fsw_scheduler.bus.node`) and deterministic
-replay (:mod:`fsw_scheduler.replay`) both drive it.
+replay (:mod:`fsw_scheduler.journal.replay`) both drive it.
 
 The lifecycle of an activity is ``planned -> dispatched -> running ->
 completed | failed``, or ``preempted`` / ``obsolete`` when a replan takes
@@ -81,7 +81,8 @@ class Engine(SolveQueue):
     # -- snapshots (resume, hot standby) ------------------------------------
 
     def snapshot(self) -> EngineSnapshot:
-        """The whole state, as data (see :mod:`fsw_scheduler.snapshot`)."""
+        """The whole state, as data (see
+        :mod:`fsw_scheduler.engine.snapshot`)."""
         return EngineSnapshot(
             initial=self.initial,
             unsolved_initial=self._unsolved_initial,

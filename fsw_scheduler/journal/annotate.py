@@ -4,7 +4,8 @@ The scheduler node journals its inputs and outputs as they are. This
 module derives, from that same stream, what a visualiser needs on top:
 
 * ``scheduler/profiles`` (published on the bus and journaled): the
-  predicted consumable levels of each plan (:mod:`fsw_scheduler.profiles`);
+  predicted consumable levels of each plan
+  (:mod:`fsw_scheduler.wire.profiles`);
 * ``scheduler/levels`` (journal only): each measured level beside the
   prediction of the plan in force, one channel a Plot panel can draw
   "predicted against measured" from;
@@ -16,7 +17,8 @@ module derives, from that same stream, what a visualiser needs on top:
   (:func:`session_records`).
 
 :class:`Annotator` is a deterministic function of the messages it is
-shown, in order, so :func:`fsw_scheduler.replay.verify` derives the same
+shown, in order, so :func:`fsw_scheduler.journal.replay.verify` derives the
+same
 channels from a replayed session and compares them with the journal.
 No bus, no wall clock: times are passed in.
 """

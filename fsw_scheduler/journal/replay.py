@@ -28,9 +28,9 @@ statuses (last full map plus every change since) is compared.
 
 
 Derived channels (``scheduler/profiles``, ``scheduler/levels``,
-``scheduler/log``, see :mod:`fsw_scheduler.foxglove`) are checked, not
+``scheduler/log``, see :mod:`fsw_scheduler.journal.annotate`) are checked, not
 ignored: when the journal has any of them, the replay derives them from
-its own stream with the same :class:`~fsw_scheduler.foxglove.Annotator`
+its own stream with the same :class:`~fsw_scheduler.journal.annotate.Annotator`
 and compares them in place like any output (``foxglove.Log``
 ``timestamp``, a wall-clock time, excepted). Journals recorded before
 these channels existed have none and are verified without them.

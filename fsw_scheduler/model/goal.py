@@ -6,8 +6,8 @@ checks what can be checked without the running problem: the document shape,
 each task on its own and each precedence on its own. What depends on the
 running problem (resource names, windows inside the new horizon, id
 collisions, unknown references, tight cycles) is checked when the goal is
-merged, by :func:`fsw_scheduler.reschedule.apply_goal`, with the same field
-paths. This module is pure: no solver, no bus, no clock.
+merged, by :func:`fsw_scheduler.replan.triggers.apply_goal`, with the same
+field paths. This module is pure: no solver, no bus, no clock.
 """
 
 from __future__ import annotations

@@ -157,7 +157,7 @@ def apply_goal(
     schedule
         The state kept by the engine.
     goal
-        The goal (see :func:`fsw_scheduler.goal.decode_goal`).
+        The goal (see :func:`fsw_scheduler.model.goal.decode_goal`).
     now
         Time unit of the replan, ``>= schedule.problem.start``.
     measured

@@ -1,1 +1,1 @@
-"""Solver backends. Only :mod:`fsw_scheduler.solvers.ilp` imports PuLP."""
+"""Solver backends. Only :mod:`fsw_scheduler.solving.ilp` imports PuLP."""

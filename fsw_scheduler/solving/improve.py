@@ -66,7 +66,7 @@ def improve(
     domains
         The problem's start domains.
     run
-        :func:`~fsw_scheduler.solvers.ilp.solve_ilp` with the solver
+        :func:`~fsw_scheduler.solving.ilp.solve_ilp` with the solver
         settings bound: called with the problem, ``domains``, ``warm`` and
         ``time_limit``.
     deadline

@@ -50,7 +50,8 @@ def solve(
     Parameters
     ----------
     problem
-        A validated problem (see :func:`fsw_scheduler.model.decode_problem`).
+        A validated problem (see
+        :func:`fsw_scheduler.model.problem.decode_problem`).
     solver
         ``cbc`` (default, through PuLP) or ``highs``.
     time_limit
@@ -390,7 +391,8 @@ def _improved(
     began: float,
     time_limit: float,
 ) -> Plan:
-    """The start plan improved by :func:`fsw_scheduler.improve.improve`.
+    """The start plan improved by
+    :func:`fsw_scheduler.solving.improve.improve`.
 
     For large problems under a limit: the whole model does not get
     through CBC's root LP in seconds (on the scaling set CBC never

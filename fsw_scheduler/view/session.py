@@ -4,7 +4,7 @@
 (``run --record``, ``demo``) and draws
 
 * ``plan-<id>.png`` for every plan: the Gantt of
-  :func:`fsw_scheduler.plot.gantt` with what had run before (from the
+  :func:`fsw_scheduler.view.gantt` with what had run before (from the
   activity reports), the tasks that replan removed (greyed, with the rule),
   the lanes of the binary resources, and the measured consumable levels
   while the plan was in force against its predicted profile;

@@ -3,8 +3,9 @@
 Evolution rules: a new field always has a default and a field's type
 never changes, so older recordings still decode. Unknown fields are
 ignored on input (no ``forbid_unknown_fields``), which keeps replays of
-newer recordings possible. :func:`json_schemas` is the source of the files
-in ``schemas/``; a test keeps them identical.
+newer recordings possible. The files in ``schemas/`` are generated from
+these types (:mod:`fsw_scheduler.runtime.schemas`); a test keeps them
+identical.
 """
 
 from __future__ import annotations

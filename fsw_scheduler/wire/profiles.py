@@ -11,7 +11,7 @@ needs on one channel (``scheduler/levels``, journal only).
 Pure: no bus, no clock, no solver. The levels follow the problem format
 (initial level minus amount times the units run; negative amounts
 generate; never above a consumable's capacity) through
-:func:`fsw_scheduler.plot.resource_profiles`, the same function the Gantt
+:func:`fsw_scheduler.view.resource_profiles`, the same function the Gantt
 pictures draw.
 """
 

@@ -67,7 +67,8 @@ class BuiltModel:
         A validated problem.
     domains
         Start domains to model (default :func:`start_domains`); narrower
-        ones, such as those of :func:`fsw_scheduler.domains.cost_caps`,
+        ones, such as those of
+        :func:`fsw_scheduler.analysis.domains.cost_caps`,
         give a smaller model with the same optimum.
     """
 
@@ -309,7 +310,7 @@ def solve_ilp(
     -------
     Plan
         With ``stats`` filled; without ``why`` (see
-        :mod:`fsw_scheduler.explain`).
+        :mod:`fsw_scheduler.analysis.explain`).
     """
     if solver not in SOLVERS:
         raise SolverError(f"unknown solver {solver!r} (choose from {SOLVERS})")

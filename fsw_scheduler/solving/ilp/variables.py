@@ -10,7 +10,7 @@ per task instead of ``length`` (this is the step, or "aggregated", form of
 the classic time-indexed model, with the same LP bound).
 
 Feasible intervals (both readings), horizon and pins are enforced here, by
-the domain: :func:`fsw_scheduler.domains.start_domains`.
+the domain: :func:`fsw_scheduler.analysis.domains.start_domains`.
 """
 
 from __future__ import annotations
@@ -35,7 +35,8 @@ class Variables:
     problem
         The problem being modelled.
     domains
-        Start domains from :func:`~fsw_scheduler.domains.start_domains`.
+        Start domains from
+        :func:`~fsw_scheduler.analysis.domains.start_domains`.
     """
 
     def __init__(
