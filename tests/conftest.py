@@ -1,33 +1,16 @@
-"""Shared fixtures: the paper's scenarios and small helpers."""
+"""Shared fixtures: the paper's scenarios (factories are in factories.py)."""
 
 from __future__ import annotations
 
 import json
-from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pytest
 
-from fsw_scheduler.model.problem import Problem, decode_problem
+from .factories import DATA, problem_from
 
-DATA = Path(__file__).resolve().parents[1] / "fsw_scheduler" / "data"
-
-#: The optimal Table 1 plan (task, start, end): delay cost 359.
-TABLE1_PLAN = (
-    ("SetHFOption", 0, 1),
-    ("SetPositionX", 0, 1),
-    ("DownlinkSat2Sat", 1, 6),
-    ("SetPositionK", 6, 7),
-    ("BatteryCharge", 7, 17),
-    ("SetPositionZ", 17, 18),
-    ("AcquisitionHF", 18, 38),
-    ("SetPositionY", 38, 39),
-    ("DownlinkSat2Ground", 39, 49),
-)
-
-
-def problem_from(doc: dict) -> Problem:
-    """Decode a problem from a Python dict (validating it)."""
-    return decode_problem(json.dumps(doc))
+if TYPE_CHECKING:
+    from fsw_scheduler.model.problem import Problem
 
 
 @pytest.fixture(scope="session")

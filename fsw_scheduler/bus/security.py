@@ -13,7 +13,7 @@ would refuse.
 
 How Zenoh applies the rules (checked against ``zenoh/src/net/routing/
 interceptor/access_control.rs`` and on the bus, see
-``tests/test_security.py``): every message crossing a link is matched
+``tests/bus/test_security.py``): every message crossing a link is matched
 against the rules of the subjects the link's remote end belongs to;
 ``ingress`` is what a node accepts, ``egress`` what it sends; a message is
 allowed when a rule key expression *includes* its key (so a subscriber on

@@ -1,0 +1,290 @@
+"""Tests of the list-scheduling heuristic (fsw_scheduler.greedy)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from hypothesis import given, settings
+
+from fsw_scheduler.analysis.check import check_plan
+from fsw_scheduler.analysis.greedy import greedy_plan
+from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.solving.solve import at_lower_bound, best_start, solve
+
+from ..factories import problem_from
+from ..problems import COMMON, brute_force, decode_doc, problem_docs
+
+if TYPE_CHECKING:
+    from fsw_scheduler.model.problem import Problem
+
+
+def test_table1_greedy_is_valid(table1: Problem) -> None:
+    """Tests that the heuristic finds a valid Table 1 plan quickly."""
+    plan = greedy_plan(table1)
+    assert plan is not None
+    assert plan.status is SolveStatus.FEASIBLE
+    assert check_plan(table1, plan).ok
+    assert plan.unscheduled == ()
+
+
+def test_tight_group_members_share_a_consumable() -> None:
+    """Tests that tight partners are checked together on a consumable."""
+    doc = {
+        "horizon": 10,
+        "resources": {"consumable": {"fuel": 5}},
+        "tasks": [
+            {
+                "id": "a",
+                "length": 2,
+                "delay_cost": 1,
+                "schedule_cost": 1,
+                "uses": {"fuel": 2},
+            },
+            {
+                "id": "b",
+                "length": 2,
+                "delay_cost": 1,
+                "schedule_cost": 1,
+                "uses": {"fuel": 2},
+            },
+        ],
+        "precedences": [{"before": "a", "after": "b", "kind": "tight"}],
+    }
+    problem = problem_from(doc)
+    plan = greedy_plan(problem)
+    # Each alone fits (4 <= 5) but not both (8 > 5): both stay out.
+    assert plan is not None
+    assert sorted(plan.unscheduled) == ["a", "b"]
+
+
+def test_optional_follower_is_shed_when_the_group_cannot_fit() -> None:
+    """Tests that a tight at_least_first successor does not sink its lead.
+
+    ``a`` fits alone, but its tight successor ``b`` would need fuel that
+    is not there: ``a`` is placed without it.
+    """
+    doc = {
+        "horizon": 10,
+        "resources": {"consumable": {"fuel": 5}},
+        "tasks": [
+            {
+                "id": "a",
+                "length": 2,
+                "delay_cost": 1,
+                "schedule_cost": 5,
+                "uses": {"fuel": 2},
+            },
+            {
+                "id": "b",
+                "length": 2,
+                "delay_cost": 1,
+                "schedule_cost": 1,
+                "uses": {"fuel": 2},
+            },
+        ],
+        "precedences": [
+            {
+                "before": "a",
+                "after": "b",
+                "kind": "tight",
+                "scope": "at_least_first",
+            }
+        ],
+    }
+    problem = problem_from(doc)
+    plan = greedy_plan(problem)
+    assert plan is not None
+    assert plan.unscheduled == ("b",)
+    assert check_plan(problem, plan).ok
+
+
+def test_density_rule_spends_a_consumable_on_value() -> None:
+    """Tests that the best of the priority rules is kept.
+
+    By value the big consumer ``big`` (cost 5) goes first and uses all the
+    fuel; by value per fuel share the two small ones (cost 4 each) fit.
+    """
+
+    def task(name: str, cost: int, fuel: int) -> dict:
+        return {
+            "id": name,
+            "length": 1,
+            "delay_cost": 1,
+            "schedule_cost": cost,
+            "uses": {"fuel": fuel},
+        }
+
+    doc = {
+        "horizon": 10,
+        "resources": {"consumable": {"fuel": 6}},
+        "tasks": [task("big", 5, 6), task("s1", 4, 3), task("s2", 4, 3)],
+    }
+    problem = problem_from(doc)
+    plan = greedy_plan(problem)
+    assert plan is not None and plan.objective is not None
+    assert plan.unscheduled == ("big",)
+    assert plan.objective.unscheduled_cost == 5
+
+
+def test_deadline_rule_keeps_narrow_windows_free() -> None:
+    """Tests that a wide-window task does not take a narrow one's slot.
+
+    By value ``wide`` (cost 5) goes first, at 0, and ``narrow`` (which
+    must start at 0) is out; earliest deadline first fits both.
+    """
+    doc = {
+        "horizon": 4,
+        "resources": {"binary": ["cam"]},
+        "tasks": [
+            {
+                "id": "wide",
+                "length": 2,
+                "delay_cost": 1,
+                "schedule_cost": 5,
+                "uses": {"cam": 1},
+            },
+            {
+                "id": "narrow",
+                "length": 2,
+                "delay_cost": 1,
+                "schedule_cost": 4,
+                "uses": {"cam": 1},
+                "feasible_interval": [0, 0],
+                "feasible_interval_applies_to": "start",
+            },
+        ],
+    }
+    problem = problem_from(doc)
+    plan = greedy_plan(problem)
+    assert plan is not None
+    assert plan.unscheduled == ()
+    assert plan.starts() == {"narrow": 0, "wide": 2}
+
+
+def test_impossible_mandatory_gives_none() -> None:
+    """Tests that the heuristic gives up when a mandatory task can't fit."""
+    doc = {
+        "horizon": 4,
+        "resources": {"binary": ["cam"]},
+        "tasks": [
+            {
+                "id": n,
+                "length": 3,
+                "delay_cost": 1,
+                "schedule_cost": 0,
+                "uses": {"cam": 1},
+            }
+            for n in ("a", "b")
+        ],
+    }
+    assert greedy_plan(problem_from(doc)) is None
+
+
+def test_lower_bound_shortcut_is_optimal() -> None:
+    """Tests that a plan at every earliest start is reported optimal."""
+    doc = {
+        "horizon": 10,
+        "tasks": [
+            {
+                "id": "a",
+                "length": 2,
+                "delay_cost": 3,
+                "schedule_cost": 1,
+                "feasible_interval": [3, 9],
+            },
+        ],
+    }
+    problem = problem_from(doc)
+    start = best_start(problem, None)
+    assert start is not None and at_lower_bound(problem, start)
+    plan = solve(problem)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.starts() == {"a": 3}
+    assert plan.stats is not None and plan.stats.solver == "greedy"
+
+
+@settings(COMMON, max_examples=300)
+@given(doc=problem_docs())
+def test_greedy_plans_pass_the_checker(doc: dict) -> None:
+    """Tests that every heuristic plan passes the independent checker."""
+    problem = decode_doc(doc)
+    plan = greedy_plan(problem)
+    if plan is not None:
+        report = check_plan(problem, plan)
+        assert report.ok, report
+        assert plan.objective == report.objective
+
+
+@settings(COMMON, max_examples=150)
+@given(doc=problem_docs(max_tasks=4, max_horizon=8))
+def test_lower_bound_shortcut_agrees_with_brute_force(doc: dict) -> None:
+    """Tests that the no-solver optimality shortcut is never wrong."""
+    problem = decode_doc(doc)
+    start = best_start(problem, None)
+    if start is None or not at_lower_bound(problem, start):
+        return
+    best = brute_force(problem)
+    assert best is not None
+    assert start.objective is not None
+    assert start.objective.total == best[0].total
+
+
+def _needs_optional_first() -> Problem:
+    """Mandatory ``m`` needs optional ``p`` (so ``p`` is forced); ``x`` is
+    worth more than ``p`` and, placed first, takes every slot ``m`` has."""
+    return problem_from(
+        {
+            "horizon": 12,
+            "resources": {"binary": ["r"]},
+            "tasks": [
+                {
+                    "id": "m",
+                    "length": 5,
+                    "delay_cost": 1,
+                    "schedule_cost": 0,
+                    "uses": {"r": 1},
+                    "feasible_interval": [5, 12],
+                },
+                {"id": "p", "length": 3, "delay_cost": 1, "schedule_cost": 1},
+                {
+                    "id": "x",
+                    "length": 8,
+                    "delay_cost": 5,
+                    "schedule_cost": 5,
+                    "uses": {"r": 1},
+                },
+            ],
+            "precedences": [
+                {
+                    "before": "p",
+                    "after": "m",
+                    "kind": "lax",
+                    "scope": "at_least_first",
+                }
+            ],
+        }
+    )
+
+
+def test_start_plan_never_worse_than_the_trivial_plan() -> None:
+    """Tests that the start plan exists when the forced tasks fit alone.
+
+    Every priority rule used to place ``x`` before ``m`` was ready and
+    then found no slot for ``m``: no start plan at all, although ``p``
+    and ``m`` alone make a valid plan.
+    """
+    problem = _needs_optional_first()
+    plan = greedy_plan(problem)
+    assert plan is not None
+    assert check_plan(problem, plan).ok
+    assert plan.starts() == {"p": 0, "m": 5}
+
+
+def test_stop_keeps_the_trivial_plan() -> None:
+    """Tests that a heuristic stopped at once still returns the plan of the
+    forced tasks alone."""
+    problem = _needs_optional_first()
+    plan = greedy_plan(problem, stop=lambda: True)
+    assert plan is not None
+    assert check_plan(problem, plan).ok
+    assert set(plan.starts()) == {"p", "m"}

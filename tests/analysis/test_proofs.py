@@ -1,0 +1,248 @@
+"""Tests of forced tasks and cheap infeasibility proofs (proofs.py)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+
+from hypothesis import given, settings
+
+from fsw_scheduler.analysis.check import check_plan
+from fsw_scheduler.analysis.domains import start_domains
+from fsw_scheduler.analysis.greedy import greedy_plan
+from fsw_scheduler.analysis.proofs import (
+    forced_tasks,
+    infeasibility,
+    tight_conflicts,
+)
+from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.solving.solve import solve
+
+from ..factories import CLI, make_task, problem_from
+from ..problems import COMMON, brute_force, decode_doc, problem_docs
+
+
+def _tight(before: str, after: str, offset: int = 0, **over: object) -> dict:
+    prec = {"before": before, "after": after, "kind": "tight"}
+    prec.update(offset=offset, **over)
+    return prec
+
+
+def _two_paths(scope: str = "at_least_first", **over: object) -> dict:
+    """a -> b -> c fixes s_c - s_a = 5; a -> c says 3: they contradict."""
+    tasks = [
+        make_task("a", 2),
+        make_task("b", 3),
+        make_task("c", 1),
+        make_task("m", 2),
+    ]
+    for task in tasks:
+        task.update(over.get(task["id"], {}))  # type: ignore[call-overload]
+    return {
+        "horizon": 20,
+        "tasks": tasks,
+        "precedences": [
+            _tight("a", "b", scope=scope),
+            _tight("b", "c", scope=scope),
+            _tight("a", "c", 1, scope=scope),
+        ],
+    }
+
+
+# -- defect 1: contradicting tight paths are valid input --------------------
+
+
+def test_contradicting_tight_paths_are_valid_and_solved() -> None:
+    """Tests that contradicting tight paths only keep tasks apart.
+
+    Before, decoding rejected the problem (exit 2); now the plan leaves
+    one task of the contradiction out and passes the checker.
+    """
+    for scope in ("at_least_first", "both"):
+        problem = problem_from(_two_paths(scope, m={"schedule_cost": 0}))
+        assert [c.position for c in tight_conflicts(problem)] == [2]
+        plan = solve(problem, explain=True)
+        assert plan.status is SolveStatus.OPTIMAL, plan
+        assert check_plan(problem, plan).ok
+        assert "m" in plan.starts()
+        assert plan.unscheduled, scope  # not all of a, b, c together
+        start = greedy_plan(problem)
+        assert start is not None and check_plan(problem, start).ok
+
+
+def test_contradiction_among_forced_tasks_is_infeasible() -> None:
+    """Tests that forced tasks in a contradiction make it infeasible.
+
+    ``c`` is mandatory; it needs ``a`` and ``b`` (its predecessors), so all
+    three must be scheduled and the tight paths cannot both hold.
+    """
+    problem = problem_from(_two_paths(c={"schedule_cost": 0}))
+    assert forced_tasks(problem) == {"a", "b", "c"}
+    plan = solve(problem)
+    assert plan.status is SolveStatus.INFEASIBLE
+    assert {b.task for b in plan.why} == {"a", "c"}
+    assert all(b.cause == "precedence" for b in plan.why)
+    assert "contradict" in plan.why[0].detail
+    assert plan.stats is not None and plan.stats.solver == "proof"
+
+
+def test_cli_solves_contradicting_paths(tmp_path: object) -> None:
+    """Tests that ``solve`` exits 0 on contradicting optional tasks, 1 when
+    forced ones contradict (with the reason on stderr)."""
+    from pathlib import Path
+
+    base = Path(str(tmp_path))
+    for name, doc, code in (
+        ("ok.json", _two_paths(), 0),
+        ("bad.json", _two_paths(c={"schedule_cost": 0}), 1),
+    ):
+        path = base / name
+        path.write_text(json.dumps(doc))
+        result = subprocess.run(
+            [*CLI, "solve", str(path)],
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        assert result.returncode == code, result.stderr
+        if code:
+            assert "contradict" in result.stderr
+
+
+def test_forced_closure_follows_needs() -> None:
+    """Tests that forced tasks take in needed tasks and both-partners."""
+    doc = {
+        "horizon": 20,
+        "tasks": [
+            make_task("m", schedule_cost=0, length=1),
+            make_task("p", length=1),
+            make_task("q", length=1),
+            make_task("r", length=1),
+            make_task("s", length=1),
+        ],
+        "precedences": [
+            {"before": "p", "after": "m", "kind": "lax"},  # m needs p
+            {"before": "m", "after": "q", "kind": "lax"},  # both: drags q
+            {
+                "before": "m",
+                "after": "r",
+                "kind": "lax",
+                "scope": "at_least_first",
+            },
+            {"before": "q", "after": "s", "kind": "lax"},  # q drags s
+        ],
+    }
+    assert forced_tasks(problem_from(doc)) == {"m", "p", "q", "s"}
+
+
+# -- defect 3: cheap infeasibility proofs ---------------------------------
+
+
+def _proof(doc: dict) -> tuple:
+    problem = problem_from(doc)
+    plan = solve(problem, time_limit=10)
+    assert plan.status is SolveStatus.INFEASIBLE, plan
+    assert plan.stats is not None and plan.stats.solver == "proof", plan
+    return tuple((b.task, b.cause) for b in plan.why)
+
+
+def test_binary_over_subscribed_inside_windows() -> None:
+    """Tests that mandatory users crowding one binary window are infeasible
+    without a solve, though the horizon has room for them."""
+    doc = {
+        "horizon": 300,
+        "resources": {"binary": ["cam"]},
+        "tasks": [
+            make_task(
+                n,
+                4,
+                schedule_cost=0,
+                uses={"cam": 1},
+                feasible_interval=[10, 21],
+            )
+            for n in ("a", "b", "c")
+        ]
+        + [make_task("x", 5, uses={"cam": 1})],
+    }
+    assert _proof(doc) == (("a", "binary"), ("b", "binary"), ("c", "binary"))
+
+
+def test_multiple_over_subscribed() -> None:
+    """Tests the energy test on a multiple resource and a lone task that
+    needs more than the capacity."""
+    doc = {
+        "horizon": 50,
+        "resources": {"multiple": {"power": 10}},
+        "tasks": [
+            make_task(
+                "a",
+                6,
+                schedule_cost=0,
+                uses={"power": 6},
+                feasible_interval=[0, 10],
+            ),
+            make_task(
+                "b",
+                6,
+                schedule_cost=0,
+                uses={"power": 6},
+                feasible_interval=[0, 10],
+            ),
+        ],
+    }
+    assert {c for _, c in _proof(doc)} == {"multiple"}
+    doc["tasks"] = [make_task("a", 2, schedule_cost=0, uses={"power": 11})]
+    assert _proof(doc) == (("a", "multiple"),)
+
+
+def test_consumable_over_subscribed_before_generation() -> None:
+    """Tests that mandatory consumers needing more than the level plus the
+    generation possible by their end are infeasible without a solve."""
+    doc = {
+        "horizon": 100,
+        "resources": {"consumable": {"fuel": 4}},
+        "tasks": [
+            make_task(
+                "a",
+                3,
+                schedule_cost=0,
+                uses={"fuel": 1},
+                feasible_interval=[0, 10],
+            ),
+            make_task(
+                "b",
+                3,
+                schedule_cost=0,
+                uses={"fuel": 1},
+                feasible_interval=[0, 10],
+            ),
+            # Plenty of generation, but only after both must have ended.
+            make_task("g", 5, uses={"fuel": -5}, feasible_interval=[40, 60]),
+        ],
+    }
+    assert {c for _, c in _proof(doc)} == {"consumable"}
+
+
+def test_mandatory_pinned_against_window() -> None:
+    """Tests that a mandatory task with no start time is caught early."""
+    doc = {
+        "horizon": 20,
+        "tasks": [make_task("a", 3, schedule_cost=0), make_task("b", 2)],
+        "precedences": [_tight("a", "b", 16)],  # b would end past 20
+    }
+    # b is forced by a ("both"), and cannot start by 19 - 2.
+    assert _proof(doc)[0][1] == "precedence"
+
+
+@settings(COMMON, max_examples=200)
+@given(doc=problem_docs(max_tasks=4, max_horizon=8))
+def test_proofs_never_reject_a_feasible_problem(doc: dict) -> None:
+    """Tests that a cheap proof of infeasibility agrees with brute force,
+    and that the start plan exists whenever forced tasks fit alone."""
+    problem = decode_doc(doc)
+    proof = infeasibility(problem, start_domains(problem))
+    if proof:
+        assert brute_force(problem) is None, proof
+    start = greedy_plan(problem)
+    if start is not None:
+        assert check_plan(problem, start).ok

@@ -1,0 +1,260 @@
+"""Tests of first-touch behaviour of the command line: optional
+dependencies, argument checks, help texts, exit codes and ``schemas``."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+from typing import TYPE_CHECKING
+
+import pytest
+
+from fsw_scheduler.cli import build_parser
+from fsw_scheduler.runtime import schemas
+
+from ..factories import CLI, ROOT, TABLE1
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+
+# Runs the CLI in a fresh interpreter where `import matplotlib` fails, as
+# after a plain `pip install fsw-scheduler` without the plot extra.
+WITHOUT_MATPLOTLIB = (
+    "import sys; sys.modules['matplotlib'] = None; "
+    "from fsw_scheduler.cli import main; sys.exit(main(sys.argv[1:]))"
+)
+
+
+def run(
+    *args: str, code: str | None = None, cwd: Path | None = None
+) -> subprocess.CompletedProcess:
+    """``fsw-scheduler args`` in a subprocess (or ``code`` with args)."""
+    head = ["-c", code] if code else ["-m", "fsw_scheduler.cli"]
+    return subprocess.run(
+        [sys.executable, *head, *args],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=cwd,
+    )
+
+
+def test_solve_gantt_without_matplotlib_stops_before_solving(
+    tmp_path: Path,
+) -> None:
+    """Tests that solve --gantt without matplotlib exits 2 with the hint."""
+    result = run(
+        "solve",
+        TABLE1,
+        "--gantt",
+        str(tmp_path / "p.png"),
+        code=WITHOUT_MATPLOTLIB,
+    )
+    assert result.returncode == 2, result.stderr
+    assert "Traceback" not in result.stderr
+    assert "pip install 'fsw-scheduler[plot]'" in result.stderr
+    assert result.stdout == ""  # nothing was solved
+    assert not (tmp_path / "p.png").exists()
+
+
+def test_solve_without_matplotlib_still_solves() -> None:
+    """Tests that a solve asking for no picture needs no matplotlib."""
+    result = run("solve", TABLE1, code=WITHOUT_MATPLOTLIB)
+    assert result.returncode == 0, result.stderr
+    assert json.loads(result.stdout)["status"] == "optimal"
+
+
+def test_demo_without_matplotlib_runs_without_pictures(
+    tmp_path: Path,
+) -> None:
+    """Tests that demo without matplotlib says so and still completes."""
+    out = tmp_path / "demo"
+    result = run(
+        "demo",
+        "--out",
+        str(out),
+        "--quiet",
+        "--time-unit",
+        "0.01",
+        code=WITHOUT_MATPLOTLIB,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "Traceback" not in result.stderr
+    assert "without pictures" in result.stderr
+    assert "IDENTICAL" in result.stdout
+    assert not list(out.glob("*.png"))
+    assert (out / "plan-1.txt").read_text().startswith("Plan:")
+    assert (out / "session.mcap").stat().st_size > 0
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["solve", TABLE1, "--time-limit", "-1"], "must be > 0"),
+        (["solve", TABLE1, "--time-limit", "0"], "must be > 0"),
+        (["solve", TABLE1, "--time-limit", "nan"], "not finite"),
+        (["solve", TABLE1, "--time-limit", "ten"], "not a number"),
+        (["run", "--horizon", "0"], "must be > 0"),
+        (["run", "--time-unit", "-0.5"], "must be > 0"),
+        (["replay", "x.mcap", "--rate", "0"], "must be > 0"),
+        (["record", "--out", "x.mcap", "--split-size", "1.5"], "integer"),
+    ],
+)
+def test_bad_numbers_are_refused_with_exit_2(
+    args: list[str], message: str
+) -> None:
+    """Tests that negative, zero or non-finite limits exit 2 at parsing."""
+    result = run(*args)
+    assert result.returncode == 2
+    assert message in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+def test_log_level_after_the_command() -> None:
+    """Tests that --log-level works after the command name as well."""
+    quiet = run("solve", TABLE1, "--log-level", "warning")
+    assert quiet.returncode == 0, quiet.stderr
+    assert "INFO" not in quiet.stderr
+    before = run("--log-level", "warning", "solve", TABLE1)
+    assert before.returncode == 0 and "INFO" not in before.stderr
+    loud = run("solve", TABLE1)
+    assert "INFO" in loud.stderr
+
+
+def test_settings_file_with_unknown_key_exits_2(tmp_path: Path) -> None:
+    """Tests that a TOML settings typo is bad input (exit 2), named."""
+    settings = tmp_path / "scheduler.toml"
+    settings.write_text('spacecraft = "sat1"\ntime-limt = 3\n')
+    result = run("run", "--config", str(settings), "--horizon", "10")
+    assert result.returncode == 2, result.stderr
+    assert "time-limt" in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+def _every_action() -> list[tuple[str, argparse.Action]]:
+    parser = build_parser()
+    found = [("fsw-scheduler", a) for a in parser._actions]
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                found += [(name, a) for a in sub._actions]
+    return found
+
+
+def test_every_flag_has_help() -> None:
+    """Tests that each argument of each command carries a help text."""
+    missing = [
+        f"{command} {action.option_strings or action.dest}"
+        for command, action in _every_action()
+        if not isinstance(action, argparse._SubParsersAction)
+        and not (action.help and action.help.strip())
+    ]
+    assert missing == []
+
+
+def test_every_command_has_an_example() -> None:
+    """Tests that every command's --help ends with examples (the epilog)."""
+    parser = build_parser()
+    (sub,) = (
+        a for a in parser._actions if isinstance(a, argparse._SubParsersAction)
+    )
+    without = [
+        name
+        for name, command in sub.choices.items()
+        if "fsw-scheduler " + name not in (command.epilog or "")
+        or not (command.epilog or "").startswith("example")
+    ]
+    assert without == []
+
+
+def test_settings_flag_and_deprecated_toml_config(tmp_path: Path) -> None:
+    """Tests --settings, and --config FILE.toml with its deprecation."""
+    settings = tmp_path / "scheduler.toml"
+    settings.write_text('spacecraft = "sat1"\ntime-limt = 3\n')
+    new = run("run", "--settings", str(settings), "--horizon", "10")
+    assert new.returncode == 2 and "time-limt" in new.stderr
+    assert "deprecated" not in new.stderr
+    old = run("run", "--config", str(settings), "--horizon", "10")
+    assert old.returncode == 2 and "time-limt" in old.stderr
+    assert "deprecated: --config" in old.stderr
+    assert f"--settings {settings}" in old.stderr
+
+
+def test_zenoh_short_flags_parse() -> None:
+    """Tests the zenoh examples' short flags on a bus command."""
+    args = build_parser().parse_args(
+        [
+            "record",
+            "--out",
+            "x.mcap",
+            "-m",
+            "client",
+            "-e",
+            "tcp/1.2.3.4:7447",
+            "-l",
+            "tcp/0.0.0.0:0",
+            "-c",
+            "z.json5",
+            "--no-multicast-scouting",
+            "--exclude",
+            "fsw/sat1/clock",
+        ]
+    )
+    assert args.mode == "client" and args.connect == ["tcp/1.2.3.4:7447"]
+    assert args.listen == ["tcp/0.0.0.0:0"] and args.config == ["z.json5"]
+    assert args.no_multicast_scouting and args.exclude == ["fsw/sat1/clock"]
+    rep = build_parser().parse_args(
+        ["replay", "f.mcap", "-r", "2", "--clock", "--remap", "a/b=a/c"]
+    )
+    assert rep.rate == 2 and rep.clock == 1.0
+    assert rep.remap == [("a/b", "a/c")]
+
+
+def test_bad_remap_exits_2() -> None:
+    """Tests that a malformed --remap is refused at parsing."""
+    result = run("replay", "f.mcap", "--remap", "fsw/sat1")
+    assert result.returncode == 2 and "OLD=NEW" in result.stderr
+
+
+def test_schemas_command_writes_the_shipped_schemas(tmp_path: Path) -> None:
+    """Tests that `schemas --out` writes the same files as schemas/."""
+    result = run("schemas", "--out", str(tmp_path / "s"))
+    assert result.returncode == 0, result.stderr
+    written = {p.name: p.read_text() for p in (tmp_path / "s").iterdir()}
+    shipped = {
+        p.name: p.read_text() for p in (ROOT / "schemas").glob("*.json")
+    }
+    assert written == shipped == schemas.schema_files()
+
+
+def test_output_to_a_closed_pipe_is_quiet() -> None:
+    """Tests that a reader going away (`solve ... | head`) ends quietly."""
+    process = subprocess.Popen(
+        [*CLI, "solve", TABLE1],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    # The reader is gone before the plan (printed after the solve) is.
+    assert process.stdout is not None
+    process.stdout.close()
+    _, stderr = process.communicate(timeout=120)
+    assert process.returncode == 141
+    assert b"Traceback" not in stderr
+    assert b"Broken pipe" not in stderr
+
+
+def test_info_json_is_machine_readable() -> None:
+    """Tests `info --json` on a golden journal: channels, counts, span."""
+    # The 0.1.0 recording: no metadata, a fixed message count.
+    legacy = ROOT / "replay" / "paper-2026-11-26.mcap"
+    result = run("info", str(legacy), "--json")
+    assert result.returncode == 0, result.stderr
+    data = json.loads(result.stdout)
+    assert data["messages"] == 152
+    assert data["finished"] is True
+    topics = {c["topic"]: c["messages"] for c in data["channels"]}
+    assert topics["fsw/sat1/scheduler/plan"] == 2
+    assert data["duration_s"] >= 0 and data["metadata"] == {}

@@ -1,0 +1,354 @@
+"""Tests of ``replay --verify`` on the golden journals and altered copies."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+from typing import TYPE_CHECKING, NamedTuple
+
+import pytest
+from mcap.reader import make_reader
+from mcap.well_known import MessageEncoding, SchemaEncoding
+from mcap.writer import Writer
+
+from fsw_scheduler.app.demo import run_demo
+from fsw_scheduler.journal.replay import DERIVED_EXCLUDED, EXCLUDED, verify
+from fsw_scheduler.wire.topics import Topics
+
+from ..factories import ROOT, cli_command
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+    from pathlib import Path
+
+REPLAY_DIR = ROOT / "replay"
+GOLDEN_FILES = sorted(REPLAY_DIR.glob("*.mcap"))
+# The tampering tests edit the paper recording made by 0.1.0 (no derived
+# channels, full lifecycle maps in statuses): every message there is one
+# the tests reason about. The current recordings verify in
+# test_golden_journal_verifies.
+PAPER = REPLAY_DIR / "paper-2026-11-26.mcap"
+TOPICS = Topics()
+
+
+class Row(NamedTuple):
+    """One message of a journal, as rewritten by the tests."""
+
+    topic: str
+    data: bytes
+    log_time: int
+    publish_time: int
+
+
+def fsw_scheduler(*args: str) -> subprocess.CompletedProcess[str]:
+    """Run the ``fsw-scheduler`` script of this environment."""
+    return subprocess.run(
+        cli_command(*args),
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+
+
+def read_rows(path: Path) -> list[Row]:
+    """Every message of ``path`` in log-time order."""
+    with open(path, "rb") as f:
+        return [
+            Row(channel.topic, m.data, m.log_time, m.publish_time)
+            for _schema, channel, m in make_reader(f).iter_messages(
+                log_time_order=True
+            )
+        ]
+
+
+def rewrite(
+    src: Path, dst: Path, edit: Callable[[list[Row]], list[Row]]
+) -> None:
+    """Copy a journal through the mcap reader and writer, editing rows.
+
+    Channels and schemas are carried over unchanged; an edited row may
+    only use a topic that ``src`` already has.
+    """
+    with open(src, "rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    channels = {ch.topic: ch for ch in summary.channels.values()}
+    rows = edit(read_rows(src))
+    with open(dst, "wb") as f:
+        writer = Writer(f)
+        writer.start(profile="", library="tests.test_replay")
+        schema_ids: dict[int, int] = {0: 0}
+        channel_ids: dict[str, int] = {}
+        for row in rows:
+            if row.topic not in channel_ids:
+                channel = channels[row.topic]
+                if channel.schema_id not in schema_ids:
+                    schema = summary.schemas[channel.schema_id]
+                    schema_ids[channel.schema_id] = writer.register_schema(
+                        schema.name, schema.encoding, schema.data
+                    )
+                channel_ids[row.topic] = writer.register_channel(
+                    row.topic,
+                    channel.message_encoding,
+                    schema_ids[channel.schema_id],
+                )
+            writer.add_message(
+                channel_ids[row.topic],
+                log_time=row.log_time,
+                data=row.data,
+                publish_time=row.publish_time,
+            )
+        writer.finish()
+
+
+def kind(row: Row) -> str | None:
+    """The message kind of a row (``plan``, ``dispatch``...)."""
+    return TOPICS.schema_kind(row.topic)
+
+
+def output_index(rows: list[Row], position: int) -> int:
+    """How many compared outputs come before ``rows[position]``."""
+    compared = {*EXCLUDED, *DERIVED_EXCLUDED}
+    return sum(kind(row) in compared for row in rows[:position])
+
+
+def first(rows: list[Row], wanted: str, after: int = 0) -> int:
+    """Position of the first row of kind ``wanted`` from ``after`` on."""
+    return next(i for i in range(after, len(rows)) if kind(rows[i]) == wanted)
+
+
+def edited(row: Row, change: Callable[[dict], None]) -> Row:
+    """``row`` with its JSON payload changed in place by ``change``."""
+    doc = json.loads(row.data)
+    change(doc)
+    return row._replace(data=json.dumps(doc).encode())
+
+
+@pytest.fixture(scope="module")
+def paper_rows() -> list[Row]:
+    """The messages of the paper golden journal."""
+    return read_rows(PAPER)
+
+
+# -- golden files ------------------------------------------------------------
+
+
+def test_golden_directory_has_journals() -> None:
+    """Tests that replay/ holds the paper and failure golden journals."""
+    names = {path.name for path in GOLDEN_FILES}
+    assert {"paper.mcap", "failure.mcap"} <= names
+
+
+@pytest.mark.parametrize(
+    "path", GOLDEN_FILES or [None], ids=lambda p: p.name if p else "none"
+)
+def test_golden_journal_verifies(path: Path | None) -> None:
+    """Tests that every journal in replay/ replays identically."""
+    assert path is not None, "no *.mcap file in replay/"
+    report = verify(path)
+    assert report.identical, report.summary()
+    assert report.plans >= 1
+    assert report.dispatches >= 1
+    assert report.inputs >= 1
+
+
+@pytest.mark.parametrize(
+    "path", GOLDEN_FILES or [None], ids=lambda p: p.name if p else "none"
+)
+def test_golden_journal_reads_with_schemas(path: Path | None) -> None:
+    """Tests that the mcap reader yields every golden message with schema."""
+    assert path is not None, "no *.mcap file in replay/"
+    count = 0
+    with open(path, "rb") as f:
+        for schema, channel, message in make_reader(f).iter_messages():
+            count += 1
+            assert channel.message_encoding == MessageEncoding.JSON
+            assert schema is not None, channel.topic
+            assert schema.encoding == SchemaEncoding.JSONSchema
+            assert isinstance(json.loads(schema.data), dict)
+            json.loads(message.data)
+    assert count > 0
+    assert path.stat().st_size < 200_000
+
+
+def test_failure_journal_has_failure_and_drift() -> None:
+    """Tests that the failure journal holds a failed activity and drift."""
+    path = REPLAY_DIR / "failure.mcap"
+    rows = read_rows(path)
+    reports = [
+        json.loads(r.data) for r in rows if kind(r) == "activity_report"
+    ]
+    assert any(r["state"] == "failed" for r in reports)
+    triggers = {
+        json.loads(r.data).get("trigger")
+        for r in rows
+        if kind(r) == "solve_record"
+    }
+    assert "drift" in triggers
+
+
+# -- altered journals are caught --------------------------------------------
+
+
+def test_changed_dispatch_start_is_caught(
+    tmp_path: Path, paper_rows: list[Row]
+) -> None:
+    """Tests that a dispatch with another start diverges on field start."""
+    at = first(paper_rows, "dispatch")
+    original = json.loads(paper_rows[at].data)["start"]
+
+    def shift(rows: list[Row]) -> list[Row]:
+        rows[at] = edited(rows[at], lambda d: d.update(start=original + 3))
+        return rows
+
+    altered = tmp_path / "altered.mcap"
+    rewrite(PAPER, altered, shift)
+    report = verify(altered)
+    divergence = report.divergence
+    assert divergence is not None
+    assert divergence.index == output_index(paper_rows, at)
+    assert divergence.key_recorded == divergence.key_replayed
+    assert divergence.key_recorded == paper_rows[at].topic
+    assert divergence.field == "start"
+    assert divergence.recorded["start"] == original + 3
+    assert divergence.replayed["start"] == original
+
+
+def test_moved_plan_activity_is_caught(
+    tmp_path: Path, paper_rows: list[Row]
+) -> None:
+    """Tests that a plan with one activity moved diverges on that activity."""
+    at = first(paper_rows, "plan")
+    plan = json.loads(paper_rows[at].data)
+    idx = 2
+    start, end = (plan["activities"][idx][k] for k in ("start", "end"))
+
+    def move(doc: dict) -> None:
+        doc["activities"][idx].update(start=start + 1, end=end + 1)
+
+    def edit(rows: list[Row]) -> list[Row]:
+        rows[at] = edited(rows[at], move)
+        return rows
+
+    altered = tmp_path / "altered.mcap"
+    rewrite(PAPER, altered, edit)
+    divergence = verify(altered).divergence
+    assert divergence is not None
+    assert divergence.index == output_index(paper_rows, at)
+    assert divergence.key_recorded == TOPICS.key("scheduler/plan")
+    assert divergence.key_replayed == divergence.key_recorded
+    # Keys are compared in sorted order: "end" comes before "start".
+    assert divergence.field == f"activities[{idx}].end"
+    assert divergence.recorded["activities"][idx]["start"] == start + 1
+    assert divergence.replayed["activities"][idx]["start"] == start
+    assert divergence.replayed["activities"][idx]["end"] == end
+
+
+def test_deleted_output_is_caught(
+    tmp_path: Path, paper_rows: list[Row]
+) -> None:
+    """Tests that a deleted dispatch shows as the replay's extra output."""
+    at = first(paper_rows, "dispatch")
+    deleted = paper_rows[at]
+    after = next(
+        i
+        for i in range(at + 1, len(paper_rows))
+        if kind(paper_rows[i]) in EXCLUDED
+    )
+
+    def delete(rows: list[Row]) -> list[Row]:
+        return rows[:at] + rows[at + 1 :]
+
+    altered = tmp_path / "altered.mcap"
+    rewrite(PAPER, altered, delete)
+    divergence = verify(altered).divergence
+    assert divergence is not None
+    assert divergence.index == output_index(paper_rows, at)
+    assert divergence.key_replayed == deleted.topic
+    recorded = json.loads(deleted.data)
+    # Fields newer than the recording (dispatch_id) are not compared.
+    assert {
+        k: v for k, v in divergence.replayed.items() if k in recorded
+    } == recorded
+    assert divergence.key_recorded == paper_rows[after].topic
+    assert divergence.recorded == json.loads(paper_rows[after].data)
+    assert divergence.field == ""
+
+
+def test_extra_input_is_caught(tmp_path: Path, paper_rows: list[Row]) -> None:
+    """Tests that an extra failure report diverges on that activity."""
+    # The first report of a running activity, then its status output: the
+    # extra report goes right after that status.
+    report_at = first(paper_rows, "activity_report")
+    report = paper_rows[report_at]
+    task = json.loads(report.data)["task"]
+    status_at = first(paper_rows, "status", report_at)
+    nxt = paper_rows[status_at + 1]
+    extra = edited(
+        report._replace(
+            log_time=(paper_rows[status_at].log_time + nxt.log_time) // 2
+        ),
+        lambda d: d.update(state="failed"),
+    )
+    extra = extra._replace(publish_time=extra.log_time)
+
+    def insert(rows: list[Row]) -> list[Row]:
+        return [*rows[: status_at + 1], extra, *rows[status_at + 1 :]]
+
+    altered = tmp_path / "altered.mcap"
+    rewrite(PAPER, altered, insert)
+    assert read_rows(altered)[status_at + 1] == extra
+    divergence = verify(altered).divergence
+    assert divergence is not None
+    assert divergence.index == output_index(paper_rows, status_at + 1)
+    assert divergence.key_replayed == TOPICS.key("scheduler/status")
+    assert divergence.replayed["activities"][task] == "failed"
+    assert divergence.recorded["activities"][task] == "running"
+    assert divergence.field == f"activities.{task}"
+
+
+def test_cli_verify_exit_codes(tmp_path: Path, paper_rows: list[Row]) -> None:
+    """Tests that replay --verify exits 1 on divergence and 0 on golden."""
+    at = first(paper_rows, "dispatch")
+
+    def shift(rows: list[Row]) -> list[Row]:
+        rows[at] = edited(rows[at], lambda d: d.update(start=d["start"] + 3))
+        return rows
+
+    altered = tmp_path / "altered.mcap"
+    rewrite(PAPER, altered, shift)
+    bad = fsw_scheduler("replay", str(altered), "--verify")
+    assert bad.returncode == 1, bad.stderr
+    assert "DIVERGED" in bad.stdout
+    index = output_index(paper_rows, at)
+    assert f"output #{index} differs (field start)" in bad.stdout
+    topic = paper_rows[at].topic
+    assert f"recorded: {topic} " in bad.stdout
+    assert f"replayed: {topic} " in bad.stdout
+    good = fsw_scheduler("replay", str(PAPER), "--verify")
+    assert good.returncode == 0, good.stdout + good.stderr
+    assert "IDENTICAL" in good.stdout
+
+
+def test_altered_copy_leaves_golden_intact(tmp_path: Path) -> None:
+    """Tests that an unedited rewrite of a golden journal still verifies."""
+    copy = tmp_path / "copy.mcap"
+    shutil.copyfile(PAPER, copy)
+    rewritten = tmp_path / "rewritten.mcap"
+    rewrite(copy, rewritten, lambda rows: rows)
+    assert read_rows(rewritten) == read_rows(PAPER)
+    assert verify(rewritten).identical
+
+
+# -- a fresh run ------------------------------------------------------------
+
+
+def test_fresh_demo_journal_verifies(tmp_path: Path) -> None:
+    """Tests that a new demo run's journal replays identically."""
+    result = run_demo(tmp_path, quiet=True, pictures=False, verify=False)
+    assert result.journal.exists()
+    report = verify(result.journal)
+    assert report.identical, report.summary()
+    assert report.plans >= 2

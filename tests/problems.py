@@ -1,0 +1,380 @@
+"""Random problems valid by construction, and a brute-force oracle.
+
+Problems are generated valid by construction (every window holds at
+least one start inside the horizon, pins sit on such a start); only
+contradictory tight-precedence cycles are filtered out. The exhaustive
+enumeration is written from the problem format alone: it shares no code
+with the checker or the ILP, so it can judge both.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+from typing import TYPE_CHECKING
+
+from hypothesis import HealthCheck, assume, settings
+from hypothesis import strategies as st
+
+from fsw_scheduler.errors import InputError
+from fsw_scheduler.model.plan import Activity, Objective, Plan, SolveStatus
+from fsw_scheduler.model.problem import decode_problem
+
+if TYPE_CHECKING:
+    from fsw_scheduler.model.problem import Problem, Task
+
+TOLERANCE = 1e-9
+Assignment = dict[str, int | None]
+
+# Binary fractions only: the solvers' feasibility tolerances (~1e-7) must
+# not turn a rounding error into a reported "bug".
+CAPACITIES = (0, 1, 2, 3, 4.5, 6, 10)
+MULTIPLE_USES = (0, 1, 2, 2.5, 3, 5)
+LEVELS = (0, 1, 2, 4, 6, 8, 12.5)
+CONSUMABLE_USES = (-3, -1, -0.5, 1, 1.5, 2, 4)
+#: With capacities: small stores, often full from the start (room 0), so
+#: that generation is lost unless a consumer runs with it (None: the
+#: object form without ``max``), and uses that generate as often as they
+#: consume.
+CAPPED_LEVELS = (1, 0, 2, 4)
+HEADROOM = (0, 1, None, 2.5, 0.5)
+CAPPED_USES = (-2, 3, -4, 1.5, -1, 4, 2)
+
+COMMON = settings(
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+
+
+# --------------------------------------------------------------------------
+# Problem generation
+
+
+@st.composite
+def problem_docs(
+    draw: st.DrawFn,
+    max_tasks: int = 6,
+    max_horizon: int = 20,
+    capacities: bool = False,
+) -> dict:
+    """Draw a problem document that passes validation (up to tight cycles).
+
+    Parameters
+    ----------
+    draw
+        Hypothesis' draw function.
+    max_tasks
+        At most this many tasks (at least one).
+    max_horizon
+        At most this many time units (at least one).
+    capacities
+        Also draw consumables in the object form, mostly with a capacity
+        (``max``) at or a little above the initial level. Without it the
+        draws are the same as before capacities existed.
+
+    Returns
+    -------
+    dict
+        A problem document of the problem format.
+    """
+    # With capacities: room for a charge and a draw one after the other.
+    horizon = draw(
+        st.integers(min(4, max_horizon) if capacities else 1, max_horizon)
+    )
+    start = draw(st.integers(0, 3))
+    end = start + horizon
+    names = st.sampled_from
+    # With capacities: one consumable and one binary resource, which
+    # orders the tasks using it (a charge before a draw is what a full
+    # store can lose); three tasks in four use each. Shorter tasks, fewer
+    # windows and precedences and no pins leave room for such orders.
+    binary: list[str] = ["b0"] if capacities else []
+    multiple: dict[str, float] = {}
+    if not capacities:
+        binary = draw(st.lists(names(["b0", "b1"]), unique=True, max_size=2))
+        multiple = draw(
+            st.dictionaries(names(["m0", "m1"]), names(CAPACITIES), max_size=2)
+        )
+    consumable: dict = (
+        {"c0": draw(names(CAPPED_LEVELS))}
+        if capacities
+        else draw(
+            st.dictionaries(names(["c0", "c1"]), names(LEVELS), max_size=2)
+        )
+    )
+    if capacities:
+        for name, level in consumable.items():
+            room = draw(names(HEADROOM))
+            if room is not None:
+                consumable[name] = {"initial": level, "max": level + room}
+            elif draw(st.booleans()):
+                consumable[name] = {"initial": level}
+    consumable_uses = CAPPED_USES if capacities else CONSUMABLE_USES
+    reading = draw(names(["task", "start"]))
+    # Hypothesis favours the first choice; more tasks exercise more rules.
+    num_tasks = draw(names(range(max_tasks, 0, -1)))
+    tasks = []
+    for idx in range(num_tasks):
+        length = draw(st.integers(1, min(horizon, 3 if capacities else 5)))
+        # A start that every generated constraint of this task admits.
+        anchor = draw(st.integers(start, end - length))
+        task: dict = {
+            "id": f"t{idx}",
+            "length": length,
+            "delay_cost": draw(st.integers(1, 5)),
+            "schedule_cost": draw(names([3, 1, 2, 4, 5, 0])),
+            "preemption": draw(
+                names(["none", "from_start", "from_interrupt", "delete"])
+            ),
+        }
+        uses: dict[str, float] = {}
+        for name in binary:
+            if draw(st.integers(0, 3) if capacities else st.booleans()):
+                uses[name] = 1
+        for name in multiple:
+            if draw(st.booleans()):
+                uses[name] = draw(names(MULTIPLE_USES))
+        for name in consumable:
+            if draw(st.integers(0, 3) if capacities else st.booleans()):
+                uses[name] = draw(names(consumable_uses))
+        if uses:
+            task["uses"] = uses
+        window = draw(
+            names(
+                [None, "inherit", None, "task"]
+                if capacities
+                else [None, "inherit", "task", "start"]
+            )
+        )
+        if window is not None:
+            own = reading if window == "inherit" else window
+            low = draw(st.integers(max(0, anchor - 3), anchor))
+            first_end = anchor + length if own == "task" else anchor
+            high = draw(st.integers(first_end, first_end + 3))
+            task["feasible_interval"] = [low, high]
+            if window != "inherit":
+                task["feasible_interval_applies_to"] = own
+        if not capacities and draw(st.integers(0, 9)) == 0:
+            task["fixed_start"] = anchor
+        tasks.append(task)
+    precedences = []
+    if num_tasks >= 2:
+        num_precedences = draw(
+            names([0, 1, 2] if capacities else [2, 3, 4, 1, 0])
+        )
+        for _ in range(min(num_precedences, num_tasks + 1)):
+            before, after = draw(
+                st.lists(
+                    st.integers(0, num_tasks - 1),
+                    min_size=2,
+                    max_size=2,
+                    unique=True,
+                )
+            )
+            precedences.append(
+                {
+                    "before": f"t{before}",
+                    "after": f"t{after}",
+                    "kind": draw(names(["tight", "lax"])),
+                    "scope": draw(names(["both", "at_least_first"])),
+                    "offset": draw(st.integers(-3, 3)),
+                }
+            )
+    return {
+        "horizon": horizon,
+        "start": start,
+        "feasible_interval_applies_to": reading,
+        "resources": {
+            "binary": binary,
+            "multiple": multiple,
+            "consumable": consumable,
+        },
+        "tasks": tasks,
+        "precedences": precedences,
+    }
+
+
+def decode_doc(doc: dict) -> Problem:
+    """Decode ``doc``, discarding the example if validation rejects it."""
+    try:
+        return decode_problem(json.dumps(doc))
+    except InputError:
+        assume(False)
+        raise  # unreachable: assume(False) raises
+
+
+# --------------------------------------------------------------------------
+# Brute force, from the problem format only
+
+
+def reading(problem: Problem, task: Task) -> str:
+    return task.feasible_interval_applies_to or (
+        problem.feasible_interval_applies_to
+    )
+
+
+def start_ok(problem: Problem, task: Task, start: int) -> bool:
+    """Horizon, feasible interval and pin for one task on its own."""
+    if start < problem.start:
+        return False
+    if start + task.length > problem.start + problem.horizon:
+        return False
+    if task.fixed_start is not None and start != task.fixed_start:
+        return False
+    if task.feasible_interval is None:
+        return True
+    low, high = task.feasible_interval
+    if reading(problem, task) == "task":
+        return low <= start and start + task.length <= high
+    return low <= start <= high
+
+
+def joint_ok(problem: Problem, starts: Assignment) -> bool:
+    """Precedences, scopes and the three resource kinds together."""
+    lengths = {task.id: task.length for task in problem.tasks}
+    for prec in problem.precedences:
+        before, after = starts[prec.before], starts[prec.after]
+        if prec.scope == "both" and (before is None) != (after is None):
+            return False
+        if after is not None and before is None:
+            return False  # at_least_first (both is covered above)
+        if before is None or after is None:
+            continue
+        target = before + lengths[prec.before] + prec.offset
+        if prec.kind == "tight" and after != target:
+            return False
+        if prec.kind == "lax" and after < target:
+            return False
+    resources = problem.resources
+    levels, tops = {}, {}
+    for name, spec in resources.consumable.items():
+        # The raw field: a number, or an object with initial and max.
+        if isinstance(spec, int | float):
+            levels[name], tops[name] = spec, math.inf
+        else:
+            levels[name] = spec.initial
+            tops[name] = math.inf if spec.max is None else spec.max
+    for t in range(problem.start, problem.start + problem.horizon):
+        use: dict[str, float] = {}
+        for task in problem.tasks:
+            start = starts[task.id]
+            if start is None or not start <= t < start + task.length:
+                continue
+            for name, amount in task.uses.items():
+                use[name] = use.get(name, 0) + amount
+        for name in resources.binary:
+            if use.get(name, 0) > 1:
+                return False
+        for name, capacity in resources.multiple.items():
+            if use.get(name, 0) > capacity + TOLERANCE:
+                return False
+        for name in levels:
+            # Net use of the unit, then the capacity: a full store loses
+            # what it is offered beyond it.
+            levels[name] = min(tops[name], levels[name] - use.get(name, 0))
+            if levels[name] < -TOLERANCE:
+                return False
+    return True
+
+
+def is_feasible(problem: Problem, starts: Assignment) -> bool:
+    """Whether ``starts`` (task id to start, None = left out) is valid."""
+    for task in problem.tasks:
+        start = starts[task.id]
+        if start is None:
+            if task.schedule_cost == 0 or task.fixed_start is not None:
+                return False
+        elif not start_ok(problem, task, start):
+            return False
+    return joint_ok(problem, starts)
+
+
+def objective_of(problem: Problem, starts: Assignment) -> Objective:
+    weight = 1 + problem.horizon * sum(t.delay_cost for t in problem.tasks)
+    left_out = sum(
+        t.schedule_cost for t in problem.tasks if starts[t.id] is None
+    )
+    delay = sum(
+        t.delay_cost * (starts[t.id] - problem.start)  # type: ignore[operator]
+        for t in problem.tasks
+        if starts[t.id] is not None
+    )
+    return Objective(left_out, delay, weight * left_out + delay)
+
+
+def brute_force(problem: Problem) -> tuple[Objective, Assignment] | None:
+    """Enumerate every selection and start; return the best, if any.
+
+    Parameters
+    ----------
+    problem
+        A small problem (the enumeration is exponential in its tasks).
+
+    Returns
+    -------
+    tuple of Objective and dict, or None
+        The optimal objective and one optimal assignment (task id to start,
+        None for left out), or None when no assignment is feasible.
+    """
+    options = []
+    for task in problem.tasks:
+        starts: list[int | None] = [
+            s
+            for s in range(problem.start, problem.start + problem.horizon)
+            if start_ok(problem, task, s)
+        ]
+        if task.schedule_cost != 0 and task.fixed_start is None:
+            starts.append(None)
+        options.append(starts)
+    ids = [task.id for task in problem.tasks]
+    best: tuple[Objective, Assignment] | None = None
+    for combo in itertools.product(*options):
+        starts_of = dict(zip(ids, combo, strict=True))
+        objective = objective_of(problem, starts_of)
+        if best is not None and objective.total >= best[0].total:
+            continue  # cheap bound before the costly feasibility walk
+        if joint_ok(problem, starts_of):
+            best = (objective, starts_of)
+    return best
+
+
+def plan_of(problem: Problem, starts: Assignment) -> Plan:
+    lengths = {task.id: task.length for task in problem.tasks}
+    return Plan(
+        SolveStatus.OPTIMAL,
+        objective_of(problem, starts),
+        tuple(
+            Activity(name, s, s + lengths[name])
+            for name, s in starts.items()
+            if s is not None
+        ),
+        tuple(name for name, s in starts.items() if s is None),
+    )
+
+
+def starts_of(problem: Problem, plan: Plan) -> Assignment:
+    placed = {a.task: a.start for a in plan.activities}
+    return {task.id: placed.get(task.id) for task in problem.tasks}
+
+
+def show(doc: dict, *plans: Plan) -> str:
+    text = [json.dumps(doc)]
+    text += [json.dumps(plain(plan)) for plan in plans]
+    return "\n".join(text)
+
+
+def plain(plan: Plan) -> dict:
+    return {
+        "status": plan.status.value,
+        "objective": None
+        if plan.objective is None
+        else {
+            "unscheduled_cost": plan.objective.unscheduled_cost,
+            "delay_cost": plan.objective.delay_cost,
+            "total": plan.objective.total,
+        },
+        "activities": [[a.task, a.start, a.end] for a in plan.activities],
+        "unscheduled": list(plan.unscheduled),
+    }

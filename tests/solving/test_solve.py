@@ -1,0 +1,542 @@
+"""Tests of the ILP through ``fsw_scheduler.solve`` (CBC and HiGHS)."""
+
+from __future__ import annotations
+
+import copy
+import subprocess
+import sys
+
+import pytest
+
+from fsw_scheduler.analysis.check import check_plan
+from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.solving.solve import solve
+
+from ..factories import bench_lib, make_doc, make_task, problem_from
+
+SOLVERS = ["cbc", "highs"]
+
+
+def _starts(doc: dict, solver: str = "cbc", **kwargs: object) -> dict:
+    plan = solve(problem_from(doc), solver, **kwargs)
+    assert plan.status is SolveStatus.OPTIMAL, plan
+    return plan.starts()
+
+
+# -- the paper's Table 1 -----------------------------------------------------
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_table1_start_reading(table1_doc: dict, solver: str) -> None:
+    """Tests that Table 1 schedules all nine tasks as the paper describes."""
+    plan = solve(problem_from(table1_doc), solver)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.unscheduled == ()
+    assert plan.objective is not None
+    assert plan.objective.unscheduled_cost == 0
+    assert plan.objective.delay_cost == 359
+    starts = plan.starts()
+    assert starts["SetHFOption"] == starts["SetPositionX"] == 0
+    assert starts["DownlinkSat2Sat"] == 1
+    charge = plan.activity("BatteryCharge")
+    assert charge is not None
+    assert charge.start < starts["AcquisitionHF"]
+    assert charge.start <= 15 < charge.end
+
+
+def test_table1_whole_task_reading(table1_doc: dict) -> None:
+    """Tests that the whole-task window reading leaves exactly two out."""
+    doc = copy.deepcopy(table1_doc)
+    doc["feasible_interval_applies_to"] = "task"
+    plan = solve(problem_from(doc), explain=True)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert sorted(plan.unscheduled) == ["DownlinkSat2Sat", "SetPositionX"]
+    assert plan.objective is not None
+    assert plan.objective.unscheduled_cost == 6
+    assert plan.objective.delay_cost == 246
+    assert {b.task for b in plan.why} == {"DownlinkSat2Sat", "SetPositionX"}
+    assert all(b.cause == "cost" for b in plan.why)
+
+
+def test_same_input_same_plan(table1_doc: dict) -> None:
+    """Tests that solving twice gives byte-identical plans (no stats)."""
+    first = solve(problem_from(table1_doc)).replace(stats=None)
+    second = solve(problem_from(table1_doc)).replace(stats=None)
+    assert first == second
+
+
+# -- one test per constraint family -------------------------------------------
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_binary_resource(solver: str) -> None:
+    """Tests that two users of a binary resource never overlap."""
+    doc = make_doc(
+        [
+            make_task("a", 3, delay_cost=5, uses={"cam": 1}),
+            make_task("b", 2, delay_cost=1, uses={"cam": 1}),
+        ],
+        resources={"binary": ["cam"]},
+    )
+    assert _starts(doc, solver) == {"a": 0, "b": 3}
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_multiple_resource(solver: str) -> None:
+    """Tests that concurrent use stays within a multiple capacity."""
+    doc = make_doc(
+        [
+            make_task("a", 2, delay_cost=3, uses={"power": 30}),
+            make_task("b", 2, delay_cost=2, uses={"power": 30}),
+            make_task("c", 2, delay_cost=1, uses={"power": 40}),
+        ],
+        resources={"multiple": {"power": 60}},
+    )
+    # a and b fit together (60); c must wait until both end.
+    assert _starts(doc, solver) == {"a": 0, "b": 0, "c": 2}
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_consumable_with_generation(solver: str) -> None:
+    """Tests that a consumer waits for generation to refill the level."""
+    doc = make_doc(
+        [
+            make_task("use", 2, delay_cost=5, uses={"battery": 2}),
+            make_task("charge", 4, delay_cost=1, uses={"battery": -1}),
+        ],
+        resources={"consumable": {"battery": 0}},
+    )
+    # Empty battery, charging 1 per unit: the consumer (2 per unit) can
+    # only run once 4 units are in, so it starts at 2 and ends with 0.
+    assert _starts(doc, solver) == {"charge": 0, "use": 2}
+
+
+def test_consumable_level_counts_partial_units() -> None:
+    """Tests that the level is checked at every unit, not only at ends."""
+    doc = make_doc(
+        [
+            # Charges 1/unit from t=0 while running; the consumer takes 2/unit.
+            make_task("charge", 4, delay_cost=1, uses={"battery": -1}),
+            make_task("use", 2, delay_cost=5, uses={"battery": 2}),
+        ],
+        resources={"consumable": {"battery": 1}},
+    )
+    starts = _starts(doc)
+    # Overlapping from t: level(t) = 1 + (t+1) - 2 >= 0 holds from t = 0,
+    # but unit t+1 needs 1 + (t+2) - 4 >= 0, so use starts at 1 at best.
+    assert starts == {"charge": 0, "use": 1}
+
+
+@pytest.mark.parametrize("offset", [-1, 0, 2])
+def test_tight_both_offsets(offset: int) -> None:
+    """Tests tight precedences with negative, zero and positive offsets."""
+    doc = make_doc(
+        [make_task("a", 3, delay_cost=1), make_task("b", 2, delay_cost=5)],
+        precedences=[
+            {"before": "a", "after": "b", "kind": "tight", "offset": offset}
+        ],
+    )
+    starts = _starts(doc)
+    assert starts["b"] == starts["a"] + 3 + offset
+    assert starts["a"] == 0
+
+
+def test_tight_both_drops_both() -> None:
+    """Tests that tight-both leaves both out when the follower can't fit."""
+    doc = make_doc(
+        [
+            make_task("a", 3, schedule_cost=1),
+            make_task("b", 8, schedule_cost=1),
+        ],
+        precedences=[{"before": "a", "after": "b", "kind": "tight"}],
+    )
+    plan = solve(problem_from(doc), explain=True)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert sorted(plan.unscheduled) == ["a", "b"]
+    assert {b.cause for b in plan.why} == {"precedence"}
+
+
+def test_tight_at_least_first_keeps_first() -> None:
+    """Tests that tight at_least_first may schedule the first alone."""
+    doc = make_doc(
+        [make_task("a", 3), make_task("b", 8)],
+        precedences=[
+            {
+                "before": "a",
+                "after": "b",
+                "kind": "tight",
+                "scope": "at_least_first",
+            }
+        ],
+    )
+    plan = solve(problem_from(doc))
+    assert plan.unscheduled == ("b",)
+    assert plan.starts() == {"a": 0}
+
+
+def test_tight_at_least_first_is_exact_when_both() -> None:
+    """Tests that tight at_least_first fixes the gap when both run."""
+    doc = make_doc(
+        [
+            make_task("a", 2, delay_cost=5, uses={"cam": 1}),
+            make_task("b", 2, delay_cost=1),
+            make_task("c", 2, delay_cost=5, uses={"cam": 1}),
+        ],
+        resources={"binary": ["cam"]},
+        precedences=[
+            {
+                "before": "a",
+                "after": "b",
+                "kind": "tight",
+                "scope": "at_least_first",
+                "offset": 1,
+            }
+        ],
+    )
+    starts = _starts(doc)
+    assert starts["b"] == starts["a"] + 3
+
+
+@pytest.mark.parametrize("scope", ["both", "at_least_first"])
+def test_lax(scope: str) -> None:
+    """Tests that lax precedences order tasks with an offset gap."""
+    doc = make_doc(
+        [make_task("a", 2, delay_cost=1), make_task("b", 2, delay_cost=5)],
+        precedences=[
+            {
+                "before": "a",
+                "after": "b",
+                "kind": "lax",
+                "scope": scope,
+                "offset": 1,
+            }
+        ],
+    )
+    starts = _starts(doc)
+    assert starts == {"a": 0, "b": 3}
+
+
+def test_lax_both_versus_at_least_first() -> None:
+    """Tests the scopes when the follower cannot be placed."""
+    tasks = [
+        make_task("a", 2, schedule_cost=5),
+        make_task("b", 9, schedule_cost=1),
+    ]
+    for scope, expected in [("both", ["a", "b"]), ("at_least_first", ["b"])]:
+        doc = make_doc(
+            copy.deepcopy(tasks),
+            precedences=[
+                {"before": "a", "after": "b", "kind": "lax", "scope": scope}
+            ],
+        )
+        plan = solve(problem_from(doc))
+        assert sorted(plan.unscheduled) == expected, scope
+
+
+def test_lax_negative_offset_allows_overlap() -> None:
+    """Tests that a negative lax offset lets the follower overlap."""
+    doc = make_doc(
+        [make_task("a", 4, delay_cost=1), make_task("b", 1, delay_cost=5)],
+        precedences=[
+            {"before": "a", "after": "b", "kind": "lax", "offset": -3}
+        ],
+    )
+    assert _starts(doc) == {"a": 0, "b": 1}
+
+
+def test_windows_both_readings() -> None:
+    """Tests that windows bound the start or the whole task."""
+    assert _starts(
+        make_doc([make_task("a", 3, feasible_interval=[4, 8])])
+    ) == {"a": 4}
+    for reading, expected in [("task", None), ("start", 6)]:
+        doc = make_doc(
+            [
+                make_task("block", 2, fixed_start=4, uses={"r": 1}),
+                make_task("a", 3, feasible_interval=[4, 8], uses={"r": 1}),
+            ],
+            horizon=14,
+            resources={"binary": ["r"]},
+            feasible_interval_applies_to=reading,
+        )
+        plan = solve(problem_from(doc))
+        # block holds r over [4, 6): with the task reading a must start in
+        # [4, 5] and cannot run; with the start reading it starts at 6.
+        assert plan.starts().get("a") == expected, reading
+
+
+def test_fixed_start_is_mandatory_and_exact() -> None:
+    """Tests that a fixed start is honoured even when delay costs more."""
+    doc = make_doc([make_task("a", 2, delay_cost=5, fixed_start=6)])
+    assert _starts(doc) == {"a": 6}
+
+
+def test_mandatory_infeasible_says_why() -> None:
+    """Tests that an infeasible problem names the blocked mandatory task."""
+    doc = make_doc(
+        [
+            make_task("a", 6, schedule_cost=0, uses={"cam": 1}),
+            make_task("b", 6, schedule_cost=0, uses={"cam": 1}),
+        ],
+        resources={"binary": ["cam"]},
+    )
+    plan = solve(problem_from(doc), explain=True)
+    assert plan.status is SolveStatus.INFEASIBLE
+    assert plan.objective is None
+    assert sorted(plan.unscheduled) == ["a", "b"]
+    # Found without a solver: the two together over-subscribe cam.
+    assert [(b.task, b.cause) for b in plan.why] == [
+        ("a", "binary"),
+        ("b", "binary"),
+    ]
+    assert plan.stats is not None and plan.stats.solver == "proof"
+
+
+def test_mandatory_blocked_by_consumable() -> None:
+    """Tests that a consumable shortfall is named as the blocker."""
+    doc = make_doc(
+        [
+            make_task("a", 3, schedule_cost=0, uses={"fuel": 2}),
+            make_task("b", 1, schedule_cost=1),
+        ],
+        resources={"consumable": {"fuel": 5}},
+    )
+    plan = solve(problem_from(doc), explain=True)
+    assert plan.status is SolveStatus.INFEASIBLE
+    assert [(b.task, b.cause) for b in plan.why] == [("a", "consumable")]
+
+
+def test_unscheduled_reason_names_resource() -> None:
+    """Tests that an optional task kept out by a resource says which."""
+    doc = make_doc(
+        [
+            make_task("a", 8, schedule_cost=5, uses={"power": 5}),
+            make_task("b", 4, schedule_cost=1, uses={"power": 6}),
+        ],
+        resources={"multiple": {"power": 10}},
+    )
+    plan = solve(problem_from(doc), explain=True)
+    assert plan.unscheduled == ("b",)
+    assert [(b.task, b.cause) for b in plan.why] == [("b", "cost")]
+    assert "push out a" in plan.why[0].detail
+    doc["tasks"][0]["schedule_cost"] = 0  # a can no longer make way
+    plan = solve(problem_from(doc), explain=True)
+    assert [(b.task, b.cause) for b in plan.why] == [("b", "multiple")]
+
+
+def test_time_limit_status_is_honest() -> None:
+    """Tests that a limited solve never claims more than it proved."""
+    tasks = [
+        make_task(
+            f"t{i}",
+            1 + (i * 7) % 5,
+            delay_cost=1 + i % 5,
+            schedule_cost=1 + i % 5,
+            uses={"cam": 1},
+        )
+        for i in range(25)
+    ]
+    doc = make_doc(tasks, horizon=60, resources={"binary": ["cam"]})
+    plan = solve(problem_from(doc), time_limit=1)
+    assert plan.status in {
+        SolveStatus.OPTIMAL,
+        SolveStatus.FEASIBLE,
+        SolveStatus.UNKNOWN,
+    }
+    assert plan.stats is not None
+    if plan.status is SolveStatus.FEASIBLE:
+        assert plan.objective is not None
+        assert plan.stats.bound is None or (
+            plan.stats.bound <= plan.objective.total
+        )
+
+
+@pytest.mark.parametrize(
+    ("first_line", "status", "has_values"),
+    [
+        ("Optimal - objective value 12.0", SolveStatus.OPTIMAL, True),
+        (
+            "Stopped on time - objective value 40.0",
+            SolveStatus.FEASIBLE,
+            True,
+        ),
+        (
+            "Stopped on ctrl-c - objective value 40.0",
+            SolveStatus.FEASIBLE,
+            True,
+        ),
+        ("Stopped on time - no solution", SolveStatus.UNKNOWN, False),
+        ("Infeasible - objective value 0", SolveStatus.INFEASIBLE, False),
+        (
+            "Integer infeasible - objective value 0",
+            SolveStatus.INFEASIBLE,
+            False,
+        ),
+        ("Unbounded - objective value 0", SolveStatus.UNKNOWN, False),
+        ("", SolveStatus.UNKNOWN, False),
+    ],
+)
+def test_cbc_status_line_is_read_honestly(
+    first_line: str, status: SolveStatus, has_values: bool
+) -> None:
+    """Tests that a plan found at a limit is feasible, not optimal."""
+    from fsw_scheduler.solving.ilp.cbc import read_status
+
+    assert read_status(first_line) == (status, has_values)
+
+
+def test_warm_start_keeps_optimum(table1_doc: dict) -> None:
+    """Tests that a warm start from a plan gives the same optimum."""
+    problem = problem_from(table1_doc)
+    cold = solve(problem)
+    warm = solve(problem, warm=cold)
+    assert warm.objective == cold.objective
+
+
+def test_core_does_not_import_solver_or_bus() -> None:
+    """Tests that importing the package pulls in neither PuLP nor Zenoh."""
+    code = (
+        "import sys, fsw_scheduler, fsw_scheduler.model, "
+        "fsw_scheduler.analysis.domains, fsw_scheduler.analysis.explain, "
+        "fsw_scheduler.engine, fsw_scheduler.replan, "
+        "fsw_scheduler.analysis.check, fsw_scheduler.runtime.clock;"
+        "bad = [m for m in ('pulp', 'zenoh', 'matplotlib', 'mcap') "
+        "if m in sys.modules]; print(bad); sys.exit(bool(bad))"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+
+
+def _large_problem() -> dict:
+    """A 100-task mixed problem from the benchmark generator (hard)."""
+    generate_problem = bench_lib("generator").generate_problem
+
+    return generate_problem(100, "mixed", 336, 1096946284)
+
+
+def test_time_limit_returns_a_valid_plan_on_a_hard_problem() -> None:
+    """Tests that a hard problem under a short limit still gets a plan."""
+    from fsw_scheduler.analysis.check import check_plan
+
+    problem = problem_from(_large_problem())
+    plan = solve(problem, time_limit=1)
+    assert plan.status in {SolveStatus.FEASIBLE, SolveStatus.OPTIMAL}
+    assert check_plan(problem, plan).ok
+    assert plan.stats is not None and plan.stats.time_limit_s == 1
+
+
+def test_cbc_is_interrupted_at_its_deadline() -> None:
+    """Tests that CBC past its wall-clock deadline is stopped, not awaited."""
+    from fsw_scheduler.solving.ilp.cbc import CbcRun
+    from fsw_scheduler.solving.ilp.model import BuiltModel
+
+    built = BuiltModel(problem_from(_large_problem()))
+    run = CbcRun(deadline_s=0.05)
+    result = run.solve(built.program)
+    assert result.interrupted and run.interrupted
+
+
+def test_explanations_share_a_time_budget(table1_doc: dict) -> None:
+    """Tests that spent explanation budget gives not_analysed, not guesses."""
+    from fsw_scheduler.analysis.explain import explain
+    from fsw_scheduler.solving.budget import BUDGET
+    from fsw_scheduler.solving.ilp import solve_ilp
+
+    doc = copy.deepcopy(table1_doc)
+    doc["feasible_interval_applies_to"] = "task"
+    problem = problem_from(doc)
+    plan = solve(problem)
+    spent = BUDGET.budgeted(solve_ilp, 0.0)
+    assert spent(problem).status is SolveStatus.UNKNOWN
+    why = explain(problem, plan, spent)
+    assert {b.task for b in why} == set(plan.unscheduled)
+    assert {b.cause for b in why} == {"not_analysed"}
+
+
+def test_reason_names_the_precedence_partner_not_the_resource() -> None:
+    """Tests that a task kept out by its partner is blamed on the precedence.
+
+    ``t`` (1 unit, 1 battery) fits on its own, but a lax ``both``
+    precedence ties it to ``u``, which cannot get the battery it needs
+    once mandatory ``m`` has run. Dropping the battery for every task let
+    both in, so the reason used to be "battery would go below 0".
+    """
+    doc = make_doc(
+        [
+            make_task("m", 4, schedule_cost=0, uses={"battery": 2}),
+            make_task("t", 1, uses={"battery": 1}),
+            make_task("u", 3, uses={"battery": 1}),
+        ],
+        horizon=12,
+        resources={"consumable": {"battery": 10}},
+        precedences=[{"before": "t", "after": "u", "kind": "lax"}],
+    )
+    plan = solve(problem_from(doc), explain=True)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert set(plan.unscheduled) == {"t", "u"}
+    why = {b.task: b for b in plan.why}
+    assert why["t"].cause == "precedence", why
+    assert "t -> u" in why["t"].detail
+    assert why["u"].cause in ("precedence", "consumable"), why
+
+
+def test_independent_parts_are_solved_apart() -> None:
+    """Tests that tasks sharing no resource or precedence are solved as
+    separate models, and the joined plan is the whole problem's optimum."""
+    from fsw_scheduler.solving.ilp import solve_ilp
+    from fsw_scheduler.solving.solve import components
+
+    doc = make_doc(
+        [
+            make_task("a", 3, delay_cost=2, uses={"cam": 1}),
+            make_task("b", 3, delay_cost=3, uses={"cam": 1}),
+            make_task("c", 2, uses={"ant": 1}),
+            make_task("d", 2, delay_cost=5, uses={"ant": 1}),
+            make_task("e", 1, schedule_cost=0),
+            make_task("f", 9, schedule_cost=2, uses={"cam": 1}),
+        ],
+        horizon=10,
+        resources={"binary": ["cam", "ant"]},
+        precedences=[{"before": "e", "after": "c", "kind": "lax"}],
+    )
+    problem = problem_from(doc)
+    assert components(problem) == [["a", "b", "f"], ["c", "d", "e"]]
+    plan = solve(problem)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.stats is not None
+    assert plan.stats.solver_status.startswith("2 independent parts")
+    whole = solve_ilp(problem)
+    assert whole.status is SolveStatus.OPTIMAL
+    assert plan.objective == whole.objective
+    report = check_plan(problem, plan)
+    assert report.ok and report.objective == plan.objective
+
+
+def test_no_solver_when_only_impossible_tasks_are_out() -> None:
+    """Tests that a start plan leaving out only tasks no plan can hold, the
+    others at their earliest starts, is optimal without a solve."""
+    doc = make_doc(
+        [
+            make_task("a", 3),
+            make_task("b", 4),
+            make_task("c", 2, delay_cost=3),
+        ],
+        horizon=10,
+        precedences=[
+            # b would have to start at 3 + 5 = 8 and end past 10.
+            {
+                "before": "a",
+                "after": "b",
+                "kind": "tight",
+                "offset": 5,
+                "scope": "at_least_first",
+            }
+        ],
+    )
+    plan = solve(problem_from(doc))
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.unscheduled == ("b",)
+    assert plan.starts() == {"a": 0, "c": 0}
+    assert plan.stats is not None and plan.stats.solver == "greedy"

@@ -1,0 +1,459 @@
+"""Tests of the benchmark kit (tools/bench_lib) and tools/bench."""
+
+from __future__ import annotations
+
+import importlib
+import itertools
+import json
+import subprocess
+import sys
+from typing import TYPE_CHECKING
+
+import pytest
+
+from fsw_scheduler.analysis.check import check_plan
+from fsw_scheduler.model.plan import Activity, Plan, SolveStatus
+from fsw_scheduler.model.problem import Problem, decode_problem
+
+from ..factories import ROOT, bench_lib
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+
+generator = bench_lib("generator")
+report = bench_lib("report")
+runner = bench_lib("runner")
+
+
+def _has_ortools() -> bool:
+    try:
+        importlib.import_module("ortools.sat.python.cp_model")
+    except ImportError:
+        return False
+    return True
+
+
+def brute_force(problem: Problem) -> int | None:
+    """Best objective total over every plan check_plan accepts (or None)."""
+    choices = []
+    for task in problem.tasks:
+        low, high = problem.start_bounds(task)
+        choices.append([None, *range(low, high + 1)])
+    best = None
+    for starts in itertools.product(*choices):
+        activities = tuple(
+            Activity(task.id, s, s + task.length)
+            for task, s in zip(problem.tasks, starts, strict=True)
+            if s is not None
+        )
+        unscheduled = tuple(
+            task.id
+            for task, s in zip(problem.tasks, starts, strict=True)
+            if s is None
+        )
+        plan = Plan(SolveStatus.FEASIBLE, None, activities, unscheduled)
+        checked = check_plan(problem, plan)
+        if checked.ok and (best is None or checked.objective.total < best):
+            best = checked.objective.total
+    return best
+
+
+def test_generator_is_deterministic() -> None:
+    """Tests that the same seed gives byte-identical problems."""
+    first = [p.to_json() for p in generator.suite("all", 7)]
+    second = [p.to_json() for p in generator.suite("all", 7)]
+    assert first == second
+    other = [p.to_json() for p in generator.campaign(8)]
+    assert other != first[: len(other)]
+
+
+def test_problem_seed_regenerates_one_problem() -> None:
+    """Tests that a problem's own seed rebuilds it alone, byte for byte."""
+    bench = generator.campaign(0)[40]
+    doc = generator.generate_problem(
+        bench.num_tasks, bench.resource_class, bench.horizon, bench.seed
+    )
+    assert generator.dump_json(doc) == bench.to_json()
+
+
+def test_suites_have_the_paper_shape() -> None:
+    """Tests that the campaign is 3 sizes x 4 classes x 7 at H=336."""
+    camp = generator.campaign(0)
+    assert len(camp) == 84
+    assert {p.horizon for p in camp} == {336}
+    cells = {(p.num_tasks, p.resource_class) for p in camp}
+    assert cells == set(itertools.product((5, 10, 15), generator.CLASSES))
+    scale = generator.scaling(0)
+    assert {(p.num_tasks, p.horizon) for p in scale} == set(
+        itertools.product((30, 60, 100, 200), (336, 1440))
+    )
+    assert len({p.name for p in camp + scale}) == len(camp + scale)
+
+
+def test_every_generated_problem_decodes() -> None:
+    """Tests that every generated problem passes decode_problem."""
+    for bench in generator.suite("all", 0) + generator.quick(0):
+        problem = decode_problem(bench.to_json())
+        assert problem.num_tasks == bench.num_tasks
+        kinds = {
+            kind
+            for task in problem.tasks
+            for name in task.uses
+            if (kind := problem.resources.kind_of(name))
+        }
+        if bench.resource_class in generator.CLASSES[1:]:
+            assert kinds <= {bench.resource_class}
+
+
+def test_generator_covers_every_feature() -> None:
+    """Tests that the campaign holds every precedence kind and reading."""
+    docs = [p.doc for p in generator.campaign(0)]
+    precs = [e for d in docs for e in d["precedences"]]
+    for kind, scope, sign in itertools.product(
+        ("tight", "lax"), ("both", "at_least_first"), (-1, 0, 1)
+    ):
+        assert any(
+            e["kind"] == kind
+            and e["scope"] == scope
+            and (e["offset"] > 0) - (e["offset"] < 0) == sign
+            for e in precs
+        ), (kind, scope, sign)
+    tasks = [t for d in docs for t in d["tasks"]]
+    readings = {d["feasible_interval_applies_to"] for d in docs}
+    readings |= {
+        t["feasible_interval_applies_to"]
+        for t in tasks
+        if "feasible_interval_applies_to" in t
+    }
+    assert readings == {"task", "start"}
+    assert all(any(t["schedule_cost"] == 0 for t in d["tasks"]) for d in docs)
+    assert any(t["feasible_interval"] for t in tasks)
+    cons = [d for d in docs if "consumable" in d["resources"]]
+    assert all(
+        any(v < 0 for t in d["tasks"] for v in t["uses"].values())
+        for d in cons
+    )
+
+
+def test_tight_precedences_are_chains() -> None:
+    """Tests that each task has at most one tight predecessor and successor."""
+    for bench in generator.suite("all", 0):
+        tight = [e for e in bench.doc["precedences"] if e["kind"] == "tight"]
+        befores = [e["before"] for e in tight]
+        afters = [e["after"] for e in tight]
+        assert len(set(befores)) == len(befores)
+        assert len(set(afters)) == len(afters)
+
+
+def test_percentile_interpolates() -> None:
+    """Tests that percentile interpolates linearly between ranks."""
+    assert report.percentile([1.0, 2.0, 3.0, 4.0, 5.0], 90) == pytest.approx(
+        4.6
+    )
+    assert report.percentile([2.0], 90) == 2.0
+
+
+def _run(solver: str, status: str, total: int | None) -> object:
+    return runner.Run(
+        problem="p",
+        suite="campaign",
+        num_tasks=5,
+        resource_class="none",
+        horizon=336,
+        seed=1,
+        solver=solver,
+        repeat=0,
+        status=status,
+        timeout=False,
+        build_s=0.0,
+        solve_s=0.0,
+        overhead_s=0.0,
+        wall_s=0.0,
+        total=total,
+    )
+
+
+def test_compare_flags_contradictions() -> None:
+    """Tests that compare reports differing optima and false infeasibility."""
+    assert (
+        runner.compare([_run("cbc", "optimal", 5), _run("x", "optimal", 5)])
+        == []
+    )
+    assert runner.compare([_run("cbc", "optimal", 5), _run("x", "optimal", 6)])
+    assert runner.compare(
+        [_run("cbc", "optimal", 5), _run("x", "feasible", 4)]
+    )
+    assert runner.compare(
+        [_run("cbc", "infeasible", None), _run("x", "feasible", 9)]
+    )
+
+
+TINY = [(4, cls, 8, seed) for cls in generator.CLASSES for seed in range(1, 6)]
+
+
+@pytest.mark.parametrize(("size", "cls", "horizon", "seed"), TINY)
+def test_cpsat_matches_brute_force(
+    size: int, cls: str, horizon: int, seed: int
+) -> None:
+    """Tests that CP-SAT finds the brute-force optimum on tiny problems."""
+    pytest.importorskip("ortools")
+    cpsat = bench_lib("cpsat")
+    doc = generator.generate_problem(size, cls, horizon, seed)
+    problem = decode_problem(json.dumps(doc))
+    best = brute_force(problem)
+    assert best is not None  # mandatory tasks are always placeable
+    plan = cpsat.solve_cpsat(problem, time_limit=20)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert check_plan(problem, plan).ok
+    assert plan.objective is not None
+    assert plan.objective.total == best
+
+
+def test_cpsat_matches_brute_force_on_consumable_charging() -> None:
+    """Tests that CP-SAT counts consumption per unit run, with charging."""
+    pytest.importorskip("ortools")
+    cpsat = bench_lib("cpsat")
+    problem = decode_problem(
+        json.dumps(
+            {
+                "horizon": 7,
+                "resources": {"consumable": {"bat": 2}},
+                "tasks": [
+                    {
+                        "id": "use",
+                        "length": 3,
+                        "delay_cost": 5,
+                        "schedule_cost": 2,
+                        "uses": {"bat": 2},
+                    },
+                    {
+                        "id": "charge",
+                        "length": 2,
+                        "delay_cost": 1,
+                        "schedule_cost": 1,
+                        "uses": {"bat": -1.5},
+                    },
+                    {
+                        "id": "must",
+                        "length": 1,
+                        "delay_cost": 2,
+                        "schedule_cost": 0,
+                        "uses": {"bat": 0.5},
+                        "feasible_interval": [2, 4],
+                    },
+                ],
+                "precedences": [
+                    {
+                        "before": "charge",
+                        "after": "use",
+                        "kind": "lax",
+                        "scope": "at_least_first",
+                        "offset": -1,
+                    },
+                ],
+            }
+        )
+    )
+    plan = cpsat.solve_cpsat(problem)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert check_plan(problem, plan).ok
+    assert plan.objective is not None
+    assert plan.objective.total == brute_force(problem)
+
+
+def test_cpsat_reports_infeasible() -> None:
+    """Tests that CP-SAT says infeasible when mandatory tasks cannot fit."""
+    pytest.importorskip("ortools")
+    cpsat = bench_lib("cpsat")
+    problem = decode_problem(
+        json.dumps(
+            {
+                "horizon": 3,
+                "resources": {"binary": ["r"]},
+                "tasks": [
+                    {
+                        "id": t,
+                        "length": 2,
+                        "delay_cost": 1,
+                        "schedule_cost": 0,
+                        "uses": {"r": 1},
+                    }
+                    for t in ("a", "b")
+                ],
+            }
+        )
+    )
+    plan = cpsat.solve_cpsat(problem)
+    assert plan.status is SolveStatus.INFEASIBLE
+    assert plan.objective is None
+    assert set(plan.unscheduled) == {"a", "b"}
+
+
+@pytest.mark.parametrize("index", [0, 14, 21])
+def test_cpsat_agrees_with_cbc(index: int) -> None:
+    """Tests that CP-SAT and CBC prove the same optimum on 5-task problems."""
+    pytest.importorskip("ortools")
+    cpsat = bench_lib("cpsat")
+    from fsw_scheduler.solving.solve import solve
+
+    problem = generator.campaign(0)[index].problem()
+    mine = cpsat.solve_cpsat(problem, time_limit=30)
+    theirs = solve(problem, "cbc", time_limit=30)
+    assert mine.status is theirs.status is SolveStatus.OPTIMAL
+    assert mine.objective == theirs.objective
+    assert check_plan(problem, mine).ok
+
+
+def test_quick_bench_runs_end_to_end(tmp_path: Path) -> None:
+    """Tests that tools/bench --quick runs, checks plans and prints tables."""
+    solvers = "cbc,cpsat" if _has_ortools() else "cbc"
+    result = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "tools" / "bench"),
+            "--quick",
+            "--solvers",
+            solvers,
+            "--time-limit",
+            "30",
+            "--out",
+            str(tmp_path),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "by number of tasks" in result.stdout
+    assert "by resource class" in result.stdout
+    assert "check failures: 0" in result.stdout
+    assert "solver disagreements: 0" in result.stdout
+    assert result.stderr.count("q05-") >= 4  # one progress line per problem
+    rows = (tmp_path / "runs.csv").read_text().splitlines()
+    assert len(rows) == 1 + 4 * len(solvers.split(","))
+    assert (tmp_path / "fig3_by_tasks.png").exists()
+    assert len(list((tmp_path / "problems").glob("*.json"))) == 4
+
+
+def test_bench_capacity_option(tmp_path: Path) -> None:
+    """Tests tools/bench --capacity: consumables get a capacity, plans are
+    checked and the solvers agree."""
+    solvers = "cbc,cpsat" if _has_ortools() else "cbc"
+    result = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "tools" / "bench"),
+            "--quick",
+            "--only",
+            "cons",
+            "--capacity",
+            "1",
+            "--solvers",
+            solvers,
+            "--time-limit",
+            "30",
+            "--out",
+            str(tmp_path),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "check failures: 0" in result.stdout
+    assert "solver disagreements: 0" in result.stdout
+    (saved,) = (tmp_path / "problems").glob("*.json")
+    consumable = json.loads(saved.read_text())["resources"]["consumable"]
+    assert consumable
+    assert all(c["max"] == c["initial"] for c in consumable.values())
+
+
+def test_bench_rejects_unknown_solver() -> None:
+    """Tests that tools/bench exits 2 naming an unknown solver."""
+    result = subprocess.run(
+        [sys.executable, str(ROOT / "tools" / "bench"), "--solvers", "gurobi"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert result.returncode == 2
+    assert "gurobi" in result.stderr
+
+
+def test_broad_generator_has_the_issue_shape() -> None:
+    """Tests that the broad campaign is valid, deterministic and as broad as
+    asked: windows, precedences per task, contradicting tight paths, busy
+    binary resources and scarce consumables."""
+    from fsw_scheduler.analysis.proofs import tight_conflicts
+
+    first = generator.suite("all", 0, "broad")
+    assert [p.to_json() for p in first] == [
+        p.to_json() for p in generator.suite("all", 0, "broad")
+    ]
+    camp = [p for p in first if p.suite == "campaign"]
+    assert len(camp) == 84 and all(p.name.startswith("b") for p in camp)
+    tasks = [t for p in camp for t in p.doc["tasks"]]
+    windows = sum(t.get("feasible_interval") is not None for t in tasks)
+    assert 0.25 < windows / len(tasks) < 0.45
+    precs = sum(len(p.doc["precedences"]) for p in camp)
+    assert 0.35 < precs / len(tasks) < 0.6
+    kinds = {
+        (e["kind"], e["scope"], (e["offset"] > 0) - (e["offset"] < 0))
+        for p in camp
+        for e in p.doc["precedences"]
+    }
+    assert len(kinds) == 12  # every kind x scope x offset sign
+    assert sum(bool(tight_conflicts(p.problem())) for p in camp) > 10
+    for bench in camp:
+        problem = bench.problem()
+        horizon = problem.horizon
+        for name in problem.resources.binary:
+            busy = sum(t.length for t in problem.tasks if t.uses.get(name))
+            assert busy >= 0.65 * horizon, bench.name
+        for name, cap in problem.resources.multiple.items():
+            for task in problem.tasks:
+                amount = task.uses.get(name, 0)
+                assert amount == 0 or cap / 6 - 1 <= amount <= 0.6 * cap
+        for name, level in problem.resources.consumable.items():
+            demand = sum(
+                t.uses.get(name, 0) * t.length
+                for t in problem.tasks
+                if t.uses.get(name, 0) > 0
+            )
+            assert (
+                level < 0.5 * demand
+                or level
+                <= sum(
+                    t.uses.get(name, 0) * t.length
+                    for t in problem.tasks
+                    if t.mandatory and t.uses.get(name, 0) > 0
+                )
+                + 1
+            ), bench.name
+
+
+def test_reports_set_each_solver_against_cpsat() -> None:
+    """Tests the problem-by-problem comparison with CP-SAT: ratios, proofs,
+    and on scaling points left-out cost and gap to the best bound."""
+    import dataclasses
+
+    def run(solver: str, wall: float, **over: object) -> object:
+        base = _run(solver, "optimal", 10)
+        return dataclasses.replace(base, wall_s=wall, **over)  # type: ignore[type-var]
+
+    runs = [run("cbc", 0.4), run("cpsat", 0.1)]
+    text = report.format_versus(runs)
+    assert "4.0x" in text and "1/1" in text
+    scale = dict(suite="scaling", num_tasks=30, unscheduled_cost=2)
+    runs = [
+        run("cbc", 5.0, status="feasible", total=120, bound=None, **scale),
+        run("cpsat", 5.0, status="feasible", total=130, bound=100.0, **scale),
+    ]
+    runs[1] = dataclasses.replace(runs[1], unscheduled_cost=3)
+    text = report.format_scaling_versus(runs)
+    assert "1/0/0" in text  # cbc leaves less out than cpsat
+    assert "16.7 %" in text  # (120 - 100) / 120

@@ -1,0 +1,224 @@
+"""Tests that the documentation runs as shown.
+
+Every fenced block of README.md, replay/README.md and docs/*.md is either
+checked here or listed in :data:`NOT_RUN` with the reason:
+
+* ``json`` blocks decode as the document they show (a problem must also
+  solve to a plan that schedules something), and a block that shows an
+  ``examples/`` file equals that file;
+* ``toml`` blocks are valid node settings;
+* ``bash`` / ``sh`` blocks: every ``fsw-scheduler`` command that works
+  offline runs, in order, in a scratch folder holding the files the README
+  names, and must exit 0;
+* ``python`` blocks run in the same kind of scratch folder.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import shlex
+import shutil
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import msgspec
+import pytest
+
+from fsw_scheduler.model.goal import decode_goal
+from fsw_scheduler.model.problem import decode_problem
+from fsw_scheduler.runtime.config import NodeConfig
+from fsw_scheduler.solving.solve import solve
+
+from ..factories import ROOT, tool_script
+
+DOCS = [
+    ROOT / "README.md",
+    ROOT / "replay" / "README.md",
+    *sorted((ROOT / "docs").glob("*.md")),
+]
+FENCE = re.compile(
+    r"^(?P<indent> *)```(?P<lang>[a-z]*)\n(?P<body>.*?)^(?P=indent)```",
+    re.M | re.S,
+)
+
+#: Commands shown but not run here, each with the reason.
+NOT_RUN = {
+    "tools/demo": "the main job; CI and the newcomer check run it",
+    "tools/test": "runs this suite",
+    "tools/lock": "needs PyPI and rewrites the lock",
+    "fsw-scheduler run": "a long-running bus component; "
+    "tests/bus/test_node.py runs it on loopback (the README's endpoints are "
+    "a deployment's)",
+    "fsw-scheduler record": "needs a live bus; "
+    "tests/app/test_cli_recording.py",
+    "fsw-scheduler probe": "needs a live secure bus; "
+    "tests/bus/test_security.py runs it against one",
+    "fsw-scheduler replay --burst": "publishes on a live bus; "
+    "tests/app/test_cli_recording.py",
+    ".venv/bin/python tools/make_golden": "regenerates the golden files; "
+    "`--check` runs in test_golden_tables_are_current",
+    "mcap": "the Go `mcap` CLI is not a dependency",
+}
+
+
+def blocks(lang: str) -> list[tuple[str, str]]:
+    """``(where, body)`` of every fenced block in ``lang`` in the docs."""
+    found = []
+    for doc in DOCS:
+        text = doc.read_text()
+        for match in FENCE.finditer(text):
+            if match["lang"] != lang:
+                continue
+            line = text[: match.start()].count("\n") + 1
+            body = "\n".join(
+                row.removeprefix(match["indent"])
+                for row in match["body"].splitlines()
+            )
+            found.append((f"{doc.relative_to(ROOT)}:{line}", body))
+    return found
+
+
+def _ids(found: list[tuple[str, str]]) -> list[str]:
+    return [where for where, _ in found]
+
+
+def scratch(tmp_path: Path) -> Path:
+    """A folder holding what the documented commands name."""
+    for name in ("examples", "replay"):
+        shutil.copytree(ROOT / name, tmp_path / name)
+    shutil.copytree(
+        ROOT / "fsw_scheduler" / "data", tmp_path / "fsw_scheduler" / "data"
+    )
+    return tmp_path
+
+
+@pytest.mark.parametrize(
+    ("where", "body"), blocks("json"), ids=_ids(blocks("json"))
+)
+def test_json_blocks_are_valid_documents(where: str, body: str) -> None:
+    """Tests that each JSON block is a document the product accepts."""
+    doc = json.loads(body)
+    if "horizon" in doc:
+        problem = decode_problem(body.encode())
+        plan = solve(problem, "cbc", explain=False)
+        assert plan.status.has_plan and plan.activities, where
+    elif "goal_id" in doc:
+        decode_goal(body.encode())
+    else:
+        pytest.fail(f"{where}: a JSON block of an unknown kind")
+    shipped = [
+        json.loads(p.read_text()) for p in (ROOT / "examples").glob("*.json")
+    ]
+    if doc.get("tasks"):
+        assert doc in shipped, f"{where}: not the same as an examples/ file"
+
+
+@pytest.mark.parametrize(
+    ("where", "body"), blocks("toml"), ids=_ids(blocks("toml"))
+)
+def test_toml_blocks_are_valid_settings(where: str, body: str) -> None:
+    """Tests that each TOML block is strict node settings, as shipped."""
+    msgspec.convert(tomllib.loads(body), NodeConfig)
+    shipped = (ROOT / "examples" / "scheduler.toml").read_text()
+    assert body.strip() == shipped.strip(), (
+        f"{where} and examples/scheduler.toml differ"
+    )
+
+
+def commands(body: str) -> list[str]:
+    """Shell command lines of a block, continuations joined."""
+    joined = re.sub(r"\\\n\s*", " ", body)
+    lines = []
+    for line in joined.splitlines():
+        line = re.sub(r"\s+#.*$", "", line).strip()
+        if line and not line.startswith("#"):
+            lines.append(line)
+    return lines
+
+
+SHELL = blocks("bash") + blocks("sh")
+
+
+@pytest.mark.parametrize(("where", "body"), SHELL, ids=_ids(SHELL))
+def test_shell_blocks_run(where: str, body: str, tmp_path: Path) -> None:
+    """Tests that each documented command runs as shown (or is excused)."""
+    cwd = scratch(tmp_path)
+    for line in commands(body):
+        excuse = [k for k in NOT_RUN if line.startswith(k)]
+        if excuse:
+            continue
+        argv = shlex.split(line)
+        assert argv[0] == "fsw-scheduler", (
+            f"{where}: `{line}` is neither run here nor in NOT_RUN"
+        )
+        # The installed script, as a user runs it: `python -m` would put
+        # the scratch folder (with its fsw_scheduler/data) first on the path.
+        script = Path(sys.executable).with_name("fsw-scheduler")
+        result = subprocess.run(
+            [str(script), *argv[1:]],
+            cwd=cwd,
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        assert result.returncode == 0, f"{where}: {line}\n{result.stderr}"
+
+
+@pytest.mark.parametrize(
+    ("where", "body"), blocks("python"), ids=_ids(blocks("python"))
+)
+def test_python_blocks_run(where: str, body: str, tmp_path: Path) -> None:
+    """Tests that each Python block runs in a fresh interpreter."""
+    # -P: the scratch folder's fsw_scheduler/data must not shadow the
+    # installed package, as it would from the current directory.
+    result = subprocess.run(
+        [sys.executable, "-P", "-c", body],
+        cwd=scratch(tmp_path),
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert result.returncode == 0, f"{where}\n{result.stderr}"
+
+
+def test_every_block_language_is_handled() -> None:
+    """Tests that no fenced block escapes the checks above unnoticed."""
+    handled = {"json", "toml", "bash", "sh", "python", ""}
+    for doc in DOCS:
+        for match in FENCE.finditer(doc.read_text()):
+            assert match["lang"] in handled, (doc, match["lang"])
+
+
+def test_golden_tables_are_current() -> None:
+    """Tests that replay/README.md's tables match the recordings."""
+    make_golden = tool_script("make_golden")
+    assert make_golden.readme_is_current(), (
+        "run: .venv/bin/python tools/make_golden (rewrites the tables)"
+    )
+
+
+def test_no_pointer_to_unshipped_documents() -> None:
+    """Tests that no shipped text sends users to a document they lack."""
+    texts = [
+        *(ROOT / "fsw_scheduler").rglob("*.py"),
+        *(ROOT / "schemas").glob("*.json"),
+        *DOCS,
+    ]
+    offenders = [
+        str(p.relative_to(ROOT))
+        for p in texts
+        if re.search(r"CONTRACT|STYLE\.md|shared/", p.read_text())
+    ]
+    assert offenders == []
+
+
+def test_license_file_matches_pyproject() -> None:
+    """Tests that the licence pyproject names is shipped in full."""
+    pyproject = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    assert pyproject["project"]["license"] == "Apache-2.0"
+    assert "LICENSE" in pyproject["project"]["license-files"]
+    text = (ROOT / "LICENSE").read_text()
+    assert "Apache License" in text and "Version 2.0" in text
