@@ -39,6 +39,7 @@ from ..engine.events import (
     StartExplain,
     StartSolve,
     Tick,
+    input_message,
 )
 from ..errors import BusError
 from ..journal.annotate import Annotator, engine_problem, session_records
@@ -208,13 +209,7 @@ class SchedulerNode:
                 key(suffix), encoding=JSON
             )
         self._declared.append(self._provenance.declare(session))
-        inputs = [
-            (topics.GOALS, "goal"),
-            (topics.CLOCK, "clock"),
-            (topics.ACTIVITY_REPORTS + "/*", "activity_report"),
-            (topics.RESOURCE_LEVELS + "/*", "resource_level"),
-        ]
-        for suffix, kind in inputs:
+        for suffix, kind in topics.SUBSCRIPTIONS:
             self._declared.append(
                 session.declare_subscriber(
                     key(suffix), direct(self._sample_callback(kind))
@@ -505,8 +500,8 @@ class SchedulerNode:
                 self.topics.key(topics.SOURCES),
                 messages.encode(messages.InputSource(key, source)),
             )
-        self._annotate(key, payload)
         event = self._decoder.event(key, payload)
+        self._annotate(key, payload, input_message(event))
         if isinstance(event, GoalArrived) and len(self._arrivals) < 4096:
             self._arrivals.setdefault(event.goal.goal_id, arrived)
         if kind == "clock" and isinstance(event, Tick):
@@ -548,31 +543,30 @@ class SchedulerNode:
             # what the bus has seen (same publisher link, in order).
             self._share_snapshot()
         outputs = [
-            (
-                command.suffix,
-                messages.encode(self._provenance.annotate(command.message)),
-            )
+            (command.suffix, self._provenance.annotate(command.message))
             for command in commands
             if isinstance(command, Publish)
         ]
         puts: list[tuple[str, bytes]] = []
 
-        def stage(suffix: str, payload: bytes) -> None:
-            # Each output, then what the annotator derives from it, as
-            # replay derives it.
+        def stage(
+            suffix: str, payload: bytes, message: msgspec.Struct | None
+        ) -> None:
+            # Each output, then what the annotator derives from it (from
+            # the typed message; replay derives the same from the bytes).
             key = self.topics.key(suffix)
             self._journal.write(key, payload)
             puts.append((suffix, payload))
-            for item in self._derive(key, payload):
+            for item in self._derive(key, payload, message):
                 if item.publish:
-                    stage(item.suffix, item.payload)
+                    stage(item.suffix, item.payload, None)
                 else:
                     self._journal.write(
                         self.topics.key(item.suffix), item.payload
                     )
 
-        for suffix, payload in outputs:
-            stage(suffix, payload)
+        for suffix, message in outputs:
+            stage(suffix, messages.encode(message), message)
         if self._durable:
             self._journal.flush()
         for command in commands:
@@ -736,19 +730,24 @@ class SchedulerNode:
                 error,
             )
 
-    def _derive(self, key: str, payload: bytes) -> list[Any]:
+    def _derive(
+        self, key: str, payload: bytes, message: msgspec.Struct | None = None
+    ) -> list[Any]:
         """What :class:`Annotator` derives from a message (once each)."""
+        stamp = self._journal.last_ns
         try:
-            return list(
-                self._annotator.observe(key, payload, self._journal.last_ns)
-            )
+            if message is not None:
+                return self._annotator.observe_message(key, message, stamp)
+            return self._annotator.observe(key, payload, stamp)
         except Exception:  # a visualisation aid must never stop the loop
             log.exception("cannot derive profiles or log from %s", key)
             return []
 
-    def _annotate(self, key: str, payload: bytes) -> None:
+    def _annotate(
+        self, key: str, payload: bytes, message: msgspec.Struct | None = None
+    ) -> None:
         """Publish or journal what :class:`Annotator` derives from it."""
-        for item in self._derive(key, payload):
+        for item in self._derive(key, payload, message):
             if item.publish:
                 self._publish_raw(item.suffix, item.payload)
             else:

@@ -34,6 +34,7 @@ from .events import (
 from .snapshot import PendingSolve, QueuedChange
 
 if TYPE_CHECKING:
+    from ..model.goal import Goal
     from ..model.problem import Problem
     from ..replan.schedule import Replan, Schedule
     from .config import EngineConfig
@@ -59,6 +60,11 @@ class EngineState:
         self._solve_id = 0
         self._pending: PendingSolve | None = None
         self._queue: list[QueuedChange] = []
+        # The rule pass of the last goal checked on arrival, kept so that
+        # starting its solve at once does not run the same pass again. A
+        # memo of (schedule, now, goal) -> replan, derived, not state: a
+        # snapshot leaves it out and a restored engine recomputes it.
+        self._goal_checked: tuple[Schedule, int, Goal, Replan] | None = None
         self._dispatches = Dispatches()
         self._counters = Counters()
         self._last_solve: SolveSummary | None = None

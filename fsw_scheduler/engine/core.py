@@ -336,13 +336,15 @@ class Engine(SolveQueue):
         # Validate against the live state now so a bad goal is rejected at
         # once, even when it has to wait for a solve in flight.
         if self.schedule is not None:
+            now = self._clock()
             try:
-                self._live_checked(
-                    apply_goal(self.schedule, goal, self._clock())
+                replan = self._live_checked(
+                    apply_goal(self.schedule, goal, now)
                 )
             except InputError as error:
                 self._reject_goal(goal.goal_id, error.issues, out)
                 return
+            self._goal_checked = (self.schedule, now, goal, replan)
         self._queue.append(QueuedChange("goal", goal=goal))
         if self._pending is not None:
             out.append(

@@ -141,3 +141,10 @@ class Log(msgspec.Struct, frozen=True):
 
 
 Command = Publish | StartSolve | StartExplain | Log
+
+
+def input_message(event: Event | None) -> msgspec.Struct | None:
+    """The wire message a report or level event carries, else None."""
+    if isinstance(event, ReportArrived):
+        return event.report
+    return event.level if isinstance(event, LevelArrived) else None

@@ -237,12 +237,28 @@ class SolveQueue(EngineState):
         now: int,
         out: list[Command],
     ) -> None:
-        """Coalesce queued goals into one replan; reject any that clash."""
+        """Coalesce queued goals into one replan; reject any that clash.
+
+        One rule pass per goal: each goal is added to those accepted
+        before it, and the pass of the last one accepted is the replan.
+        """
         accepted: list[Goal] = []
         replan: Replan | None = None
+        memo, self._goal_checked = self._goal_checked, None
         for change in changes:
             self._queue.remove(change)
             assert change.goal is not None
+            if (
+                not accepted
+                and memo is not None
+                and memo[0] is schedule
+                and memo[1] == now
+                and memo[2] is change.goal
+            ):
+                # Checked on arrival against this very schedule and time.
+                replan = memo[3]
+                accepted.append(change.goal)
+                continue
             candidate = _merge_goals([*accepted, change.goal])
             try:
                 replan = self._live_checked(
@@ -252,9 +268,8 @@ class SolveQueue(EngineState):
                 self._reject_goal(change.goal.goal_id, error.issues, out)
                 continue
             accepted.append(change.goal)
-        if not accepted:
+        if replan is None:
             return
-        replan = apply_goal(schedule, _merge_goals(accepted), now)
         self._start_solve(
             "goal",
             replan.problem,

@@ -152,6 +152,15 @@ class Derived(NamedTuple):
 
 
 _encoder = msgspec.json.Encoder()
+#: The kinds the annotator derives from, each with its decoder (built once).
+_DECODERS: dict[str, msgspec.json.Decoder[Any]] = {
+    "solve_record": msgspec.json.Decoder(SolveRecord),
+    "plan": msgspec.json.Decoder(PlanMessage),
+    "status": msgspec.json.Decoder(Status),
+    "dispatch": msgspec.json.Decoder(Dispatch),
+    "resource_level": msgspec.json.Decoder(ResourceLevel),
+    "activity_report": msgspec.json.Decoder(ActivityReport),
+}
 _STATUS_LEVELS = {
     "goal_accepted": INFO,
     "goal_rejected": WARNING,
@@ -209,36 +218,48 @@ class Annotator:
             Possibly empty; undecodable payloads derive nothing (the
             engine reports them itself).
         """
-        kind = self.topics.schema_kind(key)
+        # The bytes form: a replay (and the node's inputs) have only the
+        # bytes, so they are decoded here, once.
+        decoder = _DECODERS.get(self.topics.schema_kind(key) or "")
+        if decoder is None:
+            return []
         try:
-            if kind == "solve_record":
-                record = msgspec.json.decode(payload, type=SolveRecord)
-                if record.plan_id is not None:
-                    self._problems[record.plan_id] = record.problem
+            message = decoder.decode(payload)
+        except (msgspec.DecodeError, msgspec.ValidationError):
+            return []
+        return self.observe_message(key, message, log_time_ns)
+
+    def observe_message(
+        self, key: str, message: msgspec.Struct, log_time_ns: int = 0
+    ) -> list[Derived]:
+        """:meth:`observe` for a message already typed (the node's outputs).
+
+        Parameters
+        ----------
+        key
+            Where the message was seen or published.
+        message
+            A solve record, plan, status, dispatch, resource level or
+            activity report; any other message derives nothing.
+        log_time_ns
+            Its journal log time (stamps the log entries).
+        """
+        try:
+            if isinstance(message, SolveRecord):
+                if message.plan_id is not None:
+                    self._problems[message.plan_id] = message.problem
                 return []
-            if kind == "plan":
-                return self._on_plan(
-                    key,
-                    msgspec.json.decode(payload, type=PlanMessage),
-                    log_time_ns,
-                )
-            if kind == "status":
-                return self._on_status(
-                    key, msgspec.json.decode(payload, type=Status), log_time_ns
-                )
-            if kind == "dispatch":
-                return self._on_dispatch(
-                    key,
-                    msgspec.json.decode(payload, type=Dispatch),
-                    log_time_ns,
-                )
-            if kind == "resource_level":
-                level = msgspec.json.decode(payload, type=ResourceLevel)
-                return [self._level(level)]
-            if kind == "activity_report":
-                report = msgspec.json.decode(payload, type=ActivityReport)
-                return self._on_report(key, report, log_time_ns)
-        except (msgspec.DecodeError, msgspec.ValidationError, ValueError):
+            if isinstance(message, PlanMessage):
+                return self._on_plan(key, message, log_time_ns)
+            if isinstance(message, Status):
+                return self._on_status(key, message, log_time_ns)
+            if isinstance(message, Dispatch):
+                return self._on_dispatch(key, message, log_time_ns)
+            if isinstance(message, ResourceLevel):
+                return [self._level(message)]
+            if isinstance(message, ActivityReport):
+                return self._on_report(key, message, log_time_ns)
+        except ValueError:
             return []
         return []
 

@@ -9,7 +9,7 @@ reason. This module is pure: no solver, no bus, no clock.
 from __future__ import annotations
 
 import re
-from typing import TYPE_CHECKING, Literal, TypeVar
+from typing import TYPE_CHECKING, Any, Literal, TypeVar
 
 import msgspec
 
@@ -363,6 +363,17 @@ def _walk_path(node: object, path: str) -> object:
     return node
 
 
+_DECODERS: dict[type, msgspec.json.Decoder[Any]] = {}
+
+
+def _decoder(kind: type[T]) -> msgspec.json.Decoder[T]:
+    """One decoder per type, built once (the inputs' hot path)."""
+    decoder = _DECODERS.get(kind)
+    if decoder is None:
+        decoder = _DECODERS[kind] = msgspec.json.Decoder(kind)
+    return decoder
+
+
 def decode_strict(data: bytes | str, kind: type[T], what: str) -> T:
     """Decode JSON into ``kind``, raising InputError naming the field.
 
@@ -370,7 +381,7 @@ def decode_strict(data: bytes | str, kind: type[T], what: str) -> T:
     raises ``RecursionError``, not a ``DecodeError``) is bad input too.
     """
     try:
-        return msgspec.json.decode(data, type=kind)
+        return _decoder(kind).decode(data)
     except (msgspec.ValidationError, msgspec.DecodeError) as error:
         raise InputError([_msgspec_issue(error, data)], what) from None
     except RecursionError:

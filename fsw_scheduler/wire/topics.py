@@ -99,35 +99,51 @@ class Topics(msgspec.Struct, frozen=True):
     def schema_kind(self, key: str) -> str | None:
         """Which message kind (see ``messages.SCHEMA_TYPES``) ``key`` has."""
         suffix = self.suffix(key)
-        if suffix is None:
-            return None
-        exact = {
-            CLOCK: "clock",
-            GOALS: "goal",
-            PLAN: "plan",
-            STATUS: "status",
-            SOLVES: "solve_record",
-            NODE_INFO: "node_info",
-            TICKS: "clock",
-            SOURCES: "input_source",
-            SNAPSHOT: "snapshot",
-            BUSY: "busy",
-            STALLED: "stalled",
-            EXPLAINED: "explanation",
-            PROFILES: "profiles",
-            LEVELS: "level_check",
-            LOG: "log",
-        }
-        if suffix in exact:
-            return exact[suffix]
-        for prefix, kind in (
-            (DISPATCH + "/", "dispatch"),
-            (ACTIVITY_REPORTS + "/", "activity_report"),
-            (RESOURCE_LEVELS + "/", "resource_level"),
-        ):
-            if suffix.startswith(prefix):
-                return kind
-        return None
+        return None if suffix is None else kind_of(suffix)
+
+
+#: The one table from a key suffix to the kind of message it carries
+#: (``messages.SCHEMA_TYPES``). ``TICKS`` carries clock messages.
+KINDS = {
+    CLOCK: "clock",
+    GOALS: "goal",
+    PLAN: "plan",
+    STATUS: "status",
+    SOLVES: "solve_record",
+    NODE_INFO: "node_info",
+    TICKS: "clock",
+    SOURCES: "input_source",
+    SNAPSHOT: "snapshot",
+    BUSY: "busy",
+    STALLED: "stalled",
+    EXPLAINED: "explanation",
+    PROFILES: "profiles",
+    LEVELS: "level_check",
+    LOG: "log",
+}
+#: Suffixes followed by one name chunk (a task or a resource).
+NAMED_KINDS = {
+    DISPATCH: "dispatch",
+    ACTIVITY_REPORTS: "activity_report",
+    RESOURCE_LEVELS: "resource_level",
+}
+#: What the node subscribes to: (key suffix, kind), from the tables above.
+SUBSCRIPTIONS = (
+    (GOALS, KINDS[GOALS]),
+    (CLOCK, KINDS[CLOCK]),
+    (ACTIVITY_REPORTS + "/*", NAMED_KINDS[ACTIVITY_REPORTS]),
+    (RESOURCE_LEVELS + "/*", NAMED_KINDS[RESOURCE_LEVELS]),
+)
+#: Kinds a replay feeds back as inputs, whatever the clock source.
+_INPUTS = {"goal", "busy", "explanation", "activity_report", "resource_level"}
+
+
+def kind_of(suffix: str) -> str | None:
+    """The message kind of a key ``suffix`` (None if it has none)."""
+    if suffix in KINDS:
+        return KINDS[suffix]
+    head, _, name = suffix.rpartition("/")
+    return NAMED_KINDS.get(head) if name else None
 
 
 def input_kind(topics: Topics, key: str, clock: str) -> str | None:
@@ -141,23 +157,9 @@ def input_kind(topics: Topics, key: str, clock: str) -> str | None:
     suffix = topics.suffix(key)
     if suffix is None:
         return None
-    if suffix == GOALS:
-        return "goal"
-    if suffix == CLOCK:
-        return "clock" if clock == "bus" else None
     if suffix == TICKS:
         return "tick" if clock == "wall" else None
-    if suffix == BUSY:
-        return "busy"
-    if suffix == STALLED:
-        return "stalled" if clock == "bus" else None
-    if suffix == EXPLAINED:
-        return "explanation"
-    head, _, name = suffix.rpartition("/")
-    if not name:
-        return None
-    if head == ACTIVITY_REPORTS:
-        return "activity_report"
-    if head == RESOURCE_LEVELS:
-        return "resource_level"
-    return None
+    kind = kind_of(suffix)
+    if kind in ("clock", "stalled"):
+        return kind if clock == "bus" else None
+    return kind if kind in _INPUTS else None

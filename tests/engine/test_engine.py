@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from typing import Any
 
 import pytest
 
@@ -543,3 +544,38 @@ def test_deferred_goal_task_enters_when_the_horizon_reaches_it() -> None:
     starts = {a.task: a.start for a in later.activities}
     assert starts["Pass"] == 60
     assert when + 50 > 60  # the horizon [when, when + 50) now holds it
+
+
+def test_one_rule_pass_per_goal(
+    started: Driver, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Tests that a goal arriving with no solve in flight is checked and
+    replanned with one rule pass, and two goals coalesced behind a solve
+    with one pass each."""
+    from fsw_scheduler.engine import core, solves
+    from fsw_scheduler.replan import triggers
+
+    passes: list[str] = []
+
+    def counted(*args: Any, **kwargs: Any) -> Any:
+        passes.append(args[1].goal_id)
+        return triggers.apply_goal(*args, **kwargs)
+
+    monkeypatch.setattr(core, "apply_goal", counted)
+    monkeypatch.setattr(solves, "apply_goal", counted)
+    started.goal(small_goal("g1", "Ping1"), 1)
+    assert passes == ["g1"]
+    assert "g1" in started.plan.goals
+
+    held = Driver(hold=True)
+    held.tick(0)
+    held.finish()
+    passes.clear()
+    held.level("battery", battery_at(held, 0) + 5.0, 0)  # a solve in flight
+    held.goal(small_goal("g2", "Ping2"), 0)
+    held.goal(small_goal("g3", "Ping3"), 0)
+    assert passes == ["g2", "g3"]  # checked on arrival
+    passes.clear()
+    held.finish()
+    # Behind the solve: g2 alone, then g2+g3 (the replan itself).
+    assert passes == ["g2", "g2+g3"]
