@@ -38,6 +38,7 @@ these channels existed have none and are verified without them.
 
 from __future__ import annotations
 
+import os
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
@@ -51,9 +52,11 @@ from ..engine.snapshot import EngineSnapshot
 from ..model.plan import Plan
 from ..runtime.config import NodeConfig
 from ..runtime.inputs import InputDecoder
+from ..runtime.policy import config_from_info, engine_config
 from ..wire import messages
 from ..wire import topics as keys
 from .annotate import DERIVED, Annotator, engine_problem
+from .info import read_metadata
 from .reader import iter_messages
 
 if TYPE_CHECKING:
@@ -173,32 +176,6 @@ def read_node_info(
     raise ValueError(
         "no scheduler/config message: not a scheduler journal "
         "(record with 'fsw-scheduler run --record' or 'demo')"
-    )
-
-
-def config_from_info(info: messages.NodeInfo) -> NodeConfig:
-    """The node configuration a journal was made with."""
-    return NodeConfig(
-        spacecraft=info.spacecraft,
-        solver=info.solver,  # type: ignore[arg-type]
-        time_limit=info.time_limit_s,
-        seed=info.seed,
-        explain=info.explain,
-        explain_budget=info.explain_budget,
-        clock=info.clock,  # type: ignore[arg-type]
-        report_timeout=info.report_timeout,
-        drift_absolute=info.drift_absolute,
-        drift_relative=info.drift_relative,
-        heartbeat=info.heartbeat,
-        replan_lead=info.replan_lead,
-        tasks_per_goal=info.tasks_per_goal,
-        live_tasks=info.live_tasks,
-        goals_waiting=info.goals_waiting,
-        goals_per_solve=info.goals_per_solve,
-        max_clock_step=info.max_clock_step,
-        node_id=info.node_id,
-        explain_after_plan=info.explain_after_plan,
-        response_deadline=info.response_deadline,
     )
 
 
@@ -359,13 +336,11 @@ class _Start:
     def of(cls, paths: PathLike | Sequence[PathLike]) -> _Start:
         """Read ``paths``; the engine starts from the opening snapshot, or
         from the initial problem of ``scheduler/config``."""
-        from ..runtime.policy import engine_config
-
         recorded = list(iter_messages(paths))
         info, info_topic = read_node_info(recorded)
         if info.problem is None:
             raise ValueError("the journal's scheduler/config has no problem")
-        config = config_from_info(info)
+        config = config_from_info(info, _settings_of(paths))
         topics = keys.Topics(config.spacecraft)
         snapshot = _opening_snapshot(recorded, topics)
         engine = (
@@ -601,3 +576,14 @@ def _compare(
     report.dispatches += kind == "dispatch"
     report.derived += kind in DERIVED_EXCLUDED
     return True
+
+
+def _settings_of(paths: PathLike | Sequence[PathLike]) -> dict[str, str]:
+    """The ``fsw_scheduler.settings`` metadata of the first journal file
+    that has it (empty for a recording that carries none)."""
+    files = [paths] if isinstance(paths, (str, os.PathLike)) else paths
+    for path in files:
+        for name, pairs in read_metadata(path):
+            if name == "fsw_scheduler.settings":
+                return pairs
+    return {}

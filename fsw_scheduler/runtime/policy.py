@@ -10,13 +10,15 @@ The bus node and deterministic replay both call these, so that
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ..engine.config import EngineConfig
 from ..solving.budget import BUDGET
 from ..wire import messages
 
 if TYPE_CHECKING:
+    from collections.abc import Mapping
+
     from ..engine.events import (
         StartSolve,
     )
@@ -41,6 +43,25 @@ def engine_config(config: NodeConfig) -> EngineConfig:
     )
 
 
+#: NodeInfo fields that are not node settings.
+_NOT_SETTINGS = frozenset({"version", "problem", "security", "resumed"})
+#: NodeInfo fields named otherwise in NodeConfig (info name -> config name).
+_RENAMED = {"time_limit_s": "time_limit"}
+#: Settings that change decisions but are not NodeInfo fields (its schema
+#: is a recorded format): the journal keeps them in its
+#: ``fsw_scheduler.settings`` metadata, which replay reads back.
+IN_METADATA = ("threads",)
+
+
+def _setting_fields() -> list[tuple[str, str]]:
+    """(NodeInfo field, NodeConfig field) of every recorded setting."""
+    return [
+        (name, _RENAMED.get(name, name))
+        for name in messages.NodeInfo.__struct_fields__
+        if name not in _NOT_SETTINGS
+    ]
+
+
 def node_info(
     config: NodeConfig,
     problem: Problem,
@@ -55,32 +76,41 @@ def node_info(
     """
     from .. import __version__
 
+    values = {info: getattr(config, name) for info, name in _setting_fields()}
+    # The replan lead as resolved (its default depends on the clock).
+    values["replan_lead"] = config.lead
     return messages.NodeInfo(
-        spacecraft=config.spacecraft,
-        solver=config.solver,
-        time_limit_s=config.time_limit,
-        seed=config.seed,
-        explain=config.explain,
-        explain_budget=config.explain_budget,
-        clock=config.clock,
-        report_timeout=config.report_timeout,
-        drift_absolute=config.drift_absolute,
-        drift_relative=config.drift_relative,
-        heartbeat=config.heartbeat,
-        replan_lead=config.lead,
-        tasks_per_goal=config.tasks_per_goal,
-        live_tasks=config.live_tasks,
-        goals_waiting=config.goals_waiting,
-        goals_per_solve=config.goals_per_solve,
-        max_clock_step=config.max_clock_step,
-        explain_after_plan=config.explain_after_plan,
-        response_deadline=config.response_deadline,
+        **values,
         version=__version__,
         problem=problem,
         resumed=resumed,
-        node_id=config.node_id,
         security=security,
     )
+
+
+def config_from_info(
+    info: messages.NodeInfo, settings: Mapping[str, str] | None = None
+) -> NodeConfig:
+    """The node configuration a journal was made with.
+
+    Parameters
+    ----------
+    info
+        The journal's ``scheduler/config`` message.
+    settings
+        The journal's ``fsw_scheduler.settings`` metadata, if it has one:
+        the settings of :data:`IN_METADATA` come from there (a journal
+        without it was made with their defaults, one solver thread).
+    """
+    from .config import NodeConfig
+
+    values: dict[str, Any] = {
+        name: getattr(info, field) for field, name in _setting_fields()
+    }
+    recorded = settings or {}
+    if recorded.get("threads"):
+        values["threads"] = int(recorded["threads"])
+    return NodeConfig(**values)
 
 
 def run_solve(config: NodeConfig, command: StartSolve) -> Plan:
