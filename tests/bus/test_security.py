@@ -58,7 +58,7 @@ from fsw_scheduler.testing import (
 from fsw_scheduler.wire import messages
 from fsw_scheduler.wire import topics as keys
 
-from ..factories import CLI, ROOT
+from ..factories import CLI, ROOT, ping_goal
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
@@ -324,22 +324,6 @@ def status_via(session: zenoh.Session) -> messages.Status:
                 reply.ok.payload.to_bytes(), type=messages.Status
             )
     raise TimeoutError("no status reply")
-
-
-def ping_goal(goal_id: str, task: str = "Ping") -> dict:
-    """A goal of one short task that fits at once."""
-    return {
-        "goal_id": goal_id,
-        "tasks": [
-            {
-                "id": task,
-                "length": 1,
-                "delay_cost": 5,
-                "schedule_cost": 3,
-                "uses": {"power": 5},
-            }
-        ],
-    }
 
 
 # -- the profile -------------------------------------------------------------
