@@ -91,8 +91,9 @@ def harness_config(**changes: Any) -> NodeConfig:
 
     The clock is the bus clock (the test drives time, so no stall
     detection), there is no heartbeat, ``explain`` is off (no extra
-    solves) and each solve may
-    take up to 30 s so that a slow machine changes timings, not plans.
+    solves), each solve may take up to 30 s and the explanation a
+    shedding solve still gives up to 60 s, so that a slow machine changes
+    timings, not plans.
 
     Parameters
     ----------
@@ -104,6 +105,7 @@ def harness_config(**changes: Any) -> NodeConfig:
         heartbeat=0,
         explain=False,
         time_limit=30.0,
+        explain_budget=60.0,
         clock_stall=None,
     )
     return msgspec.structs.replace(base, **changes)

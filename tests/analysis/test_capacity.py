@@ -337,7 +337,7 @@ def test_explanation_names_the_capacity() -> None:
     ]
     problem = problem_from(_doc(tasks, {"initial": 10, "max": 10}))
     assert not start_domains(problem)["may"].empty
-    plan = solve(problem, explain=True)
+    plan = solve(problem, explain=True, explain_budget=60.0)
     assert plan.unscheduled == ("may",)
     (why,) = plan.why
     assert why.cause == "consumable"

@@ -61,7 +61,7 @@ def test_contradicting_tight_paths_are_valid_and_solved() -> None:
     for scope in ("at_least_first", "both"):
         problem = problem_from(_two_paths(scope, m={"schedule_cost": 0}))
         assert [c.position for c in tight_conflicts(problem)] == [2]
-        plan = solve(problem, explain=True)
+        plan = solve(problem, explain=True, explain_budget=60.0)
         assert plan.status is SolveStatus.OPTIMAL, plan
         assert check_plan(problem, plan).ok
         assert "m" in plan.starts()

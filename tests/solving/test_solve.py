@@ -48,7 +48,7 @@ def test_table1_whole_task_reading(table1_doc: dict) -> None:
     """Tests that the whole-task window reading leaves exactly two out."""
     doc = copy.deepcopy(table1_doc)
     doc["feasible_interval_applies_to"] = "task"
-    plan = solve(problem_from(doc), explain=True)
+    plan = solve(problem_from(doc), explain=True, explain_budget=60.0)
     assert plan.status is SolveStatus.OPTIMAL
     assert sorted(plan.unscheduled) == ["DownlinkSat2Sat", "SetPositionX"]
     assert plan.objective is not None
@@ -150,7 +150,7 @@ def test_tight_both_drops_both() -> None:
         ],
         precedences=[{"before": "a", "after": "b", "kind": "tight"}],
     )
-    plan = solve(problem_from(doc), explain=True)
+    plan = solve(problem_from(doc), explain=True, explain_budget=60.0)
     assert plan.status is SolveStatus.OPTIMAL
     assert sorted(plan.unscheduled) == ["a", "b"]
     assert {b.cause for b in plan.why} == {"precedence"}
@@ -280,7 +280,7 @@ def test_mandatory_infeasible_says_why() -> None:
         ],
         resources={"binary": ["cam"]},
     )
-    plan = solve(problem_from(doc), explain=True)
+    plan = solve(problem_from(doc), explain=True, explain_budget=60.0)
     assert plan.status is SolveStatus.INFEASIBLE
     assert plan.objective is None
     assert sorted(plan.unscheduled) == ["a", "b"]
@@ -301,7 +301,7 @@ def test_mandatory_blocked_by_consumable() -> None:
         ],
         resources={"consumable": {"fuel": 5}},
     )
-    plan = solve(problem_from(doc), explain=True)
+    plan = solve(problem_from(doc), explain=True, explain_budget=60.0)
     assert plan.status is SolveStatus.INFEASIBLE
     assert [(b.task, b.cause) for b in plan.why] == [("a", "consumable")]
 
@@ -315,12 +315,12 @@ def test_unscheduled_reason_names_resource() -> None:
         ],
         resources={"multiple": {"power": 10}},
     )
-    plan = solve(problem_from(doc), explain=True)
+    plan = solve(problem_from(doc), explain=True, explain_budget=60.0)
     assert plan.unscheduled == ("b",)
     assert [(b.task, b.cause) for b in plan.why] == [("b", "cost")]
     assert "push out a" in plan.why[0].detail
     doc["tasks"][0]["schedule_cost"] = 0  # a can no longer make way
-    plan = solve(problem_from(doc), explain=True)
+    plan = solve(problem_from(doc), explain=True, explain_budget=60.0)
     assert [(b.task, b.cause) for b in plan.why] == [("b", "multiple")]
 
 
@@ -473,7 +473,7 @@ def test_reason_names_the_precedence_partner_not_the_resource() -> None:
         resources={"consumable": {"battery": 10}},
         precedences=[{"before": "t", "after": "u", "kind": "lax"}],
     )
-    plan = solve(problem_from(doc), explain=True)
+    plan = solve(problem_from(doc), explain=True, explain_budget=60.0)
     assert plan.status is SolveStatus.OPTIMAL
     assert set(plan.unscheduled) == {"t", "u"}
     why = {b.task: b for b in plan.why}
