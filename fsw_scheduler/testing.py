@@ -64,9 +64,10 @@ if TYPE_CHECKING:
 
     from .engine.events import StartSolve
     from .model.plan import Plan
-from .bus.client import WAIT_S, SchedulerClient
+from .bus.client import WAIT_S, Fence, SchedulerClient
 
 __all__ = [
+    "Fence",
     "SchedulerClient",
     "SchedulerHarness",
     "harness_config",

@@ -30,6 +30,7 @@ if TYPE_CHECKING:
 
 
 __all__ = [
+    "Fence",
     "SchedulerClient",
 ]
 
@@ -108,6 +109,11 @@ class SchedulerClient:
         self.solves: list[messages.SolveRecord] = []
         self.samples: list[tuple[str, bytes]] = []
         self.decode_errors: list[tuple[str, str]] = []
+        #: The receiver's fence, and the dispatches it let through (each
+        #: ``dispatch_id`` once, no stale term): what an executor that
+        #: follows the README would have carried out.
+        self.fence = Fence()
+        self.executed: list[messages.Dispatch] = []
         self._subscriber: Any = session.declare_subscriber(
             self.topics.key("scheduler/**"), self._on_sample
         )
@@ -426,8 +432,51 @@ class SchedulerClient:
         with self._cond:
             if target is not None:
                 target.append(decoded)
+            if kind == "dispatch" and self.fence.execute(decoded):
+                self.executed.append(decoded)
+            elif decoded is not None:
+                self.fence.admit(decoded)
+            elif kind == "term":
+                self.fence.admit(
+                    msgspec.json.decode(payload, type=messages.Term)
+                )
             self.samples.append((key, payload))
             self._cond.notify_all()
+
+
+class Fence:
+    """What a receiver of scheduler outputs does, so that a stale
+    commander can never make it act (README, "Redundancy").
+
+    * Keep the highest ``term`` seen on any plan, dispatch, status or
+      ``scheduler/term`` message; ignore anything with a lower one.
+    * Act on a dispatch once per ``dispatch_id``; a repeat (a resumed or
+      new commander sends the same command again) is not a new command.
+    """
+
+    def __init__(self) -> None:
+        self.term = 0
+        self.acted: set[str] = set()
+        self.fenced = 0
+
+    def admit(self, message: object) -> bool:
+        """Whether ``message`` comes from a current term (raising it)."""
+        term = getattr(message, "term", 0)
+        if term < self.term:
+            self.fenced += 1
+            return False
+        self.term = term
+        return True
+
+    def execute(self, dispatch: messages.Dispatch) -> bool:
+        """Whether to carry ``dispatch`` out now (first time, not stale)."""
+        if not self.admit(dispatch):
+            return False
+        key = dispatch.dispatch_id or f"{dispatch.task}:{dispatch.plan_id}"
+        if key in self.acted:
+            return False
+        self.acted.add(key)
+        return True
 
 
 _KINDS: dict[str, tuple[str, type]] = {

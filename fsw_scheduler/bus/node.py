@@ -33,7 +33,6 @@ from ..engine.events import (
     Explained,
     GoalArrived,
     Log,
-    Publish,
     SolveDone,
     SolveFailed,
     StartExplain,
@@ -42,15 +41,21 @@ from ..engine.events import (
     input_message,
 )
 from ..errors import BusError
-from ..journal.annotate import Annotator, engine_problem, session_records
+from ..journal.annotate import Annotator, engine_problem
 from ..journal.writer import OrderedWriter
 from ..runtime.clock import UnitClock
 from ..runtime.inputs import InputDecoder, goal_id_of
-from ..runtime.policy import engine_config, node_info, run_explain, run_solve
-from ..solving.budget import BUDGET
+from ..runtime.policy import (
+    deadline_config,
+    engine_config,
+    node_info,
+    run_explain,
+    run_solve,
+)
 from ..solving.ilp.cbc import Cancel, cancel_scope, sweep_stale_dirs
 from ..wire import messages, topics
 from .inbox import Inbox, Worker, direct
+from .outputs import FATAL, NodeOutputs
 from .provenance import Origin, Provenance, capture
 
 if TYPE_CHECKING:
@@ -61,6 +66,7 @@ if TYPE_CHECKING:
     from ..model.plan import Plan
     from ..model.problem import Problem
     from ..runtime.config import NodeConfig
+    from .lease import Lease
 
 log = logging.getLogger("fsw_scheduler.node")
 
@@ -80,10 +86,10 @@ _BUS_INPUTS = frozenset({"goal", "clock", "activity_report", "resource_level"})
 
 
 # Faults that end the loop at once instead of being survived.
-_FATAL = (KeyboardInterrupt, SystemExit)
+_FATAL = FATAL
 
 
-class SchedulerNode:
+class SchedulerNode(NodeOutputs):
     """The scheduler on a Zenoh session.
 
     Parameters
@@ -134,6 +140,8 @@ class SchedulerNode:
         journal_max_bytes: int | None = None,
         clock_start: int = 0,
         publishers: Callable[[str], frozenset[str] | None] | None = None,
+        term_floor: int = 0,
+        on_term: Callable[[int], None] | None = None,
     ) -> None:
         if config.horizon is not None:
             problem = problem.replace(horizon=config.horizon)
@@ -191,6 +199,15 @@ class SchedulerNode:
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._security = security
         self._provenance = Provenance(publishers)
+        # The highest term seen elsewhere (redundancy): this node's term
+        # is above it and above its own state's.
+        self._term_floor = term_floor
+        self._on_term = on_term
+        #: The lease this node commands on (set before :meth:`start`; see
+        #: :mod:`~fsw_scheduler.bus.lease`); None: not watched.
+        self.lease: Lease | None = None
+        #: Why this node stopped commanding (its lease ended), else None.
+        self.stood_down: str | None = None
 
     # -- lifecycle -----------------------------------------------------------
 
@@ -251,6 +268,12 @@ class SchedulerNode:
         )
         if self._durable:
             self._write_snapshot()
+        term = self._begin_term()
+        if self._durable:
+            self._journal.flush()  # the term is on disk before any command
+        if self._on_term is not None:
+            self._on_term(term)
+        self._put(topics.TERM, self._term_payload)
         if self._sharing and self._share_state():
             self._share_snapshot()
         if self.resumed:
@@ -267,6 +290,29 @@ class SchedulerNode:
         )
         return self
 
+    @property
+    def term(self) -> int:
+        """The command term this node commands in."""
+        return self.engine.term
+
+    def _begin_term(self) -> int:
+        """Journal a new term, above every one seen, as an input."""
+        term = max(self.engine.term, self._term_floor) + 1
+        reason = {"took_over": "takeover", "": "start"}.get(
+            self.resumed, "resume"
+        )
+        self._term_payload = messages.encode(
+            messages.Term(term, self.config.node_id or "", reason)
+        )
+        key = self.topics.key(topics.TERM)
+        self._journal.write(key, self._term_payload)
+        event = self._decoder.event(key, self._term_payload)
+        assert event is not None
+        # Not rotated yet: the file's head must hold what the node says
+        # first (replay expects a resumed node's status in its file).
+        self._run(self.engine.step(event, self._now()), rotate=False)
+        return term
+
     def close(self, timeout: float = 10.0) -> None:
         """Stop the loop, wait for it, undeclare everything."""
         self._stop.set()
@@ -276,6 +322,8 @@ class SchedulerNode:
             self._thread.join(timeout)
         self._workers.shutdown()
         self._explainer.shutdown()
+        if self.lease is not None:
+            self.lease.stop()
         self._withdraw_token()
         for entity in [*self._declared, *self._publishers.values()]:
             try:
@@ -409,8 +457,18 @@ class SchedulerNode:
             except BaseException as error:
                 log.debug("token undeclare: %s", error)
 
+    def _lease_holds(self) -> bool:
+        """False once the lease ended: the loop stops, nothing goes out."""
+        if self.stood_down is None and self.lease is not None:
+            self.stood_down = self.lease.lost()
+            if self.stood_down is not None:
+                self._stop.set()  # redundancy.serve closes the node
+        return self.stood_down is None
+
     def spin_once(self, timeout: float | None = None) -> None:
         """Handle at most one inbox item, then any due clock tick."""
+        if not self._lease_holds():
+            return
         self._tick_wall_clock()
         self._check_stall()
         if timeout is None:
@@ -521,90 +579,6 @@ class SchedulerNode:
         self._run(self.engine.step(event, self._now()))
         self._engine_waiting = self.engine.goals_waiting
 
-    def _run(self, commands: list[Command]) -> None:
-        """Carry out a step's commands: journal, then solves, then the bus.
-
-        The step's outputs (and what the annotator derives from each) are
-        journaled first; with ``--state`` the journal is flushed before any
-        output reaches the bus (write-ahead), so a node killed at any point
-        and resumed from its journal never repeats a dispatch the bus saw.
-        An output on disk but not yet on the bus when the process died is
-        sent again on resume, with its ids (:meth:`Engine.resume_commands`).
-        """
-        for command in commands:
-            message = getattr(command, "message", None)
-            if isinstance(message, messages.Status) and message.event in (
-                "goal_accepted",
-                "goal_rejected",
-            ):  # the goal has its verdict: its deadline is over
-                self._arrivals.pop(message.goal_id or "", None)
-        if commands and self._sharing and self._share_state():
-            # The standby's copy first, so that it never lags behind
-            # what the bus has seen (same publisher link, in order).
-            self._share_snapshot()
-        outputs = [
-            (command.suffix, self._provenance.annotate(command.message))
-            for command in commands
-            if isinstance(command, Publish)
-        ]
-        puts: list[tuple[str, bytes]] = []
-
-        def stage(
-            suffix: str, payload: bytes, message: msgspec.Struct | None
-        ) -> None:
-            # Each output, then what the annotator derives from it (from
-            # the typed message; replay derives the same from the bytes).
-            key = self.topics.key(suffix)
-            self._journal.write(key, payload)
-            puts.append((suffix, payload))
-            for item in self._derive(key, payload, message):
-                if item.publish:
-                    stage(item.suffix, item.payload, None)
-                else:
-                    self._journal.write(
-                        self.topics.key(item.suffix), item.payload
-                    )
-
-        for suffix, message in outputs:
-            stage(suffix, messages.encode(message), message)
-        if self._durable:
-            self._journal.flush()
-        for command in commands:
-            if not isinstance(command, Publish):
-                self._execute(command)
-        for suffix, payload in puts:
-            self._put(suffix, payload)
-        if self._durable:
-            self._maybe_rotate()
-
-    def _share_snapshot(self) -> None:
-        """Publish the engine's state for a hot standby."""
-        self._put(topics.SNAPSHOT, messages.encode(self.engine.snapshot()))
-
-    def _write_snapshot(self) -> None:
-        """The engine's state as the next journal message, on disk."""
-        self._journal.write(
-            self.topics.key(topics.SNAPSHOT),
-            messages.encode(self.engine.snapshot()),
-        )
-        self._journal.flush()
-
-    def _maybe_rotate(self) -> None:
-        """Start a new journal file, opened by a snapshot, when too big."""
-        recorder = self._journal.recorder
-        limit = self._journal_max_bytes
-        if recorder is None or limit is None or recorder.size < limit:
-            return
-        path = recorder.rotate()
-        log.info("journal continues in %s", path)
-        self._journal.write(
-            self.topics.key(topics.NODE_INFO),
-            messages.encode(
-                node_info(self.config, self.engine.initial, self._security)
-            ),
-        )
-        self._write_snapshot()
-
     def _resume(self) -> None:
         """Say the state was rebuilt; ask again for a solve in flight."""
         log.info(
@@ -643,31 +617,14 @@ class SchedulerNode:
             log.log(logging.getLevelName(command.level.upper()), command.text)
 
     def _solve_config(self, command: StartSolve) -> NodeConfig:
-        """The settings of a solve: its limit cut to the goals' deadline.
-
-        The response deadline runs from the arrival of the oldest goal of
-        the solve; decoding, merging and waiting behind another solve came
-        out of it already, the start plan, model and solver share the rest
-        (less a margin to publish) with the solves that the goals queued
-        behind this one will need.
-        """
-        config = self.config
+        """The settings of a solve: its limit cut to the goals' deadline."""
         goals = self.engine.pending_goals
-        if config.response_deadline is None or not goals:
-            return config
-        arrived = [self._arrivals[g] for g in goals if g in self._arrivals]
-        for goal_id in goals:
-            self._arrivals.pop(goal_id, None)
-        if not arrived:
-            return config
-        left = config.response_deadline - (self._seconds() - min(arrived))
-        # Goals queued behind this solve need solves of their own within
-        # their deadlines: each batch gets an equal share of what is left.
-        batches = -(-self.engine.goals_waiting // config.goals_per_solve)
-        limit = BUDGET.deadline_limit(left, batches, config.time_limit)
-        if limit == config.time_limit:
-            return config
-        return config.replace(time_limit=limit)
+        arrived = [self._arrivals.pop(g) for g in goals if g in self._arrivals]
+        return deadline_config(
+            self.config,
+            [self._seconds() - t for t in arrived],
+            self.engine.goals_waiting,
+        )
 
     def _solve_scoped(self, command: StartSolve, config: NodeConfig) -> Plan:
         with cancel_scope(self._cancel):
@@ -701,73 +658,6 @@ class SchedulerNode:
             self._inbox.put("solve", event)
 
         return done
-
-    def _publish_raw(self, suffix: str, payload: bytes) -> None:
-        key = self.topics.key(suffix)
-        self._journal.write(key, payload)
-        self._put(suffix, payload)
-        self._annotate(key, payload)
-
-    def _put(self, suffix: str, payload: bytes) -> None:
-        key = self.topics.key(suffix)
-        publisher = self._publishers.get(suffix)
-        try:
-            if publisher is not None:
-                publisher.put(payload)
-            else:
-                self.session.put(key, payload, encoding=JSON)
-            self._publish_failures_in_a_row = 0
-        except _FATAL:
-            raise
-        except BaseException as error:  # ZError, or a panic in zenoh
-            # Keep serving; the bus may return.
-            self._publish_failures += 1
-            self._publish_failures_in_a_row += 1
-            log.error(
-                "publish on %s failed: %s: %s",
-                key[:200],
-                type(error).__name__,
-                error,
-            )
-
-    def _derive(
-        self, key: str, payload: bytes, message: msgspec.Struct | None = None
-    ) -> list[Any]:
-        """What :class:`Annotator` derives from a message (once each)."""
-        stamp = self._journal.last_ns
-        try:
-            if message is not None:
-                return self._annotator.observe_message(key, message, stamp)
-            return self._annotator.observe(key, payload, stamp)
-        except Exception:  # a visualisation aid must never stop the loop
-            log.exception("cannot derive profiles or log from %s", key)
-            return []
-
-    def _annotate(
-        self, key: str, payload: bytes, message: msgspec.Struct | None = None
-    ) -> None:
-        """Publish or journal what :class:`Annotator` derives from it."""
-        for item in self._derive(key, payload, message):
-            if item.publish:
-                self._publish_raw(item.suffix, item.payload)
-            else:
-                self._journal.write(self.topics.key(item.suffix), item.payload)
-
-    def _describe_journal(self) -> None:
-        """Session metadata and attachments at the head of the journal."""
-        recorder = self._journal.recorder
-        if recorder is None:
-            return
-        start_ns = self._wall_ns()
-        metadata, attachments = session_records(
-            self.config, self.engine.initial, start_ns
-        )
-        for name, pairs in metadata:
-            recorder.add_metadata(name, pairs)
-        for name, media_type, data in attachments:
-            recorder.add_attachment(
-                name, data, media_type=media_type, log_time_ns=start_ns
-            )
 
     def _answer(self, suffix: str, query: zenoh.Query) -> None:
         self._sync_counters()

@@ -1,28 +1,41 @@
-"""One commander per spacecraft: redundant schedulers and a hot standby.
+"""One commander per spacecraft: redundant schedulers, fenced by terms.
 
 Spacecraft fly redundant computers, so two schedulers may run for one
 spacecraft; only one may command it. Each node declares a liveliness token
 ``scheduler/nodes/<rank>/<started>/<node id>``; the one that commands also
-declares ``scheduler/active/<rank>/<started>/<node id>``. The rules, the
-same on every node so that they agree without talking:
+declares ``scheduler/active/<term>/<rank>/<started>/<node id>``. The rules,
+the same on every node so that they agree without talking:
 
-* A starting node first looks for ``discovery`` seconds. If a node is
-  active, it stands by. If none is, the best member commands: lowest rank,
-  then earliest start, then smallest id (:func:`order`); the others stand
-  by. Two nodes started at the same moment see each other during that
-  look and make the same choice.
-* A standby publishes ``state: standby`` on ``scheduler/status`` (naming
-  the active node) and follows the active node's state: the active node
-  publishes its engine snapshot on ``scheduler/snapshot`` before the
-  outputs of every step, so the standby's copy never lags behind what the
-  bus has seen.
-* When the active token disappears (the process died, or its link: Zenoh
-  notices a closed link at once and a silent one after its lease), the
-  best remaining member takes over from the last snapshot it received,
-  with the next ``plan_id``, asks again for a solve that was in flight,
-  and publishes ``event: took_over``.
-* Two active nodes (a partition healed, or a node started with the
-  protocol off) see each other's active token; the worse one stands down.
+* **Terms.** A node that begins to command (first start, resume, takeover,
+  or again after standing down) does so in a new *term*, higher than any
+  it has seen: in its own state, in the active tokens, in the states
+  shared with it. The term is journaled (and flushed) before the node
+  commands, and stamped on every plan, dispatch and status; receivers
+  fence: they ignore anything from a lower term than the highest seen.
+* **Election.** A starting node first looks for ``discovery`` seconds. If
+  a node is active, it stands by. If none is, the best member commands:
+  lowest rank, then earliest start, then smallest id (:func:`order`). A
+  best member that does not become active within :data:`PASS_OVER_S`
+  (dead, stuck, or a forged token) is passed over for the next one.
+* **Standby.** A standby publishes ``state: standby`` on
+  ``scheduler/status`` (naming the active node) and follows the active
+  node's state, which that node shares on ``scheduler/snapshot`` before
+  the outputs of every step. When the active token disappears (the process
+  died, or its link: Zenoh notices a closed link at once and a silent one
+  after its lease), the best remaining member takes over from the newest
+  state it holds, in a new term, and publishes ``event: took_over``. A
+  node with no link to the bus at all does not take over: it cannot know
+  that the active node is gone.
+* **Newest state wins.** Two active nodes (a partition healed) see each
+  other's tokens; the one with the higher term stays (it took over from
+  the other, so its state is the newer one), then the better order. The
+  other stands down, says ``stood_down`` on ``scheduler/status`` and
+  becomes its standby.
+* **Leases** (:mod:`fsw_scheduler.bus.lease`): a commanding node whose own
+  view of the bus had a gap longer than half the Zenoh lease (its process
+  was stopped) or that lost every link stops commanding before its next
+  output, stands down and re-verifies: after ``discovery`` seconds it
+  commands again, in a new term, only if no one else does.
 
 Takeover time is the link-loss detection plus one pass of this loop
 (:data:`POLL_S`); the tests measure it on separate processes through a
@@ -38,23 +51,28 @@ import queue
 import socket
 import threading
 import time
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, NamedTuple, Protocol
 
 import msgspec
 import zenoh
 
 from ..engine.snapshot import EngineSnapshot
 from ..wire import messages, topics
+from .lease import has_links
 
 if TYPE_CHECKING:
     from collections.abc import Callable
 
+    from .lease import Lease
     from .node import SchedulerNode
 
 log = logging.getLogger("fsw_scheduler.redundancy")
 
 #: Seconds between checks of the membership while nothing changes.
 POLL_S = 0.1
+#: Seconds a best member may stay inactive, with no one commanding,
+#: before the next one takes its place.
+PASS_OVER_S = 3.0
 JSON = zenoh.Encoding.APPLICATION_JSON
 
 
@@ -115,11 +133,17 @@ class Redundancy:
         self.topics = topics.Topics(spacecraft)
         self.me = me
         self.members: set[Member] = set()
-        self.actives: set[Member] = set()
+        #: Active members and the term each commands in.
+        self.actives: dict[Member, int] = {}
+        #: The highest term seen on the bus (tokens, shared states).
+        self.max_term = 0
+        #: Whether another scheduler was ever seen: from then on, this
+        #: node commands only while it has a link to the bus.
+        self.seen_others = False
         self.changes: queue.Queue[None] = queue.Queue()
         self._lock = threading.Lock()
         self._snapshot: bytes | None = None
-        self._snapshot_inputs = -1
+        self._snapshot_rank = (-1, -1)
         self._entities: list[object] = []
         self._active_token: object | None = None
 
@@ -129,15 +153,10 @@ class Redundancy:
         """Declare this node and watch the others (with their history)."""
         key = self.topics.key
         liveliness = self.session.liveliness()
-        for suffix, into in (
-            (topics.NODES, self.members),
-            (topics.ACTIVE, self.actives),
-        ):
+        for suffix in (topics.NODES, topics.ACTIVE):
             self._entities.append(
                 liveliness.declare_subscriber(
-                    key(f"{suffix}/**"),
-                    self._on_token(suffix, into),
-                    history=True,
+                    key(f"{suffix}/**"), self._on_token(suffix), history=True
                 )
             )
         self._entities.append(
@@ -149,20 +168,32 @@ class Redundancy:
             )
         )
 
-    def _on_token(
-        self, suffix: str, into: set[Member]
-    ) -> Callable[[zenoh.Sample], None]:
+    def _on_token(self, suffix: str) -> Callable[[zenoh.Sample], None]:
         head = self.topics.key(suffix) + "/"
+        active = suffix == topics.ACTIVE
 
         def callback(sample: zenoh.Sample) -> None:
-            member = Member.parse(str(sample.key_expr).removeprefix(head))
-            if member is None:
+            tail = str(sample.key_expr).removeprefix(head)
+            term = 0
+            if active:
+                first, _, tail = tail.partition("/")
+                try:
+                    term = int(first)
+                except ValueError:
+                    return
+            member = Member.parse(tail)
+            if member is None or term < 0:
                 return
+            put = sample.kind == zenoh.SampleKind.PUT
             with self._lock:
-                if sample.kind == zenoh.SampleKind.PUT:
-                    into.add(member)
+                if not active:
+                    (self.members.add if put else self.members.discard)(member)
+                    self.seen_others |= member != self.me
+                elif put:
+                    self.actives[member] = term
+                    self.max_term = max(self.max_term, term)
                 else:
-                    into.discard(member)
+                    self.actives.pop(member, None)
             self.changes.put(None)
 
         return callback
@@ -173,12 +204,15 @@ class Redundancy:
 
     def _keep_snapshot(self, payload: bytes) -> None:
         try:
-            inputs = int(msgspec.json.decode(payload).get("inputs", 0))
+            head = msgspec.json.decode(payload)
+            rank = (int(head.get("term", 0)), int(head.get("inputs", 0)))
         except (msgspec.DecodeError, AttributeError, TypeError, ValueError):
             return
         with self._lock:
-            if inputs >= self._snapshot_inputs:
-                self._snapshot, self._snapshot_inputs = payload, inputs
+            self.max_term = max(self.max_term, rank[0])
+            # The newest state: the higher term, then more inputs.
+            if rank >= self._snapshot_rank:
+                self._snapshot, self._snapshot_rank = payload, rank
 
     def ask_snapshot(self, timeout: float = 2.0) -> bool:
         """Ask the active node for its state now; True if one came.
@@ -219,28 +253,37 @@ class Redundancy:
         with self._lock:
             return any(m != self.me for m in self.members)
 
-    def view(self) -> tuple[set[Member], set[Member]]:
-        """Members and active members seen now (this node included)."""
+    def view(self) -> tuple[set[Member], dict[Member, int]]:
+        """Members (this node included) and active members with their
+        terms, as seen now."""
         with self._lock:
-            return set(self.members) | {self.me}, set(self.actives)
+            return set(self.members) | {self.me}, dict(self.actives)
 
-    def leader(self) -> Member | None:
-        """Who should command now (None: keep the current active one).
+    def commander(self) -> tuple[Member, int] | None:
+        """The active member that should command, with its term: the
+        highest term, then the best order (None: no one is active)."""
+        _, actives = self.view()
+        if not actives:
+            return None
+        best = min(actives, key=lambda m: (-actives[m], order(m)))
+        return best, actives[best]
 
-        The active node with the best order, if any; otherwise the best
-        member.
-        """
-        members, actives = self.view()
-        if actives:
-            return min(actives, key=order)
-        return min(members, key=order)
+    def candidate(self, idle_s: float) -> Member:
+        """Who should take command when no one has for ``idle_s`` seconds:
+        the best member, or the next one for each :data:`PASS_OVER_S`
+        the ones before it let pass."""
+        members, _ = self.view()
+        ranked = sorted(members, key=order)
+        return ranked[min(int(idle_s // PASS_OVER_S), len(ranked) - 1)]
 
-    def declare_active(self) -> None:
-        """Say that this node commands now."""
-        if self._active_token is None:
-            self._active_token = self.session.liveliness().declare_token(
-                self.topics.key(f"{topics.ACTIVE}/{self.me.chunks}")
-            )
+    def declare_active(self, term: int) -> None:
+        """Say that this node commands now, in ``term``."""
+        self.withdraw_active()
+        self._active_token = self.session.liveliness().declare_token(
+            self.topics.key(f"{topics.ACTIVE}/{term}/{self.me.chunks}")
+        )
+        with self._lock:
+            self.max_term = max(self.max_term, term)
 
     def withdraw_active(self) -> None:
         """Stop saying that this node commands."""
@@ -248,19 +291,27 @@ class Redundancy:
         if token is not None:
             _undeclare(token)
 
-    def publish_standby(self, active: Member | None) -> None:
-        """``state: standby`` on the status key, naming the active node."""
+    def publish_standby(
+        self,
+        active: Member | None,
+        event: str = "standby",
+        detail: str = "",
+    ) -> None:
+        """``state: standby`` on the status key, naming the active node
+        (``event``: ``standby``, or ``stood_down`` with the reason)."""
         snapshot = self.latest_snapshot()
+        following = f"following {active.node_id}" if active else ""
         status = messages.Status(
             state="standby",
             plan_id=snapshot.plan_id if snapshot else None,
             now=snapshot.now if snapshot else None,
-            event="standby",
-            detail=(
-                f"following {active.node_id}" if active else "no active node"
+            event=event,
+            detail="; ".join(
+                d for d in (detail, following or "no active node") if d
             ),
             active=active.node_id if active else None,
             node_id=self.me.node_id,
+            term=snapshot.term if snapshot else 0,
         )
         try:
             self.session.put(
@@ -286,11 +337,24 @@ def _undeclare(entity: object) -> None:
         log.debug("undeclare: %s", error)
 
 
+class MakeNode(Protocol):
+    """Builds the node that commands (see :func:`serve`)."""
+
+    def __call__(
+        self,
+        state: EngineSnapshot | None,
+        event: str,
+        term_floor: int,
+        on_term: Callable[[int], None],
+    ) -> SchedulerNode: ...
+
+
 def serve(
     redundancy: Redundancy,
-    make_node: Callable[[EngineSnapshot | None], SchedulerNode],
+    make_node: MakeNode,
     stop: threading.Event,
     discovery_s: float,
+    lease: Callable[[], Lease] | None = None,
 ) -> SchedulerNode | None:
     """Command or stand by until ``stop``; returns the last node run.
 
@@ -299,49 +363,82 @@ def serve(
     redundancy
         This node's membership (joined).
     make_node
-        Builds the scheduler node when this one must command; given the
-        active node's last shared state on a takeover (None otherwise).
+        Builds the scheduler node when this one must command: from a
+        state (the newest shared one on a takeover, its own after standing
+        down; None: its own journal or problem), with the status event it
+        says first (``took_over``, ``resumed``), above ``term_floor``, and
+        calling ``on_term(term)`` once its term is on disk.
     stop
         Set to stop (signals).
     discovery_s
-        How long to look for other schedulers first.
+        How long to look for other schedulers first, and again after
+        standing down.
+    lease
+        Builds the lease a commanding node keeps (None: none).
     """
-    deadline = time.monotonic() + discovery_s
-    while not stop.is_set() and time.monotonic() < deadline:
-        stop.wait(min(POLL_S, max(deadline - time.monotonic(), 0)))
+    _look(stop, discovery_s)
     node: SchedulerNode | None = None
     standing_by_for: Member | bool | None = False
     was_standby = False
+    own: EngineSnapshot | None = None  # this node's state, stood down
+    reason = ""  # why this node stood down, until it has said so
+    idle_since = time.monotonic()
     while not stop.is_set():
-        leader = redundancy.leader()
-        if node is None and leader == redundancy.me:
-            snapshot = redundancy.latest_snapshot() if was_standby else None
+        current = redundancy.commander()
+        if current is not None:
+            idle_since = time.monotonic()
+        if (
+            node is None
+            and current is None
+            and _may_command(redundancy, time.monotonic() - idle_since)
+        ):
+            state, event = _newest(redundancy, own, was_standby)
             log.info(
                 "commanding %s%s",
                 redundancy.topics.root,
-                " (taking over)" if snapshot is not None else "",
+                f" ({event})" if state is not None else "",
             )
-            redundancy.declare_active()
-            node = make_node(snapshot)
+            node = make_node(
+                state, event, redundancy.max_term, redundancy.declare_active
+            )
+            if lease is not None:
+                node.lease = lease().start()
             node.start()
-        elif node is not None and leader not in (redundancy.me, None):
-            _, actives = redundancy.view()
-            if leader in actives:
-                log.warning(
-                    "another active scheduler (%s) outranks this one: "
-                    "standing by",
-                    leader.node_id,
+            own = None
+        elif node is not None and current is not None:
+            other, term = current
+            # This node's own token may not be seen yet: compare terms.
+            if other != redundancy.me and _beats(
+                (other, term), (redundancy.me, node.term)
+            ):
+                own = _stand_down(
+                    redundancy,
+                    node,
+                    other,
+                    f"{other.node_id} commands in term {term} (this node: "
+                    f"{node.term})",
                 )
-                node.close()
-                node = None
-                redundancy.withdraw_active()
+                node, standing_by_for = None, other
+        if node is not None and node.stood_down is not None:
+            # Said once the bus is seen again: the link may be down now.
+            reason = node.stood_down
+            own = _stand_down(redundancy, node, None, None)
+            node, standing_by_for = None, False
+            _look(stop, discovery_s)  # re-verify before commanding again
+            idle_since = time.monotonic()
+            continue
         if node is None:
-            _, actives = redundancy.view()
-            active = min(actives, key=order) if actives else None
-            if active != standing_by_for:
+            current = redundancy.commander()
+            active = current[0] if current else None
+            # A stand-down is said once a link is there to carry it.
+            say = reason if reason and has_links(redundancy.session) else ""
+            if active != standing_by_for or say:
                 if active is not None:
                     redundancy.ask_snapshot()
-                redundancy.publish_standby(active)
+                redundancy.publish_standby(
+                    active, "stood_down" if say else "standby", say
+                )
+                reason = "" if say else reason
                 log.info(
                     "standing by%s",
                     f" for {active.node_id}" if active else "",
@@ -353,3 +450,58 @@ def serve(
         with contextlib.suppress(queue.Empty):
             redundancy.changes.get(timeout=POLL_S)
     return node
+
+
+def _beats(one: tuple[Member, int], other: tuple[Member, int]) -> bool:
+    """Whether active ``one`` outranks ``other`` (member, term): the
+    higher term, then the better order."""
+    return (-one[1], order(one[0])) < (-other[1], order(other[0]))
+
+
+def _look(stop: threading.Event, seconds: float) -> None:
+    """Watch the membership for ``seconds`` (tokens arrive meanwhile)."""
+    deadline = time.monotonic() + seconds
+    while not stop.is_set() and time.monotonic() < deadline:
+        stop.wait(min(POLL_S, max(deadline - time.monotonic(), 0)))
+
+
+def _may_command(redundancy: Redundancy, idle_s: float) -> bool:
+    """No one commands: is it this node's turn, and can it see the bus?"""
+    if redundancy.candidate(idle_s) != redundancy.me:
+        return False
+    # Once others were seen, a node without any link cannot tell that they
+    # stopped commanding, only that it lost them: it waits for the bus.
+    return not redundancy.seen_others or has_links(redundancy.session)
+
+
+def _newest(
+    redundancy: Redundancy, own: EngineSnapshot | None, was_standby: bool
+) -> tuple[EngineSnapshot | None, str]:
+    """The state to command from: the newest of the shared one and this
+    node's own (after standing down), with the event to say first."""
+    shared = redundancy.latest_snapshot() if was_standby else None
+    if own is not None and (
+        shared is None
+        or (own.term, own.inputs) >= (shared.term, shared.inputs)
+    ):
+        return own, "resumed"
+    return shared, "took_over"
+
+
+def _stand_down(
+    redundancy: Redundancy,
+    node: SchedulerNode,
+    winner: Member | None,
+    reason: str | None,
+) -> EngineSnapshot:
+    """Stop commanding: close the node, withdraw the token, say why
+    (``reason`` None: the caller says it later)."""
+    log.warning("standing down: %s", reason or node.stood_down)
+    state = node.engine.snapshot()
+    node.close()
+    redundancy.withdraw_active()
+    if reason is not None:
+        if winner is not None:
+            redundancy.ask_snapshot()
+        redundancy.publish_standby(winner, "stood_down", reason)
+    return state

@@ -60,6 +60,9 @@ class EngineState:
         self._solve_id = 0
         self._pending: PendingSolve | None = None
         self._queue: list[QueuedChange] = []
+        # The command term (events.TermBegan): stamped on every plan,
+        # dispatch and status, so that receivers fence a stale commander.
+        self.term = 0
         # The rule pass of the last goal checked on arrival, kept so that
         # starting its solve at once does not run the same pass again. A
         # memo of (schedule, now, goal) -> replan, derived, not state: a
@@ -106,6 +109,7 @@ class EngineState:
             counters=self._counters,
             last_solve=self._last_solve,
             node_id=self.config.node_id,
+            term=self.term,
             **extra,  # type: ignore[arg-type]
         )
 
@@ -205,6 +209,7 @@ class EngineState:
             trigger=trigger,
             goals=goals,
             stats=plan.stats,
+            term=self.term,
         )
         if plan.status is SolveStatus.DEGRADED:
             self._set_health("degraded", degraded_detail(self.plan_id, plan))
@@ -243,7 +248,11 @@ class EngineState:
             )
             out.append(
                 dispatch_message(
-                    self.plan_id, schedule.problem, activity, self.now
+                    self.plan_id,
+                    schedule.problem,
+                    activity,
+                    self.now,
+                    self.term,
                 )
             )
 

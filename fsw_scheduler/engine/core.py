@@ -49,6 +49,7 @@ from .events import (
     ReportArrived,
     SolveDone,
     SolveFailed,
+    TermBegan,
     Tick,
 )
 from .snapshot import EngineSnapshot, QueuedChange
@@ -102,6 +103,7 @@ class Engine(SolveQueue):
             health=self._health,
             health_detail=self._health_detail,
             plan_message=self._plan_message,
+            term=self.term,
         )
 
     @classmethod
@@ -136,6 +138,7 @@ class Engine(SolveQueue):
         engine._health = snapshot.health
         engine._health_detail = snapshot.health_detail
         engine._plan_message = snapshot.plan_message
+        engine.term = snapshot.term
         return engine
 
     def resume_commands(self, event: str = "resumed") -> list[Command]:
@@ -157,7 +160,7 @@ class Engine(SolveQueue):
         for activity, since in self._dispatches.standing(schedule.plan):
             out.append(
                 dispatch_message(
-                    self.plan_id, schedule.problem, activity, since
+                    self.plan_id, schedule.problem, activity, since, self.term
                 )
             )
         return out
@@ -217,6 +220,8 @@ class Engine(SolveQueue):
             self._on_stalled(event, out)
         elif isinstance(event, Explained):
             self._on_explained(event, out)
+        elif isinstance(event, TermBegan):
+            self._on_term(event, out)
         elif isinstance(event, SolveDone):
             self._on_solve_done(event, out)
         elif isinstance(event, SolveFailed):
@@ -227,6 +232,28 @@ class Engine(SolveQueue):
         return out
 
     # -- event handlers ------------------------------------------------------
+
+    def _on_term(self, event: TermBegan, out: list[Command]) -> None:
+        if event.term == self.term:
+            return  # already in this term (a journal replayed from its head)
+        if event.term < self.term:
+            # The shell picks a higher term; a lower one would unfence a
+            # stale commander, so it is never taken.
+            out.append(
+                Log(
+                    "error",
+                    f"term {event.term} is below term {self.term}: ignored",
+                )
+            )
+            return
+        self.term = event.term
+        out.append(
+            Log(
+                "info",
+                f"term {event.term} begins ({event.reason or 'command'}"
+                f"{', node ' + event.node_id if event.node_id else ''})",
+            )
+        )
 
     def _on_explained(self, event: Explained, out: list[Command]) -> None:
         message = self._plan_message

@@ -175,7 +175,11 @@ class Dispatches:
 
 
 def dispatch_message(
-    plan_id: int, problem: Problem, activity: Activity, dispatched_at: int
+    plan_id: int,
+    problem: Problem,
+    activity: Activity,
+    dispatched_at: int,
+    term: int = 0,
 ) -> Publish:
     """The dispatch of ``activity``, sent at ``dispatched_at``.
 
@@ -194,5 +198,6 @@ def dispatch_message(
             dispatched_at=dispatched_at,
             late=activity.start < dispatched_at,
             dispatch_id=f"{task}:{activity.start}-{activity.end}",
+            term=term,
         ),
     )

@@ -64,6 +64,19 @@ class ClockStalled(msgspec.Struct, frozen=True, tag=True):
     last: int | None = None
 
 
+class TermBegan(msgspec.Struct, frozen=True, tag=True):
+    """This node commands from now on, in command term ``term``.
+
+    The shell decides the term (higher than any it has seen) and journals
+    it before it commands; the engine stamps it on every plan, dispatch
+    and status it publishes from then on.
+    """
+
+    term: int
+    node_id: str = ""
+    reason: str = ""
+
+
 class Explained(msgspec.Struct, frozen=True, tag=True):
     """Why tasks of plan ``plan_id`` (from solve ``solve_id``) are out."""
 
@@ -94,6 +107,7 @@ Event = (
     | InputRejected
     | ClockStalled
     | Explained
+    | TermBegan
     | SolveDone
     | SolveFailed
 )

@@ -94,4 +94,5 @@ class EngineSnapshot(msgspec.Struct, frozen=True, omit_defaults=True):
     health: Health = "ok"
     health_detail: str = ""
     plan_message: PlanMessage | None = None
+    term: int = 0
     version: int = SNAPSHOT_VERSION

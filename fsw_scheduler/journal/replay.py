@@ -271,16 +271,19 @@ def verify(
                     )
                 results[command.solve_id] = solve(config, command)
 
+    inputs = list(_outputs_and_inputs(recorded, info_topic))
     if snapshot is not None:
         # A file of a state folder starts from the engine's state. A node
-        # that resumed said so first and asked again for the solve that was
-        # in flight; after a rotation, that solve is still running.
+        # that resumed began its new term, said so and asked again for the
+        # solve that was in flight; after a rotation, that solve is still
+        # running.
+        inputs = _term_first(inputs, topics, decoder, engine, now, report)
         if info.resumed:
             run(engine.resume_commands(info.resumed))
         pending = engine.pending_solve()
         if pending is not None:
             results[pending.solve_id] = solve(config, pending)
-    for message in _outputs_and_inputs(recorded, info_topic):
+    for message in inputs:
         kind = topics.schema_kind(message.topic)
         if kind == "solve_record":
             record = msgspec.json.decode(message.payload)
@@ -485,6 +488,30 @@ def rebuild(
             out.last_tick = now
         note(engine.step(event, now))
     return out
+
+
+def _term_first(
+    inputs: list[RecordedMessage],
+    topics: keys.Topics,
+    decoder: InputDecoder,
+    engine: Engine,
+    now: int,
+    report: VerifyReport,
+) -> list[RecordedMessage]:
+    """Step the term a node began right after its opening snapshot (the
+    status it then says first carries it); the rest of ``inputs``."""
+    for at, message in enumerate(inputs):
+        kind = topics.schema_kind(message.topic)
+        if kind == "snapshot":
+            continue
+        if kind != "term":
+            return inputs
+        event = decoder.event(message.topic, message.payload)
+        if event is not None:
+            report.inputs += 1
+            engine.step(event, now)  # a term only logs
+        return inputs[:at] + inputs[at + 1 :]
+    return inputs
 
 
 def _outputs_and_inputs(

@@ -22,6 +22,7 @@ from ..engine.events import (
     InputRejected,
     LevelArrived,
     ReportArrived,
+    TermBegan,
     Tick,
 )
 from ..errors import FieldIssue, InputError
@@ -77,6 +78,8 @@ class InputDecoder:
             return ClockStalled(message.seconds, message.last)
         if kind == "explanation":
             return Explained(message.solve_id, message.plan_id, message.why)
+        if kind == "term":
+            return TermBegan(message.term, message.node_id, message.reason)
         if kind == "clock":
             self._check_clock(message.now)
             if self.bus_now is not None and message.now < self.bus_now:

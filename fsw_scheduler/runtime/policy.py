@@ -113,6 +113,29 @@ def config_from_info(
     return NodeConfig(**values)
 
 
+def deadline_config(
+    config: NodeConfig, waited_s: list[float], goals_waiting: int
+) -> NodeConfig:
+    """The settings of a solve: its limit cut to its goals' deadline.
+
+    The response deadline runs from the arrival of the oldest goal of the
+    solve (``waited_s``: how long each has waited); decoding, merging and
+    waiting behind another solve came out of it already, the start plan,
+    model and solver share the rest (less a margin to publish) with the
+    solves that the ``goals_waiting`` queued behind this one will need.
+    """
+    if config.response_deadline is None or not waited_s:
+        return config
+    left = config.response_deadline - max(waited_s)
+    # Goals queued behind this solve need solves of their own within
+    # their deadlines: each batch gets an equal share of what is left.
+    batches = -(-goals_waiting // config.goals_per_solve)
+    limit = BUDGET.deadline_limit(left, batches, config.time_limit)
+    if limit == config.time_limit:
+        return config
+    return config.replace(time_limit=limit)
+
+
 def run_solve(config: NodeConfig, command: StartSolve) -> Plan:
     """Solve as the node does (shared with deterministic replay).
 

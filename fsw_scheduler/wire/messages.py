@@ -90,6 +90,10 @@ class PlanMessage(msgspec.Struct, frozen=True):
         Goal ids adopted by this plan.
     stats
         Solver statistics (timings vary between runs).
+    term
+        The command term of the node that issued it: a plan is named by
+        ``(term, plan_id)``; a receiver ignores a lower term than the
+        highest it has seen (0: a node older than terms).
     """
 
     plan_id: int
@@ -107,6 +111,7 @@ class PlanMessage(msgspec.Struct, frozen=True):
     trigger: str = ""
     goals: tuple[str, ...] = ()
     stats: SolverStats | None = None
+    term: int = 0
 
 
 class Dispatch(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -116,7 +121,8 @@ class Dispatch(msgspec.Struct, frozen=True, omit_defaults=True):
     replan that keeps it where it was sends nothing. ``dispatch_id``
     (``<task>:<start>-<end>``) names the command; a receiver that already
     acts on that id ignores a repeat, and a new id for the same task
-    replaces the earlier command.
+    replaces the earlier command. ``term`` fences: a receiver ignores a
+    dispatch whose term is lower than the highest it has seen.
     """
 
     task: str
@@ -127,6 +133,7 @@ class Dispatch(msgspec.Struct, frozen=True, omit_defaults=True):
     dispatched_at: int = 0
     late: bool = False
     dispatch_id: str = ""
+    term: int = 0
 
 
 class Source(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -231,6 +238,9 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
 
     ``source`` says where the goal, report or level a verdict is about
     came from (set by the bus node; ``replay --verify`` ignores it).
+    ``term`` is the command term of the node (see :class:`Term`). A node
+    that stops commanding says ``stood_down`` (``detail`` says why,
+    ``active`` names the node it now follows, if any).
     """
 
     state: Literal["ok", "degraded", "error", "standby"]
@@ -251,6 +261,7 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
     changed: dict[str, str] = {}
     why: tuple[Blocker, ...] = ()
     source: Source | None = None
+    term: int = 0
 
 
 class Busy(msgspec.Struct, frozen=True):
@@ -335,6 +346,22 @@ class SecurityInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     warnings: tuple[str, ...] = ()
 
 
+class Term(msgspec.Struct, frozen=True, omit_defaults=True):
+    """``scheduler/term``: a node begins to command, in a new term.
+
+    Every takeover, resume and start of command begins a term higher than
+    any the node has seen (in its journal, on the bus, in the state it
+    adopts). The node journals it (and flushes) before it commands, and
+    publishes it so that receivers raise their fence at once: a receiver
+    ignores any plan, dispatch or status whose ``term`` is lower than the
+    highest it has seen.
+    """
+
+    term: int
+    node_id: str = ""
+    reason: str = ""
+
+
 class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     """``scheduler/config``: settings a recording needs to be replayed."""
 
@@ -375,6 +402,7 @@ SCHEMA_TYPES: dict[str, Any] = {
     "status": Status,
     "solve_record": SolveRecord,
     "node_info": NodeInfo,
+    "term": Term,
     "input_source": InputSource,
     "problem": Problem,
     "busy": Busy,

@@ -49,6 +49,9 @@ PROFILES = "scheduler/profiles"
 LEVELS = "scheduler/levels"
 #: Journal only: decisions and rejections as foxglove.Log messages.
 LOG = "scheduler/log"
+#: A node begins a command term (journaled before it commands, published
+#: so that receivers raise their fence): see ``messages.Term``.
+TERM = "scheduler/term"
 
 #: Output suffixes, compared by ``replay --verify``.
 OUTPUTS = (PLAN, DISPATCH, STATUS)
@@ -120,6 +123,7 @@ KINDS = {
     PROFILES: "profiles",
     LEVELS: "level_check",
     LOG: "log",
+    TERM: "term",
 }
 #: Suffixes followed by one name chunk (a task or a resource).
 NAMED_KINDS = {
@@ -135,7 +139,14 @@ SUBSCRIPTIONS = (
     (RESOURCE_LEVELS + "/*", NAMED_KINDS[RESOURCE_LEVELS]),
 )
 #: Kinds a replay feeds back as inputs, whatever the clock source.
-_INPUTS = {"goal", "busy", "explanation", "activity_report", "resource_level"}
+_INPUTS = {
+    "goal",
+    "busy",
+    "explanation",
+    "activity_report",
+    "resource_level",
+    "term",
+}
 
 
 def kind_of(suffix: str) -> str | None:

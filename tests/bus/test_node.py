@@ -86,6 +86,7 @@ def test_goal_plan_dispatch(started: SchedulerHarness) -> None:
             "uses": {"power": 5.0},
             "dispatched_at": beacon.start,
             "dispatch_id": f"Beacon:{beacon.start}-{beacon.end}",
+            "term": 1,
         }
     ]
     first = json.loads(

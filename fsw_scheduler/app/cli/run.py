@@ -127,8 +127,16 @@ def _cmd_run(args: argparse.Namespace) -> int:
     with _open_bus(zenoh_settings) as session:
         redundancy: Any = None
 
-        def make_node(shared: Any = None) -> SchedulerNode:
-            """The node that commands; from the active's state on takeover."""
+        def make_node(
+            state: Any = None,
+            event: str = "took_over",
+            term_floor: int = 0,
+            on_term: Any = None,
+        ) -> SchedulerNode:
+            """The node that commands: from a state given by the election
+            (the newest shared one, or its own after standing down), in a
+            term above ``term_floor``."""
+            shared = state
             nonlocal journal
             extra: dict[str, Any] = {}
             if args.state:
@@ -142,7 +150,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 from ...runtime.policy import engine_config
 
                 extra["engine"] = Engine.restore(engine_config(config), shared)
-                extra["resumed_event"] = "took_over"
+                extra["resumed_event"] = event
                 extra.pop("clock_start", None)
                 if config.clock == "wall" and shared.now is not None:
                     extra["clock_start"] = shared.now
@@ -156,6 +164,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 share_state=(
                     redundancy.has_peers if redundancy is not None else False
                 ),
+                term_floor=term_floor,
+                on_term=on_term,
                 **extra,
             )
 
@@ -170,6 +180,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             finally:
                 node.close()
         else:
+            from ...bus.lease import Lease, has_links, zenoh_lease_s
             from ...bus.redundancy import Member, Redundancy, serve
 
             member = Member(config.rank, time.time_ns(), config.node_id or "")
@@ -177,7 +188,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
             redundancy.join()
             node = None
             try:
-                node = serve(redundancy, make_node, stop, config.discovery)
+                lease_s = zenoh_lease_s(zenoh_settings)
+                node = serve(
+                    redundancy,
+                    make_node,
+                    stop,
+                    config.discovery,
+                    lambda: Lease(lease_s, lambda: has_links(session)),
+                )
             finally:
                 if node is not None:
                     node.close()
