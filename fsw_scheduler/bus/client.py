@@ -201,13 +201,19 @@ class SchedulerClient:
     ) -> None:
         """Publish an execution report of ``task``.
 
+        It names the last dispatch of ``task`` received (its
+        ``dispatch_id`` and ``term``), as an executor should.
         ``key_task`` publishes it on another task's key (a faulty
         executor).
         """
-        self.put(
-            self.topics.activity_report(key_task or task),
-            {"task": task, "state": state, "at": at},
-        )
+        report: dict[str, object] = {"task": task, "state": state, "at": at}
+        with self._cond:
+            last = next(
+                (d for d in reversed(self.dispatches) if d.task == task), None
+            )
+        if last is not None and last.dispatch_id:
+            report.update(dispatch_id=last.dispatch_id, term=last.term)
+        self.put(self.topics.activity_report(key_task or task), report)
 
     def level(
         self,

@@ -31,6 +31,7 @@ from .events import (
     Publish,
     StartSolve,
 )
+from .ledger import GoalLedger
 from .snapshot import PendingSolve, QueuedChange
 
 if TYPE_CHECKING:
@@ -68,6 +69,7 @@ class EngineState:
         # memo of (schedule, now, goal) -> replan, derived, not state: a
         # snapshot leaves it out and a restored engine recomputes it.
         self._goal_checked: tuple[Schedule, int, Goal, Replan] | None = None
+        self._ledger = GoalLedger(limit=config.max_goal_ids)
         self._dispatches = Dispatches()
         self._counters = Counters()
         self._last_solve: SolveSummary | None = None
@@ -225,6 +227,7 @@ class EngineState:
             )
         )
         for goal_id in goals:
+            self._ledger.accept(goal_id)
             self._count(goals_accepted=self._counters.goals_accepted + 1)
             out.append(
                 Publish(
@@ -281,7 +284,11 @@ class EngineState:
         goal_id: str | None,
         errors: list[FieldIssue] | tuple[FieldIssue, ...],
         out: list[Command],
+        *,
+        forget: bool = True,
     ) -> None:
+        if forget and goal_id is not None:
+            self._ledger.forget(goal_id)  # the id is free again
         self._count(goals_rejected=self._counters.goals_rejected + 1)
         self._report_rejection(
             f"goal {goal_id} rejected",

@@ -44,6 +44,13 @@ class EngineConfig(msgspec.Struct, frozen=True):
     explain_after_plan
         Ask for the explanation of a plan's left-out tasks after it is
         published (:class:`StartExplain`) instead of inside the solve.
+    max_goal_ids
+        Goal ids the ledger remembers once their goal was accepted (the
+        oldest leave first; the ids of queued goals always stay): within
+        them a goal id is accepted at most once, whatever is re-sent.
+    reports_need_dispatch
+        Reject an execution report that does not name the ``dispatch_id``
+        it answers (a report always must answer a dispatch of its task).
     """
 
     report_timeout: int | None = None
@@ -57,3 +64,5 @@ class EngineConfig(msgspec.Struct, frozen=True):
     node_id: str | None = None
     max_history: int = 1000
     explain_after_plan: bool = False
+    max_goal_ids: int = 1024
+    reports_need_dispatch: bool = False

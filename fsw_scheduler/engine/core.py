@@ -52,7 +52,8 @@ from .events import (
     TermBegan,
     Tick,
 )
-from .snapshot import EngineSnapshot, QueuedChange
+from .ledger import GoalLedger, goal_digest
+from .snapshot import EngineSnapshot, GoalRecord, QueuedChange
 from .solves import SolveQueue
 
 if TYPE_CHECKING:
@@ -104,6 +105,7 @@ class Engine(SolveQueue):
             health_detail=self._health_detail,
             plan_message=self._plan_message,
             term=self.term,
+            ledger=dict(self._ledger.records),
         )
 
     @classmethod
@@ -139,6 +141,7 @@ class Engine(SolveQueue):
         engine._health_detail = snapshot.health_detail
         engine._plan_message = snapshot.plan_message
         engine.term = snapshot.term
+        engine._ledger = GoalLedger(snapshot.ledger, config.max_goal_ids)
         return engine
 
     def resume_commands(self, event: str = "resumed") -> list[Command]:
@@ -327,6 +330,24 @@ class Engine(SolveQueue):
         self._start_solve("initial", problem, None, None, (), out)
 
     def _on_goal(self, goal: Goal, out: list[Command]) -> None:
+        digest = goal_digest(goal)
+        record = self._ledger.seen(goal.goal_id)
+        if record is not None:
+            self._answer_repeat(goal.goal_id, digest, record, out)
+            return
+        if goal.not_after is not None and self._clock() > goal.not_after:
+            self._reject_goal(
+                goal.goal_id,
+                [
+                    FieldIssue(
+                        "not_after",
+                        f"the goal expired at t={goal.not_after}; now is "
+                        f"t={self._clock()}",
+                    )
+                ],
+                out,
+            )
+            return
         if self.schedule is None and self._pending is None:
             self._reject_goal(
                 goal.goal_id,
@@ -373,6 +394,7 @@ class Engine(SolveQueue):
                 return
             self._goal_checked = (self.schedule, now, goal, replan)
         self._queue.append(QueuedChange("goal", goal=goal))
+        self._ledger.queue(goal.goal_id, digest, self._clock(), self.term)
         if self._pending is not None:
             out.append(
                 Log("info", f"goal {goal.goal_id} queued behind a solve")
@@ -390,6 +412,40 @@ class Engine(SolveQueue):
                     ),
                 )
             )
+
+    def _answer_repeat(
+        self, goal_id: str, digest: str, record: GoalRecord, out: list[Command]
+    ) -> None:
+        """A goal id already in the ledger: its verdict again, or no."""
+        if record.digest != digest:
+            self._reject_goal(
+                goal_id,
+                [
+                    FieldIssue(
+                        "goal_id",
+                        f"goal id {goal_id!r} is taken by another goal "
+                        f"({record.verdict} at t={record.at}); send new "
+                        "content under a new id",
+                    )
+                ],
+                out,
+                forget=False,
+            )
+            return
+        event = (
+            "goal_accepted" if record.verdict == "accepted" else "goal_queued"
+        )
+        out.append(
+            Publish(
+                topics.STATUS,
+                self._status(
+                    event,
+                    goal_id=goal_id,
+                    detail=f"goal {goal_id} again, the same as at "
+                    f"t={record.at}: its verdict stands, nothing changes",
+                ),
+            )
+        )
 
     def _on_report(self, report: ActivityReport, out: list[Command]) -> None:
         schedule = self.schedule
@@ -412,6 +468,15 @@ class Engine(SolveQueue):
                 out,
             )
             return
+        wrong = self._report_issue(report)
+        if wrong is not None:
+            self._reject_input(
+                f"telemetry/activities/{report.task}",
+                "activity_report",
+                [wrong],
+                out,
+            )
+            return
         self._count(reports=self._counters.reports + 1)
         self._dispatches.report(report.task, report.state)
         at = min(report.at, self._clock())
@@ -431,6 +496,44 @@ class Engine(SolveQueue):
             self._queue.append(
                 QueuedChange("failure", task=report.task, at=at)
             )
+
+    def _report_issue(self, report: ActivityReport) -> FieldIssue | None:
+        """Why ``report`` answers no dispatch of this spacecraft (None: it
+        does): its task was never dispatched, it names another dispatch,
+        a later term or a time to come."""
+        task = report.task
+        if self._dispatches.lifecycle.get(task, "planned") == "planned":
+            return FieldIssue(
+                "task", f"{task!r} was never dispatched: nothing to report on"
+            )
+        if report.at > self._clock():
+            return FieldIssue(
+                "at", f"{report.at} is after now ({self._clock()})"
+            )
+        if report.term > self.term:
+            return FieldIssue(
+                "term", f"{report.term} is above this node's term {self.term}"
+            )
+        if not report.dispatch_id:
+            if self.config.reports_need_dispatch:
+                return FieldIssue(
+                    "dispatch_id", "missing: name the dispatch this answers"
+                )
+            return None
+        plan = self._plan_message
+        current = (
+            next((a for a in plan.activities if a.task == task), None)
+            if plan is not None
+            else None
+        )
+        expected = current and f"{task}:{current.start}-{current.end}"
+        if expected and report.dispatch_id != expected:
+            return FieldIssue(
+                "dispatch_id",
+                f"{report.dispatch_id!r} is not the dispatch of {task!r} "
+                f"({expected!r})",
+            )
+        return None
 
     def _on_level(self, level: ResourceLevel, out: list[Command]) -> None:
         self._count(levels=self._counters.levels + 1)

@@ -68,6 +68,21 @@ class QueuedChange(msgspec.Struct, frozen=True):
     trigger: str = ""
 
 
+class GoalRecord(msgspec.Struct, frozen=True, omit_defaults=True):
+    """The ledger's entry for one goal id: what was decided, on what.
+
+    ``digest`` names the goal's content (SHA-256 of its canonical
+    encoding), ``verdict`` is ``queued`` (accepted for processing,
+    waiting for its solve) or ``accepted`` (in a plan), ``at`` the time
+    unit it arrived at and ``term`` the command term that took it.
+    """
+
+    digest: str
+    verdict: Literal["queued", "accepted"]
+    at: int = 0
+    term: int = 0
+
+
 class EngineSnapshot(msgspec.Struct, frozen=True, omit_defaults=True):
     """Everything :class:`~fsw_scheduler.engine.Engine` holds.
 
@@ -95,4 +110,5 @@ class EngineSnapshot(msgspec.Struct, frozen=True, omit_defaults=True):
     health_detail: str = ""
     plan_message: PlanMessage | None = None
     term: int = 0
+    ledger: dict[str, GoalRecord] = {}
     version: int = SNAPSHOT_VERSION

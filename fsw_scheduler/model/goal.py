@@ -56,12 +56,16 @@ class Goal(msgspec.Struct, frozen=True, omit_defaults=True):
         task.
     issued_at
         Time unit at which the goal was issued, if known.
+    not_after
+        Time unit after which the goal is stale: arriving later, it is
+        rejected (None: it never expires).
     """
 
     goal_id: str
     tasks: tuple[GoalTask, ...]
     precedences: tuple[Precedence, ...] = ()
     issued_at: int | None = None
+    not_after: int | None = None
 
     @property
     def obsoleted(self) -> tuple[str, ...]:
@@ -93,6 +97,12 @@ def validate_goal(goal: Goal) -> list[FieldIssue]:
     reason = model.id_issue(goal.goal_id)
     if reason is not None:
         issues.append(FieldIssue("goal_id", f"goal id {reason}"))
+    for name in ("issued_at", "not_after"):
+        value = getattr(goal, name)
+        if value is not None and not 0 <= value <= model.MAX_TIME:
+            issues.append(
+                FieldIssue(name, f"{value} is outside [0, {model.MAX_TIME}]")
+            )
     # A permissive stand-in problem: every used resource declared, a horizon
     # long enough for any length, so only per-task rules speak.
     used: dict[str, float | model.Consumable] = {

@@ -40,12 +40,21 @@ class Clock(msgspec.Struct, frozen=True):
 
 
 class ActivityReport(msgspec.Struct, frozen=True, omit_defaults=True):
-    """``telemetry/activities/<task>``: an execution report."""
+    """``telemetry/activities/<task>``: an execution report.
+
+    A report answers a dispatch: its task must have been dispatched and
+    ``at`` must not lie ahead of the scheduler's time. ``dispatch_id`` and
+    ``term``, echoed from the dispatch, name which one (a report naming
+    another dispatch, or a term the scheduler has not reached, is
+    rejected; the ``reports-need-dispatch`` setting makes them required).
+    """
 
     task: str
     state: Literal["running", "completed", "failed"]
     at: int
     detail: str = ""
+    dispatch_id: str = ""
+    term: int = 0
 
 
 class ResourceLevel(msgspec.Struct, frozen=True):

@@ -148,12 +148,13 @@ def test_unknown_fields_are_ignored(started: SchedulerHarness) -> None:
     assert h.wait_status(lambda s: s.event == "goal_accepted").goal_id == (
         "future"
     )
+    h.tick(1)
     h.report("SetPositionX", "completed", 1, key_task=None)
     h.put(
         h.topics.resource_level("battery"),
         {"resource": "battery", "level": 18.0, "at": 1, "unit": "Ah"},
     )
-    h.tick(1)
+    h.settle(1)
     assert h.query_status().counters.inputs_rejected == 0
 
 

@@ -310,6 +310,7 @@ def test_report_timeout_counts_as_failure() -> None:
     """Tests that a dispatch without a report in time counts as failed."""
     driver = Driver(config=EngineConfig(report_timeout=2))
     driver.tick(0)
+    driver.tick(1)
     driver.report("SetPositionX", "completed", 1)
     assert not [c for c in driver.tick(2) if isinstance(c, StartSolve)]
     out = driver.tick(3)
@@ -461,11 +462,11 @@ def test_paper_story() -> None:
     driver = Driver()
     running: dict[str, int] = {}
     for now in range(16):
+        out = driver.tick(now)
         for task, end in sorted(running.items()):
-            if end <= now:
+            if end <= now:  # reported once the clock says so
                 driver.report(task, "completed", now)
                 del running[task]
-        out = driver.tick(now)
         for d in published(out, messages.Dispatch):
             driver.report(d.task, "running", now)
             running[d.task] = now + d.end - d.start
