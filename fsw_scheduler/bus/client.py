@@ -196,6 +196,50 @@ class SchedulerClient:
         """Publish a goal document on ``scheduler/goals``."""
         self.put(keys.GOALS, goal)
 
+    def verdicts(self, goal_id: str) -> set[str]:
+        """The verdicts received for ``goal_id`` (``goal_accepted``,
+        ``goal_rejected``), as a set: one element when all agree."""
+        with self._cond:
+            return {
+                s.event
+                for s in self.statuses
+                if s.goal_id == goal_id and s.event in _VERDICTS
+            }
+
+    def send_goals(
+        self,
+        goals: list[dict],
+        *,
+        resend_s: float = 2.0,
+        timeout: float | None = None,
+    ) -> dict[str, set[str]]:
+        """Publish ``goals`` and re-send, unchanged, each one still without
+        a verdict every ``resend_s`` seconds: the sender's rule (README,
+        "What a sender must do"), safe since a goal id is answered once.
+
+        Returns
+        -------
+        dict
+            Goal id -> its verdicts (see :meth:`verdicts`); empty for a
+            goal still unanswered at ``timeout``.
+        """
+        deadline = time.monotonic() + (timeout or self.timeout)
+        waiting = {g["goal_id"]: g for g in goals}
+        for goal in goals:
+            self.publish_goal(goal)
+        last = time.monotonic()
+        while waiting and time.monotonic() < deadline:
+            with self._cond:
+                self._cond.wait(0.1)
+            waiting = {
+                k: g for k, g in waiting.items() if not self.verdicts(k)
+            }
+            if waiting and time.monotonic() - last >= resend_s:
+                for goal in waiting.values():
+                    self.publish_goal(goal)
+                last = time.monotonic()
+        return {g["goal_id"]: self.verdicts(g["goal_id"]) for g in goals}
+
     def report(
         self, task: str, state: str, at: int, *, key_task: str | None = None
     ) -> None:
@@ -484,6 +528,9 @@ class Fence:
         self.acted.add(key)
         return True
 
+
+#: The final answers to a goal.
+_VERDICTS = frozenset({"goal_accepted", "goal_rejected"})
 
 _KINDS: dict[str, tuple[str, type]] = {
     "plan": ("plans", messages.PlanMessage),

@@ -517,3 +517,44 @@ def _replay_pass(
         publisher.put(message.payload, encoding=encoding or message.encoding)
         count += 1
     return count
+
+
+def recorded_spacecraft(
+    paths: PathLike | Sequence[PathLike], remap: Mapping[str, str] | None
+) -> set[str]:
+    """The ``fsw/<sc>`` roots a replay of ``paths`` would publish under."""
+    files = [paths] if isinstance(paths, str | os.PathLike) else list(paths)
+    roots = set()
+    for path in files:
+        for channel in recording_info(path).channels:
+            topic = remap_key(channel.topic, remap) if remap else channel.topic
+            parts = topic.split("/")
+            if len(parts) > 2 and parts[0] == "fsw":
+                roots.add("/".join(parts[:2]))
+    return roots
+
+
+def live_schedulers(
+    session: zenoh.Session, roots: Iterable[str], timeout: float = 1.0
+) -> dict[str, list[str]]:
+    """The schedulers alive on the bus under each root (liveliness).
+
+    A recording replayed into a bus where one of them runs would drive
+    it: its clock, its goals, its reports (``replay`` refuses, unless
+    ``--into-live``).
+    """
+    found: dict[str, list[str]] = {}
+    for root in sorted(roots):
+        for suffix in ("scheduler/alive", "scheduler/nodes/**"):
+            try:
+                replies = session.liveliness().get(
+                    f"{root}/{suffix}", timeout=timeout
+                )
+                for reply in replies:
+                    if reply.ok is not None:
+                        found.setdefault(root, []).append(
+                            str(reply.ok.key_expr)
+                        )
+            except zenoh.ZError:
+                continue
+    return found

@@ -241,9 +241,11 @@ class EngineState:
         schedule = self.schedule
         if schedule is None or self.now is None or self.plan_id is None:
             return
+        sent: list[str] = []
         for activity in self._dispatches.due(
             schedule.plan, schedule.continuing, self.now
         ):
+            sent.append(activity.task)
             late = activity.start < self.now
             self._count(
                 dispatches=self._counters.dispatches + 1,
@@ -257,6 +259,14 @@ class EngineState:
                     self.now,
                     self.term,
                 )
+            )
+        if sent:
+            # Commanded means started: a replan at this same unit (here, or
+            # on a node that takes over before the first report) must not
+            # move it and command it a second time.
+            self.schedule = msgspec.structs.replace(
+                schedule,
+                continuing=tuple(dict.fromkeys((*schedule.continuing, *sent))),
             )
 
     def _check_report_timeouts(self, out: list[Command]) -> None:

@@ -229,9 +229,12 @@ class Engine(SolveQueue):
             self._on_solve_done(event, out)
         elif isinstance(event, SolveFailed):
             self._on_solve_failed(event, out)
+        # Dispatch first: a replan started in this step then counts what
+        # was just commanded as started, never moves it, never sends it
+        # twice.
+        self._dispatch_due(out)
         if self._pending is None:
             self._start_queued(out)
-        self._dispatch_due(out)
         return out
 
     # -- event handlers ------------------------------------------------------

@@ -116,6 +116,11 @@ class NodeConfig(
     discovery
         Seconds a starting node looks for other schedulers before it
         decides to command or to stand by.
+    goal_ids
+        Accepted goal ids the goal ledger remembers (a re-sent goal among
+        them is answered again, never executed again).
+    reports_need_dispatch
+        Reject execution reports that do not name their ``dispatch_id``.
     """
 
     spacecraft: str = "sat1"
@@ -147,6 +152,8 @@ class NodeConfig(
     rank: int = 0
     standby: bool = True
     discovery: float = 1.0
+    goal_ids: int = 1024
+    reports_need_dispatch: bool = False
 
     def __post_init__(self) -> None:
         problems = []
@@ -178,6 +185,7 @@ class NodeConfig(
             "live_tasks",
             "goals_waiting",
             "goals_per_solve",
+            "goal_ids",
         ):
             if getattr(self, name) < 1:
                 problems.append(f"{name.replace('_', '-')} must be >= 1")

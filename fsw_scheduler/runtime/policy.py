@@ -40,6 +40,8 @@ def engine_config(config: NodeConfig) -> EngineConfig:
         max_goals_per_solve=config.goals_per_solve,
         node_id=config.node_id,
         explain_after_plan=config.explain and config.explain_after_plan,
+        max_goal_ids=config.goal_ids,
+        reports_need_dispatch=config.reports_need_dispatch,
     )
 
 

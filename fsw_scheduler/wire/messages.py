@@ -398,6 +398,8 @@ class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     max_clock_step: int | None = None
     explain_after_plan: bool = False
     response_deadline: float | None = None
+    goal_ids: int = 1024
+    reports_need_dispatch: bool = False
 
 
 #: Message types of each key (relative to ``fsw/<sc>/``), for schemas.

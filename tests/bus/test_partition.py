@@ -16,6 +16,7 @@ from __future__ import annotations
 import collections
 import os
 import signal
+import threading
 import time
 from typing import TYPE_CHECKING
 
@@ -166,3 +167,60 @@ def test_cut_off_commander_does_not_win_back(tmp_path: Path, cut: str) -> None:
         for path in journal_files(tmp_path / f"state-{name}"):
             report = verify(path)
             assert report.identical, f"{name}/{path.name}: {report.summary()}"
+
+
+@pytest.mark.slow
+def test_flood_with_a_killed_commander_answers_every_goal(
+    tmp_path: Path,
+) -> None:
+    """Tests a goal flood during which the commander gets SIGKILL: the
+    standby takes over, the sender re-sends what got no verdict (the
+    README's rule), and every goal ends with exactly one kind of verdict;
+    nothing is executed twice at a fencing receiver."""
+    soak = soak_resume()
+    router, port = soak.start_router()
+    nodes = _nodes(soak, tmp_path, {"A": port, "B": port})
+    goals = [ping_goal(f"flood-{i:03d}", f"F{i:03d}") for i in range(48)]
+    try:
+        driver = loopback_config(
+            listen=None, connect=[f"tcp/127.0.0.1:{port}"]
+        )
+        driver.insert_json5("mode", '"client"')
+        with zenoh.open(driver) as session:
+            client = SchedulerClient(session, timeout=120.0)
+            assert nodes["A"].start() == "scheduler up on"  # type: ignore[attr-defined]
+            assert nodes["B"].start() == "standing by"  # type: ignore[attr-defined]
+            client.wait_scheduler(60)
+            client.tick(0)
+
+            def kill_when_busy() -> None:
+                client.wait_status(lambda s: s.event == "goal_accepted", 60)
+                nodes["A"].kill()  # type: ignore[attr-defined]
+
+            killer = threading.Thread(target=kill_when_busy, daemon=True)
+            killer.start()
+            answers = client.send_goals(goals, resend_s=1.0, timeout=120)
+            killer.join(60)
+            assert client.wait_status(
+                lambda s: s.event == "took_over" and s.node_id == "B", 60
+            )
+            unanswered = [g for g, v in answers.items() if not v]
+            conflicting = {g: v for g, v in answers.items() if len(v) > 1}
+            assert unanswered == [] and conflicting == {}
+            accepted = {
+                g for g, v in answers.items() if v == {"goal_accepted"}
+            }
+            final = client.query_plan()
+            assert final is not None
+            for now in range(1, 6):
+                client.tick(now)
+            runs = collections.Counter(d.task for d in client.executed)
+            assert not runs or max(runs.values()) == 1, runs
+            # Every accepted goal is in the surviving state's plans.
+            adopted = {g for p in client.plans for g in p.goals}
+            assert accepted <= adopted, accepted - adopted
+            client.close()
+    finally:
+        for node in nodes.values():
+            node.kill()  # type: ignore[attr-defined]
+        router.close()

@@ -540,6 +540,13 @@ def add_replay_command(add: Add) -> None:
         "matching rule applies; filters see the recorded keys)",
     )
     rep.add_argument(
+        "--into-live",
+        action="store_true",
+        help="publish even where a scheduler of a recorded spacecraft is "
+        "alive on the bus (by default replay refuses: it would drive that "
+        "scheduler)",
+    )
+    rep.add_argument(
         "--clock",
         nargs="?",
         const=1.0,

@@ -464,6 +464,22 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     from ...wire.topics import Topics
 
     with zenoh.open(zenoh_config(args)) as session:
+        if not args.into_live:
+            from ...bus.record import live_schedulers, recorded_spacecraft
+
+            roots = recorded_spacecraft(args.files, dict(args.remap))
+            alive = live_schedulers(session, roots)
+            if alive:
+                for root, tokens in alive.items():
+                    print(
+                        f"fsw-scheduler: error: a scheduler of {root} is "
+                        f"alive on this bus ({tokens[0]}): replaying would "
+                        "drive it (its clock, goals and reports); use "
+                        "--remap to another spacecraft, or --into-live to "
+                        "do it anyway",
+                        file=sys.stderr,
+                    )
+                return EXIT_BAD_INPUT
         if args.wait_matching:
             from ...bus.session import wait_matching
 
