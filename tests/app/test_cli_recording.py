@@ -364,3 +364,47 @@ def test_non_mcap_file_is_bad_input(
     assert result.returncode == 2
     assert "Traceback" not in result.stderr
     assert "bogus.mcap" in result.stderr
+
+
+def test_replay_refuses_a_bus_with_a_live_scheduler(
+    peer: tuple[zenoh.Session, str],
+) -> None:
+    """Tests that replay will not drive a live scheduler of the recorded
+    spacecraft: exit 2 naming it and the way out; --remap to another
+    spacecraft and --into-live publish."""
+    session, endpoint = peer
+    token = session.liveliness().declare_token("fsw/sat1/scheduler/alive")
+    subscriber = session.declare_subscriber(
+        "fsw/**", zenoh.handlers.FifoChannel(10_000)
+    )
+    try:
+        refused = subprocess.run(
+            cli_command("replay", str(PAPER), "--burst", *bus_flags(endpoint)),
+            capture_output=True,
+            text=True,
+            timeout=TIMEOUT_S,
+            check=False,
+        )
+        assert refused.returncode == 2, refused.stderr
+        assert "a scheduler of fsw/sat1 is alive" in refused.stderr
+        assert "--into-live" in refused.stderr
+        assert subscriber.try_recv() is None  # nothing was published
+        for extra in (["--remap", "fsw/sat1=fsw/sat9"], ["--into-live"]):
+            done = subprocess.run(
+                cli_command(
+                    "replay",
+                    str(PAPER),
+                    "--burst",
+                    *extra,
+                    *bus_flags(endpoint),
+                ),
+                capture_output=True,
+                text=True,
+                timeout=TIMEOUT_S,
+                check=False,
+            )
+            assert done.returncode == 0, done.stderr
+            assert "published" in done.stderr
+    finally:
+        subscriber.undeclare()
+        token.undeclare()
