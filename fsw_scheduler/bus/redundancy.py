@@ -383,7 +383,18 @@ def serve(
     own: EngineSnapshot | None = None  # this node's state, stood down
     reason = ""  # why this node stood down, until it has said so
     idle_since = time.monotonic()
+    isolated = False
     while not stop.is_set():
+        if node is None and redundancy.seen_others:
+            if not has_links(redundancy.session):
+                # Blind: the pass-over clock stops; nothing is decided.
+                isolated, idle_since = True, time.monotonic()
+            elif isolated:
+                # Back on the bus: learn who commands before deciding.
+                isolated = False
+                _look(stop, discovery_s)
+                idle_since = time.monotonic()
+                continue
         current = redundancy.commander()
         if current is not None:
             idle_since = time.monotonic()

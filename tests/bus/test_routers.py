@@ -1,0 +1,157 @@
+"""Tests of the deployment users run: several spacecraft, each with an
+active scheduler and a standby, and a ground monitor, through two Zenoh
+router processes; a node killed, a router killed and restarted.
+
+No cross-talk between spacecraft (each plan holds its own goals only, each
+commander stays in its own terms), one commander per spacecraft, nothing
+executed twice at a fencing receiver, every journal replays identical.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from typing import TYPE_CHECKING
+
+import pytest
+import zenoh
+
+from fsw_scheduler.bus.session import loopback_config
+from fsw_scheduler.journal.replay import verify
+from fsw_scheduler.journal.state import journal_files
+from fsw_scheduler.testing import SchedulerClient
+
+from ..factories import ping_goal
+from ..journal.test_resume import soak_resume
+from .test_partition import soak_partition
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+SPACECRAFT = ("sat1", "sat2", "sat3")
+
+ROUTER = """
+import json, sys, threading, zenoh
+port, connect = int(sys.argv[1]), json.loads(sys.argv[2])
+config = zenoh.Config()
+config.insert_json5("mode", '"router"')
+config.insert_json5("listen/endpoints", json.dumps([f"tcp/127.0.0.1:{port}"]))
+config.insert_json5("connect/endpoints", json.dumps(connect))
+config.insert_json5("scouting/multicast/enabled", "false")
+session = zenoh.open(config)
+print("router up", flush=True)
+threading.Event().wait()
+"""
+
+
+def _router(port: int, connect: list[str]) -> subprocess.Popen:
+    """A Zenoh router in its own OS process, up when it says so."""
+    process = subprocess.Popen(
+        [sys.executable, "-c", ROUTER, str(port), json.dumps(connect)],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    assert process.stdout is not None
+    assert process.stdout.readline().strip() == "router up"
+    return process
+
+
+@pytest.mark.slow
+def test_three_spacecraft_through_two_routers(tmp_path: Path) -> None:
+    """Tests 3 spacecraft x (active + standby) and a ground monitor on two
+    routers: goals land on their spacecraft only; a killed commander is
+    replaced by its standby, in a higher term, the others keep theirs; a
+    router killed and restarted changes no commander."""
+    partition = soak_partition()
+    free = soak_resume().free_port
+    p1, p2 = free(), free()
+    routers = {
+        "R1": _router(p1, []),
+        "R2": _router(p2, [f"tcp/127.0.0.1:{p1}"]),
+    }
+    nodes = {
+        (sc, name): partition.node(
+            tmp_path / sc / name,
+            p1 if name == "A" else p2,
+            f"{sc}-{name}",
+            rank,
+            sc,
+        )
+        for sc in SPACECRAFT
+        for name, rank in (("A", 0), ("B", 1))
+    }
+    try:
+        config = loopback_config(listen=None, connect=[f"tcp/127.0.0.1:{p1}"])
+        config.insert_json5("mode", '"client"')
+        with zenoh.open(config) as session:
+            ground = {
+                sc: SchedulerClient(session, sc, timeout=60.0)
+                for sc in SPACECRAFT
+            }
+            for sc in SPACECRAFT:
+                assert nodes[(sc, "A")].start() == "scheduler up on"
+                assert nodes[(sc, "B")].start() == "standing by"
+            for sc in SPACECRAFT:
+                ground[sc].wait_scheduler(60)
+                ground[sc].tick(0)
+                answers = ground[sc].send_goals(
+                    [ping_goal(f"{sc}-goal", f"{sc.upper()}Ping")], timeout=60
+                )
+                assert answers == {f"{sc}-goal": {"goal_accepted"}}
+            # A commander dies: only its spacecraft changes hands.
+            nodes[("sat2", "A")].kill()
+            took = ground["sat2"].wait_status(
+                lambda s: s.event == "took_over" and s.node_id == "sat2-B", 60
+            )
+            assert took.term > 1
+            # A router dies with every standby but sat2's commander behind
+            # it, and comes back.
+            routers["R2"].kill()
+            routers["R2"].wait(10)
+            if routers["R2"].stdout is not None:
+                routers["R2"].stdout.close()
+            for sc in ("sat1", "sat3"):
+                ground[sc].tick(1)
+            routers["R2"] = _router(p2, [f"tcp/127.0.0.1:{p1}"])
+            ground["sat2"].wait_scheduler(60)
+            deadline = time.monotonic() + 60
+            for sc in SPACECRAFT:
+                for now in range(1, 8):
+                    ground[sc].tick(
+                        now, timeout=max(1.0, deadline - time.monotonic())
+                    )
+            for sc in SPACECRAFT:
+                client = ground[sc]
+                goals = {g for p in client.plans for g in p.goals}
+                assert goals == {f"{sc}-goal"}, (sc, goals)
+                runs = [d.task for d in client.executed]
+                assert len(runs) == len(set(runs)), (sc, runs)
+                assert all(
+                    d.task.startswith(
+                        ("Set", "Down", "Bat", "Acq", sc.upper())
+                    )
+                    for d in client.executed
+                )
+                status = client.query_status()
+                expected = "sat2-B" if sc == "sat2" else f"{sc}-A"
+                assert (status.node_id, status.state) == (expected, "ok"), (
+                    status
+                )
+            assert ground["sat1"].query_status().term == 1
+            assert ground["sat3"].query_status().term == 1
+            for client in ground.values():
+                client.close()
+    finally:
+        for process in nodes.values():
+            process.kill()
+        for router in routers.values():
+            router.kill()
+            router.wait(10)
+            if router.stdout is not None:
+                router.stdout.close()
+    for path in sorted(tmp_path.glob("*/*")):
+        for journal in journal_files(path):
+            report = verify(journal)
+            assert report.identical, f"{journal}: {report.summary()}"
