@@ -182,8 +182,8 @@ class Redundancy:
                 except ValueError:
                     return
             member = Member.parse(tail)
-            if member is None or term < 0:
-                return
+            if member is None or term < 0 or member.rank < 0:
+                return  # not a token a scheduler declares
             put = sample.kind == zenoh.SampleKind.PUT
             with self._lock:
                 if not active:
@@ -262,7 +262,10 @@ class Redundancy:
     def commander(self) -> tuple[Member, int] | None:
         """The active member that should command, with its term: the
         highest term, then the best order (None: no one is active)."""
-        _, actives = self.view()
+        members, actives = self.view()
+        # An active token without its member token is not a scheduler's
+        # (a forgery, or a node half gone): it commands nothing.
+        actives = {m: t for m, t in actives.items() if m in members}
         if not actives:
             return None
         best = min(actives, key=lambda m: (-actives[m], order(m)))

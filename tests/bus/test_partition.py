@@ -14,6 +14,7 @@ stay in the plan, exactly one node commands and A says why it stood down.
 
 from __future__ import annotations
 
+import time
 from typing import TYPE_CHECKING
 
 import pytest
@@ -59,3 +60,67 @@ def test_flood_with_a_killed_commander_answers_every_goal(
     result = soak_partition().run_round(tmp_path, "killed", flood=48)
     assert result.ok, result
     assert result.goals == 48
+
+
+@pytest.mark.slow
+def test_forged_tokens_cannot_stall_the_election(tmp_path: Path) -> None:
+    """Tests an open bus with forged liveliness tokens: an ``active``
+    token of term 999 with no member behind it makes no one stand down;
+    a forged best member that never commands (rank 0, the earliest start)
+    is passed over when the commander dies, within the pass-over bound."""
+    import zenoh
+
+    from fsw_scheduler.bus.redundancy import PASS_OVER_S
+    from fsw_scheduler.bus.session import loopback_config
+    from fsw_scheduler.testing import SchedulerClient
+
+    soak = soak_partition()
+    router, port = soak.start_router()
+    nodes = {
+        name: soak.node(tmp_path / name, port, name, rank)
+        for name, rank in (("A", 0), ("B", 1))
+    }
+    try:
+        config = loopback_config(
+            listen=None, connect=[f"tcp/127.0.0.1:{port}"]
+        )
+        config.insert_json5("mode", '"client"')
+        with zenoh.open(config) as session:
+            client = SchedulerClient(session, timeout=30.0)
+            assert nodes["A"].start() == "scheduler up on"
+            assert nodes["B"].start() == "standing by"
+            client.wait_scheduler(30)
+            forged = [
+                session.liveliness().declare_token(
+                    "fsw/sat1/scheduler/active/999/0/1/evil"
+                ),
+                session.liveliness().declare_token(
+                    "fsw/sat1/scheduler/nodes/-1/1/minus"
+                ),
+            ]
+            seen = len(client.statuses)
+            client.tick(0)
+            client.tick(1)
+            assert client.query_status().node_id == "A"
+            assert not [
+                s for s in client.statuses[seen:] if s.event == "stood_down"
+            ]
+            forged.append(
+                session.liveliness().declare_token(
+                    "fsw/sat1/scheduler/nodes/0/1/ghost"
+                )
+            )
+            began = time.monotonic()
+            nodes["A"].kill()
+            client.wait_status(
+                lambda s: s.event == "took_over" and s.node_id == "B",
+                PASS_OVER_S + 20,
+            )
+            assert time.monotonic() - began < PASS_OVER_S + 10
+            for token in forged:
+                token.undeclare()
+            client.close()
+    finally:
+        for process in nodes.values():
+            process.kill()
+        router.close()
