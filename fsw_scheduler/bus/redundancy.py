@@ -57,6 +57,7 @@ import msgspec
 import zenoh
 
 from ..engine.snapshot import EngineSnapshot
+from ..errors import FieldIssue
 from ..wire import messages, topics
 from .lease import has_links
 
@@ -325,6 +326,39 @@ class Redundancy:
         except zenoh.ZError as error:
             log.warning("standby status: %s", error)
 
+    def publish_lost_goal(
+        self, goal_id: str, term: int, winner: Member | None, now_term: int
+    ) -> None:
+        """``goal_rejected`` for a goal this node took in ``term`` that the
+        commander which outranks it does not have: send it again. Stamped
+        with the winner's term, ``now_term``, so that fencing receivers
+        hear it."""
+        reason = (
+            f"accepted in term {term} by {self.me.node_id}, which stood "
+            f"down; the commander "
+            f"{winner.node_id if winner else ''} does not hold it: send "
+            "the goal again"
+        )
+        status = messages.Status(
+            state="standby",
+            plan_id=None,
+            event="goal_rejected",
+            goal_id=goal_id,
+            errors=(FieldIssue("", reason),),
+            detail=f"goal {goal_id} lost at a partition",
+            active=winner.node_id if winner else None,
+            node_id=self.me.node_id,
+            term=now_term,
+        )
+        try:
+            self.session.put(
+                self.topics.key(topics.STATUS),
+                messages.encode(status),
+                encoding=JSON,
+            )
+        except zenoh.ZError as error:
+            log.warning("lost goal status: %s", error)
+
     def close(self) -> None:
         """Withdraw every token and subscriber."""
         self.withdraw_active()
@@ -518,4 +552,21 @@ def _stand_down(
         if winner is not None:
             redundancy.ask_snapshot()
         redundancy.publish_standby(winner, "stood_down", reason)
+        newer = redundancy.latest_snapshot() if winner is not None else None
+        if newer is not None:
+            for goal_id in lost_goals(state, newer):
+                redundancy.publish_lost_goal(
+                    goal_id, state.term, winner, newer.term
+                )
     return state
+
+
+def lost_goals(own: EngineSnapshot, winner: EngineSnapshot) -> list[str]:
+    """Goals this node took in its own term that the state which outranks
+    it does not hold (both sides of a partition accepted goals): each
+    must be told, by name, to be sent again."""
+    return [
+        goal_id
+        for goal_id, record in own.ledger.items()
+        if record.term == own.term and goal_id not in winner.ledger
+    ]

@@ -155,3 +155,75 @@ def test_three_spacecraft_through_two_routers(tmp_path: Path) -> None:
         for journal in journal_files(path):
             report = verify(journal)
             assert report.identical, f"{journal}: {report.summary()}"
+
+
+@pytest.mark.slow
+def test_both_sides_of_a_router_split_keep_their_goals(tmp_path: Path) -> None:
+    """Tests a split between two routers, each side with a scheduler and a
+    sender: both command (B takes over in a higher term) and both accept a
+    goal. At the heal A stands down, names the goal the winner lacks in a
+    ``goal_rejected`` that says to send it again; sent again, it is
+    accepted: both goals end in the surviving plan."""
+    partition = soak_partition()
+    free = soak_resume().free_port
+    p1, p2 = free(), free()
+    r1 = _router(p1, [])
+    link = partition.SilentLink(p1)
+    r2 = _router(p2, [f"tcp/127.0.0.1:{link.port}"])
+    nodes = {
+        "A": partition.node(tmp_path / "A", p1, "A", 0),
+        "B": partition.node(tmp_path / "B", p2, "B", 1),
+    }
+    sessions = []
+    try:
+        clients = {}
+        for side, port in (("A", p1), ("B", p2)):
+            config = loopback_config(
+                listen=None, connect=[f"tcp/127.0.0.1:{port}"]
+            )
+            config.insert_json5("mode", '"client"')
+            sessions.append(zenoh.open(config))
+            clients[side] = SchedulerClient(sessions[-1], timeout=60.0)
+        assert nodes["A"].start() == "scheduler up on"
+        assert nodes["B"].start() == "standing by"
+        clients["A"].wait_scheduler(60)
+        clients["A"].tick(0)
+        link.silence()
+        clients["B"].wait_status(
+            lambda s: s.event == "took_over" and s.node_id == "B", 60
+        )
+        assert clients["A"].send_goals([ping_goal("west", "West")]) == {
+            "west": {"goal_accepted"}
+        }
+        assert clients["B"].send_goals([ping_goal("east", "East")]) == {
+            "east": {"goal_accepted"}
+        }
+        link.heal()
+        lost = clients["A"].wait_status(
+            lambda s: s.event == "goal_rejected" and s.goal_id == "west", 60
+        )
+        assert "send the goal again" in lost.errors[0].reason
+        assert lost.node_id == "A" and lost.active == "B"
+        clients["A"].statuses.clear()  # the sender's new attempt
+        again = clients["A"].send_goals([ping_goal("west", "West")])
+        assert again == {"west": {"goal_accepted"}}
+        final = clients["B"].query_plan()
+        assert final is not None
+        assert {"west", "east"} <= set(final.goals) | {
+            g for p in clients["B"].plans for g in p.goals
+        }
+        status = clients["B"].query_status()
+        assert (status.node_id, status.state) == ("B", "ok")
+        for client in clients.values():
+            client.close()
+    finally:
+        for session in sessions:
+            session.close()
+        for process in nodes.values():
+            process.kill()
+        link.close()
+        for router in (r1, r2):
+            router.kill()
+            router.wait(10)
+            if router.stdout is not None:
+                router.stdout.close()
