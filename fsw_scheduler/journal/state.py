@@ -19,6 +19,8 @@ import shutil
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from ..errors import FieldIssue, InputError
+from .integrity import FileCheck, check_folder
 from .recover import _is_finished, recover
 from .replay import Rebuilt, rebuild
 
@@ -38,6 +40,32 @@ def journal_files(folder: Path) -> list[Path]:
         if match:
             found.append(((int(match[1]), int(match[2] or 0)), path))
     return [path for _, path in sorted(found)]
+
+
+class StateDamaged(InputError):
+    """A state folder holds damaged journal files: it is not resumed.
+
+    Resuming from the intact part would start from a state older than the
+    one the bus saw (goals accepted, activities commanded after it), so
+    the node refuses (exit 2, each file named with the byte offset of the
+    damage); an operator moves the damaged files aside (``state check``
+    says what is intact) or gives a new folder. A hot standby commands
+    meanwhile.
+    """
+
+    def __init__(self, damaged: list[FileCheck]) -> None:
+        self.damaged = damaged
+        super().__init__(
+            [
+                FieldIssue(
+                    f"--state {c.path.parent}",
+                    c.describe()
+                    + "; move it aside to resume from the other files",
+                )
+                for c in damaged
+            ],
+            "state folder (damaged journal)",
+        )
 
 
 @dataclass
@@ -60,6 +88,15 @@ class StateStart:
     rebuilt: Rebuilt | None = None
     recovered: list[Path] = field(default_factory=list)
     removed: list[Path] = field(default_factory=list)
+
+
+def damaged_files(folder: Path) -> list[FileCheck]:
+    """The journal files of ``folder`` that are damaged (not merely cut
+    short by a crash): a node must not resume from them (see
+    :mod:`fsw_scheduler.journal.integrity`)."""
+    if not folder.is_dir():
+        return []
+    return [c for c in check_folder(journal_files(folder)) if not c.ok]
 
 
 def _finish_truncated(path: Path) -> bool:
@@ -116,6 +153,9 @@ def open_state(folder: Path, *, keep_runs: int = 20) -> StateStart:
     StateStart
     """
     folder.mkdir(parents=True, exist_ok=True)
+    damaged = damaged_files(folder)
+    if damaged:
+        raise StateDamaged(damaged)
     files = journal_files(folder)
     start = StateStart(next_journal=folder / "journal-0001.mcap")
     if not files:

@@ -508,6 +508,22 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _cmd_state(args: argparse.Namespace) -> int:
+    from ...journal.integrity import check_folder
+    from ...journal.state import journal_files
+
+    folder = Path(args.folder)
+    if not folder.is_dir():
+        print(f"fsw-scheduler: {folder}: no such folder", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    checks = check_folder(journal_files(folder))
+    for check in checks:
+        print(check.describe())
+    if not checks:
+        print(f"{folder}: no journal files (a new state folder)")
+    return EXIT_OK if all(c.ok for c in checks) else EXIT_BAD_INPUT
+
+
 def _cmd_recover(args: argparse.Namespace) -> int:
     from ...journal.recover import recover
 

@@ -17,6 +17,7 @@ from .commands import (
     _cmd_replan,
     _cmd_schemas,
     _cmd_solve,
+    _cmd_state,
     non_negative_float,
     positive_float,
 )
@@ -205,6 +206,29 @@ def add_recover_command(add: Add) -> None:
         metavar="FILE.mcap",
         help="where to write the finished file",
     )
+
+
+def add_state_command(add: Add) -> None:
+    """The ``state`` command and its flags."""
+    state = add(
+        "state",
+        _cmd_state,
+        "say what is intact in a state folder (run --state DIR)",
+        """\
+        Walk every journal file of a state folder record by record: record
+        sizes bounded, every chunk decompressed and its CRC checked, the
+        summary checked against its footer. Prints one line per file:
+        intact (finished, or truncated by a crash: the next start finishes
+        it) or DAMAGED at a byte offset, with the messages intact before
+        it. Exit 0 when every file is intact, 2 when one is damaged (then
+        'run --state' refuses the folder: move the damaged files aside).
+
+        example:
+          fsw-scheduler state check /var/lib/fsw-scheduler
+        """,
+    )
+    state.add_argument("action", choices=["check"], help="what to do")
+    state.add_argument("folder", metavar="DIR", help="the state folder")
 
 
 def add_info_command(add: Add) -> None:

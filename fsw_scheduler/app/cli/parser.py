@@ -32,6 +32,7 @@ from .files_flags import (
     add_replan_command,
     add_schemas_command,
     add_solve_command,
+    add_state_command,
 )
 
 LOG_LEVELS = ("debug", "info", "warning", "error")
@@ -122,6 +123,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_record_command(add)
     add_replay_command(add)
     add_recover_command(add)
+    add_state_command(add)
     add_info_command(add)
     add_plot_command(add)
     add_schemas_command(add)

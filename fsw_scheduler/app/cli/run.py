@@ -102,6 +102,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
         )
     journal = None
     if args.state:
+        from ...journal.state import StateDamaged, damaged_files
+
+        # Before the bus: a node that cannot resume says so and exits 2.
+        damaged = damaged_files(Path(args.state))
+        if damaged:
+            raise StateDamaged(damaged)
         if args.record:
             raise InputError(
                 [

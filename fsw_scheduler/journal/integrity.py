@@ -1,0 +1,178 @@
+"""Integrity of journal files: what is intact, and where damage starts.
+
+Every read that feeds a decision (resume, takeover from a state folder)
+first walks each file record by record: record sizes are bounded before
+anything is allocated, every chunk is decompressed and its CRC checked,
+and a finished file's summary is checked against the CRC in its footer.
+A file cut short by a crash (its last record incomplete, nothing after
+it) is *truncated*: :func:`~fsw_scheduler.journal.recover.recover`
+finishes it. Anything else is *damage* (a bit flip, a torn write inside
+the file, another program's bytes), named with its byte offset; a state
+folder with damage is refused (``run`` exits 2 naming file and offset)
+rather than resumed into a state the bus never saw. ``fsw-scheduler
+state check DIR`` prints this for an operator.
+"""
+
+from __future__ import annotations
+
+import io
+import struct
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+
+from mcap.opcode import Opcode
+from mcap.records import Chunk, Message
+from mcap.stream_reader import StreamReader, breakup_chunk
+
+from .writer import _MAGIC, _RECORD_HEAD, PathLike
+
+#: The largest record a journal holds (a chunk of messages, or one large
+#: message: a snapshot, an attachment), with room to spare. A length field
+#: beyond it is damage, not an allocation.
+MAX_RECORD_BYTES = 256 << 20
+_KNOWN = frozenset(int(op) for op in Opcode)
+_FOOTER = struct.Struct("<QQI")
+
+
+@dataclass
+class FileCheck:
+    """What :func:`check_file` found in one file.
+
+    Attributes
+    ----------
+    path
+        The file.
+    messages
+        Messages intact before any damage.
+    finished
+        Whether it ends with a footer (closed by its writer).
+    truncated
+        Whether it stops inside a record with nothing after it (a crash).
+    damage
+        What is wrong, None when nothing is.
+    offset
+        Byte offset of the damaged record (None: no damage).
+    """
+
+    path: Path
+    messages: int = 0
+    finished: bool = False
+    truncated: bool = False
+    damage: str | None = None
+    offset: int | None = None
+
+    @property
+    def ok(self) -> bool:
+        """No damage (a truncated file is not damaged: it is finished)."""
+        return self.damage is None
+
+    def describe(self) -> str:
+        """One line for an operator."""
+        if self.damage is not None:
+            return (
+                f"{self.path.name}: DAMAGED at byte {self.offset}: "
+                f"{self.damage} ({self.messages} messages intact before it)"
+            )
+        state = "finished" if self.finished else "truncated (a crash)"
+        return f"{self.path.name}: intact, {state}, {self.messages} messages"
+
+
+def check_file(path: PathLike) -> FileCheck:
+    """Walk ``path`` record by record and say what is intact.
+
+    Never raises for the contents of the file (only for an unreadable
+    file: ``OSError``).
+    """
+    path = Path(path)
+    data = path.read_bytes()
+    result = FileCheck(path)
+    if data[: len(_MAGIC)] != _MAGIC:
+        result.damage, result.offset = "not an MCAP file (bad magic)", 0
+        return result
+    at = len(_MAGIC)
+    ends = data.endswith(_MAGIC) and len(data) >= 2 * len(_MAGIC)
+    while True:
+        if at + _RECORD_HEAD.size > len(data):
+            result.truncated = at < len(data) or not ends
+            if ends:
+                result.damage, result.offset = "ends before its footer", at
+            return result
+        opcode, length = _RECORD_HEAD.unpack_from(data, at)
+        end = at + _RECORD_HEAD.size + length
+        if opcode not in _KNOWN or opcode == 0:
+            if not ends and not any(data[at:]):
+                result.truncated = True  # zeros after a power cut
+                return result
+            result.damage = f"unknown record type {opcode}"
+            result.offset = at
+            return result
+        if length > MAX_RECORD_BYTES:
+            result.damage = (
+                f"a record of {length} bytes (the limit is {MAX_RECORD_BYTES})"
+            )
+            result.offset = at
+            return result
+        if end > len(data):
+            if ends:
+                result.damage = "a record runs past the end of the file"
+                result.offset = at
+            else:
+                result.truncated = True
+            return result
+        issue = _record_issue(data, at, end, result)
+        if issue is not None:
+            result.damage, result.offset = issue, at
+            return result
+        if opcode == Opcode.FOOTER:
+            result.finished = end + len(_MAGIC) == len(data) and ends
+            issue = _summary_issue(data, at)
+            if issue is not None:
+                result.damage, result.offset = issue, at
+            elif not result.finished:
+                result.damage = "bytes after the footer"
+                result.offset = end
+            return result
+        at = end
+
+
+def _record_issue(
+    data: bytes, at: int, end: int, result: FileCheck
+) -> str | None:
+    """Parse one record (chunks: decompressed, CRC checked); count its
+    messages; the problem, if any."""
+    try:
+        reader = StreamReader(
+            io.BytesIO(data[at:end]),
+            skip_magic=True,
+            emit_chunks=True,
+            record_size_limit=MAX_RECORD_BYTES,
+        )
+        record = next(iter(reader.records))
+        if isinstance(record, Chunk):
+            inner = breakup_chunk(record, validate_crc=True)
+            result.messages += sum(isinstance(r, Message) for r in inner)
+        elif isinstance(record, Message):
+            result.messages += 1
+    except Exception as error:  # any parse failure is damage here
+        return f"{type(error).__name__}: {error}"[:300]
+    return None
+
+
+def _summary_issue(data: bytes, footer_at: int) -> str | None:
+    """Check the summary section against the footer's CRC."""
+    body = footer_at + _RECORD_HEAD.size
+    summary_start, _offsets_start, crc = _FOOTER.unpack_from(data, body)
+    if summary_start == 0 or crc == 0:
+        return None  # no summary, or no CRC written
+    if summary_start > footer_at:
+        return f"the footer points past itself ({summary_start})"
+    covered = data[summary_start : body + 16]
+    if zlib.crc32(covered) != crc:
+        return "the summary section does not match its CRC"
+    return None
+
+
+def check_folder(files: list[Path]) -> list[FileCheck]:
+    """:func:`check_file` for each of ``files``."""
+    return [check_file(path) for path in files]
