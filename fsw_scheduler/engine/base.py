@@ -237,14 +237,40 @@ class EngineState:
             )
         out.append(Publish(topics.STATUS, self._status("plan")))
 
-    def _dispatch_due(self, out: list[Command]) -> None:
+    def _dispatch_due(
+        self, out: list[Command], before: int | None = None
+    ) -> None:
+        """Dispatch what is due; what a clock jump from ``before`` passed
+        over whole is missed instead (never commanded out of its time)."""
         schedule = self.schedule
         if schedule is None or self.now is None or self.plan_id is None:
             return
         sent: list[str] = []
-        for activity in self._dispatches.due(
-            schedule.plan, schedule.continuing, self.now
-        ):
+        due, missed = self._dispatches.due(
+            schedule.plan, schedule.continuing, self.now, before
+        )
+        for activity in missed:
+            # Its whole interval passed before the clock reached it (a
+            # clock jump): commanding it now would fly it out of its time.
+            schedule = schedule.with_report(
+                ExecutionReport(activity.task, "missed", self.now)
+            )
+            self.schedule = schedule
+            self._queue.append(
+                QueuedChange("levels", at=self.now, trigger="missed")
+            )
+            out.append(
+                Publish(
+                    topics.STATUS,
+                    self._status(
+                        "activity_missed",
+                        detail=f"{activity.task} [{activity.start}, "
+                        f"{activity.end}) passed before it was dispatched "
+                        f"(now {self.now}): not commanded, replanned",
+                    ),
+                )
+            )
+        for activity in due:
             sent.append(activity.task)
             late = activity.start < self.now
             self._count(

@@ -206,6 +206,7 @@ class Engine(SolveQueue):
             What the shell must do, in order.
         """
         self._inputs += 1
+        before = self.now
         if self.now is None or now > self.now:
             self.now = now
         out: list[Command] = []
@@ -232,7 +233,7 @@ class Engine(SolveQueue):
         # Dispatch first: a replan started in this step then counts what
         # was just commanded as started, never moves it, never sends it
         # twice.
-        self._dispatch_due(out)
+        self._dispatch_due(out, before)
         if self._pending is None:
             self._start_queued(out)
         return out
@@ -557,7 +558,21 @@ class Engine(SolveQueue):
                 out,
             )
             return
-        at = max(min(level.at, self._clock()), schedule.problem.start)
+        if not 0 <= level.at <= self._clock():
+            self._reject_input(
+                f"telemetry/resources/{level.resource}",
+                "resource_level",
+                [
+                    FieldIssue(
+                        "at",
+                        f"{level.at} is outside [0, now = {self._clock()}]: "
+                        "a level is measured, never foreseen",
+                    )
+                ],
+                out,
+            )
+            return
+        at = max(level.at, schedule.problem.start)
         departed = drift(
             schedule.problem,
             schedule.plan,

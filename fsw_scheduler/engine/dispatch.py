@@ -97,11 +97,23 @@ class Dispatches:
         self._forget_history(max_history)
 
     def due(
-        self, plan: Plan, continuing: Iterable[str], now: int
-    ) -> list[Activity]:
-        """Mark dispatched, and return, each planned activity due by now."""
+        self,
+        plan: Plan,
+        continuing: Iterable[str],
+        now: int,
+        before: int | None = None,
+    ) -> tuple[list[Activity], list[Activity]]:
+        """Mark dispatched, and return, each planned activity due by now.
+
+        An activity the clock jumped over whole (it starts after
+        ``before``, the time of the previous step, and ends by ``now``) is
+        not dispatched: it is marked ``missed`` and returned apart,
+        ``(due, missed)``. A late plan's activities are dispatched late
+        (their time passed during the solve, not in a jump).
+        """
         keep = set(continuing)
         due = []
+        missed = []
         for activity in plan.activities:
             if activity.start > now:
                 break  # activities are sorted by start
@@ -110,11 +122,19 @@ class Dispatches:
                 or self.lifecycle.get(activity.task) != "planned"
             ):
                 continue
+            if (
+                before is not None
+                and activity.start > before
+                and activity.end <= now
+            ):
+                self.lifecycle[activity.task] = "missed"
+                missed.append(activity)
+                continue
             self.lifecycle[activity.task] = "dispatched"
             self.dispatched[activity.task] = now
             self.sent[activity.task] = (activity.start, activity.end)
             due.append(activity)
-        return due
+        return due, missed
 
     def standing(self, plan: Plan) -> list[tuple[Activity, int]]:
         """Each activity whose dispatch still stands, with when it was sent."""

@@ -30,6 +30,7 @@ Lifecycle = Literal[
     "failed",
     "preempted",
     "obsolete",
+    "missed",
 ]
 Health = Literal["ok", "degraded", "error"]
 

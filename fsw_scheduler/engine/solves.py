@@ -214,10 +214,11 @@ class SolveQueue(EngineState):
                     levels.update(change.levels)
                     at = min(at, change.at)
                 trigger = "drift" if levels else "stale"
-                if not levels and any(
-                    c.trigger == "horizon" for c in self._queue
-                ):
-                    trigger = "horizon"
+                for named in ("horizon", "missed"):
+                    if not levels and any(
+                        c.trigger == named for c in self._queue
+                    ):
+                        trigger = named
                 self._queue.clear()
                 try:
                     replan = apply_levels(

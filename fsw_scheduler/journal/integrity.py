@@ -142,14 +142,27 @@ def _record_issue(
     """Parse one record (chunks: decompressed, CRC checked); count its
     messages; the problem, if any."""
     try:
+        stream = io.BytesIO(data[at:end])
         reader = StreamReader(
-            io.BytesIO(data[at:end]),
+            stream,
             skip_magic=True,
             emit_chunks=True,
             record_size_limit=MAX_RECORD_BYTES,
         )
         record = next(iter(reader.records))
+        if stream.tell() != end - at:
+            return "a record's fields do not fill its length"
         if isinstance(record, Chunk):
+            # The inner length a reader trusts to allocate: it must be
+            # what the record holds.
+            field = at + _RECORD_HEAD.size + 28
+            field += 4 + len(record.compression.encode())
+            (declared,) = struct.unpack_from("<Q", data, field)
+            if declared != len(record.data):
+                return (
+                    f"a chunk declares {declared} bytes of records and "
+                    f"holds {len(record.data)}"
+                )
             inner = breakup_chunk(record, validate_crc=True)
             result.messages += sum(isinstance(r, Message) for r in inner)
         elif isinstance(record, Message):

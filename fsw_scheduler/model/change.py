@@ -27,7 +27,9 @@ __all__ = [
 ]
 
 
-ReportState = Literal["running", "completed", "failed"]
+#: ``missed``: the engine's own record of an activity it never dispatched
+#: because its whole interval had passed (executors report the others).
+ReportState = Literal["running", "completed", "failed", "missed"]
 
 
 Outcome = Literal["completed", "failed", "interrupted"]
@@ -52,7 +54,8 @@ class ExecutionReport(msgspec.Struct, frozen=True):
     task
         The task reported on.
     state
-        ``running``, ``completed`` or ``failed``.
+        ``running``, ``completed`` or ``failed`` (or ``missed``, see
+        :data:`ReportState`).
     at
         Time unit of the report.
     """

@@ -176,6 +176,8 @@ def _reported_state(
     origin: int,
 ) -> TaskState:
     at = report.at
+    if report.state == "missed":
+        return TaskState(task.id, "pending")  # never ran: plan it again
     planned = act.start if act is not None and act.start <= at else None
     if report.state == "completed":
         since = (

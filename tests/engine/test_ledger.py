@@ -164,3 +164,29 @@ def test_strict_reports_need_their_dispatch_id() -> None:
     task = published(driver.history, messages.Dispatch)[0].task
     out = _report(driver, task=task, state="running", at=0)
     assert _rejected_reason(out).startswith("dispatch_id: missing")
+
+
+def test_a_clock_jump_never_dispatches_the_past() -> None:
+    """Tests a clock step over whole activities (0 -> 30): none whose
+    interval lies in the past is dispatched; each is reported missed and
+    a ``missed`` replan plans what can still be flown."""
+    driver = _started()
+    out = driver.tick(30)
+    sent = published(out, messages.Dispatch)
+    assert all(d.end > 30 for d in sent), [(d.task, d.end) for d in sent]
+    missed = statuses(out, "activity_missed")
+    assert missed, "the jumped-over activities are reported"
+    plans = published(out, messages.PlanMessage)
+    assert plans and plans[-1].trigger == "missed"
+    again = published(driver.history, messages.Dispatch)
+    assert all(d.end > 30 or d.dispatched_at == 0 for d in again)
+
+
+def test_levels_out_of_time_are_rejected() -> None:
+    """Tests a level measured at a time ahead of the clock or before the
+    horizon: rejected with the reason, no drift replan."""
+    driver = _started()
+    for at in (-5, 10**6):
+        out = driver.level("battery", 1.0, at)
+        assert _rejected_reason(out).startswith("at"), at
+        assert not _solves(out)
