@@ -49,7 +49,7 @@ import msgspec
 from ..engine.core import Engine
 from ..engine.events import Publish, SolveDone, StartSolve
 from ..engine.snapshot import EngineSnapshot
-from ..model.plan import Plan
+from ..model.plan import Plan, SolveStatus
 from ..runtime.config import NodeConfig
 from ..runtime.inputs import InputDecoder
 from ..runtime.policy import config_from_info, engine_config
@@ -236,6 +236,7 @@ def verify(
     engine, decoder = start.engine, start.decoder
     solve = solve_fn or run_solve
     report = VerifyReport()
+    records = _solve_records(recorded, topics)
     produced: deque[tuple[str, bytes]] = deque()
     results: dict[int, Plan] = {}
     now = snapshot.now or 0 if snapshot is not None else 0
@@ -269,7 +270,9 @@ def verify(
                         f"solve {command.solve_id} ({command.trigger}): "
                         f"{command.problem.num_tasks} tasks"
                     )
-                results[command.solve_id] = solve(config, command)
+                results[command.solve_id] = replay_solve(
+                    solve, config, command, records, report
+                )
 
     inputs = list(_outputs_and_inputs(recorded, info_topic))
     if snapshot is not None:
@@ -282,7 +285,9 @@ def verify(
             run(engine.resume_commands(info.resumed))
         pending = engine.pending_solve()
         if pending is not None:
-            results[pending.solve_id] = solve(config, pending)
+            results[pending.solve_id] = replay_solve(
+                solve, config, pending, records, report
+            )
     for message in inputs:
         kind = topics.schema_kind(message.topic)
         if kind == "solve_record":
@@ -614,3 +619,84 @@ def _settings_of(paths: PathLike | Sequence[PathLike]) -> dict[str, str]:
             if name == "fsw_scheduler.settings":
                 return pairs
     return {}
+
+
+def _solve_records(
+    recorded: Sequence[RecordedMessage], topics: keys.Topics
+) -> dict[int, messages.SolveRecord]:
+    """Solve id -> its record, as the journal holds them."""
+    found = {}
+    for message in recorded:
+        if topics.schema_kind(message.topic) == "solve_record":
+            try:
+                record = msgspec.json.decode(
+                    message.payload, type=messages.SolveRecord
+                )
+            except (msgspec.DecodeError, msgspec.ValidationError):
+                continue
+            found[record.solve_id] = record
+    return found
+
+
+#: Statuses that prove something (re-solving gives them again); the
+#: others mean the solve stopped at its limit, which the wall clock sets.
+_PROVEN = frozenset({SolveStatus.OPTIMAL, SolveStatus.INFEASIBLE})
+
+
+def replay_solve(
+    solve: SolveFn,
+    config: NodeConfig,
+    command: StartSolve,
+    records: dict[int, messages.SolveRecord],
+    report: VerifyReport,
+) -> Plan:
+    """A solve of the replay: again, or the recorded one where the wall
+    clock decided it (said per solve in ``report.notes``).
+
+    * A solve that proved its result (optimal, infeasible) is solved
+      again, with the limit the node gave it, and must give the same.
+    * A solve that stopped at its limit (feasible, unknown) depended on
+      the machine's speed: its recorded plan is checked with the
+      independent checker and reused.
+    * An explanation cut by its time budget (``not_analysed``) is taken
+      from the record when the plan itself is the same.
+    """
+    record = records.get(command.solve_id)
+    recorded = record.result if record is not None else None
+    if recorded is None:
+        return solve(config, command)
+    limit = recorded.stats.time_limit_s if recorded.stats else None
+    if recorded.status not in _PROVEN:
+        issues = [] if not recorded.activities else _check(command, recorded)
+        if not issues:
+            report.notes.append(
+                f"solve {command.solve_id} ({command.trigger}) stopped at "
+                f"its limit ({limit} s) when recorded: its "
+                f"{recorded.status.value} plan passes the checker and is "
+                "reused, not re-solved"
+            )
+            return recorded
+        report.notes.append(
+            f"solve {command.solve_id}: the recorded plan fails the "
+            f"checker ({issues[0]}): solved again"
+        )
+    given = config if limit is None else config.replace(time_limit=limit)
+    plan = solve(given, command)
+    budget_cut = any(
+        b.cause == "not_analysed" for b in (*plan.why, *recorded.why)
+    )
+    if budget_cut and plan.replace(why=()) == recorded.replace(why=()):
+        if plan.why != recorded.why:
+            report.notes.append(
+                f"solve {command.solve_id}: same plan; its explanation was "
+                "cut by its time budget: the recorded one is reused"
+            )
+        return plan.replace(why=recorded.why)
+    return plan
+
+
+def _check(command: StartSolve, plan: Plan) -> list[str]:
+    from ..analysis.check import check_plan
+
+    result = check_plan(command.problem, plan)
+    return [str(v) for v in result.violations] if not result.ok else []

@@ -352,3 +352,70 @@ def test_fresh_demo_journal_verifies(tmp_path: Path) -> None:
     report = verify(result.journal)
     assert report.identical, report.summary()
     assert report.plans >= 2
+
+
+@pytest.mark.slow
+def test_a_session_whose_solves_stop_at_their_limit_verifies(
+    tmp_path: Path,
+) -> None:
+    """Tests ``replay --verify`` on a real node's journal whose solves
+    stopped at a 1 s limit: IDENTICAL, and the report says, per solve,
+    that the recorded plan passed the checker and was reused."""
+    import json
+
+    from fsw_scheduler.journal.replay import verify
+    from fsw_scheduler.journal.state import journal_files
+    from fsw_scheduler.testing import SchedulerClient
+
+    from ..factories import bench_lib
+    from .test_resume import soak_resume
+
+    problem = tmp_path / "big.json"
+    doc = bench_lib("generator").generate_problem(80, "mixed", 336, 7)
+    problem.write_text(json.dumps(doc))
+    soak = soak_resume()
+    router, port = soak.start_router()
+    node = soak.SchedulerProcess(
+        [
+            "--problem",
+            str(problem),
+            "--clock",
+            "bus",
+            "--state",
+            str(tmp_path / "state"),
+            "--connect",
+            f"tcp/127.0.0.1:{port}",
+            "--no-multicast-scouting",
+            "--insecure",
+            "--no-standby",
+            "--time-limit",
+            "1",
+            "-m",
+            "client",
+        ]
+    )
+    try:
+        import zenoh
+
+        from fsw_scheduler.bus.session import loopback_config
+
+        config = loopback_config(
+            listen=None, connect=[f"tcp/127.0.0.1:{port}"]
+        )
+        config.insert_json5("mode", '"client"')
+        with zenoh.open(config) as session:
+            client = SchedulerClient(session, timeout=60.0)
+            node.start()
+            client.wait_scheduler(60)
+            client.tick(0)
+            plan = client.wait_plan(lambda p: p.plan_id == 1, 60)
+            assert plan.status.value == "feasible", plan.status
+            client.tick(1)
+            client.close()
+    finally:
+        node.stop()
+        router.close()
+    (journal,) = journal_files(tmp_path / "state")
+    report = verify(journal)
+    assert report.identical, report.summary()
+    assert any("stopped at its limit" in n for n in report.notes), report.notes
