@@ -13,11 +13,14 @@ names the file to write next.
 
 from __future__ import annotations
 
+import hashlib
 import logging
 import re
 import shutil
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
+
+import msgspec
 
 from ..errors import FieldIssue, InputError
 from .integrity import FileCheck, check_folder
@@ -26,6 +29,8 @@ from .replay import Rebuilt, rebuild
 
 if TYPE_CHECKING:
     from pathlib import Path
+
+    from ..model.problem import Problem
 
 log = logging.getLogger("fsw_scheduler.state")
 
@@ -82,12 +87,16 @@ class StateStart:
         Truncated files that were finished (their complete messages kept).
     removed
         Old runs deleted beyond the retention count.
+    set_aside
+        Files moved out of the way (another session's, or the state of a
+        replaced problem), never resumed.
     """
 
     next_journal: Path
     rebuilt: Rebuilt | None = None
     recovered: list[Path] = field(default_factory=list)
     removed: list[Path] = field(default_factory=list)
+    set_aside: list[Path] = field(default_factory=list)
 
 
 def damaged_files(folder: Path) -> list[FileCheck]:
@@ -97,6 +106,180 @@ def damaged_files(folder: Path) -> list[FileCheck]:
     if not folder.is_dir():
         return []
     return [c for c in check_folder(journal_files(folder)) if not c.ok]
+
+
+#: The folder's identity, written at its first start.
+IDENTITY = "identity.json"
+
+
+class FolderIdentity(msgspec.Struct, frozen=True):
+    """What a state folder belongs to: one spacecraft, one problem.
+
+    ``problem_sha256`` names the problem the folder's first start was
+    given (SHA-256 of its canonical encoding). The node id is not part of
+    it: by default it changes at every start (``<host>-<pid>``).
+    """
+
+    spacecraft: str
+    problem_sha256: str
+
+
+def problem_digest(problem: Problem) -> str:
+    """The canonical name of ``problem``'s content."""
+    return hashlib.sha256(msgspec.json.encode(problem)).hexdigest()
+
+
+def _file_identity(path: Path) -> tuple[FolderIdentity, str] | None:
+    """(identity, writer version) from a journal's ``scheduler/config``."""
+    from ..wire import messages, topics
+    from .reader import iter_messages
+
+    try:
+        for message in iter_messages(path):
+            if message.topic.endswith("/" + topics.NODE_INFO):
+                info = msgspec.json.decode(
+                    message.payload, type=messages.NodeInfo
+                )
+                if info.problem is None:
+                    return None
+                return (
+                    FolderIdentity(
+                        info.spacecraft, problem_digest(info.problem)
+                    ),
+                    info.version,
+                )
+            break
+    except (ValueError, OSError, msgspec.DecodeError):
+        return None
+    return None
+
+
+def _newer(version: str) -> bool:
+    """Whether ``version`` is of a newer release than this one."""
+    from .. import __version__
+
+    def parts(text: str) -> tuple[int, ...]:
+        try:
+            return tuple(int(p) for p in text.split(".")[:3])
+        except ValueError:
+            return (0,)
+
+    return bool(version) and parts(version) > parts(__version__)
+
+
+def _settle_identity(
+    folder: Path,
+    files: list[Path],
+    start: StateStart,
+    expected: FolderIdentity | None,
+    replace: bool,
+) -> list[Path]:
+    """Check every journal file against the folder's identity: foreign
+    ones set aside, newer ones refused, another problem refused unless
+    ``replace`` (then the old state is set aside). The files to use."""
+    from .. import __version__
+
+    stamp = folder / IDENTITY
+    found = {path: _file_identity(path) for path in files}
+    identity: FolderIdentity | None
+    if stamp.exists():
+        try:
+            identity = msgspec.json.decode(
+                stamp.read_bytes(), type=FolderIdentity
+            )
+        except (msgspec.DecodeError, msgspec.ValidationError) as error:
+            raise InputError(
+                [
+                    FieldIssue(
+                        f"--state {folder}",
+                        f"{IDENTITY} is damaged ({error}); move it aside "
+                        "to take the identity of the journal files",
+                    )
+                ],
+                "state folder",
+            ) from None
+    else:
+        first = next((f[0] for f in found.values() if f is not None), None)
+        identity = first or expected
+    for path, seen in found.items():
+        if seen is not None and _newer(seen[1]):
+            raise InputError(
+                [
+                    FieldIssue(
+                        f"--state {folder}",
+                        f"{path.name} was written by version {seen[1]}, "
+                        f"newer than this one ({__version__}): its format "
+                        "may hold what this version cannot read; run the "
+                        "newer version, or give another folder",
+                    )
+                ],
+                "state folder",
+            )
+    if (
+        expected is not None
+        and identity is not None
+        and identity.problem_sha256 != expected.problem_sha256
+    ):
+        if not replace:
+            raise InputError(
+                [
+                    FieldIssue(
+                        "--problem",
+                        "differs from the problem this state folder "
+                        "started from (sha256 "
+                        f"{identity.problem_sha256[:12]}..., given "
+                        f"{expected.problem_sha256[:12]}...): resuming "
+                        "would ignore it; pass --new-problem to set the "
+                        "folder's state aside and start from the new one",
+                    )
+                ],
+                "arguments",
+            )
+        aside = _set_aside(folder, files, "replaced")
+        start.set_aside += aside
+        log.warning(
+            "a new problem: the previous state is set aside in %s",
+            aside[0].parent if aside else folder,
+        )
+        files, identity = [], expected
+    keep = []
+    for path in files:
+        seen = found.get(path)
+        if identity is not None and seen is not None and seen[0] != identity:
+            moved = _set_aside(folder, [path], "foreign")
+            start.set_aside += moved
+            log.warning(
+                "%s belongs to another session (spacecraft %s, problem "
+                "%s...): set aside in %s, never resumed",
+                path.name,
+                seen[0].spacecraft,
+                seen[0].problem_sha256[:12],
+                moved[0].parent,
+            )
+            continue
+        keep.append(path)
+    if identity is not None and not stamp.exists():
+        stamp.write_bytes(msgspec.json.encode(identity))
+    return keep
+
+
+def _set_aside(folder: Path, files: list[Path], why: str) -> list[Path]:
+    """Move ``files`` into ``folder/<why>/`` (kept for an operator)."""
+    place = folder / why
+    place.mkdir(exist_ok=True)
+    moved = []
+    for path in files:
+        target = place / path.name
+        index = 1
+        while target.exists():
+            target = place / f"{path.stem}.{index}{path.suffix}"
+            index += 1
+        shutil.move(path, target)
+        moved.append(target)
+    stamp = folder / IDENTITY
+    if why == "replaced" and stamp.exists():
+        shutil.move(stamp, place / IDENTITY)
+    return moved
 
 
 def _finish_truncated(path: Path) -> bool:
@@ -136,7 +319,13 @@ def _opening(path: Path) -> tuple[bool, bool]:
     return has_config, False
 
 
-def open_state(folder: Path, *, keep_runs: int = 20) -> StateStart:
+def open_state(
+    folder: Path,
+    *,
+    keep_runs: int = 20,
+    identity: FolderIdentity | None = None,
+    new_problem: bool = False,
+) -> StateStart:
     """Prepare a state folder and rebuild what its journal holds.
 
     Parameters
@@ -147,6 +336,13 @@ def open_state(folder: Path, *, keep_runs: int = 20) -> StateStart:
         Runs (starts of the node) whose files are kept; older ones are
         deleted once the new run's journal exists. Only the newest file
         with a snapshot is needed to resume.
+    identity
+        The spacecraft and problem this start is given: a folder of
+        another problem is refused (unless ``new_problem``); files of
+        another session are set aside in ``foreign/``.
+    new_problem
+        Set a folder's state aside (in ``replaced/``) when the problem
+        differs, and start from the new one.
 
     Returns
     -------
@@ -158,7 +354,13 @@ def open_state(folder: Path, *, keep_runs: int = 20) -> StateStart:
         raise StateDamaged(damaged)
     files = journal_files(folder)
     start = StateStart(next_journal=folder / "journal-0001.mcap")
+    every = files
+    files = _settle_identity(folder, files, start, identity, new_problem)
     if not files:
+        if every:
+            start.next_journal = (
+                folder / f"journal-{_run(every[-1]) + 1:04d}.mcap"
+            )
         return start
     for path in files:
         if _finish_truncated(path):

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 import msgspec
 import pytest
 
+from fsw_scheduler.errors import InputError
 from fsw_scheduler.journal.integrity import MAX_RECORD_BYTES, check_file
 from fsw_scheduler.journal.state import StateDamaged, journal_files, open_state
 
@@ -127,3 +128,93 @@ def test_run_refuses_a_damaged_folder_before_the_bus(
     assert result.returncode == 2, result.stderr
     assert journal.name in result.stderr and "DAMAGED at byte" in result.stderr
     assert "Traceback" not in result.stderr
+
+
+def _edit_info(src: Path, dst: Path, change: object) -> None:
+    """Copy a journal with its ``scheduler/config`` changed."""
+    import json
+
+    from .test_replay import Row, rewrite
+
+    def edit(rows: list[Row]) -> list[Row]:
+        out = []
+        for row in rows:
+            if row.topic.endswith("/scheduler/config"):
+                doc = json.loads(row.data)
+                change(doc)  # type: ignore[operator]
+                row = row._replace(data=json.dumps(doc).encode())
+            out.append(row)
+        return out
+
+    rewrite(src, dst, edit)
+
+
+def _identity(folder: Path) -> object:
+    from fsw_scheduler.journal.state import FolderIdentity, problem_digest
+
+    (journal,) = journal_files(folder)
+    with open(journal, "rb") as f:
+        from mcap.reader import make_reader
+
+        for _s, channel, message in make_reader(f).iter_messages():
+            if channel.topic.endswith("/scheduler/config"):
+                from fsw_scheduler.wire.messages import NodeInfo
+
+                info = msgspec.json.decode(message.data, type=NodeInfo)
+                assert info.problem is not None
+                return FolderIdentity(
+                    info.spacecraft, problem_digest(info.problem)
+                )
+    raise AssertionError("no scheduler/config")
+
+
+def test_another_sessions_journal_is_set_aside(
+    state_folder: Path, tmp_path: Path
+) -> None:
+    """Tests a journal of the same spacecraft but another problem dropped
+    in as the newest file: set aside in foreign/, the folder's own state
+    resumed."""
+    folder = tmp_path / "state"
+    shutil.copytree(state_folder, folder)
+    identity = _identity(folder)
+    reference = _state(folder)
+    (own,) = journal_files(folder)
+
+    def other_problem(doc: dict) -> None:
+        doc["problem"]["horizon"] += 1
+
+    _edit_info(own, folder / "journal-0099.mcap", other_problem)
+    start = open_state(folder, identity=identity)  # type: ignore[arg-type]
+    assert [p.parent.name for p in start.set_aside] == ["foreign"]
+    assert start.rebuilt is not None
+    assert msgspec.json.encode(start.rebuilt.engine.snapshot()) == reference
+
+
+def test_a_newer_versions_journal_is_refused(
+    state_folder: Path, tmp_path: Path
+) -> None:
+    """Tests a journal that says version 99.0.0: refused, naming it."""
+    folder = tmp_path / "state"
+    folder.mkdir()
+    (own,) = journal_files(state_folder)
+    _edit_info(own, folder / own.name, lambda d: d.update(version="99.0.0"))
+    with pytest.raises(InputError, match=r"99\.0\.0"):
+        open_state(folder)
+
+
+def test_another_problem_needs_new_problem(
+    state_folder: Path, tmp_path: Path
+) -> None:
+    """Tests a start with another --problem than the folder's: refused;
+    with new_problem the old state is set aside and nothing resumed."""
+    from fsw_scheduler.journal.state import FolderIdentity
+
+    folder = tmp_path / "state"
+    shutil.copytree(state_folder, folder)
+    other = FolderIdentity("sat1", "0" * 64)
+    with pytest.raises(InputError, match="--new-problem"):
+        open_state(folder, identity=other)
+    start = open_state(folder, identity=other, new_problem=True)
+    assert start.rebuilt is None
+    assert {p.parent.name for p in start.set_aside} == {"replaced"}
+    assert journal_files(folder) == []

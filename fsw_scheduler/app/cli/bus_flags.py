@@ -115,6 +115,13 @@ def add_run_command(add: Add) -> None:
         "snapshot, past this size (default %(default)s)",
     )
     run.add_argument(
+        "--new-problem",
+        action="store_true",
+        help="with --state: when --problem differs from the one the folder "
+        "started from, set the folder's state aside (in DIR/replaced/) and "
+        "start from the new problem (without it, such a start is refused)",
+    )
+    run.add_argument(
         "--keep-runs",
         type=_number(int, minimum=2, strict=False),
         default=20,

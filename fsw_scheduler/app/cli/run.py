@@ -149,7 +149,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 # Opened only to command: a standby writes no journal.
                 if journal is not None:
                     journal.close()
-                journal, opened = _open_state(args, config)
+                journal, opened = _open_state(args, config, problem)
                 extra.update(opened)
             if shared is not None:
                 from ...engine.core import Engine
@@ -215,7 +215,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _open_state(
-    args: argparse.Namespace, config: Any
+    args: argparse.Namespace, config: Any, problem: Any
 ) -> tuple[Any, dict[str, Any]]:
     """Open ``--state DIR``: rebuild from its journal, start a new file.
 
@@ -224,10 +224,22 @@ def _open_state(
     import time
 
     from ...journal.annotate import schema_lookup
-    from ...journal.state import open_state
+    from ...journal.state import FolderIdentity, open_state, problem_digest
     from ...journal.writer import Recorder
 
-    start = open_state(Path(args.state), keep_runs=args.keep_runs)
+    given = (
+        problem
+        if config.horizon is None
+        else problem.replace(horizon=config.horizon)
+    )
+    start = open_state(
+        Path(args.state),
+        keep_runs=args.keep_runs,
+        identity=FolderIdentity(config.spacecraft, problem_digest(given)),
+        new_problem=args.new_problem,
+    )
+    for path in start.set_aside:
+        log.warning("set aside %s (not this folder's session)", path)
     for path in start.recovered:
         log.warning("recovered truncated journal %s", path)
     journal = Recorder(
