@@ -137,6 +137,9 @@ class SchedulerHarness(SchedulerClient):
         e.g. to make solves slow or failing.
     timeout
         Default deadline of every wait, in seconds.
+    node_options
+        More :class:`~fsw_scheduler.bus.node.SchedulerNode` arguments
+        (``journal``, ``durable``, ...).
     """
 
     def __init__(
@@ -146,8 +149,10 @@ class SchedulerHarness(SchedulerClient):
         *,
         solve_fn: Callable[[NodeConfig, StartSolve], Plan] | None = None,
         timeout: float = WAIT_S,
+        node_options: dict[str, Any] | None = None,
     ) -> None:
         # SchedulerClient.__init__ runs in open(), once the session exists.
+        self._node_options = dict(node_options or {})
         self.problem = _load_problem(problem)
         self.config = (config or harness_config()).replace(clock="bus")
         self.timeout = timeout
@@ -181,7 +186,11 @@ class SchedulerHarness(SchedulerClient):
             ):
                 wait_matching(server, key, self.timeout)
             node = SchedulerNode(
-                server, self.problem, self.config, solve_fn=self._solve_fn
+                server,
+                self.problem,
+                self.config,
+                solve_fn=self._solve_fn,
+                **self._node_options,
             )
             node.start()
             self._node = node

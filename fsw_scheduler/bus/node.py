@@ -471,6 +471,8 @@ class SchedulerNode(NodeOutputs):
             return
         self._tick_wall_clock()
         self._check_stall()
+        if self._durable:
+            self._watch_journal()  # retries a failed journal without steps
         if timeout is None:
             timeout = self._clock.seconds_to_next() if self._clock else 0.5
         item = self._inbox.get(timeout=max(timeout, 0.001))

@@ -10,8 +10,10 @@ head (metadata, settings, snapshot) and its rotation live here too.
 from __future__ import annotations
 
 import logging
+import time
 from typing import TYPE_CHECKING, Any
 
+import msgspec
 import zenoh
 
 from ..engine.events import Command, Publish
@@ -21,8 +23,6 @@ from ..wire import messages, topics
 
 if TYPE_CHECKING:
     from collections.abc import Callable
-
-    import msgspec
 
     from ..engine.core import Engine
     from ..journal.annotate import Annotator
@@ -35,6 +35,17 @@ log = logging.getLogger("fsw_scheduler.node")
 JSON = zenoh.Encoding.APPLICATION_JSON
 # Faults that end the loop at once instead of being survived.
 FATAL = (KeyboardInterrupt, SystemExit)
+
+
+#: Seconds between attempts to write a failed journal again.
+JOURNAL_RETRY_S = 5.0
+
+
+def _undurable(message: msgspec.Struct) -> msgspec.Struct:
+    """A status sent while the journal is down says so."""
+    if isinstance(message, messages.Status):
+        return msgspec.structs.replace(message, durable=False)
+    return message
 
 
 class NodeOutputs:
@@ -57,6 +68,8 @@ class NodeOutputs:
     _wall_ns: Callable[[], int]
     _publish_failures: int
     _publish_failures_in_a_row: int
+    _fault_said: bool = False
+    _fault_retry: float = 0.0
 
     def _lease_holds(self) -> bool:
         raise NotImplementedError
@@ -85,8 +98,14 @@ class NodeOutputs:
             # The standby's copy first, so that it never lags behind
             # what the bus has seen (same publisher link, in order).
             self._share_snapshot()
+        undurable = self._durable and self._journal.fault is not None
         outputs = [
-            (command.suffix, self._provenance.annotate(command.message))
+            (
+                command.suffix,
+                _undurable(self._provenance.annotate(command.message))
+                if undurable
+                else self._provenance.annotate(command.message),
+            )
             for command in commands
             if isinstance(command, Publish)
         ]
@@ -119,8 +138,64 @@ class NodeOutputs:
             return  # journaled, never sent: a resume sends it again
         for suffix, payload in puts:
             self._put(suffix, payload)
-        if self._durable and rotate:
+        if self._durable:
+            self._watch_journal()
+        if self._durable and rotate and self._journal.fault is None:
             self._maybe_rotate()
+
+    def _watch_journal(self) -> None:
+        """A journal that cannot be written: say so at once (the bus does
+        not need the disk), go on without durability, try again every
+        :data:`JOURNAL_RETRY_S` in a new part, say when it is back."""
+        fault = self._journal.fault
+        now = time.monotonic()
+        if fault is None:
+            return
+        if not self._fault_said:
+            self._fault_said, self._fault_retry = True, now + JOURNAL_RETRY_S
+            self._say_journal(
+                "degraded",
+                "journal_failed",
+                f"journal: {fault}: commanding without durability (a "
+                "restart would lose what happens until it is back); trying "
+                f"again every {JOURNAL_RETRY_S:g} s",
+            )
+            return
+        if now < self._fault_retry:
+            return
+        self._fault_retry = now + JOURNAL_RETRY_S
+        if not self._journal.resume():
+            return
+        self._head_of_part()
+        if self._journal.fault is None:
+            self._fault_said = False
+            recorder = self._journal.recorder
+            where = recorder.paths[-1].name if recorder is not None else ""
+            self._say_journal(
+                "ok", "journal_resumed", f"journal continues in {where}"
+            )
+
+    def _say_journal(self, state: str, event: str, detail: str) -> None:
+        """A status about the journal, straight to the bus (not journaled:
+        it is about the journal)."""
+        status = self.engine.status(event, detail=detail)
+        status = msgspec.structs.replace(
+            status,
+            state=state if status.state == "ok" else status.state,
+            activities={},
+            durable=self._journal.fault is None,
+        )
+        log.warning("%s: %s", event, detail)
+        self._put(topics.STATUS, messages.encode(status))
+        info = node_info(self.config, self.engine.initial, self._security)
+        self._put(
+            topics.NODE_INFO,
+            messages.encode(
+                msgspec.structs.replace(
+                    info, durable=self._journal.fault is None
+                )
+            ),
+        )
 
     def _share_snapshot(self) -> None:
         """Publish the engine's state for a hot standby."""
@@ -142,6 +217,10 @@ class NodeOutputs:
             return
         path = recorder.rotate()
         log.info("journal continues in %s", path)
+        self._head_of_part()
+
+    def _head_of_part(self) -> None:
+        """What opens each journal part: the settings, then the state."""
         self._journal.write(
             self.topics.key(topics.NODE_INFO),
             messages.encode(

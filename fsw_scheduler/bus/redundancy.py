@@ -169,6 +169,21 @@ class Redundancy:
             )
         )
 
+    def refresh(self, timeout: float = 2.0) -> None:
+        """Ask the bus which tokens exist now (a liveliness query: the
+        answer is complete when it returns), after a time without links."""
+        for suffix in (topics.NODES, topics.ACTIVE):
+            learn = self._on_token(suffix)
+            try:
+                replies = self.session.liveliness().get(
+                    self.topics.key(f"{suffix}/**"), timeout=timeout
+                )
+                for reply in replies:
+                    if reply.ok is not None:
+                        learn(reply.ok)
+            except zenoh.ZError as error:
+                log.warning("asking for the members: %s", error)
+
     def _on_token(self, suffix: str) -> Callable[[zenoh.Sample], None]:
         head = self.topics.key(suffix) + "/"
         active = suffix == topics.ACTIVE
@@ -430,6 +445,7 @@ def serve(
                 # Back on the bus: learn who commands before deciding.
                 isolated = False
                 _look(stop, discovery_s)
+                redundancy.refresh(max(1.0, discovery_s))
                 idle_since = time.monotonic()
                 continue
         current = redundancy.commander()
@@ -473,6 +489,7 @@ def serve(
             own = _stand_down(redundancy, node, None, None)
             node, standing_by_for = None, False
             _look(stop, discovery_s)  # re-verify before commanding again
+            redundancy.refresh(max(1.0, discovery_s))
             idle_since = time.monotonic()
             continue
         if node is None:

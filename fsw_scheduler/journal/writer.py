@@ -36,7 +36,9 @@ flush. An unfinished file has no summary or footer, so
 
 from __future__ import annotations
 
+import contextlib
 import json
+import logging
 import os
 import struct
 from collections.abc import Callable, Mapping
@@ -45,6 +47,8 @@ from typing import IO, Any, Literal, NamedTuple
 
 from mcap.well_known import MessageEncoding, SchemaEncoding
 from mcap.writer import CompressionType, Writer
+
+log = logging.getLogger("fsw_scheduler.journal")
 
 __all__ = [
     "RecordedMessage",
@@ -479,6 +483,30 @@ class Recorder:
 
     # -- internals -------------------------------------------------------
 
+    def reopen(self) -> Path:
+        """After a write error: leave the broken part as a crash leaves it
+        (the next start finishes it) and open the next one.
+
+        Raises
+        ------
+        OSError
+            If the next part cannot be opened either (the disk is still
+            full); the recorder stays without an open part.
+        """
+        broken, self._file, self._writer = self._file, None, None
+        if broken is not None:
+            with contextlib.suppress(OSError, ValueError):
+                broken.close()
+        try:
+            self._open_part()
+        except BaseException:
+            half, self._file, self._writer = self._file, None, None
+            if half is not None:
+                with contextlib.suppress(OSError, ValueError):
+                    half.close()
+            raise
+        return self.paths[-1]
+
     def _open_part(self) -> None:
         path = split_name(self._base, len(self.paths))
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -594,17 +622,43 @@ class OrderedWriter:
         self.recorder = recorder
         self._wall_ns = wall_ns
         self._last = 0
+        #: Why the journal is not written now (a disk error), else None:
+        #: the node goes on without durability and says so.
+        self.fault: str | None = None
 
     def write(self, key: str, payload: bytes) -> None:
-        if self.recorder is None:
+        if self.recorder is None or self.fault is not None:
             return
         stamp = max(self._wall_ns(), self._last + 1)
         self._last = stamp
-        self.recorder.write(key, payload, log_time_ns=stamp)
+        try:
+            self.recorder.write(key, payload, log_time_ns=stamp)
+        except OSError as error:
+            self._fail(error)
 
     def flush(self) -> None:
-        if self.recorder is not None:
-            self.recorder.flush()
+        if self.recorder is not None and self.fault is None:
+            try:
+                self.recorder.flush()
+            except OSError as error:
+                self._fail(error)
+
+    def _fail(self, error: OSError) -> None:
+        self.fault = f"{type(error).__name__}: {error}"
+        log.error("journal write failed: %s; going on without it", error)
+
+    def resume(self) -> bool:
+        """Try to write again, in a new part (True: the journal is back;
+        the caller writes the settings and a snapshot first)."""
+        if self.recorder is None or self.fault is None:
+            return self.fault is None
+        try:
+            self.recorder.reopen()
+        except OSError as error:
+            log.debug("journal still unavailable: %s", error)
+            return False
+        self.fault = None
+        return True
 
     @property
     def last_ns(self) -> int:

@@ -46,7 +46,9 @@ def engine_config(config: NodeConfig) -> EngineConfig:
 
 
 #: NodeInfo fields that are not node settings.
-_NOT_SETTINGS = frozenset({"version", "problem", "security", "resumed"})
+_NOT_SETTINGS = frozenset(
+    {"version", "problem", "security", "resumed", "durable"}
+)
 #: NodeInfo fields named otherwise in NodeConfig (info name -> config name).
 _RENAMED = {"time_limit_s": "time_limit"}
 #: Settings that change decisions but are not NodeInfo fields (its schema

@@ -247,6 +247,9 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
 
     ``source`` says where the goal, report or level a verdict is about
     came from (set by the bus node; ``replay --verify`` ignores it).
+    ``durable`` is false while the node cannot write its journal (a full
+    or failing disk): it commands, but a restart would lose what happened
+    since (events ``journal_failed``, ``journal_resumed``).
     ``term`` is the command term of the node (see :class:`Term`). A node
     that stops commanding says ``stood_down`` (``detail`` says why,
     ``active`` names the node it now follows, if any).
@@ -271,6 +274,7 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
     why: tuple[Blocker, ...] = ()
     source: Source | None = None
     term: int = 0
+    durable: bool = True
 
 
 class Busy(msgspec.Struct, frozen=True):
@@ -400,6 +404,7 @@ class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     response_deadline: float | None = None
     goal_ids: int = 1024
     reports_need_dispatch: bool = False
+    durable: bool = True
 
 
 #: Message types of each key (relative to ``fsw/<sc>/``), for schemas.

@@ -13,7 +13,7 @@ import subprocess
 import sys
 import threading
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import pytest
 import zenoh
@@ -22,7 +22,7 @@ from fsw_scheduler.model.problem import MAX_ID_LENGTH
 from fsw_scheduler.testing import harness_config
 from fsw_scheduler.wire import topics as keys
 
-from ..factories import CLI, DATA, bench_lib
+from ..factories import CLI, DATA, bench_lib, ping_goal
 
 if TYPE_CHECKING:
     from fsw_scheduler.engine.events import StartSolve
@@ -925,3 +925,59 @@ def test_inbox_bounds_without_blocking() -> None:
     for n in range(inbox_module.MAX_PENDING_KEYS + 5):
         big.put_latest("resource_level", f"k{n}", b"1")
     assert big.lost == 5
+
+
+def test_a_full_disk_degrades_and_durability_returns(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Tests ENOSPC on the journal: the node says ``journal_failed``
+    (degraded, durable false) at once, keeps answering every input, and
+    when space returns continues in a new part, ``journal_resumed``; every
+    part it wrote verifies or is finished as a crash's would be."""
+    import errno
+
+    from fsw_scheduler.bus import outputs
+    from fsw_scheduler.journal.annotate import schema_lookup
+    from fsw_scheduler.journal.integrity import check_file
+    from fsw_scheduler.journal.writer import Recorder
+
+    full = {"on": False}
+    write, open_part = Recorder.write, Recorder._open_part
+
+    def failing(real: Any) -> Any:
+        def call(self: Recorder, *args: Any, **kwargs: Any) -> Any:
+            if full["on"]:
+                raise OSError(errno.ENOSPC, "No space left on device")
+            return real(self, *args, **kwargs)
+
+        return call
+
+    monkeypatch.setattr(Recorder, "write", failing(write))
+    monkeypatch.setattr(Recorder, "_open_part", failing(open_part))
+    monkeypatch.setattr(outputs, "JOURNAL_RETRY_S", 0.2)
+    recorder = Recorder(
+        tmp_path / "journal-0001.mcap", schemas=schema_lookup("sat1")
+    )
+    options = {"journal": recorder, "durable": True}
+    from fsw_scheduler.testing import SchedulerHarness as Harness
+
+    with Harness(node_options=options) as h:
+        h.tick(0)
+        h.wait_plan(lambda p: p.plan_id == 1)
+        full["on"] = True
+        h.tick(1)
+        failed = h.wait_status(lambda s: s.event == "journal_failed")
+        assert failed.state == "degraded" and not failed.durable
+        assert "No space left" in failed.detail
+        h.publish_goal(ping_goal("while-full", "Full"))
+        verdict = h.wait_status(
+            lambda s: s.goal_id == "while-full" and s.event == "goal_accepted"
+        )
+        assert not verdict.durable
+        full["on"] = False
+        back = h.wait_status(lambda s: s.event == "journal_resumed", 10)
+        assert back.durable
+        h.tick(2)
+    for path in recorder.paths:
+        assert check_file(path).ok, check_file(path).describe()
+    assert len(recorder.paths) == 2
