@@ -138,6 +138,7 @@ class SchedulerNode(NodeOutputs):
         share_state: bool | Callable[[], bool] = False,
         durable: bool = False,
         journal_max_bytes: int | None = None,
+        state_max_bytes: int | None = None,
         clock_start: int = 0,
         publishers: Callable[[str], frozenset[str] | None] | None = None,
         term_floor: int = 0,
@@ -160,6 +161,7 @@ class SchedulerNode(NodeOutputs):
         self.engine = engine or Engine(engine_config(config), problem)
         self._durable = durable and journal is not None
         self._journal_max_bytes = journal_max_bytes
+        self._state_max_bytes = state_max_bytes
         self._clock_start = clock_start
         self._journal = OrderedWriter(journal, wall_ns)
         self._wall_ns = wall_ns

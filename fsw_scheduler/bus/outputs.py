@@ -18,6 +18,7 @@ import zenoh
 
 from ..engine.events import Command, Publish
 from ..journal.annotate import session_records
+from ..journal.state import prune
 from ..runtime.policy import node_info
 from ..wire import messages, topics
 
@@ -64,6 +65,7 @@ class NodeOutputs:
     _sharing: bool
     _share_state: Callable[[], bool]
     _journal_max_bytes: int | None
+    _state_max_bytes: int | None = None
     _security: messages.SecurityInfo | None
     _wall_ns: Callable[[], int]
     _publish_failures: int
@@ -218,6 +220,10 @@ class NodeOutputs:
         path = recorder.rotate()
         log.info("journal continues in %s", path)
         self._head_of_part()
+        if self._state_max_bytes is not None:
+            # The new part opens with the state: older files may go.
+            for old in prune(path.parent, path, self._state_max_bytes):
+                log.info("state budget: removed %s", old.name)
 
     def _head_of_part(self) -> None:
         """What opens each journal part: the settings, then the state."""

@@ -392,3 +392,25 @@ def _run(path: Path) -> int:
     match = _NAME.match(path.name)
     assert match is not None
     return int(match[1])
+
+
+def prune(folder: Path, current: Path, max_bytes: int) -> list[Path]:
+    """Delete the oldest journal files of ``folder`` while the folder's
+    journals take more than ``max_bytes``; never ``current`` (which opens
+    with the snapshot a resume needs, and is written now).
+
+    Returns the files deleted, oldest first.
+    """
+    files = [p for p in journal_files(folder) if p != current]
+    sizes = {p: p.stat().st_size for p in files}
+    total = sum(sizes.values()) + (
+        current.stat().st_size if current.exists() else 0
+    )
+    removed = []
+    for path in files:
+        if total <= max_bytes:
+            break
+        path.unlink()
+        total -= sizes[path]
+        removed.append(path)
+    return removed

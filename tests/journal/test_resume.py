@@ -73,3 +73,26 @@ def test_state_folder_finishes_a_truncated_journal(tmp_path: Path) -> None:
     assert start.rebuilt is not None
     assert start.rebuilt.engine.plan_id in (1, 2)
     assert start.next_journal.name == "journal-0002.mcap"
+
+
+def test_the_state_folder_keeps_its_byte_budget(tmp_path: Path) -> None:
+    """Tests ``--state-max-bytes``: with small parts the oldest files go
+    once a newer part opens with the state; the folder stays within its
+    budget (plus the part being written) and still resumes to the plan
+    of an uninterrupted run."""
+    soak = soak_resume()
+    rng = random.Random(3)
+    reference = soak.run_session(tmp_path, set(), rng)
+    budget = 30_000
+    outcome = soak.run_session(
+        tmp_path,
+        {(30, "report")},
+        rng,
+        ("--journal-max-size", "4000", "--state-max-bytes", str(budget)),
+    )
+    assert soak.compare(reference, outcome) == []
+    files = journal_files(tmp_path / "state")
+    sizes = [p.stat().st_size for p in files]
+    assert sum(sizes) <= budget + max(sizes), sizes
+    assert files[0].name != "journal-0001.mcap"  # the oldest went
+    assert open_state(tmp_path / "state").rebuilt is not None

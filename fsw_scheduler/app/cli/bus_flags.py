@@ -115,6 +115,15 @@ def add_run_command(add: Add) -> None:
         "snapshot, past this size (default %(default)s)",
     )
     run.add_argument(
+        "--state-max-bytes",
+        type=positive_int,
+        default=1024 * 1024 * 1024,
+        metavar="BYTES",
+        help="with --state: the folder's budget; past it, the oldest journal "
+        "files go once a newer one opens with the state (default "
+        "%(default)s)",
+    )
+    run.add_argument(
         "--new-problem",
         action="store_true",
         help="with --state: when --problem differs from the one the folder "

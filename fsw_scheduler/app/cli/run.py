@@ -248,6 +248,7 @@ def _open_state(
     resume: dict[str, Any] = {
         "durable": True,
         "journal_max_bytes": args.journal_max_size,
+        "state_max_bytes": args.state_max_bytes,
     }
     rebuilt = start.rebuilt
     if rebuilt is not None:
