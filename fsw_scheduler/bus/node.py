@@ -139,6 +139,7 @@ class SchedulerNode(NodeOutputs):
         durable: bool = False,
         journal_max_bytes: int | None = None,
         state_max_bytes: int | None = None,
+        journal_fault: str | None = None,
         clock_start: int = 0,
         publishers: Callable[[str], frozenset[str] | None] | None = None,
         term_floor: int = 0,
@@ -164,6 +165,8 @@ class SchedulerNode(NodeOutputs):
         self._state_max_bytes = state_max_bytes
         self._clock_start = clock_start
         self._journal = OrderedWriter(journal, wall_ns)
+        # A journal that could not be opened (a full disk at start).
+        self._journal.fault = journal_fault
         self._wall_ns = wall_ns
         # Profiles (published), level checks and log entries (journaled)
         # derived from what the loop handles; replay derives the same.
@@ -278,6 +281,8 @@ class SchedulerNode(NodeOutputs):
         self._put(topics.TERM, self._term_payload)
         if self._sharing and self._share_state():
             self._share_snapshot()
+        if self._durable:
+            self._watch_journal()  # a journal down from the start: say so
         if self.resumed:
             self._inbox.put("resume", None)
         self._thread = threading.Thread(

@@ -295,9 +295,12 @@ class NodeOutputs:
         metadata, attachments = session_records(
             self.config, self.engine.initial, start_ns
         )
-        for name, pairs in metadata:
-            recorder.add_metadata(name, pairs)
-        for name, media_type, data in attachments:
-            recorder.add_attachment(
-                name, data, media_type=media_type, log_time_ns=start_ns
-            )
+        try:
+            for name, pairs in metadata:
+                recorder.add_metadata(name, pairs)
+            for name, media_type, data in attachments:
+                recorder.add_attachment(
+                    name, data, media_type=media_type, log_time_ns=start_ns
+                )
+        except OSError as error:
+            self._journal.fail(error)

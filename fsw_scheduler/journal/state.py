@@ -259,7 +259,10 @@ def _settle_identity(
             continue
         keep.append(path)
     if identity is not None and not stamp.exists():
-        stamp.write_bytes(msgspec.json.encode(identity))
+        try:
+            stamp.write_bytes(msgspec.json.encode(identity))
+        except OSError as error:  # written at a later start
+            log.error("cannot write %s: %s", stamp, error)
     return keep
 
 
@@ -363,8 +366,11 @@ def open_state(
             )
         return start
     for path in files:
-        if _finish_truncated(path):
-            start.recovered.append(path)
+        try:
+            if _finish_truncated(path):
+                start.recovered.append(path)
+        except OSError as error:  # a full disk: read it as it is
+            log.error("cannot finish %s (%s): read as it is", path, error)
     # The newest file that opens with a snapshot, and what came after it.
     heads = [_opening(path) for path in files]
     base = max((i for i, (_, opens) in enumerate(heads) if opens), default=0)

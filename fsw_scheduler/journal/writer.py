@@ -231,6 +231,7 @@ class Recorder:
         schemas: SchemaSource | None = None,
         fsync: bool = False,
         only_json: bool = False,
+        open_now: bool = True,
     ) -> None:
         if compression not in _COMPRESSION:
             raise ValueError(
@@ -269,7 +270,8 @@ class Recorder:
         self._part_start_ns: int | None = None
         self._last_flush_ns: int | None = None
         self._dirty = False
-        self._open_part()
+        if open_now:
+            self._open_part()
 
     # -- context manager -------------------------------------------------
 
@@ -378,7 +380,8 @@ class Recorder:
             raise ValueError("add_metadata to a closed Recorder")
         pairs = {str(k): str(v) for k, v in data.items()}
         self._metadata.append((name, pairs))
-        assert self._writer is not None
+        if self._writer is None:
+            return  # no part open (a disk error): written at the next one
         self._writer.add_metadata(name, pairs)
         self._dirty = True
 
@@ -407,7 +410,8 @@ class Recorder:
         """
         if self._closed:
             raise ValueError("add_attachment to a closed Recorder")
-        assert self._writer is not None
+        if self._writer is None:
+            return  # no part open (a disk error): the session goes on
         self._writer.add_attachment(
             create_time=(
                 log_time_ns if create_time_ns is None else create_time_ns
@@ -634,16 +638,17 @@ class OrderedWriter:
         try:
             self.recorder.write(key, payload, log_time_ns=stamp)
         except OSError as error:
-            self._fail(error)
+            self.fail(error)
 
     def flush(self) -> None:
         if self.recorder is not None and self.fault is None:
             try:
                 self.recorder.flush()
             except OSError as error:
-                self._fail(error)
+                self.fail(error)
 
-    def _fail(self, error: OSError) -> None:
+    def fail(self, error: OSError) -> None:
+        """Stop writing: the journal is down (see :attr:`fault`)."""
         self.fault = f"{type(error).__name__}: {error}"
         log.error("journal write failed: %s; going on without it", error)
 

@@ -981,3 +981,37 @@ def test_a_full_disk_degrades_and_durability_returns(
     for path in recorder.paths:
         assert check_file(path).ok, check_file(path).describe()
     assert len(recorder.paths) == 2
+
+
+def test_a_start_on_a_full_disk_commands_and_says_so(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Tests a node whose journal could not be opened at start: it
+    commands, says ``journal_failed`` (durable false) at once, answers
+    goals, and opens its journal when it can."""
+    from fsw_scheduler.bus import outputs
+    from fsw_scheduler.journal.annotate import schema_lookup
+    from fsw_scheduler.journal.integrity import check_file
+    from fsw_scheduler.journal.writer import Recorder
+    from fsw_scheduler.testing import SchedulerHarness as Harness
+
+    monkeypatch.setattr(outputs, "JOURNAL_RETRY_S", 0.5)
+    recorder = Recorder(
+        tmp_path / "journal-0001.mcap",
+        schemas=schema_lookup("sat1"),
+        open_now=False,
+    )
+    options = {
+        "journal": recorder,
+        "durable": True,
+        "journal_fault": "OSError: [Errno 28] No space left on device",
+    }
+    with Harness(node_options=options) as h:
+        failed = h.wait_status(lambda s: s.event == "journal_failed")
+        assert failed.state == "degraded" and not failed.durable
+        h.tick(0)
+        h.wait_plan(lambda p: p.plan_id == 1)
+        h.wait_status(lambda s: s.event == "journal_resumed", 10)
+        h.tick(1)
+    (path,) = recorder.paths
+    assert check_file(path).ok

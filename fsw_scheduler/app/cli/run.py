@@ -242,10 +242,23 @@ def _open_state(
         log.warning("set aside %s (not this folder's session)", path)
     for path in start.recovered:
         log.warning("recovered truncated journal %s", path)
-    journal = Recorder(
-        start.next_journal, schemas=schema_lookup(config.spacecraft)
-    )
+    fault = None
+    try:
+        journal = Recorder(
+            start.next_journal, schemas=schema_lookup(config.spacecraft)
+        )
+    except OSError as error:
+        # A full or failing disk: command anyway, loudly, without
+        # durability; the node opens the journal when it can.
+        fault = f"{type(error).__name__}: {error}"
+        log.error("cannot open the journal: %s; starting without it", fault)
+        journal = Recorder(
+            start.next_journal,
+            schemas=schema_lookup(config.spacecraft),
+            open_now=False,
+        )
     resume: dict[str, Any] = {
+        "journal_fault": fault,
         "durable": True,
         "journal_max_bytes": args.journal_max_size,
         "state_max_bytes": args.state_max_bytes,
