@@ -332,14 +332,7 @@ class Redundancy:
             node_id=self.me.node_id,
             term=snapshot.term if snapshot else 0,
         )
-        try:
-            self.session.put(
-                self.topics.key(topics.STATUS),
-                messages.encode(status),
-                encoding=JSON,
-            )
-        except zenoh.ZError as error:
-            log.warning("standby status: %s", error)
+        self._say(status)
 
     def publish_lost_goal(
         self, goal_id: str, term: int, winner: Member | None, now_term: int
@@ -365,6 +358,10 @@ class Redundancy:
             node_id=self.me.node_id,
             term=now_term,
         )
+        self._say(status)
+
+    def _say(self, status: messages.Status) -> None:
+        """Publish a status of this node (not commanding: no journal)."""
         try:
             self.session.put(
                 self.topics.key(topics.STATUS),
@@ -372,7 +369,7 @@ class Redundancy:
                 encoding=JSON,
             )
         except zenoh.ZError as error:
-            log.warning("lost goal status: %s", error)
+            log.warning("status %s: %s", status.event, error)
 
     def close(self) -> None:
         """Withdraw every token and subscriber."""
