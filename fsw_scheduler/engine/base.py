@@ -191,6 +191,8 @@ class EngineState:
     ) -> None:
         schedule = self.schedule
         assert schedule is not None
+        # A bounded past: a long mission's state does not grow.
+        schedule = self.schedule = schedule.trimmed(self.config.max_history)
         self.plan_id = (self.plan_id or 0) + 1
         self._dispatches.adopt(
             plan, schedule.continuing, removed, self.config.max_history

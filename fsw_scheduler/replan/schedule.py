@@ -298,6 +298,57 @@ class Schedule(msgspec.Struct, frozen=True):
             continuing=self.continuing,
         )
 
+    def trimmed(self, keep: int) -> Schedule:
+        """This schedule with a bounded past: what the rules can still use.
+
+        Live tasks (in the problem or deferred), their executions and the
+        finished tasks catalog precedences tie to a live one stay; of
+        the other finished tasks, executions and obsolete ids only the
+        last ``keep`` do. A long mission's state (its snapshot, shared
+        with a standby and opening every journal part) stays bounded.
+        """
+        live = {t.id for t in self.problem.tasks} | {
+            t.id for t in self.deferred
+        }
+        # Finished tasks reachable from a live one through precedences: a
+        # tight chain may bring them back.
+        needed = set(live)
+        grew = True
+        while grew:
+            grew = False
+            for p in self.catalog_precedences:
+                if (p.before in needed) != (p.after in needed):
+                    needed |= {p.before, p.after}
+                    grew = True
+        if (
+            len(self.catalog) <= len(needed) + keep
+            and len(self.history) <= keep + len(needed)
+            and len(self.obsolete) <= keep
+        ):
+            return self
+        others = [t for t in self.catalog if t.id not in needed]
+        kept_others = {t.id for t in others[max(0, len(others) - keep) :]}
+        catalog = tuple(
+            t for t in self.catalog if t.id in needed or t.id in kept_others
+        )
+        ids = {t.id for t in catalog}
+        past = [e for e in self.history if e.task not in needed]
+        recent = set(map(id, past[max(0, len(past) - keep) :]))
+        history = tuple(
+            e for e in self.history if e.task in needed or id(e) in recent
+        )
+        return msgspec.structs.replace(
+            self,
+            catalog=catalog,
+            catalog_precedences=tuple(
+                p
+                for p in self.catalog_precedences
+                if p.before in ids and p.after in ids
+            ),
+            history=history,
+            obsolete=self.obsolete[max(0, len(self.obsolete) - keep) :],
+        )
+
 
 class Replan(msgspec.Struct, frozen=True):
     """The result of a trigger: a problem to solve and what changed.

@@ -820,3 +820,54 @@ def test_random_sessions(steps: list) -> None:
                 assert act.end == previous.activity(name).end
         previous = plan
     assert _outcome(session) == _outcome(_session(steps))
+
+
+def test_a_long_missions_past_is_bounded() -> None:
+    """Tests Schedule.trimmed: live tasks and whatever precedences tie to
+    them stay; of 1,500 finished tasks only the last ``keep`` do, with
+    their executions; obsolete ids are bounded too."""
+    from fsw_scheduler.model.problem import Precedence, Task
+    from fsw_scheduler.replan.schedule import Execution, Schedule, empty_plan
+
+    def task(name: str) -> Task:
+        return Task(id=name, length=1, delay_cost=1, schedule_cost=1)
+
+    live = task("live")
+    old = [task(f"done{i}") for i in range(1500)]
+    chain = [
+        Precedence("done3", "done4", "tight"),
+        Precedence("done4", "live", "tight"),
+    ]
+    problem = problem_from(
+        {
+            "horizon": 10,
+            "tasks": [
+                {
+                    "id": "live",
+                    "length": 1,
+                    "delay_cost": 1,
+                    "schedule_cost": 1,
+                }
+            ],
+        }
+    )
+    schedule = Schedule(
+        problem=problem,
+        plan=empty_plan(),
+        catalog=(*old, live),
+        catalog_precedences=tuple(chain),
+        history=tuple(Execution(t.id, 0, 1, "completed") for t in old),
+        obsolete=tuple(f"gone{i}" for i in range(1500)),
+    )
+    trimmed = schedule.trimmed(100)
+    kept = {t.id for t in trimmed.catalog}
+    assert {"live", "done3", "done4", "done1499"} <= kept
+    assert "done0" not in kept
+    assert len(trimmed.catalog) <= 100 + 3
+    assert len(trimmed.history) <= 100 + 2
+    assert {e.task for e in trimmed.history} >= {"done3", "done4"}
+    assert trimmed.catalog_precedences == tuple(chain)
+    assert len(trimmed.obsolete) == 100
+    assert trimmed.trimmed(100) == trimmed  # stable
+    small = schedule.trimmed(5000)
+    assert small is schedule  # nothing to trim
