@@ -41,6 +41,12 @@ if TYPE_CHECKING:
     from .config import EngineConfig
 
 
+#: Finished tasks (and their executions, and obsolete ids) a schedule
+#: keeps beyond what its live tasks need: late reports on them are noted,
+#: and the snapshot shared with a standby stays bounded.
+PAST_KEPT = 256
+
+
 class EngineState:
     """The state of an :class:`~fsw_scheduler.engine.Engine` and its views.
 
@@ -192,7 +198,7 @@ class EngineState:
         schedule = self.schedule
         assert schedule is not None
         # A bounded past: a long mission's state does not grow.
-        schedule = self.schedule = schedule.trimmed(self.config.max_history)
+        schedule = self.schedule = schedule.trimmed(PAST_KEPT)
         self.plan_id = (self.plan_id or 0) + 1
         self._dispatches.adopt(
             plan, schedule.continuing, removed, self.config.max_history
