@@ -31,9 +31,10 @@ _encoder = msgspec.json.Encoder()
 
 
 def goal_digest(goal: Goal) -> str:
-    """The content of ``goal``, named: SHA-256 of its canonical encoding
-    (decoded first, so key order and spacing do not matter)."""
-    return hashlib.sha256(_encoder.encode(goal)).hexdigest()
+    """The content of ``goal``, named: the first 128 bits of the SHA-256
+    of its canonical encoding (decoded first, so key order and spacing do
+    not matter); half the ledger's size, still never equal by chance."""
+    return hashlib.sha256(_encoder.encode(goal)).hexdigest()[:32]
 
 
 class GoalLedger:
