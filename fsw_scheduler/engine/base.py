@@ -258,8 +258,8 @@ class EngineState:
             schedule.plan, schedule.continuing, self.now, before
         )
         for activity in missed:
-            # Its whole interval passed before the clock reached it (a
-            # clock jump): commanding it now would fly it out of its time.
+            # A clock jump passed over its start: commanding it now would
+            # fly it out of its time.
             schedule = schedule.with_report(
                 ExecutionReport(activity.task, "missed", self.now)
             )
@@ -273,7 +273,7 @@ class EngineState:
                     self._status(
                         "activity_missed",
                         detail=f"{activity.task} [{activity.start}, "
-                        f"{activity.end}) passed before it was dispatched "
+                        f"{activity.end}): the clock jumped over its start "
                         f"(now {self.now}): not commanded, replanned",
                     ),
                 )

@@ -105,11 +105,12 @@ class Dispatches:
     ) -> tuple[list[Activity], list[Activity]]:
         """Mark dispatched, and return, each planned activity due by now.
 
-        An activity the clock jumped over whole (it starts after
-        ``before``, the time of the previous step, and ends by ``now``) is
-        not dispatched: it is marked ``missed`` and returned apart,
-        ``(due, missed)``. A late plan's activities are dispatched late
-        (their time passed during the solve, not in a jump).
+        An activity whose start a clock jump passed over (after
+        ``before``, the time of the previous step, and before ``now``) is
+        not dispatched: flown now, it would run out of its time. It is
+        marked ``missed`` and returned apart, ``(due, missed)``. A late
+        plan's activities are dispatched late (their time passed during
+        the solve, not in a jump).
         """
         keep = set(continuing)
         due = []
@@ -122,11 +123,7 @@ class Dispatches:
                 or self.lifecycle.get(activity.task) != "planned"
             ):
                 continue
-            if (
-                before is not None
-                and activity.start > before
-                and activity.end <= now
-            ):
+            if before is not None and before < activity.start < now:
                 self.lifecycle[activity.task] = "missed"
                 missed.append(activity)
                 continue

@@ -167,19 +167,20 @@ def test_strict_reports_need_their_dispatch_id() -> None:
 
 
 def test_a_clock_jump_never_dispatches_the_past() -> None:
-    """Tests a clock step over whole activities (0 -> 30): none whose
-    interval lies in the past is dispatched; each is reported missed and
-    a ``missed`` replan plans what can still be flown."""
+    """Tests a clock step over activities (0 -> 30): none whose start the
+    jump passed over is dispatched (not even one still running by the
+    plan); each is reported missed and a ``missed`` replan plans what can
+    still be flown."""
     driver = _started()
     out = driver.tick(30)
     sent = published(out, messages.Dispatch)
-    assert all(d.end > 30 for d in sent), [(d.task, d.end) for d in sent]
+    assert all(d.start >= 30 for d in sent), [(d.task, d.start) for d in sent]
     missed = statuses(out, "activity_missed")
     assert missed, "the jumped-over activities are reported"
     plans = published(out, messages.PlanMessage)
     assert plans and plans[-1].trigger == "missed"
     again = published(driver.history, messages.Dispatch)
-    assert all(d.end > 30 or d.dispatched_at == 0 for d in again)
+    assert all(d.start >= 30 or d.dispatched_at == 0 for d in again)
 
 
 def test_levels_out_of_time_are_rejected() -> None:
