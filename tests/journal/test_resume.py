@@ -4,8 +4,11 @@ journal cut short."""
 
 from __future__ import annotations
 
+import contextlib
 import random
 from typing import TYPE_CHECKING
+
+import pytest
 
 from fsw_scheduler.journal.state import journal_files, open_state
 
@@ -96,3 +99,68 @@ def test_the_state_folder_keeps_its_byte_budget(tmp_path: Path) -> None:
     assert sum(sizes) <= budget + max(sizes), sizes
     assert files[0].name != "journal-0001.mcap"  # the oldest went
     assert open_state(tmp_path / "state").rebuilt is not None
+
+
+@pytest.mark.slow
+def test_a_real_full_disk_degrades_and_recovers(tmp_path: Path) -> None:
+    """Tests ``run --state`` on a 2 MB tmpfs that fills up: the node says
+    ``journal_failed`` (durable false) at once, answers the next goal,
+    and says ``journal_resumed`` once space is freed. Needs mount rights
+    (root); skipped elsewhere (the injected ENOSPC test still runs)."""
+    import subprocess
+
+    import zenoh
+
+    from fsw_scheduler.bus.session import loopback_config
+    from fsw_scheduler.testing import SchedulerClient
+
+    from ..factories import ping_goal
+
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    mounted = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", "size=2m", "tmpfs", str(disk)],
+        capture_output=True,
+    )
+    if mounted.returncode != 0:
+        pytest.skip("cannot mount a small filesystem here")
+    soak = soak_resume()
+    router, port = soak.start_router()
+    node = soak.node_process(disk / "state", port, ("--no-standby",))
+    try:
+        config = loopback_config(
+            listen=None, connect=[f"tcp/127.0.0.1:{port}"]
+        )
+        config.insert_json5("mode", '"client"')
+        with zenoh.open(config) as session:
+            client = SchedulerClient(session, timeout=30.0)
+            node.start()
+            client.wait_scheduler(30)
+            client.tick(0)
+            client.wait_plan(lambda p: p.plan_id == 1)
+            filler = disk / "filler"
+            with open(filler, "wb") as f, contextlib.suppress(OSError):
+                while True:
+                    f.write(b"\0" * 65536)
+                    f.flush()
+            client.tick(1)
+            client.publish_goal(ping_goal("on-a-full-disk", "Full"))
+            failed = client.wait_status(lambda s: s.event == "journal_failed")
+            assert failed.state == "degraded" and not failed.durable
+            verdict = client.wait_status(
+                lambda s: (
+                    s.goal_id == "on-a-full-disk"
+                    and s.event in ("goal_accepted", "goal_rejected")
+                )
+            )
+            assert verdict.event == "goal_accepted"
+            filler.unlink()
+            back = client.wait_status(
+                lambda s: s.event == "journal_resumed", 30
+            )
+            assert back.durable
+            client.close()
+    finally:
+        node.kill()
+        router.close()
+        subprocess.run(["umount", "-l", str(disk)], capture_output=True)
