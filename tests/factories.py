@@ -135,12 +135,6 @@ def bench_lib(name: str) -> ModuleType:
 
 def tool_script(name: str, module: str | None = None) -> ModuleType:
     """The script ``tools/<name>`` loaded as the module ``module``."""
-    module = module or name
-    loader = importlib.machinery.SourceFileLoader(module, str(TOOLS / name))
-    spec = importlib.util.spec_from_loader(module, loader)
-    assert spec is not None
-    loaded = importlib.util.module_from_spec(spec)
-    # dataclasses look their module up in sys.modules.
-    sys.modules[module] = loaded
-    loader.exec_module(loaded)
-    return loaded
+    if str(TOOLS) not in sys.path:
+        sys.path.insert(0, str(TOOLS))
+    return importlib.import_module("soak_lib").load_script(name, module)
