@@ -18,7 +18,7 @@ import logging
 import re
 import shutil
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import msgspec
 
@@ -129,29 +129,45 @@ def problem_digest(problem: Problem) -> str:
     return hashlib.sha256(msgspec.json.encode(problem)).hexdigest()
 
 
-def _file_identity(path: Path) -> tuple[FolderIdentity, str] | None:
-    """(identity, writer version) from a journal's ``scheduler/config``."""
+class _Head(NamedTuple):
+    """What the head of a journal file says, read once."""
+
+    has_config: bool = False
+    opens_with_snapshot: bool = False
+    identity: FolderIdentity | None = None
+    version: str = ""
+
+
+def _head(path: Path) -> _Head:
+    """The node's settings and whether the state follows, from the first
+    messages: a journal file starts with the settings, then (written by
+    ``--state``) the engine's snapshot."""
     from ..wire import messages, topics
     from .reader import iter_messages
 
+    head = _Head()
     try:
         for message in iter_messages(path):
-            if message.topic.endswith("/" + topics.NODE_INFO):
+            if not head.has_config and message.topic.endswith(
+                "/" + topics.NODE_INFO
+            ):
                 info = msgspec.json.decode(
                     message.payload, type=messages.NodeInfo
                 )
-                if info.problem is None:
-                    return None
-                return (
-                    FolderIdentity(
+                identity = (
+                    None
+                    if info.problem is None
+                    else FolderIdentity(
                         info.spacecraft, problem_digest(info.problem)
-                    ),
-                    info.version,
+                    )
                 )
-            break
+                head = _Head(True, False, identity, info.version)
+                continue
+            opens = message.topic.endswith("/" + topics.SNAPSHOT)
+            return head._replace(opens_with_snapshot=head.has_config and opens)
     except (ValueError, OSError, msgspec.DecodeError):
-        return None
-    return None
+        return _Head()
+    return head
 
 
 def _newer(version: str) -> bool:
@@ -169,7 +185,7 @@ def _newer(version: str) -> bool:
 
 def _settle_identity(
     folder: Path,
-    files: list[Path],
+    heads: dict[Path, _Head],
     start: StateStart,
     expected: FolderIdentity | None,
     replace: bool,
@@ -180,7 +196,12 @@ def _settle_identity(
     from .. import __version__
 
     stamp = folder / IDENTITY
-    found = {path: _file_identity(path) for path in files}
+    files = list(heads)
+    found = {
+        path: (head.identity, head.version)
+        for path, head in heads.items()
+        if head.identity is not None
+    }
     identity: FolderIdentity | None
     if stamp.exists():
         try:
@@ -199,10 +220,10 @@ def _settle_identity(
                 "state folder",
             ) from None
     else:
-        first = next((f[0] for f in found.values() if f is not None), None)
+        first = next((f[0] for f in found.values()), None)
         identity = first or expected
     for path, seen in found.items():
-        if seen is not None and _newer(seen[1]):
+        if _newer(seen[1]):
             raise InputError(
                 [
                     FieldIssue(
@@ -244,16 +265,16 @@ def _settle_identity(
         files, identity = [], expected
     keep = []
     for path in files:
-        seen = found.get(path)
-        if identity is not None and seen is not None and seen[0] != identity:
+        other = found.get(path)
+        if identity is not None and other is not None and other[0] != identity:
             moved = _set_aside(folder, [path], "foreign")
             start.set_aside += moved
             log.warning(
                 "%s belongs to another session (spacecraft %s, problem "
                 "%s...): set aside in %s, never resumed",
                 path.name,
-                seen[0].spacecraft,
-                seen[0].problem_sha256[:12],
+                other[0].spacecraft,
+                other[0].problem_sha256[:12],
                 moved[0].parent,
             )
             continue
@@ -300,28 +321,6 @@ def _finish_truncated(path: Path) -> bool:
     return True
 
 
-def _opening(path: Path) -> tuple[bool, bool]:
-    """(has the node's settings, opens with a snapshot), from its head.
-
-    Only the first messages are read: a journal file starts with the
-    settings, then (written by ``--state``) the engine's snapshot.
-    """
-    from ..wire import topics
-    from .reader import iter_messages
-
-    has_config = False
-    try:
-        for message in iter_messages(path):
-            if message.topic.endswith("/" + topics.NODE_INFO):
-                has_config = True
-                continue
-            opens = message.topic.endswith("/" + topics.SNAPSHOT)
-            return has_config, has_config and opens
-    except (ValueError, OSError):
-        return False, False
-    return has_config, False
-
-
 def open_state(
     folder: Path,
     *,
@@ -358,7 +357,8 @@ def open_state(
     files = journal_files(folder)
     start = StateStart(next_journal=folder / "journal-0001.mcap")
     every = files
-    files = _settle_identity(folder, files, start, identity, new_problem)
+    heads = {path: _head(path) for path in files}
+    files = _settle_identity(folder, heads, start, identity, new_problem)
     if not files:
         if every:
             start.next_journal = (
@@ -371,14 +371,13 @@ def open_state(
                 start.recovered.append(path)
         except OSError as error:  # a full disk: read it as it is
             log.error("cannot finish %s (%s): read as it is", path, error)
-    # The newest file that opens with a snapshot, and what came after it.
-    heads = [_opening(path) for path in files]
-    base = max((i for i, (_, opens) in enumerate(heads) if opens), default=0)
-    readable = [
-        path
-        for path, (config, _) in list(zip(files, heads, strict=True))[base:]
-        if config
-    ]
+    # The newest file that opens with a snapshot, and what came after it
+    # (a file's head is the same once a truncated one is finished).
+    base = max(
+        (i for i, p in enumerate(files) if heads[p].opens_with_snapshot),
+        default=0,
+    )
+    readable = [p for p in files[base:] if heads[p].has_config]
     if readable:
         start.rebuilt = rebuild(readable)
     start.next_journal = folder / f"journal-{_run(files[-1]) + 1:04d}.mcap"
