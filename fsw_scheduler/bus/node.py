@@ -311,13 +311,9 @@ class SchedulerNode(NodeOutputs):
         self._term_payload = messages.encode(
             messages.Term(term, self.config.node_id or "", reason)
         )
-        key = self.topics.key(topics.TERM)
-        self._journal.write(key, self._term_payload)
-        event = self._decoder.event(key, self._term_payload)
-        assert event is not None
-        # Not rotated yet: the file's head must hold what the node says
-        # first (replay expects a resumed node's status in its file).
-        self._run(self.engine.step(event, self._now()), rotate=False)
+        self._on_sample(
+            "term", self.topics.key(topics.TERM), self._term_payload
+        )
         return term
 
     def close(self, timeout: float = 10.0) -> None:

@@ -23,6 +23,7 @@ from ..runtime.policy import node_info
 from ..wire import messages, topics
 
 if TYPE_CHECKING:
+    import threading
     from collections.abc import Callable
 
     from ..engine.core import Engine
@@ -70,6 +71,7 @@ class NodeOutputs:
     _wall_ns: Callable[[], int]
     _publish_failures: int
     _publish_failures_in_a_row: int
+    _thread: threading.Thread | None
     _fault_said: bool = False
     _fault_retry: float = 0.0
 
@@ -79,7 +81,7 @@ class NodeOutputs:
     def _execute(self, command: Command) -> None:
         raise NotImplementedError
 
-    def _run(self, commands: list[Command], *, rotate: bool = True) -> None:
+    def _run(self, commands: list[Command]) -> None:
         """Carry out a step's commands: journal, then solves, then the bus.
 
         The step's outputs (and what the annotator derives from each) are
@@ -142,7 +144,7 @@ class NodeOutputs:
             self._put(suffix, payload)
         if self._durable:
             self._watch_journal()
-        if self._durable and rotate and self._journal.fault is None:
+        if self._durable and self._journal.fault is None:
             self._maybe_rotate()
 
     def _watch_journal(self) -> None:
@@ -216,6 +218,10 @@ class NodeOutputs:
         recorder = self._journal.recorder
         limit = self._journal_max_bytes
         if recorder is None or limit is None or recorder.size < limit:
+            return
+        if self._thread is None:
+            # Still starting: the file's head must hold what the node says
+            # first (replay expects a resumed node's status in its file).
             return
         path = recorder.rotate()
         log.info("journal continues in %s", path)
