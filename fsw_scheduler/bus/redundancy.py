@@ -284,7 +284,7 @@ class Redundancy:
         actives = {m: t for m, t in actives.items() if m in members}
         if not actives:
             return None
-        best = min(actives, key=lambda m: (-actives[m], order(m)))
+        best = min(actives, key=lambda m: _precedence(m, actives[m]))
         return best, actives[best]
 
     def candidate(self, idle_s: float) -> Member:
@@ -441,9 +441,7 @@ def serve(
             elif isolated:
                 # Back on the bus: learn who commands before deciding.
                 isolated = False
-                _look(stop, discovery_s)
-                redundancy.refresh(max(1.0, discovery_s))
-                idle_since = time.monotonic()
+                idle_since = _reverify(stop, redundancy, discovery_s)
                 continue
         current = redundancy.commander()
         if current is not None:
@@ -485,9 +483,7 @@ def serve(
             reason = node.stood_down
             own = _stand_down(redundancy, node, None, None)
             node, standing_by_for = None, False
-            _look(stop, discovery_s)  # re-verify before commanding again
-            redundancy.refresh(max(1.0, discovery_s))
-            idle_since = time.monotonic()
+            idle_since = _reverify(stop, redundancy, discovery_s)
             continue
         if node is None:
             current = redundancy.commander()
@@ -514,10 +510,25 @@ def serve(
     return node
 
 
+def _precedence(member: Member, term: int) -> tuple[int, int, int, str]:
+    """Sort key of active members: the higher term first (it took over
+    from the other, its state is the newer), then the better order."""
+    return (-term, *order(member))
+
+
 def _beats(one: tuple[Member, int], other: tuple[Member, int]) -> bool:
-    """Whether active ``one`` outranks ``other`` (member, term): the
-    higher term, then the better order."""
-    return (-one[1], order(one[0])) < (-other[1], order(other[0]))
+    """Whether active ``one`` outranks ``other`` (member, term)."""
+    return _precedence(*one) < _precedence(*other)
+
+
+def _reverify(
+    stop: threading.Event, redundancy: Redundancy, discovery_s: float
+) -> float:
+    """Learn who commands before deciding (back on the bus, or after
+    standing down): watch, then ask the bus; the new idle clock start."""
+    _look(stop, discovery_s)
+    redundancy.refresh(max(1.0, discovery_s))
+    return time.monotonic()
 
 
 def _look(stop: threading.Event, seconds: float) -> None:
