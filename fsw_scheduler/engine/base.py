@@ -249,23 +249,16 @@ class EngineState:
         self, out: list[Command], before: int | None = None
     ) -> None:
         """Dispatch what is due; what a clock jump from ``before`` passed
-        over whole is missed instead (never commanded out of its time)."""
+        the start of is missed instead (never commanded out of its time)."""
         schedule = self.schedule
         if schedule is None or self.now is None or self.plan_id is None:
             return
-        sent: list[str] = []
         due, missed = self._dispatches.due(
             schedule.plan, schedule.continuing, self.now, before
         )
         for activity in missed:
-            # A clock jump passed over its start: commanding it now would
-            # fly it out of its time.
             schedule = schedule.with_report(
                 ExecutionReport(activity.task, "missed", self.now)
-            )
-            self.schedule = schedule
-            self._queue.append(
-                QueuedChange("levels", at=self.now, trigger="missed")
             )
             out.append(
                 Publish(
@@ -278,8 +271,11 @@ class EngineState:
                     ),
                 )
             )
+        if missed:
+            self._queue.append(
+                QueuedChange("levels", at=self.now, trigger="missed")
+            )
         for activity in due:
-            sent.append(activity.task)
             late = activity.start < self.now
             self._count(
                 dispatches=self._counters.dispatches + 1,
@@ -294,14 +290,19 @@ class EngineState:
                     self.term,
                 )
             )
-        if sent:
+        if due:
             # Commanded means started: a replan at this same unit (here, or
             # on a node that takes over before the first report) must not
             # move it and command it a second time.
-            self.schedule = msgspec.structs.replace(
+            schedule = msgspec.structs.replace(
                 schedule,
-                continuing=tuple(dict.fromkeys((*schedule.continuing, *sent))),
+                continuing=tuple(
+                    dict.fromkeys(
+                        (*schedule.continuing, *(a.task for a in due))
+                    )
+                ),
             )
+        self.schedule = schedule
 
     def _check_report_timeouts(self, out: list[Command]) -> None:
         timeout = self.config.report_timeout
