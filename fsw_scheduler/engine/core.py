@@ -35,7 +35,7 @@ from ..replan.triggers import (
     drift,
 )
 from ..wire import topics
-from .dispatch import Dispatches, dispatch_message
+from .dispatch import Dispatches, dispatch_id, dispatch_message
 from .events import (
     ClockStalled,
     Command,
@@ -524,14 +524,10 @@ class Engine(SolveQueue):
                     "dispatch_id", "missing: name the dispatch this answers"
                 )
             return None
-        plan = self._plan_message
-        current = (
-            next((a for a in plan.activities if a.task == task), None)
-            if plan is not None
-            else None
-        )
-        expected = current and f"{task}:{current.start}-{current.end}"
-        if expected and report.dispatch_id != expected:
+        schedule = self.schedule
+        current = schedule.plan.activity(task) if schedule else None
+        expected = dispatch_id(current) if current is not None else None
+        if expected is not None and report.dispatch_id != expected:
             return FieldIssue(
                 "dispatch_id",
                 f"{report.dispatch_id!r} is not the dispatch of {task!r} "

@@ -191,6 +191,12 @@ class Dispatches:
             self.sent.pop(task, None)
 
 
+def dispatch_id(activity: Activity) -> str:
+    """The name of the command that flies ``activity``:
+    ``<task>:<start>-<end>``, the same for as long as it keeps its place."""
+    return f"{activity.task}:{activity.start}-{activity.end}"
+
+
 def dispatch_message(
     plan_id: int,
     problem: Problem,
@@ -214,7 +220,7 @@ def dispatch_message(
             uses=dict(sorted(problem.task(task).uses.items())),
             dispatched_at=dispatched_at,
             late=activity.start < dispatched_at,
-            dispatch_id=f"{task}:{activity.start}-{activity.end}",
+            dispatch_id=dispatch_id(activity),
             term=term,
         ),
     )
