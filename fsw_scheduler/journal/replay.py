@@ -685,7 +685,11 @@ def replay_solve(
     budget_cut = any(
         b.cause == "not_analysed" for b in (*plan.why, *recorded.why)
     )
-    if budget_cut and plan.replace(why=()) == recorded.replace(why=()):
+    # The same plan: timings aside (stats), and the explanation aside.
+    same = plan.replace(why=(), stats=None) == recorded.replace(
+        why=(), stats=None
+    )
+    if budget_cut and same:
         if plan.why != recorded.why:
             report.notes.append(
                 f"solve {command.solve_id}: same plan; its explanation was "

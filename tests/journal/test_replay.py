@@ -419,3 +419,31 @@ def test_a_session_whose_solves_stop_at_their_limit_verifies(
     report = verify(journal)
     assert report.identical, report.summary()
     assert any("stopped at its limit" in n for n in report.notes), report.notes
+
+
+def test_a_budget_cut_explanation_is_taken_from_the_record() -> None:
+    """Tests replay_solve on a recorded plan whose explanation ran out of
+    its budget: the same plan (timings aside) gets the recorded ``why``,
+    and the report says so."""
+    from fsw_scheduler.engine.events import StartSolve
+    from fsw_scheduler.journal.replay import VerifyReport, replay_solve
+    from fsw_scheduler.model.plan import Blocker, SolverStats
+    from fsw_scheduler.runtime.config import NodeConfig
+    from fsw_scheduler.runtime.policy import run_solve
+    from fsw_scheduler.wire import messages
+
+    from ..engine.driver import paper
+
+    command = StartSolve(1, "initial", paper(), None)
+    config = NodeConfig(explain=False)
+    recorded = run_solve(config, command).replace(
+        why=(Blocker("SetPositionX", "not_analysed", "out of time"),),
+        stats=SolverStats("cbc", wall_s=99.0),
+    )
+    record = messages.SolveRecord(
+        1, "initial", "", paper(), recorded.status, result=recorded
+    )
+    report = VerifyReport()
+    plan = replay_solve(run_solve, config, command, {1: record}, report)
+    assert plan.why == recorded.why
+    assert any("cut by its time budget" in n for n in report.notes)
