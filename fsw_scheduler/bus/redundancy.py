@@ -74,6 +74,10 @@ POLL_S = 0.1
 #: Seconds a best member may stay inactive, with no one commanding,
 #: before the next one takes its place.
 PASS_OVER_S = 3.0
+#: Seconds no one must be seen commanding, with a link all along, before a
+#: node takes command: Zenoh may drop the tokens of a closed link before
+#: it drops the link, and a blind node must not read that as a death.
+CONFIRM_S = 0.3
 JSON = zenoh.Encoding.APPLICATION_JSON
 
 
@@ -404,6 +408,7 @@ def serve(
     stop: threading.Event,
     discovery_s: float,
     lease: Callable[[], Lease] | None = None,
+    settle_s: float = 0.0,
 ) -> SchedulerNode | None:
     """Command or stand by until ``stop``; returns the last node run.
 
@@ -424,6 +429,11 @@ def serve(
         standing down.
     lease
         Builds the lease a commanding node keeps (None: none).
+    settle_s
+        After a time without any link, how long a standby watches the bus
+        again before it may take command (the Zenoh lease: a router that
+        restarts meshes with the others within it, and a commander seen
+        through it then is no commander lost).
     """
     _look(stop, discovery_s)
     node: SchedulerNode | None = None
@@ -432,6 +442,8 @@ def serve(
     own: EngineSnapshot | None = None  # this node's state, stood down
     reason = ""  # why this node stood down, until it has said so
     idle_since = time.monotonic()
+    hold_until = 0.0  # no command before (monotonic seconds)
+    seen_commander = False
     isolated = False
     while not stop.is_set():
         if node is None and redundancy.seen_others:
@@ -442,13 +454,19 @@ def serve(
                 # Back on the bus: learn who commands before deciding.
                 isolated = False
                 idle_since = _reverify(stop, redundancy, discovery_s)
+                hold_until = idle_since + settle_s
                 continue
         current = redundancy.commander()
         if current is not None:
             idle_since = time.monotonic()
+        elif seen_commander:
+            # The commander vanished: confirm it, links and all.
+            hold_until = max(hold_until, time.monotonic() + CONFIRM_S)
+        seen_commander = current is not None
         if (
             node is None
             and current is None
+            and time.monotonic() >= hold_until
             and _may_command(redundancy, time.monotonic() - idle_since)
         ):
             state, event = _newest(redundancy, own, was_standby)
@@ -490,7 +508,8 @@ def serve(
             active = current[0] if current else None
             # A stand-down is said once a link is there to carry it.
             say = reason if reason and has_links(redundancy.session) else ""
-            if active != standing_by_for or say:
+            confirming = active is None and time.monotonic() < hold_until
+            if (active != standing_by_for and not confirming) or say:
                 if active is not None:
                     redundancy.ask_snapshot()
                 redundancy.publish_standby(

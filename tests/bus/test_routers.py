@@ -40,6 +40,11 @@ config.insert_json5("mode", '"router"')
 config.insert_json5("listen/endpoints", json.dumps([f"tcp/127.0.0.1:{port}"]))
 config.insert_json5("connect/endpoints", json.dumps(connect))
 config.insert_json5("scouting/multicast/enabled", "false")
+# Retry a missing router often: the tests decide when the mesh forms.
+config.insert_json5(
+    "connect/retry",
+    "{period_init_ms: 100, period_max_ms: 100, period_increase_factor: 1}",
+)
 session = zenoh.open(config)
 print("router up", flush=True)
 threading.Event().wait()
@@ -56,6 +61,31 @@ def _router(port: int, connect: list[str]) -> subprocess.Popen:
     assert process.stdout is not None
     assert process.stdout.readline().strip() == "router up"
     return process
+
+
+#: Seconds the restarted router stays apart from the other, with standbys
+#: on it: longer than re-verifying takes, shorter than the settle time.
+MESH_LATE_S = 1.5
+
+
+def _wait_members_on(port: int, names: tuple[str, ...]) -> None:
+    """Wait until the schedulers ``names`` are on the router at ``port``
+    (their member tokens answer a liveliness query through it)."""
+    config = loopback_config(listen=None, connect=[f"tcp/127.0.0.1:{port}"])
+    config.insert_json5("mode", '"client"')
+    deadline = time.monotonic() + 60
+    with zenoh.open(config) as session:
+        while time.monotonic() < deadline:
+            seen = {
+                str(reply.ok.key_expr).rsplit("/", 1)[-1]
+                for reply in session.liveliness().get(
+                    "fsw/*/scheduler/nodes/**"
+                )
+                if reply.ok is not None
+            }
+            if set(names) <= seen:
+                return
+    raise AssertionError(f"{names} never came back on the router ({seen})")
 
 
 @pytest.mark.slow
@@ -107,14 +137,21 @@ def test_three_spacecraft_through_two_routers(tmp_path: Path) -> None:
             )
             assert took.term > 1
             # A router dies with every standby but sat2's commander behind
-            # it, and comes back.
+            # it, and comes back; it meshes with R1 only a while after the
+            # standbys are back on it, seeing no commander (a router that
+            # restarts before the link to the other computer is up).
             routers["R2"].kill()
             routers["R2"].wait(10)
             if routers["R2"].stdout is not None:
                 routers["R2"].stdout.close()
             for sc in ("sat1", "sat3"):
                 ground[sc].tick(1)
-            routers["R2"] = _router(p2, [f"tcp/127.0.0.1:{p1}"])
+            mesh = free()
+            routers["R2"] = _router(p2, [f"tcp/127.0.0.1:{mesh}"])
+            _wait_members_on(p2, ("sat1-B", "sat3-B"))
+            # Longer than a standby back on the bus takes to re-verify.
+            time.sleep(MESH_LATE_S)
+            relay = partition.SilentLink(p1, port=mesh)
             ground["sat2"].wait_scheduler(60)
             deadline = time.monotonic() + 60
             for sc in SPACECRAFT:
@@ -143,6 +180,7 @@ def test_three_spacecraft_through_two_routers(tmp_path: Path) -> None:
             assert ground["sat3"].query_status().term == 1
             for client in ground.values():
                 client.close()
+            relay.close()
     finally:
         for process in nodes.values():
             process.kill()

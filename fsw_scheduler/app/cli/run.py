@@ -201,6 +201,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     stop,
                     config.discovery,
                     lambda: Lease(lease_s, lambda: has_links(session)),
+                    settle_s=lease_s,
                 )
             finally:
                 if node is not None:
