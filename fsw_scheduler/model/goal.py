@@ -16,7 +16,14 @@ import msgspec
 
 from ..errors import FieldIssue, InputError
 from . import problem as model
-from .problem import Precedence, Problem, Resources, Task, decode_strict
+from .problem import (
+    Precedence,
+    Problem,
+    Resources,
+    Task,
+    read_strict,
+)
+from .strict import under
 
 __all__ = ["Goal", "GoalTask", "decode_goal", "validate_goal"]
 
@@ -184,8 +191,13 @@ def decode_goal(data: bytes | str) -> Goal:
         With one :class:`FieldIssue` per problem, paths naming the field
         (``tasks[0].length``).
     """
-    goal = decode_strict(data, Goal, "goal")
-    issues = validate_goal(goal)
-    if issues:
+    goal, issues, bad = read_strict(data, Goal, "goal")
+    if goal is not None:
+        issues += [
+            issue
+            for issue in validate_goal(goal)
+            if not under(issue.path, bad)
+        ]
+    if issues or goal is None:
         raise InputError(issues, "goal")
     return goal

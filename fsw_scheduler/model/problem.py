@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any, Literal, TypeVar
 import msgspec
 
 from ..errors import FieldIssue, InputError
+from . import strict
 
 if TYPE_CHECKING:
     from collections.abc import Iterable, Iterator, Mapping
@@ -374,21 +375,54 @@ def _decoder(kind: type[T]) -> msgspec.json.Decoder[T]:
     return decoder
 
 
-def decode_strict(data: bytes | str, kind: type[T], what: str) -> T:
-    """Decode JSON into ``kind``, raising InputError naming the field.
+def read_strict(
+    data: bytes | str, kind: type[T], what: str
+) -> tuple[T | None, list[FieldIssue], set[str]]:
+    """Parse ``data`` and check it against ``kind`` (:mod:`.strict`).
 
-    A document nested deeper than the decoder's recursion limit (msgspec
-    raises ``RecursionError``, not a ``DecodeError``) is bad input too.
+    Returns
+    -------
+    value, issues, bad
+        ``value`` is the decoded document when ``issues`` is empty;
+        otherwise a stand-in with every bad part set aside (for the
+        semantic rules to run on the rest; never to be used), or None.
+        ``bad`` holds the paths of the issues: semantic findings at or
+        under them are about stand-ins.
     """
     try:
-        return _decoder(kind).decode(data)
-    except (msgspec.ValidationError, msgspec.DecodeError) as error:
-        raise InputError([_msgspec_issue(error, data)], what) from None
+        raw = msgspec.json.decode(data)
+    except msgspec.DecodeError as error:
+        issue = strict.syntax_issue(error, data)
+        return None, [issue], {""}
     except RecursionError:
-        raise InputError(
-            [FieldIssue("", f"{MAX_DEPTH_NOTE} (recursion limit reached)")],
-            what,
-        ) from None
+        issue = FieldIssue("", f"{MAX_DEPTH_NOTE} (recursion limit reached)")
+        return None, [issue], {""}
+    issues = strict.shape_issues(raw, kind)
+    if issues:
+        return (
+            strict.repaired(raw, kind, issues),
+            issues,
+            {issue.path for issue in issues},
+        )
+    try:
+        return msgspec.convert(raw, kind), [], set()
+    except msgspec.ValidationError as error:  # a rule in __post_init__
+        issue = _msgspec_issue(error, data)
+        return None, [issue], {issue.path}
+
+
+def decode_strict(data: bytes | str, kind: type[T], what: str) -> T:
+    """Decode JSON into ``kind``, raising InputError naming every mistake.
+
+    Unknown fields are mistakes (with the closest known name), as are
+    wrong types, values outside their declared range or enumeration, and
+    missing fields: all of them, in one pass (:mod:`.strict`). A document
+    nested deeper than the decoder's recursion limit is bad input too.
+    """
+    value, issues, _ = read_strict(data, kind, what)
+    if issues or value is None:
+        raise InputError(issues, what)
+    return value
 
 
 def decode_problem(data: bytes | str, *, allow_empty: bool = False) -> Problem:
@@ -412,9 +446,14 @@ def decode_problem(data: bytes | str, *, allow_empty: bool = False) -> Problem:
     InputError
         With one :class:`FieldIssue` per problem found.
     """
-    problem = decode_strict(data, Problem, "problem")
-    issues = validate_problem(problem, allow_empty=allow_empty)
-    if issues:
+    problem, issues, bad = read_strict(data, Problem, "problem")
+    if problem is not None:
+        issues += [
+            issue
+            for issue in validate_problem(problem, allow_empty=allow_empty)
+            if not strict.under(issue.path, bad)
+        ]
+    if issues or problem is None:
         raise InputError(issues, "problem")
     return problem
 

@@ -117,13 +117,13 @@ def test_plain_form_encodes_as_before() -> None:
         ),
         (
             {"max": 10},
-            "resources.consumable.battery",
-            "missing required field `initial`",
+            "resources.consumable.battery.initial",
+            "missing required field",
         ),
         (
             {"initial": "8"},
             "resources.consumable.battery.initial",
-            "got `str`",
+            "got a string",
         ),
         (-1, "resources.consumable.battery", ">= 0"),
     ],

@@ -137,25 +137,38 @@ def test_liveliness_token_follows_the_node(
     assert [s for s in replies if s is not None] == []
 
 
-def test_unknown_fields_are_ignored(started: SchedulerHarness) -> None:
-    """Tests that a goal with unknown extra fields is still accepted."""
+def test_unknown_fields_are_rejected_and_named(
+    started: SchedulerHarness,
+) -> None:
+    """Tests that a goal, a report and a level with fields the scheduler
+    does not understand are each rejected, every unknown field named with
+    the closest known one, and the current plan keeps running."""
     h = started
-    goal = ping_goal("future", "Later", priority="high", meta={"v": 2})
-    goal["tasks"][0]["colour"] = "blue"
+    before = h.query_plan()
+    goal = ping_goal("future", "Later", priority="high")
+    goal["tasks"][0]["feasable_interval"] = [10, 20]
     h.publish_goal(goal)
-    plan = h.wait_plan(lambda p: "future" in p.goals)
-    assert "Later" in {a.task for a in plan.activities} | set(plan.unscheduled)
-    assert h.wait_status(lambda s: s.event == "goal_accepted").goal_id == (
-        "future"
+    status = h.wait_status(lambda s: s.event == "goal_rejected")
+    reasons = {issue.path: issue.reason for issue in status.errors}
+    assert status.goal_id == "future"
+    assert "priority" in reasons
+    assert (
+        "did you mean 'feasible_interval'?"
+        in (reasons["tasks[0].feasable_interval"])
     )
     h.tick(1)
-    h.report("SetPositionX", "completed", 1, key_task=None)
+    h.put(
+        h.topics.activity_report("SetPositionX"),
+        {"task": "SetPositionX", "state": "completed", "at": 1, "colour": 1},
+    )
     h.put(
         h.topics.resource_level("battery"),
         {"resource": "battery", "level": 18.0, "at": 1, "unit": "Ah"},
     )
     h.settle(1)
-    assert h.query_status().counters.inputs_rejected == 0
+    counters = h.query_status().counters
+    assert (counters.goals_rejected, counters.inputs_rejected) == (1, 2)
+    assert h.query_plan().plan_id == before.plan_id
 
 
 # -- bad input never crashes and never loses the plan -------------------------

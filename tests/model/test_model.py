@@ -126,8 +126,11 @@ def test_tight_cycle_that_holds_is_accepted() -> None:
     ("text", "path"),
     [
         (b'{"horizon": "ten", "tasks": []}', "horizon"),
-        (b'{"tasks": []}', ""),
-        (b'{"horizon": 5, "tasks": [{"id": "a", "length": 1}]}', "tasks[0]"),
+        (b'{"tasks": []}', "horizon"),
+        (
+            b'{"horizon": 5, "tasks": [{"id": "a", "length": 1}]}',
+            "tasks[0].delay_cost",
+        ),
         (
             b'{"horizon": 5, "tasks": [{"id": "a", "length": 1, '
             b'"delay_cost": 1, "schedule_cost": 1, "preemption": "maybe"}]}',

@@ -83,10 +83,14 @@ def test_contract_examples_decode() -> None:
     assert dispatch.uses["battery"] == -10
 
 
-def test_unknown_fields_are_ignored() -> None:
-    """Tests that newer senders' extra fields do not break decoding."""
-    clock = messages.decode_input("clock", b'{"now": 3, "source": "gps"}')
-    assert clock == messages.Clock(3)
+def test_unknown_fields_of_inputs_are_rejected() -> None:
+    """Tests that a field the scheduler does not understand is refused,
+    named, with the closest known field."""
+    with pytest.raises(messages.InputError) as info:
+        messages.decode_input("clock", b'{"nwo": 3}')
+    paths = {issue.path: issue.reason for issue in info.value.issues}
+    assert "did you mean 'now'?" in paths["nwo"]
+    assert paths["now"] == "missing required field"
 
 
 def test_oversized_payload_is_rejected() -> None:
