@@ -524,9 +524,15 @@ class Engine(SolveQueue):
                     "dispatch_id", "missing: name the dispatch this answers"
                 )
             return None
+        # The dispatch as it was sent: a replan re-bases a running
+        # activity to start now, but its dispatch keeps its id.
+        sent = self._dispatches.sent.get(task)
         schedule = self.schedule
         current = schedule.plan.activity(task) if schedule else None
-        expected = dispatch_id(current) if current is not None else None
+        if sent is not None:
+            expected: str | None = f"{task}:{sent[0]}-{sent[1]}"
+        else:
+            expected = dispatch_id(current) if current is not None else None
         if expected is not None and report.dispatch_id != expected:
             return FieldIssue(
                 "dispatch_id",

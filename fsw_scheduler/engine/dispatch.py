@@ -146,9 +146,14 @@ class Dispatches:
         return out
 
     def report(self, task: str, state: Lifecycle) -> None:
-        """A report on ``task``: its dispatch no longer waits for one."""
+        """A report on ``task``: its dispatch no longer waits for one.
+
+        What was sent stays while the activity runs: its reports answer
+        that dispatch, though a replan re-bases the activity to start now.
+        """
         self.dispatched.pop(task, None)
-        self.sent.pop(task, None)
+        if state not in LIVE:
+            self.sent.pop(task, None)
         self.lifecycle[task] = state
 
     def note(self, task: str, state: Lifecycle) -> None:

@@ -45,6 +45,7 @@ from .events import (
     SolveFailed,
     StartExplain,
 )
+from .overtaken import keep_commanded
 from .snapshot import PendingSolve, QueuedChange
 
 if TYPE_CHECKING:
@@ -113,6 +114,10 @@ class SolveQueue(EngineState):
         if pending.stage == "shed" and plan.status.has_plan:
             self._start_degraded(pending, plan, out)
             return
+        if adopted and pending.replan is not None:
+            kept, reason = self._keep_commanded(pending, plan, out)
+            adopted = kept is not None
+            plan = kept or plan
         if not adopted:
             self._solve_without_plan(pending, reason, out)
             return
@@ -155,6 +160,45 @@ class SolveQueue(EngineState):
             # The old plan dispatched while this one was being computed for
             # an earlier time: replan from what really happened.
             self._queue.append(QueuedChange("levels", at=self._clock()))
+
+    def _keep_commanded(
+        self, pending: PendingSolve, plan: Plan, out: list[Command]
+    ) -> tuple[Plan | None, str]:
+        """The plan with what was dispatched while it was computed kept
+        where it was commanded (:mod:`.overtaken`), or None and why."""
+        assert pending.replan is not None
+        continuing = set(pending.replan.continuing)
+        dispatches = self._dispatches
+        # Commanded after the problem was posed: inside its window (what
+        # was commanded before is pinned, or was let go by the rules), and
+        # not preemptible (a replan may move those: that is preemption).
+        steady = {
+            t.id for t in pending.problem.tasks if t.preemption == "none"
+        }
+        commanded = {
+            task: span
+            for task, span in dispatches.sent.items()
+            if task in steady
+            and task not in continuing
+            and span[0] >= pending.problem.start
+            and dispatches.lifecycle.get(task) in ("dispatched", "running")
+        }
+        kept, moved = keep_commanded(pending.problem, plan, commanded)
+        if not moved:
+            return plan, ""
+        if kept is None:
+            return None, (
+                f"it moves {', '.join(moved)}, commanded while it was "
+                "computed, and no plan keeps them there"
+            )
+        out.append(
+            Log(
+                "warning",
+                f"solve {pending.solve_id}: {', '.join(moved)} commanded "
+                "while it was computed; kept where commanded",
+            )
+        )
+        return kept, ""
 
     def _on_solve_failed(self, event: SolveFailed, out: list[Command]) -> None:
         pending = self._pending
