@@ -457,3 +457,120 @@ def test_reports_set_each_solver_against_cpsat() -> None:
     text = report.format_scaling_versus(runs)
     assert "1/0/0" in text  # cbc leaves less out than cpsat
     assert "16.7 %" in text  # (120 - 100) / 120
+
+
+def test_fresh_generator_has_its_shape() -> None:
+    """Tests that the fresh campaign is valid, deterministic and shaped as
+    documented in bench_lib/fresh.py."""
+    fresh = bench_lib("fresh")
+    camp = generator.suite("campaign", 0, "fresh")
+    assert [p.to_json() for p in camp] == [
+        p.to_json() for p in generator.suite("all", 0, "fresh")
+    ]
+    assert {(p.num_tasks, p.horizon) for p in camp} == {
+        (n, h) for n in (15, 20, 25) for h in (336, 1440)
+    }
+    tasks = [t for p in camp for t in p.doc["tasks"]]
+    windows = sum(t.get("feasible_interval") is not None for t in tasks)
+    assert 0.28 < windows / len(tasks) < 0.45
+    kinds = {
+        (e["kind"], e["scope"], (e["offset"] > 0) - (e["offset"] < 0))
+        for p in camp
+        for e in p.doc["precedences"]
+    }
+    assert len(kinds) == 12  # every kind x scope x offset sign
+    for bench in camp:
+        problem = bench.problem()
+        assert len(bench.doc["precedences"]) == bench.num_tasks // 3
+        assert problem.resources.binary == fresh.BINARY_NAMES
+        assert problem.resources.multiple == {"power": 60}
+        mandatory = [t for t in problem.tasks if t.mandatory]
+        assert len(mandatory) == round(0.1 * bench.num_tasks)
+        must = sum(t.uses.get("battery", 0) * t.length for t in mandatory)
+        assert must < fresh.BATTERY
+        assert any(t.uses.get("battery", 0) < 0 for t in problem.tasks)
+    assert camp[0].doc["resources"]["consumable"] == {"battery": 40}
+    quick = generator.suite("quick", 0, "fresh")
+    assert [p.name for p in quick] == ["f15-h336-0"]
+    with pytest.raises(ValueError, match="no 'scaling' suite"):
+        generator.suite("scaling", 0, "fresh")
+
+
+def test_versus_flags_unknown_where_cpsat_planned() -> None:
+    """Tests that the CP-SAT comparison groups by the sizes and horizons
+    run, gives the mean and loudly lists unknowns CP-SAT could plan."""
+    import dataclasses
+
+    def run(solver: str, name: str, wall: float, **over: object) -> object:
+        base = _run(solver, "optimal", 10)
+        return dataclasses.replace(  # type: ignore[type-var]
+            base, problem=name, wall_s=wall, resource_class="mixed", **over
+        )
+
+    runs = [
+        run("cbc", "f20-h336-0", 0.4, num_tasks=20),
+        run("cpsat", "f20-h336-0", 0.1, num_tasks=20),
+        run(
+            "cbc",
+            "f25-h1440-0",
+            20.0,
+            num_tasks=25,
+            horizon=1440,
+            status="unknown",
+            total=None,
+        ),
+        run(
+            "cpsat",
+            "f25-h1440-0",
+            2.0,
+            num_tasks=25,
+            horizon=1440,
+            status="feasible",
+        ),
+    ]
+    text = report.format_versus(runs)
+    rows = {
+        line.split()[1]: line.split()
+        for line in text.splitlines()
+        if line.startswith("cbc ")
+    }
+    assert {"20", "25", "mixed", "H=336", "H=1440", "all"} <= set(rows)
+    # n, medians, ratio, median and worst ratio, mean, proofs, unknowns
+    assert rows["all"][2:] == [
+        "2",
+        "10.200",
+        "1.050",
+        "9.7x",
+        "7.0x",
+        "10x",
+        "10.200",
+        "1/2",
+        "1/2",
+        "1",
+    ]
+    assert rows["H=336"][-1] == "0" and rows["H=1440"][-1] == "1"
+    assert "1 solves unknown where cpsat found a plan" in text
+    assert "!!! cbc unknown on f25-h1440-0" in text
+    assert "(feasible, total 10)" in text
+
+
+def test_bench_refuses_a_suite_the_generator_lacks() -> None:
+    """Tests that --generator fresh --suite scaling exits with code 2."""
+    result = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "tools" / "bench"),
+            "--generator",
+            "fresh",
+            "--suite",
+            "scaling",
+            "--solvers",
+            "cbc",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert result.returncode == 2
+    assert "no 'scaling' suite" in result.stderr

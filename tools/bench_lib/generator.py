@@ -26,6 +26,7 @@ seeded with integers; no set or hash ordering is involved.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import json
 import random
@@ -35,7 +36,7 @@ from typing import Any
 
 from fsw_scheduler.model.problem import Problem, decode_problem
 
-from . import broad
+from . import broad, fresh
 
 CLASSES: tuple[str, ...] = ("none", "binary", "multiple", "consumable")
 CAMPAIGN_SIZES: tuple[int, ...] = (5, 10, 15)
@@ -189,7 +190,30 @@ def quick(seed: int = 0, style: str = "paper") -> list[BenchProblem]:
     ]
 
 
-STYLES: tuple[str, ...] = ("paper", "broad")
+STYLES: tuple[str, ...] = ("paper", "broad", "fresh")
+
+
+def fresh_campaign(
+    seed: int = 0, per_cell: int = fresh.PER_CELL
+) -> list[BenchProblem]:
+    """Return the fresh campaign (:mod:`bench_lib.fresh`), class ``mixed``.
+
+    Sizes x horizons x ``per_cell`` problems, named ``f15-h336-0``,
+    ordered by size, then horizon, then index.
+    """
+    problems = []
+    for size in fresh.SIZES:
+        for horizon in fresh.HORIZONS:
+            for index in range(per_cell):
+                name = f"f{size:02d}-h{horizon}-{index}"
+                own_seed = problem_seed(seed, name)
+                doc = fresh.generate_problem(size, horizon, own_seed)
+                problems.append(
+                    BenchProblem(
+                        name, "campaign", size, "mixed", horizon, own_seed, doc
+                    )
+                )
+    return problems
 
 
 def suite(
@@ -197,10 +221,19 @@ def suite(
 ) -> list[BenchProblem]:
     """Return the problems of suite ``name`` (campaign/scaling/all/quick).
 
-    ``style`` chooses the generator: ``paper`` or ``broad``.
+    ``style`` chooses the generator: ``paper``, ``broad`` or ``fresh``
+    (a campaign only: ``all`` is its campaign, ``quick`` its first
+    problem, and it has no scaling set).
     """
     if style not in STYLES:
         raise ValueError(f"unknown style {style!r}")
+    if style == "fresh":
+        if name in ("campaign", "all"):
+            return fresh_campaign(seed)
+        if name == "quick":
+            first = fresh_campaign(seed, per_cell=1)[0]
+            return [dataclasses.replace(first, suite="quick")]
+        raise ValueError(f"the fresh generator has no {name!r} suite")
     if name == "campaign":
         return campaign(seed, style)
     if name == "scaling":

@@ -137,7 +137,7 @@ def summarize(runs: Sequence[Run]) -> list[tuple[str, list[Row]]]:
             "0.2/0.6/0.9 s)",
             _grouped(
                 camp,
-                CAMPAIGN_SIZES,
+                sorted({*CAMPAIGN_SIZES, *(r.num_tasks for r in camp)}),
                 lambda r: r.num_tasks,
                 lambda k: f"{k} tasks",
                 lambda s, k: _paper(s, int(str(k)), None),
@@ -308,9 +308,11 @@ def _proved(run: Run) -> bool:
 def format_versus(runs: Sequence[Run], reference: str = "cpsat") -> str:
     """Each solver against ``reference`` on the campaign, problem by problem.
 
-    Per size and per class: both medians, their ratio, the median of the
-    per-problem ratios, and how many problems each proved (optimal or
-    infeasible).
+    Per size, per class and (when there are several) per horizon: both
+    medians, their ratio, the median and worst of the per-problem ratios,
+    the solver's mean time, how many problems each proved (optimal or
+    infeasible), and how many the solver left ``unknown`` where the
+    reference found a plan; those are also listed one by one, flagged.
     """
     camp = [r for r in runs if r.suite in ("campaign", "quick")]
     ref = {r.problem: r for r in camp if r.solver == reference}
@@ -327,18 +329,35 @@ def format_versus(runs: Sequence[Run], reference: str = "cpsat") -> str:
             "ratio",
             "median ratio",
             "worst ratio",
+            "mean",
             "proved",
             f"{reference} proved",
+            f"unknown, {reference} planned",
         )
     ]
+    sizes = sorted({r.num_tasks for r in camp})
+    classes = sorted(
+        {r.resource_class for r in camp},
+        key=lambda c: (*CLASSES, c).index(c),
+    )
+    horizons = sorted({r.horizon for r in camp})
     groups: list[tuple[str, Callable[[Run], bool]]] = [
-        (f"{size} tasks", lambda r, k=size: r.num_tasks == k)
-        for size in CAMPAIGN_SIZES
+        (f"{size} tasks", lambda r, k=size: r.num_tasks == k) for size in sizes
     ]
     groups += [
-        (cls, lambda r, k=cls: r.resource_class == k) for cls in CLASSES
+        (cls, lambda r, k=cls: r.resource_class == k) for cls in classes
     ]
+    if len(horizons) > 1:
+        groups += [(f"H={h}", lambda r, k=h: r.horizon == k) for h in horizons]
     groups.append(("all", lambda r: True))
+    lost = [
+        r
+        for r in camp
+        if r.solver != reference
+        and r.problem in ref
+        and r.status == "unknown"
+        and ref[r.problem].status in ("optimal", "feasible")
+    ]
     for solver in others:
         for label, keep in groups:
             mine = [
@@ -364,14 +383,24 @@ def format_versus(runs: Sequence[Run], reference: str = "cpsat") -> str:
                     f"{mine_median / max(ref_median, 1e-4):.1f}x",
                     f"{statistics.median(ratios):.1f}x",
                     f"{max(ratios):.0f}x",
+                    fmt(statistics.mean(r.wall_s for r in mine)),
                     f"{sum(_proved(r) for r in mine)}/{len(mine)}",
                     f"{sum(_proved(r) for r in theirs)}/{len(theirs)}",
+                    str(sum(r in lost for r in mine)),
                 )
             )
+    flags = [
+        f"!!! {r.solver} unknown on {r.problem} (seed {r.seed}, "
+        f"{r.wall_s:.2f} s) where {reference} found a plan "
+        f"({ref[r.problem].status}, total {ref[r.problem].total})"
+        for r in lost
+    ]
     return "\n".join(
         [
             f"== campaign against {reference}, problem by problem",
             *aligned(cells, 2),
+            f"{len(lost)} solves unknown where {reference} found a plan",
+            *flags,
         ]
     )
 

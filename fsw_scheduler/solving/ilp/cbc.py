@@ -18,11 +18,23 @@ makes the limit enforceable on board:
 Starting the process costs a few milliseconds; writing and reading the
 files a few more (tools/bench reports both as solver overhead).
 
-Process lifetime: on Linux CBC asks the kernel to kill it when the thread
-that started it goes (``PR_SET_PDEATHSIG``), so a node killed with
-SIGKILL leaves no CBC running on; and a :class:`Cancel` installed with
+Process lifetime: on Linux the kernel kills CBC when the thread that
+started it goes (``PR_SET_PDEATHSIG``), so a node killed with SIGKILL
+leaves no CBC running on; and a :class:`Cancel` installed with
 :func:`cancel_scope` stops every CBC run of its scope at once (a node
 being stopped), and refuses to start new ones.
+
+The parent-death signal is set by util-linux ``setpriv --pdeathsig KILL``,
+which then execs CBC, so the process is spawned without a ``preexec_fn``:
+Python then uses ``vfork``, where a ``preexec_fn`` forces a full ``fork``
+of the interpreter, and runs no Python code in the child. That code was
+not only slow: a child forked while another thread held a lock could hang
+before its exec (1 run in 400 of a trivial model, cut by the deadline
+as "no solution"). Without ``setpriv`` the ``preexec_fn`` is the
+fallback. The signal cannot reach a CBC whose parent died in the instant
+before ``setpriv`` set it; :func:`sweep_stale_dirs` kills such orphans
+when the next process starts (they read their model from a stale
+directory).
 """
 
 from __future__ import annotations
@@ -33,6 +45,7 @@ import functools
 import logging
 import os
 import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -138,17 +151,38 @@ def sweep_stale_dirs(root: str | None = None) -> list[str]:
     list of str
         The directories removed.
     """
-    import shutil
-
     base = Path(root or tempfile.gettempdir())
     removed = []
     for path in base.glob("fsw-cbc-*-*"):
         pid = path.name.split("-")[2]
         if not pid.isdigit() or _running(int(pid)):
             continue
+        _kill_orphans(str(path) + os.sep)
         shutil.rmtree(path, ignore_errors=True)
         removed.append(str(path))
     return removed
+
+
+def _kill_orphans(prefix: str) -> None:
+    """Kill the processes with an argument under ``prefix`` (Linux).
+
+    A CBC outlives its parent only if the parent died just as it was
+    started, before the parent-death signal was set; its model file is
+    then in the dead parent's directory.
+    """
+    proc = Path("/proc")
+    if not proc.is_dir():
+        return
+    for entry in proc.iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            args = (entry / "cmdline").read_bytes().split(b"\0")
+        except OSError:  # gone, or not ours to read
+            continue
+        if any(arg.startswith(os.fsencode(prefix)) for arg in args):
+            with contextlib.suppress(OSError):
+                os.kill(int(entry.name), signal.SIGKILL)
 
 
 def _running(pid: int) -> bool:
@@ -198,13 +232,47 @@ _PR_SET_PDEATHSIG = 1
 
 
 @functools.cache
+def _setpriv() -> str | None:
+    """util-linux ``setpriv``, when it can set the parent-death signal.
+
+    Asked once per process (``setpriv --help``, a few milliseconds).
+    """
+    if not sys.platform.startswith("linux"):
+        return None
+    found = shutil.which("setpriv")
+    if found is None:
+        return None
+    try:
+        usage = subprocess.run(
+            [found, "--help"],
+            capture_output=True,
+            text=True,
+            timeout=5,
+            check=False,
+        ).stdout
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return found if "--pdeathsig" in usage else None
+
+
+def _guarded(args: list[str]) -> tuple[list[str], Callable[[], None] | None]:
+    """(command, preexec_fn) that start ``args`` to die with this process.
+
+    ``setpriv`` where the system has it, else a ``preexec_fn`` (Linux), else
+    nothing (the deadline and :class:`Cancel` still end CBC).
+    """
+    setpriv = _setpriv()
+    if setpriv is not None:
+        return [setpriv, "--pdeathsig", "KILL", "--", *args], None
+    return args, _die_with_parent()
+
+
+@functools.cache
 def cbc_path() -> str:
     """The CBC executable: PuLP's bundled binary, else ``cbc`` on PATH.
 
     Looked up once per process: finding the bundled binary imports PuLP.
     """
-    import shutil
-
     from pulp.apis import coin_api
 
     bundled = Path(coin_api.pulp_cbc_path)
@@ -310,7 +378,7 @@ class CbcRun:
         of the limit less ``STOP_MARGIN_S``; ``GRACE_S`` later it is
         killed.
     threads
-        CBC threads; 1 keeps results reproducible.
+        CBC threads; 1 (CBC's serial search) keeps results reproducible.
     seed
         Seed of CBC's random choices.
     path
@@ -344,8 +412,13 @@ class CbcRun:
             "timeMode cpu",
             "ratio 0",
             f"allow {ABS_GAP}",
-            f"threads {threads}",
         ]
+        if threads > 1:
+            # Not for one thread: "-threads 1" starts CBC's parallel code
+            # with one worker, which on a trivial model hung in a futex
+            # about 1 run in 300 (until killed at the deadline); CBC's
+            # default is the serial, equally reproducible, search.
+            self.options.append(f"threads {threads}")
         self.interrupted = False
 
     def solve(
@@ -450,13 +523,15 @@ class CbcRun:
         if cancel is not None and cancel.cancelled:
             self.interrupted = True
             return -signal.SIGKILL
+        command, preexec = _guarded(args)
         with open(log_path, "w") as out:
             process = subprocess.Popen(
-                args,
+                command,
                 stdout=out,
                 stderr=out,
                 stdin=subprocess.DEVNULL,
-                preexec_fn=_die_with_parent(),
+                env=self._environment(),
+                preexec_fn=preexec,
             )
             if cancel is not None and not cancel._enter(process):
                 process.kill()
@@ -468,6 +543,10 @@ class CbcRun:
         if cancel is not None and cancel.cancelled:
             self.interrupted = True
         return process.returncode
+
+    def _environment(self) -> dict[str, str] | None:
+        """CBC's environment; None inherits this process's."""
+        return None
 
     def _wait(self, process: subprocess.Popen, deadline: float | None) -> None:
         """Wait for CBC; past the deadline interrupt it, then kill it.

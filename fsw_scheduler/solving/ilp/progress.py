@@ -3,11 +3,14 @@
 :class:`WatchedCbcRun` is a :class:`~.cbc.CbcRun` with two additions:
 
 * **Progress.** CBC's log goes to a file, where the C library buffers it
-  until CBC exits. Started through ``stdbuf -oL`` (when the system has
-  it), CBC writes it line by line; a watcher thread reads the new lines
+  until CBC exits. With coreutils' ``libstdbuf`` preloaded (what
+  ``stdbuf -oL`` does, without the extra exec of ``stdbuf`` itself),
+  CBC writes it line by line; a watcher thread reads the new lines
   every :data:`PROGRESS_S` seconds and logs the incumbent, the bound and
   the gap on the ``fsw_scheduler.solver`` logger (the CLI prints it on
-  stderr). Without ``stdbuf`` only the elapsed time is logged.
+  stderr). Where the library is not found next to ``stdbuf``, CBC is
+  started through ``stdbuf``; without either only the elapsed time is
+  logged.
 * **A limit that holds.** CbcRun interrupts CBC shortly before the end of
   its share and kills it :data:`~.cbc.GRACE_S` later, so a CBC that does
   not answer the interrupt (it does not during a long root LP) overran
@@ -20,10 +23,12 @@ from __future__ import annotations
 
 import functools
 import logging
+import os
 import re
 import shutil
 import threading
 import time
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .cbc import GRACE_S, CbcRun
@@ -63,9 +68,48 @@ _BOUND = [
 ]
 
 
+#: Where coreutils installs ``libstdbuf.so``, from ``stdbuf``'s directory
+#: (Debian, Arch; Fedora; Alpine, Homebrew).
+_LIBSTDBUF = (
+    "../libexec/coreutils/libstdbuf.so",
+    "../lib64/coreutils/libstdbuf.so",
+    "../lib/coreutils/libstdbuf.so",
+)
+
+
 @functools.cache
 def _stdbuf() -> str | None:
     return shutil.which("stdbuf")
+
+
+@functools.cache
+def _libstdbuf() -> str | None:
+    """coreutils' ``libstdbuf.so``, the library ``stdbuf`` preloads."""
+    stdbuf = _stdbuf()
+    if stdbuf is None:
+        return None
+    bindir = Path(stdbuf).resolve().parent
+    for relative in _LIBSTDBUF:
+        candidate = (bindir / relative).resolve()
+        if candidate.is_file():
+            return str(candidate)
+    return None
+
+
+def line_buffered(environ: dict[str, str]) -> dict[str, str] | None:
+    """``environ`` with stdout line-buffered as by ``stdbuf -oL``.
+
+    None when ``libstdbuf`` is not found.
+    """
+    library = _libstdbuf()
+    if library is None:
+        return None
+    preload = environ.get("LD_PRELOAD")
+    return {
+        **environ,
+        "LD_PRELOAD": library if not preload else f"{library}:{preload}",
+        "_STDBUF_O": "L",
+    }
 
 
 class LogState:
@@ -186,7 +230,7 @@ class WatchedCbcRun(CbcRun):
         self, args: list[str], log_path: str, deadline: float | None
     ) -> int:
         stdbuf = _stdbuf()
-        if stdbuf is not None:
+        if stdbuf is not None and self._environment() is None:
             args = [stdbuf, "-oL", *args]
         watcher = _Watcher(
             log_path, LogState(self.constant, self.incumbent), self.every_s
@@ -195,6 +239,9 @@ class WatchedCbcRun(CbcRun):
             return super()._run(args, log_path, deadline)
         finally:
             watcher.stop()
+
+    def _environment(self) -> dict[str, str] | None:
+        return line_buffered(dict(os.environ))
 
     def _wait(self, process: subprocess.Popen, deadline: float | None) -> None:
         if deadline is not None and deadline > SHORT_S:

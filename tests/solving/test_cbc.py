@@ -1,0 +1,203 @@
+"""Tests of the CBC child process: its lifetime, spawn and cleanup."""
+
+from __future__ import annotations
+
+import os
+import random
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+
+from fsw_scheduler.solving.ilp import cbc
+from fsw_scheduler.solving.ilp.cbc import CbcRun, sweep_stale_dirs
+from fsw_scheduler.solving.ilp.program import EQ, Program
+from fsw_scheduler.solving.ilp.progress import WatchedCbcRun, line_buffered
+
+from ..factories import ROOT
+
+linux = pytest.mark.skipif(
+    not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)"
+)
+
+#: A market split problem (Cornuejols and Dawande): equalities of random
+#: weights over binaries, which branch and bound takes minutes to refute.
+#: The parent below runs CBC on it under a 60 s limit.
+_PARENT = textwrap.dedent(
+    """
+    import random, sys
+    from fsw_scheduler.solving.ilp import cbc
+    from fsw_scheduler.solving.ilp.program import EQ, Program
+    if sys.argv[1] == "preexec":
+        cbc._setpriv = lambda: None
+    rng = random.Random(7)
+    program = Program()
+    cols = [program.add_column(0, 1, integer=True) for _ in range(40)]
+    for _ in range(5):
+        weights = {c: rng.randint(0, 99) for c in cols}
+        program.add_row(weights, EQ, sum(weights.values()) // 2)
+    program.set_objective({c: 1 for c in cols})
+    cbc.CbcRun(time_limit=60).solve(program)
+    """
+)
+
+
+def _state(pid: int) -> str | None:
+    """(comm, state) of ``pid`` as one string, None once it is gone."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return None
+    comm = stat[stat.index("(") + 1 : stat.rindex(")")]
+    return f"{comm} {stat[stat.rindex(')') + 2]}"
+
+
+def _alive(pid: int) -> bool:
+    state = _state(pid)
+    return state is not None and not state.endswith(" Z")  # zombie: dead
+
+
+def _children(pid: int) -> list[int]:
+    found = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue
+            if int(stat[stat.rindex(")") + 2 :].split()[1]) == pid:
+                found.append(int(entry.name))
+    return found
+
+
+def _until(condition, timeout: float) -> bool:  # type: ignore[no-untyped-def]
+    """Poll ``condition`` every 10 ms for up to ``timeout`` seconds."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if condition():
+            return True
+        time.sleep(0.01)
+    return bool(condition())
+
+
+@linux
+@pytest.mark.parametrize("guard", ["setpriv", "preexec"])
+def test_cbc_dies_when_its_parent_is_killed(guard: str) -> None:
+    """Tests that SIGKILL of the solving process also ends its CBC."""
+    if guard == "setpriv" and cbc._setpriv() is None:
+        pytest.skip("no setpriv with --pdeathsig")
+    parent = subprocess.Popen(
+        [sys.executable, "-c", _PARENT, guard],
+        cwd=ROOT,
+        stdin=subprocess.DEVNULL,
+    )
+    try:
+        solver: list[int] = []
+
+        def cbc_started() -> bool:
+            solver[:] = [
+                pid
+                for pid in _children(parent.pid)
+                if (_state(pid) or "").startswith("cbc ")
+            ]
+            return bool(solver)
+
+        assert _until(cbc_started, 30), "CBC never started"
+        os.kill(parent.pid, signal.SIGKILL)
+        parent.wait(10)
+        assert _until(lambda: not _alive(solver[0]), 10), _state(solver[0])
+    finally:
+        parent.kill()
+        parent.wait()
+
+
+@linux
+def test_sweep_kills_a_cbc_orphan_of_a_dead_parent(tmp_path: Path) -> None:
+    """Tests that a process reading a stale directory is killed with it."""
+    gone = subprocess.Popen([sys.executable, "-c", ""])
+    gone.wait()
+    stale = tmp_path / f"fsw-cbc-{gone.pid}-abc"
+    stale.mkdir()
+    model = stale / "model.mps"
+    model.write_text("")
+    orphan = subprocess.Popen(
+        [sys.executable, "-c", "import time; time.sleep(60)", str(model)]
+    )
+    bystander = subprocess.Popen(
+        [sys.executable, "-c", "import time; time.sleep(60)", str(tmp_path)]
+    )
+    try:
+        assert sweep_stale_dirs(str(tmp_path)) == [str(stale)]
+        assert orphan.wait(10) == -signal.SIGKILL
+        assert bystander.poll() is None
+        assert not stale.exists()
+    finally:
+        for process in (orphan, bystander):
+            process.kill()
+            process.wait()
+
+
+def test_one_thread_runs_cbc_serial_search() -> None:
+    """Tests that CBC's threads option is given only for more than one."""
+    assert not any("threads" in o for o in CbcRun(threads=1).options)
+    assert "threads 2" in CbcRun(threads=2).options
+
+
+def test_cbc_is_spawned_without_python_in_the_child() -> None:
+    """Tests that with setpriv the child runs no preexec_fn (vfork)."""
+    command, preexec = cbc._guarded(["cbc", "model.mps"])
+    if cbc._setpriv() is None:
+        assert command == ["cbc", "model.mps"]
+    else:
+        assert preexec is None
+        assert command[-3:] == ["--", "cbc", "model.mps"]
+        assert "--pdeathsig" in command
+
+
+def test_line_buffering_preloads_libstdbuf_before_others() -> None:
+    """Tests that the environment keeps an existing LD_PRELOAD after it."""
+    env = line_buffered({"LD_PRELOAD": "/lib/other.so", "A": "1"})
+    if env is None:
+        pytest.skip("no libstdbuf")
+    library, other = env["LD_PRELOAD"].split(":")
+    assert library.endswith("libstdbuf.so") and Path(library).is_file()
+    assert other == "/lib/other.so"
+    assert env["_STDBUF_O"] == "L" and env["A"] == "1"
+
+
+def test_watched_cbc_log_is_line_buffered(tmp_path: Path) -> None:
+    """Tests that CBC in the watched environment writes whole lines."""
+    env = WatchedCbcRun()._environment()
+    if env is None:
+        pytest.skip("no libstdbuf")
+    program = Program()
+    rng = random.Random(7)
+    cols = [program.add_column(0, 1, integer=True) for _ in range(40)]
+    for _ in range(5):
+        weights = {c: rng.randint(0, 99) for c in cols}
+        program.add_row(weights, EQ, sum(weights.values()) // 2)
+    program.set_objective({c: 1 for c in cols})
+    (tmp_path / "m.mps").write_text(program.mps())
+    log = tmp_path / "log"
+    with open(log, "w") as out:
+        process = subprocess.Popen(
+            [CbcRun().path, str(tmp_path / "m.mps"), "-sec", "20", "-solve"],
+            stdin=subprocess.DEVNULL,
+            stdout=out,
+            stderr=out,
+            env=env,
+        )
+    try:
+        # Fully buffered, the file grows by 4096-byte blocks only.
+        def midway_line() -> bool:
+            size = log.stat().st_size
+            return process.poll() is None and size % 4096 != 0
+
+        assert _until(midway_line, 10)
+    finally:
+        process.kill()
+        process.wait()
