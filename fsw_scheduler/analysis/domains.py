@@ -15,13 +15,15 @@ precedence ``i -> j`` with gap ``g = length_i + offset``:
   ``earliest_i >= earliest_j - g``.
 
 A task whose range becomes empty can never be scheduled; with scope
-``both`` that empties its partner too. So does a consumer that alone needs
-more of a consumable than the initial level plus everything the other
-tasks could generate before it ends (:func:`_over_budget`), or more than
-the consumable's capacity plus what can be generated while it runs
-(:func:`_over_capacity`). A capacity only loses generation, so a level
-with one is never above the level without it, and the first rule stays
-sound as it is.
+``both`` that empties its partner too. So does a task whose tight
+precedences fix the tasks it needs so that they overlap on a resource or
+contradict (:func:`~fsw_scheduler.analysis.proofs.block_conflicts`). So
+does a consumer that alone needs more of a consumable than the initial
+level plus everything the other tasks could generate before it ends
+(:func:`_over_budget`), or more than the consumable's capacity plus what
+can be generated while it runs (:func:`_over_capacity`). A capacity
+only loses generation, so a level with one is never above the level
+without it, and the first rule stays sound as it is.
 
 :func:`cost_caps` adds a bound of another kind: once a plan that leaves
 nothing out is known, no better plan can start a task later than the delay
@@ -33,6 +35,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import msgspec
+
+from .proofs import block_conflicts
 
 if TYPE_CHECKING:
     from collections.abc import Mapping
@@ -100,6 +104,9 @@ def start_domains(
         high[name] = low[name] - 1
         cause[name] = (kind, why)
         return True
+
+    for name, (kind, why) in block_conflicts(problem).items():
+        kill(name, why, kind)
 
     if problem.resources.consumable:
         following: dict[str, list[tuple[str, int, int]]] = {}

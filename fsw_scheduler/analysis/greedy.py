@@ -39,6 +39,7 @@ from ..model.plan import (
 from .check import check_plan
 from .domains import Domain, start_domains
 from .proofs import forced_tasks, tight_conflicts
+from .supply import supply_sets
 
 if TYPE_CHECKING:
     from ..model.problem import Problem, Task
@@ -228,18 +229,30 @@ def greedy_plan(
         domains,
         seeds | {t.id for t in problem.tasks if t.id not in forced},
     )
+    supplied = supply_sets(problem, domains, forced)
     candidates: list[Plan] = []
     for rule in RULES.values():
         if stop is not None and stop():
             break
-        plan = _rule_plan(
-            problem,
-            rule(problem, domains, forced),
-            domains,
-            seeds,
-            stop=stop,
-            first=forced if rule is _by_deadline_forced_first else None,
-        )
+        # The supply rule tries ever more generators until one places
+        # every mandatory task; the others run once.
+        firsts: list[set[str] | None] = [None]
+        if rule is _by_deadline_forced_first:
+            firsts = [forced]
+        elif rule is _by_supply:
+            firsts = list(supplied)
+        plan = None
+        for first in firsts:
+            plan = _rule_plan(
+                problem,
+                rule(problem, domains, forced),
+                domains,
+                seeds,
+                stop=stop,
+                first=first,
+            )
+            if plan is not None:
+                break
         if plan is None:
             continue
         candidates.append(plan)
@@ -559,6 +572,37 @@ def _by_deadline_forced_first(
     return _by_deadline(problem, domains, forced)
 
 
+def _by_supply(
+    problem: Problem, domains: dict[str, Domain], forced: Set[str]
+) -> Callable[[dict[str, int]], tuple]:
+    """Generators first, then the deadline rule, in two passes.
+
+    The first pass places the forced tasks and the generators they need
+    (:func:`~fsw_scheduler.analysis.supply.supply_sets`), each generator
+    before the consumers, so that a mandatory task that needs more than
+    the initial level finds the charge there; the second pass places the
+    rest.
+    """
+    tasks = {t.id: t for t in problem.tasks}
+    stores = problem.resources.initial_levels
+
+    def key(group: dict[str, int]) -> tuple:
+        members = [tasks[n] for n in group]
+        # Net over the group: a consumer tied to a small generator waits.
+        charges = any(
+            sum(t.uses.get(name, 0) * t.length for t in members) < 0
+            for name in stores
+        )
+        return (
+            charges,
+            any(t.mandatory for t in members),
+            -min(domains[t.id].latest for t in members),
+            sum(t.schedule_cost for t in members),
+        )
+
+    return key
+
+
 Rule = Callable[
     ["Problem", dict[str, Domain], Set[str]],
     Callable[[dict[str, int]], tuple],
@@ -572,6 +616,7 @@ RULES: dict[str, Rule] = {
     "value-rate": _by_value_rate,
     "deadline": _by_deadline,
     "forced-first": _by_deadline_forced_first,
+    "supply-first": _by_supply,
 }
 
 

@@ -26,6 +26,13 @@ without a solver, in time polynomial in their number:
 
 Each proof is reported as :class:`~fsw_scheduler.model.plan.Blocker`\\ s
 naming the tasks and the constraint.
+
+:func:`block_conflicts` proves single tasks impossible instead: the tasks
+that scheduling one task forces in, held at fixed offsets by tight
+precedences, may overlap on a resource or contradict themselves. Those
+tasks get an empty start domain
+(:func:`fsw_scheduler.analysis.domains.start_domains`), so the model never
+holds them and the proof above sees a forced one among them.
 """
 
 from __future__ import annotations
@@ -35,7 +42,7 @@ from typing import TYPE_CHECKING, NamedTuple
 from ..model.plan import Blocker
 
 if TYPE_CHECKING:
-    from collections.abc import Collection, Mapping
+    from collections.abc import Collection, Mapping, Set
 
     from ..model.problem import Precedence, Problem, Task
     from .domains import Domain
@@ -121,6 +128,161 @@ def tight_conflicts(
         parent[root_a] = root_b
         shift[root_a] = off_b + gap - off_a
     return conflicts
+
+
+def block_conflicts(problem: Problem) -> dict[str, tuple[str, str]]:
+    """Tasks that can never be scheduled, with the cause and why.
+
+    Scheduling a task ``x`` schedules its *companions*: the ``before`` of
+    every precedence whose ``after`` is scheduled and the ``after`` of
+    every ``both`` precedence whose ``before`` is. Every precedence with
+    both ends among them then binds, so the tight ones fix the start
+    differences inside each tight-connected *block* of companions (the
+    model's tight rows are exact once both tasks are scheduled, whatever
+    the scope). ``x`` is impossible when a block
+
+    * fixes a start difference in two ways, or breaks a lax precedence
+      between two of its members (``precedence``);
+    * has two members overlapping on a binary resource (``binary``);
+    * has members whose simultaneous uses of a multiple resource exceed
+      its capacity (``multiple``).
+
+    None of this depends on windows or the horizon: it holds for every
+    start, so it is a proof, found in time linear in the precedences per
+    task.
+
+    Returns
+    -------
+    dict[str, tuple[str, str]]
+        Task id to ``(cause, detail)``, in problem task order.
+    """
+    if not any(prec.kind == "tight" for prec in problem.precedences):
+        return {}
+    tasks = {task.id: task for task in problem.tasks}
+    needs: dict[str, list[str]] = {name: [] for name in tasks}
+    for prec in problem.precedences:
+        needs[prec.after].append(prec.before)
+        if prec.scope == "both":
+            needs[prec.before].append(prec.after)
+    found: dict[str, tuple[str, str]] = {}
+    seen: dict[frozenset[str], tuple[str, str] | None] = {}
+    for task in problem.tasks:
+        companions = {task.id}
+        frontier = [task.id]
+        while frontier:
+            for other in needs[frontier.pop()]:
+                if other not in companions:
+                    companions.add(other)
+                    frontier.append(other)
+        key = frozenset(companions)
+        if key not in seen:
+            seen[key] = _block_conflict(problem, tasks, companions)
+        if seen[key] is not None:
+            cause, detail = seen[key]  # type: ignore[misc]
+            found[task.id] = (cause, f"{detail}; scheduling it needs them")
+    return found
+
+
+def _block_conflict(
+    problem: Problem, tasks: Mapping[str, Task], companions: Set[str]
+) -> tuple[str, str] | None:
+    """Why the tight blocks of ``companions`` cannot hold, or None."""
+    clash = tight_conflicts(problem, companions)
+    if clash:
+        prec = clash[0].prec
+        return (
+            "precedence",
+            f"tight precedences contradict: they fix "
+            f"start({prec.after}) - start({prec.before}) to both "
+            f"{clash[0].gap} and "
+            f"{clash[0].implied}",
+        )
+    blocks = _blocks(problem, companions)
+    if not blocks:
+        return None
+    block_of = {name: idx for idx, b in enumerate(blocks) for name in b}
+    for prec in problem.precedences:
+        if prec.kind != "lax" or prec.before not in companions:
+            continue
+        idx = block_of.get(prec.before)
+        if idx is None or block_of.get(prec.after) != idx:
+            continue
+        gap = tasks[prec.before].length + prec.offset
+        fixed = blocks[idx][prec.after] - blocks[idx][prec.before]
+        if fixed < gap:
+            return (
+                "precedence",
+                f"tight precedences fix start({prec.after}) - "
+                f"start({prec.before}) = {fixed}, a lax one needs at "
+                f"least {gap}",
+            )
+    res = problem.resources
+    capacities = {name: 1.0 for name in res.binary}
+    capacities.update(res.multiple)
+    for block in blocks:
+        for name, capacity in capacities.items():
+            users = sorted(
+                (block[n], n) for n in block if tasks[n].uses.get(name, 0) > 0
+            )
+            if len(users) < 2:
+                continue
+            # Sweep the fixed intervals: the use peaks at some start.
+            for offset, _ in users:
+                running = [
+                    n
+                    for start, n in users
+                    if start <= offset < start + tasks[n].length
+                ]
+                total = sum(tasks[n].uses[name] for n in running)
+                if total > capacity + _EPS:
+                    kind = res.kind_of(name) or "multiple"
+                    what = (
+                        f"{' and '.join(running)} overlap on {name}"
+                        if kind == "binary"
+                        else f"{', '.join(running)} use {total:g} {name} "
+                        f"at once, over its capacity {capacity:g}"
+                    )
+                    return (
+                        kind,
+                        f"tight precedences fix the starts of "
+                        f"{', '.join(sorted(block))} so that {what}",
+                    )
+    return None
+
+
+def _blocks(problem: Problem, among: Set[str]) -> list[dict[str, int]]:
+    """Tight-connected groups of ``among`` (two or more tasks), each with
+    its members' start offsets from its first member.
+
+    Only meaningful when :func:`tight_conflicts` finds none among them.
+    """
+    length = {task.id: task.length for task in problem.tasks}
+    links: dict[str, list[tuple[str, int]]] = {}
+    for prec in problem.precedences:
+        if (
+            prec.kind == "tight"
+            and prec.before in among
+            and prec.after in among
+        ):
+            gap = length[prec.before] + prec.offset
+            links.setdefault(prec.before, []).append((prec.after, gap))
+            links.setdefault(prec.after, []).append((prec.before, -gap))
+    blocks: list[dict[str, int]] = []
+    placed: set[str] = set()
+    for task in problem.tasks:
+        if task.id not in links or task.id in placed:
+            continue
+        block = {task.id: 0}
+        frontier = [task.id]
+        while frontier:
+            name = frontier.pop()
+            for other, gap in links[name]:
+                if other not in block:
+                    block[other] = block[name] + gap
+                    frontier.append(other)
+        placed |= block.keys()
+        blocks.append(block)
+    return blocks
 
 
 def infeasibility(

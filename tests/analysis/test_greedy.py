@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+import pytest
 from hypothesis import given, settings
 
 from fsw_scheduler.analysis.check import check_plan
@@ -11,8 +12,9 @@ from fsw_scheduler.analysis.greedy import greedy_plan
 from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.solving.solve import at_lower_bound, best_start, solve
 
-from ..factories import problem_from
+from ..factories import bench_lib, make_task, problem_from
 from ..problems import COMMON, brute_force, decode_doc, problem_docs
+from .fresh import fresh_doc
 
 if TYPE_CHECKING:
     from fsw_scheduler.model.problem import Problem
@@ -288,3 +290,53 @@ def test_stop_keeps_the_trivial_plan() -> None:
     assert plan is not None
     assert check_plan(problem, plan).ok
     assert set(plan.starts()) == {"p", "m"}
+
+
+def test_generators_go_before_a_mandatory_task_that_needs_them() -> None:
+    """Tests that a mandatory task needing more than the initial level
+    gets a start plan: the generators it needs are placed first."""
+    doc = {
+        "horizon": 30,
+        "resources": {"binary": ["cam"], "consumable": {"battery": 10}},
+        "tasks": [
+            make_task("draw", 5, schedule_cost=0, uses={"battery": 4}),
+            make_task("hog", 5, schedule_cost=5, uses={"battery": 2}),
+            make_task("sun", 4, uses={"battery": -3, "cam": 1}),
+            make_task("far", 4, uses={"battery": -3}),
+        ],
+        # far can only charge after draw's latest end: it cannot help.
+        "precedences": [{"before": "draw", "after": "far", "kind": "lax"}],
+    }
+    problem = problem_from(doc)
+    plan = greedy_plan(problem)
+    assert plan is not None and check_plan(problem, plan).ok
+    starts = plan.starts()
+    assert starts["sun"] < starts["draw"] + 5  # charging while it runs
+
+
+@pytest.mark.parametrize("seed", [6, 11, 16, 22, 38, 64])
+def test_start_plan_on_feasible_fresh_problems(seed: int) -> None:
+    """Tests that fresh-shaped problems CP-SAT solves get a start plan
+    that passes the checker (each had none before supply-first)."""
+    horizon = (240, 480, 960, 1440)[seed % 4]
+    problem = problem_from(fresh_doc(10 + seed % 16, horizon, seed))
+    plan = greedy_plan(problem)
+    assert plan is not None and check_plan(problem, plan).ok
+    reference = bench_lib("cpsat").solve_cpsat(problem, time_limit=20)
+    assert reference.status.has_plan
+
+
+def test_start_plans_of_fresh_problems_pass_the_checker() -> None:
+    """Tests that every start plan on fresh-shaped problems (up to 25
+    tasks, H up to 1440) passes the independent checker."""
+    found = 0
+    for seed in range(24):
+        horizon = (240, 480, 960, 1440)[seed % 4]
+        problem = problem_from(fresh_doc(10 + seed % 16, horizon, seed))
+        plan = greedy_plan(problem)
+        if plan is not None:
+            found += 1
+            report = check_plan(problem, plan)
+            assert report.ok, (seed, report)
+            assert plan.objective == report.objective
+    assert found >= 12

@@ -5,12 +5,14 @@ from __future__ import annotations
 import json
 import subprocess
 
+import msgspec
 from hypothesis import given, settings
 
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.analysis.greedy import greedy_plan
 from fsw_scheduler.analysis.proofs import (
+    block_conflicts,
     forced_tasks,
     infeasibility,
     tight_conflicts,
@@ -74,13 +76,14 @@ def test_contradiction_among_forced_tasks_is_infeasible() -> None:
     """Tests that forced tasks in a contradiction make it infeasible.
 
     ``c`` is mandatory; it needs ``a`` and ``b`` (its predecessors), so all
-    three must be scheduled and the tight paths cannot both hold.
+    three must be scheduled and the tight paths cannot both hold: ``c``
+    alone is named, as the task whose needs contradict.
     """
     problem = problem_from(_two_paths(c={"schedule_cost": 0}))
     assert forced_tasks(problem) == {"a", "b", "c"}
     plan = solve(problem)
     assert plan.status is SolveStatus.INFEASIBLE
-    assert {b.task for b in plan.why} == {"a", "c"}
+    assert {b.task for b in plan.why} == {"c"}
     assert all(b.cause == "precedence" for b in plan.why)
     assert "contradict" in plan.why[0].detail
     assert plan.stats is not None and plan.stats.solver == "proof"
@@ -246,3 +249,110 @@ def test_proofs_never_reject_a_feasible_problem(doc: dict) -> None:
     start = greedy_plan(problem)
     if start is not None:
         assert check_plan(problem, start).ok
+
+
+# -- tight blocks that cannot hold ------------------------------------------
+
+
+def _block(kind: str, scope: str = "both", **resources: object) -> dict:
+    """``a -> b`` tight with offset -1: ``b`` starts one unit before ``a``
+    ends, so the two overlap on whatever both use."""
+    uses = {"binary": {"cam": 1}, "multiple": {"power": 4}}[kind]
+    res = {"binary": ["cam"], "multiple": {"power": 6}}[kind]
+    return {
+        "horizon": 20,
+        "resources": {kind: res, **resources},
+        "tasks": [
+            make_task("a", 3, uses=dict(uses)),
+            make_task("b", 2, uses=dict(uses)),
+            make_task("c", 2, uses=dict(uses)),
+        ],
+        "precedences": [_tight("a", "b", -1, scope=scope)],
+    }
+
+
+def test_tight_block_overlapping_on_a_binary_resource_is_left_out() -> None:
+    """Tests that tasks whose tight block overlaps on a binary resource
+    get no start time, the reason naming the resource, and no solve."""
+    problem = problem_from(_block("binary"))
+    conflicts = block_conflicts(problem)
+    assert sorted(conflicts) == ["a", "b"]
+    assert conflicts["a"][0] == "binary"
+    assert "a and b overlap on cam" in conflicts["a"][1]
+    domains = start_domains(problem)
+    assert domains["a"].empty and domains["b"].empty
+    assert not domains["c"].empty
+    plan = solve(problem, explain=True)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.starts() == {"c": 0}
+    assert {(b.task, b.cause) for b in plan.why} == {
+        ("a", "binary"),
+        ("b", "binary"),
+    }
+    assert plan.stats is not None and plan.stats.solver == "greedy"
+
+
+def test_at_least_first_block_leaves_the_first_task_free() -> None:
+    """Tests that with scope ``at_least_first`` only the follower is
+    impossible: the first task may run alone."""
+    problem = problem_from(_block("binary", "at_least_first"))
+    assert sorted(block_conflicts(problem)) == ["b"]
+    plan = solve(problem)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert set(plan.starts()) == {"a", "c"}
+
+
+def test_tight_block_over_a_multiple_capacity() -> None:
+    """Tests that block members using more than a multiple resource's
+    capacity at once are impossible, and mandatory ones infeasible."""
+    problem = problem_from(_block("multiple"))
+    conflicts = block_conflicts(problem)
+    assert sorted(conflicts) == ["a", "b"]
+    assert conflicts["b"][0] == "multiple"
+    assert "use 8 power at once, over its capacity 6" in conflicts["b"][1]
+    doc = _block("multiple")
+    doc["tasks"][1]["schedule_cost"] = 0
+    plan = solve(problem_from(doc))
+    assert plan.status is SolveStatus.INFEASIBLE
+    assert plan.stats is not None and plan.stats.solver == "proof"
+    assert [b.cause for b in plan.why] == ["multiple", "multiple"]
+    # Apart by one unit (offset 0) they fit: no proof.
+    doc["precedences"][0]["offset"] = 0
+    assert block_conflicts(problem_from(doc)) == {}
+
+
+def test_block_reaches_through_lax_needs_and_checks_lax_gaps() -> None:
+    """Tests that a block is formed among everything a task needs, lax
+    links included, and that a lax precedence it breaks is a proof."""
+    doc = {
+        "horizon": 30,
+        "tasks": [make_task(n, 2) for n in "abcd"],
+        "precedences": [
+            _tight("a", "b", 0),  # s_b = s_a + 2
+            {"before": "b", "after": "a", "kind": "lax"},  # s_a >= s_b + 2
+            # d needs c (lax), c needs nothing: no block, no proof.
+            {"before": "c", "after": "d", "kind": "lax", "offset": 5},
+        ],
+    }
+    conflicts = block_conflicts(problem_from(doc))
+    assert sorted(conflicts) == ["a", "b"]
+    assert conflicts["a"][0] == "precedence"
+    assert "a lax one needs at least 2" in conflicts["a"][1]
+
+
+@settings(COMMON, max_examples=150)
+@given(doc=problem_docs(max_tasks=4, max_horizon=7))
+def test_block_conflicts_never_remove_a_schedulable_task(doc: dict) -> None:
+    """Tests that no task a block proof removes is in any feasible plan
+    (brute force with that task made mandatory finds none)."""
+    problem = decode_doc(doc)
+    for name in block_conflicts(problem):
+        forced = problem.replace(
+            tasks=tuple(
+                msgspec.structs.replace(t, schedule_cost=0)
+                if t.id == name
+                else t
+                for t in problem.tasks
+            )
+        )
+        assert brute_force(forced) is None, (name, doc)

@@ -420,9 +420,9 @@ def test_limit_bounds_the_whole_call_and_progress_is_logged(
     from fsw_scheduler.solving.ilp import progress
 
     monkeypatch.setattr(progress, "PROGRESS_S", 0.5)
-    # 10 tasks on a busy binary resource: CBC needs over 10 s to prove it.
+    # 15 tasks on a busy binary resource: CBC needs about 5 s to prove it.
     (bench,) = [
-        b for b in generator.campaign(0, "broad") if b.name == "b10-binary-6"
+        b for b in generator.campaign(0, "broad") if b.name == "b15-binary-2"
     ]
     problem = bench.problem()
     caplog.set_level("INFO", logger="fsw_scheduler.solver")
