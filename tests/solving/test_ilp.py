@@ -417,10 +417,12 @@ def test_limit_bounds_the_whole_call_and_progress_is_logged(
     included, logging CBC's progress meanwhile."""
     import time
 
-    from fsw_scheduler.solving.ilp import progress
+    from fsw_scheduler.solving.ilp import model, progress
 
     monkeypatch.setattr(progress, "PROGRESS_S", 0.5)
-    # 10 tasks on a busy binary resource: CBC needs over 10 s to prove it.
+    # 10 tasks on a busy binary resource: CBC needs over 10 s to prove it
+    # in the time-indexed model (the disjunctive one takes 0.1 s).
+    monkeypatch.setattr(model, "pick", lambda *_: "time-indexed")
     (bench,) = [
         b for b in generator.campaign(0, "broad") if b.name == "b10-binary-6"
     ]
