@@ -23,7 +23,7 @@ from .cbc import ABS_GAP, MIN_CBC_S, CbcResult
 from .constraints import Constraints
 from .decode import decode_plan
 from .disjunctive.model import DisjunctiveModel
-from .disjunctive.rule import FORMULATIONS, pick
+from .disjunctive.rule import FORMULATIONS, pick, used_kinds
 from .objective import objective
 from .program import Program
 from .progress import WITH_START, WatchedCbcRun
@@ -298,7 +298,7 @@ def solve_ilp(
     formulation
         ``time-indexed`` (this package), ``disjunctive``
         (:mod:`fsw_scheduler.solving.ilp.disjunctive`, for problems without
-        consumables in use and with pairwise multiple resources) or
+        consumables in use) or
         ``auto`` (default): the one
         :func:`fsw_scheduler.solving.ilp.disjunctive.rule.pick` picks.
 
@@ -320,6 +320,10 @@ def solve_ilp(
             f"unknown formulation {formulation!r} (choose from "
             f"{FORMULATIONS} or 'auto')"
         )
+    elif formulation == "disjunctive" and "consumable" in used_kinds(
+        problem, domains
+    ):
+        raise SolverError("the disjunctive model has no consumables")
     if time_limit is not None and formulation == "time-indexed":
         columns = sum(
             d.latest - d.earliest + 1 for d in domains.values() if not d.empty

@@ -5,10 +5,10 @@ Rows are written over the columns of :mod:`.variables`: ``s`` (start),
 left-hand side can take over the start domains, so a relaxed row never
 cuts a start the domains allow, and no row is written that could never
 bind. Resources are modelled by pairs: two users that together exceed a
-capacity and whose windows let them overlap are put in an order; sets of
-three or more users that only together exceed a capacity are not seen,
-so :func:`.rule.pairwise_exact` must hold for every multiple resource
-(consumables are not modelled at all: see :mod:`.rule`).
+capacity and whose windows let them overlap are put in an order; where
+three or more users can exceed a capacity only together, the load is
+also bounded at every user's start. Consumables are not modelled at all
+(see :mod:`.rule`).
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 
 from ..constraints import identical_tasks
 from ..program import EQ, GE, LE
+from .rule import pairwise_exact
 
 if TYPE_CHECKING:
     from ....model.problem import Precedence, Problem, Task
@@ -52,6 +53,8 @@ class Constraints:
             for group_idx, group in enumerate(self.twins)
             for position, name in enumerate(group)
         }
+        #: Pairs already made disjunctive.
+        self._apart: set[frozenset[str]] = set()
 
     def add_all(self) -> None:
         """Add every family, in a fixed order (stable row numbering)."""
@@ -78,6 +81,23 @@ class Constraints:
             dom_a.earliest < dom_b.latest + second.length
             and dom_b.earliest < dom_a.latest + first.length
         )
+
+    def _orders(self, first: Task, second: Task) -> tuple[int, int]:
+        """``x[a, b]`` and ``x[b, a]``; of identical tasks the earlier in
+        problem order goes first (the symmetry rows of
+        :meth:`_identical_tasks` already say so), so the other is 0."""
+        ahead = self.vars.order(first.id, second.id)
+        behind = self.vars.order(second.id, first.id)
+        twin_a = self._twin_at.get(first.id)
+        twin_b = self._twin_at.get(second.id)
+        if (
+            twin_a is not None
+            and twin_b is not None
+            and twin_a[0] == twin_b[0]
+        ):
+            later = behind if twin_a[1] < twin_b[1] else ahead
+            self.program.upper[later] = 0
+        return ahead, behind
 
     def _end_before(self, first: Task, second: Task, order: int) -> None:
         """``s_a + p_a <= s_b`` when ``x[a, b] = 1``, relaxed by tight M.
@@ -108,24 +128,14 @@ class Constraints:
         """Two tasks that cannot overlap: one ends before the other starts.
 
         ``x[a, b] + x[b, a] >= y_a + y_b - 1`` (both scheduled need an
-        order) and each order row of :meth:`_end_before`. Of identical
-        tasks the earlier in problem order goes first (the symmetry rows
-        of :meth:`_identical_tasks` already say so), so the other order
-        is fixed to 0.
+        order) and each order row of :meth:`_end_before`; once per pair,
+        whatever resources the two share.
         """
-        if not self._may_overlap(first, second):
+        pair = frozenset((first.id, second.id))
+        if pair in self._apart or not self._may_overlap(first, second):
             return
-        ahead = self.vars.order(first.id, second.id)
-        behind = self.vars.order(second.id, first.id)
-        twin_a = self._twin_at.get(first.id)
-        twin_b = self._twin_at.get(second.id)
-        if (
-            twin_a is not None
-            and twin_b is not None
-            and twin_a[0] == twin_b[0]
-        ):
-            later = behind if twin_a[1] < twin_b[1] else ahead
-            self.program.upper[later] = 0
+        self._apart.add(pair)
+        ahead, behind = self._orders(first, second)
         self.program.add_row(
             {
                 ahead: 1.0,
@@ -147,25 +157,116 @@ class Constraints:
                 self._disjunctive_pair(a, b)
 
     def _multiple_resources(self) -> None:
-        """Paper eq. (2), pairwise: two users over the capacity never overlap.
+        """Paper eq. (2): running users' amounts within the capacity.
 
-        Exact only where no set of three or more users exceeds the
-        capacity without a pair of them doing so already
-        (:func:`.rule.pairwise_exact`).
+        Two users over the capacity together are a disjunctive pair. If
+        that is all (:func:`.rule.pairwise_exact`), nothing more is needed;
+        otherwise the load is also bounded at every user's start
+        (:meth:`_load_at_starts`).
         """
-        for resource, capacity in self.problem.resources.multiple.items():
+        multiple = self.problem.resources.multiple
+        fitting: dict[str, list[tuple[Task, float]]] = {}
+        for resource, capacity in multiple.items():
             users = self._users(resource)
-            for (a, amount_a), (b, amount_b) in itertools.combinations(
-                users, 2
-            ):
-                if amount_a + amount_b > capacity:
-                    self._disjunctive_pair(a, b)
             for task, amount in users:
                 if amount > capacity:
                     # Never fits, even alone.
                     self.program.add_row(
                         {self.vars.scheduled(task.id): 1.0}, LE, 0
                     )
+            fitting[resource] = [(t, a) for t, a in users if a <= capacity]
+            for (a, amount_a), (b, amount_b) in itertools.combinations(
+                fitting[resource], 2
+            ):
+                if amount_a + amount_b > capacity:
+                    self._disjunctive_pair(a, b)
+        # After every pair: a pair kept apart by any resource needs no
+        # load columns on another.
+        for resource, capacity in multiple.items():
+            amounts = [a for _, a in fitting[resource]]
+            if not pairwise_exact(amounts, capacity):
+                self._load_at_starts(fitting[resource], capacity)
+
+    def _load_at_starts(
+        self, users: list[tuple[Task, float]], capacity: float
+    ) -> None:
+        """The load at each user's start is within the capacity.
+
+        The load is highest at some start, that of the last user to start
+        among those running then. For two users that fit together and may
+        overlap, ``o[i, j] = 1`` says "``i`` runs when ``j`` starts",
+        with ``s_i + e_ij <= s_j`` (``e_ij = 1`` when ``i`` comes after
+        ``j`` in problem order: ties start in problem order, so the
+        ``o`` of running users form no cycle). Both scheduled, the pair
+        is ordered or one runs at the other's start:
+        ``x[i, j] + x[j, i] + o[i, j] + o[j, i] >= y_i + y_j - 1``; and at
+        the start of ``j``, ``a_j y_j + sum_i a_i o[i, j] <= capacity``.
+        In any plan these values exist (``o`` set by the starts and
+        problem order), and conversely at any time the last user to start
+        among the running ones counts all the others.
+        """
+        position = {task.id: idx for idx, task in enumerate(self.vars.tasks)}
+        load: dict[str, dict[int, float]] = {
+            task.id: {self.vars.scheduled(task.id): amount}
+            for task, amount in users
+        }
+        for (a, amount_a), (b, amount_b) in itertools.combinations(users, 2):
+            if (
+                amount_a + amount_b > capacity
+                or frozenset((a.id, b.id)) in self._apart
+                or not self._may_overlap(a, b)
+            ):
+                continue
+            ahead, behind = self._orders(a, b)
+            runs_a = self._runs_at_start(a, b, position)
+            runs_b = self._runs_at_start(b, a, position)
+            self.program.add_row(
+                {
+                    ahead: 1.0,
+                    behind: 1.0,
+                    runs_a: 1.0,
+                    runs_b: 1.0,
+                    self.vars.scheduled(a.id): -1.0,
+                    self.vars.scheduled(b.id): -1.0,
+                },
+                GE,
+                -1.0,
+            )
+            self._end_before(a, b, ahead)
+            self._end_before(b, a, behind)
+            load[b.id][runs_a] = amount_a
+            load[a.id][runs_b] = amount_b
+        for terms in load.values():
+            if len(terms) > 1:
+                self.program.add_row(terms, LE, capacity)
+
+    def _runs_at_start(
+        self, first: Task, second: Task, position: dict[str, int]
+    ) -> int:
+        """The column "``first`` runs when ``second`` starts" and its row.
+
+        ``s_a + e - s_b <= M (1 - o)`` with ``M = l_a + e - e_b``; fixed
+        to 0 when ``first`` cannot start by ``second``'s latest start.
+        """
+        (column,) = self.program.add_binaries(1)
+        tie = 1 if position[first.id] > position[second.id] else 0
+        dom_a = self.vars.domains[first.id]
+        dom_b = self.vars.domains[second.id]
+        if dom_a.earliest + tie > dom_b.latest:
+            self.program.upper[column] = 0
+            return column
+        big = dom_a.latest + tie - dom_b.earliest
+        if big > 0:
+            self.program.add_row(
+                {
+                    self.vars.start(first.id): 1.0,
+                    self.vars.start(second.id): -1.0,
+                    column: float(big),
+                },
+                LE,
+                big - tie,
+            )
+        return column
 
     def _precedence(self, prec: Precedence) -> None:
         """Tight/lax x both/at_least_first, on starts and ``y``.
