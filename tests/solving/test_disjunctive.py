@@ -114,6 +114,8 @@ def test_pairwise_exact_sees_sets_beyond_pairs() -> None:
     [
         ({"binary": ["cam"]}, {"cam": 1}, "disjunctive"),
         ({"multiple": {"power": 3}}, {"power": 2}, "disjunctive"),
+        ({"multiple": {"power": 6}}, {"power": 2}, "disjunctive"),
+        ({"multiple": {"power": 5}}, {"power": 2}, "time-indexed"),
         (
             {"binary": ["cam"], "consumable": {"bat": 4}},
             {"cam": 1, "bat": 1},
@@ -126,8 +128,9 @@ def test_rule_picks_disjunctive_for_shared_resources_only(
     resources: dict, uses: dict, expected: str
 ) -> None:
     """Tests that the rule picks the disjunctive model for binary and
-    multiple resources without consumables, time-indexed otherwise."""
-    tasks = [make_task(name, uses=uses) for name in ("a", "b")]
+    pairwise multiple resources without consumables, time-indexed
+    otherwise."""
+    tasks = [make_task(name, uses=uses) for name in ("a", "b", "c")]
     problem = problem_from(make_doc(tasks, resources=resources))
     assert pick(problem, start_domains(problem)) == expected
 

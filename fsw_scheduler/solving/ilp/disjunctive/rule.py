@@ -12,16 +12,21 @@ time-indexed model is kept
 * for consumables: levels over time are what its rows express, and the
   disjunctive model has none;
 * for parts without a binary or multiple resource in use (precedences
-  only): its LP is tight there and the part is small.
+  only): its LP is tight there and the part is small;
+* for multiple resources where three or more users exceed the capacity
+  only together (not :func:`pairwise_exact`). The disjunctive model
+  handles them with load rows at each start (see :mod:`.constraints`)
+  and, without a MIP start (20 s), proved all 14 of the 15-task multiple
+  problems (broad and paper) in 36.7 s against 12 of 14 in 65.9 s; but
+  through :func:`~fsw_scheduler.solving.solve.solve` (greedy MIP start,
+  cost caps) the time-indexed model was faster on 5 of the 7 broad ones
+  (``tools/bench --generator broad --solvers cbc,cpsat --only
+  b15-multiple --time-limit 10``: median 0.19 s against 1.30 s, 14.8x
+  against 74.3x CP-SAT, 6/7 proved either way), so it is kept there.
 
-Multiple resources where three or more users exceed the capacity only
-together get load rows at each start as well (see
-:mod:`.constraints`); measured on the 15-task multiple classes without a
-MIP start (CBC, 20 s limit), the disjunctive model proved all 14
-optimal in 17.2 s (broad) and 19.5 s (paper) in all, the time-indexed
-model 12 of 14 in 39.4 s and 26.5 s, one at the limit without a plan.
-It is slower on some easy ones (0.4 -> 2.1 s at worst), faster on the
-hard ones.
+For binary resources the same command (``--only b15-binary``) gave a
+median of 2.07 s, 100.5x CP-SAT and 5/7 proved for the time-indexed
+model, 0.34 s, 28.4x and 7/7 for the disjunctive one.
 """
 
 from __future__ import annotations
@@ -70,12 +75,21 @@ def pick(problem: Problem, domains: Mapping[str, Domain]) -> Formulation:
     Returns
     -------
     str
-        ``disjunctive`` when the part uses a binary or multiple resource
-        and no consumable; ``time-indexed`` otherwise.
+        ``disjunctive`` when the part uses a binary or multiple resource,
+        no consumable, and every multiple resource is
+        :func:`pairwise_exact`; ``time-indexed`` otherwise.
     """
     kinds = used_kinds(problem, domains)
     if "consumable" in kinds or not kinds:
         return "time-indexed"
+    for name, capacity in problem.resources.multiple.items():
+        amounts = [
+            task.uses.get(name, 0)
+            for task in problem.tasks
+            if not domains[task.id].empty
+        ]
+        if not pairwise_exact(amounts, capacity):
+            return "time-indexed"
     return "disjunctive"
 
 
