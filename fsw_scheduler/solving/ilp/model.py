@@ -18,10 +18,13 @@ from typing import TYPE_CHECKING, Any
 
 from ...analysis.domains import start_domains
 from ...errors import SolverError
-from ...model.plan import Activity, Objective, Plan, SolverStats, SolveStatus
+from ...model.plan import Plan, SolverStats, SolveStatus
 from .cbc import ABS_GAP, MIN_CBC_S, CbcResult
 from .constraints import Constraints
-from .objective import objective, weight
+from .decode import decode_plan
+from .disjunctive.model import DisjunctiveModel
+from .disjunctive.rule import FORMULATIONS, pick, used_kinds
+from .objective import objective
 from .program import Program
 from .progress import WITH_START, WatchedCbcRun
 from .variables import Variables
@@ -97,24 +100,7 @@ class BuiltModel:
 
     def decode(self, status: SolveStatus, values: Sequence[float]) -> Plan:
         """Read solution ``values`` into a Plan, objective recomputed."""
-        activities, unscheduled = [], []
-        delay = unscheduled_cost = 0
-        for task in self.problem.tasks:
-            start = self.vars.start_of(task.id, values)
-            if start is None:
-                unscheduled.append(task.id)
-                unscheduled_cost += task.schedule_cost
-                continue
-            activities.append(Activity(task.id, start, start + task.length))
-            delay += task.delay_cost * (start - self.problem.start)
-        activities.sort(key=lambda a: (a.start, a.task))
-        total = weight(self.problem) * unscheduled_cost + delay
-        return Plan(
-            status=status,
-            objective=Objective(unscheduled_cost, delay, total),
-            activities=tuple(activities),
-            unscheduled=tuple(unscheduled),
-        )
+        return decode_plan(self.problem, self.vars.start_of, status, values)
 
 
 @contextlib.contextmanager
@@ -178,7 +164,7 @@ class _Outcome:
 
 
 def _run_cbc(
-    built: BuiltModel,
+    built: BuiltModel | DisjunctiveModel,
     time_limit: float | None,
     threads: int,
     seed: int,
@@ -231,7 +217,10 @@ def _integral(program: Program, result: CbcResult) -> bool:
 
 
 def _run_highs(
-    built: BuiltModel, time_limit: float | None, threads: int, seed: int
+    built: BuiltModel | DisjunctiveModel,
+    time_limit: float | None,
+    threads: int,
+    seed: int,
 ) -> _Outcome:
     import pulp
 
@@ -282,6 +271,7 @@ def solve_ilp(
     seed: int = 0,
     warm: dict[str, int] | None = None,
     domains: dict[str, Domain] | None = None,
+    formulation: str = "auto",
 ) -> Plan:
     """Build and solve the ILP of ``problem``.
 
@@ -305,6 +295,12 @@ def solve_ilp(
     domains
         Start domains to model (default: :func:`start_domains`). Narrower
         domains must keep at least one optimal plan.
+    formulation
+        ``time-indexed`` (this package), ``disjunctive``
+        (:mod:`fsw_scheduler.solving.ilp.disjunctive`, for problems without
+        consumables in use) or
+        ``auto`` (default): the one
+        :func:`fsw_scheduler.solving.ilp.disjunctive.rule.pick` picks.
 
     Returns
     -------
@@ -317,7 +313,18 @@ def solve_ilp(
     began = time.perf_counter()
     if domains is None:
         domains = start_domains(problem)
-    if time_limit is not None:
+    if formulation == "auto":
+        formulation = pick(problem, domains)
+    elif formulation not in FORMULATIONS:
+        raise SolverError(
+            f"unknown formulation {formulation!r} (choose from "
+            f"{FORMULATIONS} or 'auto')"
+        )
+    elif formulation == "disjunctive" and "consumable" in used_kinds(
+        problem, domains
+    ):
+        raise SolverError("the disjunctive model has no consumables")
+    if time_limit is not None and formulation == "time-indexed":
         columns = sum(
             d.latest - d.earliest + 1 for d in domains.values() if not d.empty
         )
@@ -335,7 +342,11 @@ def solve_ilp(
                 ),
                 began,
             )
-    built = BuiltModel(problem, domains)
+    built: BuiltModel | DisjunctiveModel = (
+        BuiltModel(problem, domains)
+        if formulation == "time-indexed"
+        else DisjunctiveModel(problem, domains)
+    )
     built_at = time.perf_counter()
     impossible = [
         task.id
@@ -352,7 +363,7 @@ def solve_ilp(
     if impossible:
         # No need to ask the solver: a mandatory task has no start time.
         return _without_plan(problem, SolveStatus.INFEASIBLE, stats, began)
-    if not built.vars.steps:
+    if not built.vars.num_placeable:
         plan = built.decode(SolveStatus.OPTIMAL, [])
         return plan.replace(
             stats=SolverStats(
@@ -384,7 +395,8 @@ def solve_ilp(
     stats.update(
         solve_s=solve_s,
         overhead_s=max(call - solve_s, 0.0),
-        solver_status=outcome.solver_status,
+        solver_status=outcome.solver_status
+        + ("; disjunctive model" if formulation == "disjunctive" else ""),
     )
     if not outcome.status.has_plan or outcome.values is None:
         stats.update(bound=outcome.bound)

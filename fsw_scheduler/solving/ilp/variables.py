@@ -67,6 +67,11 @@ class Variables:
             for task_id, steps in self.steps.items()
         }
 
+    @property
+    def num_placeable(self) -> int:
+        """Number of tasks with at least one allowed start time."""
+        return len(self.steps)
+
     def placeable(self, task_id: str) -> bool:
         """True if the task has at least one allowed start time."""
         return task_id in self.steps

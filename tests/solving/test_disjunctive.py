@@ -1,0 +1,169 @@
+"""Tests of the disjunctive model and the rule that picks it."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import given, settings
+
+from fsw_scheduler.analysis.check import check_plan, format_report
+from fsw_scheduler.analysis.domains import start_domains
+from fsw_scheduler.errors import SolverError
+from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.solving.ilp.disjunctive.model import DisjunctiveModel
+from fsw_scheduler.solving.ilp.disjunctive.rule import pairwise_exact, pick
+from fsw_scheduler.solving.ilp.model import solve_ilp
+from fsw_scheduler.solving.solve import solve
+
+from ..factories import make_doc, make_task, problem_from
+from ..problems import COMMON, brute_force, decode_doc, problem_docs, show
+
+
+def _without_consumables(doc: dict) -> dict:
+    """``doc`` with its consumables and their uses taken out."""
+    doc["resources"]["consumable"] = {}
+    for task in doc["tasks"]:
+        uses = {
+            name: amount
+            for name, amount in task.get("uses", {}).items()
+            if not name.startswith("c")
+        }
+        task["uses"] = uses
+    return doc
+
+
+@settings(COMMON, max_examples=60)
+@given(doc=problem_docs(max_tasks=5, max_horizon=12))
+def test_agrees_with_time_indexed_model(doc: dict) -> None:
+    """Tests that both formulations find the same status and optimum, and
+    that the disjunctive plan passes the checker."""
+    problem = decode_doc(_without_consumables(doc))
+    indexed = solve_ilp(problem, formulation="time-indexed")
+    disjunctive = solve_ilp(problem, formulation="disjunctive")
+    assert disjunctive.status is indexed.status, show(
+        doc, indexed, disjunctive
+    )
+    if indexed.objective is not None:
+        assert disjunctive.objective == indexed.objective, show(
+            doc, indexed, disjunctive
+        )
+        report = check_plan(problem, disjunctive)
+        assert report.ok, f"{format_report(report)}\n{show(doc, disjunctive)}"
+
+
+@settings(COMMON, max_examples=40)
+@given(doc=problem_docs(max_tasks=4, max_horizon=8))
+def test_matches_brute_force(doc: dict) -> None:
+    """Tests that the disjunctive optimum is the exhaustive search's."""
+    problem = decode_doc(_without_consumables(doc))
+    plan = solve_ilp(problem, formulation="disjunctive")
+    best = brute_force(problem)
+    if best is None:
+        assert plan.status is SolveStatus.INFEASIBLE, show(doc, plan)
+    else:
+        assert plan.objective == best[0], show(doc, plan)
+
+
+@settings(COMMON, max_examples=40)
+@given(doc=problem_docs(max_tasks=5, max_horizon=12))
+def test_a_plan_has_the_same_objective_in_both_models(doc: dict) -> None:
+    """Tests that the disjunctive program's objective at a plan's columns
+    is the plan's objective total."""
+    problem = decode_doc(_without_consumables(doc))
+    plan = solve_ilp(problem, formulation="time-indexed")
+    if plan.objective is None:
+        return
+    built = DisjunctiveModel(problem, start_domains(problem))
+    values = built.vars.initial(plan.starts(), built.num_variables)
+    assert built.program.value(values) == plan.objective.total
+
+
+def _three_on_power(capacity: float) -> dict:
+    """Three mandatory 2-unit tasks drawing 50 of ``capacity`` each."""
+    tasks = [
+        make_task(name, schedule_cost=0, uses={"power": 50})
+        for name in ("a", "b", "c")
+    ]
+    return make_doc(
+        tasks, horizon=6, resources={"multiple": {"power": capacity}}
+    )
+
+
+def test_three_users_over_a_capacity_only_together_are_staggered() -> None:
+    """Tests that three users that fit two by two but not all together
+    never run all at once, at the optimal delay."""
+    problem = problem_from(_three_on_power(100))
+    plan = solve_ilp(problem, formulation="disjunctive")
+    assert plan.status is SolveStatus.OPTIMAL
+    assert check_plan(problem, plan).ok
+    assert plan.objective is not None and plan.objective.delay_cost == 2
+    assert "disjunctive" in (plan.stats.solver_status if plan.stats else "")
+
+
+def test_pairwise_exact_sees_sets_beyond_pairs() -> None:
+    """Tests that pairwise_exact is False only when some users fit two by
+    two but not together."""
+    assert pairwise_exact([50, 50, 50], 120) is False
+    assert pairwise_exact([70, 70, 70], 120) is True  # every pair is over
+    assert pairwise_exact([30, 30, 30], 120) is True
+    assert pairwise_exact([10, 60, 60], 120) is False
+    assert pairwise_exact([130, 50, 50], 120) is True  # 130 never fits
+
+
+@pytest.mark.parametrize(
+    ("resources", "uses", "expected"),
+    [
+        ({"binary": ["cam"]}, {"cam": 1}, "disjunctive"),
+        ({"multiple": {"power": 3}}, {"power": 2}, "disjunctive"),
+        ({"multiple": {"power": 6}}, {"power": 2}, "disjunctive"),
+        ({"multiple": {"power": 5}}, {"power": 2}, "time-indexed"),
+        (
+            {"binary": ["cam"], "consumable": {"bat": 4}},
+            {"cam": 1, "bat": 1},
+            "time-indexed",
+        ),
+        ({"binary": ["cam"]}, {}, "time-indexed"),
+    ],
+)
+def test_rule_picks_disjunctive_for_shared_resources_only(
+    resources: dict, uses: dict, expected: str
+) -> None:
+    """Tests that the rule picks the disjunctive model for binary and
+    pairwise multiple resources without consumables, time-indexed
+    otherwise."""
+    tasks = [make_task(name, uses=uses) for name in ("a", "b", "c")]
+    problem = problem_from(make_doc(tasks, resources=resources))
+    assert pick(problem, start_domains(problem)) == expected
+
+
+def test_solve_picks_the_model_per_part() -> None:
+    """Tests that solve builds the disjunctive model for a part sharing a
+    camera and the time-indexed one for a part drawing on a battery."""
+    tasks = [
+        make_task("a", uses={"cam": 1}),
+        make_task("b", uses={"cam": 1}),
+        make_task("c", uses={"bat": 3}),
+        make_task("d", uses={"bat": 3}, delay_cost=2),
+    ]
+    resources = {"binary": ["cam"], "consumable": {"bat": 8}}
+    problem = problem_from(make_doc(tasks, resources=resources))
+    plan = solve(problem)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert check_plan(problem, plan).ok
+    status = plan.stats.solver_status if plan.stats else ""
+    assert "2 independent parts" in status
+    # Smallest part first, the status ends with the largest one's.
+    whole = solve_ilp(problem.replace(tasks=problem.tasks[:2]))
+    assert "disjunctive model" in (whole.stats.solver_status or "")
+    battery = solve_ilp(problem.replace(tasks=problem.tasks[2:]))
+    assert "disjunctive" not in (battery.stats.solver_status or "")
+
+
+def test_forced_on_consumables_is_refused() -> None:
+    """Tests that the disjunctive model refuses a problem with consumables
+    in use rather than ignore them."""
+    tasks = [make_task("a", uses={"bat": 1})]
+    problem = problem_from(
+        make_doc(tasks, resources={"consumable": {"bat": 4}})
+    )
+    with pytest.raises(SolverError, match="consumables"):
+        solve_ilp(problem, formulation="disjunctive")
