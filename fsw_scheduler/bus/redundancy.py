@@ -488,12 +488,17 @@ def serve(
             if other != redundancy.me and _beats(
                 (other, term), (redundancy.me, node.term)
             ):
+                # A lease that ended is the cause; the other commander is
+                # what this node sees of it.
+                lost = node.lease.lost() if node.lease is not None else None
                 own = _stand_down(
                     redundancy,
                     node,
                     other,
-                    f"{other.node_id} commands in term {term} (this node: "
-                    f"{node.term})",
+                    f"{lost}; {other.node_id} commands in term {term}"
+                    if lost
+                    else f"{other.node_id} commands in term {term} (this "
+                    f"node: {node.term})",
                 )
                 node, standing_by_for = None, other
         if node is not None and node.stood_down is not None:

@@ -17,6 +17,8 @@ import msgspec
 from ..errors import FieldIssue, InputError
 from . import problem as model
 from .problem import (
+    Id,
+    Instant,
     Precedence,
     Problem,
     Resources,
@@ -38,7 +40,7 @@ class GoalTask(Task, frozen=True, omit_defaults=True):
         leave the pending list (paper, "Online rescheduling", last case).
     """
 
-    obsoletes: tuple[str, ...] = ()
+    obsoletes: tuple[Id, ...] = ()
 
     def to_task(self) -> Task:
         """The plain problem task, without ``obsoletes``."""
@@ -68,11 +70,11 @@ class Goal(msgspec.Struct, frozen=True, omit_defaults=True):
         rejected (None: it never expires).
     """
 
-    goal_id: str
+    goal_id: Id
     tasks: tuple[GoalTask, ...]
     precedences: tuple[Precedence, ...] = ()
-    issued_at: int | None = None
-    not_after: int | None = None
+    issued_at: Instant | None = None
+    not_after: Instant | None = None
 
     @property
     def obsoleted(self) -> tuple[str, ...]:

@@ -43,6 +43,7 @@ _JSON_NAMES = {
     type(None): "null",
 }
 _SHOWN = 40  # characters of a value quoted in a reason
+_WIDE = 2**30  # a range this wide is told by its violated end alone
 
 _INFOS: dict[object, mi.Type] = {}
 
@@ -121,7 +122,11 @@ def _check(
     value: object, info: mi.Type, path: str, out: list[FieldIssue]
 ) -> None:
     if isinstance(info, mi.Metadata):
+        before = len(out)
         _check(value, info.type, path, out)
+        about = (info.extra_json_schema or {}).get("description")
+        if about and len(out) > before and out[-1].path == path:
+            out[-1] = FieldIssue(path, f"{out[-1].reason}: {about}")
     elif isinstance(info, mi.AnyType):
         return
     elif isinstance(info, mi.UnionType):
@@ -197,6 +202,13 @@ def _check_number(
     if isinstance(value, float) and not math.isfinite(value):
         out.append(FieldIssue(path, f"must be finite, got {value}"))
         return
+    low, high = info.ge, info.le
+    if low is not None and high is not None and high - low < _WIDE:
+        if not low <= value <= high:
+            out.append(
+                FieldIssue(path, f"must be in {low}..{high}, got {value}")
+            )
+        return
     for bound, test, words in (
         (info.ge, lambda b: value >= b, ">="),
         (info.gt, lambda b: value > b, ">"),
@@ -207,6 +219,7 @@ def _check_number(
             out.append(
                 FieldIssue(path, f"must be {words} {bound}, got {value}")
             )
+            return
     multiple = info.multiple_of
     if multiple is not None and value % multiple:
         out.append(
@@ -220,7 +233,10 @@ def _check_str(
     if not isinstance(value, str):
         out.append(FieldIssue(path, f"must be a string, got {_name(value)}"))
         return
+    before = len(out)
     _check_length(len(value), info, "characters", path, out)
+    if len(out) > before:
+        return  # one issue per value
     if info.pattern is not None and re.search(info.pattern, value) is None:
         out.append(
             FieldIssue(
@@ -472,6 +488,10 @@ def _stand_in(info: mi.Type, path: str) -> Any:
     if isinstance(info, mi.Metadata):
         return _stand_in(info.type, path)
     if isinstance(info, (mi.IntType, mi.FloatType)):
+        # A small range (a cost): its top, the least binding (an optional
+        # task); otherwise the bottom (the shortest length).
+        if info.ge is not None and info.le is not None and info.le <= 100:
+            return info.le
         if info.ge is not None:
             return info.ge
         if info.gt is not None:

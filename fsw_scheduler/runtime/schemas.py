@@ -31,6 +31,10 @@ def json_schemas() -> dict[str, dict]:
     schemas = {}
     for name, kind in _all_schema_types().items():
         (ref,), defs = msgspec.json.schema_components([kind])
+        if name in STRICT_KINDS:
+            for definition in defs.values():
+                if "properties" in definition:
+                    definition["additionalProperties"] = False
         schema: dict[str, Any] = {
             "$schema": "https://json-schema.org/draft/2020-12/schema",
             "$id": f"fsw_scheduler/{name}.schema.json",
@@ -40,6 +44,14 @@ def json_schemas() -> dict[str, dict]:
         }
         schemas[name] = _normalise(schema)
     return schemas
+
+
+#: Documents that command: the scheduler rejects a field it does not know
+#: (:mod:`fsw_scheduler.model.strict`), and so do their schemas. Messages it
+#: publishes stay open: readers accept fields newer than themselves.
+STRICT_KINDS = frozenset(
+    {"problem", "goal", "clock", "activity_report", "resource_level"}
+)
 
 
 def _all_schema_types() -> dict[str, Any]:

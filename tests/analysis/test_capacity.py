@@ -113,7 +113,7 @@ def test_plain_form_encodes_as_before() -> None:
         (
             {"initial": 0, "max": -1},
             "resources.consumable.battery.max",
-            "capacity must be >= 0",
+            ">= 0",
         ),
         (
             {"max": 10},
@@ -174,7 +174,7 @@ def test_schema_accepts_both_forms() -> None:
     schema = json_schemas()["problem"]
     consumable = schema["$defs"]["Resources"]["properties"]["consumable"]
     kinds = consumable["additionalProperties"]["anyOf"]
-    assert {"type": "number"} in kinds
+    assert {"minimum": 0, "type": "number"} in kinds
     assert {"$ref": "#/$defs/Consumable"} in kinds
     assert schema["$defs"]["Consumable"]["required"] == ["initial"]
 

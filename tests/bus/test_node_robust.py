@@ -74,7 +74,7 @@ def test_unsafe_task_ids_are_rejected_on_the_bus(
         status = rejection(h, goal_of(f"g{n}", task(bad)), f"g{n}")
         assert [e.path for e in status.errors] == ["tasks[0].id"], bad
         reason = status.errors[0].reason
-        assert "task id" in reason
+        assert "ids are 1 to 64 characters" in reason
         assert len(reason) < 200  # a huge id is not echoed back
     # A bad goal id, a bad resource name and a bad obsoletes entry.
     status = rejection(h, goal_of("a/b", task("Fine")), "a/b")
@@ -119,8 +119,8 @@ def test_unsafe_ids_are_rejected_by_solve_and_replan(
         check=False,
     )
     assert done.returncode == 2
-    assert "tasks[0].id: task id 'Set/HF' has characters" in done.stderr
-    assert "resources.binary[0]: resource name 'cam*'" in done.stderr
+    assert "tasks[0].id: 'Set/HF' does not match the pattern" in done.stderr
+    assert "resources.binary[0]: 'cam*' does not match" in done.stderr
     plan = tmp_path / "plan.json"
     solved = subprocess.run(
         [
@@ -154,7 +154,7 @@ def test_unsafe_ids_are_rejected_by_solve_and_replan(
         check=False,
     )
     assert replan.returncode == 2
-    assert "tasks[0].id: task id '**'" in replan.stderr
+    assert "tasks[0].id: '**' does not match" in replan.stderr
 
 
 # -- finding 9: hostile structure --------------------------------------------

@@ -1,0 +1,223 @@
+"""Tests of strict reading: every mistake named in one pass, and the
+shipped JSON Schemas rejecting what the scheduler rejects."""
+
+from __future__ import annotations
+
+import copy
+import json
+from typing import Any
+
+import jsonschema
+import pytest
+
+from fsw_scheduler.errors import InputError
+from fsw_scheduler.model.goal import decode_goal
+from fsw_scheduler.model.problem import decode_problem
+from fsw_scheduler.wire import messages
+
+from ..factories import DATA, ROOT, make_doc, make_task
+
+
+def _validator(kind: str) -> jsonschema.Draft202012Validator:
+    schema = json.loads((ROOT / "schemas" / f"{kind}.schema.json").read_text())
+    return jsonschema.Draft202012Validator(schema)
+
+
+PROBLEM = _validator("problem")
+GOAL = _validator("goal")
+TABLE1 = json.loads((DATA / "paper_table1.json").read_text())
+
+
+def _table1(edit: Any) -> dict:
+    doc = copy.deepcopy(TABLE1)
+    edit(doc)
+    return doc
+
+
+def _set(path: tuple, value: object) -> Any:
+    def edit(doc: dict) -> None:
+        node = doc
+        for key in path[:-1]:
+            node = node[key]
+        node[path[-1]] = value
+
+    return edit
+
+
+#: Mistakes of shape: wrong field names, types, ranges, patterns, enums.
+#: Each is rejected by the scheduler (naming ``path``) and by the schema.
+STATIC = {
+    "misspelt task field": (
+        ("tasks", 0, "feasable_interval"),
+        [10, 20],
+        "tasks[0].feasable_interval",
+    ),
+    "unknown top-level key": (("colour",), "blue", "colour"),
+    "unknown precedence field": (
+        ("precedences", 0, "offest"),
+        1,
+        "precedences[0].offest",
+    ),
+    "unknown resources kind": (
+        ("resources", "reusable"),
+        {"x": 1},
+        "resources.reusable",
+    ),
+    "misspelt preemption": (
+        ("tasks", 0, "preemption"),
+        "from_strat",
+        "tasks[0].preemption",
+    ),
+    "misspelt precedence kind": (
+        ("precedences", 0, "kind"),
+        "tigth",
+        "precedences[0].kind",
+    ),
+    "length as a string": (("tasks", 1, "length"), "10", "tasks[1].length"),
+    "length zero": (("tasks", 1, "length"), 0, "tasks[1].length"),
+    "length fractional": (("tasks", 1, "length"), 1.5, "tasks[1].length"),
+    "delay cost 0": (("tasks", 2, "delay_cost"), 0, "tasks[2].delay_cost"),
+    "schedule cost 6": (
+        ("tasks", 2, "schedule_cost"),
+        6,
+        "tasks[2].schedule_cost",
+    ),
+    "negative horizon": (("horizon",), -1, "horizon"),
+    "negative start": (("start",), -3, "start"),
+    "id with a slash": (("tasks", 3, "id"), "Set/HF", "tasks[3].id"),
+    "empty id": (("tasks", 3, "id"), "", "tasks[3].id"),
+    "id too long": (("tasks", 3, "id"), "x" * 65, "tasks[3].id"),
+    "window of three": (
+        ("tasks", 0, "feasible_interval"),
+        [1, 2, 3],
+        "tasks[0].feasible_interval",
+    ),
+    "negative capacity": (
+        ("resources", "multiple", "power"),
+        -5,
+        "resources.multiple.power",
+    ),
+    "uses as a list": (("tasks", 0, "uses"), [1], "tasks[0].uses"),
+    "boolean length": (("tasks", 0, "length"), True, "tasks[0].length"),
+    "tasks as an object": (("tasks",), {}, "tasks"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(STATIC))
+def test_shape_mistakes_are_rejected_by_the_scheduler_and_the_schema(
+    name: str,
+) -> None:
+    """Tests each shape mistake: the scheduler names its path, the shipped
+    schema rejects the same document."""
+    path, value, where = STATIC[name]
+    doc = _table1(_set(path, value))
+    with pytest.raises(InputError) as info:
+        decode_problem(json.dumps(doc))
+    assert where in {issue.path for issue in info.value.issues}, info.value
+    assert list(PROBLEM.iter_errors(doc)), f"the schema accepts {name}"
+
+
+#: Mistakes across fields (references, uniqueness, windows against the
+#: horizon): the scheduler rejects them; JSON Schema cannot say them, so
+#: a schema-valid document may still be refused, with its reason.
+SEMANTIC = {
+    "duplicate id": make_doc([make_task(), make_task()]),
+    "unknown resource": make_doc([make_task(uses={"laser": 1})]),
+    "binary amount 2": make_doc(
+        [make_task(uses={"cam": 2})], resources={"binary": ["cam"]}
+    ),
+    "longer than the horizon": make_doc([make_task(length=11)]),
+    "window after its end": make_doc([make_task(feasible_interval=[5, 3])]),
+    "precedence to an unknown task": make_doc(
+        [make_task()],
+        precedences=[{"before": "a", "after": "zz", "kind": "lax"}],
+    ),
+}
+
+
+@pytest.mark.parametrize("name", sorted(SEMANTIC))
+def test_cross_field_mistakes_are_rejected_by_the_scheduler(name: str) -> None:
+    """Tests the mistakes a schema cannot express: the scheduler rejects
+    each with a reason, although the schema accepts the shape."""
+    doc = SEMANTIC[name]
+    assert not list(PROBLEM.iter_errors(doc))
+    with pytest.raises(InputError):
+        decode_problem(json.dumps(doc))
+
+
+def test_every_mistake_of_a_document_in_one_pass() -> None:
+    """Tests a problem with eight mistakes of every sort: all are named at
+    once (and one they cause), types and semantics together, with
+    suggestions."""
+
+    def edit(doc: dict) -> None:
+        doc["tasks"][0]["feasable_interval"] = [10, 20]
+        doc["tasks"][1]["length"] = "10"
+        doc["tasks"][2]["preemption"] = "from_strat"
+        doc["tasks"][3]["delay_cost"] = 9
+        doc["tasks"][4]["uses"]["laser"] = 1
+        doc["tasks"][5]["id"] = doc["tasks"][6]["id"]
+        doc["precedences"][0]["after"] = "Nowhere"
+        doc["colour"] = "blue"
+
+    with pytest.raises(InputError) as info:
+        decode_problem(json.dumps(_table1(edit)))
+    found = {issue.path: issue.reason for issue in info.value.issues}
+    assert (
+        "did you mean 'feasible_interval'?"
+        in (found["tasks[0].feasable_interval"])
+    )
+    assert found["tasks[1].length"] == "must be an integer, got a string"
+    assert "did you mean 'from_start'?" in found["tasks[2].preemption"]
+    assert (
+        "'delete', 'from_interrupt', 'from_start', 'none'"
+        in (found["tasks[2].preemption"])
+    )
+    assert found["tasks[3].delay_cost"] == "must be in 1..5, got 9"
+    assert "unknown resource" in found["tasks[4].uses.laser"]
+    assert "duplicate" in found["tasks[6].id"]
+    assert "unknown task" in found["precedences[0].after"]
+    assert "unknown field" in found["colour"]
+    # The renamed task leaves a precedence of the original dangling: true.
+    assert "unknown task" in found["precedences[2].before"]
+    assert len(found) == 9, found
+
+
+def test_a_syntax_error_says_line_and_column() -> None:
+    """Tests that malformed JSON is placed by line and column."""
+    with pytest.raises(InputError) as info:
+        decode_problem('{"horizon": 3,\n  "tasks": [,]}')
+    assert "line 2, column 13" in info.value.issues[0].reason
+
+
+def test_goals_and_bus_inputs_are_strict_too() -> None:
+    """Tests that a goal, a report and a level with an unknown field are
+    rejected, named, and that the goal schema rejects the goal."""
+    goal = json.loads((DATA / "paper_table2_goal.json").read_text())
+    decode_goal(json.dumps(goal))
+    assert not list(GOAL.iter_errors(goal))
+    goal["tasks"][0]["lenght"] = 3
+    with pytest.raises(InputError) as info:
+        decode_goal(json.dumps(goal))
+    assert "did you mean 'length'?" in info.value.issues[0].reason
+    assert list(GOAL.iter_errors(goal))
+    for kind, payload in (
+        (
+            "activity_report",
+            {"task": "A", "state": "running", "at": 1, "x": 1},
+        ),
+        ("resource_level", {"resource": "b", "level": 1.0, "at": 1, "u": 1}),
+    ):
+        with pytest.raises(InputError):
+            messages.decode_input(kind, json.dumps(payload).encode())
+        assert list(_validator(kind).iter_errors(payload))
+
+
+def test_the_shipped_examples_pass_both() -> None:
+    """Tests that the example problem and goal pass the scheduler and the
+    schemas (a strict schema that rejects good files is no help)."""
+    for path in sorted(DATA.glob("*.json")):
+        doc = json.loads(path.read_text())
+        validator = GOAL if "goal_id" in doc else PROBLEM
+        assert not list(validator.iter_errors(doc)), path
+        (decode_goal if "goal_id" in doc else decode_problem)(path.read_text())
