@@ -34,6 +34,7 @@ from .files_flags import (
     add_solve_command,
     add_state_command,
 )
+from .talk import add_talk_commands
 
 LOG_LEVELS = ("debug", "info", "warning", "error")
 
@@ -52,6 +53,9 @@ Start here:
   fsw-scheduler check problem.json plan.json
   fsw-scheduler run --problem resources.json --state /var/lib/fsw
                                           the bus component, resumable
+  fsw-scheduler send goal goal.json --wait
+                                          give a running node work
+  fsw-scheduler status --follow           watch it (plan: its plan)
   fsw-scheduler demo --scenario failover  two redundant nodes, killed
 """
 
@@ -118,6 +122,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_replan_command(add)
     add_demo_command(add)
     add_run_command(add)
+    add_talk_commands(add)
     add_config_command(add)
     add_probe_command(add)
     add_record_command(add)

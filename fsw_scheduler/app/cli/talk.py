@@ -1,0 +1,253 @@
+"""Commands that talk to a running scheduler: send, status, plan.
+
+The habit of ``ros2 topic pub`` / ``ros2 topic echo``: ``send`` checks a
+goal, report or level as strictly as the node will (nothing malformed
+leaves this computer), publishes it once a scheduler is there to take it
+and, with ``--wait``, prints the node's verdict; ``status`` and ``plan``
+ask the node's queryables, and ``--follow`` prints each new one as JSON
+lines until Ctrl-C. The Zenoh flags are those of ``run``.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from typing import TYPE_CHECKING, Any
+
+from ...bus.session import add_zenoh_arguments
+from .commands import (
+    EXIT_NO_PLAN,
+    EXIT_OK,
+    _check_spacecraft,
+    _open_bus,
+    _read_bytes,
+    positive_float,
+)
+
+if TYPE_CHECKING:
+    import argparse
+
+    from .files_flags import Add
+
+KINDS = {
+    "goal": "goal",
+    "report": "activity_report",
+    "level": "resource_level",
+    "clock": "clock",
+}
+
+
+def add_talk_commands(add: Add) -> None:
+    """The ``send``, ``status`` and ``plan`` commands and their flags."""
+    send = add(
+        "send",
+        _cmd_send,
+        "send a goal, report, level or clock to a running scheduler",
+        """\
+        Check a document as the scheduler will (unknown fields, types,
+        ranges: every mistake is named, exit 2, nothing is sent), wait for
+        a scheduler of the spacecraft to be reachable, and publish it on
+        its key. With --wait, print the verdict: goal_accepted (exit 0) or
+        goal_rejected with every reason (exit 1) for a goal (re-sent
+        unchanged until answered, which is safe: a goal id is answered
+        once); for a report, a level or a clock, the node's status after
+        it, or input_rejected with the reasons (exit 1).
+
+        examples:
+          fsw-scheduler send goal goal.json --wait
+          fsw-scheduler send report \\
+              '{"task": "Ping", "state": "completed", "at": 12}'
+          fsw-scheduler send level \\
+              '{"resource": "battery", "level": 18, "at": 12}'
+          fsw-scheduler send clock '{"now": 12}' -e tcp/10.0.0.1:7447 -m client
+        """,
+    )
+    send.add_argument("kind", choices=sorted(KINDS), help="what FILE holds")
+    send.add_argument(
+        "file",
+        metavar="FILE",
+        help="the JSON document: a path, - for stdin, or the JSON itself",
+    )
+    send.add_argument(
+        "--wait",
+        action="store_true",
+        help="wait for the scheduler's verdict and print it",
+    )
+    _common(send)
+    for name, what in (("status", "status"), ("plan", "current plan")):
+        query = add(
+            name,
+            _cmd_query,
+            f"print the scheduler's {what} (JSON); --follow for each new one",
+            f"""\
+            Ask the running scheduler for its {what} (its queryable) and
+            print it as one JSON line; with --follow, also print each one
+            it publishes next, a line each, until Ctrl-C.
+
+            examples:
+              fsw-scheduler {name}
+              fsw-scheduler {name} --follow --spacecraft sat2 \\
+                  -e tcp/10.0.0.1:7447
+            """,
+        )
+        query.set_defaults(what=name)
+        query.add_argument(
+            "--follow",
+            action="store_true",
+            help="keep printing each new one (Ctrl-C stops)",
+        )
+        _common(query)
+
+
+def _common(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--spacecraft",
+        default="sat1",
+        help="key prefix id (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--timeout",
+        type=positive_float,
+        default=10.0,
+        metavar="S",
+        help="seconds to wait for the scheduler (default: %(default)s)",
+    )
+    add_zenoh_arguments(parser)
+
+
+def _document(text: str) -> bytes:
+    """FILE as bytes: inline JSON when it looks like an object."""
+    stripped = text.lstrip()
+    if stripped.startswith("{"):
+        return stripped.encode()
+    return _read_bytes(text)
+
+
+def _checked(kind: str, payload: bytes) -> Any:
+    """The document decoded as the scheduler decodes it (InputError)."""
+    from ...wire import messages
+
+    return messages.decode_input(KINDS[kind], payload)
+
+
+def _cmd_send(args: argparse.Namespace) -> int:
+    from ...bus.client import SchedulerClient
+    from ...bus.session import zenoh_config
+    from ...wire import messages
+
+    _check_spacecraft(args.spacecraft)
+    payload = _document(args.file)
+    message = _checked(args.kind, payload)
+    with (
+        _open_bus(zenoh_config(args)) as session,
+        SchedulerClient(
+            session, args.spacecraft, timeout=args.timeout
+        ) as client,
+    ):
+        try:
+            client.wait_scheduler(args.timeout)
+        except TimeoutError:
+            print(
+                f"fsw-scheduler: no scheduler of {args.spacecraft} reachable "
+                f"within {args.timeout:g} s: nothing sent",
+                file=sys.stderr,
+            )
+            return EXIT_NO_PLAN
+        if args.kind == "goal":
+            doc = json.loads(payload)
+            if not args.wait:
+                client.publish_goal(payload)
+                return EXIT_OK
+            answers = client.send_goals([doc], timeout=args.timeout)
+            verdicts = answers[doc["goal_id"]]
+            if not verdicts:
+                print(
+                    f"fsw-scheduler: no verdict on {doc['goal_id']!r} within "
+                    f"{args.timeout:g} s",
+                    file=sys.stderr,
+                )
+                return EXIT_NO_PLAN
+            status = client.wait_status(
+                lambda s: s.goal_id == doc["goal_id"] and s.event in verdicts
+            )
+            print(messages.encode(status).decode())
+            return EXIT_OK if verdicts == {"goal_accepted"} else EXIT_NO_PLAN
+        key = {
+            "report": lambda m: client.topics.activity_report(m.task),
+            "level": lambda m: client.topics.resource_level(m.resource),
+            "clock": lambda m: client.topics.key("clock"),
+        }[args.kind](message)
+        before = len(client.statuses)
+        client.put(key, payload)
+        if not args.wait:
+            return EXIT_OK
+        # The query travels behind the input: its answer has seen it.
+        try:
+            status = client.query_status(args.timeout)
+        except TimeoutError:
+            print(
+                f"fsw-scheduler: sent; no status within {args.timeout:g} s",
+                file=sys.stderr,
+            )
+            return EXIT_NO_PLAN
+        with client._cond:
+            rejected = [
+                s
+                for s in client.statuses[before:]
+                if s.event == "input_rejected"
+            ]
+        shown = rejected[-1] if rejected else status
+        print(messages.encode(shown).decode())
+        return EXIT_NO_PLAN if rejected else EXIT_OK
+
+
+def _cmd_query(args: argparse.Namespace) -> int:
+    import threading
+
+    from ...bus.client import SchedulerClient
+    from ...bus.session import zenoh_config
+    from ...wire import messages
+
+    _check_spacecraft(args.spacecraft)
+    with (
+        _open_bus(zenoh_config(args)) as session,
+        SchedulerClient(
+            session, args.spacecraft, timeout=args.timeout
+        ) as client,
+    ):
+        try:
+            answer: Any = (
+                client.query_status(args.timeout)
+                if args.what == "status"
+                else client.query_plan(args.timeout)
+            )
+        except TimeoutError:
+            answer = None
+        if answer is None:
+            print(
+                f"fsw-scheduler: no {args.what} from a scheduler of "
+                f"{args.spacecraft} within {args.timeout:g} s",
+                file=sys.stderr,
+            )
+            return EXIT_NO_PLAN
+        print(messages.encode(answer).decode(), flush=True)
+        if not args.follow:
+            return EXIT_OK
+        stop = threading.Event()
+        _stop_on_signals(stop)
+        items = client.statuses if args.what == "status" else client.plans
+        shown = len(items)
+        while not stop.is_set():
+            with client._cond:
+                client._cond.wait(0.2)
+                fresh, shown = items[shown:], len(items)
+            for item in fresh:
+                print(messages.encode(item).decode(), flush=True)
+    return EXIT_OK
+
+
+def _stop_on_signals(stop: Any) -> None:
+    import signal
+
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
