@@ -49,6 +49,7 @@ import msgspec
 from ..engine.core import Engine
 from ..engine.events import Publish, SolveDone, StartSolve
 from ..engine.snapshot import EngineSnapshot
+from ..errors import FieldIssue, InputError
 from ..model.plan import Plan, SolveStatus
 from ..runtime.config import NodeConfig
 from ..runtime.inputs import InputDecoder
@@ -173,9 +174,17 @@ def read_node_info(
         if message.topic.endswith("/" + keys.NODE_INFO):
             info = msgspec.json.decode(message.payload, type=messages.NodeInfo)
             return info, message.topic
-    raise ValueError(
-        "no scheduler/config message: not a scheduler journal "
-        "(record with 'fsw-scheduler run --record' or 'demo')"
+    raise InputError(
+        [
+            FieldIssue(
+                "",
+                "no scheduler/config message: not a scheduler journal "
+                "(a 'record' file holds bus traffic only; journal with "
+                "'fsw-scheduler run --record FILE' or '--state DIR', or "
+                "'demo')",
+            )
+        ],
+        "journal",
     )
 
 

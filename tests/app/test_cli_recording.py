@@ -408,3 +408,38 @@ def test_replay_refuses_a_bus_with_a_live_scheduler(
     finally:
         subscriber.undeclare()
         token.undeclare()
+
+
+def test_verify_on_a_bus_recording_says_it_is_not_a_journal(
+    tmp_path: Path,
+) -> None:
+    """Tests that ``replay --verify`` on an MCAP file of bus traffic that
+    is not a scheduler journal exits 2 saying so, without a traceback."""
+    from mcap.writer import Writer
+
+    path = tmp_path / "traffic.mcap"
+    with path.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start()
+        schema = writer.register_schema(
+            name="clock", encoding=SchemaEncoding.JSONSchema, data=b"{}"
+        )
+        channel = writer.register_channel(
+            topic="fsw/sat1/clock",
+            message_encoding=MessageEncoding.JSON,
+            schema_id=schema,
+        )
+        writer.add_message(
+            channel, log_time=1, data=b'{"now": 1}', publish_time=1
+        )
+        writer.finish()
+    result = subprocess.run(
+        cli_command("replay", str(path), "--verify"),
+        capture_output=True,
+        text=True,
+        timeout=TIMEOUT_S,
+        check=False,
+    )
+    assert result.returncode == 2
+    assert "Traceback" not in result.stderr
+    assert "not a scheduler journal" in result.stderr
