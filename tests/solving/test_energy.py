@@ -132,11 +132,11 @@ def _on_power(amounts: list[float]) -> str:
 
 def test_rule_keeps_time_indexed_when_pairs_are_rare() -> None:
     """Tests that a multiple resource whose over-capacity sets are almost
-    all triples gets the time-indexed model, and one with a pair in 23
+    all triples gets the time-indexed model, and one with a pair in four
     the disjunctive one."""
-    # 30 + 30 + 30 > 80 (286 triples); 71 + 30 > 80 (13 pairs).
-    some_pairs = [30.0] * 13 + [71.0]
-    assert minimal_sets(some_pairs, 80) == (13, 286)
+    # 30 + 30 + 30 > 80 (56 triples); 71 + 30 and 71 + 71 > 80 (17 pairs).
+    some_pairs = [30.0] * 8 + [71.0, 71.0]
+    assert minimal_sets(some_pairs, 80) == (17, 56)
     assert _on_power(some_pairs) == "disjunctive"
     # 45 + 45 > 80 is the only pair; 286 + 2 * 78 triples.
     one_pair = [30.0] * 13 + [45.0, 45.0]

@@ -23,15 +23,19 @@ time-indexed model is kept
 
 Measured through :func:`~fsw_scheduler.solving.solve.solve` (greedy MIP
 start, cost caps, :data:`~fsw_scheduler.solving.ilp.progress.\
-WITH_START_DISJUNCTIVE`) on the 14 15-task multiple problems, paper and
-broad (``tools/bench --generator paper|broad --only c15-multiple|
-b15-multiple``): the disjunctive model took 6.8-9.1 s in total against
-14.8 s for the earlier rule (time-indexed wherever a set of three users
-exceeds a capacity), c15-multiple-0 2.5 s against 10.1 s. It lost only
-where one pair in 76 (b15-multiple-0: 1.6-2.0 s against 0.12 s) or 92
-(c15-multiple-1) of the minimal sets of two or three users over a
-capacity is a pair; the next smallest shares, 2.6 % and 3.4 %, went
-either way within 0.03 s.
+WITH_START_DISJUNCTIVE`, 10 s limit) with each model forced on the 84
+15-task multiple problems of ``tools/bench --generator paper|broad
+--seed 0..5 --only c15-multiple|b15-multiple`` (none pairwise exact):
+always time-indexed (the earlier rule) took 66.9 s in total, always
+disjunctive 84.0 s (3 not proved), the better of the two each time
+44.8 s. Picking the disjunctive model from a pair share of 0.10 took
+47.9 s (0.08-0.12: 46.8-47.9 s; 0.06: 52.0 s; 0.02: 79.1 s), the worst
+solve 7.7 s instead of 8.8 s, every problem proved. Above 0.12 the
+disjunctive model won 26 of 31 (c15-multiple-0 of seed 0: 2.2 s
+against 8.8 s, not proved); under 0.06 the time-indexed one won 30 of
+44. On seeds 6 and 7 (not looked at before) the mean per broad problem
+went 0.78 -> 0.43 s and 2.51 -> 2.19 s, the paper ones stayed at
+0.03-0.06 s.
 
 For binary resources the same command (``--only b15-binary``) gave a
 median of 2.07 s, 100.5x CP-SAT and 5/7 proved for the time-indexed
@@ -49,8 +53,9 @@ if TYPE_CHECKING:
     from ....model.problem import Problem, ResourceKind
 
 #: Below this share of pairs among the minimal sets of two or three users
-#: over a multiple resource's capacity, the time-indexed model is built.
-MIN_PAIR_SHARE = 0.02
+#: over the part's multiple capacities, the time-indexed model is built
+#: (measured: see the module docstring).
+MIN_PAIR_SHARE = 0.10
 
 #: A multiple resource with more users than this (not pairwise exact)
 #: keeps the time-indexed model: counting its sets of three would cost
