@@ -26,7 +26,7 @@ from .disjunctive.model import DisjunctiveModel
 from .disjunctive.rule import FORMULATIONS, pick, used_kinds
 from .objective import objective
 from .program import Program
-from .progress import WITH_START, WatchedCbcRun
+from .progress import WITH_START, WITH_START_DISJUNCTIVE, WatchedCbcRun
 from .variables import Variables
 
 if TYPE_CHECKING:
@@ -184,7 +184,11 @@ def _run_cbc(
         time_limit=time_limit,
         threads=threads,
         seed=seed,
-        extra=None if start is None else WITH_START,
+        extra=None
+        if start is None
+        else WITH_START_DISJUNCTIVE
+        if isinstance(built, DisjunctiveModel)
+        else WITH_START,
     )
     result = run.solve(built.program, start)
     notes = [result.solver_status]

@@ -54,6 +54,15 @@ SHORT_S = 1.0
 #: feasibility pump alone off (54.0 s) did less.
 WITH_START = ["heuristics off"]
 
+#: CBC options when a MIP start is given to the disjunctive model: its
+#: cuts (probing, Gomory, two-MIR on the big-M order rows) cost more per
+#: node than they save in nodes. 15-task multiple problems, paper and
+#: broad, all in the disjunctive model: 14.2 -> 9.3 s in total (c15-
+#: multiple-3 1.33 -> 0.30 s, b15-multiple-3 7.1 -> 2.4 s); binary ones
+#: (with the rows of :mod:`.disjunctive.energy`) 1.59 -> 0.91 s. With
+#: heuristics on as well the multiple ones took 18.1 s.
+WITH_START_DISJUNCTIVE = [*WITH_START, "cuts off"]
+
 log = logging.getLogger("fsw_scheduler.solver")
 
 _FLOAT = r"(-?[0-9.]+(?:e[+-]?[0-9]+)?)"

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 
 from ..constraints import identical_tasks
 from ..program import EQ, GE, LE
+from .energy import add_busy_rows
 from .rule import pairwise_exact
 
 if TYPE_CHECKING:
@@ -60,6 +61,7 @@ class Constraints:
         """Add every family, in a fixed order (stable row numbering)."""
         self._binary_resources()
         self._multiple_resources()
+        add_busy_rows(self.program, self.vars, self.problem, self._users)
         for prec in self.problem.precedences:
             self._precedence(prec)
         self._identical_tasks()

@@ -13,16 +13,29 @@ time-indexed model is kept
   disjunctive model has none;
 * for parts without a binary or multiple resource in use (precedences
   only): its LP is tight there and the part is small;
-* for multiple resources where three or more users exceed the capacity
-  only together (not :func:`pairwise_exact`). The disjunctive model
-  handles them with load rows at each start (see :mod:`.constraints`)
-  and, without a MIP start (20 s), proved all 14 of the 15-task multiple
-  problems (broad and paper) in 36.7 s against 12 of 14 in 65.9 s; but
-  through :func:`~fsw_scheduler.solving.solve.solve` (greedy MIP start,
-  cost caps) the time-indexed model was faster on 5 of the 7 broad ones
-  (``tools/bench --generator broad --solvers cbc,cpsat --only
-  b15-multiple --time-limit 10``: median 0.19 s against 1.30 s, 14.8x
-  against 74.3x CP-SAT, 6/7 proved either way), so it is kept there.
+* for multiple resources where almost every set of users over a
+  capacity needs three or more of them (pairs under
+  :data:`MIN_PAIR_SHARE` of the :func:`minimal_sets` of the part's
+  multiple resources), or one that has more than :data:`MAX_USERS`
+  users and is not :func:`pairwise_exact`. The disjunctive model
+  handles sets beyond pairs with load rows at each start (see
+  :mod:`.constraints`), whose LP says little when pairs are rare.
+
+Measured through :func:`~fsw_scheduler.solving.solve.solve` (greedy MIP
+start, cost caps, :data:`~fsw_scheduler.solving.ilp.progress.\
+WITH_START_DISJUNCTIVE`, 10 s limit) with each model forced on the 84
+15-task multiple problems of ``tools/bench --generator paper|broad
+--seed 0..5 --only c15-multiple|b15-multiple`` (none pairwise exact):
+always time-indexed (the earlier rule) took 66.9 s in total, always
+disjunctive 84.0 s (3 not proved), the better of the two each time
+44.8 s. Picking the disjunctive model from a pair share of 0.10 took
+47.9 s (0.08-0.12: 46.8-47.9 s; 0.06: 52.0 s; 0.02: 79.1 s), the worst
+solve 7.7 s instead of 8.8 s, every problem proved. Above 0.12 the
+disjunctive model won 26 of 31 (c15-multiple-0 of seed 0: 2.2 s
+against 8.8 s, not proved); under 0.06 the time-indexed one won 30 of
+44. On seeds 6 and 7 (not looked at before) the mean per broad problem
+went 0.78 -> 0.43 s and 2.51 -> 2.19 s, the paper ones stayed at
+0.03-0.06 s.
 
 For binary resources the same command (``--only b15-binary``) gave a
 median of 2.07 s, 100.5x CP-SAT and 5/7 proved for the time-indexed
@@ -38,6 +51,16 @@ if TYPE_CHECKING:
 
     from ....analysis.domains import Domain
     from ....model.problem import Problem, ResourceKind
+
+#: Below this share of pairs among the minimal sets of two or three users
+#: over the part's multiple capacities, the time-indexed model is built
+#: (measured: see the module docstring).
+MIN_PAIR_SHARE = 0.10
+
+#: A multiple resource with more users than this (not pairwise exact)
+#: keeps the time-indexed model: counting its sets of three would cost
+#: more than it tells, and no measurement covers such parts.
+MAX_USERS = 40
 
 Formulation = Literal["time-indexed", "disjunctive"]
 FORMULATIONS: tuple[Formulation, ...] = ("time-indexed", "disjunctive")
@@ -62,6 +85,34 @@ def pairwise_exact(amounts: list[float], capacity: float) -> bool:
     return True
 
 
+def minimal_sets(amounts: list[float], capacity: float) -> tuple[int, int]:
+    """Minimal over-capacity sets of users: the pairs and the triples.
+
+    Users alone over the capacity (never scheduled) are left out. A set
+    of three counts if it exceeds the capacity and none of its pairs
+    does. Time is ignored.
+
+    Returns
+    -------
+    tuple of int
+        The number of pairs over ``capacity`` and of such triples.
+    """
+    fitting = sorted(a for a in amounts if 0 < a <= capacity)
+    pairs = triples = 0
+    for k, third in enumerate(fitting):
+        for j in range(k):
+            second = fitting[j]
+            if second + third > capacity:
+                pairs += 1
+                continue
+            # fitting[i] <= second: the pair (i, k) is within capacity
+            # too, so the triple is minimal iff it exceeds the capacity.
+            triples += sum(
+                1 for i in range(j) if fitting[i] + second + third > capacity
+            )
+    return pairs, triples
+
+
 def pick(problem: Problem, domains: Mapping[str, Domain]) -> Formulation:
     """The formulation to build for ``problem`` (one independent part).
 
@@ -77,19 +128,31 @@ def pick(problem: Problem, domains: Mapping[str, Domain]) -> Formulation:
     str
         ``disjunctive`` when the part uses a binary or multiple resource,
         no consumable, and every multiple resource is
-        :func:`pairwise_exact`; ``time-indexed`` otherwise.
+        :func:`pairwise_exact`, or has at most :data:`MAX_USERS` users
+        and pairs make at least :data:`MIN_PAIR_SHARE` of the part's
+        :func:`minimal_sets`; ``time-indexed`` otherwise.
     """
     kinds = used_kinds(problem, domains)
     if "consumable" in kinds or not kinds:
         return "time-indexed"
+    exact = True
+    pairs = triples = 0
     for name, capacity in problem.resources.multiple.items():
         amounts = [
             task.uses.get(name, 0)
             for task in problem.tasks
             if not domains[task.id].empty
         ]
-        if not pairwise_exact(amounts, capacity):
+        if pairwise_exact(amounts, capacity):
+            continue
+        if sum(1 for a in amounts if a > 0) > MAX_USERS:
             return "time-indexed"
+        exact = False
+        found = minimal_sets(amounts, capacity)
+        pairs += found[0]
+        triples += found[1]
+    if not exact and pairs < MIN_PAIR_SHARE * (pairs + triples):
+        return "time-indexed"
     return "disjunctive"
 
 
