@@ -324,6 +324,33 @@ class EngineState:
                 )
             self._queue.append(QueuedChange("failure", task=task, at=since))
 
+    def _alarm_overdue(self, out: list[Command], before: int | None) -> None:
+        """Say once, when its planned end comes, that a dispatch got no
+        report: an executor that is not there is never silence.
+
+        Said on the step whose time reaches the end, and kept nowhere, so
+        that a replay says it on the same step. ``report_timeout`` (off by
+        default) then decides whether it counts as failed.
+        """
+        now = self.now
+        if now is None or (before is not None and now <= before):
+            return
+        for task, (_, end) in sorted(self._dispatches.sent.items()):
+            if self._dispatches.lifecycle.get(task) != "dispatched":
+                continue
+            if (before is None or before < end) and end <= now:
+                detail = (
+                    f"{task}: dispatched to run until {end}, no report yet "
+                    f"(now {now})"
+                )
+                out.append(Log("warning", detail))
+                out.append(
+                    Publish(
+                        topics.STATUS,
+                        self._status("report_overdue", detail=detail),
+                    )
+                )
+
     def _reject_goal(
         self,
         goal_id: str | None,

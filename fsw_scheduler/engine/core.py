@@ -234,6 +234,7 @@ class Engine(SolveQueue):
         # was just commanded as started, never moves it, never sends it
         # twice.
         self._dispatch_due(out, before)
+        self._alarm_overdue(out, before)
         if self._pending is None:
             self._start_queued(out)
         return out

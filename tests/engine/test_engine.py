@@ -582,3 +582,22 @@ def test_one_rule_pass_per_goal(
     held.finish()
     # Behind the solve: g2 alone, then g2+g3 (the replan itself).
     assert passes == ["g2", "g2+g3"]
+
+
+def test_a_dispatch_without_a_report_is_said_once_at_its_end(
+    started: Driver,
+) -> None:
+    """Tests that an activity dispatched and never reported raises one
+    ``report_overdue`` status when its planned end comes, and no more."""
+    dispatched = {
+        d.task: d.end for d in published(started.history, messages.Dispatch)
+    }
+    assert dispatched
+    first_end = min(dispatched.values())
+    due = sorted(t for t, end in dispatched.items() if end == first_end)
+    out = started.tick(first_end)
+    said = statuses(out, "report_overdue")
+    assert sorted(s.detail.split(":")[0] for s in said) == due
+    later = started.tick(first_end + 1) + started.tick(first_end + 2)
+    again = [s.detail.split(":")[0] for s in statuses(later, "report_overdue")]
+    assert not set(again) & set(due)
