@@ -705,6 +705,33 @@ def assess(
     )
 
 
+def local_gaps(info: messages.SecurityInfo) -> tuple[str, ...]:
+    """What a loopback-only bus lacks to be secure (empty when it has TLS
+    with mutual authentication and access control, or is exposed: then
+    :func:`assess` warns already).
+
+    Every process of the computer can reach a loopback bus: a strict
+    deployment (``run --require-secure``, like SROS 2's ``Enforce``)
+    refuses it too, unless the operator trusts the computer
+    (``--trust-loopback``).
+    """
+    if info.exposed:
+        return ()
+    gaps = []
+    if not info.mutual_tls:
+        gaps.append(
+            "the bus is loopback only but without mutual TLS: every "
+            "process on this computer can read it"
+        )
+    if not info.access_control:
+        gaps.append(
+            "the bus is loopback only but without access control: every "
+            "process on this computer can send goals, reports, levels "
+            "and clock"
+        )
+    return tuple(gaps)
+
+
 def policy_publishers(
     config: zenoh.Config,
 ) -> Callable[[str], frozenset[str] | None] | None:

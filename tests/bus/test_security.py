@@ -747,6 +747,41 @@ def test_require_secure_refuses_an_open_bus() -> None:
     assert "--require-secure: not starting" in result.stderr
 
 
+def test_require_secure_refuses_a_plain_loopback_bus_unless_trusted() -> None:
+    """Tests that 'run --require-secure' refuses a loopback-only bus with
+    neither TLS nor access control (every local process reaches it), and
+    that --trust-loopback accepts it as a single trusted computer."""
+    common = (
+        "run",
+        "--horizon",
+        "10",
+        "--require-secure",
+        "--listen",
+        "tcp/127.0.0.1:0",
+        "--no-multicast-scouting",
+    )
+    refused = _run_cli(*common)
+    assert refused.returncode == 2, refused.stderr
+    assert "loopback only but without mutual TLS" in refused.stderr
+    assert "loopback only but without access control" in refused.stderr
+    process = subprocess.Popen(
+        [*CLI, *common, "--trust-loopback"],
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert process.stderr is not None
+        for line in process.stderr:
+            assert "not starting" not in line, line
+            if "scheduler up on" in line:
+                break
+    finally:
+        process.terminate()
+        process.wait(30)
+        if process.stderr is not None:
+            process.stderr.close()
+
+
 def test_open_bus_warns_at_start() -> None:
     """Tests the start-up warning, and that --insecure acknowledges it.
 

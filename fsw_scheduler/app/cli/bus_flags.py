@@ -61,7 +61,8 @@ def add_run_command(add: Add) -> None:
 
         A bus reachable beyond loopback without TLS or access control is
         reported at start (and in scheduler/config): --insecure accepts
-        it, --require-secure refuses to start (exit 2).
+        it, --require-secure refuses to start (exit 2), and so it does on
+        a loopback bus without them unless --trust-loopback.
         """,
     )
     run.add_argument(
@@ -180,8 +181,15 @@ def add_run_command(add: Add) -> None:
     safety.add_argument(
         "--require-secure",
         action="store_true",
-        help="refuse to start (exit 2) unless the bus is loopback only, or "
-        "has mutual TLS on every endpoint and access control",
+        help="refuse to start (exit 2) unless the bus has mutual TLS on "
+        "every endpoint and access control, on loopback too (every "
+        "process of the computer reaches a loopback bus)",
+    )
+    safety.add_argument(
+        "--trust-loopback",
+        action="store_true",
+        help="with --require-secure: accept a loopback-only bus without "
+        "TLS or access control (a single trusted computer, a bench)",
     )
     limits = run.add_argument_group(
         "limits",

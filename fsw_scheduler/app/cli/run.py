@@ -75,12 +75,15 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 "arguments",
             )
         problem = Problem(horizon=config.horizon, tasks=())
-    from ...bus.security import assess, policy_publishers
+    from ...bus.security import assess, local_gaps, policy_publishers
 
     zenoh_settings = zenoh_config(args)
     security = assess(zenoh_settings, acknowledged=args.insecure)
-    if security.warnings and args.require_secure:
-        for warning in security.warnings:
+    strict = [*security.warnings]
+    if not args.trust_loopback:
+        strict += local_gaps(security)
+    if strict and args.require_secure:
+        for warning in strict:
             print(f"fsw-scheduler: insecure bus: {warning}", file=sys.stderr)
         print(
             "fsw-scheduler: --require-secure: not starting (see 'fsw-"
