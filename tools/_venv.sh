@@ -37,9 +37,22 @@ else
             "(first run only)..." >&2
         rm -rf "$VENV"
         "$PYTHON" -m venv "$VENV"
-        "$VENV/bin/python" -m pip install --quiet --require-hashes \
-            --no-deps -r requirements-lock.txt >&2
+        total=$(grep -c '^[A-Za-z0-9]' requirements-lock.txt)
+        echo "installing $total locked packages (a line each as it comes)..." >&2
+        # pip is quiet when not on a terminal: say each package, numbered.
+        "$VENV/bin/python" -m pip install --require-hashes --no-deps \
+            --progress-bar off -r requirements-lock.txt 2>&1 |
+            awk -v total="$total" '
+                /^(Collecting|Processing) / {
+                    name = $2; sub(/.*\//, "", name); sub(/(==|-[0-9]).*/, "", name)
+                    n++; printf "  [%d/%d] %s\n", n, total, name; fflush()
+                }
+                /^(ERROR|error)/ { print; fflush() }
+                /^Installing collected/ { print "  unpacking..."; fflush() }
+            ' >&2
+        [ "${PIPESTATUS[0]}" -eq 0 ] || exit 2
         # The package itself, with the locked setuptools and nothing else.
+        echo "installing fsw-scheduler itself (editable)..." >&2
         "$VENV/bin/python" -m pip install --quiet --no-deps \
             --no-build-isolation -e . >&2
         "$VENV/bin/python" -m pip check >&2
