@@ -39,6 +39,7 @@ import contextlib
 import json
 import threading
 import time
+from collections.abc import Mapping
 from importlib import resources
 from typing import TYPE_CHECKING, Any
 
@@ -59,6 +60,9 @@ from .wire import topics as keys
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterator
     from pathlib import Path
+
+    #: What the harness takes as its problem.
+    ProblemLike = Problem | Mapping[str, Any] | bytes | str | Path
 
     import zenoh
 
@@ -144,7 +148,12 @@ class SchedulerHarness(SchedulerClient):
 
     def __init__(
         self,
-        problem: Problem | bytes | str | Path | None = None,
+        problem: Problem
+        | Mapping[str, Any]
+        | bytes
+        | str
+        | Path
+        | None = None,
         config: NodeConfig | None = None,
         *,
         solve_fn: Callable[[NodeConfig, StartSolve], Plan] | None = None,
@@ -243,11 +252,15 @@ class SchedulerHarness(SchedulerClient):
         return listening_endpoints(self.server)
 
 
-def _load_problem(problem: Problem | bytes | str | Path | None) -> Problem:
+def _load_problem(problem: ProblemLike | None) -> Problem:
     if problem is None:
         return paper_problem()
     if isinstance(problem, Problem):
         return problem
+    if isinstance(problem, Mapping):  # a dict, as the API takes them
+        import json
+
+        return decode_problem(json.dumps(problem), allow_empty=True)
     if isinstance(problem, bytes | str) and str(problem).lstrip()[:1] in (
         "{",
         "[",
@@ -281,7 +294,8 @@ def _fixtures() -> object:
     class Fixtures:
         @pytest.fixture
         def scheduler_problem(self) -> Problem:
-            """The problem of ``scheduler_harness``: the paper's Table 1."""
+            """The problem of ``scheduler_harness``: the paper's Table 1
+            (override it to return a Problem, a dict, JSON or a path)."""
             return paper_problem()
 
         @pytest.fixture
@@ -291,7 +305,7 @@ def _fixtures() -> object:
 
         @pytest.fixture
         def scheduler_harness(
-            self, scheduler_problem: Problem, scheduler_config: NodeConfig
+            self, scheduler_problem: Any, scheduler_config: NodeConfig
         ) -> Iterator[SchedulerHarness]:
             """An open :class:`SchedulerHarness`, closed after the test."""
             with SchedulerHarness(
