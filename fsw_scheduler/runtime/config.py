@@ -25,7 +25,7 @@ from typing import Literal
 
 import msgspec
 
-from ..errors import ConfigError
+from ..errors import ConfigError, FieldIssue
 from ..model.problem import id_issue
 from ..replan.triggers import Tolerance
 
@@ -237,7 +237,21 @@ def load_config(path: str | Path | None) -> NodeConfig:
         raise ConfigError(f"cannot read {path}: {error.strerror}") from None
     except tomllib.TOMLDecodeError as error:
         raise ConfigError(f"{path}: {error}") from None
+    from ..model.strict import shape_issues
+
+    issues = shape_issues(data, NodeConfig)
+    if any("_" in i.path and "unknown field" in i.reason for i in issues):
+        issues.append(
+            FieldIssue(
+                "",
+                "settings keys are kebab-case: report-timeout, "
+                "not report_timeout",
+            )
+        )
+    if issues:
+        lines = "\n".join(f"  {issue}" for issue in issues)
+        raise ConfigError(f"{path}: invalid settings:\n{lines}")
     try:
         return msgspec.convert(data, NodeConfig)
-    except msgspec.ValidationError as error:
+    except msgspec.ValidationError as error:  # a rule of __post_init__
         raise ConfigError(f"{path}: {error}") from None

@@ -74,3 +74,20 @@ def test_command_line_overrides_keep_unset_values() -> None:
     """Tests that replace() ignores options the user did not give."""
     config = NodeConfig(solver="highs").replace(solver=None, seed=3)
     assert config.solver == "highs" and config.seed == 3
+
+
+def test_every_mistake_of_a_settings_file_at_once(tmp_path: Path) -> None:
+    """Tests that a settings file with several mistakes names them all,
+    with the closest key, and says that keys are kebab-case."""
+    path = tmp_path / "scheduler.toml"
+    path.write_text('report_timeout = 5\nheartbeat = "x"\nclock = "gps"\n')
+    with pytest.raises(ConfigError) as info:
+        load_config(path)
+    text = str(info.value)
+    assert (
+        "report_timeout: unknown field (did you mean 'report-timeout'?)"
+        in (text)
+    )
+    assert "heartbeat: must be an integer" in text
+    assert "clock: must be one of 'bus', 'wall', got 'gps'" in text
+    assert "kebab-case" in text
