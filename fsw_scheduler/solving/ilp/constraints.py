@@ -104,7 +104,10 @@ class Constraints:
     def _monotone_steps(self) -> None:
         """Steps never go back: ``z[i, t-1] <= z[i, t]``."""
         rows = self.program.rows
-        for steps in self.vars.steps.values():
+        # Tasks that share steps (:func:`.variables.shared_steps`) share
+        # the list: its rows are written once.
+        unique = {id(steps): steps for steps in self.vars.steps.values()}
+        for steps in unique.values():
             # Two distinct columns with non-zero coefficients: no cleaning.
             rows.extend(
                 ({before: 1.0, after: -1.0}, LE, 0.0)
@@ -325,5 +328,6 @@ class Constraints:
             elif time < j_done or time == i_done:
                 # Z(i, t-g) <= y_j for t >= j_done: implied at i_done.
                 self._row({v: -c for v, c in follows.items()}, LE, 0)
-        if prec.scope == "both":
+        if prec.scope == "both" and y_i != y_j:
+            # y_i is y_j where the two share steps (shared_steps).
             self._row({y_i: 1.0, y_j: -1.0}, EQ, 0)
