@@ -104,7 +104,10 @@ class Constraints:
     def _monotone_steps(self) -> None:
         """Steps never go back: ``z[i, t-1] <= z[i, t]``."""
         rows = self.program.rows
-        for steps in self.vars.steps.values():
+        # Tasks that share steps (:func:`.variables.shared_steps`) share
+        # the list: its rows are written once.
+        unique = {id(steps): steps for steps in self.vars.steps.values()}
+        for steps in unique.values():
             # Two distinct columns with non-zero coefficients: no cleaning.
             rows.extend(
                 ({before: 1.0, after: -1.0}, LE, 0.0)
@@ -137,15 +140,21 @@ class Constraints:
         """Paper eq. (3): the level never goes below zero.
 
         The level at the end of unit ``t`` is the initial level minus every
-        amount times the units run up to and including ``t``. Writing it as
-        ``sum_i amount_i * (units of i run by t) <= initial`` needs
-        ``length_i`` non-zeros per task and row; a running sum of ``R``
-        needs two. So a continuous level variable ``L[t] >= 0`` carries it:
-        ``L[t] = L[t-1] - sum_i amount_i * R(i, t)``, ``L[start-1]`` being
-        the initial level. A resource whose consumers cannot exhaust it
-        even if all are scheduled gets no rows at all. A consumable with a
-        capacity gets ``L[t] <= L[t-1] - ...`` instead (see
-        :meth:`_level_column`).
+        amount times the units run up to and including ``t``. A continuous
+        level column ``L >= 0`` carries it from one checkpoint to the next:
+        ``L[c] = L[p] - sum_i amount_i * (units i runs in (p, c])``,
+        ``L[start-1]`` being the initial level. Checkpoints are the units
+        next to one in which generation can happen, and the last unit
+        (:meth:`_checkpoints`): between two of them the level only falls,
+        so its lowest value is at the later one, and a level row per unit
+        there would only repeat it. The units a task runs in ``(p, c]`` are
+        ``sum_{u=p+1}^{c} Z(i, u) - Z(i, u - length)``: two non-zeros per
+        unit of a one-unit segment, at most ``2 length`` for a long one.
+        Without generation a resource needs a single row, the knapsack of
+        :meth:`_consumable_total` (tasks end inside the horizon). A
+        resource whose consumers cannot exhaust it even if all are
+        scheduled gets no rows at all. A consumable with a capacity gets
+        ``L[c] <= L[p] - ...`` instead (see :meth:`_level_column`).
         """
         consumables = self.problem.resources.initial_levels.items()
         for resource, initial in consumables:
@@ -159,22 +168,52 @@ class Constraints:
             # CBC time -23 %; on resource-only models it was slower).
             for task, _ in users:
                 self.program.priorities[self.vars.scheduled(task.id)] = 1
-            running: list[Terms] = [{} for _ in range(self.problem.horizon)]
+            checkpoints = self._checkpoints(users)
+            if len(checkpoints) > 1:
+                self._level_rows(resource, initial, users, checkpoints)
+
+    def _checkpoints(self, users: list[tuple[Task, float]]) -> list[int]:
+        """Units at whose end a level row of these users is needed.
+
+        The unit before and the unit of every unit in which some generator
+        (negative amount) may run, and the last unit of the horizon;
+        sorted. Only the last one when nothing generates.
+        """
+        end = self.problem.end
+        points = {end - 1}
+        for task, amount in users:
+            if amount >= 0:
+                continue
+            domain = self.vars.domains[task.id]
+            last = min(domain.latest + task.length, end) - 1
+            for unit in range(domain.earliest, last + 1):
+                points.update((unit - 1, unit))
+        return sorted(p for p in points if self.problem.start <= p < end)
+
+    def _level_rows(
+        self,
+        resource: str,
+        initial: float,
+        users: list[tuple[Task, float]],
+        checkpoints: list[int],
+    ) -> None:
+        """The level balance from checkpoint to checkpoint (see above)."""
+        add_step = self.vars.add_step
+        previous: int | None = None
+        after = self.problem.start - 1  # the last unit already counted
+        for point in checkpoints:
+            level, sense = self._level_column(resource)
+            # level - previous + sum amount * units = 0 (initial if first)
+            terms: Terms = {level: 1.0}
+            if previous is not None:
+                terms[previous] = -1.0
             for task, amount in users:
-                self.vars.add_running(
-                    running, task, amount, self.problem.start
-                )
-            previous: int | None = None
-            for used in running:
-                level, sense = self._level_column(resource)
-                # level - previous + sum amount * R = 0 (initial if first)
-                terms: Terms = {level: 1.0}
-                if previous is not None:
-                    terms[previous] = -1.0
-                terms.update(used)
-                rhs = initial if previous is None else 0.0
-                self._row(terms, sense, rhs)
-                previous = level
+                for unit in range(after + 1, point + 1):
+                    add_step(terms, task.id, unit, amount)
+                    add_step(terms, task.id, unit - task.length, -amount)
+            rhs = initial if previous is None else 0.0
+            self._row(terms, sense, rhs)
+            previous, after = level, point
 
     def _level_column(self, resource: str) -> tuple[int, str]:
         """A level column of ``resource`` and the sense of its balance row.
@@ -289,5 +328,6 @@ class Constraints:
             elif time < j_done or time == i_done:
                 # Z(i, t-g) <= y_j for t >= j_done: implied at i_done.
                 self._row({v: -c for v, c in follows.items()}, LE, 0)
-        if prec.scope == "both":
+        if prec.scope == "both" and y_i != y_j:
+            # y_i is y_j where the two share steps (shared_steps).
             self._row({y_i: 1.0, y_j: -1.0}, EQ, 0)

@@ -43,6 +43,15 @@ SOLVERS = ("cbc", "highs")
 #: 158 000 columns of 200 tasks at H = 1440, 18 us each; rounded up).
 BUILD_S_PER_COLUMN = 2.5e-5
 
+#: CBC options added to :data:`~.progress.WITH_START` for a part whose only
+#: resources in use are consumables. With a MIP start CBC proves these at
+#: the root, by reduced costs, and its cut rounds cost more than they
+#: close: CPU time 1.54 -> 1.04 s in total on the 12 consumable models of
+#: the paper campaign's 10 and 15 tasks, 0.42 -> 0.25 s on the 11 of the
+#: broad campaign (none slower by more than 0.04 s). With binary or
+#: multiple resources the cuts close most of the root gap, and stay.
+CONSUMABLES_ONLY = ["cuts off"]
+
 
 def _pulp_status(lp: pulp.LpProblem) -> SolveStatus:
     """The status of a solve through PuLP, from the solution status first.
@@ -171,7 +180,14 @@ def _run_cbc(
     warm: dict[str, int] | None,
 ) -> _Outcome:
     start = None
+    extra = None
     if warm:
+        if isinstance(built, DisjunctiveModel):
+            extra = list(WITH_START_DISJUNCTIVE)
+        else:
+            extra = list(WITH_START)
+            if used_kinds(built.problem, built.domains) == {"consumable"}:
+                extra += CONSUMABLES_ONLY
         warm = in_symmetry_order(built.constraints.twins, warm)
         start = built.vars.initial(warm, built.program.num_columns)
     program = built.program
@@ -184,11 +200,7 @@ def _run_cbc(
         time_limit=time_limit,
         threads=threads,
         seed=seed,
-        extra=None
-        if start is None
-        else WITH_START_DISJUNCTIVE
-        if isinstance(built, DisjunctiveModel)
-        else WITH_START,
+        extra=extra,
     )
     result = run.solve(built.program, start)
     notes = [result.solver_status]

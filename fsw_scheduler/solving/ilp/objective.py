@@ -39,9 +39,11 @@ def objective(problem: Problem, variables: Variables) -> tuple[Terms, float]:
         steps = variables.steps[task.id]
         latest = variables.domains[task.id].latest
         scheduled = steps[-1]
-        terms[scheduled] = -big * task.schedule_cost + task.delay_cost * (
-            latest - problem.start
+        # Tasks may share columns (:func:`.variables.shared_steps`).
+        terms[scheduled] = terms.get(scheduled, 0.0) + (
+            -big * task.schedule_cost
+            + task.delay_cost * (latest - problem.start)
         )
         for var in steps[:-1]:
-            terms[var] = -float(task.delay_cost)
+            terms[var] = terms.get(var, 0.0) - task.delay_cost
     return terms, constant

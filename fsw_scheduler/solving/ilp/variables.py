@@ -18,11 +18,54 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from collections.abc import Sequence
+    from collections.abc import Mapping, Sequence
 
     from ...analysis.domains import Domain
     from ...model.problem import Problem, Task
     from .program import Program, Terms
+
+
+def shared_steps(
+    problem: Problem, domains: Mapping[str, Domain]
+) -> dict[str, str]:
+    """Tasks whose steps are another task's, shifted: task id to that task.
+
+    A tight precedence of scope ``both`` makes ``s_j = s_i + g`` and
+    ``y_j = y_i``, so ``Z(j, t) = Z(i, t - g)``: where the domains agree
+    (``[e_j, l_j] = [e_i + g, l_i + g]``, as propagation leaves them)
+    ``j`` reads ``i``'s columns instead of having its own, and the
+    precedence's rows become empty. Chains share one task's columns
+    (offsets add up); a pair already linked is not linked again, so a
+    cycle of such precedences keeps its rows.
+    """
+    #: Task id to (task it follows, shift of its start from that task's).
+    parent: dict[str, tuple[str, int]] = {}
+
+    def root(name: str) -> tuple[str, int]:
+        shift = 0
+        while name in parent:
+            name, step = parent[name]
+            shift += step
+        return name, shift
+
+    for prec in problem.precedences:
+        if prec.kind != "tight" or prec.scope != "both":
+            continue
+        first, first_shift = root(prec.before)
+        second, second_shift = root(prec.after)
+        if first == second:
+            continue
+        gap = problem.task(prec.before).length + prec.offset
+        shift = first_shift + gap - second_shift  # s_second - s_first
+        dom_a, dom_b = domains[first], domains[second]
+        if dom_a.empty or dom_b.empty:
+            continue
+        if (dom_b.earliest, dom_b.latest) == (
+            dom_a.earliest + shift,
+            dom_a.latest + shift,
+        ):
+            parent[second] = (first, shift)
+    return {name: root(name)[0] for name in parent}
 
 
 class Variables:
@@ -49,14 +92,19 @@ class Variables:
         self.domains = domains
         self.tasks: list[Task] = list(problem.tasks)
         self.steps: dict[str, list[int]] = {}
+        shared = shared_steps(problem, domains)
         for task in self.tasks:
             domain = domains[task.id]
-            if domain.empty:
+            if domain.empty or task.id in shared:
                 continue
             self.steps[task.id] = list(
                 program.add_binaries(domain.latest - domain.earliest + 1)
             )
-            if task.mandatory:
+        for task in self.tasks:
+            if task.id in shared and shared[task.id] in self.steps:
+                self.steps[task.id] = self.steps[shared[task.id]]
+        for task in self.tasks:
+            if task.mandatory and task.id in self.steps:
                 program.lower[self.scheduled(task.id)] = 1
         self._spans = {
             task_id: (
