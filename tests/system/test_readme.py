@@ -49,6 +49,8 @@ NOT_RUN = {
     "tools/demo": "the main job; CI and the newcomer check run it",
     "tools/test": "runs this suite",
     "tools/lock": "needs PyPI and rewrites the lock",
+    "tools/bench": "minutes of solving; tests/system/test_bench.py runs its "
+    "quick modes",
     "fsw-scheduler run": "a long-running bus component; "
     "tests/bus/test_node.py runs it on loopback (the README's endpoints are "
     "a deployment's)",
