@@ -1,9 +1,12 @@
 """Bus messages (the bus keys): msgspec Structs and their codec.
 
 Evolution rules: a new field always has a default and a field's type
-never changes, so older recordings still decode. Unknown fields are
-ignored on input (no ``forbid_unknown_fields``), which keeps replays of
-newer recordings possible. The files in ``schemas/`` are generated from
+never changes, so older recordings still decode. The inputs that
+command (goals, reports, levels, clock) are read strictly
+(:mod:`fsw_scheduler.model.strict`: an unknown field is rejected, named,
+with the closest known one); the types themselves do not forbid unknown
+fields, so that readers of recordings and of the messages the scheduler
+publishes accept fields newer than themselves. The files in ``schemas/`` are generated from
 these types (:mod:`fsw_scheduler.runtime.schemas`); a test keeps them
 identical.
 """
