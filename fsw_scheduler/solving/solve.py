@@ -285,6 +285,11 @@ def _joined(
     )
 
 
+#: Parts at least this large say when their start plan begins and ends
+#: (150 tasks took 15 s there, without a word).
+LOUD_TASKS = 50
+
+
 def _solve_whole(
     problem: Problem,
     run: functools.partial[Plan],
@@ -303,7 +308,24 @@ def _solve_whole(
         def stop() -> bool:
             return time.perf_counter() > greedy_end
 
+    # A large part spends seconds here before CBC says anything: say so.
+    loud = problem.num_tasks >= LOUD_TASKS
+    if loud:
+        log.info(
+            "start plan: list scheduling %d tasks over [%d, %d)...",
+            problem.num_tasks,
+            problem.start,
+            problem.end,
+        )
     start = best_start(problem, warm, stop=stop, domains=domains)
+    if loud:
+        log.info(
+            "start plan: %s after %.1f s",
+            "none"
+            if start is None or start.objective is None
+            else f"objective {start.objective.total:g}",
+            time.perf_counter() - began,
+        )
     if start is not None and at_lower_bound(problem, start, domains):
         plan = start.replace(
             status=SolveStatus.OPTIMAL,

@@ -6,9 +6,9 @@ command (goals, reports, levels, clock) are read strictly
 (:mod:`fsw_scheduler.model.strict`: an unknown field is rejected, named,
 with the closest known one); the types themselves do not forbid unknown
 fields, so that readers of recordings and of the messages the scheduler
-publishes accept fields newer than themselves. The files in ``schemas/`` are generated from
-these types (:mod:`fsw_scheduler.runtime.schemas`); a test keeps them
-identical.
+publishes accept fields newer than themselves. The files in
+``schemas/`` are generated from these types
+(:mod:`fsw_scheduler.runtime.schemas`); a test keeps them identical.
 """
 
 from __future__ import annotations

@@ -540,3 +540,23 @@ def test_no_solver_when_only_impossible_tasks_are_out() -> None:
     assert plan.unscheduled == ("b",)
     assert plan.starts() == {"a": 0, "c": 0}
     assert plan.stats is not None and plan.stats.solver == "greedy"
+
+
+def test_a_large_part_says_when_its_start_plan_begins_and_ends(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """Tests that a part of 50 tasks or more logs its start-plan phase
+    (a large solve used to be silent for its first seconds)."""
+    from fsw_scheduler.solving.solve import LOUD_TASKS
+
+    tasks = [
+        make_task(f"t{i}", 1, uses={"power": 1}) for i in range(LOUD_TASKS)
+    ]
+    problem = problem_from(
+        make_doc(tasks, 100, resources={"multiple": {"power": 1}})
+    )
+    caplog.set_level("INFO", logger="fsw_scheduler.solver")
+    solve(problem, time_limit=20.0)
+    lines = [r.getMessage() for r in caplog.records]
+    assert any(f"list scheduling {LOUD_TASKS} tasks" in m for m in lines)
+    assert any(m.startswith("start plan: objective") for m in lines)
