@@ -426,11 +426,20 @@ def run_demo(
             world.close()
             node.close()
     plans = world.plans
+    if pictures:
+        printer.line(
+            f"\ndrawing {len(plans)} plan pictures and the levels "
+            "(a few seconds)..."
+        )
     drawn = _draw(out_dir, journal_path, plans, executor, pictures=pictures)
     verified = None
     if verify:
         from ..journal.replay import verify as verify_journal
 
+        printer.line(
+            "replay --verify: running the journal's inputs through a fresh "
+            "scheduler and comparing every decision..."
+        )
         report = verify_journal(journal_path)
         verified = report.identical
         print(

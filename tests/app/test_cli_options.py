@@ -258,3 +258,17 @@ def test_info_json_is_machine_readable() -> None:
     topics = {c["topic"]: c["messages"] for c in data["channels"]}
     assert topics["fsw/sat1/scheduler/plan"] == 2
     assert data["duration_s"] >= 0 and data["metadata"] == {}
+
+
+def test_demo_says_what_it_does_after_the_timeline(tmp_path: Path) -> None:
+    """Tests that the demo says it is drawing, then verifying, before each
+    of those silent phases, and then the verdict."""
+    result = run(
+        "demo", "--out", str(tmp_path / "demo"), "--time-unit", "0.01"
+    )
+    assert result.returncode == 0, result.stderr
+    text = result.stdout
+    drawing = text.index("plan pictures and the levels")
+    checking = text.index("through a fresh scheduler")
+    verdict = text.index("replay --verify: IDENTICAL")
+    assert drawing < checking < verdict
