@@ -43,7 +43,7 @@ _JSON_NAMES = {
     type(None): "null",
 }
 _SHOWN = 40  # characters of a value quoted in a reason
-_WIDE = 2**30  # a range this wide is told by its violated end alone
+_WIDE = 2**30  # a range this wide is told as an interval, not a list
 
 _INFOS: dict[object, mi.Type] = {}
 
@@ -203,11 +203,14 @@ def _check_number(
         out.append(FieldIssue(path, f"must be finite, got {value}"))
         return
     low, high = info.ge, info.le
-    if low is not None and high is not None and high - low < _WIDE:
+    if low is not None and high is not None:
         if not low <= value <= high:
-            out.append(
-                FieldIssue(path, f"must be in {low}..{high}, got {value}")
+            reason = (
+                f"must be in {low}..{high}, got {value}"
+                if high - low < _WIDE
+                else f"{value} is outside [{low}, {high}]"
             )
+            out.append(FieldIssue(path, reason))
         return
     for bound, test, words in (
         (info.ge, lambda b: value >= b, ">="),

@@ -13,7 +13,7 @@ publishes accept fields newer than themselves. The files in
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 import msgspec
 
@@ -28,7 +28,7 @@ from ..model.plan import (
     SolverStats,
     SolveStatus,
 )
-from ..model.problem import Problem, decode_strict
+from ..model.problem import Id, Instant, Problem, decode_strict
 from .profiles import LevelCheck, Profiles
 
 #: Largest payload accepted on an input key; bigger ones are rejected
@@ -39,7 +39,7 @@ MAX_PAYLOAD_BYTES = 1 << 20
 class Clock(msgspec.Struct, frozen=True):
     """``clock``: bus time in time units."""
 
-    now: int
+    now: Instant
 
 
 class ActivityReport(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -52,12 +52,12 @@ class ActivityReport(msgspec.Struct, frozen=True, omit_defaults=True):
     rejected; the ``reports-need-dispatch`` setting makes them required).
     """
 
-    task: str
+    task: Id
     state: Literal["running", "completed", "failed"]
-    at: int
+    at: Instant
     detail: str = ""
     dispatch_id: str = ""
-    term: int = 0
+    term: Annotated[int, msgspec.Meta(ge=0)] = 0
 
 
 class ResourceLevel(msgspec.Struct, frozen=True):
@@ -66,9 +66,9 @@ class ResourceLevel(msgspec.Struct, frozen=True):
     ``level`` is the level at the start of time unit ``at``.
     """
 
-    resource: str
+    resource: Id
     level: float
-    at: int
+    at: Instant
 
 
 class PlanMessage(msgspec.Struct, frozen=True):

@@ -221,3 +221,35 @@ def test_the_shipped_examples_pass_both() -> None:
         validator = GOAL if "goal_id" in doc else PROBLEM
         assert not list(validator.iter_errors(doc)), path
         (decode_goal if "goal_id" in doc else decode_problem)(path.read_text())
+
+
+#: Bus inputs with a mistake of shape: (kind, payload, path).
+BUS_STATIC = [
+    ("clock", {"now": -1}, "now"),
+    ("clock", {"now": 2**62}, "now"),
+    ("clock", {"now": "5"}, "now"),
+    ("clock", {"nwo": 5}, "nwo"),
+    ("activity_report", {"task": "a/b", "state": "running", "at": 1}, "task"),
+    ("activity_report", {"task": "A", "state": "done", "at": 1}, "state"),
+    ("activity_report", {"task": "A", "state": "running", "at": -1}, "at"),
+    (
+        "activity_report",
+        {"task": "A", "state": "running", "at": 1, "term": -2},
+        "term",
+    ),
+    ("resource_level", {"resource": "b*", "level": 1.0, "at": 1}, "resource"),
+    ("resource_level", {"resource": "b", "level": "full", "at": 1}, "level"),
+    ("resource_level", {"resource": "b", "level": 1.0, "at": -3}, "at"),
+]
+
+
+@pytest.mark.parametrize(("kind", "payload", "path"), BUS_STATIC)
+def test_bus_input_mistakes_are_rejected_by_the_node_and_the_schema(
+    kind: str, payload: dict, path: str
+) -> None:
+    """Tests each shape mistake of a clock, report or level: the decoder
+    names its path, the shipped schema rejects the same message."""
+    with pytest.raises(InputError) as info:
+        messages.decode_input(kind, json.dumps(payload).encode())
+    assert path in {issue.path for issue in info.value.issues}, info.value
+    assert list(_validator(kind).iter_errors(payload)), (kind, payload)
