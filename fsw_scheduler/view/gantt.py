@@ -108,15 +108,28 @@ def _colour_of(problem: Problem, task: Task | None) -> str:
     return _NO_BINARY
 
 
-def _row_ids(problem: Problem, history: Sequence[Activity]) -> list[str]:
-    """Problem tasks in problem order, then history-only tasks."""
+def _row_ids(
+    problem: Problem, history: Sequence[Activity], plan: Plan | None = None
+) -> list[str]:
+    """Task rows in time order, as a timeline reads: by first start (what
+    ran, then what is planned), then the tasks left out in problem order.
+    """
     ids = [task.id for task in problem.tasks]
     seen = set(ids)
     for activity in history:
         if activity.task not in seen:
             seen.add(activity.task)
             ids.append(activity.task)
-    return ids
+    first: dict[str, int] = {}
+    for activity in [*history, *(plan.activities if plan else ())]:
+        first[activity.task] = min(
+            first.get(activity.task, activity.start), activity.start
+        )
+    place = {name: index for index, name in enumerate(ids)}
+    return sorted(
+        ids,
+        key=lambda name: (name not in first, first.get(name, 0), place[name]),
+    )
 
 
 def gantt(
@@ -134,7 +147,8 @@ def gantt(
 ) -> Path:
     """Draw a plan as a Gantt chart with resource profiles and save a PNG.
 
-    The top panel has one row per task in problem order, each scheduled
+    The top panel has one row per task in time order (first start; the
+    tasks left out last, in problem order), each scheduled
     task a bar coloured by the first binary resource it uses (grey when it
     uses none) and labelled with its time span; an unscheduled task gets a
     hatched grey row with the reason from ``plan.why``. Below, one panel
@@ -198,7 +212,7 @@ def gantt(
     measured = {k: list(v) for k, v in (measured or {}).items()}
     profiles = resource_profiles(problem, plan)
     lost = lost_charge(problem, plan)
-    rows = _row_ids(problem, history)
+    rows = _row_ids(problem, history, plan)
     rows += [name for name in removed if name not in rows]
     names = [*problem.resources.multiple, *problem.resources.consumable]
     lanes = list(problem.resources.binary)

@@ -402,3 +402,30 @@ def test_gantt_without_binary_resources_has_no_lanes(
     problem = Problem(horizon=5, tasks=(Task("a", 2, 1, 1),))
     gantt(problem, _plan((("a", 0, 2),)), tmp_path / "plain.png")
     assert "who holds each binary resource" not in _texts(figures[0])
+
+
+def test_gantt_rows_follow_time_not_problem_order() -> None:
+    """Tests that the rows go by first start (what ran first on top), the
+    left-out tasks last in problem order."""
+    from fsw_scheduler.view.gantt import _row_ids
+
+    problem = Problem(
+        horizon=10,
+        tasks=tuple(
+            Task(name, 1, 1, 1) for name in ("late", "out", "early", "ran")
+        ),
+    )
+    plan = Plan(
+        SolveStatus.OPTIMAL,
+        None,
+        (Activity("late", 6, 7), Activity("early", 2, 3)),
+        ("out",),
+    )
+    history = [Activity("ran", 0, 1), Activity("gone", 1, 2)]
+    assert _row_ids(problem, history, plan) == [
+        "ran",
+        "gone",
+        "early",
+        "late",
+        "out",
+    ]
