@@ -20,7 +20,7 @@ from ..model.levels import _task_map, lost_charge, resource_profiles
 from .timeline import _capacity_note, _fmt, _left_out, _objective_line
 
 if TYPE_CHECKING:
-    from collections.abc import Mapping, Sequence
+    from collections.abc import Collection, Mapping, Sequence
 
     from ..model.plan import Activity, Plan
     from ..model.problem import Problem, Task
@@ -96,6 +96,8 @@ _UNSCHEDULED = "#d9d9d9"
 
 
 _NOW = "#c0392b"
+#: A failed execution: hatched in this colour, never drawn as finished.
+_FAILED = "#b03a2e"
 
 
 def _colour_of(problem: Problem, task: Task | None) -> str:
@@ -144,6 +146,7 @@ def gantt(
     previous: Sequence[Activity] | None = None,
     measured: Mapping[str, Sequence[tuple[int, float]]] | None = None,
     past_tasks: Sequence[Task] | None = None,
+    failed: Collection[tuple[str, int]] | None = None,
 ) -> Path:
     """Draw a plan as a Gantt chart with resource profiles and save a PNG.
 
@@ -186,6 +189,9 @@ def gantt(
     past_tasks
         Definitions of executed tasks that are no longer in the problem,
         so their faded bars get their colours and binary lanes.
+    failed
+        Executions ``(task, start)`` of ``history`` that failed: drawn
+        hatched in red and labelled "failed", never like a finished one.
 
     A panel under the tasks has one lane per binary resource, showing
     which task holds it when (executed activities faded).
@@ -238,7 +244,9 @@ def gantt(
     )[:, 0]
 
     past = {t.id: t for t in past_tasks or ()}
-    _draw_tasks(axes[0], problem, plan, rows, history, now, Patch, past)
+    _draw_tasks(
+        axes[0], problem, plan, rows, history, now, Patch, past, failed
+    )
     if removed:
         _draw_removed(axes[0], rows, removed, previous, now, plan)
     panels = list(axes[1:])
@@ -297,6 +305,7 @@ def _draw_tasks(
     now: int | None,
     Patch: Any,
     past: Mapping[str, Task] | None = None,
+    failed: Collection[tuple[str, int]] | None = None,
 ) -> None:
     """Task panel: bars, unscheduled rows, history, legend."""
     tasks = {**(past or {}), **_task_map(problem)}
@@ -304,21 +313,35 @@ def _draw_tasks(
     bar_h = 0.62
     reasons = {name: blockers for name, blockers in _left_out(plan)}
 
+    broken = set(failed or ())
     for activity in history:
         stop = activity.end if now is None else min(activity.end, now)
         if stop <= activity.start:
             continue
+        lost = (activity.task, activity.start) in broken
+        style: dict[str, Any] = (
+            {"color": "white", "hatch": "xx", "edgecolor": _FAILED}
+            if lost
+            else {
+                "color": _colour_of(problem, tasks.get(activity.task)),
+                "alpha": 0.3,
+                "edgecolor": "#555555",
+                "linestyle": ":",
+            }
+        )
+        y = y_of[activity.task]
         ax.barh(
-            y_of[activity.task],
+            y,
             stop - activity.start,
             left=activity.start,
             height=bar_h,
-            color=_colour_of(problem, tasks.get(activity.task)),
-            alpha=0.3,
-            edgecolor="#555555",
             linewidth=0.6,
-            linestyle=":",
+            **style,
         )
+        if lost:
+            ax.text(
+                stop + 0.3, y, "failed", va="center", fontsize=7, color=_FAILED
+            )
 
     for activity in plan.activities:
         y = y_of[activity.task]

@@ -69,6 +69,8 @@ class Session:
         open at the end of the journal ends at its dispatched end).
     measured
         Consumable name to its ``(at, level)`` reports, in order.
+    failed
+        The executions (task, start) that a ``failed`` report ended.
     tasks
         Every task definition seen (the latest one per id).
     """
@@ -80,6 +82,7 @@ class Session:
     executed: list[Activity] = field(default_factory=list)
     measured: dict[str, list[tuple[int, float]]] = field(default_factory=dict)
     tasks: dict[str, Task] = field(default_factory=dict)
+    failed: set[tuple[str, int]] = field(default_factory=set)
 
 
 def read_session(path: PathLike) -> Session:
@@ -144,6 +147,8 @@ def read_session(path: PathLike) -> Session:
                     session.executed.append(
                         Activity(report.task, start, max(report.at, start))
                     )
+                    if report.state == "failed":
+                        session.failed.add((report.task, start))
             elif kind == "resource_level":
                 level = msgspec.json.decode(
                     message.payload, type=ResourceLevel
@@ -274,6 +279,7 @@ def plot_session(path: PathLike, out_dir: PathLike) -> list[Path]:
             previous=previous,
             measured=measured,
             past_tasks=past,
+            failed=session.failed,
         )
         drawn.append(target)
         previous = plan.activities

@@ -95,3 +95,38 @@ def test_attach_pictures_copies_the_journal(tmp_path: Path) -> None:
     assert info(copy).message_count == info(PAPER).message_count
     assert [a.media_type for a in info(copy).attachments][-1] == "image/png"
     assert verify(copy).identical
+
+
+def test_a_failed_run_is_drawn_as_failed(tmp_path: Path) -> None:
+    """Tests that the session knows which runs failed, and that the Gantt
+    draws a failed run otherwise than a finished one."""
+    from fsw_scheduler.view.gantt import gantt
+
+    session = read_session(FAILURE)
+    first = min(
+        (a for a in session.executed if a.task == "DownlinkSat2Ground"),
+        key=lambda a: a.start,
+    )
+    assert ("DownlinkSat2Ground", first.start) in session.failed
+    plan = session.plans[-1]
+    problem = session.problems[plan.plan_id]
+    from fsw_scheduler.model.plan import Plan
+
+    drawn = Plan(
+        plan.status, plan.objective, plan.activities, plan.unscheduled
+    )
+    past = list(session.tasks.values())
+    kwargs = {
+        "now": plan.issued_at,
+        "history": session.executed,
+        "past_tasks": past,
+    }
+    plain = gantt(problem, drawn, tmp_path / "plain.png", **kwargs)
+    marked = gantt(
+        problem,
+        drawn,
+        tmp_path / "failed.png",
+        failed=session.failed,
+        **kwargs,
+    )
+    assert plain.read_bytes() != marked.read_bytes()
