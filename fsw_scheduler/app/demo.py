@@ -295,6 +295,11 @@ class Printer:
         if not self.quiet:
             print(f"t={self.now:>3}  {text}", file=self.stream, flush=True)
 
+    def note(self, text: str) -> None:
+        """Print a line outside the timeline (what the demo does next)."""
+        if not self.quiet:
+            print(text, file=self.stream, flush=True)
+
     def dispatch(self, d: messages.Dispatch) -> None:
         """A dispatch."""
         late = "  (late)" if d.late else ""
@@ -427,7 +432,7 @@ def run_demo(
             node.close()
     plans = world.plans
     if pictures:
-        printer.line(
+        printer.note(
             f"\ndrawing {len(plans)} plan pictures and the levels "
             "(a few seconds)..."
         )
@@ -436,7 +441,7 @@ def run_demo(
     if verify:
         from ..journal.replay import verify as verify_journal
 
-        printer.line(
+        printer.note(
             "replay --verify: running the journal's inputs through a fresh "
             "scheduler and comparing every decision..."
         )
