@@ -147,14 +147,9 @@ def _check(
                     f"must be one of {allowed}, got {_shown(value)}{hint}",
                 )
             )
-    elif isinstance(info, mi.NoneType):
-        if value is not None:
-            out.append(FieldIssue(path, f"must be null, got {_name(value)}"))
-    elif isinstance(info, mi.BoolType):
-        if not isinstance(value, bool):
-            out.append(
-                FieldIssue(path, f"must be a boolean, got {_name(value)}")
-            )
+    elif isinstance(info, (mi.NoneType, mi.BoolType)):
+        if not _kind_fits(value, info):
+            _kind_issue(value, info, path, out)
     elif isinstance(info, (mi.IntType, mi.FloatType)):
         _check_number(value, info, path, out)
     elif isinstance(info, mi.StrType):
@@ -234,7 +229,7 @@ def _check_str(
     value: object, info: mi.StrType, path: str, out: list[FieldIssue]
 ) -> None:
     if not isinstance(value, str):
-        out.append(FieldIssue(path, f"must be a string, got {_name(value)}"))
+        _kind_issue(value, info, path, out)
         return
     before = len(out)
     _check_length(len(value), info, "characters", path, out)
@@ -267,7 +262,7 @@ def _check_array(
     value: object, info: Any, path: str, out: list[FieldIssue]
 ) -> None:
     if not isinstance(value, list):
-        out.append(FieldIssue(path, f"must be an array, got {_name(value)}"))
+        _kind_issue(value, info, path, out)
         return
     _check_length(len(value), info, "items", path, out)
     for index, item in enumerate(value):
@@ -278,7 +273,7 @@ def _check_tuple(
     value: object, info: mi.TupleType, path: str, out: list[FieldIssue]
 ) -> None:
     if not isinstance(value, list):
-        out.append(FieldIssue(path, f"must be an array, got {_name(value)}"))
+        _kind_issue(value, info, path, out)
         return
     if len(value) != len(info.item_types):
         out.append(
@@ -297,7 +292,7 @@ def _check_dict(
     value: object, info: mi.DictType, path: str, out: list[FieldIssue]
 ) -> None:
     if not isinstance(value, dict):
-        out.append(FieldIssue(path, f"must be an object, got {_name(value)}"))
+        _kind_issue(value, info, path, out)
         return
     _check_length(len(value), info, "entries", path, out)
     for key, item in value.items():
@@ -312,7 +307,7 @@ def _check_struct(
     value: object, info: mi.StructType, path: str, out: list[FieldIssue]
 ) -> None:
     if not isinstance(value, dict):
-        out.append(FieldIssue(path, f"must be an object, got {_name(value)}"))
+        _kind_issue(value, info, path, out)
         return
     fields = {f.encode_name: f for f in info.fields}
     tag_field = info.tag_field
@@ -391,10 +386,21 @@ _TYPE_NAMES: dict[type, str] = {
     mi.ListType: "an array",
     mi.TupleType: "an array",
     mi.VarTupleType: "an array",
+    mi.SetType: "an array",
+    mi.FrozenSetType: "an array",
     mi.DictType: "an object",
     mi.StructType: "an object",
     mi.NoneType: "null",
 }
+
+
+_ARRAYS = (
+    mi.ListType,
+    mi.TupleType,
+    mi.VarTupleType,
+    mi.SetType,
+    mi.FrozenSetType,
+)
 
 
 def _kind_fits(value: object, info: mi.Type) -> bool:
@@ -410,10 +416,18 @@ def _kind_fits(value: object, info: mi.Type) -> bool:
     if isinstance(value, str):
         return isinstance(info, (mi.StrType, mi.LiteralType))
     if isinstance(value, list):
-        return isinstance(info, (mi.ListType, mi.TupleType, mi.VarTupleType))
+        return isinstance(info, _ARRAYS)
     if isinstance(value, dict):
         return isinstance(info, (mi.DictType, mi.StructType))
     return value is None and isinstance(info, mi.NoneType)
+
+
+def _kind_issue(
+    value: object, info: mi.Type, path: str, out: list[FieldIssue]
+) -> None:
+    """``value`` is not of ``info``'s JSON kind: say which it needs."""
+    want = _TYPE_NAMES[type(info)]
+    out.append(FieldIssue(path, f"must be {want}, got {_name(value)}"))
 
 
 # -- repair: set bad parts aside so that the semantic rules can run ---------
