@@ -10,6 +10,7 @@ lines until Ctrl-C. The Zenoh flags are those of ``run``.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import sys
 from typing import TYPE_CHECKING, Any
@@ -26,7 +27,9 @@ from .commands import (
 
 if TYPE_CHECKING:
     import argparse
+    from collections.abc import Iterator
 
+    from ...bus.client import SchedulerClient
     from .files_flags import Add
 
 KINDS = {
@@ -130,20 +133,28 @@ def _checked(kind: str, payload: bytes) -> Any:
     return messages.decode_input(KINDS[kind], payload)
 
 
-def _cmd_send(args: argparse.Namespace) -> int:
+@contextlib.contextmanager
+def _client(args: argparse.Namespace) -> Iterator[SchedulerClient]:
+    """A client of the spacecraft's scheduler on the bus the flags name."""
     from ...bus.client import SchedulerClient
     from ...bus.session import zenoh_config
-    from ...wire import messages
 
-    _check_spacecraft(args.spacecraft)
-    payload = _document(args.file)
-    message = _checked(args.kind, payload)
     with (
         _open_bus(zenoh_config(args)) as session,
         SchedulerClient(
             session, args.spacecraft, timeout=args.timeout
         ) as client,
     ):
+        yield client
+
+
+def _cmd_send(args: argparse.Namespace) -> int:
+    from ...wire import messages
+
+    _check_spacecraft(args.spacecraft)
+    payload = _document(args.file)
+    message = _checked(args.kind, payload)
+    with _client(args) as client:
         try:
             client.wait_scheduler(args.timeout)
         except TimeoutError:
@@ -204,17 +215,10 @@ def _cmd_send(args: argparse.Namespace) -> int:
 def _cmd_query(args: argparse.Namespace) -> int:
     import threading
 
-    from ...bus.client import SchedulerClient
-    from ...bus.session import zenoh_config
     from ...wire import messages
 
     _check_spacecraft(args.spacecraft)
-    with (
-        _open_bus(zenoh_config(args)) as session,
-        SchedulerClient(
-            session, args.spacecraft, timeout=args.timeout
-        ) as client,
-    ):
+    with _client(args) as client:
         try:
             answer: Any = (
                 client.query_status(args.timeout)
