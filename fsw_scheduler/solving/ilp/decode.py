@@ -1,17 +1,65 @@
-"""A solution read back as a plan, the same for either formulation."""
+"""A solution read back as a plan, the same for either formulation, and
+what both hand to the solver run (:class:`Formulation`)."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ...model.plan import Activity, Objective, Plan
 from .objective import weight
+from .program import Program
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Sequence
 
+    from ...analysis.domains import Domain
     from ...model.plan import SolveStatus
     from ...model.problem import Problem
+
+
+class Formulation:
+    """A problem's program built by one formulation, and its decoder.
+
+    Parameters
+    ----------
+    problem
+        The problem modelled.
+    domains
+        Its start domains.
+    variables, constraints, objective
+        The formulation's Variables and Constraints classes and objective
+        function (one documented method per constraint family each).
+    """
+
+    def __init__(
+        self,
+        problem: Problem,
+        domains: dict[str, Domain],
+        variables: Any,
+        constraints: Any,
+        objective: Callable[..., Any],
+    ) -> None:
+        self.problem = problem
+        self.domains = domains
+        self.program = Program()
+        self.vars = variables(self.program, problem, domains)
+        self.constraints = constraints(self.program, problem, self.vars)
+        self.constraints.add_all()
+        self.program.set_objective(*objective(problem, self.vars))
+
+    @property
+    def num_variables(self) -> int:
+        """Number of variables handed to the solver."""
+        return self.program.num_columns
+
+    @property
+    def num_constraints(self) -> int:
+        """Number of rows handed to the solver."""
+        return self.program.num_rows
+
+    def decode(self, status: SolveStatus, values: Sequence[float]) -> Plan:
+        """Read solution ``values`` into a Plan, objective recomputed."""
+        return decode_plan(self.problem, self.vars.start_of, status, values)
 
 
 def decode_plan(

@@ -21,11 +21,10 @@ from ...errors import SolverError
 from ...model.plan import Plan, SolverStats, SolveStatus
 from .cbc import ABS_GAP, MIN_CBC_S, CbcResult
 from .constraints import Constraints
-from .decode import decode_plan
+from .decode import Formulation
 from .disjunctive.model import DisjunctiveModel
 from .disjunctive.rule import FORMULATIONS, pick, used_kinds
 from .objective import objective
-from .program import Program
 from .progress import WITH_START, WITH_START_DISJUNCTIVE, WatchedCbcRun
 from .variables import Variables
 
@@ -36,6 +35,7 @@ if TYPE_CHECKING:
 
     from ...analysis.domains import Domain
     from ...model.problem import Problem
+    from .program import Program
 
 SOLVERS = ("cbc", "highs")
 
@@ -70,7 +70,7 @@ def _pulp_status(lp: pulp.LpProblem) -> SolveStatus:
     }.get(lp.sol_status, SolveStatus.UNKNOWN)
 
 
-class BuiltModel:
+class BuiltModel(Formulation):
     """A problem's ILP: the program plus the variables that decode it.
 
     Parameters
@@ -84,32 +84,19 @@ class BuiltModel:
         give a smaller model with the same optimum.
     """
 
+    vars: Variables
+    constraints: Constraints
+
     def __init__(
         self, problem: Problem, domains: dict[str, Domain] | None = None
     ) -> None:
-        self.problem = problem
-        self.domains = (
-            domains if domains is not None else start_domains(problem)
+        super().__init__(
+            problem,
+            domains if domains is not None else start_domains(problem),
+            Variables,
+            Constraints,
+            objective,
         )
-        self.program = Program()
-        self.vars = Variables(self.program, problem, self.domains)
-        self.constraints = Constraints(self.program, problem, self.vars)
-        self.constraints.add_all()
-        self.program.set_objective(*objective(problem, self.vars))
-
-    @property
-    def num_variables(self) -> int:
-        """Number of variables handed to the solver."""
-        return self.program.num_columns
-
-    @property
-    def num_constraints(self) -> int:
-        """Number of rows handed to the solver."""
-        return self.program.num_rows
-
-    def decode(self, status: SolveStatus, values: Sequence[float]) -> Plan:
-        """Read solution ``values`` into a Plan, objective recomputed."""
-        return decode_plan(self.problem, self.vars.start_of, status, values)
 
 
 @contextlib.contextmanager
