@@ -111,7 +111,7 @@ class SchedulerClient:
         self.decode_errors: list[tuple[str, str]] = []
         #: The receiver's fence, and the dispatches it let through (each
         #: ``dispatch_id`` once, no stale term): what an executor that
-        #: follows the README would have carried out.
+        #: follows docs/redundancy.md would have carried out.
         self.fence = Fence()
         self.executed: list[messages.Dispatch] = []
         self._subscriber: Any = session.declare_subscriber(
@@ -214,7 +214,7 @@ class SchedulerClient:
         timeout: float | None = None,
     ) -> dict[str, set[str]]:
         """Publish ``goals`` and re-send, unchanged, each one still without
-        a verdict every ``resend_s`` seconds: the sender's rule (README,
+        a verdict every ``resend_s`` seconds: the sender's rule (docs/redundancy.md,
         "What a sender must do"), safe since a goal id is answered once.
 
         Returns
@@ -496,7 +496,8 @@ class SchedulerClient:
 
 class Fence:
     """What a receiver of scheduler outputs does, so that a stale
-    commander can never make it act (README, "Redundancy").
+    commander can never make it act (docs/redundancy.md,
+    "What a receiver must do").
 
     * Keep the highest ``term`` seen on any plan, dispatch, status or
       ``scheduler/term`` message; ignore anything with a lower one.

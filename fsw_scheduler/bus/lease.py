@@ -16,7 +16,7 @@ commanding node watches its own view of the bus:
 
 Either ends the lease for good: the node stops commanding before its next
 output, and the election starts again (re-verify: it commands again only
-in a new term, if no one else commands). See the README, "Redundancy".
+in a new term, if no one else commands). See docs/redundancy.md.
 """
 
 from __future__ import annotations

@@ -771,10 +771,13 @@ def test_require_secure_refuses_a_plain_loopback_bus_unless_trusted() -> None:
     )
     try:
         assert process.stderr is not None
+        seen = []
         for line in process.stderr:
+            seen.append(line)
             assert "not starting" not in line, line
             if "scheduler up on" in line:
                 break
+        assert seen and "scheduler up on" in seen[-1], "".join(seen)
     finally:
         process.terminate()
         process.wait(30)

@@ -185,7 +185,8 @@ def add_run_command(add: Add) -> None:
         "every endpoint and access control, on loopback too (every "
         "process of the computer reaches a loopback bus)",
     )
-    safety.add_argument(
+    # Not in the group: it qualifies --require-secure, so it goes with it.
+    run.add_argument(
         "--trust-loopback",
         action="store_true",
         help="with --require-secure: accept a loopback-only bus without "
@@ -193,8 +194,8 @@ def add_run_command(add: Add) -> None:
     )
     limits = run.add_argument_group(
         "limits",
-        "What a sender gets beyond each limit is in the README "
-        "(robustness); the same settings exist in the TOML file.",
+        "What a sender gets beyond each limit is in docs/robustness.md; "
+        "the same settings exist in the TOML file.",
     )
     limits.add_argument(
         "--response-deadline",

@@ -57,8 +57,8 @@ def add_solve_command(add: Add) -> None:
         _cmd_solve,
         "solve a problem file and print the plan JSON",
         """\
-        Solve a problem file (format: README, "Problem, plan and goal
-        files"; schema: `fsw-scheduler schemas`) and print the plan JSON
+        Solve a problem file (format: docs/formats.md, "Problem, plan and
+        goal files"; schema: `fsw-scheduler schemas`) and print the plan JSON
         (status, objective, activities, unscheduled, why, solver stats).
 
         example:

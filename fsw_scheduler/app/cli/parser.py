@@ -63,8 +63,8 @@ Start here:
 EPILOG = """\
 exit codes: 0 ok, 1 no plan (infeasible / unknown) or violations,
 2 bad input (stderr names the field and the reason).
-Formats: the README describes the problem, plan, goal and bus message
-formats; `fsw-scheduler schemas --out DIR` writes their JSON Schemas.
+Formats: docs/formats.md describes the problem, plan, goal and bus
+message formats; `fsw-scheduler schemas --out DIR` writes their JSON Schemas.
 """
 
 

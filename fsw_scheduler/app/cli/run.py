@@ -87,8 +87,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
             print(f"fsw-scheduler: insecure bus: {warning}", file=sys.stderr)
         print(
             "fsw-scheduler: --require-secure: not starting (see 'fsw-"
-            "scheduler config --profile secure' and the README, 'Deploying "
-            "securely')",
+            "scheduler config --profile secure' and docs/deploying.md, "
+            "'Deploying securely')",
             file=sys.stderr,
         )
         return EXIT_BAD_INPUT
