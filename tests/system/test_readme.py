@@ -10,7 +10,14 @@ checked here or listed in :data:`NOT_RUN` with the reason:
 * ``bash`` / ``sh`` blocks: every ``fsw-scheduler`` command that works
   offline runs, in order, in a scratch folder holding the files the README
   names, and must exit 0;
+* the blocks of the README's session on the bus (those naming
+  :data:`SESSION_ENDPOINT`) run against a live node: see
+  :func:`test_the_session_on_the_bus_runs`;
 * ``python`` blocks run in the same kind of scratch folder.
+
+Every relative link of these documents must name a file that exists (and,
+with ``#anchor``, one of its headings), and the README's command table
+must name every command of ``fsw-scheduler``.
 """
 
 from __future__ import annotations
@@ -19,6 +26,7 @@ import json
 import re
 import shlex
 import shutil
+import socket
 import subprocess
 import sys
 import tomllib
@@ -27,10 +35,12 @@ from pathlib import Path
 import msgspec
 import pytest
 
+from fsw_scheduler.app.cli.parser import build_parser
 from fsw_scheduler.model.goal import decode_goal
 from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.runtime.config import NodeConfig
 from fsw_scheduler.solving.solve import solve
+from fsw_scheduler.testing import SchedulerProcess
 
 from ..factories import ROOT, tool_script
 
@@ -51,9 +61,9 @@ NOT_RUN = {
     "tools/lock": "needs PyPI and rewrites the lock",
     "tools/bench": "minutes of solving; tests/system/test_bench.py runs its "
     "quick modes",
-    "fsw-scheduler run": "a long-running bus component; "
-    "tests/bus/test_node.py runs it on loopback (the README's endpoints are "
-    "a deployment's)",
+    "fsw-scheduler run": "a long-running bus component; the README's "
+    "session runs in test_the_session_on_the_bus_runs, tests/bus/test_node.py "
+    "runs it on loopback (the other endpoints shown are a deployment's)",
     "fsw-scheduler record": "needs a live bus; "
     "tests/app/test_cli_recording.py",
     "fsw-scheduler probe": "needs a live secure bus; "
@@ -141,7 +151,23 @@ def commands(body: str) -> list[str]:
     return lines
 
 
-SHELL = blocks("bash") + blocks("sh")
+#: The endpoint of the README's session: ``fsw-scheduler run --listen`` on
+#: it in one block, the commands that ``--connect`` (``-e``) to it in the
+#: next. Every shell block naming it is part of the session, and the test
+#: runs the session on a free port instead: it replaces the port of this
+#: endpoint in each command line and changes nothing else.
+SESSION_ENDPOINT = "tcp/127.0.0.1:7447"
+
+SHELL = [
+    (where, body)
+    for where, body in blocks("bash") + blocks("sh")
+    if SESSION_ENDPOINT not in body
+]
+SESSION = [
+    (where, body)
+    for where, body in blocks("bash") + blocks("sh")
+    if SESSION_ENDPOINT in body
+]
 
 
 @pytest.mark.parametrize(("where", "body"), SHELL, ids=_ids(SHELL))
@@ -167,6 +193,67 @@ def test_shell_blocks_run(where: str, body: str, tmp_path: Path) -> None:
             timeout=300,
         )
         assert result.returncode == 0, f"{where}: {line}\n{result.stderr}"
+
+
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+def test_the_session_on_the_bus_runs(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Tests the README's session as a newcomer types it: the ``run`` line
+    starts a node in the background, on a free port, and once it logs that
+    it is up, every other command runs as written, in order, and exits 0;
+    the goal is accepted and is in the plan; then the node stops."""
+    assert SESSION, f"no shell block names {SESSION_ENDPOINT}"
+    assert {where.split(":")[0] for where, _ in SESSION} == {"README.md"}
+    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    lines = [
+        line.replace(SESSION_ENDPOINT, endpoint)
+        for _, body in SESSION
+        for line in commands(body)
+    ]
+    runs = [line for line in lines if line.startswith("fsw-scheduler run ")]
+    assert len(runs) == 1, runs
+    # SchedulerProcess starts the node in the current folder: the scratch
+    # one, where the README's relative paths hold.
+    monkeypatch.chdir(scratch(tmp_path))
+    node = SchedulerProcess(shlex.split(runs[0])[2:])
+    assert node.start() == "scheduler up on", "".join(node.log)
+    script = Path(sys.executable).with_name("fsw-scheduler")
+    answers: dict[str, list[dict]] = {}
+    try:
+        for line in lines:
+            if line in runs:
+                continue
+            argv = shlex.split(line)
+            assert argv[0] == "fsw-scheduler", line
+            result = subprocess.run(
+                [str(script), *argv[1:]],
+                capture_output=True,
+                text=True,
+                timeout=120,
+            )
+            assert result.returncode == 0, f"{line}\n{result.stderr}"
+            answers.setdefault(" ".join(argv[1:3]), []).append(
+                json.loads(result.stdout)
+            )
+    finally:
+        assert node.stop() == 0, "".join(node.log)
+    goal = json.loads((ROOT / "examples" / "goal.json").read_text())
+    [verdict] = answers[next(k for k in answers if k == "send goal")]
+    assert (verdict["event"], verdict["goal_id"]) == (
+        "goal_accepted",
+        goal["goal_id"],
+    )
+    plan = next(v for k, v in answers.items() if k.startswith("plan"))[0]
+    assert goal["goal_id"] in plan["goals"]
+    # What the README says of plan 2.
+    starts = {a["task"]: a["start"] for a in plan["activities"]}
+    assert starts == {"Point": 0, "Acquire": 1, "Downlink": 10}
 
 
 @pytest.mark.parametrize(
@@ -224,3 +311,53 @@ def test_license_file_matches_pyproject() -> None:
     assert "LICENSE" in pyproject["project"]["license-files"]
     text = (ROOT / "LICENSE").read_text()
     assert "Apache License" in text and "Version 2.0" in text
+
+
+LINK = re.compile(r"!?\[[^\]]*\]\((?P<target>[^)\s]+)\)")
+
+
+def anchors(doc: Path) -> set[str]:
+    """The anchors GitHub makes of a Markdown file's headings."""
+    text = FENCE.sub("", doc.read_text())
+    found = set()
+    for heading in re.findall(r"^#+ (.+)$", text, re.M):
+        slug = re.sub(r"[^\w\- ]", "", heading.lower()).replace(" ", "-")
+        found.add(slug)
+    return found
+
+
+@pytest.mark.parametrize(
+    "doc", DOCS, ids=[str(d.relative_to(ROOT)) for d in DOCS]
+)
+def test_relative_links_name_files_that_exist(doc: Path) -> None:
+    """Tests that every relative link of a document names a shipped file,
+    and that an ``#anchor`` names one of that file's headings."""
+    broken = []
+    for match in LINK.finditer(FENCE.sub("", doc.read_text())):
+        target = match["target"]
+        if re.match(r"[a-z]+:", target):
+            continue
+        path, _, anchor = target.partition("#")
+        file = (doc.parent / path).resolve() if path else doc
+        unknown = bool(anchor) and file.suffix == ".md"
+        if not file.exists() or (unknown and anchor not in anchors(file)):
+            broken.append(target)
+    assert broken == [], f"{doc.relative_to(ROOT)}: {broken}"
+
+
+def test_the_command_table_names_every_command() -> None:
+    """Tests that each command of ``fsw-scheduler`` has a row in the
+    README's command table, and that the table names no other."""
+    parser = build_parser()
+    [sub] = [
+        a
+        for a in parser._actions
+        if a.__class__.__name__ == "_SubParsersAction"
+    ]
+    text = (ROOT / "README.md").read_text()
+    rows = re.findall(r"^\| `([a-z0-9-]+)[ `|\\]", text, re.M)
+    table = set(rows) - {"command"}
+    # A row may name several: `status\|plan ...`.
+    for alias in re.findall(r"^\| `[a-z0-9-]+\\\|([a-z0-9-]+)", text, re.M):
+        table.add(alias)
+    assert set(sub.choices) <= table, set(sub.choices) - table
