@@ -214,8 +214,9 @@ class SchedulerClient:
         timeout: float | None = None,
     ) -> dict[str, set[str]]:
         """Publish ``goals`` and re-send, unchanged, each one still without
-        a verdict every ``resend_s`` seconds: the sender's rule (docs/redundancy.md,
-        "What a sender must do"), safe since a goal id is answered once.
+        a verdict every ``resend_s`` seconds: the sender's rule
+        (docs/redundancy.md, "What a sender must do"), safe since a goal id
+        is answered once.
 
         Returns
         -------
