@@ -16,8 +16,9 @@ checked here or listed in :data:`NOT_RUN` with the reason:
 * ``python`` blocks run in the same kind of scratch folder.
 
 Every relative link of these documents must name a file that exists (and,
-with ``#anchor``, one of its headings), and the README's command table
-must name every command of ``fsw-scheduler``.
+with ``#anchor``, one of its headings), the README's command table must
+name every command of ``fsw-scheduler``, and the limits table of
+docs/robustness.md must name real settings and flags with their defaults.
 """
 
 from __future__ import annotations
@@ -361,3 +362,37 @@ def test_the_command_table_names_every_command() -> None:
     for alias in re.findall(r"^\| `[a-z0-9-]+\\\|([a-z0-9-]+)", text, re.M):
         table.add(alias)
     assert set(sub.choices) <= table, set(sub.choices) - table
+
+
+def test_the_limits_table_matches_the_settings() -> None:
+    """Tests that each row of docs/robustness.md's limits table names
+    settings and ``run`` flags that exist, with the defaults they have."""
+    import argparse
+
+    text = (ROOT / "docs" / "robustness.md").read_text()
+    table = text.split("| limit | default | setting / flag | beyond it |")[1]
+    defaults = {
+        f.encode_name: getattr(NodeConfig(), f.name)
+        for f in msgspec.structs.fields(NodeConfig)
+    }
+    [sub] = [
+        a
+        for a in build_parser()._actions
+        if isinstance(a, argparse._SubParsersAction)
+    ]
+    flags = set(sub.choices["run"]._option_string_actions)
+    checked = 0
+    for row in table.strip().splitlines()[1:]:
+        if not row.startswith("|"):
+            break
+        _, default, names, _ = row.strip("|").split("|")
+        settings = re.findall(r"`([a-z-]+)`", names)
+        for flag in re.findall(r"`(--[a-z-]+)`", names):
+            assert flag in flags, row
+        numbers = re.findall(r"(\d+) ?(MiB)?", default)
+        for name, (number, unit) in zip(settings, numbers, strict=False):
+            assert name in defaults, row
+            scale = 2**20 if unit else 1
+            assert defaults[name] == int(number) * scale, (name, row)
+            checked += 1
+    assert checked >= 10
