@@ -1,4 +1,4 @@
-"""A Gantt chart of a plan, drawn with matplotlib, one page per 40 rows.
+"""A Gantt chart of a plan, drawn with matplotlib, in pages of 40 rows at most.
 
 matplotlib is an optional dependency (``fsw-scheduler[plot]``) and is
 imported only when :func:`gantt` is called, so importing this module
