@@ -16,7 +16,7 @@ to time unit ``problem.start + i``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from ..model.levels import lost_charge, resource_profiles
@@ -66,8 +66,8 @@ class _Chart:
     failed: Collection[tuple[str, int]] | None
     title: str | None
     x_range: tuple[int, int]
-    profiles: dict[str, list[float]] = field(default_factory=dict)
-    lost: dict[str, list[float]] = field(default_factory=dict)
+    profiles: dict[str, list[float]]
+    lost: dict[str, list[float]]
 
 
 def gantt(
