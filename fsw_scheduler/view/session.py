@@ -7,7 +7,9 @@
   :func:`fsw_scheduler.view.gantt` with what had run before (from the
   activity reports), the tasks that replan removed (greyed, with the rule),
   the lanes of the binary resources, and the measured consumable levels
-  while the plan was in force against its predicted profile;
+  while the plan was in force against its predicted profile (a plan of
+  more than 40 task rows as pages ``plan-<id>-1.png``, ``plan-<id>-2.png``,
+  ...);
 * ``levels.png``: each consumable over the whole session, the profile each
   plan predicted (solid while it was in force, dotted after) against every
   measured sample, with a line at each replan.
@@ -39,7 +41,8 @@ from ..wire.messages import (
     SolveRecord,
 )
 from ..wire.profiles import Profiles
-from .gantt import _PALETTE, _load_matplotlib, gantt
+from .gantt import gantt
+from .style import _PALETTE, _load_matplotlib
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -227,8 +230,9 @@ def plot_session(path: PathLike, out_dir: PathLike) -> list[Path]:
     Returns
     -------
     list of Path
-        ``plan-<id>.png`` per plan, then ``levels.png`` when the problem
-        has consumables.
+        ``plan-<id>.png`` per plan (its pages ``plan-<id>-<n>.png`` when
+        it has more rows than one page holds), then ``levels.png`` when
+        the problem has consumables.
     """
     session = read_session(path)
     out = Path(out_dir)
@@ -267,7 +271,7 @@ def plot_session(path: PathLike, out_dir: PathLike) -> list[Path]:
             if until is not None
             else f"from t={now}"
         )
-        gantt(
+        pages = gantt(
             problem,
             _as_plan(plan),
             target,
@@ -281,7 +285,7 @@ def plot_session(path: PathLike, out_dir: PathLike) -> list[Path]:
             past_tasks=past,
             failed=session.failed,
         )
-        drawn.append(target)
+        drawn += pages
         previous = plan.activities
     if session.initial is not None and session.initial.resources.consumable:
         target = out / "levels.png"

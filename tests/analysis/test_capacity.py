@@ -471,7 +471,7 @@ def test_gantt_draws_the_capacity(tmp_path: Path) -> None:
     from fsw_scheduler.view.gantt import gantt
 
     problem = problem_from(_doc(CHARGE_THEN_USE, {"initial": 8, "max": 10}))
-    target = gantt(
+    (target,) = gantt(
         problem,
         _plan(("charge", 0, 3), ("use", 3, 7)),
         tmp_path / "plan.png",

@@ -62,6 +62,31 @@ def test_solve_prints_plan(tmp_path: Path, solver: str) -> None:
     assert picture.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_solve_gantt_of_many_tasks_names_its_pages(tmp_path: Path) -> None:
+    """Tests that solve --gantt of 41 tasks writes two pages and says so."""
+    doc = {
+        "horizon": 60,
+        "tasks": [
+            {
+                "id": f"t{idx:02d}",
+                "length": 1,
+                "delay_cost": 1,
+                "schedule_cost": 1,
+            }
+            for idx in range(41)
+        ],
+    }
+    picture = tmp_path / "many.png"
+    result = cli(
+        "solve", _write(tmp_path / "many.json", doc), "--gantt", str(picture)
+    )
+    assert result.returncode == 0, result.stderr
+    pages = [tmp_path / "many-1.png", tmp_path / "many-2.png"]
+    assert sorted(tmp_path.glob("*.png")) == pages
+    for page in pages:
+        assert f"wrote {page}" in result.stderr
+
+
 def test_solve_then_check(tmp_path: Path) -> None:
     """Tests that a solved plan passes check, and a broken one fails."""
     plan_path = tmp_path / "plan.json"

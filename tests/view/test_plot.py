@@ -236,8 +236,8 @@ def test_gantt_table1_png(
 ) -> None:
     """Tests that the Table 1 plan is drawn as a readable PNG."""
     out = gantt(table1, table1_plan, tmp_path / "t1.png", title="Table 1")
-    assert out == tmp_path / "t1.png"
-    _check_png(out)
+    assert out == [tmp_path / "t1.png"]
+    _check_png(*out)
 
 
 def test_gantt_replan_with_history(tmp_path: Path, table1: Problem) -> None:
@@ -259,7 +259,7 @@ def test_gantt_replan_with_history(tmp_path: Path, table1: Problem) -> None:
     out = gantt(
         problem, plan, str(tmp_path / "replan.png"), now=10, history=history
     )
-    _check_png(out)
+    _check_png(*out)
 
 
 def test_gantt_unscheduled_and_violation(
@@ -276,7 +276,7 @@ def test_gantt_unscheduled_and_violation(
             binary=("cam",), multiple={"power": 5}, consumable={"bat": 1}
         )
     )
-    _check_png(gantt(problem, plan, tmp_path / "v.png", now=4))
+    _check_png(*gantt(problem, plan, tmp_path / "v.png", now=4))
 
 
 def test_gantt_no_resources(tmp_path: Path) -> None:
@@ -285,13 +285,13 @@ def test_gantt_no_resources(tmp_path: Path) -> None:
         horizon=5, tasks=(Task("a", 2, 1, 1), Task("b", 1, 1, 1))
     )
     plan = _plan((("a", 0, 2),), unscheduled=("b",))
-    _check_png(gantt(problem, plan, tmp_path / "none.png"))
+    _check_png(*gantt(problem, plan, tmp_path / "none.png"))
 
 
 def test_gantt_without_plan(tmp_path: Path, small: Problem) -> None:
     """Tests that a plan with no activities and no objective still draws."""
     plan = _plan((), status=SolveStatus.UNKNOWN)
-    _check_png(gantt(small, plan, tmp_path / "empty.png"))
+    _check_png(*gantt(small, plan, tmp_path / "empty.png"))
 
 
 def test_gantt_missing_matplotlib(
@@ -407,7 +407,7 @@ def test_gantt_without_binary_resources_has_no_lanes(
 def test_gantt_rows_follow_time_not_problem_order() -> None:
     """Tests that the rows go by first start (what ran first on top), the
     left-out tasks last in problem order."""
-    from fsw_scheduler.view.gantt import _row_ids
+    from fsw_scheduler.view.gantt_rows import _row_ids
 
     problem = Problem(
         horizon=10,

@@ -121,8 +121,8 @@ def test_a_failed_run_is_drawn_as_failed(tmp_path: Path) -> None:
         "history": session.executed,
         "past_tasks": past,
     }
-    plain = gantt(problem, drawn, tmp_path / "plain.png", **kwargs)
-    marked = gantt(
+    (plain,) = gantt(problem, drawn, tmp_path / "plain.png", **kwargs)
+    (marked,) = gantt(
         problem,
         drawn,
         tmp_path / "failed.png",

@@ -73,7 +73,7 @@ def _need_matplotlib(what: str) -> None:
     MissingDependency
         matplotlib is not installed; the message gives the install command.
     """
-    from ...view.gantt import PLOT_INSTALL_HINT, have_matplotlib
+    from ...view.style import PLOT_INSTALL_HINT, have_matplotlib
 
     if not have_matplotlib():
         raise MissingDependency(
@@ -170,8 +170,8 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     if args.gantt and plan.status.has_plan:
         from ...view.gantt import gantt
 
-        gantt(problem, plan, Path(args.gantt))
-        log.info("wrote %s", args.gantt)
+        for page in gantt(problem, plan, Path(args.gantt)):
+            log.info("wrote %s", page)
     return EXIT_OK if plan.status.has_plan else EXIT_NO_PLAN
 
 
@@ -216,15 +216,15 @@ def _cmd_replan(args: argparse.Namespace) -> int:
             for r in diff.removed
             if r.rule not in ("finished", "unscheduled")
         }
-        gantt(
+        for page in gantt(
             new_problem,
             new_plan,
             Path(args.gantt),
             now=args.now,
             removed=removed or None,
             previous=plan.activities,
-        )
-        log.info("wrote %s", args.gantt)
+        ):
+            log.info("wrote %s", page)
     return EXIT_OK if new_plan.status.has_plan else EXIT_NO_PLAN
 
 
@@ -244,7 +244,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
                 + ", ".join(f"{t * 1000:.0f} ms" for t in outcome.takeovers)
             )
         return EXIT_OK if outcome.verified else EXIT_NO_PLAN
-    from ...view.gantt import PLOT_INSTALL_HINT, have_matplotlib
+    from ...view.style import PLOT_INSTALL_HINT, have_matplotlib
 
     out = Path(args.out)
     log.info("demo (%s scenario): output in %s", args.scenario, out)

@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 from collections.abc import Callable
 
+from ...view.pages import ROWS_PER_PAGE
 from .commands import (
     _cmd_check,
     _cmd_demo,
@@ -50,6 +51,13 @@ def _add_solver_arguments(parser: argparse.ArgumentParser) -> None:
 Add = Callable[..., argparse.ArgumentParser]
 
 
+#: How --gantt names its pages, in its help.
+_PAGES = (
+    f" (over {ROWS_PER_PAGE} task rows, as pages: NAME.png gives "
+    "NAME-1.png, NAME-2.png, ...)"
+)
+
+
 def add_solve_command(add: Add) -> None:
     """The ``solve`` command and its flags."""
     solve = add(
@@ -70,7 +78,7 @@ def add_solve_command(add: Add) -> None:
     solve.add_argument(
         "--gantt",
         metavar="PNG",
-        help="also draw the plan: task bars plus resource profiles",
+        help="also draw the plan: task bars plus resource profiles" + _PAGES,
     )
     _add_solver_arguments(solve)
 
@@ -133,7 +141,9 @@ def add_replan_command(add: Add) -> None:
         help="also write the new problem (to chain replans or check)",
     )
     replan.add_argument(
-        "--gantt", metavar="PNG", help="draw the new plan with a 'now' line"
+        "--gantt",
+        metavar="PNG",
+        help="draw the new plan with a 'now' line" + _PAGES,
     )
     _add_solver_arguments(replan)
 

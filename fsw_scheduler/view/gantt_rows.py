@@ -1,0 +1,367 @@
+"""The task rows of a Gantt chart: their order, bars, notes and legend.
+
+Each function draws on one matplotlib axis it is given; none imports
+matplotlib itself (the caller passes ``Patch`` in), so this module loads
+without it.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from ..model.levels import _task_map
+from .style import (
+    _FAILED,
+    _NO_BINARY,
+    _PALETTE,
+    _REMOVED,
+    _UNSCHEDULED,
+    _colour_of,
+)
+from .timeline import _left_out
+
+if TYPE_CHECKING:
+    from collections.abc import Collection, Mapping, Sequence
+
+    from ..model.plan import Activity, Plan
+    from ..model.problem import Problem, Task
+
+__all__: list[str] = []
+
+#: Background of every other task row, and the guide line through each.
+_BAND = "#f2f4f7"
+_GUIDE = "#dde1e6"
+
+
+def _row_ids(
+    problem: Problem, history: Sequence[Activity], plan: Plan | None = None
+) -> list[str]:
+    """Task rows in time order, as a timeline reads: by first start (what
+    ran, then what is planned), then the tasks left out in problem order.
+    """
+    ids = [task.id for task in problem.tasks]
+    seen = set(ids)
+    for activity in history:
+        if activity.task not in seen:
+            seen.add(activity.task)
+            ids.append(activity.task)
+    first: dict[str, int] = {}
+    for activity in [*history, *(plan.activities if plan else ())]:
+        first[activity.task] = min(
+            first.get(activity.task, activity.start), activity.start
+        )
+    place = {name: index for index, name in enumerate(ids)}
+    return sorted(
+        ids,
+        key=lambda name: (name not in first, first.get(name, 0), place[name]),
+    )
+
+
+def _draw_tasks(
+    ax: Any,
+    problem: Problem,
+    plan: Plan,
+    rows: list[str],
+    history: list[Activity],
+    now: int | None,
+    past: Mapping[str, Task] | None = None,
+    failed: Collection[tuple[str, int]] | None = None,
+    slots: int | None = None,
+) -> None:
+    """Task panel: banded rows, bars, unscheduled rows, history.
+
+    Only the activities of ``rows`` are drawn (the rows of one page);
+    ``slots`` is how many rows the panel has room for (at least
+    ``len(rows)``), so that pages with fewer rows keep the same pitch.
+    """
+    tasks = {**(past or {}), **_task_map(problem)}
+    y_of = {name: idx for idx, name in enumerate(rows)}
+    bar_h = 0.62
+    reasons = {name: blockers for name, blockers in _left_out(plan)}
+    _draw_bands(ax, len(rows))
+
+    broken = set(failed or ())
+    for activity in history:
+        if activity.task not in y_of:
+            continue
+        stop = activity.end if now is None else min(activity.end, now)
+        if stop <= activity.start:
+            continue
+        lost = (activity.task, activity.start) in broken
+        style: dict[str, Any] = (
+            {"color": "white", "hatch": "xx", "edgecolor": _FAILED}
+            if lost
+            else {
+                "color": _colour_of(problem, tasks.get(activity.task)),
+                "alpha": 0.3,
+                "edgecolor": "#555555",
+                "linestyle": ":",
+            }
+        )
+        y = y_of[activity.task]
+        ax.barh(
+            y,
+            stop - activity.start,
+            left=activity.start,
+            height=bar_h,
+            linewidth=0.6,
+            **style,
+        )
+        if lost:
+            ax.text(
+                stop + 0.3, y, "failed", va="center", fontsize=7, color=_FAILED
+            )
+
+    for activity in plan.activities:
+        if activity.task not in y_of:
+            continue
+        y = y_of[activity.task]
+        length = activity.end - activity.start
+        ax.barh(
+            y,
+            length,
+            left=activity.start,
+            height=bar_h,
+            color=_colour_of(problem, tasks.get(activity.task)),
+            edgecolor="#333333",
+            linewidth=0.6,
+            zorder=3,
+        )
+        span = f"{activity.start}\u2013{activity.end}"
+        # Inside the bar when it is wide enough, else beside it (before
+        # it when the bar ends near the right edge, so it is not cut).
+        pad = 0.005 * problem.horizon + 0.2
+        if length >= 0.08 * problem.horizon:
+            ax.text(
+                activity.start + length / 2,
+                y,
+                span,
+                ha="center",
+                va="center",
+                fontsize=8,
+                color="white",
+                fontweight="bold",
+                zorder=4,
+            )
+        elif activity.end > problem.end - 0.06 * problem.horizon:
+            ax.text(
+                activity.start - pad,
+                y,
+                span,
+                ha="right",
+                va="center",
+                fontsize=8,
+                color="#333333",
+                zorder=4,
+            )
+        else:
+            ax.text(
+                activity.end + pad,
+                y,
+                span,
+                ha="left",
+                va="center",
+                fontsize=8,
+                color="#333333",
+                zorder=4,
+            )
+
+    scheduled = {a.task for a in plan.activities}
+    for name in rows:
+        if name in scheduled or name not in reasons:
+            continue
+        y = y_of[name]
+        ax.barh(
+            y,
+            problem.horizon,
+            left=problem.start,
+            height=bar_h,
+            color="none",
+            edgecolor=_UNSCHEDULED,
+            hatch="///",
+            linewidth=0.0,
+            zorder=1,
+        )
+        why = reasons[name]
+        note = "unscheduled"
+        if why:
+            note += f": {why[0].cause} \u2013 {why[0].detail}"
+            if len(note) > 90:
+                note = note[:89] + "\u2026"
+        ax.text(
+            problem.start + 0.01 * problem.horizon,
+            y,
+            note,
+            ha="left",
+            va="center",
+            fontsize=8,
+            style="italic",
+            color="#555555",
+            zorder=4,
+            bbox={
+                "facecolor": "white",
+                "edgecolor": "none",
+                "pad": 1.0,
+                "alpha": 0.85,
+            },
+        )
+
+    ax.set_yticks(range(len(rows)), rows, fontsize=9)
+    for label, name in zip(ax.get_yticklabels(), rows, strict=True):
+        if name not in scheduled:
+            label.set_color("#888888")
+            label.set_style("italic")
+    ax.set_ylim(max(slots or 0, len(rows)) - 0.4, -0.6)  # first on top
+    ax.tick_params(axis="y", length=0)
+
+
+def _draw_bands(ax: Any, num_rows: int) -> None:
+    """Every other row on a light band, a thin guide line through each
+    row: what lets the eye follow a row from its name to a bar far away.
+    """
+    for y in range(0, num_rows, 2):
+        ax.axhspan(y - 0.5, y + 0.5, color=_BAND, linewidth=0, zorder=0)
+    for y in range(num_rows):
+        ax.axhline(y, color=_GUIDE, linewidth=0.5, zorder=0.5)
+
+
+def _draw_legend(
+    ax: Any,
+    problem: Problem,
+    plan: Plan,
+    rows: Sequence[str],
+    history: Sequence[Activity],
+    past: Mapping[str, Task],
+    Patch: Any,
+) -> None:
+    """The legend of the task colours and styles, right of the panel.
+
+    ``rows`` are all the rows of the chart, not only a page's: every page
+    of a chart then has the same legend.
+    """
+    tasks = {**past, **_task_map(problem)}
+    scheduled = {a.task for a in plan.activities}
+    reasons = {name for name, _ in _left_out(plan)}
+
+    # Colours of every task drawn (executed ones from ``past`` too).
+    shown = [tasks[name] for name in rows if name in tasks]
+    handles = [
+        Patch(
+            facecolor=_PALETTE[idx % len(_PALETTE)],
+            edgecolor="#333333",
+            linewidth=0.6,
+            label=name,
+        )
+        for idx, name in enumerate(problem.resources.binary)
+        if any(
+            _colour_of(problem, t) == _PALETTE[idx % len(_PALETTE)]
+            for t in shown
+        )
+    ]
+    if any(_colour_of(problem, t) == _NO_BINARY for t in shown):
+        handles.append(Patch(facecolor=_NO_BINARY, label="no binary"))
+    if history:
+        handles.append(
+            Patch(
+                facecolor="#999999",
+                alpha=0.3,
+                edgecolor="#555555",
+                linestyle=":",
+                label="executed",
+            )
+        )
+    if any(name not in scheduled for name in reasons):
+        handles.append(
+            Patch(
+                facecolor="none",
+                edgecolor=_UNSCHEDULED,
+                hatch="///",
+                label="unscheduled",
+            )
+        )
+    if handles:
+        ax.legend(
+            handles=handles,
+            title="first binary resource",
+            title_fontsize=8,
+            fontsize=8,
+            loc="upper left",
+            bbox_to_anchor=(1.01, 1.0),
+            frameon=False,
+        )
+
+
+def _draw_removed(
+    ax: Any,
+    rows: list[str],
+    removed: Mapping[str, str],
+    previous: Sequence[Activity],
+    now: int | None,
+    plan: Plan,
+) -> None:
+    """Removed tasks: a grey dashed outline where they were planned and
+    the rule that removed them, on their (greyed) rows.
+
+    A task removed and brought back under the same id (a goal replacing
+    it) keeps its new bar; the note then follows the bars.
+    """
+    y_of = {name: idx for idx, name in enumerate(rows)}
+    where = {a.task: a for a in previous}
+    again = {a.task: a for a in plan.activities}
+    for name, rule in removed.items():
+        if name not in y_of:
+            continue
+        y = y_of[name]
+        was = where.get(name)
+        x = now if now is not None else ax.get_xlim()[0]
+        new = again.get(name)
+        if new is not None:
+            right = max(new.end, was.end if was is not None else new.end)
+            ax.annotate(
+                f"(the previous {name}: removed, {rule})",
+                xy=(right, y),
+                xytext=(40, 0),  # clear of the bar's own time label
+                textcoords="offset points",
+                ha="left",
+                va="center",
+                fontsize=7.5,
+                style="italic",
+                color="#555555",
+                zorder=4,
+            )
+            continue
+        if was is not None:
+            ax.barh(
+                y,
+                was.end - was.start,
+                left=was.start,
+                height=0.62,
+                color="#efefef",
+                edgecolor=_REMOVED,
+                linestyle="--",
+                linewidth=0.9,
+                zorder=2,
+            )
+            x = was.start
+        ax.text(
+            x,
+            y,
+            f" removed: {rule} ",
+            ha="left",
+            va="center",
+            fontsize=8,
+            style="italic",
+            color="#555555",
+            zorder=4,
+            bbox={
+                "facecolor": "white",
+                "edgecolor": _REMOVED,
+                "boxstyle": "round,pad=0.2",
+                "linewidth": 0.6,
+                "alpha": 0.9,
+            },
+        )
+    for label in ax.get_yticklabels():
+        if label.get_text() in removed and label.get_text() not in again:
+            label.set_color(_REMOVED)
+            label.set_style("italic")
