@@ -105,6 +105,8 @@ class _Board:
         one look-up of the lowest later level per consumable (the drop is
         constant after the last of them ends).
         """
+        if len(items) == 1:
+            return self._fits_one(*items[0])
         base = self.problem.start
         demand: dict[str, dict[int, float]] = defaultdict(dict)
         for task, start in items:
@@ -133,6 +135,34 @@ class _Board:
                 return False
         return True
 
+    def _fits_one(self, task: Task, start: int) -> bool:
+        """:meth:`fits` for one task, without the demand tables (the
+        common case, and the heuristic's hot loop: same tests, in the
+        same floating-point order)."""
+        first = start - self.problem.start
+        end = first + task.length
+        for name, amount in task.uses.items():
+            if amount == 0:
+                continue
+            used = self.used.get(name)
+            if used is not None:
+                cap = self.capacity[name] + 1e-9
+                for t in range(first, end):
+                    if used[t] + amount > cap:
+                        return False
+                continue
+            level = self.level.get(name)
+            if level is None or amount < 0:
+                continue
+            drop = 0.0
+            for t in range(first, end):
+                drop += amount
+                if level[t] - drop < -1e-9:
+                    return False
+            if end < len(level) and self.lowest[name][end] - drop < -1e-9:
+                return False
+        return True
+
     def add(self, task: Task, start: int, sign: float = 1.0) -> None:
         """Book ``task`` at ``start`` (``sign=-1`` takes it back)."""
         base = start - self.problem.start
@@ -145,8 +175,13 @@ class _Board:
                 self._add_capped(name, base, task.length, amount)
             elif name in self.level:
                 level = self.level[name]
-                for t in range(base, len(level)):
-                    level[t] -= amount * min(t - base + 1, task.length)
+                # amount * min(t - base + 1, length), in two runs.
+                length = task.length
+                for k in range(min(length, len(level) - base)):
+                    level[base + k] -= amount * (k + 1)
+                whole = amount * length
+                for t in range(base + length, len(level)):
+                    level[t] -= whole
                 self._refresh(name)
 
     def _capped_init(self, problem: Problem) -> None:
@@ -647,6 +682,13 @@ def _earliest(
         low = max(low, bound)
         if prec.kind == "tight":
             high = min(high, bound)
+    if len(group) == 1:
+        ((name, shift),) = group.items()
+        task = tasks[name]
+        for anchor in range(low, high + 1):
+            if board._fits_one(task, anchor + shift):
+                return anchor
+        return None
     for anchor in range(low, high + 1):
         if _fits_together(board, group, tasks, anchor):
             return anchor
