@@ -18,7 +18,6 @@ enough. The Zenoh callback only queues the sample; one loop
 from __future__ import annotations
 
 import collections
-import contextlib
 import logging
 import threading
 import time
@@ -231,16 +230,26 @@ class LiveBridge:
         now = self._wall_ns()
         self._publish(key, payload, now)
         if self.topics.suffix(key) == keys.PROFILES:
-            # The node's own prediction: level checks compare with it.
-            with contextlib.suppress(
-                msgspec.DecodeError, msgspec.ValidationError
-            ):
-                self._annotator.profiles = _profiles_decoder.decode(payload)
+            self._on_profiles(payload)
         for derived in self._annotator.observe(key, payload, now):
             if not derived.publish:  # published ones come from the bus
                 self._publish(
                     self.topics.key(derived.suffix), derived.payload, now
                 )
+
+    def _on_profiles(self, payload: bytes) -> None:
+        try:
+            profiles = _profiles_decoder.decode(payload)
+        except (msgspec.DecodeError, msgspec.ValidationError):
+            return
+        # The node's own prediction: level checks compare with it.
+        self._annotator.profiles = profiles
+        # Its resources are those whose levels will be measured: their
+        # channels exist before the first level, for panels to subscribe.
+        for resource in profiles.levels:
+            key = self.topics.resource_level(resource)
+            if key not in self.server:
+                self.server.declare(channel_spec(key, self._lookup))
 
     def _publish(self, key: str, payload: bytes, now: int) -> None:
         # Keys with a name chunk (a task, a resource) get their channel
