@@ -22,26 +22,26 @@ import zenoh
 pytest.importorskip("foxglove")
 pytest.importorskip("websockets")
 
-from websockets.sync.client import connect  # noqa: E402
-from websockets.typing import Subprotocol  # noqa: E402
+from websockets.sync.client import connect
+from websockets.typing import Subprotocol
 
-from fsw_scheduler.app.cli.main import main  # noqa: E402
-from fsw_scheduler.app.live_view import LiveBridge  # noqa: E402
-from fsw_scheduler.bus.session import (  # noqa: E402
+from fsw_scheduler.app.cli.main import main
+from fsw_scheduler.app.live_view import LiveBridge
+from fsw_scheduler.bus.session import (
     loopback_config,
     wait_connected,
 )
-from fsw_scheduler.journal.annotate import LOG_SCHEMA  # noqa: E402
-from fsw_scheduler.journal.channels import (  # noqa: E402
+from fsw_scheduler.journal.annotate import LOG_SCHEMA
+from fsw_scheduler.journal.channels import (
     LIVE_SUFFIXES,
     live_channels,
 )
-from fsw_scheduler.view.live import LiveServer  # noqa: E402
-from fsw_scheduler.wire import topics as keys  # noqa: E402
-from fsw_scheduler.wire.messages import PlanMessage, Status  # noqa: E402
-from fsw_scheduler.wire.profiles import Profiles  # noqa: E402
+from fsw_scheduler.view.live import LiveServer
+from fsw_scheduler.wire import topics as keys
+from fsw_scheduler.wire.messages import PlanMessage, Status
+from fsw_scheduler.wire.profiles import Profiles
 
-from ..factories import cli_command  # noqa: E402
+from ..factories import cli_command
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterator
