@@ -46,21 +46,19 @@ def have_foxglove() -> bool:
     return True
 
 
-class _Listener:
-    """The server's callbacks: only hand the channel id over.
+def _listener(subscribed: Callable[[int], None]) -> Any:
+    """The server's callbacks: only hand the subscribed channel id over.
 
     They run on the server's own thread; logging from there could wait on
     the server itself, so the owner's loop sends the message instead.
     """
+    from foxglove.websocket import ChannelView, Client, ServerListener
 
-    def __init__(self, subscribed: Callable[[int], None]) -> None:
-        self._subscribed = subscribed
+    class Listener(ServerListener):
+        def on_subscribe(self, client: Client, channel: ChannelView) -> None:
+            subscribed(channel.id)
 
-    def on_subscribe(self, client: Any, channel: Any) -> None:
-        self._subscribed(channel.id)
-
-    def on_unsubscribe(self, client: Any, channel: Any) -> None:
-        return None
+    return Listener()
 
 
 class LiveServer:
@@ -121,12 +119,12 @@ class LiveServer:
         for spec in channels:
             self.declare(spec)
         self.host = host
-        self._server = foxglove.start_server(
+        self._server: Any = foxglove.start_server(
             name=name,
             host=host,
             port=port,
             context=self._context,
-            server_listener=_Listener(self._on_subscribe),
+            server_listener=_listener(self._on_subscribe),
         )
 
     # -- channels ----------------------------------------------------------
