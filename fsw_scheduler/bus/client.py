@@ -32,6 +32,7 @@ if TYPE_CHECKING:
 __all__ = [
     "Fence",
     "SchedulerClient",
+    "query_payload",
 ]
 
 
@@ -299,14 +300,9 @@ class SchedulerClient:
         return msgspec.json.decode(payload, type=messages.PlanMessage)
 
     def _query(self, suffix: str, timeout: float | None) -> bytes | None:
-        replies = self.client.get(
-            self.topics.key(suffix), timeout=timeout or self.timeout
+        return query_payload(
+            self.client, self.topics.key(suffix), timeout or self.timeout
         )
-        found = None
-        for reply in replies:
-            if reply.ok is not None and found is None:
-                found = reply.ok.payload.to_bytes()
-        return found
 
     # -- waiting -------------------------------------------------------------
 
@@ -493,6 +489,32 @@ class SchedulerClient:
                 )
             self.samples.append((key, payload))
             self._cond.notify_all()
+
+
+def query_payload(
+    session: zenoh.Session, key: str, timeout: float
+) -> bytes | None:
+    """The payload of the first good reply to a query on ``key``.
+
+    Parameters
+    ----------
+    session
+        An open session; a query only reads, so a monitor may send it.
+    key
+        The full key of a queryable, e.g. ``fsw/sat1/scheduler/plan``.
+    timeout
+        Seconds to wait for the replies.
+
+    Returns
+    -------
+    bytes or None
+        None when nobody answered, or only with an error (no plan yet).
+    """
+    found = None
+    for reply in session.get(key, timeout=timeout):
+        if reply.ok is not None and found is None:
+            found = reply.ok.payload.to_bytes()
+    return found
 
 
 class Fence:

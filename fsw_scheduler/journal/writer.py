@@ -37,7 +37,6 @@ flush. An unfinished file has no summary or footer, so
 from __future__ import annotations
 
 import contextlib
-import json
 import logging
 import os
 import struct
@@ -47,6 +46,8 @@ from typing import IO, Any, Literal, NamedTuple
 
 from mcap.well_known import MessageEncoding, SchemaEncoding
 from mcap.writer import CompressionType, Writer
+
+from .channels import schema_data, schema_name
 
 log = logging.getLogger("fsw_scheduler.journal")
 
@@ -568,14 +569,11 @@ class Recorder:
         if encoding.split(";", 1)[0].strip() != JSON_ENCODING:
             metadata[ZENOH_ENCODING_KEY] = encoding
         if schema is not None:
-            data = json.dumps(
-                schema, sort_keys=True, separators=(",", ":")
-            ).encode()
+            data = schema_data(schema)
             schema_id = self._schema_ids.get(data, 0)
             if schema_id == 0:
-                name = str(schema.get("title") or schema.get("$id") or topic)
                 schema_id = writer.register_schema(
-                    name=name,
+                    name=schema_name(schema, topic),
                     encoding=SchemaEncoding.JSONSchema,
                     data=data,
                 )

@@ -14,14 +14,19 @@ from mcap.well_known import MessageEncoding, SchemaEncoding
 from mcap.writer import Writer
 
 from fsw_scheduler.app.demo import failure_scenario, run_demo
-from fsw_scheduler.journal.annotate import LOG_SCHEMA, Annotator
+from fsw_scheduler.journal.annotate import (
+    LOG_SCHEMA,
+    Annotator,
+    schema_lookup,
+)
+from fsw_scheduler.journal.channels import channel_spec, live_channels
 from fsw_scheduler.journal.info import info, info_dict
 from fsw_scheduler.journal.replay import verify
 from fsw_scheduler.model.plan import Activity, SolveStatus
 from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.wire.messages import PlanMessage, ResourceLevel
 from fsw_scheduler.wire.profiles import level_check, plan_profiles
-from fsw_scheduler.wire.topics import Topics
+from fsw_scheduler.wire.topics import PROFILES, RESOURCE_LEVELS, Topics
 
 from ..factories import ROOT
 
@@ -36,6 +41,7 @@ LAYOUT = ROOT / "docs" / "foxglove-layout.json"
 #: A Foxglove message path: quoted topic, optional filter, fields.
 PATH = re.compile(r'"([^"]+)"(\{[^}]*\})?((?:\.\w+|\[:\])*)')
 TOPICS = Topics()
+PROFILES_TOPIC = TOPICS.key(PROFILES)
 PROBLEM = decode_problem(
     json.dumps(
         {
@@ -349,3 +355,42 @@ def test_node_publishes_profiles_with_each_plan(
     assert set(first["levels"]) == {"battery", "propellant"}
     seen = [k for k, _ in list(h.samples)]
     assert seen.index(key) > seen.index(h.topics.key("scheduler/plan"))
+
+
+def test_layout_topics_are_journal_and_live_channels(session: Path) -> None:
+    """Tests that every topic the layout names is a channel of the journal
+    and of the live view, with the same schema name and text in both, and
+    that no Plot panel accumulates every plan or has a key Plot lacks."""
+    layout = json.loads(LAYOUT.read_text())
+    _, _, messages = _read(session)
+    journal = {ch.topic: (s, ch) for s, ch, _ in messages}
+    live = {spec.topic: spec for spec in live_channels(TOPICS.spacecraft)}
+    lookup = schema_lookup(TOPICS.spacecraft)
+    named = TOPICS.key(RESOURCE_LEVELS) + "/"
+    for path in _paths(layout["configById"]):
+        match = PATH.fullmatch(path)
+        topic = match.group(1) if match else path
+        assert topic in journal, f"{path}: no {topic} in the journal"
+        # A resource's channel is declared once the profiles name it
+        # (tests/app/test_live_view.py); the fixed ones up front.
+        spec = live.get(topic)
+        if spec is None:
+            assert topic.startswith(named), f"{topic}: not a live channel"
+            spec = channel_spec(topic, lookup)
+        schema, channel = journal[topic]
+        assert channel.message_encoding == spec.message_encoding == "json"
+        assert schema is not None and schema.name == spec.schema_name
+        assert schema.encoding == spec.schema_encoding == "jsonschema"
+        assert schema.data == spec.schema
+    plots = {
+        name: config
+        for name, config in layout["configById"].items()
+        if name.startswith("Plot!")
+    }
+    assert plots
+    for name, config in plots.items():
+        assert config.get("xAxisVal") != "custom", name
+        assert "timeRange" not in config, name
+    profile = plots["Plot!profile"]
+    assert profile["xAxisVal"] == "currentCustom"
+    assert PROFILES_TOPIC in profile["xAxisPath"]["value"]

@@ -35,6 +35,7 @@ from .files_flags import (
     add_state_command,
 )
 from .talk import add_talk_commands
+from .view import add_view_command
 
 LOG_LEVELS = ("debug", "info", "warning", "error")
 
@@ -56,6 +57,7 @@ Start here:
   fsw-scheduler send goal goal.json --wait
                                           give a running node work
   fsw-scheduler status --follow           watch it (plan: its plan)
+  fsw-scheduler view                      watch it live in Foxglove
   fsw-scheduler demo --scenario failover  two redundant nodes, killed
 """
 
@@ -123,6 +125,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_demo_command(add)
     add_run_command(add)
     add_talk_commands(add)
+    add_view_command(add)
     add_config_command(add)
     add_probe_command(add)
     add_record_command(add)
