@@ -29,15 +29,15 @@ from __future__ import annotations
 
 import logging
 import re
-import threading
 import time
 import uuid
 from dataclasses import dataclass, field
 from importlib import resources
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import zenoh
-from rosbags.typesys import Stores, get_typestore, get_types_from_msg
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from zenoh_ros2_sdk.attachment import Attachment
 from zenoh_ros2_sdk.entity import EndpointEntity, EntityKind, NodeEntity
 from zenoh_ros2_sdk.keyexpr import (
@@ -56,16 +56,18 @@ from ..errors import BusError
 from ..wire import topics as keys
 
 if TYPE_CHECKING:
+    import threading
     from collections.abc import Callable
 
 __all__ = [
     "NODE_NAME",
     "STRING_TYPE",
-    "BridgedTopic",
     "BridgeStats",
+    "BridgedTopic",
     "Ros2Bridge",
     "StringCodec",
     "bridged_topics",
+    "definitions_dir",
     "message_definition",
     "ros_name_token",
 ]
@@ -147,9 +149,7 @@ def bridged_topics(
     names = keys.Topics(spacecraft)
     namespace = ros_namespace(spacecraft)
     return tuple(
-        BridgedTopic(
-            leaf, names.key(suffix), f"{namespace}/scheduler/{leaf}"
-        )
+        BridgedTopic(leaf, names.key(suffix), f"{namespace}/scheduler/{leaf}")
         for leaf, suffix in _BRIDGED
     )
 
@@ -178,10 +178,23 @@ def message_definition(type_name: str) -> str:
         The package ships no such definition.
     """
     package, kind, name = type_name.split("/")
-    path = resources.files("fsw_scheduler").joinpath(
-        "data", "ros2", package, kind, f"{name}.msg"
-    )
+    path = definitions_dir() / package / kind / f"{name}.msg"
     return path.read_text(encoding="utf-8")
+
+
+def definitions_dir() -> Path:
+    """The folder of the ROS 2 definitions shipped in the package.
+
+    Laid out as ``<package>/msg/<Name>.msg``, the layout zenoh-ros2-sdk's
+    ``MessageRegistry(messages_dir)`` reads first: a Python ROS 2 client
+    given this folder resolves the bridge's types without a download.
+
+    Returns
+    -------
+    Path
+        ``fsw_scheduler/data/ros2``.
+    """
+    return Path(str(resources.files("fsw_scheduler").joinpath("data", "ros2")))
 
 
 class StringCodec:
@@ -210,7 +223,7 @@ class StringCodec:
     def decode(self, payload: bytes) -> str:
         """The ``data`` of a CDR-encoded String."""
         message = self._store.deserialize_cdr(payload, STRING_TYPE)
-        return str(message.data)
+        return str(message.data)  # type: ignore[attr-defined]
 
 
 @dataclass
@@ -318,7 +331,9 @@ class Ros2Bridge:
                 self._routes.append(self._declare(node, idx, topic))
         except zenoh.ZError as error:
             self.close()
-            raise BusError(f"cannot declare the ROS 2 bridge: {error}") from None
+            raise BusError(
+                f"cannot declare the ROS 2 bridge: {error}"
+            ) from None
         return self
 
     def _declare(
@@ -374,6 +389,11 @@ class Ros2Bridge:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+    @property
+    def ros_keys(self) -> tuple[str, ...]:
+        """The Zenoh keys the bridge publishes on (all in the ROS domain)."""
+        return tuple(str(r.publisher.key_expr) for r in self._routes)
 
     def matching(self, leaf: str) -> bool:
         """Whether a ROS 2 subscriber of topic ``leaf`` is reachable."""
