@@ -15,15 +15,15 @@ import zenoh
 
 pytest.importorskip("zenoh_ros2_sdk")
 
-from zenoh_ros2_sdk import (  # noqa: E402
+from zenoh_ros2_sdk import (
     ROS2Subscriber,
     ZenohSession,
     get_topic_info,
     get_topic_names_and_types,
 )
-from zenoh_ros2_sdk import message_registry as sdk_registry  # noqa: E402
+from zenoh_ros2_sdk import message_registry as sdk_registry
 
-from fsw_scheduler.bus.ros2 import (  # noqa: E402
+from fsw_scheduler.bus.ros2 import (
     NODE_NAME,
     STRING_TYPE,
     Ros2Bridge,
@@ -32,14 +32,14 @@ from fsw_scheduler.bus.ros2 import (  # noqa: E402
     definitions_dir,
     ros_name_token,
 )
-from fsw_scheduler.bus.session import (  # noqa: E402
+from fsw_scheduler.bus.session import (
     listening_endpoints,
     loopback_config,
     wait_matching,
     wait_until,
 )
-from fsw_scheduler.testing import SchedulerHarness, paper_goal  # noqa: E402
-from fsw_scheduler.wire import messages  # noqa: E402
+from fsw_scheduler.testing import SchedulerHarness, paper_goal
+from fsw_scheduler.wire import messages
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
