@@ -34,6 +34,7 @@ from .files_flags import (
     add_solve_command,
     add_state_command,
 )
+from .ros2_bridge import add_ros2_bridge_command
 from .talk import add_talk_commands
 from .view import add_view_command
 
@@ -130,6 +131,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_probe_command(add)
     add_record_command(add)
     add_replay_command(add)
+    add_ros2_bridge_command(add)
     add_recover_command(add)
     add_state_command(add)
     add_info_command(add)
