@@ -75,6 +75,8 @@ NOT_RUN = {
     "`--check` runs in test_golden_tables_are_current",
     "mcap": "the Go `mcap` CLI is not a dependency",
     "pip install": "needs PyPI; the lock installs the extras here",
+    "fsw-scheduler view": "a long-running bus component; "
+    "tests/app/test_live_view.py runs it, in process and as a process",
     "fsw-scheduler ros2-bridge": "a long-running bus component; "
     "tests/app/test_ros2_bridge.py and tests/bus/test_ros2.py run it",
     "export RMW_IMPLEMENTATION": "the ROS 2 side (rmw_zenoh), not installed "
@@ -165,15 +167,22 @@ def commands(body: str) -> list[str]:
 #: endpoint in each command line and changes nothing else.
 SESSION_ENDPOINT = "tcp/127.0.0.1:7447"
 
+
+def _in_session(where: str, body: str) -> bool:
+    """A block of the README's session (other pages may show commands
+    that join it, such as the ROS 2 bridge: those run as shell blocks)."""
+    return where.startswith("README.md:") and SESSION_ENDPOINT in body
+
+
 SHELL = [
     (where, body)
     for where, body in blocks("bash") + blocks("sh")
-    if SESSION_ENDPOINT not in body
+    if not _in_session(where, body)
 ]
 SESSION = [
     (where, body)
     for where, body in blocks("bash") + blocks("sh")
-    if SESSION_ENDPOINT in body
+    if _in_session(where, body)
 ]
 
 
