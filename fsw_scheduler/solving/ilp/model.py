@@ -52,6 +52,14 @@ BUILD_S_PER_COLUMN = 2.5e-5
 #: multiple resources the cuts close most of the root gap, and stay.
 CONSUMABLES_ONLY = ["cuts off"]
 
+#: Rows from which a time-indexed model counts as large (:data:`LARGE`).
+LARGE_ROWS = 12_000
+
+#: CBC options for a large time-indexed model (long horizons): one round
+#: of root cuts closes about the gap CBC's fifteen do (f20-h1440-1: bound
+#: -4951173 after one pass, -4951152 after 15) at a tenth of the time.
+LARGE = ["passCuts 1"]
+
 
 def _pulp_status(lp: pulp.LpProblem) -> SolveStatus:
     """The status of a solve through PuLP, from the solution status first.
@@ -178,6 +186,11 @@ def _run_cbc(
         warm = in_symmetry_order(built.constraints.twins, warm)
         start = built.vars.initial(warm, built.program.num_columns)
     program = built.program
+    if (
+        not isinstance(built, DisjunctiveModel)
+        and program.num_rows >= LARGE_ROWS
+    ):
+        extra = [*(extra or ()), *LARGE]
     run = WatchedCbcRun(
         constant=program.constant,
         incumbent=None
