@@ -108,27 +108,44 @@ class _Board:
         if len(items) == 1:
             return self._fits_one(*items[0])
         base = self.problem.start
-        demand: dict[str, dict[int, float]] = defaultdict(dict)
+        # Per resource: the first unit touched and the amounts from there
+        # (a list, not a table per unit: the amounts add up in the same
+        # order, so the tests below see the same values).
+        demand: dict[str, tuple[int, list[float]]] = {}
         for task, start in items:
+            first = start - base
             for name, amount in task.uses.items():
                 if amount == 0 or (name in self.level and amount < 0):
                     continue
-                if name in self.used or name in self.level:
-                    units = demand[name]
-                    for t in range(start - base, start - base + task.length):
-                        units[t] = units.get(t, 0.0) + amount
-        for name, units in demand.items():
+                if name not in self.used and name not in self.level:
+                    continue
+                low, units = demand.get(name, (first, []))
+                if first < low:
+                    units[:0] = [0.0] * (low - first)
+                    low = first
+                end = first - low + task.length
+                if end > len(units):
+                    units.extend([0.0] * (end - len(units)))
+                for k in range(first - low, end):
+                    units[k] += amount
+                demand[name] = (low, units)
+        for name, (low, units) in demand.items():
             if name in self.used:
                 used, cap = self.used[name], self.capacity[name]
-                if any(used[t] + a > cap + 1e-9 for t, a in units.items()):
+                if any(
+                    used[low + k] + a > cap + 1e-9
+                    for k, a in enumerate(units)
+                    if a
+                ):
                     return False
                 continue
             level = self.level[name]
-            drop, last = 0.0, max(units)
-            for t in range(min(units), last + 1):
-                drop += units.get(t, 0.0)
-                if level[t] - drop < -1e-9:
+            drop = 0.0
+            for k, a in enumerate(units):
+                drop += a
+                if level[low + k] - drop < -1e-9:
                     return False
+            last = low + len(units) - 1
             if last + 1 < len(level) and (
                 self.lowest[name][last + 1] - drop < -1e-9
             ):
