@@ -188,22 +188,12 @@ def _draw_tasks(
             note += f": {why[0].cause} \u2013 {why[0].detail}"
             if len(note) > 90:
                 note = note[:89] + "\u2026"
-        ax.text(
+        _note(
+            ax,
             problem.start + 0.01 * problem.horizon,
             y,
             note,
-            ha="left",
-            va="center",
-            fontsize=8,
-            style="italic",
-            color="#555555",
-            zorder=4,
-            bbox={
-                "facecolor": "white",
-                "edgecolor": "none",
-                "pad": 1.0,
-                "alpha": 0.85,
-            },
+            {"edgecolor": "none", "pad": 1.0, "alpha": 0.85},
         )
 
     ax.set_yticks(range(len(rows)), rows, fontsize=9)
@@ -343,18 +333,12 @@ def _draw_removed(
                 zorder=2,
             )
             x = was.start
-        ax.text(
+        _note(
+            ax,
             x,
             y,
             f" removed: {rule} ",
-            ha="left",
-            va="center",
-            fontsize=8,
-            style="italic",
-            color="#555555",
-            zorder=4,
-            bbox={
-                "facecolor": "white",
+            {
                 "edgecolor": _REMOVED,
                 "boxstyle": "round,pad=0.2",
                 "linewidth": 0.6,
@@ -365,3 +349,19 @@ def _draw_removed(
         if label.get_text() in removed and label.get_text() not in again:
             label.set_color(_REMOVED)
             label.set_style("italic")
+
+
+def _note(ax: Any, x: float, y: float, text: str, box: dict) -> None:
+    """A small grey italic note on a white box (``box``: its style)."""
+    ax.text(
+        x,
+        y,
+        text,
+        ha="left",
+        va="center",
+        fontsize=8,
+        style="italic",
+        color="#555555",
+        zorder=4,
+        bbox={"facecolor": "white", **box},
+    )
