@@ -1,8 +1,8 @@
 """The bus side of ``fsw-scheduler view``: samples onto Foxglove channels.
 
 :class:`LiveBridge` subscribes to everything under ``fsw/<sc>/`` on a
-session it is given, asks the scheduler's queryables for its plan and status
-once at start (a view opened after the first plan shows it at
+session it is given, asks the scheduler's queryables for its plan, status
+and profiles once at start (a view opened after the first plan shows it at
 once), and republishes each message on the :class:`LiveServer` channel of
 its key. It derives, as the journal does and with the journal's own
 :class:`~fsw_scheduler.journal.annotate.Annotator`, the channels the node
@@ -41,8 +41,8 @@ __all__ = ["QUERIED", "LiveBridge"]
 
 log = logging.getLogger("fsw_scheduler.view")
 
-#: What is asked of the scheduler at start, in this order (its queryables).
-QUERIED = (keys.PLAN, keys.STATUS)
+#: What is asked of the scheduler at start, in this order.
+QUERIED = (keys.PLAN, keys.STATUS, keys.PROFILES)
 
 _JSON = ("application/json", "text/json")
 _profiles_decoder = msgspec.json.Decoder(Profiles)

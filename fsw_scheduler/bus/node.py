@@ -237,7 +237,9 @@ class SchedulerNode(NodeOutputs):
                     key(suffix), direct(self._sample_callback(kind))
                 )
             )
-        queryables = [topics.PLAN, topics.STATUS]
+        # Profiles too: a monitor that starts after a plan shows its
+        # predicted levels at once (``fsw-scheduler view``).
+        queryables = [topics.PLAN, topics.STATUS, topics.PROFILES]
         if self._sharing:
             # A standby that joins later asks for the state at once.
             queryables.append(topics.SNAPSHOT)
@@ -671,6 +673,8 @@ class SchedulerNode(NodeOutputs):
             message = self.engine.plan_message
         elif suffix == topics.SNAPSHOT:
             message = self.engine.snapshot()
+        elif suffix == topics.PROFILES:
+            message = self._annotator.profiles
         else:
             message = self.engine.status("query")
         try:

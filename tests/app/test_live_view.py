@@ -264,19 +264,20 @@ def test_a_view_started_after_the_plan_shows_it_at_once(
     scheduler_harness: SchedulerHarness,
     client_factory: Callable[[str], FoxgloveClient],
 ) -> None:
-    """Tests the start-up queries: plan and status of a node that planned
-    before the view existed, and nothing published since."""
+    """Tests the start-up queries: plan, status and profiles of a node
+    that planned before the view existed, and nothing published since."""
     h = scheduler_harness
     h.tick(0)
     plan = h.wait_plan(lambda p: p.plan_id == 1)
     h.settle()
     with live_view(h) as (server, bridge):
-        assert set(bridge.seeded) == {PLAN, STATUS}
+        assert set(bridge.seeded) == {PLAN, STATUS, PROFILES}
         client = client_factory(server.url)
-        client.subscribe(PLAN, STATUS)
+        client.subscribe(PLAN, STATUS, PROFILES)
         assert client.wait_for(PLAN, PlanMessage, lambda _p: True) == plan
         assert client.wait_for(STATUS, Status, lambda _s: True).plan_id == 1
-        assert server.replayed >= 2
+        client.wait_for(PROFILES, Profiles, lambda p: p.plan_id == 1)
+        assert server.replayed >= 3
 
 
 def test_view_refuses_to_start_without_the_extra(

@@ -51,7 +51,7 @@ def add_view_command(add: Add) -> None:
         Watch a running scheduler in Foxglove. The command joins the bus
         (the Zenoh flags are those of 'run'), subscribes to everything the
         spacecraft's keys carry (fsw/<sc>/**), asks the scheduler for its
-        current plan and status, and serves it all over the
+        current plan, status and profiles, and serves it all over the
         Foxglove WebSocket protocol: one channel per key, with the JSON
         Schemas and names of the journal, so the layout
         {LAYOUT} works for the live view and for a
