@@ -50,7 +50,10 @@ BUILD_S_PER_COLUMN = 2.5e-5
 #: the paper campaign's 10 and 15 tasks, 0.42 -> 0.25 s on the 11 of the
 #: broad campaign (none slower by more than 0.04 s). With binary or
 #: multiple resources the cuts close most of the root gap, and stay.
-CONSUMABLES_ONLY = ["cuts off"]
+#: Nor does strong branching pay there: on the 42 consumable models of
+#: the paper and broad campaigns, CBC CPU 3.2 -> 2.8 s with it off, the
+#: slowest two 0.30 / 0.22 -> 0.25 / 0.20 s (two runs each).
+CONSUMABLES_ONLY = ["cuts off", "strongBranching 0"]
 
 #: Rows from which a time-indexed model counts as large (:data:`LARGE`).
 LARGE_ROWS = 12_000
