@@ -308,7 +308,8 @@ def _proved(run: Run) -> bool:
 def format_versus(runs: Sequence[Run], reference: str = "cpsat") -> str:
     """Each solver against ``reference`` on the campaign, problem by problem.
 
-    Per size, per class and (when there are several) per horizon: both
+    Per size, per class, per class at the largest size (``15 binary``)
+    and (when there are several) per horizon: both
     medians, their ratio, the median and worst of the per-problem ratios,
     the solver's mean time, how many problems each proved (optimal or
     infeasible), and how many the solver left ``unknown`` where the
@@ -347,6 +348,16 @@ def format_versus(runs: Sequence[Run], reference: str = "cpsat") -> str:
     groups += [
         (cls, lambda r, k=cls: r.resource_class == k) for cls in classes
     ]
+    if len(sizes) > 1 and len(classes) > 1:
+        # The largest size by class: the figures the targets are set on.
+        top = sizes[-1]
+        groups += [
+            (
+                f"{top} {cls}",
+                lambda r, k=cls: r.num_tasks == top and r.resource_class == k,
+            )
+            for cls in classes
+        ]
     if len(horizons) > 1:
         groups += [(f"H={h}", lambda r, k=h: r.horizon == k) for h in horizons]
     groups.append(("all", lambda r: True))
