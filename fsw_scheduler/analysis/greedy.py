@@ -25,6 +25,7 @@ scaling set the deadline rule did for 11 of the 24.
 
 from __future__ import annotations
 
+import itertools
 from collections import defaultdict
 from collections.abc import Callable, Set
 from typing import TYPE_CHECKING, Any
@@ -107,10 +108,16 @@ class _Board:
         """
         if len(items) == 1:
             return self._fits_one(*items[0])
+        return self.fits_demand(self.demand(items), 0)
+
+    def demand(
+        self, items: list[tuple[Task, int]]
+    ) -> dict[str, tuple[int, list[float]]]:
+        """What tasks ``(task, start)`` need together, per resource: the
+        first unit they touch and the amounts from there (consumables:
+        consumption only). A list, not a table per unit: the amounts add
+        up in the order of ``items``."""
         base = self.problem.start
-        # Per resource: the first unit touched and the amounts from there
-        # (a list, not a table per unit: the amounts add up in the same
-        # order, so the tests below see the same values).
         demand: dict[str, tuple[int, list[float]]] = {}
         for task, start in items:
             first = start - base
@@ -129,7 +136,15 @@ class _Board:
                 for k in range(first - low, end):
                     units[k] += amount
                 demand[name] = (low, units)
-        for name, (low, units) in demand.items():
+        return demand
+
+    def fits_demand(
+        self, demand: dict[str, tuple[int, list[float]]], shift: int
+    ) -> bool:
+        """:meth:`fits` for a :meth:`demand` moved ``shift`` units later
+        (a group's shape is the same at every anchor: built once)."""
+        for name, (first, units) in demand.items():
+            low = first + shift
             if name in self.used:
                 used, cap = self.used[name], self.capacity[name]
                 if any(
@@ -229,10 +244,9 @@ class _Board:
 
     def _refresh(self, name: str) -> None:
         """lowest[t] = min(level[t:]), for the constant-drop test."""
-        level = self.level[name]
-        lowest = list(level)
-        for t in range(len(lowest) - 2, -1, -1):
-            lowest[t] = min(lowest[t], lowest[t + 1])
+        # A running minimum from the end (exact: min only picks values).
+        lowest = list(itertools.accumulate(reversed(self.level[name]), min))
+        lowest.reverse()
         self.lowest[name] = lowest
 
 
@@ -706,19 +720,14 @@ def _earliest(
             if board._fits_one(task, anchor + shift):
                 return anchor
         return None
+    # The group's demand at anchor ``problem.start``, moved to each anchor.
+    shape = board.demand(
+        [(tasks[name], problem.start + shift) for name, shift in group.items()]
+    )
     for anchor in range(low, high + 1):
-        if _fits_together(board, group, tasks, anchor):
+        if board.fits_demand(shape, anchor - problem.start):
             return anchor
     return None
-
-
-def _fits_together(
-    board: _Board, group: dict[str, int], tasks: dict[str, Task], anchor: int
-) -> bool:
-    """True if every member of ``group`` fits with the anchor at ``anchor``."""
-    return board.fits(
-        [(tasks[name], anchor + shift) for name, shift in group.items()]
-    )
 
 
 def _drop_unsupported(problem: Problem, starts: dict[str, int]) -> set[str]:
