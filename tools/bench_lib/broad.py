@@ -1,4 +1,4 @@
-"""A broader problem generator, not tuned to the solver (issue 15).
+"""A broader problem generator, not tuned to the solver.
 
 The paper-shaped generator (:mod:`bench_lib.generator`) builds every
 problem around a witness plan: precedences never contradict, mandatory
