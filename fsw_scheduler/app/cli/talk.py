@@ -188,26 +188,38 @@ def _cmd_send(args: argparse.Namespace) -> int:
             "level": lambda m: client.topics.resource_level(m.resource),
             "clock": lambda m: client.topics.key("clock"),
         }[args.kind](message)
-        before = len(client.statuses)
-        client.put(key, payload)
         if not args.wait:
+            client.put(key, payload)
             return EXIT_OK
-        # The query travels behind the input: its answer has seen it.
+        # A query travels behind the inputs sent before it, so its answer
+        # has seen them: one before and one after the input, and the count
+        # of rejected inputs between them is the verdict. The rejection's
+        # own status is published, and may arrive after the answer.
+        sent = False
         try:
+            earlier = client.query_status(args.timeout)
+            before = len(client.statuses)
+            client.put(key, payload)
+            sent = True
             status = client.query_status(args.timeout)
         except TimeoutError:
             print(
-                f"fsw-scheduler: sent; no status within {args.timeout:g} s",
+                f"fsw-scheduler: no status within {args.timeout:g} s"
+                + ("" if sent else ": nothing sent"),
                 file=sys.stderr,
             )
             return EXIT_NO_PLAN
-        with client._cond:
-            rejected = [
-                s
-                for s in client.statuses[before:]
-                if s.event == "input_rejected"
-            ]
-        shown = rejected[-1] if rejected else status
+        rejected = (
+            status.counters.inputs_rejected > earlier.counters.inputs_rejected
+        )
+        shown = status
+        if rejected:
+            with contextlib.suppress(TimeoutError):
+                shown = client.wait_status(
+                    lambda s: s.event == "input_rejected",
+                    args.timeout,
+                    since=before,
+                )
         print(messages.encode(shown).decode())
         return EXIT_NO_PLAN if rejected else EXIT_OK
 
