@@ -99,17 +99,6 @@ class _Board:
         self.lowest = {name: list(v) for name, v in self.level.items()}
         self._capped_init(problem)
 
-    def fits(self, items: list[tuple[Task, int]]) -> bool:
-        """True if tasks ``(task, start)`` can all be added together.
-
-        Nothing is changed; only the units the tasks touch are read, plus
-        one look-up of the lowest later level per consumable (the drop is
-        constant after the last of them ends).
-        """
-        if len(items) == 1:
-            return self._fits_one(*items[0])
-        return self.fits_demand(self.demand(items), 0)
-
     def demand(
         self, items: list[tuple[Task, int]]
     ) -> dict[str, tuple[int, list[float]]]:
@@ -141,8 +130,14 @@ class _Board:
     def fits_demand(
         self, demand: dict[str, tuple[int, list[float]]], shift: int
     ) -> bool:
-        """:meth:`fits` for a :meth:`demand` moved ``shift`` units later
-        (a group's shape is the same at every anchor: built once)."""
+        """True if a :meth:`demand` moved ``shift`` units later can be
+        added: a group's shape is the same at every anchor, so it is built
+        once and moved.
+
+        Nothing is changed; only the units the demand touches are read,
+        plus one look-up of the lowest later level per consumable (the
+        drop is constant after the last of its units).
+        """
         for name, (first, units) in demand.items():
             low = first + shift
             if name in self.used:
@@ -167,10 +162,10 @@ class _Board:
                 return False
         return True
 
-    def _fits_one(self, task: Task, start: int) -> bool:
-        """:meth:`fits` for one task, without the demand tables (the
-        common case, and the heuristic's hot loop: same tests, in the
-        same floating-point order)."""
+    def fits_one(self, task: Task, start: int) -> bool:
+        """:meth:`fits_demand` for one task at ``start``, without building
+        its demand (the common case and the heuristic's hot loop, 1.5x
+        faster: the same tests, in the same floating-point order)."""
         first = start - self.problem.start
         end = first + task.length
         for name, amount in task.uses.items():
@@ -717,7 +712,7 @@ def _earliest(
         ((name, shift),) = group.items()
         task = tasks[name]
         for anchor in range(low, high + 1):
-            if board._fits_one(task, anchor + shift):
+            if board.fits_one(task, anchor + shift):
                 return anchor
         return None
     # The group's demand at anchor ``problem.start``, moved to each anchor.
