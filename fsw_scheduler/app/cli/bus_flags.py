@@ -30,6 +30,7 @@ from .commands import (
     _cmd_replay,
     _number,
     _remap_rule,
+    add_spacecraft_flag,
     non_negative_float,
     positive_float,
     positive_int,
@@ -290,11 +291,7 @@ example:
         metavar="DIR",
         help="folder for <role>.json5 and make-certs.sh",
     )
-    conf.add_argument(
-        "--spacecraft",
-        default="sat1",
-        help="key prefix id (default: %(default)s)",
-    )
+    add_spacecraft_flag(conf)
     conf.add_argument(
         "--certs",
         metavar="DIR",
@@ -361,11 +358,7 @@ switches the monitor's own policy off to test the scheduler's):
         metavar="KIND[,KIND]",
         help="which inputs to try, among %(default)s (default: all)",
     )
-    prb.add_argument(
-        "--spacecraft",
-        default="sat1",
-        help="key prefix id (default: %(default)s)",
-    )
+    add_spacecraft_flag(prb)
     prb.add_argument(
         "--timeout",
         type=float,

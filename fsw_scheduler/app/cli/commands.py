@@ -23,6 +23,8 @@ from ...model.plan import Plan
 from ...model.problem import Problem, decode_problem, decode_strict
 
 if TYPE_CHECKING:
+    import threading
+
     import zenoh
 
 
@@ -302,6 +304,24 @@ def _check_spacecraft(spacecraft: str | None) -> None:
         )
 
 
+def add_spacecraft_flag(parser: argparse.ArgumentParser) -> None:
+    """``--spacecraft``: the key prefix id of the commands on the bus."""
+    parser.add_argument(
+        "--spacecraft",
+        default="sat1",
+        help="key prefix id (default: %(default)s)",
+    )
+
+
+def stop_on_signals(stop: threading.Event) -> None:
+    """Set ``stop`` on SIGINT or SIGTERM (the long-running commands: they
+    finish what they hold, then exit 0)."""
+    import signal
+
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
+
+
 def _open_bus(settings: zenoh.Config) -> zenoh.Session:
     """``zenoh.open``, with Zenoh's errors (a missing certificate, a port
     in use, no route to a client's router) said in one line."""
@@ -366,7 +386,6 @@ def _cmd_probe(args: argparse.Namespace) -> int:
 
 
 def _cmd_record(args: argparse.Namespace) -> int:
-    import signal
     import threading
 
     import zenoh
@@ -381,8 +400,7 @@ def _cmd_record(args: argparse.Namespace) -> int:
     key = args.key or Topics(args.spacecraft).everything
     stop = threading.Event()
     exclude = [_key_expression(k, "--exclude") for k in args.exclude]
-    signal.signal(signal.SIGINT, lambda *_: stop.set())
-    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    stop_on_signals(stop)
     recorder = Recorder(
         args.out,
         compression=args.compression,

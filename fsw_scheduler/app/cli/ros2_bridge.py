@@ -18,6 +18,8 @@ from .commands import (
     _check_spacecraft,
     _number,
     _open_bus,
+    add_spacecraft_flag,
+    stop_on_signals,
 )
 
 if TYPE_CHECKING:
@@ -70,11 +72,7 @@ def add_ros2_bridge_command(add: Add) -> None:
           ros2 topic echo /fsw/sat1/scheduler/dispatches
         """,
     )
-    bridge.add_argument(
-        "--spacecraft",
-        default="sat1",
-        help="the scheduler's spacecraft id (default %(default)s)",
-    )
+    add_spacecraft_flag(bridge)
     bridge.add_argument(
         "--domain-id",
         type=_number(int, minimum=0, strict=False),
@@ -85,7 +83,6 @@ def add_ros2_bridge_command(add: Add) -> None:
 
 
 def _cmd_ros2_bridge(args: argparse.Namespace) -> int:
-    import signal
     import threading
 
     from ...bus.session import zenoh_config
@@ -101,8 +98,7 @@ def _cmd_ros2_bridge(args: argparse.Namespace) -> int:
             f"{ROS2_INSTALL_HINT}"
         ) from None
     stop = threading.Event()
-    signal.signal(signal.SIGINT, lambda *_: stop.set())
-    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    stop_on_signals(stop)
     with (
         _open_bus(zenoh_config(args)) as session,
         Ros2Bridge(

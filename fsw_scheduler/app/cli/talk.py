@@ -22,7 +22,9 @@ from .commands import (
     _check_spacecraft,
     _open_bus,
     _read_bytes,
+    add_spacecraft_flag,
     positive_float,
+    stop_on_signals,
 )
 
 if TYPE_CHECKING:
@@ -103,11 +105,7 @@ def add_talk_commands(add: Add) -> None:
 
 
 def _common(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--spacecraft",
-        default="sat1",
-        help="key prefix id (default: %(default)s)",
-    )
+    add_spacecraft_flag(parser)
     parser.add_argument(
         "--timeout",
         type=positive_float,
@@ -250,7 +248,7 @@ def _cmd_query(args: argparse.Namespace) -> int:
         if not args.follow:
             return EXIT_OK
         stop = threading.Event()
-        _stop_on_signals(stop)
+        stop_on_signals(stop)
         items = client.statuses if args.what == "status" else client.plans
         shown = len(items)
         while not stop.is_set():
@@ -260,10 +258,3 @@ def _cmd_query(args: argparse.Namespace) -> int:
             for item in fresh:
                 print(messages.encode(item).decode(), flush=True)
     return EXIT_OK
-
-
-def _stop_on_signals(stop: Any) -> None:
-    import signal
-
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())

@@ -18,7 +18,9 @@ from .commands import (
     MissingDependency,
     _check_spacecraft,
     _open_bus,
+    add_spacecraft_flag,
     positive_float,
+    stop_on_signals,
 )
 
 if TYPE_CHECKING:
@@ -77,11 +79,7 @@ def add_view_command(add: Add) -> None:
           fsw-scheduler view --config monitor.json5 --host 0.0.0.0
         """,
     )
-    view.add_argument(
-        "--spacecraft",
-        default="sat1",
-        help="key prefix id (default: %(default)s)",
-    )
+    add_spacecraft_flag(view)
     view.add_argument(
         "--host",
         default="127.0.0.1",
@@ -114,7 +112,6 @@ def _hint() -> str:
 
 
 def _cmd_view(args: argparse.Namespace) -> int:
-    import signal
     import threading
 
     from ...bus.session import zenoh_config
@@ -131,8 +128,7 @@ def _cmd_view(args: argparse.Namespace) -> int:
         )
     settings = zenoh_config(args)
     stop = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
+    stop_on_signals(stop)
     bridge: LiveBridge | None = None
     with _open_bus(settings) as session:
         try:
