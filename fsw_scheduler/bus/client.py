@@ -426,6 +426,14 @@ class SchedulerClient:
             self.statuses, predicate, timeout, since, "status"
         )
 
+    def wait_new(self, items: list[T], since: int, timeout: float) -> list[T]:
+        """What this client's ``items`` (:attr:`statuses`, :attr:`plans`,
+        ...) received from index ``since`` on, after waiting up to
+        ``timeout`` seconds for the first (empty if none came)."""
+        with self._cond:
+            self._cond.wait_for(lambda: len(items) > since, timeout)
+            return items[since:]
+
     def _wait_for(
         self,
         items: list[T],

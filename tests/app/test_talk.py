@@ -5,8 +5,12 @@ types them."""
 from __future__ import annotations
 
 import json
+import queue
+import signal
 import socket
 import subprocess
+import threading
+import time
 from typing import TYPE_CHECKING
 
 import pytest
@@ -135,3 +139,50 @@ def test_no_scheduler_means_nothing_sent() -> None:
     )
     assert done.returncode == 1
     assert "nothing sent" in done.stderr
+
+
+def test_status_follow_prints_each_new_status(node: int) -> None:
+    """Tests ``status --follow``: the current status first, then each new
+    one as a line of its own (the clock's), until SIGINT, exit 0."""
+    follow = subprocess.Popen(
+        cli_command(
+            "status",
+            "--follow",
+            "-m",
+            "client",
+            "-e",
+            f"tcp/127.0.0.1:{node}",
+            "--no-multicast-scouting",
+        ),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    lines: queue.Queue[str] = queue.Queue()
+    assert follow.stdout is not None
+    reader = threading.Thread(
+        target=lambda out: [lines.put(line) for line in out],
+        args=(follow.stdout,),
+        daemon=True,
+    )
+    reader.start()
+    try:
+        first = json.loads(lines.get(timeout=60))
+        assert first["event"] == "query"
+        done = _cli(node, "send", "clock", '{"now": 3}', "--wait")
+        assert done.returncode == 0, done.stderr
+        # Each status the node publishes from here is printed: the one
+        # that says the clock moved arrives among them.
+        deadline = time.monotonic() + 60
+        while json.loads(lines.get(timeout=60))["now"] != 3:
+            assert time.monotonic() < deadline, "no status at now=3"
+        follow.send_signal(signal.SIGINT)
+        assert follow.wait(30) == 0
+    finally:
+        if follow.poll() is None:
+            follow.kill()
+            follow.wait()
+        reader.join(10)
+        for stream in (follow.stdout, follow.stderr):
+            if stream is not None:
+                stream.close()

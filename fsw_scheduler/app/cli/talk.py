@@ -249,12 +249,13 @@ def _cmd_query(args: argparse.Namespace) -> int:
             return EXIT_OK
         stop = threading.Event()
         stop_on_signals(stop)
-        items = client.statuses if args.what == "status" else client.plans
+        items: list[Any] = (
+            client.statuses if args.what == "status" else client.plans
+        )
         shown = len(items)
         while not stop.is_set():
-            with client._cond:
-                client._cond.wait(0.2)
-                fresh, shown = items[shown:], len(items)
+            fresh = client.wait_new(items, shown, 0.2)
+            shown += len(fresh)
             for item in fresh:
                 print(messages.encode(item).decode(), flush=True)
     return EXIT_OK
