@@ -247,14 +247,17 @@ class LiveBridge:
         # Its resources are those whose levels will be measured: their
         # channels exist before the first level, for panels to subscribe.
         for resource in profiles.levels:
-            key = self.topics.resource_level(resource)
-            if key not in self.server:
-                self.server.declare(channel_spec(key, self._lookup))
+            self._declared(self.topics.resource_level(resource))
 
     def _publish(self, key: str, payload: bytes, now: int) -> None:
         # Keys with a name chunk (a task, a resource) get their channel
         # at first sight; the server gives that first message to whoever
         # subscribes next, so it is not lost.
+        self._declared(key)
+        self.server.publish(key, payload, now)
+
+    def _declared(self, key: str) -> None:
+        """Declare the channel of ``key`` unless it exists (its spec is
+        built only then: this runs for every message)."""
         if key not in self.server:
             self.server.declare(channel_spec(key, self._lookup))
-        self.server.publish(key, payload, now)

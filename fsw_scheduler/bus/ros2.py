@@ -34,7 +34,7 @@ import uuid
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import zenoh
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
@@ -371,16 +371,17 @@ class Ros2Bridge:
     def close(self) -> None:
         """Undeclare everything the bridge declared (idempotent)."""
         routes, self._routes = self._routes, []
-        for route in routes:
-            for entity in (route.subscriber, route.token, route.publisher):
-                try:
-                    entity.undeclare()
-                except zenoh.ZError as error:
-                    log.debug("undeclare: %s", error)
-        token, self._node_token = self._node_token, None
-        if token is not None:
+        node, self._node_token = self._node_token, None
+        entities: list[Any] = [
+            entity
+            for route in routes
+            for entity in (route.subscriber, route.token, route.publisher)
+        ]
+        if node is not None:
+            entities.append(node)
+        for entity in entities:
             try:
-                token.undeclare()
+                entity.undeclare()
             except zenoh.ZError as error:
                 log.debug("undeclare: %s", error)
 
