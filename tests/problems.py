@@ -340,6 +340,29 @@ def brute_force(problem: Problem) -> tuple[Objective, Assignment] | None:
     return best
 
 
+def assert_brute_force_optimum(
+    doc: dict, problem: Problem, plan: Plan
+) -> Objective | None:
+    """Assert that ``plan`` is what exhaustive search finds: infeasible
+    when no assignment is feasible, else optimal with the same total.
+
+    Returns
+    -------
+    Objective or None
+        The optimum (None when infeasible), for further checks.
+    """
+    best = brute_force(problem)
+    if best is None:
+        assert plan.status is SolveStatus.INFEASIBLE, show(doc, plan)
+        return None
+    objective, starts = best
+    found = f"{show(doc, plan)}\nbrute force: {objective} {starts}"
+    assert plan.status is SolveStatus.OPTIMAL, found
+    assert plan.objective is not None, found
+    assert plan.objective.total == objective.total, found
+    return objective
+
+
 def plan_of(problem: Problem, starts: Assignment) -> Plan:
     lengths = {task.id: task.length for task in problem.tasks}
     return Plan(
