@@ -12,6 +12,7 @@ import importlib.machinery
 import importlib.util
 import json
 import shutil
+import socket
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -92,6 +93,14 @@ def make_doc(
 def problem_from(doc: dict) -> Problem:
     """Decode a problem from a Python dict (validating it)."""
     return decode_problem(json.dumps(doc))
+
+
+def free_port() -> int:
+    """A loopback TCP port free now (another process may take it before
+    it is bound: callers whose node then fails to start retry)."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
 
 
 def cli_command(*args: str) -> list[str]:

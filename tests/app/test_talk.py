@@ -7,7 +7,6 @@ from __future__ import annotations
 import json
 import queue
 import signal
-import socket
 import subprocess
 import threading
 import time
@@ -17,23 +16,17 @@ import pytest
 
 from fsw_scheduler.testing import SchedulerProcess
 
-from ..factories import DATA, cli_command
+from ..factories import DATA, cli_command, free_port
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
     from pathlib import Path
 
 
-def _free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return int(probe.getsockname()[1])
-
-
 @pytest.fixture
 def node() -> Iterator[int]:
     """A scheduler on Table 1 listening on a loopback port (yielded)."""
-    port = _free_port()
+    port = free_port()
     process = SchedulerProcess(
         [
             "--problem",
@@ -129,7 +122,7 @@ def test_no_scheduler_means_nothing_sent() -> None:
     """Tests that ``send`` on a bus without a scheduler says so, exit 1
     (a peer: its session opens alone)."""
     done = _cli(
-        _free_port(),
+        free_port(),
         "send",
         "clock",
         '{"now": 1}',

@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import queue
 import signal
-import socket
 import subprocess
 import sys
 import textwrap
@@ -26,7 +25,7 @@ from fsw_scheduler.testing import (
 from fsw_scheduler.wire import messages
 from fsw_scheduler.wire import topics as keys
 
-from ..factories import DATA, cli_command, ping_goal
+from ..factories import DATA, cli_command, free_port, ping_goal
 from .peers import ALIVE, Liveliness
 
 if TYPE_CHECKING:
@@ -452,14 +451,6 @@ def test_separate_process_client(
     assert {d.task for d in h.dispatches} >= set(dispatches)
 
 
-def _free_port() -> int:
-    # The port could be taken again between close() and the scheduler's
-    # bind; the caller retries when the scheduler fails to start.
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
-
-
 class RunProcess:
     """``fsw-scheduler run`` in a subprocess, with its log read live."""
 
@@ -515,7 +506,7 @@ class RunProcess:
 def test_cli_run_serves_and_stops_on_sigterm() -> None:
     """Tests `fsw-scheduler run` on the bus and its clean SIGTERM exit."""
     for _attempt in range(3):
-        port = _free_port()
+        port = free_port()
         run = RunProcess(port)
         if run.wait_up():
             break

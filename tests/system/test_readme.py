@@ -27,7 +27,6 @@ import json
 import re
 import shlex
 import shutil
-import socket
 import subprocess
 import sys
 import tomllib
@@ -43,7 +42,7 @@ from fsw_scheduler.runtime.config import NodeConfig
 from fsw_scheduler.solving.solve import solve
 from fsw_scheduler.testing import SchedulerProcess
 
-from ..factories import ROOT, tool_script
+from ..factories import ROOT, free_port, tool_script
 
 DOCS = [
     ROOT / "README.md",
@@ -211,12 +210,6 @@ def test_shell_blocks_run(where: str, body: str, tmp_path: Path) -> None:
         assert result.returncode == 0, f"{where}: {line}\n{result.stderr}"
 
 
-def _free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return int(probe.getsockname()[1])
-
-
 def test_the_session_on_the_bus_runs(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -226,7 +219,7 @@ def test_the_session_on_the_bus_runs(
     the goal is accepted and is in the plan; then the node stops."""
     assert SESSION, f"no shell block names {SESSION_ENDPOINT}"
     assert {where.split(":")[0] for where, _ in SESSION} == {"README.md"}
-    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
     lines = [
         line.replace(SESSION_ENDPOINT, endpoint)
         for _, body in SESSION
