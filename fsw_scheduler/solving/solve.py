@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 
 import msgspec
 
+from ..analysis.bounds import kept_set_optimal
 from ..analysis.check import check_plan
 from ..analysis.domains import cost_caps, start_domains
 from ..analysis.explain import explain as explain_plan
@@ -326,14 +327,23 @@ def _solve_whole(
             else f"objective {start.objective.total:g}",
             time.perf_counter() - began,
         )
-    if start is not None and at_lower_bound(problem, start, domains):
+    proof = None
+    if start is not None:
+        if at_lower_bound(problem, start, domains):
+            proof = "every task at its earliest start: no solve"
+        elif start.unscheduled and kept_set_optimal(problem, start, domains):
+            proof = (
+                "every kept task at its earliest start, and no other "
+                "choice of tasks to keep costs less: no solve"
+            )
+    if start is not None and proof is not None:
         plan = start.replace(
             status=SolveStatus.OPTIMAL,
             stats=SolverStats(
                 solver="greedy",
                 wall_s=time.perf_counter() - began,
                 bound=start.objective.total if start.objective else None,
-                solver_status="every task at its earliest start: no solve",
+                solver_status=proof,
                 time_limit_s=time_limit,
             ),
         )

@@ -1,0 +1,148 @@
+"""Tests of the kept-set optimality proof (fsw_scheduler.analysis.bounds)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from fsw_scheduler.analysis.bounds import kept_set_optimal
+from fsw_scheduler.analysis.check import check_plan
+from fsw_scheduler.analysis.domains import start_domains
+from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.solving.solve import solve
+
+from ..factories import problem_from
+from ..problems import COMMON, brute_force, decode_doc, plan_of, problem_docs
+
+if TYPE_CHECKING:
+    from fsw_scheduler.model.plan import Plan
+    from fsw_scheduler.model.problem import Problem
+
+
+def _battery_problem() -> Problem:
+    """A battery of 10 and three consumers needing 14: one must go."""
+    return problem_from(
+        {
+            "horizon": 20,
+            "resources": {"consumable": {"battery": 10}},
+            "tasks": [
+                {"id": "a", "length": 5, "delay_cost": 1,
+                 "schedule_cost": 5, "uses": {"battery": 1}},
+                {"id": "b", "length": 5, "delay_cost": 2,
+                 "schedule_cost": 1, "uses": {"battery": 1}},
+                {"id": "c", "length": 4, "delay_cost": 1,
+                 "schedule_cost": 1, "uses": {"battery": 1},
+                 "feasible_interval": [3, 20]},
+            ],
+        }
+    )  # fmt: skip
+
+
+def _at_earliest(problem: Problem, kept: set[str]) -> Plan:
+    domains = start_domains(problem)
+    return plan_of(
+        problem,
+        {
+            t.id: domains[t.id].earliest if t.id in kept else None
+            for t in problem.tasks
+        },
+    )
+
+
+def test_proves_the_cheapest_choice_of_tasks_to_leave_out() -> None:
+    """Tests that leaving out the cheapest task that makes the battery
+    last is proved optimal, and any dearer choice is not."""
+    problem = _battery_problem()
+    domains = start_domains(problem)
+    # Leaving b or c out costs 1 each; b starts at 0, c at 3: keeping b
+    # (no delay) and leaving c out is optimal.
+    best = _at_earliest(problem, {"a", "b"})
+    assert check_plan(problem, best).ok
+    assert kept_set_optimal(problem, best, domains)
+    # Dropping b instead keeps c at 3: delay 3 more, not optimal.
+    worse = _at_earliest(problem, {"a", "c"})
+    assert check_plan(problem, worse).ok
+    assert not kept_set_optimal(problem, worse, domains)
+    # Dropping a (cost 5) is far from optimal.
+    assert not kept_set_optimal(
+        problem, _at_earliest(problem, {"b", "c"}), domains
+    )
+
+
+def test_a_late_task_is_never_proved() -> None:
+    """Tests that a plan starting a kept task after its earliest start is
+    left to the solver (its own kept set costs less when relaxed)."""
+    problem = _battery_problem()
+    plan = plan_of(problem, {"a": 0, "b": 1, "c": None})
+    assert check_plan(problem, plan).ok
+    assert not kept_set_optimal(problem, plan, start_domains(problem))
+
+
+def test_solve_skips_the_solver_with_the_proof() -> None:
+    """Tests that solve() returns the proved start plan as optimal without
+    starting a solver, and says why."""
+    problem = _battery_problem()
+    plan = solve(problem)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.unscheduled == ("c",)
+    assert plan.stats is not None and plan.stats.solver == "greedy"
+    assert "no other choice of tasks to keep" in plan.stats.solver_status
+    best = brute_force(problem)
+    assert best is not None and plan.objective == best[0]
+
+
+def test_generation_that_comes_too_late_is_not_counted() -> None:
+    """Tests that a generator whose window opens after the consumers ran
+    does not make a plan keeping every consumer look possible."""
+    problem = problem_from(
+        {
+            "horizon": 20,
+            "resources": {"consumable": {"battery": 4}},
+            "tasks": [
+                {"id": "use", "length": 4, "delay_cost": 1,
+                 "schedule_cost": 5, "uses": {"battery": 2},
+                 "feasible_interval": [0, 4]},
+                {"id": "sun", "length": 4, "delay_cost": 1,
+                 "schedule_cost": 1, "uses": {"battery": -2},
+                 "feasible_interval": [10, 20]},
+            ],
+        }
+    )  # fmt: skip
+    # The only valid plans leave "use" out; keeping it needs the charge
+    # that comes too late, so leaving "use" out is optimal.
+    plan = _at_earliest(problem, {"sun"})
+    assert check_plan(problem, plan).ok
+    assert kept_set_optimal(problem, plan, start_domains(problem))
+    best = brute_force(problem)
+    assert best is not None and best[0] == plan.objective
+
+
+@settings(COMMON, max_examples=400)
+@given(
+    doc=st.one_of(
+        problem_docs(max_tasks=5, max_horizon=10),
+        problem_docs(max_tasks=5, max_horizon=10, capacities=True),
+    ),
+    drop=st.sets(st.integers(0, 4)),
+)
+def test_a_proof_is_never_wrong(doc: dict, drop: set[int]) -> None:
+    """Tests that every plan the relaxation proves optimal is optimal by
+    exhaustive search, for plans with any choice of tasks left out."""
+    problem = decode_doc(doc)
+    domains = start_domains(problem)
+    kept = {
+        t.id
+        for idx, t in enumerate(problem.tasks)
+        if idx not in drop and not domains[t.id].empty
+    }
+    plan = _at_earliest(problem, kept)
+    if not check_plan(problem, plan).ok:
+        return
+    if not kept_set_optimal(problem, plan, domains):
+        return
+    best = brute_force(problem)
+    assert best is not None
+    assert plan.objective is not None
+    assert plan.objective.total == best[0].total, (doc, plan, best)
