@@ -27,14 +27,17 @@ the 7 at 15 tasks that used to need CBC (each ~0.1-0.3 s there).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
-from ..model.plan import objective_weight
+import msgspec
+
+from ..model.plan import Activity, Plan, SolveStatus, objective_weight
+from .check import check_plan
+from .greedy import greedy_plan
 
 if TYPE_CHECKING:
     from collections.abc import Mapping
 
-    from ..model.plan import Plan
     from ..model.problem import Problem, Task
     from .domains import Domain
 
@@ -134,116 +137,326 @@ def kept_set_optimal(
     bool
         True only when no set of tasks that the relaxation accepts (see
         the module docstring) costs less than ``plan``; False when one
-        does, when ``plan`` starts a task after its earliest start, or
-        when the search stopped at ``max_nodes``.
+        does, or when the search stopped at ``max_nodes``.
     """
     if plan.objective is None:
         return False
-    starts = plan.starts()
-    if any(
-        starts[task.id] != domains[task.id].earliest
-        for task in problem.tasks
-        if task.id in starts
-    ):
-        return False  # its own kept set costs less in the relaxation
-    weight = objective_weight(
-        [t.delay_cost for t in problem.tasks], problem.horizon
-    )
-    placeable = [t for t in problem.tasks if not domains[t.id].empty]
-    if len(placeable) > MAX_TASKS:
-        return False
-    # Cost of a kept set: weight * (cost of all) - sum of the kept values.
-    total = weight * sum(t.schedule_cost for t in problem.tasks)
-    value = {
-        t.id: weight * t.schedule_cost
-        - t.delay_cost * (domains[t.id].earliest - problem.start)
-        for t in placeable
-    }
-    need = total - plan.objective.total + 1  # value of a better kept set
-    uses, limits = _level_rows(problem, domains, placeable)
-    # Mandatory tasks are decided first (kept), then by value: leaving
-    # out a valuable task drops the bound at once.
-    order = sorted(
-        placeable,
-        key=lambda t: (not t.mandatory, -value[t.id], t.id),
-    )
-    index = {t.id: k for k, t in enumerate(order)}
-    # Precedence scopes as (earlier decided, later decided, kind).
-    links: list[list[tuple[int, bool, bool]]] = [[] for _ in order]
-    for prec in problem.precedences:
-        a, b = index.get(prec.before), index.get(prec.after)
-        if b is None:
-            if a is not None and prec.scope == "both":
-                links[a].append((-1, True, True))  # a is never kept
-            continue
-        if a is None:
-            links[b].append((-1, True, True))  # b needs a: never kept
-            continue
-        both = prec.scope == "both"
-        first, second = min(a, b), max(a, b)
-        # keep[second] must satisfy: both -> equal; at_least_first ->
-        # after kept needs before kept.
-        links[second].append((first, both, second == b))
-    rest = [0] * (len(order) + 1)  # best value still to come
-    for k in range(len(order) - 1, -1, -1):
-        rest[k] = rest[k + 1] + max(0, value[order[k].id])
-    # Generators still undecided can lower each row by this much.
-    credit = [[0.0] * len(limits) for _ in range(len(order) + 1)]
-    for k in range(len(order) - 1, -1, -1):
-        row = uses[order[k].id]
-        credit[k] = [
-            c + min(0.0, u) for c, u in zip(credit[k + 1], row, strict=True)
-        ]
-    keep = [False] * len(order)
-    nodes = 0
-    # Each node copies the rows: bound the work, not only the nodes.
-    max_nodes = min(max_nodes, MAX_WORK // (len(limits) + 1))
+    search = _KeptSetSearch(problem, domains, plan.objective.total)
+    return search.run(max_nodes) and search.best is None
 
-    def allowed(k: int, kept: bool) -> bool:
-        for first, both, is_after in links[k]:
-            if first < 0:
+
+class KeptSetProof(NamedTuple):
+    """What the kept-set relaxation says of a start plan.
+
+    Attributes
+    ----------
+    plan
+        An optimal plan (the start plan, or a better one every kept task
+        of which starts at its earliest), None when none is proved.
+    bound
+        A lower bound on the objective of every plan at least as good as
+        the start plan (the relaxed optimum, or the start plan's own
+        objective when nothing relaxed costs less); None when the search
+        stopped at its budget.
+    better
+        When no plan is proved: a valid plan better than the start plan,
+        list-scheduled on the relaxed optimum's kept set, if there is one.
+    """
+
+    plan: Plan | None
+    bound: int | None
+    better: Plan | None = None
+
+
+def kept_set_plan(
+    problem: Problem,
+    plan: Plan,
+    domains: Mapping[str, Domain],
+    max_nodes: int = MAX_NODES,
+) -> KeptSetProof:
+    """An optimal plan proved by the kept-set relaxation, if there is one.
+
+    The search finds the relaxed optimum: the kept set of least relaxed
+    cost. If that is no lower than ``plan``'s, ``plan`` is optimal; if it
+    is lower and the set, every task at its earliest start, passes the
+    checker, that plan reaches the lower bound and is optimal. Either way
+    the relaxed optimum bounds every plan (see :func:`delay_caps`).
+
+    Parameters
+    ----------
+    problem
+        A validated problem.
+    plan
+        A valid plan of ``problem`` with its objective (a start plan).
+    domains
+        The problem's :func:`~fsw_scheduler.analysis.domains.start_domains`.
+    max_nodes
+        Search nodes before giving up.
+
+    Returns
+    -------
+    KeptSetProof
+        The optimal plan (status ``optimal``) if proved, and the bound.
+    """
+    if plan.objective is None:
+        return KeptSetProof(None, None)
+    search = _KeptSetSearch(problem, domains, plan.objective.total)
+    if not search.run(max_nodes):
+        return KeptSetProof(None, None)
+    if search.best is None:
+        return KeptSetProof(
+            plan.replace(status=SolveStatus.OPTIMAL), search.best_cost
+        )
+    proved = _at_earliest(problem, domains, search.best, search.best_cost)
+    if proved is not None:
+        return KeptSetProof(proved, search.best_cost)
+    better = _scheduled(problem, search.best)
+    if (
+        better is None
+        or better.objective is None
+        or better.objective.total >= plan.objective.total
+    ):
+        better = None
+    return KeptSetProof(None, search.best_cost, better)
+
+
+def _scheduled(problem: Problem, kept: set[str]) -> Plan | None:
+    """The start plan heuristic on ``kept`` alone, the rest left out.
+
+    The relaxation accepts ``kept``, so leaving the others out breaks no
+    precedence scope; the checker has the last word.
+    """
+    # Every kept task mandatory: the heuristic then places generators
+    # before the consumers that need them (its supply-first rule) rather
+    # than leaving out a consumer the charge would have carried.
+    sub = problem.replace(
+        tasks=tuple(
+            msgspec.structs.replace(t, schedule_cost=0)
+            for t in problem.tasks
+            if t.id in kept
+        ),
+        precedences=tuple(
+            p
+            for p in problem.precedences
+            if p.before in kept and p.after in kept
+        ),
+    )
+    plan = greedy_plan(sub)
+    if plan is None:
+        return None
+    plan = plan.replace(
+        objective=None,
+        unscheduled=tuple(
+            t.id
+            for t in problem.tasks
+            if t.id not in kept or t.id in plan.unscheduled
+        ),
+    )
+    report = check_plan(problem, plan)
+    if not report.ok:
+        return None
+    return plan.replace(objective=report.objective)
+
+
+def _at_earliest(
+    problem: Problem, domains: Mapping[str, Domain], kept: set[str], cost: int
+) -> Plan | None:
+    """``kept`` at their earliest starts, if valid and of cost ``cost``."""
+    activities = tuple(
+        sorted(
+            (
+                Activity(
+                    task.id,
+                    domains[task.id].earliest,
+                    domains[task.id].earliest + task.length,
+                )
+                for task in problem.tasks
+                if task.id in kept
+            ),
+            key=lambda a: (a.start, a.task),
+        )
+    )
+    candidate = Plan(
+        status=SolveStatus.OPTIMAL,
+        objective=None,
+        activities=activities,
+        unscheduled=tuple(t.id for t in problem.tasks if t.id not in kept),
+    )
+    report = check_plan(problem, candidate)
+    if not report.ok or report.objective is None:
+        return None
+    if report.objective.total != cost:
+        return None  # cannot happen: the relaxed cost is the real one
+    return candidate.replace(objective=report.objective)
+
+
+def delay_caps(
+    problem: Problem,
+    domains: Mapping[str, Domain],
+    cutoff: int,
+    bound: int,
+) -> dict[str, int]:
+    """Latest starts that every plan of cost at most ``cutoff`` keeps.
+
+    A plan's cost is its kept set's relaxed cost, at least ``bound``,
+    plus ``d (s - e)`` for each kept task started at ``s`` after its
+    earliest start ``e``. So no task of delay cost ``d`` starts after
+    ``e + (cutoff - bound) // d`` in a plan of cost at most ``cutoff``.
+
+    Parameters
+    ----------
+    problem
+        A validated problem.
+    domains
+        Its start domains.
+    cutoff
+        The cost of a known plan (the start plan's objective).
+    bound
+        :attr:`KeptSetProof.bound` for that plan.
+
+    Returns
+    -------
+    dict[str, int]
+        Task id to latest start, for placeable tasks with a delay cost.
+    """
+    slack = max(0, cutoff - bound)
+    return {
+        task.id: domains[task.id].earliest + slack // task.delay_cost
+        for task in problem.tasks
+        if task.delay_cost > 0 and not domains[task.id].empty
+    }
+
+
+class _KeptSetSearch:
+    """Branch and bound over kept sets for the relaxed optimum.
+
+    Parameters
+    ----------
+    problem, domains
+        As for :func:`kept_set_plan`.
+    cutoff
+        Only kept sets of relaxed cost below this are searched for.
+    """
+
+    def __init__(
+        self, problem: Problem, domains: Mapping[str, Domain], cutoff: int
+    ) -> None:
+        weight = objective_weight(
+            [t.delay_cost for t in problem.tasks], problem.horizon
+        )
+        placeable = [t for t in problem.tasks if not domains[t.id].empty]
+        self.too_large = len(placeable) > MAX_TASKS
+        # Cost of a kept set: weight * (cost of all) - its value.
+        self.total = weight * sum(t.schedule_cost for t in problem.tasks)
+        value = {
+            t.id: weight * t.schedule_cost
+            - t.delay_cost * (domains[t.id].earliest - problem.start)
+            for t in placeable
+        }
+        self.need = self.total - cutoff + 1  # value of a better kept set
+        uses, self.limits = _level_rows(problem, domains, placeable)
+        # Mandatory tasks are decided first (kept), then by value: leaving
+        # out a valuable task drops the bound at once.
+        self.order = sorted(
+            placeable, key=lambda t: (not t.mandatory, -value[t.id], t.id)
+        )
+        self.values = [value[t.id] for t in self.order]
+        self.uses = [uses[t.id] for t in self.order]
+        self.links = self._links(problem)
+        num = len(self.order)
+        self.rest = [0] * (num + 1)  # best value still to come
+        # Generators still undecided can lower each row by this much.
+        self.credit = [[0.0] * len(self.limits) for _ in range(num + 1)]
+        for k in range(num - 1, -1, -1):
+            self.rest[k] = self.rest[k + 1] + max(0, self.values[k])
+            self.credit[k] = [
+                c + min(0.0, u)
+                for c, u in zip(self.credit[k + 1], self.uses[k], strict=True)
+            ]
+        self.keep = [False] * num
+        self.best: set[str] | None = None
+        self.best_cost = cutoff
+
+    def _links(self, problem: Problem) -> list[list[tuple[int, bool, bool]]]:
+        """Precedence scopes, at the later decided task of each pair.
+
+        Each entry is ``(other, both, is_after)``: ``other`` the earlier
+        decided task (-1: one that is never kept), ``both`` the scope,
+        ``is_after`` whether the task holding the entry is the later one
+        of the precedence.
+        """
+        index = {t.id: k for k, t in enumerate(self.order)}
+        links: list[list[tuple[int, bool, bool]]] = [[] for _ in self.order]
+        for prec in problem.precedences:
+            a, b = index.get(prec.before), index.get(prec.after)
+            if b is None:
+                if a is not None and prec.scope == "both":
+                    links[a].append((-1, True, True))  # a is never kept
+                continue
+            if a is None:
+                links[b].append((-1, True, True))  # b needs a: never kept
+                continue
+            first, second = min(a, b), max(a, b)
+            links[second].append((first, prec.scope == "both", second == b))
+        return links
+
+    def _allowed(self, k: int, kept: bool) -> bool:
+        keep = self.keep
+        for other, both, is_after in self.links[k]:
+            if other < 0:
                 if kept:
                     return False
-                continue
-            if both and keep[first] != kept:
+            elif both:
+                if keep[other] != kept:
+                    return False
+            elif is_after:
+                if kept and not keep[other]:
+                    return False
+            elif keep[other] and not kept:
                 return False
-            if not both:
-                if is_after and kept and not keep[first]:
-                    return False
-                if not is_after and keep[first] and not kept:
-                    return False
         return True
 
-    def better(k: int, got: int, rows: list[float]) -> bool | None:
-        """True if a better kept set extends this one; None at the cap."""
-        nonlocal nodes
-        nodes += 1
-        if nodes > max_nodes:
-            return None
-        if got + rest[k] < need:
+    def run(self, max_nodes: int) -> bool:
+        """Search; True if it finished (the result is then proved)."""
+        if self.too_large:
             return False
+        # Each node copies the rows: bound the work, not only the nodes.
+        self.nodes_left = min(max_nodes, MAX_WORK // (len(self.limits) + 1))
+        return self._search(0, 0, [0.0] * len(self.limits))
+
+    def _search(self, k: int, got: int, rows: list[float]) -> bool:
+        """Explore kept sets extending the first ``k`` decisions; False
+        when the node budget ran out."""
+        self.nodes_left -= 1
+        if self.nodes_left < 0:
+            return False
+        if got + self.rest[k] < self.need:
+            return True
         if any(
             r + c > lim + _EPS
-            for r, c, lim in zip(rows, credit[k], limits, strict=True)
+            for r, c, lim in zip(rows, self.credit[k], self.limits, strict=True)
         ):
-            return False
-        if k == len(order):
             return True
-        task = order[k]
-        choices = (True,) if task.mandatory else (True, False)
+        if k == len(self.order):
+            # A better kept set: remember it, and look for better still.
+            self.best = {
+                t.id for t, kept in zip(self.order, self.keep) if kept
+            }
+            self.best_cost = self.total - got
+            self.need = got + 1
+            return True
+        choices = (True,) if self.order[k].mandatory else (True, False)
         for kept in choices:
-            if not allowed(k, kept):
+            if not self._allowed(k, kept):
                 continue
-            keep[k] = kept
+            self.keep[k] = kept
             if kept:
                 grown = [
-                    r + u for r, u in zip(rows, uses[task.id], strict=True)
+                    r + u for r, u in zip(rows, self.uses[k], strict=True)
                 ]
-                found = better(k + 1, got + value[task.id], grown)
+                done = self._search(k + 1, got + self.values[k], grown)
             else:
-                found = better(k + 1, got, rows)
-            if found is None or found:
-                return found
-        return False
-
-    return better(0, 0, [0.0] * len(limits)) is False
+                done = self._search(k + 1, got, rows)
+            if not done:
+                return False
+        return True

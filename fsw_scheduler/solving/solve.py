@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import msgspec
 
-from ..analysis.bounds import kept_set_optimal
+from ..analysis.bounds import delay_caps, kept_set_plan
 from ..analysis.check import check_plan
 from ..analysis.domains import cost_caps, start_domains
 from ..analysis.explain import explain as explain_plan
@@ -328,14 +328,20 @@ def _solve_whole(
             time.perf_counter() - began,
         )
     proof = None
+    bound = None
     if start is not None:
         if at_lower_bound(problem, start, domains):
             proof = "every task at its earliest start: no solve"
-        elif start.unscheduled and kept_set_optimal(problem, start, domains):
-            proof = (
-                "every kept task at its earliest start, and no other "
-                "choice of tasks to keep costs less: no solve"
-            )
+        elif problem.num_tasks < BUDGET.lns_min_tasks:
+            proved, bound, better = kept_set_plan(problem, start, domains)
+            if better is not None:
+                start = better
+            if proved is not None:
+                proof = (
+                    "every kept task at its earliest start, and no other "
+                    "choice of tasks to keep costs less: no solve"
+                )
+                start = proved
     if start is not None and proof is not None:
         plan = start.replace(
             status=SolveStatus.OPTIMAL,
@@ -374,7 +380,7 @@ def _solve_whole(
                 run(
                     problem,
                     warm=start.starts() if start else None,
-                    domains=_narrowed(problem, start, domains),
+                    domains=_narrowed(problem, start, domains, bound),
                     # The start plan's time counts against the limit.
                     time_limit=None
                     if time_limit is None
@@ -472,15 +478,27 @@ def at_lower_bound(
 
 
 def _narrowed(
-    problem: Problem, start: Plan | None, domains: dict[str, Domain]
+    problem: Problem,
+    start: Plan | None,
+    domains: dict[str, Domain],
+    bound: int | None = None,
 ) -> dict[str, Domain]:
     """``domains`` cut by what ``start`` already achieves, if it can.
 
-    Every plan at least as good as ``start`` fits in them
-    (:func:`cost_caps`), so the model gets smaller and keeps its optimum.
+    Every plan at least as good as ``start`` fits in them (:func:`cost_caps`
+    and, given the kept-set ``bound``,
+    :func:`~fsw_scheduler.analysis.bounds.delay_caps`), so the model gets
+    smaller and keeps its optimum.
     """
-    caps = None if start is None else cost_caps(problem, domains, start)
-    return domains if caps is None else start_domains(problem, caps)
+    if start is None or start.objective is None:
+        return domains
+    caps = cost_caps(problem, domains, start) or {}
+    if bound is not None:
+        for name, latest in delay_caps(
+            problem, domains, start.objective.total, bound
+        ).items():
+            caps[name] = min(latest, caps.get(name, latest))
+    return start_domains(problem, caps) if caps else domains
 
 
 def best_start(
