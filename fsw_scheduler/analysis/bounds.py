@@ -432,9 +432,10 @@ class _KeptSetSearch:
             return False
         if got + self.rest[k] < self.need:
             return True
+        credit = self.credit[k]
         if any(
             r + c > lim + _EPS
-            for r, c, lim in zip(rows, self.credit[k], self.limits, strict=True)
+            for r, c, lim in zip(rows, credit, self.limits, strict=True)
         ):
             return True
         if k == len(self.order):

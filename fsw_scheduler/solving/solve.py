@@ -328,12 +328,12 @@ def _solve_whole(
             time.perf_counter() - began,
         )
     proof = None
-    bound = None
+    relaxed = None
     if start is not None:
         if at_lower_bound(problem, start, domains):
             proof = "every task at its earliest start: no solve"
         elif problem.num_tasks < BUDGET.lns_min_tasks:
-            proved, bound, better = kept_set_plan(problem, start, domains)
+            proved, relaxed, better = kept_set_plan(problem, start, domains)
             if better is not None:
                 start = better
             if proved is not None:
@@ -380,7 +380,7 @@ def _solve_whole(
                 run(
                     problem,
                     warm=start.starts() if start else None,
-                    domains=_narrowed(problem, start, domains, bound),
+                    domains=_narrowed(problem, start, domains, relaxed),
                     # The start plan's time counts against the limit.
                     time_limit=None
                     if time_limit is None
