@@ -7,11 +7,15 @@ from typing import TYPE_CHECKING
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fsw_scheduler.analysis.bounds import kept_set_optimal
+from fsw_scheduler.analysis.bounds import (
+    delay_caps,
+    kept_set_optimal,
+    kept_set_plan,
+)
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.model.plan import SolveStatus
-from fsw_scheduler.solving.solve import solve
+from fsw_scheduler.solving.solve import best_start, solve
 
 from ..factories import problem_from
 from ..problems import COMMON, brute_force, decode_doc, plan_of, problem_docs
@@ -146,3 +150,33 @@ def test_a_proof_is_never_wrong(doc: dict, drop: set[int]) -> None:
     assert best is not None
     assert plan.objective is not None
     assert plan.objective.total == best[0].total, (doc, plan, best)
+
+
+@settings(COMMON, max_examples=200)
+@given(doc=problem_docs(max_tasks=5, max_horizon=10))
+def test_delay_caps_keep_every_optimal_plan(doc: dict) -> None:
+    """Tests that the latest starts derived from the relaxed bound keep an
+    optimal plan found by exhaustive search, and that the bound is one."""
+    problem = decode_doc(doc)
+    domains = start_domains(problem)
+    start = best_start(problem, None, domains=domains)
+    if start is None or start.objective is None:
+        return
+    proof = kept_set_plan(problem, start, domains)
+    if proof.bound is None:
+        return
+    best = brute_force(problem)
+    assert best is not None
+    objective, starts = best
+    assert proof.bound <= objective.total
+    if proof.plan is not None:
+        assert proof.plan.objective == objective
+    if proof.better is not None:
+        assert check_plan(problem, proof.better).ok
+        assert proof.better.objective is not None
+        assert proof.better.objective.total < start.objective.total
+    caps = delay_caps(problem, domains, start.objective.total, proof.bound)
+    # Every optimal plan keeps within the caps: check the one found.
+    for name, at in starts.items():
+        if at is not None and name in caps:
+            assert at <= caps[name], (doc, name, at, caps)
