@@ -327,6 +327,81 @@ def delay_caps(
     }
 
 
+class Fixings(NamedTuple):
+    """What the relaxation proves of each task, for the model.
+
+    Attributes
+    ----------
+    dropped
+        Tasks that no plan of cost at most the cutoff keeps.
+    caps
+        Latest starts (as :func:`delay_caps`, per task where its own bound
+        is higher).
+    """
+
+    dropped: frozenset[str]
+    caps: dict[str, int]
+
+
+def fixings(
+    problem: Problem,
+    domains: Mapping[str, Domain],
+    cutoff: int,
+    proof: KeptSetProof,
+    max_nodes: int = MAX_NODES,
+) -> Fixings | None:
+    """Per-task consequences of the relaxation for plans of cost at most
+    ``cutoff``.
+
+    For each task the relaxed optimum leaves out, the search is run
+    again with the task kept: if no kept set under ``cutoff`` holds it,
+    no plan that good does, and the model can leave it out; else its own
+    relaxed bound gives it a tighter cap than :func:`delay_caps`.
+
+    Parameters
+    ----------
+    problem
+        A validated problem.
+    domains
+        Its start domains.
+    cutoff
+        The cost of a known valid plan.
+    proof
+        :func:`kept_set_plan`'s result for that plan (with a bound).
+    max_nodes
+        Search nodes per task before giving up on it (no fixing for it).
+
+    Returns
+    -------
+    Fixings or None
+        None without a bound.
+    """
+    if proof.bound is None:
+        return None
+    caps = delay_caps(problem, domains, cutoff, proof.bound)
+    relaxed = _KeptSetSearch(problem, domains, cutoff + 1)
+    if not relaxed.run(max_nodes) or relaxed.best is None:
+        return Fixings(frozenset(), caps)
+    dropped = set()
+    for task in problem.tasks:
+        if task.id in relaxed.best or domains[task.id].empty:
+            continue
+        search = _KeptSetSearch(
+            problem, domains, cutoff + 1, force=(task.id, True)
+        )
+        if not search.run(max_nodes):
+            continue
+        if search.best is None:
+            dropped.add(task.id)
+        elif task.delay_cost > 0:
+            slack = max(0, cutoff - search.best_cost)
+            caps[task.id] = min(
+                caps[task.id],
+                domains[task.id].earliest + slack // task.delay_cost,
+            )
+    return Fixings(frozenset(dropped), caps)
+
+
 class _KeptSetSearch:
     """Branch and bound over kept sets for the relaxed optimum.
 
@@ -339,7 +414,11 @@ class _KeptSetSearch:
     """
 
     def __init__(
-        self, problem: Problem, domains: Mapping[str, Domain], cutoff: int
+        self,
+        problem: Problem,
+        domains: Mapping[str, Domain],
+        cutoff: int,
+        force: tuple[str, bool] | None = None,
     ) -> None:
         weight = objective_weight(
             [t.delay_cost for t in problem.tasks], problem.horizon
@@ -376,6 +455,8 @@ class _KeptSetSearch:
         self.keep = [False] * num
         self.best: set[str] | None = None
         self.best_cost = cutoff
+        #: One task's decision imposed (id, kept), or None.
+        self.force = force
 
     def _links(self, problem: Problem) -> list[list[tuple[int, bool, bool]]]:
         """Precedence scopes, at the later decided task of each pair.
@@ -417,18 +498,25 @@ class _KeptSetSearch:
         return True
 
     def run(self, max_nodes: int) -> bool:
-        """Search; True if it finished (the result is then proved)."""
+        """Search; True if it finished within ``max_nodes``.
+
+        :attr:`best` is then the kept set of least relaxed cost under the
+        cutoff, or None when there is none.
+        """
         if self.too_large:
             return False
         # Each node copies the rows: bound the work, not only the nodes.
         self.nodes_left = min(max_nodes, MAX_WORK // (len(self.limits) + 1))
-        return self._search(0, 0, [0.0] * len(self.limits))
+        self.out_of_budget = False
+        self._search(0, 0, [0.0] * len(self.limits))
+        return not self.out_of_budget
 
     def _search(self, k: int, got: int, rows: list[float]) -> bool:
         """Explore kept sets extending the first ``k`` decisions; False
-        when the node budget ran out."""
+        when the node budget is spent."""
         self.nodes_left -= 1
         if self.nodes_left < 0:
+            self.out_of_budget = True
             return False
         if got + self.rest[k] < self.need:
             return True
@@ -446,7 +534,13 @@ class _KeptSetSearch:
             self.best_cost = self.total - got
             self.need = got + 1
             return True
-        choices = (True,) if self.order[k].mandatory else (True, False)
+        task = self.order[k]
+        if self.force is not None and self.force[0] == task.id:
+            choices: tuple[bool, ...] = (self.force[1],)
+        elif task.mandatory:
+            choices = (True,)
+        else:
+            choices = (True, False)
         for kept in choices:
             if not self._allowed(k, kept):
                 continue

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import msgspec
 
-from ..analysis.bounds import delay_caps, kept_set_plan
+from ..analysis.bounds import KeptSetProof, fixings, kept_set_plan
 from ..analysis.check import check_plan
 from ..analysis.domains import cost_caps, start_domains
 from ..analysis.explain import explain as explain_plan
@@ -328,12 +328,13 @@ def _solve_whole(
             time.perf_counter() - began,
         )
     proof = None
-    relaxed = None
+    relaxed: KeptSetProof | None = None
     if start is not None:
         if at_lower_bound(problem, start, domains):
             proof = "every task at its earliest start: no solve"
         elif problem.num_tasks < BUDGET.lns_min_tasks:
-            proved, relaxed, better = kept_set_plan(problem, start, domains)
+            relaxed = kept_set_plan(problem, start, domains)
+            proved, _, better = relaxed
             if better is not None:
                 start = better
             if proved is not None:
@@ -481,23 +482,29 @@ def _narrowed(
     problem: Problem,
     start: Plan | None,
     domains: dict[str, Domain],
-    bound: int | None = None,
+    relaxed: KeptSetProof | None = None,
 ) -> dict[str, Domain]:
     """``domains`` cut by what ``start`` already achieves, if it can.
 
     Every plan at least as good as ``start`` fits in them (:func:`cost_caps`
-    and, given the kept-set ``bound``,
-    :func:`~fsw_scheduler.analysis.bounds.delay_caps`), so the model gets
-    smaller and keeps its optimum.
+    and, given the kept-set search's result ``relaxed``,
+    :func:`~fsw_scheduler.analysis.bounds.fixings`: tasks no such plan
+    keeps get an empty domain), so the model gets smaller and keeps its
+    optimum.
     """
     if start is None or start.objective is None:
         return domains
     caps = cost_caps(problem, domains, start) or {}
-    if bound is not None:
-        for name, latest in delay_caps(
-            problem, domains, start.objective.total, bound
-        ).items():
+    fixed = (
+        None
+        if relaxed is None
+        else fixings(problem, domains, start.objective.total, relaxed)
+    )
+    if fixed is not None:
+        for name, latest in fixed.caps.items():
             caps[name] = min(latest, caps.get(name, latest))
+        for name in fixed.dropped:
+            caps[name] = domains[name].earliest - 1
     return start_domains(problem, caps) if caps else domains
 
 

@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 
 from fsw_scheduler.analysis.bounds import (
     delay_caps,
+    fixings,
     kept_set_optimal,
     kept_set_plan,
 )
@@ -180,3 +181,43 @@ def test_delay_caps_keep_every_optimal_plan(doc: dict) -> None:
     for name, at in starts.items():
         if at is not None and name in caps:
             assert at <= caps[name], (doc, name, at, caps)
+
+
+@settings(COMMON, max_examples=200)
+@given(doc=problem_docs(max_tasks=5, max_horizon=10))
+def test_fixings_keep_an_optimal_plan(doc: dict) -> None:
+    """Tests that no task the fixings leave out, and no start beyond their
+    caps, is in the optimal plan exhaustive search finds."""
+    problem = decode_doc(doc)
+    domains = start_domains(problem)
+    start = best_start(problem, None, domains=domains)
+    if start is None or start.objective is None:
+        return
+    proof = kept_set_plan(problem, start, domains)
+    fixed = fixings(problem, domains, start.objective.total, proof)
+    if fixed is None:
+        return
+    best = brute_force(problem)
+    assert best is not None
+    _, starts = best
+    for name, at in starts.items():
+        if at is None:
+            continue
+        assert name not in fixed.dropped, (doc, name)
+        assert at <= fixed.caps.get(name, at), (doc, name, at, fixed)
+
+
+def test_fixings_leave_out_a_task_no_good_plan_keeps() -> None:
+    """Tests that a consumer which only fits by leaving out a dearer one is
+    left out of the model once a plan keeping the dearer one is known."""
+    problem = _battery_problem()
+    domains = start_domains(problem)
+    plan = _at_earliest(problem, {"a", "b"})
+    proof = kept_set_plan(problem, plan, domains)
+    assert proof.plan is not None  # optimal: c is not worth keeping
+    assert plan.objective is not None
+    fixed = fixings(problem, domains, plan.objective.total, proof)
+    assert fixed is not None
+    assert fixed.dropped == {"c"}
+    # a and b are at their earliest starts in every plan as good.
+    assert fixed.caps["a"] == 0 and fixed.caps["b"] == 0
