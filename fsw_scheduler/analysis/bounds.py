@@ -36,7 +36,7 @@ from .check import check_plan
 from .greedy import greedy_plan
 
 if TYPE_CHECKING:
-    from collections.abc import Mapping
+    from collections.abc import Mapping, Set
 
     from ..model.problem import Problem, Task
     from .domains import Domain
@@ -220,16 +220,17 @@ def kept_set_plan(
     return KeptSetProof(None, search.best_cost, better)
 
 
-def _scheduled(problem: Problem, kept: set[str]) -> Plan | None:
-    """The start plan heuristic on ``kept`` alone, the rest left out.
+def kept_only(problem: Problem, kept: Set[str]) -> Problem:
+    """``problem`` with only the tasks ``kept``, each made mandatory.
 
-    The relaxation accepts ``kept``, so leaving the others out breaks no
-    precedence scope; the checker has the last word.
+    Its plans, with the other tasks left out, are plans of ``problem``
+    when the relaxation accepts ``kept`` (leaving the others out breaks
+    no precedence scope): see :func:`widened`. Every kept task is made
+    mandatory: the start heuristic then places generators before the
+    consumers that need them (its supply-first rule) rather than leaving
+    out a consumer the charge would carry.
     """
-    # Every kept task mandatory: the heuristic then places generators
-    # before the consumers that need them (its supply-first rule) rather
-    # than leaving out a consumer the charge would have carried.
-    sub = problem.replace(
+    return problem.replace(
         tasks=tuple(
             msgspec.structs.replace(t, schedule_cost=0)
             for t in problem.tasks
@@ -241,21 +242,35 @@ def _scheduled(problem: Problem, kept: set[str]) -> Plan | None:
             if p.before in kept and p.after in kept
         ),
     )
-    plan = greedy_plan(sub)
-    if plan is None:
-        return None
+
+
+def widened(problem: Problem, plan: Plan) -> Plan | None:
+    """A plan of :func:`kept_only` as a plan of ``problem``.
+
+    Every task the plan does not schedule is left out; None when the
+    checker refuses the result on ``problem``.
+    """
     plan = plan.replace(
         objective=None,
+        status=SolveStatus.FEASIBLE,
+        why=(),
+        stats=None,
         unscheduled=tuple(
-            t.id
-            for t in problem.tasks
-            if t.id not in kept or t.id in plan.unscheduled
+            t.id for t in problem.tasks if t.id not in plan.starts()
         ),
     )
     report = check_plan(problem, plan)
     if not report.ok:
         return None
     return plan.replace(objective=report.objective)
+
+
+def _scheduled(problem: Problem, kept: set[str]) -> Plan | None:
+    """The start plan heuristic on ``kept`` alone, the rest left out."""
+    plan = greedy_plan(kept_only(problem, kept))
+    if plan is None:
+        return None
+    return widened(problem, plan)
 
 
 def _at_earliest(
