@@ -176,6 +176,7 @@ def _run_cbc(
     threads: int,
     seed: int,
     warm: dict[str, int] | None,
+    max_nodes: int | None = None,
 ) -> _Outcome:
     start = None
     extra = None
@@ -194,6 +195,8 @@ def _run_cbc(
         and program.num_rows >= LARGE_ROWS
     ):
         extra = [*(extra or ()), *LARGE]
+    if max_nodes is not None:
+        extra = [*(extra or ()), f"maxNodes {max_nodes}"]
     run = WatchedCbcRun(
         constant=program.constant,
         incumbent=None
@@ -291,6 +294,7 @@ def solve_ilp(
     warm: dict[str, int] | None = None,
     domains: dict[str, Domain] | None = None,
     formulation: str = "auto",
+    max_nodes: int | None = None,
 ) -> Plan:
     """Build and solve the ILP of ``problem``.
 
@@ -320,6 +324,12 @@ def solve_ilp(
         consumables in use) or
         ``auto`` (default): the one
         :func:`fsw_scheduler.solving.ilp.disjunctive.rule.pick` picks.
+    max_nodes
+        CBC stops after this many search nodes (status ``feasible`` with
+        the best plan found, "Stopped on iterations" in
+        ``solver_status``): a
+        limit that, unlike time, gives the same answer on every machine.
+        HiGHS ignores it.
 
     Returns
     -------
@@ -406,7 +416,9 @@ def solve_ilp(
             "time limit spent before the solver started",
         )
     elif solver == "cbc":
-        outcome = _run_cbc(built, solver_limit, threads, seed, warm)
+        outcome = _run_cbc(
+            built, solver_limit, threads, seed, warm, max_nodes
+        )
     else:
         outcome = _run_highs(built, solver_limit, threads, seed)
     call = time.perf_counter() - built_at
