@@ -5,6 +5,7 @@ from __future__ import annotations
 import copy
 import subprocess
 import sys
+from typing import TYPE_CHECKING
 
 import pytest
 
@@ -13,6 +14,9 @@ from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.solving.solve import solve
 
 from ..factories import bench_lib, make_doc, make_task, problem_from
+
+if TYPE_CHECKING:
+    from fsw_scheduler.model.problem import Problem
 
 SOLVERS = ["cbc", "highs"]
 
@@ -560,3 +564,52 @@ def test_a_large_part_says_when_its_start_plan_begins_and_ends(
     lines = [r.getMessage() for r in caplog.records]
     assert any(f"list scheduling {LOUD_TASKS} tasks" in m for m in lines)
     assert any(m.startswith("start plan: objective") for m in lines)
+
+
+# -- the probe and node limits ----------------------------------------------
+
+
+def _balanced_battery() -> Problem:
+    """Paper-shaped c15-consumable-1 of seed 9: the battery exactly covers
+    what the best choice of tasks consumes, and the start plan leaves out
+    more than the optimum (CBC alone had not proved it in 20 s)."""
+    generator = bench_lib("generator")
+    return next(
+        bench.problem()
+        for bench in generator.campaign(9, "paper")
+        if bench.name == "c15-consumable-1"
+    )
+
+
+def test_probe_proves_a_start_plan_far_from_the_bound() -> None:
+    """Tests that the probe's better incumbent narrows the model enough
+    for CBC to prove the optimum CP-SAT finds, well within the limit."""
+    problem = _balanced_battery()
+    plan = solve(problem, time_limit=20)
+    assert plan.status is SolveStatus.OPTIMAL, plan.stats
+    assert check_plan(problem, plan).ok
+    reference = bench_lib("cpsat").solve_cpsat(problem, time_limit=20)
+    assert reference.status is SolveStatus.OPTIMAL
+    assert plan.objective == reference.objective
+
+
+def test_a_node_limit_gives_the_same_plan_each_time() -> None:
+    """Tests that CBC stopped by max_nodes says so, returns a feasible
+    plan, and returns the same one on a second run."""
+    from fsw_scheduler.analysis.greedy import greedy_plan
+    from fsw_scheduler.solving.ilp import solve_ilp
+
+    problem = _balanced_battery()
+    start = greedy_plan(problem)
+    assert start is not None
+    plans = [
+        solve_ilp(problem, warm=start.starts(), max_nodes=3, time_limit=20)
+        for _ in range(2)
+    ]
+    for plan in plans:
+        assert plan.status is SolveStatus.FEASIBLE, plan.stats
+        assert plan.stats is not None
+        assert "Stopped on iterations" in plan.stats.solver_status
+        assert "interrupted" not in plan.stats.solver_status
+        assert check_plan(problem, plan).ok
+    assert plans[0].replace(stats=None) == plans[1].replace(stats=None)
