@@ -210,6 +210,11 @@ def kept_set_plan(
     proved = _at_earliest(problem, domains, search.best, search.best_cost)
     if proved is not None:
         return KeptSetProof(proved, search.best_cost)
+    if not search.limits:
+        # No consumable row: the relaxed set is every task the scopes let
+        # keep, which the start heuristic has already tried to place (on
+        # the paper's multiple class this cost 9 ms a solve, for nothing).
+        return KeptSetProof(None, search.best_cost)
     better = _scheduled(problem, search.best)
     if (
         better is None
