@@ -177,6 +177,7 @@ def _run_cbc(
     seed: int,
     warm: dict[str, int] | None,
     max_nodes: int | None = None,
+    heuristics: bool = False,
 ) -> _Outcome:
     start = None
     extra = None
@@ -197,6 +198,8 @@ def _run_cbc(
         extra = [*(extra or ()), *LARGE]
     if max_nodes is not None:
         extra = [*(extra or ()), f"maxNodes {max_nodes}"]
+    if heuristics and extra:
+        extra = [option for option in extra if option not in WITH_START]
     run = WatchedCbcRun(
         constant=program.constant,
         incumbent=None
@@ -295,6 +298,7 @@ def solve_ilp(
     domains: dict[str, Domain] | None = None,
     formulation: str = "auto",
     max_nodes: int | None = None,
+    heuristics: bool = False,
 ) -> Plan:
     """Build and solve the ILP of ``problem``.
 
@@ -330,6 +334,10 @@ def solve_ilp(
         ``solver_status``): a
         limit that, unlike time, gives the same answer on every machine.
         HiGHS ignores it.
+    heuristics
+        Keep CBC's primal heuristics on even with a MIP start (they are
+        off then by default, :data:`~.progress.WITH_START`): for a short
+        search whose point is a better plan.
 
     Returns
     -------
@@ -417,7 +425,7 @@ def solve_ilp(
         )
     elif solver == "cbc":
         outcome = _run_cbc(
-            built, solver_limit, threads, seed, warm, max_nodes
+            built, solver_limit, threads, seed, warm, max_nodes, heuristics
         )
     else:
         outcome = _run_highs(built, solver_limit, threads, seed)
