@@ -375,24 +375,25 @@ def _solve_whole(
     ):
         plan = _improved(problem, start, domains, run, began, time_limit)
     else:
-        narrowed = _narrowed(problem, start, domains, relaxed)
+        narrowed, kept = _narrowed(problem, start, domains, relaxed)
         answer = None
         if _worth_a_probe(problem, start, relaxed):
             assert start is not None
-            answer, start, narrowed = _probed(
-                problem, run, start, domains, narrowed, began, time_limit
+            answer, start, narrowed, kept = _probed(
+                problem, run, start, domains, narrowed, kept, began, time_limit
             )
         elif (
             start is not None
             and relaxed is not None
             and _columns(narrowed) >= ROOT_PROBE_COLUMNS
         ):
-            answer, start, narrowed = _probed(
+            answer, start, narrowed, kept = _probed(
                 problem,
                 run,
                 start,
                 domains,
                 narrowed,
+                kept,
                 began,
                 time_limit,
                 nodes=0,
@@ -402,7 +403,7 @@ def _solve_whole(
             answer = _checked(
                 problem,
                 run(
-                    problem,
+                    _with_mandatory(problem, kept),
                     warm=start.starts() if start else None,
                     domains=narrowed,
                     # The start plan's time counts against the limit.
@@ -497,11 +498,12 @@ def _probed(
     start: Plan,
     domains: dict[str, Domain],
     narrowed: dict[str, Domain],
+    kept: frozenset[str],
     began: float,
     time_limit: float | None,
     nodes: int | None = None,
     heuristics: bool = False,
-) -> tuple[Plan | None, Plan, dict[str, Domain]]:
+) -> tuple[Plan | None, Plan, dict[str, Domain], frozenset[str]]:
     """A short search for a better incumbent, and the smaller model it
     allows.
 
@@ -518,7 +520,7 @@ def _probed(
     -------
     tuple
         The proved answer (None when the full run must follow), the
-        incumbent and the domains for the full run.
+        incumbent, and the domains and tasks to keep for the full run.
     """
     if nodes is None:
         low, high = PROBE_NODES
@@ -529,7 +531,7 @@ def _probed(
     probe = _checked(
         problem,
         run(
-            problem,
+            _with_mandatory(problem, kept),
             warm=start.starts(),
             domains=narrowed,
             time_limit=limit,
@@ -538,7 +540,7 @@ def _probed(
         ),
     )
     if probe.status in (SolveStatus.OPTIMAL, SolveStatus.INFEASIBLE):
-        return probe, start, narrowed
+        return probe, start, narrowed, kept
     # CBC says "Stopped on iterations" at its node limit; a time limit
     # ("on time", or our interrupt) makes the answer machine-dependent.
     said = probe.stats.solver_status if probe.stats is not None else ""
@@ -549,10 +551,10 @@ def _probed(
         or start.objective is None
         or probe.objective.total >= start.objective.total
     ):
-        return None, start, narrowed
+        return None, start, narrowed, kept
     better = probe.replace(status=SolveStatus.FEASIBLE, why=())
     relaxed = kept_set_plan(problem, better, domains)
-    return None, better, _narrowed(problem, better, domains, relaxed)
+    return None, better, *_narrowed(problem, better, domains, relaxed)
 
 
 def _improved(
@@ -616,17 +618,18 @@ def _narrowed(
     start: Plan | None,
     domains: dict[str, Domain],
     relaxed: KeptSetProof | None = None,
-) -> dict[str, Domain]:
+) -> tuple[dict[str, Domain], frozenset[str]]:
     """``domains`` cut by what ``start`` already achieves, if it can.
 
     Every plan at least as good as ``start`` fits in them (:func:`cost_caps`
     and, given the kept-set search's result ``relaxed``,
     :func:`~fsw_scheduler.analysis.bounds.fixings`: tasks no such plan
     keeps get an empty domain), so the model gets smaller and keeps its
-    optimum.
+    optimum. Also returned: the optional tasks every such plan keeps
+    (:func:`_with_mandatory`).
     """
     if start is None or start.objective is None:
-        return domains
+        return domains, frozenset()
     caps = cost_caps(problem, domains, start) or {}
     fixed = (
         None
@@ -638,7 +641,26 @@ def _narrowed(
             caps[name] = min(latest, caps.get(name, latest))
         for name in fixed.dropped:
             caps[name] = domains[name].earliest - 1
-    return start_domains(problem, caps) if caps else domains
+    kept = frozenset() if fixed is None else fixed.kept
+    return (start_domains(problem, caps) if caps else domains), kept
+
+
+def _with_mandatory(problem: Problem, kept: frozenset[str]) -> Problem:
+    """``problem`` with the tasks ``kept`` made mandatory, for the model.
+
+    Every plan as good as the incumbent keeps them (:func:`_narrowed`):
+    the model loses the choice to leave them out, which its LP could
+    take in part, and the objective of every plan it keeps is unchanged
+    (a scheduled task's leaving-out cost counts nowhere).
+    """
+    if not kept:
+        return problem
+    return problem.replace(
+        tasks=tuple(
+            msgspec.structs.replace(t, schedule_cost=0) if t.id in kept else t
+            for t in problem.tasks
+        )
+    )
 
 
 def best_start(
