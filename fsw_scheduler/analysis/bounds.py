@@ -4,7 +4,7 @@
 optimal when every task is at its earliest start. Many plans of problems
 with a scarce consumable have that shape except that some tasks are left
 out: no plan can start anything sooner, and the question is only whether
-another choice of tasks to keep leaves less out. :func:`kept_set_optimal`
+another choice of tasks to keep leaves less out. :func:`kept_set_plan`
 answers it with a relaxation that needs no solver:
 
 * every kept task is placed at its earliest start for the delay it
@@ -41,7 +41,7 @@ if TYPE_CHECKING:
     from ..model.problem import Problem, Task
     from .domains import Domain
 
-#: Search nodes after which :func:`kept_set_optimal` gives up (no proof).
+#: Search nodes after which :func:`kept_set_plan` gives up (no proof).
 #: At 15 tasks the proofs it finds take well under 1 000 nodes; a cap keeps
 #: hundreds of tasks from costing more than the solve it would spare.
 MAX_NODES = 20_000
@@ -111,38 +111,6 @@ def _level_rows(
                 start = domain.latest if amount > 0 else domain.earliest
                 uses[task.id].append(amount * _units(task, start, point))
     return uses, limits
-
-
-def kept_set_optimal(
-    problem: Problem,
-    plan: Plan,
-    domains: Mapping[str, Domain],
-    max_nodes: int = MAX_NODES,
-) -> bool:
-    """True if ``plan`` is optimal by the kept-set relaxation.
-
-    Parameters
-    ----------
-    problem
-        A validated problem.
-    plan
-        A valid plan of ``problem`` with its objective (a start plan).
-    domains
-        The problem's :func:`~fsw_scheduler.analysis.domains.start_domains`.
-    max_nodes
-        Search nodes before giving up.
-
-    Returns
-    -------
-    bool
-        True only when no set of tasks that the relaxation accepts (see
-        the module docstring) costs less than ``plan``; False when one
-        does, or when the search stopped at ``max_nodes``.
-    """
-    if plan.objective is None:
-        return False
-    search = _KeptSetSearch(problem, domains, plan.objective.total)
-    return search.run(max_nodes) and search.best is None
 
 
 class KeptSetProof(NamedTuple):

@@ -8,9 +8,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fsw_scheduler.analysis.bounds import (
+    KeptSetProof,
     delay_caps,
     fixings,
-    kept_set_optimal,
     kept_set_plan,
 )
 from fsw_scheduler.analysis.check import check_plan
@@ -43,6 +43,22 @@ def _battery_problem() -> Problem:
             ],
         }
     )  # fmt: skip
+
+
+def kept_set_optimal(problem: Problem, plan: Plan, domains: dict) -> bool:
+    """True if the kept-set relaxation proves ``plan`` itself optimal."""
+    proved = kept_set_plan(problem, plan, domains).plan
+    return proved is not None and proved.objective == plan.objective
+
+
+def _relaxed(doc: dict) -> tuple[Problem, dict, Plan, KeptSetProof] | None:
+    """The problem of ``doc``, its domains, start plan and kept-set proof."""
+    problem = decode_doc(doc)
+    domains = start_domains(problem)
+    start = best_start(problem, None, domains=domains)
+    if start is None or start.objective is None:
+        return None
+    return problem, domains, start, kept_set_plan(problem, start, domains)
 
 
 def _at_earliest(problem: Problem, kept: set[str]) -> Plan:
@@ -158,12 +174,11 @@ def test_a_proof_is_never_wrong(doc: dict, drop: set[int]) -> None:
 def test_delay_caps_keep_every_optimal_plan(doc: dict) -> None:
     """Tests that the latest starts derived from the relaxed bound keep an
     optimal plan found by exhaustive search, and that the bound is one."""
-    problem = decode_doc(doc)
-    domains = start_domains(problem)
-    start = best_start(problem, None, domains=domains)
-    if start is None or start.objective is None:
+    relaxed = _relaxed(doc)
+    if relaxed is None:
         return
-    proof = kept_set_plan(problem, start, domains)
+    problem, domains, start, proof = relaxed
+    assert start.objective is not None
     if proof.bound is None:
         return
     best = brute_force(problem)
@@ -189,12 +204,11 @@ def test_fixings_keep_an_optimal_plan(doc: dict) -> None:
     """Tests that no task the fixings leave out, no start beyond their
     caps, and no task left out that they keep, is in the optimal plan
     exhaustive search finds."""
-    problem = decode_doc(doc)
-    domains = start_domains(problem)
-    start = best_start(problem, None, domains=domains)
-    if start is None or start.objective is None:
+    relaxed = _relaxed(doc)
+    if relaxed is None:
         return
-    proof = kept_set_plan(problem, start, domains)
+    problem, domains, start, proof = relaxed
+    assert start.objective is not None
     fixed = fixings(problem, domains, start.objective.total, proof)
     if fixed is None:
         return
