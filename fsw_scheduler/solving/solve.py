@@ -9,9 +9,9 @@ from typing import TYPE_CHECKING
 
 import msgspec
 
-from ..analysis.bounds import KeptSetProof, fixings, kept_set_plan
+from ..analysis.bounds import KeptSetProof, kept_set_plan
 from ..analysis.check import check_plan
-from ..analysis.domains import cost_caps, start_domains
+from ..analysis.domains import start_domains
 from ..analysis.explain import explain as explain_plan
 from ..analysis.greedy import greedy_plan
 from ..analysis.proofs import infeasibility
@@ -24,6 +24,15 @@ from ..model.plan import (
 )
 from .budget import BUDGET
 from .improve import improve
+from .incumbent import (
+    ROOT_PROBE_COLUMNS,
+    checked,
+    columns,
+    narrow,
+    probed,
+    with_mandatory,
+    worth_a_probe,
+)
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -375,19 +384,18 @@ def _solve_whole(
     ):
         plan = _improved(problem, start, domains, run, began, time_limit)
     else:
-        narrowed, kept = _narrowed(problem, start, domains, relaxed)
+        narrowed, kept = narrow(problem, start, domains, relaxed)
         answer = None
-        if _worth_a_probe(problem, start, relaxed):
-            assert start is not None
-            answer, start, narrowed, kept = _probed(
+        if start is not None and worth_a_probe(problem, start, relaxed):
+            answer, start, narrowed, kept = probed(
                 problem, run, start, domains, narrowed, kept, began, time_limit
             )
         elif (
             start is not None
             and relaxed is not None
-            and _columns(narrowed) >= ROOT_PROBE_COLUMNS
+            and columns(narrowed) >= ROOT_PROBE_COLUMNS
         ):
-            answer, start, narrowed, kept = _probed(
+            answer, start, narrowed, kept = probed(
                 problem,
                 run,
                 start,
@@ -400,10 +408,10 @@ def _solve_whole(
                 heuristics=True,
             )
         if answer is None:
-            answer = _checked(
+            answer = checked(
                 problem,
                 run(
-                    _with_mandatory(problem, kept),
+                    with_mandatory(problem, kept),
                     warm=start.starts() if start else None,
                     domains=narrowed,
                     # The start plan's time counts against the limit.
@@ -443,118 +451,6 @@ def _solve_whole(
                 )
             )
     return plan
-
-
-#: The probe (:func:`_probed`) may explore this many search nodes per
-#: column of its model, between :data:`PROBE_NODES` bounds, and take at
-#: most :data:`PROBE_SHARE` of what is left of the limit.
-PROBE_WORK = 500_000
-PROBE_NODES = (20, 500)
-PROBE_SHARE = 0.3
-
-
-#: From this many columns on, a part with a good start plan still gets a
-#: root probe: CBC's root with its heuristics on (a diving heuristic found
-#: the optimum of fresh f20-h1440-1 at the root, where the search with
-#: heuristics off had not in 20 s).
-ROOT_PROBE_COLUMNS = 5_000
-
-
-def _columns(domains: dict[str, Domain]) -> int:
-    """Start times in ``domains``: the time-indexed model's columns."""
-    return sum(
-        d.latest - d.earliest + 1 for d in domains.values() if not d.empty
-    )
-
-
-def _worth_a_probe(
-    problem: Problem, start: Plan | None, relaxed: KeptSetProof | None
-) -> bool:
-    """True if the kept-set bound leaves out less cost than ``start``.
-
-    The caps then say nothing (the gap is a whole unscheduled cost, more
-    than any delay), and neither do the fixings, until a better
-    incumbent is known: :func:`_probed` looks for one. Where the start
-    plan already leaves out as little as the bound, a probe is mostly
-    lost time (measured on the fresh shapes: 3 of 8 slow solves went
-    unproved with one).
-    """
-    if (
-        start is None
-        or start.objective is None
-        or relaxed is None
-        or relaxed.bound is None
-    ):
-        return False
-    weight = objective_weight(
-        [t.delay_cost for t in problem.tasks], problem.horizon
-    )
-    return start.objective.total - relaxed.bound >= weight
-
-
-def _probed(
-    problem: Problem,
-    run: functools.partial[Plan],
-    start: Plan,
-    domains: dict[str, Domain],
-    narrowed: dict[str, Domain],
-    kept: frozenset[str],
-    began: float,
-    time_limit: float | None,
-    nodes: int | None = None,
-    heuristics: bool = False,
-) -> tuple[Plan | None, Plan, dict[str, Domain], frozenset[str]]:
-    """A short search for a better incumbent, and the smaller model it
-    allows.
-
-    The kept-set bound caps starts by how far the incumbent is above it
-    (:func:`_narrowed`), and leaves out the tasks no plan as good keeps:
-    a start plan far from the optimum caps little. CBC is run on the
-    model with a node limit (the same answer on every machine, unlike a
-    time limit); when it proves its answer, that is the answer. When it
-    finds a better plan, the model is narrowed again around that plan
-    for the full run (a paper-shaped consumable problem CBC had not
-    proved in 20 s: proved in 1.5 s after it).
-
-    Returns
-    -------
-    tuple
-        The proved answer (None when the full run must follow), the
-        incumbent, and the domains and tasks to keep for the full run.
-    """
-    if nodes is None:
-        low, high = PROBE_NODES
-        nodes = max(low, min(high, PROBE_WORK // max(1, _columns(narrowed))))
-    limit = None
-    if time_limit is not None:
-        limit = PROBE_SHARE * (time_limit - (time.perf_counter() - began))
-    probe = _checked(
-        problem,
-        run(
-            _with_mandatory(problem, kept),
-            warm=start.starts(),
-            domains=narrowed,
-            time_limit=limit,
-            max_nodes=nodes,
-            heuristics=heuristics,
-        ),
-    )
-    if probe.status in (SolveStatus.OPTIMAL, SolveStatus.INFEASIBLE):
-        return probe, start, narrowed, kept
-    # CBC says "Stopped on iterations" at its node limit; a time limit
-    # ("on time", or our interrupt) makes the answer machine-dependent.
-    said = probe.stats.solver_status if probe.stats is not None else ""
-    on_nodes = "on iterations" in said and "interrupted" not in said
-    if (
-        not on_nodes
-        or probe.objective is None
-        or start.objective is None
-        or probe.objective.total >= start.objective.total
-    ):
-        return None, start, narrowed, kept
-    better = probe.replace(status=SolveStatus.FEASIBLE, why=())
-    relaxed = kept_set_plan(problem, better, domains)
-    return None, better, *_narrowed(problem, better, domains, relaxed)
 
 
 def _improved(
@@ -613,56 +509,6 @@ def at_lower_bound(
     )
 
 
-def _narrowed(
-    problem: Problem,
-    start: Plan | None,
-    domains: dict[str, Domain],
-    relaxed: KeptSetProof | None = None,
-) -> tuple[dict[str, Domain], frozenset[str]]:
-    """``domains`` cut by what ``start`` already achieves, if it can.
-
-    Every plan at least as good as ``start`` fits in them (:func:`cost_caps`
-    and, given the kept-set search's result ``relaxed``,
-    :func:`~fsw_scheduler.analysis.bounds.fixings`: tasks no such plan
-    keeps get an empty domain), so the model gets smaller and keeps its
-    optimum. Also returned: the optional tasks every such plan keeps
-    (:func:`_with_mandatory`).
-    """
-    if start is None or start.objective is None:
-        return domains, frozenset()
-    caps = cost_caps(problem, domains, start) or {}
-    fixed = (
-        None
-        if relaxed is None
-        else fixings(problem, domains, start.objective.total, relaxed)
-    )
-    if fixed is not None:
-        for name, latest in fixed.caps.items():
-            caps[name] = min(latest, caps.get(name, latest))
-        for name in fixed.dropped:
-            caps[name] = domains[name].earliest - 1
-    kept = frozenset() if fixed is None else fixed.kept
-    return (start_domains(problem, caps) if caps else domains), kept
-
-
-def _with_mandatory(problem: Problem, kept: frozenset[str]) -> Problem:
-    """``problem`` with the tasks ``kept`` made mandatory, for the model.
-
-    Every plan as good as the incumbent keeps them (:func:`_narrowed`):
-    the model loses the choice to leave them out, which its LP could
-    take in part, and the objective of every plan it keeps is unchanged
-    (a scheduled task's leaving-out cost counts nowhere).
-    """
-    if not kept:
-        return problem
-    return problem.replace(
-        tasks=tuple(
-            msgspec.structs.replace(t, schedule_cost=0) if t.id in kept else t
-            for t in problem.tasks
-        )
-    )
-
-
 def best_start(
     problem: Problem,
     warm: Plan | None,
@@ -695,33 +541,6 @@ def best_start(
     return min(
         candidates,
         key=lambda p: p.objective.total if p.objective else float("inf"),
-    )
-
-
-def _checked(problem: Problem, plan: Plan) -> Plan:
-    """The solver's plan if the independent checker accepts it.
-
-    CBC stopped by its time limit before any integer solution can hand back
-    the values of its last relaxation; read as a plan they break
-    constraints. Such a plan is refused (status ``unknown``), never flown.
-    """
-    if not plan.status.has_plan:
-        return plan
-    report = check_plan(problem, plan)
-    if report.ok:
-        return plan
-    rules = ", ".join(sorted(report.rules))
-    stats = plan.stats
-    if stats is not None:
-        stats = msgspec.structs.replace(
-            stats,
-            solver_status=f"{stats.solver_status}; refused: breaks {rules}",
-        )
-    return Plan(
-        status=SolveStatus.UNKNOWN,
-        objective=None,
-        unscheduled=tuple(t.id for t in problem.tasks),
-        stats=stats,
     )
 
 
