@@ -325,13 +325,10 @@ class Fixings(NamedTuple):
     caps
         Latest starts (as :func:`delay_caps`, per task where its own bound
         is higher).
-    kept
-        Optional tasks that every plan of cost at most the cutoff keeps.
     """
 
     dropped: frozenset[str]
     caps: dict[str, int]
-    kept: frozenset[str] = frozenset()
 
 
 def fixings(
@@ -347,10 +344,7 @@ def fixings(
     For each task the relaxed optimum leaves out, the search is run
     again with the task kept: if no kept set under ``cutoff`` holds it,
     no plan that good does, and the model can leave it out; else its own
-    relaxed bound gives it a tighter cap than :func:`delay_caps`. For each
-    optional task the relaxed optimum keeps, it is run with the task left
-    out: if no kept set under ``cutoff`` lacks it, every plan that good
-    keeps it, and the model may treat it as mandatory.
+    relaxed bound gives it a tighter cap than :func:`delay_caps`.
 
     Parameters
     ----------
@@ -377,18 +371,8 @@ def fixings(
     if not relaxed.run(max_nodes) or relaxed.best is None:
         return Fixings(frozenset(), caps)
     dropped = set()
-    kept = set()
     for task in problem.tasks:
-        if domains[task.id].empty:
-            continue
-        if task.id in relaxed.best:
-            if task.mandatory:
-                continue
-            search = _KeptSetSearch(
-                problem, domains, cutoff + 1, force=(task.id, False)
-            )
-            if search.run(max_nodes) and search.best is None:
-                kept.add(task.id)
+        if task.id in relaxed.best or domains[task.id].empty:
             continue
         search = _KeptSetSearch(
             problem, domains, cutoff + 1, force=(task.id, True)
@@ -403,7 +387,7 @@ def fixings(
                 caps[task.id],
                 domains[task.id].earliest + slack // task.delay_cost,
             )
-    return Fixings(frozenset(dropped), caps, frozenset(kept))
+    return Fixings(frozenset(dropped), caps)
 
 
 class _KeptSetSearch:

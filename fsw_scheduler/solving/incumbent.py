@@ -109,12 +109,11 @@ def probed(
     start: Plan,
     domains: dict[str, Domain],
     narrowed: dict[str, Domain],
-    kept: frozenset[str],
     began: float,
     time_limit: float | None,
     nodes: int | None = None,
     heuristics: bool = False,
-) -> tuple[Plan | None, Plan, dict[str, Domain], frozenset[str]]:
+) -> tuple[Plan | None, Plan, dict[str, Domain]]:
     """A short search for a better incumbent, and the smaller model it
     allows.
 
@@ -131,7 +130,7 @@ def probed(
     -------
     tuple
         The proved answer (None when the full run must follow), the
-        incumbent, and the domains and tasks to keep for the full run.
+        incumbent and the domains for the full run.
     """
     if nodes is None:
         low, high = PROBE_NODES
@@ -142,7 +141,7 @@ def probed(
     probe = checked(
         problem,
         run(
-            with_mandatory(problem, kept),
+            problem,
             warm=start.starts(),
             domains=narrowed,
             time_limit=limit,
@@ -151,7 +150,7 @@ def probed(
         ),
     )
     if probe.status in (SolveStatus.OPTIMAL, SolveStatus.INFEASIBLE):
-        return probe, start, narrowed, kept
+        return probe, start, narrowed
     # CBC says "Stopped on iterations" at its node limit; a time limit
     # ("on time", or our interrupt) makes the answer machine-dependent.
     said = probe.stats.solver_status if probe.stats is not None else ""
@@ -162,10 +161,10 @@ def probed(
         or start.objective is None
         or probe.objective.total >= start.objective.total
     ):
-        return None, start, narrowed, kept
+        return None, start, narrowed
     better = probe.replace(status=SolveStatus.FEASIBLE, why=())
     relaxed = kept_set_plan(problem, better, domains)
-    return None, better, *narrow(problem, better, domains, relaxed)
+    return None, better, narrow(problem, better, domains, relaxed)
 
 
 def narrow(
@@ -173,18 +172,17 @@ def narrow(
     start: Plan | None,
     domains: dict[str, Domain],
     relaxed: KeptSetProof | None = None,
-) -> tuple[dict[str, Domain], frozenset[str]]:
+) -> dict[str, Domain]:
     """``domains`` cut by what ``start`` already achieves, if it can.
 
     Every plan at least as good as ``start`` fits in them (:func:`cost_caps`
     and, given the kept-set search's result ``relaxed``,
     :func:`~fsw_scheduler.analysis.bounds.fixings`: tasks no such plan
     keeps get an empty domain), so the model gets smaller and keeps its
-    optimum. Also returned: the optional tasks every such plan keeps
-    (:func:`with_mandatory`).
+    optimum.
     """
     if start is None or start.objective is None:
-        return domains, frozenset()
+        return domains
     caps = cost_caps(problem, domains, start) or {}
     fixed = (
         None
@@ -196,23 +194,4 @@ def narrow(
             caps[name] = min(latest, caps.get(name, latest))
         for name in fixed.dropped:
             caps[name] = domains[name].earliest - 1
-    kept = frozenset() if fixed is None else fixed.kept
-    return (start_domains(problem, caps) if caps else domains), kept
-
-
-def with_mandatory(problem: Problem, kept: frozenset[str]) -> Problem:
-    """``problem`` with the tasks ``kept`` made mandatory, for the model.
-
-    Every plan as good as the incumbent keeps them (:func:`narrow`):
-    the model loses the choice to leave them out, which its LP could
-    take in part, and the objective of every plan it keeps is unchanged
-    (a scheduled task's leaving-out cost counts nowhere).
-    """
-    if not kept:
-        return problem
-    return problem.replace(
-        tasks=tuple(
-            msgspec.structs.replace(t, schedule_cost=0) if t.id in kept else t
-            for t in problem.tasks
-        )
-    )
+    return start_domains(problem, caps) if caps else domains

@@ -30,7 +30,6 @@ from .incumbent import (
     columns,
     narrow,
     probed,
-    with_mandatory,
     worth_a_probe,
 )
 
@@ -384,24 +383,23 @@ def _solve_whole(
     ):
         plan = _improved(problem, start, domains, run, began, time_limit)
     else:
-        narrowed, kept = narrow(problem, start, domains, relaxed)
+        narrowed = narrow(problem, start, domains, relaxed)
         answer = None
         if start is not None and worth_a_probe(problem, start, relaxed):
-            answer, start, narrowed, kept = probed(
-                problem, run, start, domains, narrowed, kept, began, time_limit
+            answer, start, narrowed = probed(
+                problem, run, start, domains, narrowed, began, time_limit
             )
         elif (
             start is not None
             and relaxed is not None
             and columns(narrowed) >= ROOT_PROBE_COLUMNS
         ):
-            answer, start, narrowed, kept = probed(
+            answer, start, narrowed = probed(
                 problem,
                 run,
                 start,
                 domains,
                 narrowed,
-                kept,
                 began,
                 time_limit,
                 nodes=0,
@@ -411,7 +409,7 @@ def _solve_whole(
             answer = checked(
                 problem,
                 run(
-                    with_mandatory(problem, kept),
+                    problem,
                     warm=start.starts() if start else None,
                     domains=narrowed,
                     # The start plan's time counts against the limit.
