@@ -16,7 +16,11 @@ from fsw_scheduler.solving.solve import solve
 from ..factories import bench_lib, make_doc, make_task, problem_from
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from fsw_scheduler.model.problem import Problem
+    from fsw_scheduler.solving.ilp.cbc import CbcResult
+    from fsw_scheduler.solving.ilp.program import Program
 
 SOLVERS = ["cbc", "highs"]
 
@@ -615,3 +619,40 @@ def test_a_node_limit_gives_the_same_plan_each_time() -> None:
         assert "interrupted" not in plan.stats.solver_status
         assert check_plan(problem, plan).ok
     assert plans[0].replace(stats=None) == plans[1].replace(stats=None)
+
+
+def test_heuristics_stay_on_when_asked(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Tests that solve_ilp(heuristics=True) runs CBC without the
+    "heuristics off" it adds to a MIP start, and still returns a checked
+    plan."""
+    from fsw_scheduler.analysis.greedy import greedy_plan
+    from fsw_scheduler.solving.ilp import model
+    from fsw_scheduler.solving.ilp.progress import WatchedCbcRun
+
+    seen: list[list[str]] = []
+
+    class Recorded(WatchedCbcRun):
+        def solve(
+            self, program: Program, warm: Sequence[float] | None = None
+        ) -> CbcResult:
+            seen.append(list(self.options))
+            return super().solve(program, warm)
+
+    monkeypatch.setattr(model, "WatchedCbcRun", Recorded)
+    problem = _balanced_battery()
+    start = greedy_plan(problem)
+    assert start is not None
+    for heuristics in (False, True):
+        plan = model.solve_ilp(
+            problem,
+            warm=start.starts(),
+            max_nodes=0,
+            heuristics=heuristics,
+            time_limit=20,
+        )
+        assert plan.status.has_plan, plan.stats
+        assert check_plan(problem, plan).ok
+    assert "heuristics off" in seen[0]
+    assert "heuristics off" not in seen[1]
