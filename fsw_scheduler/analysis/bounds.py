@@ -250,32 +250,30 @@ def _at_earliest(
     problem: Problem, domains: Mapping[str, Domain], kept: set[str], cost: int
 ) -> Plan | None:
     """``kept`` at their earliest starts, if valid and of cost ``cost``."""
-    activities = tuple(
-        sorted(
-            (
-                Activity(
-                    task.id,
-                    domains[task.id].earliest,
-                    domains[task.id].earliest + task.length,
-                )
-                for task in problem.tasks
-                if task.id in kept
-            ),
-            key=lambda a: (a.start, a.task),
-        )
-    )
-    candidate = Plan(
-        status=SolveStatus.OPTIMAL,
+    starts = Plan(
+        status=SolveStatus.FEASIBLE,
         objective=None,
-        activities=activities,
-        unscheduled=tuple(t.id for t in problem.tasks if t.id not in kept),
+        activities=tuple(
+            sorted(
+                (
+                    Activity(
+                        task.id,
+                        domains[task.id].earliest,
+                        domains[task.id].earliest + task.length,
+                    )
+                    for task in problem.tasks
+                    if task.id in kept
+                ),
+                key=lambda a: (a.start, a.task),
+            )
+        ),
     )
-    report = check_plan(problem, candidate)
-    if not report.ok or report.objective is None:
+    plan = widened(problem, starts)
+    if plan is None or plan.objective is None:
         return None
-    if report.objective.total != cost:
+    if plan.objective.total != cost:
         return None  # cannot happen: the relaxed cost is the real one
-    return candidate.replace(objective=report.objective)
+    return plan.replace(status=SolveStatus.OPTIMAL)
 
 
 def delay_caps(
