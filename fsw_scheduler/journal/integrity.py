@@ -87,7 +87,15 @@ def check_file(path: PathLike) -> FileCheck:
     path = Path(path)
     data = path.read_bytes()
     result = FileCheck(path)
+    if len(data) < len(_MAGIC) and _MAGIC.startswith(data):
+        # A writer killed while it opened the file (rotation, a new run):
+        # nothing was written to it, so nothing is lost.
+        result.truncated = True
+        return result
     if data[: len(_MAGIC)] != _MAGIC:
+        if not any(data):
+            result.truncated = True  # zeros only: a power cut at its start
+            return result
         result.damage, result.offset = "not an MCAP file (bad magic)", 0
         return result
     at = len(_MAGIC)

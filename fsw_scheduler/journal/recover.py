@@ -59,8 +59,8 @@ def _iter_complete_records(stream: IO[bytes]) -> Iterator[McapRecord]:
     """
     magic = stream.read(len(_MAGIC))
     if magic != _MAGIC:
-        if not magic:
-            return
+        if len(magic) < len(_MAGIC) and _MAGIC.startswith(magic):
+            return  # killed while the magic was written: nothing after it
         raise McapError("not an MCAP file: bad magic")
     known = {int(op) for op in Opcode}
     while True:

@@ -218,3 +218,32 @@ def test_another_problem_needs_new_problem(
     assert start.rebuilt is None
     assert {p.parent.name for p in start.set_aside} == {"replaced"}
     assert journal_files(folder) == []
+
+
+@pytest.mark.parametrize("kept", [0, 1, 4, 7])
+def test_a_file_killed_as_it_opened_is_not_damage(
+    state_folder: Path, tmp_path: Path, kept: int
+) -> None:
+    """Tests a newest journal file a writer was killed while opening
+    (empty, or cut inside the MCAP magic): not damaged, and the folder
+    resumes the same state as without it."""
+    (journal,) = journal_files(state_folder)
+    reference = _state(state_folder)
+    folder = tmp_path / "state"
+    shutil.copytree(state_folder, folder)
+    newest = folder / journal.name.replace(".mcap", "-001.mcap")
+    newest.write_bytes(journal.read_bytes()[:kept])
+    check = check_file(newest)
+    assert check.ok and not check.finished, check.describe()
+    assert _state(folder) == reference
+
+
+def test_a_flipped_magic_is_damage(tmp_path: Path) -> None:
+    """Tests that a file whose magic is changed, not cut, is damage."""
+    journal = sorted(DATA.parent.parent.glob("replay/paper.mcap"))[0]
+    data = bytearray(journal.read_bytes())
+    data[3] ^= 0x10
+    path = tmp_path / "journal-0001.mcap"
+    path.write_bytes(bytes(data))
+    check = check_file(path)
+    assert not check.ok and check.offset == 0, check.describe()
