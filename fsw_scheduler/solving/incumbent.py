@@ -71,14 +71,14 @@ PROBE_SHARE = 0.3
 ROOT_PROBE_COLUMNS = 5_000
 
 
-def columns(domains: dict[str, Domain]) -> int:
+def _columns(domains: dict[str, Domain]) -> int:
     """Start times in ``domains``: the time-indexed model's columns."""
     return sum(
         d.latest - d.earliest + 1 for d in domains.values() if not d.empty
     )
 
 
-def worth_a_probe(
+def _worth_a_probe(
     problem: Problem, start: Plan | None, relaxed: KeptSetProof | None
 ) -> bool:
     """True if the kept-set bound leaves out less cost than ``start``.
@@ -106,16 +106,15 @@ def worth_a_probe(
 def probed(
     problem: Problem,
     run: functools.partial[Plan],
-    start: Plan,
+    start: Plan | None,
     domains: dict[str, Domain],
     narrowed: dict[str, Domain],
+    relaxed: KeptSetProof | None,
     began: float,
     time_limit: float | None,
-    nodes: int | None = None,
-    heuristics: bool = False,
-) -> tuple[Plan | None, Plan, dict[str, Domain]]:
+) -> tuple[Plan | None, Plan | None, dict[str, Domain]]:
     """A short search for a better incumbent, and the smaller model it
-    allows.
+    allows, where one is worth it.
 
     The kept-set bound caps starts by how far the incumbent is above it
     (:func:`narrow`), and leaves out the tasks no plan as good keeps:
@@ -126,15 +125,27 @@ def probed(
     for the full run (a paper-shaped consumable problem CBC had not
     proved in 20 s: proved in 3 s after it).
 
+    Which probe: a node-limited search when :func:`_worth_a_probe`; else,
+    on models of :data:`ROOT_PROBE_COLUMNS` or more, CBC's root alone
+    with its heuristics on; else none (``start`` and ``narrowed`` are
+    returned as they are).
+
     Returns
     -------
     tuple
         The proved answer (None when the full run must follow), the
         incumbent and the domains for the full run.
     """
-    if nodes is None:
+    if start is None or relaxed is None:
+        return None, start, narrowed
+    heuristics = False
+    if _worth_a_probe(problem, start, relaxed):
         low, high = PROBE_NODES
-        nodes = max(low, min(high, PROBE_WORK // max(1, columns(narrowed))))
+        nodes = max(low, min(high, PROBE_WORK // max(1, _columns(narrowed))))
+    elif _columns(narrowed) >= ROOT_PROBE_COLUMNS:
+        nodes, heuristics = 0, True
+    else:
+        return None, start, narrowed
     limit = None
     if time_limit is not None:
         limit = PROBE_SHARE * (time_limit - (time.perf_counter() - began))

@@ -24,14 +24,7 @@ from ..model.plan import (
 )
 from .budget import BUDGET
 from .improve import improve
-from .incumbent import (
-    ROOT_PROBE_COLUMNS,
-    checked,
-    columns,
-    narrow,
-    probed,
-    worth_a_probe,
-)
+from .incumbent import checked, narrow, probed
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -384,27 +377,9 @@ def _solve_whole(
         plan = _improved(problem, start, domains, run, began, time_limit)
     else:
         narrowed = narrow(problem, start, domains, relaxed)
-        answer = None
-        if start is not None and worth_a_probe(problem, start, relaxed):
-            answer, start, narrowed = probed(
-                problem, run, start, domains, narrowed, began, time_limit
-            )
-        elif (
-            start is not None
-            and relaxed is not None
-            and columns(narrowed) >= ROOT_PROBE_COLUMNS
-        ):
-            answer, start, narrowed = probed(
-                problem,
-                run,
-                start,
-                domains,
-                narrowed,
-                began,
-                time_limit,
-                nodes=0,
-                heuristics=True,
-            )
+        answer, start, narrowed = probed(
+            problem, run, start, domains, narrowed, relaxed, began, time_limit
+        )
         if answer is None:
             answer = checked(
                 problem,
