@@ -29,13 +29,9 @@ import msgspec
 
 from ..errors import FieldIssue, InputError
 from ..model.change import ExecutionReport
-from ..replan.schedule import Schedule, empty_plan
-from ..replan.triggers import (
-    apply_goal,
-    drift,
-)
+from ..replan.triggers import drift
 from ..wire import topics
-from .dispatch import Dispatches, dispatch_id, dispatch_message
+from .dispatch import dispatch_id, dispatch_message
 from .events import (
     ClockStalled,
     Command,
@@ -52,20 +48,29 @@ from .events import (
     TermBegan,
     Tick,
 )
-from .ledger import GoalLedger, goal_digest
+from .execution import Execution
+from .ledger import goal_digest
+from .queue import SolveQueue
 from .snapshot import EngineSnapshot, GoalRecord, QueuedChange
-from .solves import SolveQueue
+from .solves import Replanner
+from .state import EngineState
+from .verdicts import Verdicts
 
 if TYPE_CHECKING:
     from ..model.goal import Goal
+    from ..model.problem import Problem
+    from ..replan.schedule import Schedule
     from ..wire.messages import (
         ActivityReport,
+        PlanMessage,
         ResourceLevel,
+        Status,
     )
     from .config import EngineConfig
+    from .events import StartSolve
 
 
-class Engine(SolveQueue):
+class Engine:
     """The scheduler's state machine.
 
     Parameters
@@ -76,36 +81,138 @@ class Engine(SolveQueue):
         The initial problem: its resources and horizon length, and any
         initial tasks. Solved at the first tick (re-based to start at that
         tick if the clock is already past its start).
+
+    Notes
+    -----
+    The engine is composed of parts that each read alone: the shared
+    :class:`~fsw_scheduler.engine.state.EngineState`, the
+    :class:`~fsw_scheduler.engine.queue.SolveQueue`, the
+    :class:`~fsw_scheduler.engine.verdicts.Verdicts` that speak for it,
+    the :class:`~fsw_scheduler.engine.execution.Execution` that adopts and
+    dispatches plans, and the :class:`~fsw_scheduler.engine.solves.Replanner`
+    that decides what to solve. The engine itself holds the handler of
+    each event.
     """
 
+    def __init__(
+        self,
+        config: EngineConfig,
+        initial: Problem,
+        *,
+        state: EngineState | None = None,
+        queue: SolveQueue | None = None,
+    ) -> None:
+        self._state = state or EngineState(config, initial)
+        self._queue = queue or SolveQueue()
+        self._verdicts = Verdicts(self._state, self._queue)
+        self._execution = Execution(self._state, self._queue, self._verdicts)
+        self._replanner = Replanner(
+            self._state, self._queue, self._verdicts, self._execution
+        )
+
     # -- read-only views (for queryables) ---------------------------------
+
+    @property
+    def config(self) -> EngineConfig:
+        """Engine settings."""
+        return self._state.config
+
+    @property
+    def initial(self) -> Problem:
+        """The initial problem the engine was given."""
+        return self._state.initial
+
+    @property
+    def schedule(self) -> Schedule | None:
+        """The schedule being flown (None before the first plan)."""
+        return self._state.schedule
+
+    @property
+    def plan_id(self) -> int | None:
+        """The id of the current plan (None before the first)."""
+        return self._state.plan_id
+
+    @property
+    def now(self) -> int | None:
+        """The latest time unit seen (None before the first event)."""
+        return self._state.now
+
+    @property
+    def term(self) -> int:
+        """The command term stamped on every output."""
+        return self._state.term
+
+    @property
+    def busy(self) -> bool:
+        """True while a solve is in flight."""
+        return self._queue.busy
+
+    @property
+    def inputs_seen(self) -> int:
+        """Number of events processed so far."""
+        return self._state.inputs
+
+    @property
+    def plan_message(self) -> PlanMessage | None:
+        """The current plan as published (None before the first plan)."""
+        return self._state.plan_message
+
+    @property
+    def pending_goals(self) -> tuple[str, ...]:
+        """Goal ids of the solve in flight (empty when none)."""
+        return self._queue.pending_goals
+
+    @property
+    def goals_waiting(self) -> int:
+        """Goals accepted for processing and waiting for a solve."""
+        return self._queue.goals_waiting
+
+    def status(self, event: str = "heartbeat", **extra: object) -> Status:
+        """The current status with the whole lifecycle map (queries)."""
+        return self._verdicts.status(event, **extra)
+
+    def pending_solve(self) -> StartSolve | None:
+        """The solve in flight, as the command that asked for it.
+
+        A node that resumes (or takes over) while a solve was running asks
+        for it again: the same input gives the same plan.
+        """
+        return self._queue.pending_solve()
+
+    def count_shell(self, **totals: int) -> None:
+        """Record the shell's running totals (see ``Counters``)."""
+        current = self._state.counters
+        if any(getattr(current, k) != v for k, v in totals.items()):
+            self._state.count(**totals)
 
     # -- snapshots (resume, hot standby) ------------------------------------
 
     def snapshot(self) -> EngineSnapshot:
         """The whole state, as data (see
         :mod:`fsw_scheduler.engine.snapshot`)."""
+        state, queue = self._state, self._queue
+        dispatches = state.dispatches
         return EngineSnapshot(
-            initial=self.initial,
-            unsolved_initial=self._unsolved_initial,
-            schedule=self.schedule,
-            plan_id=self.plan_id,
-            now=self.now,
-            solve_id=self._solve_id,
-            pending=self._pending,
-            queue=tuple(self._queue),
-            dispatched=dict(self._dispatches.dispatched),
-            lifecycle=dict(self._dispatches.lifecycle),
-            reported=dict(self._dispatches.reported),
-            sent=dict(self._dispatches.sent),
-            counters=self._counters,
-            last_solve=self._last_solve,
-            inputs=self._inputs,
-            health=self._health,
-            health_detail=self._health_detail,
-            plan_message=self._plan_message,
-            term=self.term,
-            ledger=dict(self._ledger.records),
+            initial=state.initial,
+            unsolved_initial=state.unsolved_initial,
+            schedule=state.schedule,
+            plan_id=state.plan_id,
+            now=state.now,
+            solve_id=queue.solve_id,
+            pending=queue.pending,
+            queue=tuple(queue.changes),
+            dispatched=dict(dispatches.dispatched),
+            lifecycle=dict(dispatches.lifecycle),
+            reported=dict(dispatches.reported),
+            sent=dict(dispatches.sent),
+            counters=state.counters,
+            last_solve=state.last_solve,
+            inputs=state.inputs,
+            health=state.health,
+            health_detail=state.health_detail,
+            plan_message=state.plan_message,
+            term=state.term,
+            ledger=dict(state.ledger.records),
         )
 
     @classmethod
@@ -120,29 +227,14 @@ class Engine(SolveQueue):
         snapshot
             From :meth:`snapshot`.
         """
-        engine = cls(config, snapshot.initial)
-        engine._unsolved_initial = snapshot.unsolved_initial
-        engine.schedule = snapshot.schedule
-        engine.plan_id = snapshot.plan_id
-        engine.now = snapshot.now
-        engine._solve_id = snapshot.solve_id
-        engine._pending = snapshot.pending
-        engine._queue = list(snapshot.queue)
-        engine._dispatches = Dispatches(
-            lifecycle=snapshot.lifecycle,
-            dispatched=snapshot.dispatched,
-            sent=snapshot.sent,
-            reported=snapshot.reported,
+        return cls(
+            config,
+            snapshot.initial,
+            state=EngineState.restore(config, snapshot),
+            queue=SolveQueue(
+                snapshot.queue, snapshot.pending, snapshot.solve_id
+            ),
         )
-        engine._counters = snapshot.counters
-        engine._last_solve = snapshot.last_solve
-        engine._inputs = snapshot.inputs
-        engine._health = snapshot.health
-        engine._health_detail = snapshot.health_detail
-        engine._plan_message = snapshot.plan_message
-        engine.term = snapshot.term
-        engine._ledger = GoalLedger(snapshot.ledger, config.max_goal_ids)
-        return engine
 
     def resume_commands(self, event: str = "resumed") -> list[Command]:
         """What a rebuilt engine says first: the status, then its outputs.
@@ -154,37 +246,40 @@ class Engine(SolveQueue):
         report, with its ``dispatch_id``, so that a receiver that has it
         already drops it.
         """
+        state = self._state
         out: list[Command] = [self.resumed(event)]
-        schedule = self.schedule
-        if self._plan_message is not None:
-            out.append(Publish(topics.PLAN, self._plan_message))
-        if schedule is None or self.plan_id is None:
+        schedule = state.schedule
+        if state.plan_message is not None:
+            out.append(Publish(topics.PLAN, state.plan_message))
+        if schedule is None or state.plan_id is None:
             return out
-        for activity, since in self._dispatches.standing(schedule.plan):
+        for activity, since in state.dispatches.standing(schedule.plan):
             out.append(
                 dispatch_message(
-                    self.plan_id, schedule.problem, activity, since, self.term
+                    state.plan_id,
+                    schedule.problem,
+                    activity,
+                    since,
+                    state.term,
                 )
             )
         return out
 
     def resumed(self, event: str = "resumed", **extra: object) -> Command:
         """The status saying this engine was rebuilt and goes on."""
+        state = self._state
         detail = (
-            f"state rebuilt at t={self.now}: plan {self.plan_id}, "
-            f"{len(self._dispatches.lifecycle)} activities known"
+            f"state rebuilt at t={state.now}: plan {state.plan_id}, "
+            f"{len(state.dispatches.lifecycle)} activities known"
             + (", a solve in flight asked again" if self.busy else "")
         )
-        return Publish(
-            topics.STATUS,
-            self._status(
-                event,
-                full=True,
-                detail=detail,
-                from_plan_id=self.plan_id,
-                at=self.now,
-                **extra,
-            ),
+        return self._verdicts.publish(
+            event,
+            full=True,
+            detail=detail,
+            from_plan_id=state.plan_id,
+            at=state.now,
+            **extra,
         )
 
     # -- the step ------------------------------------------------------------
@@ -205,10 +300,11 @@ class Engine(SolveQueue):
         list of Command
             What the shell must do, in order.
         """
-        self._inputs += 1
-        before = self.now
-        if self.now is None or now > self.now:
-            self.now = now
+        state = self._state
+        state.inputs += 1
+        before = state.now
+        if state.now is None or now > state.now:
+            state.now = now
         out: list[Command] = []
         if isinstance(event, Tick):
             self._on_tick(out)
@@ -227,16 +323,16 @@ class Engine(SolveQueue):
         elif isinstance(event, TermBegan):
             self._on_term(event, out)
         elif isinstance(event, SolveDone):
-            self._on_solve_done(event, out)
+            self._replanner.on_solve_done(event, out)
         elif isinstance(event, SolveFailed):
-            self._on_solve_failed(event, out)
+            self._replanner.on_solve_failed(event, out)
         # Dispatch first: a replan started in this step then counts what
         # was just commanded as started, never moves it, never sends it
         # twice.
-        self._dispatch_due(out, before)
-        self._alarm_overdue(out, before)
-        if self._pending is None:
-            self._start_queued(out)
+        self._execution.dispatch_due(out, before)
+        self._execution.alarm_overdue(out, before)
+        if not self._queue.busy:
+            self._replanner.start_queued(out)
         return out
 
     # -- event handlers ------------------------------------------------------
@@ -254,7 +350,7 @@ class Engine(SolveQueue):
                 )
             )
             return
-        self.term = event.term
+        self._state.term = event.term
         out.append(
             Log(
                 "info",
@@ -264,19 +360,18 @@ class Engine(SolveQueue):
         )
 
     def _on_explained(self, event: Explained, out: list[Command]) -> None:
-        message = self._plan_message
+        message = self._state.plan_message
         if message is None or message.plan_id != event.plan_id:
             return  # a newer plan is out; its own explanation follows
-        self._plan_message = msgspec.structs.replace(message, why=event.why)
+        self._state.plan_message = msgspec.structs.replace(
+            message, why=event.why
+        )
         out.append(
-            Publish(
-                topics.STATUS,
-                self._status(
-                    "explained",
-                    why=event.why,
-                    detail=f"plan {event.plan_id}: why "
-                    f"{len(event.why)} tasks are out",
-                ),
+            self._verdicts.publish(
+                "explained",
+                why=event.why,
+                detail=f"plan {event.plan_id}: why "
+                f"{len(event.why)} tasks are out",
             )
         )
 
@@ -285,28 +380,26 @@ class Engine(SolveQueue):
             f"{_STALLED}: no clock message for {event.seconds:g} s "
             f"since unit {event.last}"
         )
-        self._set_health("degraded", detail)
+        self._state.set_health("degraded", detail)
         out.append(Log("warning", detail))
-        out.append(Publish(topics.STATUS, self._status("clock_stalled")))
+        out.append(self._verdicts.publish("clock_stalled"))
 
     def _on_tick(self, out: list[Command]) -> None:
-        if self._health_detail.startswith(_STALLED):
-            self._set_health("ok", "")
-            out.append(Publish(topics.STATUS, self._status("clock_resumed")))
-        if self._unsolved_initial is not None and self._pending is None:
-            self._start_initial(out)
-        self._check_report_timeouts(out)
-        if self._deferred_due() and not any(
-            c.trigger == "horizon" for c in self._queue
-        ):
-            self._queue.append(
-                QueuedChange("levels", at=self._clock(), trigger="horizon")
+        if self._state.health_detail.startswith(_STALLED):
+            self._state.set_health("ok", "")
+            out.append(self._verdicts.publish("clock_resumed"))
+        if self._state.unsolved_initial is not None and not self.busy:
+            self._replanner.start_initial(out)
+        self._execution.check_report_timeouts(out)
+        if self._deferred_due() and not self._queue.has_trigger("horizon"):
+            self._queue.add(
+                QueuedChange(
+                    "levels", at=self._state.clock(), trigger="horizon"
+                )
             )
         beat = self.config.heartbeat
         if beat and self.now is not None and self.now % beat == 0:
-            out.append(
-                Publish(topics.STATUS, self._status("heartbeat", full=True))
-            )
+            out.append(self._verdicts.publish("heartbeat", full=True))
 
     def _deferred_due(self) -> bool:
         """True when the rolling horizon now reaches a deferred task."""
@@ -322,39 +415,28 @@ class Engine(SolveQueue):
                 return True
         return False
 
-    def _start_initial(self, out: list[Command]) -> None:
-        problem = self._unsolved_initial
-        assert problem is not None and self.now is not None
-        self._unsolved_initial = None
-        if self.now > problem.start:
-            problem = problem.replace(start=self.now)
-        if not problem.tasks:
-            self.schedule = Schedule.begin(problem, empty_plan())
-            self._adopt(empty_plan(), "initial", (), (), out)
-            return
-        self._start_solve("initial", problem, None, None, (), out)
-
     def _on_goal(self, goal: Goal, out: list[Command]) -> None:
         digest = goal_digest(goal)
-        record = self._ledger.seen(goal.goal_id)
+        record = self._state.ledger.seen(goal.goal_id)
         if record is not None:
             self._answer_repeat(goal.goal_id, digest, record, out)
             return
-        if goal.not_after is not None and self._clock() > goal.not_after:
-            self._reject_goal(
+        if goal.not_after is not None and self._state.clock() > goal.not_after:
+            self._verdicts.reject_goal(
                 goal.goal_id,
                 [
                     FieldIssue(
                         "not_after",
                         f"the goal expired at t={goal.not_after}; now is "
-                        f"t={self._clock()}",
+                        f"t={self._state.clock()}",
                     )
                 ],
                 out,
             )
             return
-        if self.schedule is None and self._pending is None:
-            self._reject_goal(
+        schedule = self.schedule
+        if schedule is None and not self.busy:
+            self._verdicts.reject_goal(
                 goal.goal_id,
                 [FieldIssue("", "no plan yet: the scheduler has not started")],
                 out,
@@ -363,7 +445,7 @@ class Engine(SolveQueue):
         config = self.config
         limit = config.max_tasks_per_goal
         if limit is not None and len(goal.tasks) > limit:
-            self._reject_goal(
+            self._verdicts.reject_goal(
                 goal.goal_id,
                 [
                     FieldIssue(
@@ -380,7 +462,7 @@ class Engine(SolveQueue):
             config.max_goals_waiting is not None
             and waiting >= config.max_goals_waiting
         ):
-            self._reject_goal(
+            self._verdicts.reject_goal(
                 goal.goal_id,
                 [FieldIssue("", f"busy: {waiting} goals waiting")],
                 out,
@@ -388,33 +470,28 @@ class Engine(SolveQueue):
             return
         # Validate against the live state now so a bad goal is rejected at
         # once, even when it has to wait for a solve in flight.
-        if self.schedule is not None:
-            now = self._clock()
+        if schedule is not None:
             try:
-                replan = self._live_checked(
-                    apply_goal(self.schedule, goal, now)
-                )
+                self._replanner.check_goal(schedule, goal)
             except InputError as error:
-                self._reject_goal(goal.goal_id, error.issues, out)
+                self._verdicts.reject_goal(goal.goal_id, error.issues, out)
                 return
-            self._goal_checked = (self.schedule, now, goal, replan)
-        self._queue.append(QueuedChange("goal", goal=goal))
-        self._ledger.queue(goal.goal_id, digest, self._clock(), self.term)
-        if self._pending is not None:
+        self._queue.add(QueuedChange("goal", goal=goal))
+        self._state.ledger.queue(
+            goal.goal_id, digest, self._state.clock(), self.term
+        )
+        pending = self._queue.pending
+        if pending is not None:
             out.append(
                 Log("info", f"goal {goal.goal_id} queued behind a solve")
             )
             out.append(
-                Publish(
-                    topics.STATUS,
-                    self._status(
-                        "goal_queued",
-                        goal_id=goal.goal_id,
-                        detail=f"waiting behind solve "
-                        f"{self._pending.solve_id} "
-                        f"({self._pending.trigger}); "
-                        f"{waiting + 1} goals waiting",
-                    ),
+                self._verdicts.publish(
+                    "goal_queued",
+                    goal_id=goal.goal_id,
+                    detail=f"waiting behind solve "
+                    f"{pending.solve_id} ({pending.trigger}); "
+                    f"{waiting + 1} goals waiting",
                 )
             )
 
@@ -423,7 +500,7 @@ class Engine(SolveQueue):
     ) -> None:
         """A goal id already in the ledger: its verdict again, or no."""
         if record.digest != digest:
-            self._reject_goal(
+            self._verdicts.reject_goal(
                 goal_id,
                 [
                     FieldIssue(
@@ -441,14 +518,11 @@ class Engine(SolveQueue):
             "goal_accepted" if record.verdict == "accepted" else "goal_queued"
         )
         out.append(
-            Publish(
-                topics.STATUS,
-                self._status(
-                    event,
-                    goal_id=goal_id,
-                    detail=f"goal {goal_id} again, the same as at "
-                    f"t={record.at}: its verdict stands, nothing changes",
-                ),
+            self._verdicts.publish(
+                event,
+                goal_id=goal_id,
+                detail=f"goal {goal_id} again, the same as at "
+                f"t={record.at}: its verdict stands, nothing changes",
             )
         )
 
@@ -461,12 +535,12 @@ class Engine(SolveQueue):
         ):
             # A late report on a task that already left the problem (for
             # instance finished by the plan's prediction): note it only.
-            self._dispatches.note(report.task, report.state)
+            self._state.dispatches.note(report.task, report.state)
             return
         if schedule is None or report.task not in {
             t.id for t in schedule.problem.tasks
         }:
-            self._reject_input(
+            self._verdicts.reject_input(
                 f"telemetry/activities/{report.task}",
                 "activity_report",
                 [FieldIssue("task", f"no live task {report.task!r}")],
@@ -475,45 +549,40 @@ class Engine(SolveQueue):
             return
         wrong = self._report_issue(report)
         if wrong is not None:
-            self._reject_input(
+            self._verdicts.reject_input(
                 f"telemetry/activities/{report.task}",
                 "activity_report",
                 [wrong],
                 out,
             )
             return
-        self._count(reports=self._counters.reports + 1)
-        self._dispatches.report(report.task, report.state)
-        at = min(report.at, self._clock())
-        self.schedule = schedule.with_report(
+        self._state.count(reports=self._state.counters.reports + 1)
+        self._state.dispatches.report(report.task, report.state)
+        at = min(report.at, self._state.clock())
+        self._state.schedule = schedule.with_report(
             ExecutionReport(report.task, report.state, at)
         )
         out.append(
-            Publish(
-                topics.STATUS,
-                self._status(
-                    "activity",
-                    detail=f"{report.task} {report.state} at {report.at}",
-                ),
+            self._verdicts.publish(
+                "activity",
+                detail=f"{report.task} {report.state} at {report.at}",
             )
         )
         if report.state == "failed":
-            self._queue.append(
-                QueuedChange("failure", task=report.task, at=at)
-            )
+            self._queue.add(QueuedChange("failure", task=report.task, at=at))
 
     def _report_issue(self, report: ActivityReport) -> FieldIssue | None:
         """Why ``report`` answers no dispatch of this spacecraft (None: it
         does): its task was never dispatched, it names another dispatch,
         a later term or a time to come."""
         task = report.task
-        if self._dispatches.lifecycle.get(task, "planned") == "planned":
+        if self._state.dispatches.lifecycle.get(task, "planned") == "planned":
             return FieldIssue(
                 "task", f"{task!r} was never dispatched: nothing to report on"
             )
-        if report.at > self._clock():
+        if report.at > self._state.clock():
             return FieldIssue(
-                "at", f"{report.at} is after now ({self._clock()})"
+                "at", f"{report.at} is after now ({self._state.clock()})"
             )
         if report.term > self.term:
             return FieldIssue(
@@ -527,7 +596,7 @@ class Engine(SolveQueue):
             return None
         # The dispatch as it was sent: a replan re-bases a running
         # activity to start now, but its dispatch keeps its id.
-        sent = self._dispatches.sent.get(task)
+        sent = self._state.dispatches.sent.get(task)
         schedule = self.schedule
         current = schedule.plan.activity(task) if schedule else None
         if sent is not None:
@@ -543,13 +612,13 @@ class Engine(SolveQueue):
         return None
 
     def _on_level(self, level: ResourceLevel, out: list[Command]) -> None:
-        self._count(levels=self._counters.levels + 1)
+        self._state.count(levels=self._state.counters.levels + 1)
         schedule = self.schedule
         if schedule is None:
             return
         consumables = schedule.problem.resources.consumable
         if level.resource not in consumables:
-            self._reject_input(
+            self._verdicts.reject_input(
                 f"telemetry/resources/{level.resource}",
                 "resource_level",
                 [
@@ -561,14 +630,15 @@ class Engine(SolveQueue):
                 out,
             )
             return
-        if not 0 <= level.at <= self._clock():
-            self._reject_input(
+        if not 0 <= level.at <= self._state.clock():
+            self._verdicts.reject_input(
                 f"telemetry/resources/{level.resource}",
                 "resource_level",
                 [
                     FieldIssue(
                         "at",
-                        f"{level.at} is outside [0, now = {self._clock()}]: "
+                        f"{level.at} is outside "
+                        f"[0, now = {self._state.clock()}]: "
                         "a level is measured, never foreseen",
                     )
                 ],
@@ -587,24 +657,23 @@ class Engine(SolveQueue):
             return
         d = departed[0]
         out.append(
-            Publish(
-                topics.STATUS,
-                self._status(
-                    "drift",
-                    detail=f"{d.resource} measured {d.measured:g} at {at}, "
-                    f"plan predicted {d.predicted:g}",
-                ),
+            self._verdicts.publish(
+                "drift",
+                detail=f"{d.resource} measured {d.measured:g} at {at}, "
+                f"plan predicted {d.predicted:g}",
             )
         )
-        self._queue.append(
+        self._queue.add(
             QueuedChange("levels", at=at, levels={level.resource: level.level})
         )
 
     def _on_rejected(self, event: InputRejected, out: list[Command]) -> None:
         if event.kind == "goal":
-            self._reject_goal(event.goal_id, event.errors, out)
+            self._verdicts.reject_goal(event.goal_id, event.errors, out)
         else:
-            self._reject_input(event.key, event.kind, event.errors, out)
+            self._verdicts.reject_input(
+                event.key, event.kind, event.errors, out
+            )
 
     # -- solving -------------------------------------------------------------
 

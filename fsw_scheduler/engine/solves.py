@@ -1,4 +1,4 @@
-"""The solve queue: one solve at a time, goals coalesced, shed then degrade.
+"""The replanner: what to solve next, and what to do with its answer.
 
 One solve runs at a time: goals arriving meanwhile get ``goal_queued`` and
 are merged into the next solve (at most ``max_goals_per_solve`` at once;
@@ -36,7 +36,6 @@ from ..wire.messages import (
     SolveRecord,
     SolveSummary,
 )
-from .base import EngineState, degraded_detail
 from .events import (
     Command,
     Log,
@@ -45,11 +44,17 @@ from .events import (
     SolveFailed,
     StartExplain,
 )
+from .execution import degraded_detail
 from .overtaken import keep_commanded
+from .queue import GoalCheck
 from .snapshot import PendingSolve, QueuedChange
 
 if TYPE_CHECKING:
     from ..model.problem import Problem
+    from .execution import Execution
+    from .queue import SolveQueue
+    from .state import EngineState
+    from .verdicts import Verdicts
 
 
 def problem_hash(problem: Problem) -> str:
@@ -77,21 +82,50 @@ def _no_plan_reason(plan: Plan) -> str:
     return f"{plan.status.value}: no plan found within the time limit"
 
 
-class SolveQueue(EngineState):
-    """The engine's solve queue (see the module docstring)."""
+class Replanner:
+    """Start solves from the queue and adopt what they give.
 
-    def _on_solve_done(self, event: SolveDone, out: list[Command]) -> None:
-        pending = self._pending
-        if pending is None or event.solve_id != pending.solve_id:
+    See the module docstring for the policy. The queue's bookkeeping is
+    :class:`~fsw_scheduler.engine.queue.SolveQueue`; adopting a plan and
+    dispatching it is :class:`~fsw_scheduler.engine.execution.Execution`.
+
+    Parameters
+    ----------
+    state
+        The engine's state.
+    queue
+        What waits for a solve, and the solve in flight.
+    verdicts
+        Statuses and verdicts.
+    execution
+        Adopts plans.
+    """
+
+    def __init__(
+        self,
+        state: EngineState,
+        queue: SolveQueue,
+        verdicts: Verdicts,
+        execution: Execution,
+    ) -> None:
+        self._state = state
+        self._queue = queue
+        self._verdicts = verdicts
+        self._execution = execution
+
+    def on_solve_done(self, event: SolveDone, out: list[Command]) -> None:
+        """Adopt a solved plan, or go on to shedding, or keep the old one."""
+        state = self._state
+        pending = self._queue.finish(event.solve_id)
+        if pending is None:
             out.append(Log("warning", f"stray solve {event.solve_id}"))
             return
-        self._pending = None
         plan = event.plan
         stats = plan.stats or SolverStats(solver="?")
-        self._count(solves=self._counters.solves + 1)
+        state.count(solves=state.counters.solves + 1)
         adopted = plan.status.has_plan and pending.stage != "shed"
         reason = "" if plan.status.has_plan else _no_plan_reason(plan)
-        self._last_solve = SolveSummary(
+        state.last_solve = SolveSummary(
             solve_id=event.solve_id,
             trigger=pending.trigger,
             status=plan.status,
@@ -100,7 +134,7 @@ class SolveQueue(EngineState):
             adopted=adopted,
             reason=reason,
         )
-        out.append(self._solve_record(pending, plan))
+        out.append(self.solve_record(pending, plan))
         if (
             plan.status is SolveStatus.INFEASIBLE
             and pending.stage == "plan"
@@ -109,17 +143,17 @@ class SolveQueue(EngineState):
         ):
             # The world, not a goal, made the plan impossible: do not keep
             # flying it; find the best plan still possible.
-            self._start_shedding(pending, plan, out)
+            self.start_shedding(pending, plan, out)
             return
         if pending.stage == "shed" and plan.status.has_plan:
-            self._start_degraded(pending, plan, out)
+            self.start_degraded(pending, plan, out)
             return
         if adopted and pending.replan is not None:
-            kept, reason = self._keep_commanded(pending, plan, out)
+            kept, reason = self.keep_commanded(pending, plan, out)
             adopted = kept is not None
             plan = kept or plan
         if not adopted:
-            self._solve_without_plan(pending, reason, out)
+            self.solve_without_plan(pending, reason, out)
             return
         if pending.stage == "degraded":
             assert pending.replan is not None
@@ -129,12 +163,14 @@ class SolveQueue(EngineState):
                 status=SolveStatus.DEGRADED, why=(*shed, *plan.why)
             )
         if pending.replan is None:
-            assert self._plan_message is None
-            self.schedule = Schedule.begin(pending.problem, plan)
-            self._adopt(plan, pending.trigger, pending.goals, (), out)
+            assert state.plan_message is None
+            state.schedule = Schedule.begin(pending.problem, plan)
+            self._execution.adopt(
+                plan, pending.trigger, pending.goals, (), out
+            )
         else:
-            self.schedule = pending.replan.adopt(plan)
-            self._adopt(
+            state.schedule = pending.replan.adopt(plan)
+            self._execution.adopt(
                 plan,
                 pending.trigger,
                 pending.goals,
@@ -142,33 +178,33 @@ class SolveQueue(EngineState):
                 out,
             )
         if pending.stage == "degraded":
-            self._raise_alarm(plan, out)
+            self.raise_alarm(plan, out)
         if (
-            self.config.explain_after_plan
+            state.config.explain_after_plan
             and plan.unscheduled
-            and self.plan_id is not None
+            and state.plan_id is not None
         ):
             out.append(
                 StartExplain(
-                    event.solve_id, self.plan_id, pending.problem, plan
+                    event.solve_id, state.plan_id, pending.problem, plan
                 )
             )
         if (
-            pending.dispatches_at_start != self._counters.dispatches
-            and self._clock() > pending.started_at
+            pending.dispatches_at_start != state.counters.dispatches
+            and state.clock() > pending.started_at
         ):
             # The old plan dispatched while this one was being computed for
             # an earlier time: replan from what really happened.
-            self._queue.append(QueuedChange("levels", at=self._clock()))
+            self._queue.add(QueuedChange("levels", at=state.clock()))
 
-    def _keep_commanded(
+    def keep_commanded(
         self, pending: PendingSolve, plan: Plan, out: list[Command]
     ) -> tuple[Plan | None, str]:
         """The plan with what was dispatched while it was computed kept
         where it was commanded (:mod:`.overtaken`), or None and why."""
         assert pending.replan is not None
         continuing = set(pending.replan.continuing)
-        dispatches = self._dispatches
+        dispatches = self._state.dispatches
         # Commanded after the problem was posed: inside its window (what
         # was commanded before is pinned, or was let go by the rules), and
         # not preemptible (a replan may move those: that is preemption).
@@ -200,42 +236,103 @@ class SolveQueue(EngineState):
         )
         return kept, ""
 
-    def _on_solve_failed(self, event: SolveFailed, out: list[Command]) -> None:
-        pending = self._pending
-        if pending is None or event.solve_id != pending.solve_id:
+    def on_solve_failed(self, event: SolveFailed, out: list[Command]) -> None:
+        """A solve that raised: keep the current plan and say why."""
+        state = self._state
+        pending = self._queue.finish(event.solve_id)
+        if pending is None:
             return
-        self._pending = None
-        self._count(
-            solves=self._counters.solves + 1,
-            solves_failed=self._counters.solves_failed + 1,
+        state.count(
+            solves=state.counters.solves + 1,
+            solves_failed=state.counters.solves_failed + 1,
         )
-        self._last_solve = SolveSummary(
+        state.last_solve = SolveSummary(
             solve_id=event.solve_id,
             trigger=pending.trigger,
             status=SolveStatus.UNKNOWN,
             reason=event.error,
         )
-        self._solve_without_plan(pending, event.error, out)
+        self.solve_without_plan(pending, event.error, out)
 
-    def _start_queued(self, out: list[Command]) -> None:
+    def replan_time(self, schedule: Schedule) -> int:
+        """The time a replan started now governs from.
+
+        ``now + replan_lead``: until its plan is ready, the current one
+        keeps dispatching. A goal is checked on arrival at this same time,
+        so that its solve, started at once, reuses that rule pass.
+        """
+        return max(
+            self._state.clock() + self._state.config.replan_lead,
+            schedule.problem.start,
+        )
+
+    def live_checked(self, replan: Replan) -> Replan:
+        """``replan``, unless it would hold more than ``max_live_tasks``.
+
+        Raises
+        ------
+        InputError
+            The replan holds too many live tasks.
+        """
+        limit = self._state.config.max_live_tasks
+        live = replan.problem.num_tasks + len(replan.deferred)
+        if limit is not None and live > limit:
+            raise InputError(
+                [
+                    FieldIssue(
+                        "tasks",
+                        f"the plan would hold {live} live tasks; the limit "
+                        f"is {limit} (live-tasks)",
+                    )
+                ],
+                "goal",
+            )
+        return replan
+
+    def check_goal(self, schedule: Schedule, goal: Goal) -> Replan:
+        """The rule pass of ``goal`` on ``schedule`` at :meth:`replan_time`,
+        kept for its solve.
+
+        Raises
+        ------
+        InputError
+            The goal does not fit the live state (every reason named).
+        """
+        now = self.replan_time(schedule)
+        replan = self.live_checked(apply_goal(schedule, goal, now))
+        self._queue.remember(GoalCheck(schedule, now, goal, replan))
+        return replan
+
+    def start_initial(self, out: list[Command]) -> None:
+        """Solve the initial problem (re-based to now if the clock is past
+        its start)."""
+        state = self._state
+        problem = state.unsolved_initial
+        assert problem is not None and state.now is not None
+        state.unsolved_initial = None
+        if state.now > problem.start:
+            problem = problem.replace(start=state.now)
+        if not problem.tasks:
+            state.schedule = Schedule.begin(problem, empty_plan())
+            self._execution.adopt(empty_plan(), "initial", (), (), out)
+            return
+        self.start_solve("initial", problem, None, None, (), out)
+
+    def start_queued(self, out: list[Command]) -> None:
         """Start the next solve: failures first, then goals, then levels."""
-        while self._queue and self._pending is None:
-            schedule = self.schedule
+        state, queue = self._state, self._queue
+        while queue.changes and not queue.busy:
+            schedule = state.schedule
             if schedule is None:
                 return
-            # A replan governs time from ``now + replan_lead`` on: until
-            # its plan is ready, the current one keeps dispatching.
-            now = max(
-                self._clock() + self.config.replan_lead,
-                schedule.problem.start,
-            )
-            failures = [c for c in self._queue if c.kind == "failure"]
-            goals = [c for c in self._queue if c.kind == "goal"][
-                : self.config.max_goals_per_solve
+            now = self.replan_time(schedule)
+            failures = [c for c in queue.changes if c.kind == "failure"]
+            goals = [c for c in queue.changes if c.kind == "goal"][
+                : state.config.max_goals_per_solve
             ]
             if failures:
                 change = failures[0]
-                self._queue.remove(change)
+                queue.remove(change)
                 if change.task not in {t.id for t in schedule.problem.tasks}:
                     # Already handled by an earlier failure replan.
                     continue
@@ -246,24 +343,24 @@ class SolveQueue(EngineState):
                 except InputError as error:
                     out.append(Log("warning", f"failure ignored: {error}"))
                     continue
-                self._start_solve(
+                self.start_solve(
                     "failure", replan.problem, replan, replan.warm, (), out
                 )
             elif goals:
-                self._start_goals(schedule, goals, now, out)
+                self.start_goals(schedule, goals, now, out)
             else:
                 levels: dict[str, float] = {}
                 at = now
-                for change in self._queue:
+                for change in queue.changes:
                     levels.update(change.levels)
                     at = min(at, change.at)
                 trigger = "drift" if levels else "stale"
                 for named in ("horizon", "missed"):
                     if not levels and any(
-                        c.trigger == named for c in self._queue
+                        c.trigger == named for c in queue.changes
                     ):
                         trigger = named
-                self._queue.clear()
+                queue.clear()
                 try:
                     replan = apply_levels(
                         schedule, levels, now, at=at, keep_running=True
@@ -271,11 +368,11 @@ class SolveQueue(EngineState):
                 except InputError as error:
                     out.append(Log("warning", f"levels ignored: {error}"))
                     continue
-                self._start_solve(
+                self.start_solve(
                     trigger, replan.problem, replan, replan.warm, (), out
                 )
 
-    def _start_goals(
+    def start_goals(
         self,
         schedule: Schedule,
         changes: list[QueuedChange],
@@ -289,33 +386,33 @@ class SolveQueue(EngineState):
         """
         accepted: list[Goal] = []
         replan: Replan | None = None
-        memo, self._goal_checked = self._goal_checked, None
+        memo = self._queue.recall()
         for change in changes:
             self._queue.remove(change)
             assert change.goal is not None
             if (
                 not accepted
                 and memo is not None
-                and memo[0] is schedule
-                and memo[1] == now
-                and memo[2] is change.goal
+                and memo.answers(schedule, now, change.goal)
             ):
                 # Checked on arrival against this very schedule and time.
-                replan = memo[3]
+                replan = memo.replan
                 accepted.append(change.goal)
                 continue
             candidate = _merge_goals([*accepted, change.goal])
             try:
-                replan = self._live_checked(
+                replan = self.live_checked(
                     apply_goal(schedule, candidate, now)
                 )
             except InputError as error:
-                self._reject_goal(change.goal.goal_id, error.issues, out)
+                self._verdicts.reject_goal(
+                    change.goal.goal_id, error.issues, out
+                )
                 continue
             accepted.append(change.goal)
         if replan is None:
             return
-        self._start_solve(
+        self.start_solve(
             "goal",
             replan.problem,
             replan,
@@ -324,7 +421,7 @@ class SolveQueue(EngineState):
             out,
         )
 
-    def _start_shedding(
+    def start_shedding(
         self, pending: PendingSolve, infeasible: Plan, out: list[Command]
     ) -> None:
         """Solve which mandatory tasks to keep (see :mod:`.shed`)."""
@@ -337,7 +434,7 @@ class SolveQueue(EngineState):
                 f"{reason}; shedding mandatory tasks",
             )
         )
-        self._start_solve(
+        self.start_solve(
             pending.trigger,
             shedding_problem(pending.replan.problem),
             pending.replan,
@@ -348,7 +445,7 @@ class SolveQueue(EngineState):
             infeasible=infeasible,
         )
 
-    def _start_degraded(
+    def start_degraded(
         self, pending: PendingSolve, shedding: Plan, out: list[Command]
     ) -> None:
         """Solve the replan without the mandatory tasks it cannot keep."""
@@ -360,7 +457,7 @@ class SolveQueue(EngineState):
             dropped,
             f"{pending.trigger} at t={pending.started_at} left no room",
         )
-        self._start_solve(
+        self.start_solve(
             pending.trigger,
             replan.problem,
             replan,
@@ -375,12 +472,12 @@ class SolveQueue(EngineState):
             ),
         )
 
-    def _raise_alarm(self, plan: Plan, out: list[Command]) -> None:
+    def raise_alarm(self, plan: Plan, out: list[Command]) -> None:
         """Say loudly that mandatory tasks were dropped, and why."""
-        out.append(Log("error", degraded_detail(self.plan_id, plan)))
-        out.append(Publish(topics.STATUS, self.status("alarm")))
+        out.append(Log("error", degraded_detail(self._state.plan_id, plan)))
+        out.append(Publish(topics.STATUS, self._verdicts.status("alarm")))
 
-    def _start_solve(
+    def start_solve(
         self,
         trigger: str,
         problem: Problem,
@@ -392,59 +489,69 @@ class SolveQueue(EngineState):
         stage: Literal["plan", "shed", "degraded"] = "plan",
         infeasible: Plan | None = None,
     ) -> None:
+        """Ask for a solve of ``problem`` (or adopt the empty plan at
+        once when a replan leaves nothing to schedule)."""
+        state = self._state
         if replan is not None and not problem.tasks:
             # Nothing left to schedule: adopt the empty plan without solving.
-            self.schedule = replan.adopt(empty_plan())
-            self._adopt(empty_plan(), trigger, goals, replan.removed, out)
+            state.schedule = replan.adopt(empty_plan())
+            self._execution.adopt(
+                empty_plan(), trigger, goals, replan.removed, out
+            )
             return
-        self._solve_id += 1
-        self._pending = PendingSolve(
-            solve_id=self._solve_id,
-            trigger=trigger,
-            problem=problem,
-            replan=replan,
-            goals=goals,
-            started_at=self._clock(),
-            dispatches_at_start=self._counters.dispatches,
-            stage=stage,
-            infeasible=infeasible,
-            warm=warm,
-            explain=stage == "shed",
+        solve_id = self._queue.next_id()
+        self._queue.begin(
+            PendingSolve(
+                solve_id=solve_id,
+                trigger=trigger,
+                problem=problem,
+                replan=replan,
+                goals=goals,
+                started_at=state.clock(),
+                dispatches_at_start=state.counters.dispatches,
+                stage=stage,
+                infeasible=infeasible,
+                warm=warm,
+                explain=stage == "shed",
+            )
         )
         out.append(
             Log(
                 "info",
-                f"solve {self._solve_id} ({trigger}"
+                f"solve {solve_id} ({trigger}"
                 f"{'' if stage == 'plan' else ', ' + stage}): "
                 f"{problem.num_tasks} tasks over "
                 f"[{problem.start}, {problem.end})",
             )
         )
-        pending = self.pending_solve()
+        pending = self._queue.pending_solve()
         assert pending is not None
         out.append(pending)
 
-    def _solve_without_plan(
+    def solve_without_plan(
         self, pending: PendingSolve, reason: str, out: list[Command]
     ) -> None:
         """Keep the last good plan; say why; reject goals that caused it."""
-        self._count(solves_failed=self._counters.solves_failed + 1)
+        state = self._state
+        state.count(solves_failed=state.counters.solves_failed + 1)
         detail = (
             f"solve {pending.solve_id} ({pending.trigger}) gave no plan: "
-            f"{reason}; keeping plan {self.plan_id}"
+            f"{reason}; keeping plan {state.plan_id}"
         )
-        self._set_health("degraded", detail)
+        state.set_health("degraded", detail)
         out.append(Log("warning", detail))
         for goal_id in pending.goals:
-            self._reject_goal(
+            self._verdicts.reject_goal(
                 goal_id,
                 [FieldIssue("", f"no plan with this goal: {reason}")],
                 out,
             )
         if not pending.goals:
-            out.append(Publish(topics.STATUS, self._status("solve_failed")))
+            out.append(self._verdicts.publish("solve_failed"))
 
-    def _solve_record(self, pending: PendingSolve, plan: Plan) -> Publish:
+    def solve_record(self, pending: PendingSolve, plan: Plan) -> Publish:
+        """The ``scheduler/solves`` record of a finished solve."""
+        state = self._state
         problem = pending.problem
         stats = plan.stats or SolverStats(solver="?")
         record = SolveRecord(
@@ -455,7 +562,7 @@ class SolveQueue(EngineState):
             status=plan.status,
             objective=plan.objective,
             plan_id=(
-                (self.plan_id or 0) + 1
+                (state.plan_id or 0) + 1
                 if plan.status.has_plan and pending.stage != "shed"
                 else None
             ),
@@ -464,7 +571,7 @@ class SolveQueue(EngineState):
             build_s=stats.build_s,
             solve_s=stats.solve_s,
             wall_s=stats.wall_s,
-            inputs_seen=self._inputs,
+            inputs_seen=state.inputs,
             result=plan,
         )
         return Publish(topics.SOLVES, record)

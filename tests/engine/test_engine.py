@@ -18,6 +18,8 @@ from fsw_scheduler.engine.events import (
 from fsw_scheduler.errors import FieldIssue
 from fsw_scheduler.model.levels import predicted_levels
 from fsw_scheduler.model.problem import Problem, decode_problem
+from fsw_scheduler.runtime.config import NodeConfig
+from fsw_scheduler.runtime.policy import engine_config
 from fsw_scheduler.wire import messages
 
 from .driver import (
@@ -547,13 +549,9 @@ def test_deferred_goal_task_enters_when_the_horizon_reaches_it() -> None:
     assert when + 50 > 60  # the horizon [when, when + 50) now holds it
 
 
-def test_one_rule_pass_per_goal(
-    started: Driver, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """Tests that a goal arriving with no solve in flight is checked and
-    replanned with one rule pass, and two goals coalesced behind a solve
-    with one pass each."""
-    from fsw_scheduler.engine import core, solves
+def _count_rule_passes(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """Count every rule pass a goal gets (the goal ids, in order)."""
+    from fsw_scheduler.engine import solves
     from fsw_scheduler.replan import triggers
 
     passes: list[str] = []
@@ -562,8 +560,39 @@ def test_one_rule_pass_per_goal(
         passes.append(args[1].goal_id)
         return triggers.apply_goal(*args, **kwargs)
 
-    monkeypatch.setattr(core, "apply_goal", counted)
     monkeypatch.setattr(solves, "apply_goal", counted)
+    return passes
+
+
+def test_one_rule_pass_per_goal_with_the_node_defaults(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Tests that with the engine settings a node gets from its default
+    settings (wall clock, a replan lead of one unit), a goal arriving with
+    no solve in flight is checked and replanned with one rule pass."""
+    config = engine_config(NodeConfig())
+    assert config.replan_lead == 1  # the default this test is about
+    driver = Driver(config=config)
+    driver.tick(0)
+    driver.tick(1)
+    passes = _count_rule_passes(monkeypatch)
+    driver.goal(small_goal("g1", "Ping1"), 1)
+    assert passes == ["g1"]
+    assert "g1" in driver.plan.goals
+    passes.clear()
+    driver.tick(2)
+    driver.goal(small_goal("g2", "Ping2"), 2)
+    assert passes == ["g2"]
+    assert "g2" in driver.plan.goals
+
+
+def test_one_rule_pass_per_goal(
+    started: Driver, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Tests that a goal arriving with no solve in flight is checked and
+    replanned with one rule pass, and two goals coalesced behind a solve
+    with one pass each."""
+    passes = _count_rule_passes(monkeypatch)
     # At 0, after the tick's dispatches (a dispatch in the same step
     # changes the schedule, and the pass is rightly made again).
     started.goal(small_goal("g1", "Ping1"), 0)

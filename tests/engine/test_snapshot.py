@@ -25,13 +25,18 @@ def test_snapshot_holds_every_piece_of_engine_state() -> None:
     driver = Driver()
     _story(driver)
     engine = driver.engine
-    # _goal_checked is a memo of a rule pass, derived from the state.
-    attributes = set(vars(engine)) - {"config", "_dispatches", "_goal_checked"}
+    state, queue = engine._state, engine._queue
     # The dispatch lifecycle is one object holding four snapshot fields.
-    attributes |= set(type(engine._dispatches).__slots__)
+    attributes = set(vars(state)) - {"config", "dispatches"}
+    attributes |= set(type(state.dispatches).__slots__)
+    # The queue's goal check is a memo of a rule pass, derived from the
+    # state; its changes are the snapshot's ``queue``.
+    renamed = {"changes": "queue"}
+    attributes |= {renamed.get(name, name) for name in vars(queue)} - {
+        "goal_check"
+    }
     fields = set(EngineSnapshot.__struct_fields__) - {"version"}
-    renamed = {name.lstrip("_") for name in attributes}
-    assert renamed == fields
+    assert attributes == fields
 
 
 def test_restored_engine_behaves_like_the_original() -> None:
