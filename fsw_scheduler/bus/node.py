@@ -193,7 +193,6 @@ class SchedulerNode:
         self._token: Any = None
         self.failed: str | None = None
         self._faults = 0
-        self._closed = threading.Event()
         self._thread: threading.Thread | None = None
         self._workers = Worker("fsw-solve")
         # Explanations on their own thread: they never hold a solve back.
@@ -326,7 +325,6 @@ class SchedulerNode:
                 log.debug("undeclare: %s", error)
         self._declared.clear()
         self._outputs.close()
-        self._closed.set()
         log.info("scheduler stopped")
 
     def __enter__(self) -> SchedulerNode:
