@@ -380,6 +380,13 @@ class SchedulerNode:
         def callback(query: zenoh.Query) -> None:
             try:
                 if not self._inbox.put_query((suffix, query)):
+                    # Refused (too many wait), so finished here: zenoh
+                    # sends the querier its final reply when the query's
+                    # last reference goes, at the latest as this callback
+                    # returns. Handing it to the loop would mean holding
+                    # it, which the bound is there to prevent; drop() only
+                    # makes that release explicit (finalisers are not
+                    # reliable, say zenoh-python's docs).
                     query.drop()
             except BaseException:
                 log.exception("dropping a query")
