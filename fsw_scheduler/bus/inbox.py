@@ -38,9 +38,9 @@ MAX_WAITING_QUERIES = 256
 MAX_PENDING_KEYS = 4096
 
 
-#: Goals refused unread whose rejection waits to be published; more are
-#: counted as lost (never seen in practice: publishing one takes far less
-#: time than receiving one).
+#: Goals refused unread whose rejection waits to be published; beyond
+#: it, a refused goal is only counted in :attr:`Inbox.busy` (never seen in
+#: practice: publishing one takes far less time than receiving one).
 MAX_BUSY_NOTICES = 65536
 
 
@@ -117,7 +117,6 @@ class Inbox:
         self.clock_superseded = 0
         self.lost = 0
         self.busy = 0
-        self.goals_lost = 0
         self.queries_dropped = 0
 
     def __len__(self) -> int:
@@ -148,7 +147,6 @@ class Inbox:
         with self._cond:
             self.busy += 1
             if self.busy_notices >= MAX_BUSY_NOTICES:
-                self.goals_lost += 1
                 return
             self.busy_notices += 1
             self._items.append(["busy", goal_id, waiting, 0.0, None])

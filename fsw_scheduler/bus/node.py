@@ -33,6 +33,7 @@ from ..engine.events import (
     Explained,
     GoalArrived,
     Log,
+    Publish,
     SolveDone,
     SolveFailed,
     StartExplain,
@@ -48,7 +49,6 @@ from ..runtime.inputs import InputDecoder, goal_id_of
 from ..runtime.policy import (
     deadline_config,
     engine_config,
-    node_info,
     run_explain,
     run_solve,
 )
@@ -89,7 +89,7 @@ _BUS_INPUTS = frozenset({"goal", "clock", "activity_report", "resource_level"})
 _FATAL = FATAL
 
 
-class SchedulerNode(NodeOutputs):
+class SchedulerNode:
     """The scheduler on a Zenoh session.
 
     Parameters
@@ -156,22 +156,35 @@ class SchedulerNode(NodeOutputs):
         # or a question asked before each step (is a standby there?), so
         # that a node with nobody to share with pays nothing.
         self._sharing = share_state is not False
-        self._share_state: Callable[[], bool] = (
+        wanted: Callable[[], bool] = (
             share_state if callable(share_state) else lambda: share_state
         )
         self.engine = engine or Engine(engine_config(config), problem)
-        self._durable = durable and journal is not None
-        self._journal_max_bytes = journal_max_bytes
-        self._state_max_bytes = state_max_bytes
         self._clock_start = clock_start
         self._journal = OrderedWriter(journal, wall_ns)
         # A journal that could not be opened (a full disk at start).
         self._journal.fault = journal_fault
-        self._wall_ns = wall_ns
         # Profiles (published), level checks and log entries (journaled)
         # derived from what the loop handles; replay derives the same.
         self._annotator = Annotator(
             self.topics, lambda: engine_problem(self.engine)
+        )
+        self._provenance = Provenance(publishers)
+        # Everything that leaves the node, journal first (write-ahead).
+        self._outputs = NodeOutputs(
+            session,
+            self.topics,
+            config,
+            self.engine,
+            self._journal,
+            self._annotator,
+            self._provenance,
+            security=security,
+            wall_ns=wall_ns,
+            durable=durable and journal is not None,
+            share_state=wanted if self._sharing else None,
+            journal_max_bytes=journal_max_bytes,
+            state_max_bytes=state_max_bytes,
         )
         self._seconds = seconds
         self._solve_fn = solve_fn
@@ -180,9 +193,6 @@ class SchedulerNode(NodeOutputs):
         self._token: Any = None
         self.failed: str | None = None
         self._faults = 0
-        self._publish_failures = 0
-        self._publish_failures_in_a_row = 0
-        self._closed = threading.Event()
         self._thread: threading.Thread | None = None
         self._workers = Worker("fsw-solve")
         # Explanations on their own thread: they never hold a solve back.
@@ -201,9 +211,6 @@ class SchedulerNode(NodeOutputs):
         self._stall_reported = False
         self._last_tick: int | None = None
         self._declared: list[Any] = []
-        self._publishers: dict[str, zenoh.Publisher] = {}
-        self._security = security
-        self._provenance = Provenance(publishers)
         # The highest term seen elsewhere (redundancy): this node's term
         # is above it and above its own state's.
         self._term_floor = term_floor
@@ -220,16 +227,14 @@ class SchedulerNode(NodeOutputs):
         """Declare subscribers, publishers, queryables; start the loop."""
         key = self.topics.key
         session = self.session
-        for suffix in (
+        outputs = self._outputs
+        outputs.declare(
             topics.PLAN,
             topics.STATUS,
             topics.SOLVES,
             topics.NODE_INFO,
             topics.PROFILES,
-        ):
-            self._publishers[suffix] = session.declare_publisher(
-                key(suffix), encoding=JSON
-            )
+        )
         self._declared.append(self._provenance.declare(session))
         for suffix, kind in topics.SUBSCRIPTIONS:
             self._declared.append(
@@ -256,37 +261,20 @@ class SchedulerNode(NodeOutputs):
             )
         sweep_stale_dirs()
         if self._sharing:
-            self._publishers[topics.SNAPSHOT] = session.declare_publisher(
-                key(topics.SNAPSHOT), encoding=JSON
-            )
+            outputs.declare(topics.SNAPSHOT)
         # Settings and state go first into the journal, from this thread,
         # before the loop (the journal's only other writer) starts.
-        self._describe_journal()
-        self._publish_raw(
-            topics.NODE_INFO,
-            messages.encode(
-                node_info(
-                    self.config,
-                    self.engine.initial,
-                    self._security,
-                    resumed=self.resumed,
-                )
-            ),
-        )
-        if self._durable:
-            self._write_snapshot()
+        outputs.open(self.resumed)
         term = self._begin_term()
-        if self._durable:
-            self._journal.flush()  # the term is on disk before any command
+        outputs.sync()  # the term is on disk before any command
         if self._on_term is not None:
             self._on_term(term)
-        self._put(topics.TERM, self._term_payload)
-        if self._sharing and self._share_state():
-            self._share_snapshot()
-        if self._durable:
-            self._watch_journal()  # a journal down from the start: say so
+        outputs.put(topics.TERM, self._term_payload)
+        outputs.share()
+        outputs.watch()  # a journal down from the start: say so
         if self.resumed:
             self._inbox.put("resume", None)
+        outputs.allow_rotation()
         self._thread = threading.Thread(
             target=self._spin, name="fsw-scheduler-loop", daemon=True
         )
@@ -330,16 +318,13 @@ class SchedulerNode(NodeOutputs):
         if self.lease is not None:
             self.lease.stop()
         self._withdraw_token()
-        for entity in [*self._declared, *self._publishers.values()]:
+        for entity in self._declared:
             try:
                 entity.undeclare()
             except zenoh.ZError as error:  # session already closed
                 log.debug("undeclare: %s", error)
         self._declared.clear()
-        self._publishers.clear()
-        if self._journal.recorder is not None:
-            self._journal.recorder.close()
-        self._closed.set()
+        self._outputs.close()
         log.info("scheduler stopped")
 
     def __enter__(self) -> SchedulerNode:
@@ -395,6 +380,13 @@ class SchedulerNode(NodeOutputs):
         def callback(query: zenoh.Query) -> None:
             try:
                 if not self._inbox.put_query((suffix, query)):
+                    # Refused (too many wait), so finished here: zenoh
+                    # sends the querier its final reply when the query's
+                    # last reference goes, at the latest as this callback
+                    # returns. Handing it to the loop would mean holding
+                    # it, which the bound is there to prevent; drop() only
+                    # makes that release explicit (finalisers are not
+                    # reliable, say zenoh-python's docs).
                     query.drop()
             except BaseException:
                 log.exception("dropping a query")
@@ -420,13 +412,11 @@ class SchedulerNode(NodeOutputs):
                     log.exception("event loop error; continuing")
                     if in_a_row >= MAX_CONSECUTIVE_FAULTS:
                         raise
-                if self._publish_failures_in_a_row >= MAX_CONSECUTIVE_FAULTS:
+                failed = self._outputs.publish_failures_in_a_row
+                if failed >= MAX_CONSECUTIVE_FAULTS:
                     # A panic poisons zenoh's transmit pipeline: every
                     # later put fails too. Nothing reaches the bus.
-                    raise BusError(
-                        f"{self._publish_failures_in_a_row} publishes "
-                        "failed in a row"
-                    )
+                    raise BusError(f"{failed} publishes failed in a row")
         except BaseException as error:
             self._die(error)
 
@@ -440,7 +430,7 @@ class SchedulerNode(NodeOutputs):
                 state="error",
                 detail=f"event loop stopped: {self.failed}",
             )
-            self._publish_raw(topics.STATUS, messages.encode(status))
+            self._outputs.publish(topics.STATUS, messages.encode(status))
         except BaseException:
             log.exception("could not publish the error status")
         self._withdraw_token()
@@ -476,8 +466,7 @@ class SchedulerNode(NodeOutputs):
             return
         self._tick_wall_clock()
         self._check_stall()
-        if self._durable:
-            self._watch_journal()  # retries a failed journal without steps
+        self._outputs.watch()  # retries a failed journal without steps
         if timeout is None:
             timeout = self._clock.seconds_to_next() if self._clock else 0.5
         item = self._inbox.get(timeout=max(timeout, 0.001))
@@ -566,7 +555,7 @@ class SchedulerNode(NodeOutputs):
                 messages.encode(messages.InputSource(key, source)),
             )
         event = self._decoder.event(key, payload)
-        self._annotate(key, payload, input_message(event))
+        self._outputs.annotate(key, payload, input_message(event))
         if isinstance(event, GoalArrived) and len(self._arrivals) < 4096:
             self._arrivals.setdefault(event.goal.goal_id, arrived)
         if kind == "clock" and isinstance(event, Tick):
@@ -607,9 +596,34 @@ class SchedulerNode(NodeOutputs):
             clock_superseded=inbox.clock_superseded,
             goals_busy=inbox.busy,
             queries_dropped=inbox.queries_dropped,
-            publish_failures=self._publish_failures,
+            publish_failures=self._outputs.publish_failures,
             loop_faults=self._faults,
         )
+
+    def _run(self, commands: list[Command]) -> None:
+        """Carry out a step's commands: journal, then solves, then the bus.
+
+        The step's outputs (and what the annotator derives from each) are
+        journaled first; with ``--state`` the journal is flushed before any
+        output reaches the bus (write-ahead), so a node killed at any point
+        and resumed from its journal never repeats a dispatch the bus saw.
+        An output on disk but not yet on the bus when the process died is
+        sent again on resume, with its ids (:meth:`Engine.resume_commands`).
+        """
+        for command in commands:
+            message = getattr(command, "message", None)
+            if isinstance(message, messages.Status) and message.event in (
+                "goal_accepted",
+                "goal_rejected",
+            ):  # the goal has its verdict: its deadline is over
+                self._arrivals.pop(message.goal_id or "", None)
+        puts = self._outputs.write_ahead(commands)
+        for command in commands:
+            if not isinstance(command, Publish):
+                self._execute(command)
+        if not self._lease_holds():
+            return  # journaled, never sent: a resume sends it again
+        self._outputs.send(puts)
 
     def _execute(self, command: Command) -> None:
         """Start a solve or an explanation, or log (see :meth:`_run`)."""

@@ -1,10 +1,14 @@
 """The node's outputs: journal first, then the bus (write-ahead).
 
-:class:`NodeOutputs` is the part of
-:class:`~fsw_scheduler.bus.node.SchedulerNode` that carries a step's
-commands out: every output and what the annotator derives from it goes to
-the journal, in processing order, before it reaches the bus; the journal's
-head (metadata, settings, snapshot) and its rotation live here too.
+:class:`NodeOutputs` is the object a
+:class:`~fsw_scheduler.bus.node.SchedulerNode` carries a step's commands
+out with: every output and what the annotator derives from it goes to the
+journal, in processing order, before it reaches the bus; the journal's
+head (metadata, settings, snapshot), its rotation and its retry after a
+disk fault live here too, with the node's publishers and the count of
+publishes that failed. It is given what it writes with (session, journal
+writer, annotator, provenance, engine) and owns no thread: the node calls
+it from its loop (and from :meth:`SchedulerNode.start`, before the loop).
 """
 
 from __future__ import annotations
@@ -23,7 +27,6 @@ from ..runtime.policy import node_info
 from ..wire import messages, topics
 
 if TYPE_CHECKING:
-    import threading
     from collections.abc import Callable
 
     from ..engine.core import Engine
@@ -43,6 +46,10 @@ FATAL = (KeyboardInterrupt, SystemExit)
 JOURNAL_RETRY_S = 5.0
 
 
+#: A step's outputs as journaled, waiting for the bus: (suffix, payload).
+Staged = list[tuple[str, bytes]]
+
+
 def _undurable(message: msgspec.Struct) -> msgspec.Struct:
     """A status sent while the journal is down says so."""
     if isinstance(message, messages.Status):
@@ -51,58 +58,160 @@ def _undurable(message: msgspec.Struct) -> msgspec.Struct:
 
 
 class NodeOutputs:
-    """Journal, then publish (a mixin of the scheduler node)."""
+    """Journal, then publish: the scheduler node's outputs.
 
-    session: zenoh.Session
-    config: NodeConfig
-    topics: topics.Topics
-    engine: Engine
-    _journal: OrderedWriter
-    _annotator: Annotator
-    _provenance: Provenance
-    _publishers: dict[str, zenoh.Publisher]
-    _arrivals: dict[str, float]
-    _durable: bool
-    _sharing: bool
-    _share_state: Callable[[], bool]
-    _journal_max_bytes: int | None
-    _state_max_bytes: int | None = None
-    _security: messages.SecurityInfo | None
-    _wall_ns: Callable[[], int]
-    _publish_failures: int
-    _publish_failures_in_a_row: int
-    _thread: threading.Thread | None
-    _fault_said: bool = False
-    _fault_retry: float = 0.0
+    Parameters
+    ----------
+    session
+        The node's Zenoh session (publishes without a declared publisher
+        go through it).
+    keys
+        The node's key expressions (:class:`~fsw_scheduler.wire.topics.
+        Topics`).
+    config
+        Node settings (for ``scheduler/config`` and the journal's head).
+    engine
+        The engine whose statuses and snapshots are published.
+    journal
+        The journal writer, shared with the node (which journals inputs).
+    annotator
+        What derives profiles, level checks and log entries from messages.
+    provenance
+        What sets ``source`` on the status verdicts about an input.
+    security
+        How the bus is protected, published in ``scheduler/config``.
+    wall_ns
+        Wall clock in nanoseconds (the journal's session start).
+    durable
+        Whether the journal is flushed before outputs reach the bus.
+    share_state
+        Whether a hot standby wants the state now (asked before each
+        step with outputs); None: the state is never shared.
+    journal_max_bytes
+        Size at which the journal continues in a new file (None: never).
+    state_max_bytes
+        Bytes the state folder may keep; older parts are removed after a
+        rotation (None: all are kept).
 
-    def _lease_holds(self) -> bool:
-        raise NotImplementedError
+    Attributes
+    ----------
+    publishers
+        Declared publishers by key suffix (the others go through the
+        session).
+    publish_failures
+        Publishes that failed since the start.
+    publish_failures_in_a_row
+        Publishes that failed since the last one that went out.
+    """
 
-    def _execute(self, command: Command) -> None:
-        raise NotImplementedError
+    def __init__(
+        self,
+        session: zenoh.Session,
+        keys: topics.Topics,
+        config: NodeConfig,
+        engine: Engine,
+        journal: OrderedWriter,
+        annotator: Annotator,
+        provenance: Provenance,
+        *,
+        security: messages.SecurityInfo | None = None,
+        wall_ns: Callable[[], int] = time.time_ns,
+        durable: bool = False,
+        share_state: Callable[[], bool] | None = None,
+        journal_max_bytes: int | None = None,
+        state_max_bytes: int | None = None,
+    ) -> None:
+        self.session = session
+        self.topics = keys
+        self.config = config
+        self.engine = engine
+        self.durable = durable
+        self.publishers: dict[str, zenoh.Publisher] = {}
+        self.publish_failures = 0
+        self.publish_failures_in_a_row = 0
+        self._journal = journal
+        self._annotator = annotator
+        self._provenance = provenance
+        self._security = security
+        self._wall_ns = wall_ns
+        self._share_state = share_state
+        self._journal_max_bytes = journal_max_bytes
+        self._state_max_bytes = state_max_bytes
+        # Until the node has started, the first part's head is being
+        # written: no rotation (see :meth:`allow_rotation`).
+        self._may_rotate = False
+        self._fault_said = False
+        self._fault_retry = 0.0
 
-    def _run(self, commands: list[Command]) -> None:
-        """Carry out a step's commands: journal, then solves, then the bus.
+    # -- lifecycle -----------------------------------------------------------
 
-        The step's outputs (and what the annotator derives from each) are
-        journaled first; with ``--state`` the journal is flushed before any
-        output reaches the bus (write-ahead), so a node killed at any point
-        and resumed from its journal never repeats a dispatch the bus saw.
-        An output on disk but not yet on the bus when the process died is
-        sent again on resume, with its ids (:meth:`Engine.resume_commands`).
+    def declare(self, *suffixes: str) -> None:
+        """Declare a publisher on each of these key suffixes."""
+        for suffix in suffixes:
+            self.publishers[suffix] = self.session.declare_publisher(
+                self.topics.key(suffix), encoding=JSON
+            )
+
+    def open(self, resumed: str) -> None:
+        """Write the journal's head: metadata, settings, then the state.
+
+        The settings (``scheduler/config``, saying ``resumed``) are also
+        published; the state is written only when durable.
         """
-        for command in commands:
-            message = getattr(command, "message", None)
-            if isinstance(message, messages.Status) and message.event in (
-                "goal_accepted",
-                "goal_rejected",
-            ):  # the goal has its verdict: its deadline is over
-                self._arrivals.pop(message.goal_id or "", None)
-        if commands and self._sharing and self._share_state():
+        self._describe_journal()
+        self.publish(
+            topics.NODE_INFO,
+            messages.encode(
+                node_info(
+                    self.config,
+                    self.engine.initial,
+                    self._security,
+                    resumed=resumed,
+                )
+            ),
+        )
+        if self.durable:
+            self._write_snapshot()
+
+    def sync(self) -> None:
+        """When durable, put what was journaled on disk now."""
+        if self.durable:
+            self._journal.flush()
+
+    def allow_rotation(self) -> None:
+        """The node has started: a journal grown too big may rotate.
+
+        Before, the first file's head must hold what the node says first
+        (replay expects a resumed node's status in its file).
+        """
+        self._may_rotate = True
+
+    def close(self) -> None:
+        """Undeclare the publishers and close the journal's recorder."""
+        for publisher in self.publishers.values():
+            try:
+                publisher.undeclare()
+            except zenoh.ZError as error:  # session already closed
+                log.debug("undeclare: %s", error)
+        self.publishers.clear()
+        if self._journal.recorder is not None:
+            self._journal.recorder.close()
+
+    # -- a step's outputs ----------------------------------------------------
+
+    def write_ahead(self, commands: list[Command]) -> Staged:
+        """Journal a step's outputs; return them, for :meth:`send`.
+
+        The outputs (and what the annotator derives from each) are
+        journaled; with ``--state`` the journal is flushed before this
+        returns, so that none reaches the bus before it is on disk. With a
+        standby, the state is shared first.
+        """
+        if commands:
             # The standby's copy first, so that it never lags behind
             # what the bus has seen (same publisher link, in order).
-            self._share_snapshot()
-        undurable = self._durable and self._journal.fault is not None
+            self.share()
+        undurable = self.durable and self._journal.fault is not None
         outputs = [
             (
                 command.suffix,
@@ -113,7 +222,7 @@ class NodeOutputs:
             for command in commands
             if isinstance(command, Publish)
         ]
-        puts: list[tuple[str, bytes]] = []
+        puts: Staged = []
 
         def stage(
             suffix: str, payload: bytes, message: msgspec.Struct | None
@@ -133,24 +242,74 @@ class NodeOutputs:
 
         for suffix, message in outputs:
             stage(suffix, messages.encode(message), message)
-        if self._durable:
-            self._journal.flush()
-        for command in commands:
-            if not isinstance(command, Publish):
-                self._execute(command)
-        if not self._lease_holds():
-            return  # journaled, never sent: a resume sends it again
+        self.sync()
+        return puts
+
+    def send(self, puts: Staged) -> None:
+        """Publish what :meth:`write_ahead` journaled, then tend the
+        journal (a fault to report or retry, a file to rotate)."""
         for suffix, payload in puts:
-            self._put(suffix, payload)
-        if self._durable:
-            self._watch_journal()
-        if self._durable and self._journal.fault is None:
+            self.put(suffix, payload)
+        self.watch()
+        if self.durable and self._journal.fault is None:
             self._maybe_rotate()
 
-    def _watch_journal(self) -> None:
-        """A journal that cannot be written: say so at once (the bus does
-        not need the disk), go on without durability, try again every
-        :data:`JOURNAL_RETRY_S` in a new part, say when it is back."""
+    def share(self) -> None:
+        """Publish the engine's state if a hot standby wants it."""
+        if self._share_state is not None and self._share_state():
+            self._share_snapshot()
+
+    def publish(self, suffix: str, payload: bytes) -> None:
+        """Journal, publish and annotate one message outside a step."""
+        key = self.topics.key(suffix)
+        self._journal.write(key, payload)
+        self.put(suffix, payload)
+        self.annotate(key, payload)
+
+    def put(self, suffix: str, payload: bytes) -> None:
+        """Publish on the bus only; a failure is logged and counted."""
+        key = self.topics.key(suffix)
+        publisher = self.publishers.get(suffix)
+        try:
+            if publisher is not None:
+                publisher.put(payload)
+            else:
+                self.session.put(key, payload, encoding=JSON)
+            self.publish_failures_in_a_row = 0
+        except FATAL:
+            raise
+        except BaseException as error:  # ZError, or a panic in zenoh
+            # Keep serving; the bus may return.
+            self.publish_failures += 1
+            self.publish_failures_in_a_row += 1
+            log.error(
+                "publish on %s failed: %s: %s",
+                key[:200],
+                type(error).__name__,
+                error,
+            )
+
+    def annotate(
+        self, key: str, payload: bytes, message: msgspec.Struct | None = None
+    ) -> None:
+        """Publish or journal what :class:`Annotator` derives from it."""
+        for item in self._derive(key, payload, message):
+            if item.publish:
+                self.publish(item.suffix, item.payload)
+            else:
+                self._journal.write(self.topics.key(item.suffix), item.payload)
+
+    # -- the journal ---------------------------------------------------------
+
+    def watch(self) -> None:
+        """When durable, tend a journal that cannot be written.
+
+        Say so at once (the bus does not need the disk), go on without
+        durability, try again every :data:`JOURNAL_RETRY_S` in a new
+        part, say when it is back.
+        """
+        if not self.durable:
+            return
         fault = self._journal.fault
         now = time.monotonic()
         if fault is None:
@@ -190,9 +349,9 @@ class NodeOutputs:
             durable=self._journal.fault is None,
         )
         log.warning("%s: %s", event, detail)
-        self._put(topics.STATUS, messages.encode(status))
+        self.put(topics.STATUS, messages.encode(status))
         info = node_info(self.config, self.engine.initial, self._security)
-        self._put(
+        self.put(
             topics.NODE_INFO,
             messages.encode(
                 msgspec.structs.replace(
@@ -203,7 +362,7 @@ class NodeOutputs:
 
     def _share_snapshot(self) -> None:
         """Publish the engine's state for a hot standby."""
-        self._put(topics.SNAPSHOT, messages.encode(self.engine.snapshot()))
+        self.put(topics.SNAPSHOT, messages.encode(self.engine.snapshot()))
 
     def _write_snapshot(self) -> None:
         """The engine's state as the next journal message, on disk."""
@@ -219,9 +378,7 @@ class NodeOutputs:
         limit = self._journal_max_bytes
         if recorder is None or limit is None or recorder.size < limit:
             return
-        if self._thread is None:
-            # Still starting: the file's head must hold what the node says
-            # first (replay expects a resumed node's status in its file).
+        if not self._may_rotate:
             return
         path = recorder.rotate()
         log.info("journal continues in %s", path)
@@ -241,34 +398,6 @@ class NodeOutputs:
         )
         self._write_snapshot()
 
-    def _publish_raw(self, suffix: str, payload: bytes) -> None:
-        key = self.topics.key(suffix)
-        self._journal.write(key, payload)
-        self._put(suffix, payload)
-        self._annotate(key, payload)
-
-    def _put(self, suffix: str, payload: bytes) -> None:
-        key = self.topics.key(suffix)
-        publisher = self._publishers.get(suffix)
-        try:
-            if publisher is not None:
-                publisher.put(payload)
-            else:
-                self.session.put(key, payload, encoding=JSON)
-            self._publish_failures_in_a_row = 0
-        except FATAL:
-            raise
-        except BaseException as error:  # ZError, or a panic in zenoh
-            # Keep serving; the bus may return.
-            self._publish_failures += 1
-            self._publish_failures_in_a_row += 1
-            log.error(
-                "publish on %s failed: %s: %s",
-                key[:200],
-                type(error).__name__,
-                error,
-            )
-
     def _derive(
         self, key: str, payload: bytes, message: msgspec.Struct | None = None
     ) -> list[Any]:
@@ -281,16 +410,6 @@ class NodeOutputs:
         except Exception:  # a visualisation aid must never stop the loop
             log.exception("cannot derive profiles or log from %s", key)
             return []
-
-    def _annotate(
-        self, key: str, payload: bytes, message: msgspec.Struct | None = None
-    ) -> None:
-        """Publish or journal what :class:`Annotator` derives from it."""
-        for item in self._derive(key, payload, message):
-            if item.publish:
-                self._publish_raw(item.suffix, item.payload)
-            else:
-                self._journal.write(self.topics.key(item.suffix), item.payload)
 
     def _describe_journal(self) -> None:
         """Session metadata and attachments at the head of the journal."""

@@ -255,8 +255,9 @@ def test_a_panic_in_a_publish_does_not_kill_the_loop(
     """Tests that a BaseException from zenoh's put is survived per input."""
     h = started
     panic = _panic_type()
-    faulty = _FaultySession(h.node.session, "dispatch/SetPositionK", panic)
-    h.node.session = faulty  # type: ignore[assignment]
+    outputs = h.node._outputs
+    faulty = _FaultySession(outputs.session, "dispatch/SetPositionK", panic)
+    outputs.session = faulty  # type: ignore[assignment]
     plan = h.wait_plan()
     k = next(a for a in plan.activities if a.task == "SetPositionK")
     # Not tick(): it waits for every counted dispatch, and one never goes.
@@ -295,9 +296,10 @@ def test_a_bus_refusing_every_publish_stops_the_node(
     h = started
     panic = _panic_type()
     node = h.node
-    node.session = _FaultySession(node.session, "fsw/", panic)  # type: ignore[assignment]
-    for suffix in list(node._publishers):
-        node._publishers[suffix] = _PanickingPublisher(panic)  # type: ignore[assignment]
+    outputs = node._outputs
+    outputs.session = _FaultySession(outputs.session, "fsw/", panic)  # type: ignore[assignment]
+    for suffix in list(outputs.publishers):
+        outputs.publishers[suffix] = _PanickingPublisher(panic)  # type: ignore[assignment]
     watch = Liveliness(h.client)
     try:
         watch.expect(zenoh.SampleKind.PUT)
