@@ -22,16 +22,11 @@ from typing import TYPE_CHECKING, NamedTuple
 import msgspec
 
 from ..errors import FieldIssue, InputError
-from ..model import problem as model
 from ..model.change import ActivityFailed, Change, ExecutionReport
 from ..model.goal import Goal
 from ..model.levels import _cut_to_capacity, _walk_level, predicted_levels
 from ..model.plan import Activity, Plan, SolveStatus
-from ..model.problem import (
-    Precedence,
-    Problem,
-    validate_problem,
-)
+from ..model.validation import check_use, validate_problem
 from .rules import (
     _forget,
     _latest_start,
@@ -51,6 +46,8 @@ from .schedule import ExecutionState, Replan, Schedule, _spans, empty_plan
 
 if TYPE_CHECKING:
     from collections.abc import Mapping
+
+    from ..model.problem import Precedence, Problem
 
 __all__ = [
     "Drift",
@@ -97,7 +94,7 @@ def _merge_goal(work: _Work, goal: Goal) -> None:
             )
         task = gtask.to_task()
         for name, amount in sorted(task.uses.items()):
-            issues += model._check_use(work.base.resources, name, amount, path)
+            issues += check_use(work.base.resources, name, amount, path)
         if task.length > work.horizon:
             issues.append(
                 FieldIssue(
