@@ -19,8 +19,9 @@ from typing import TYPE_CHECKING
 import msgspec
 
 from ...errors import ConfigError, FieldIssue, InputError, SchedulerError
+from ...model.codec import decode_strict
 from ...model.plan import Plan
-from ...model.problem import Problem, decode_problem, decode_strict
+from ...model.problem import Problem, decode_problem
 
 if TYPE_CHECKING:
     import threading
@@ -294,7 +295,7 @@ def _checked_spacecraft(spacecraft: str) -> str:
 
 def _check_spacecraft(spacecraft: str | None) -> None:
     """Refuse a spacecraft id that is not a key-safe id (exit 2)."""
-    from ...model.problem import id_issue
+    from ...model.limits import id_issue
 
     reason = None if spacecraft is None else id_issue(spacecraft)
     if reason is not None:
