@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from ..model.levels import _task_map
+from ..model.levels import tasks_by_id
 from .style import _LOST, _MEASURED, _PALETTE
 from .timeline import _capacity_note, _fmt
 
@@ -162,7 +162,7 @@ def _draw_lanes(
     A bar is named when the name fits inside it (about 4.3 points per
     character at 7 points, on an axis about 650 points wide).
     """
-    tasks = {**past, **_task_map(problem)}
+    tasks = {**past, **tasks_by_id(problem)}
     units_per_char = 4.3 * max(x_span, 1) / 650
     lanes = list(problem.resources.binary)
     y_of = {name: idx for idx, name in enumerate(lanes)}

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from ..model.levels import _task_map
+from ..model.levels import tasks_by_id
 from .style import (
     _FAILED,
     _NO_BINARY,
@@ -74,7 +74,7 @@ def _draw_tasks(
     ``slots`` is how many rows the panel has room for (at least
     ``len(rows)``), so that pages with fewer rows keep the same pitch.
     """
-    tasks = {**(past or {}), **_task_map(problem)}
+    tasks = {**(past or {}), **tasks_by_id(problem)}
     y_of = {name: idx for idx, name in enumerate(rows)}
     bar_h = 0.62
     reasons = {name: blockers for name, blockers in _left_out(plan)}
@@ -229,7 +229,7 @@ def _draw_legend(
     ``rows`` are all the rows of the chart, not only a page's: every page
     of a chart then has the same legend.
     """
-    tasks = {**past, **_task_map(problem)}
+    tasks = {**past, **tasks_by_id(problem)}
     scheduled = {a.task for a in plan.activities}
     reasons = {name for name, _ in _left_out(plan)}
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from ..model.levels import _task_map, lost_charge, resource_profiles
+from ..model.levels import lost_charge, resource_profiles, tasks_by_id
 
 if TYPE_CHECKING:
     from ..model.plan import Blocker, Plan
@@ -152,7 +152,7 @@ def timeline_text(
     left_out = _left_out(plan)
     if left_out:
         lines += ["", "unscheduled:"]
-        tasks = _task_map(problem)
+        tasks = tasks_by_id(problem)
         for name, blockers in left_out:
             task = tasks.get(name)
             cost = "" if task is None else f" (cost {task.schedule_cost})"
