@@ -36,14 +36,11 @@ from .analysis.check import CheckReport
 from .analysis.check import check_plan as check_typed
 from .errors import FieldIssue, InputError
 from .model.change import ActivityFailed, Change, LevelsMeasured, decode_change
+from .model.codec import decode_strict
 from .model.goal import Goal
 from .model.plan import Plan
-from .model.problem import (
-    Problem,
-    decode_problem,
-    decode_strict,
-    validate_problem,
-)
+from .model.problem import Problem, decode_problem
+from .model.validation import validate_problem
 from .replan.diff import PlanDiff, diff_plans
 from .replan.schedule import Schedule, empty_plan
 from .replan.triggers import apply_change

@@ -41,7 +41,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..errors import ConfigError
-from ..model.problem import id_issue
+from ..model.limits import id_issue
 from ..wire import messages, topics
 
 if TYPE_CHECKING:

@@ -22,7 +22,7 @@ from mcap.records import (
 )
 from mcap.well_known import MessageEncoding
 
-from .recover import _is_finished, _iter_complete_records, _scan_messages
+from .recover import is_finished, iter_complete_records, scan_messages
 
 if TYPE_CHECKING:
     from collections.abc import Mapping, Sequence
@@ -142,7 +142,7 @@ def info(path: PathLike) -> McapInfo:
         The description.
     """
     path = Path(path)
-    if _is_finished(path):
+    if is_finished(path):
         with open(path, "rb") as f:
             summary = make_reader(f).get_summary()
         if summary is not None and summary.statistics is not None:
@@ -177,7 +177,7 @@ def info(path: PathLike) -> McapInfo:
                     for a in _attachments(path)
                 ),
             )
-    schemas, channels_by_id, messages = _scan_messages(path)
+    schemas, channels_by_id, messages = scan_messages(path)
     counts_by_id: dict[int, int] = {}
     for message in messages:
         counts_by_id[message.channel_id] = (
@@ -200,7 +200,7 @@ def info(path: PathLike) -> McapInfo:
     times = [m.log_time for m in messages]
     return McapInfo(
         path=path,
-        finished=_is_finished(path),
+        finished=is_finished(path),
         message_count=len(messages),
         start_ns=min(times, default=0),
         end_ns=max(times, default=0),
@@ -216,11 +216,11 @@ def info(path: PathLike) -> McapInfo:
 def _records_of(path: PathLike, kind: type) -> list[Any]:
     """Every record of ``kind`` in file order, finished file or not."""
     with open(path, "rb") as f:
-        return [r for r in _iter_complete_records(f) if isinstance(r, kind)]
+        return [r for r in iter_complete_records(f) if isinstance(r, kind)]
 
 
 def _attachments(path: PathLike) -> list[Attachment]:
-    if _is_finished(path):
+    if is_finished(path):
         with open(path, "rb") as f:
             return list(make_reader(f).iter_attachments())
     return _records_of(path, Attachment)
@@ -239,7 +239,7 @@ def read_metadata(path: PathLike) -> list[tuple[str, dict[str, str]]]:
     list
         ``(name, {key: value})`` pairs.
     """
-    if _is_finished(path):
+    if is_finished(path):
         with open(path, "rb") as f:
             found = list(make_reader(f).iter_metadata())
     else:

@@ -25,7 +25,7 @@ from mcap.opcode import Opcode
 from mcap.records import Chunk, Message
 from mcap.stream_reader import StreamReader, breakup_chunk
 
-from .writer import _MAGIC, _RECORD_HEAD, PathLike
+from .writer import MCAP_MAGIC, RECORD_HEAD, PathLike
 
 #: The largest record a journal holds (a chunk of messages, or one large
 #: message: a snapshot, an attachment), with room to spare. A length field
@@ -87,27 +87,27 @@ def check_file(path: PathLike) -> FileCheck:
     path = Path(path)
     data = path.read_bytes()
     result = FileCheck(path)
-    if len(data) < len(_MAGIC) and _MAGIC.startswith(data):
+    if len(data) < len(MCAP_MAGIC) and MCAP_MAGIC.startswith(data):
         # A writer killed while it opened the file (rotation, a new run):
         # nothing was written to it, so nothing is lost.
         result.truncated = True
         return result
-    if data[: len(_MAGIC)] != _MAGIC:
+    if data[: len(MCAP_MAGIC)] != MCAP_MAGIC:
         if not any(data):
             result.truncated = True  # zeros only: a power cut at its start
             return result
         result.damage, result.offset = "not an MCAP file (bad magic)", 0
         return result
-    at = len(_MAGIC)
-    ends = data.endswith(_MAGIC) and len(data) >= 2 * len(_MAGIC)
+    at = len(MCAP_MAGIC)
+    ends = data.endswith(MCAP_MAGIC) and len(data) >= 2 * len(MCAP_MAGIC)
     while True:
-        if at + _RECORD_HEAD.size > len(data):
+        if at + RECORD_HEAD.size > len(data):
             result.truncated = at < len(data) or not ends
             if ends:
                 result.damage, result.offset = "ends before its footer", at
             return result
-        opcode, length = _RECORD_HEAD.unpack_from(data, at)
-        end = at + _RECORD_HEAD.size + length
+        opcode, length = RECORD_HEAD.unpack_from(data, at)
+        end = at + RECORD_HEAD.size + length
         if opcode not in _KNOWN or opcode == 0:
             if not ends and not any(data[at:]):
                 result.truncated = True  # zeros after a power cut
@@ -133,7 +133,7 @@ def check_file(path: PathLike) -> FileCheck:
             result.damage, result.offset = issue, at
             return result
         if opcode == Opcode.FOOTER:
-            result.finished = end + len(_MAGIC) == len(data) and ends
+            result.finished = end + len(MCAP_MAGIC) == len(data) and ends
             issue = _summary_issue(data, at)
             if issue is not None:
                 result.damage, result.offset = issue, at
@@ -163,7 +163,7 @@ def _record_issue(
         if isinstance(record, Chunk):
             # The inner length a reader trusts to allocate: it must be
             # what the record holds.
-            field = at + _RECORD_HEAD.size + 28
+            field = at + RECORD_HEAD.size + 28
             field += 4 + len(record.compression.encode())
             (declared,) = struct.unpack_from("<Q", data, field)
             if declared != len(record.data):
@@ -182,7 +182,7 @@ def _record_issue(
 
 def _summary_issue(data: bytes, footer_at: int) -> str | None:
     """Check the summary section against the footer's CRC."""
-    body = footer_at + _RECORD_HEAD.size
+    body = footer_at + RECORD_HEAD.size
     summary_start, _offsets_start, crc = _FOOTER.unpack_from(data, body)
     if summary_start == 0 or crc == 0:
         return None  # no summary, or no CRC written

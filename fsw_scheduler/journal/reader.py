@@ -17,7 +17,7 @@ from mcap.exceptions import McapError as McapError
 from mcap.reader import make_reader
 from mcap.well_known import MessageEncoding
 
-from .recover import _is_finished, _scan_messages
+from .recover import is_finished, scan_messages
 from .writer import (
     JSON_ENCODING,
     ZENOH_ENCODING_KEY,
@@ -88,8 +88,8 @@ def _iter_one(
     start_ns: int | None,
     end_ns: int | None,
 ) -> Iterator[RecordedMessage]:
-    if not _is_finished(path):
-        _schemas, channels, messages = _scan_messages(path)
+    if not is_finished(path):
+        _schemas, channels, messages = scan_messages(path)
         messages.sort(key=lambda m: m.log_time)  # stable: keeps file order
         for m in messages:
             channel = channels[m.channel_id]

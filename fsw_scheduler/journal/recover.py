@@ -27,7 +27,7 @@ from mcap.records import (
 from mcap.stream_reader import StreamReader, breakup_chunk
 from mcap.writer import CompressionType, Writer
 
-from .writer import _LIBRARY, _MAGIC, _RECORD_HEAD, PathLike
+from .writer import LIBRARY, MCAP_MAGIC, RECORD_HEAD, PathLike
 
 if TYPE_CHECKING:
     from collections.abc import Iterator, Sequence
@@ -35,21 +35,24 @@ if TYPE_CHECKING:
     from mcap.records import McapRecord
 
 __all__ = [
+    "is_finished",
+    "iter_complete_records",
     "recover",
+    "scan_messages",
 ]
 
 
-def _is_finished(path: PathLike) -> bool:
+def is_finished(path: PathLike) -> bool:
     """Whether a file ends with the closing magic (it has a footer)."""
     with open(path, "rb") as f:
         f.seek(0, io.SEEK_END)
-        if f.tell() < 2 * len(_MAGIC):
+        if f.tell() < 2 * len(MCAP_MAGIC):
             return False
-        f.seek(-len(_MAGIC), io.SEEK_END)
-        return f.read(len(_MAGIC)) == _MAGIC
+        f.seek(-len(MCAP_MAGIC), io.SEEK_END)
+        return f.read(len(MCAP_MAGIC)) == MCAP_MAGIC
 
 
-def _iter_complete_records(stream: IO[bytes]) -> Iterator[McapRecord]:
+def iter_complete_records(stream: IO[bytes]) -> Iterator[McapRecord]:
     """Yield every complete, well-formed record up to the first defect.
 
     Framing is checked before parsing (the whole record body must be
@@ -57,17 +60,17 @@ def _iter_complete_records(stream: IO[bytes]) -> Iterator[McapRecord]:
     the footer or at the first truncated or damaged record: on a file cut
     by a crash that is the end of the last write that reached the OS.
     """
-    magic = stream.read(len(_MAGIC))
-    if magic != _MAGIC:
-        if len(magic) < len(_MAGIC) and _MAGIC.startswith(magic):
+    magic = stream.read(len(MCAP_MAGIC))
+    if magic != MCAP_MAGIC:
+        if len(magic) < len(MCAP_MAGIC) and MCAP_MAGIC.startswith(magic):
             return  # killed while the magic was written: nothing after it
         raise McapError("not an MCAP file: bad magic")
     known = {int(op) for op in Opcode}
     while True:
-        head = stream.read(_RECORD_HEAD.size)
-        if len(head) < _RECORD_HEAD.size:
+        head = stream.read(RECORD_HEAD.size)
+        if len(head) < RECORD_HEAD.size:
             return
-        opcode, length = _RECORD_HEAD.unpack(head)
+        opcode, length = RECORD_HEAD.unpack(head)
         if opcode == 0 or opcode not in known:
             return  # zeros after a power cut, or garbage
         body = stream.read(length)
@@ -90,14 +93,24 @@ def _iter_complete_records(stream: IO[bytes]) -> Iterator[McapRecord]:
             return
 
 
-def _scan_messages(
+def scan_messages(
     path: PathLike,
 ) -> tuple[dict[int, Schema], dict[int, Channel], list[Message]]:
+    """Every complete schema, channel and message of a file, even unfinished.
+
+    Read with :func:`iter_complete_records`, up to the first defect; a
+    message of a channel not (yet) declared is left out.
+
+    Returns
+    -------
+    schemas, channels, messages
+        Schemas and channels by id, and the messages in file order.
+    """
     schemas: dict[int, Schema] = {}
     channels: dict[int, Channel] = {}
     messages: list[Message] = []
     with open(path, "rb") as f:
-        for record in _iter_complete_records(f):
+        for record in iter_complete_records(f):
             if isinstance(record, Schema):
                 schemas[record.id] = record
             elif isinstance(record, Channel):
@@ -151,8 +164,8 @@ def recover(
     channels: dict[int, Channel] = {}
     with open(src, "rb") as fin, open(dst, "wb") as fout:
         writer = Writer(fout, compression=CompressionType.ZSTD)
-        writer.start(profile="", library=_LIBRARY)
-        for record in _iter_complete_records(fin):
+        writer.start(profile="", library=LIBRARY)
+        for record in iter_complete_records(fin):
             if isinstance(record, Schema):
                 if record.id not in schema_map:
                     schema_map[record.id] = writer.register_schema(

@@ -24,7 +24,7 @@ import msgspec
 
 from ..errors import FieldIssue, InputError
 from .integrity import FileCheck, check_folder
-from .recover import _is_finished, recover
+from .recover import is_finished, recover
 from .replay import Rebuilt, rebuild
 
 if TYPE_CHECKING:
@@ -308,7 +308,7 @@ def _set_aside(folder: Path, files: list[Path], why: str) -> list[Path]:
 
 def _finish_truncated(path: Path) -> bool:
     """Rewrite a file a killed writer left without its footer."""
-    if _is_finished(path):
+    if is_finished(path):
         return False
     scratch = path.with_name(path.name + ".recovering")
     kept = recover(path, scratch)

@@ -71,10 +71,13 @@ SchemaSource = (
 PathLike = str | os.PathLike[str]
 
 
-_MAGIC = b"\x89MCAP0\r\n"
+#: The MCAP magic: the first and the last bytes of a finished file.
+MCAP_MAGIC = b"\x89MCAP0\r\n"
 
 
-_RECORD_HEAD = struct.Struct("<BQ")
+#: The head of every MCAP record: opcode (1 byte), body length (8 bytes,
+#: little-endian).
+RECORD_HEAD = struct.Struct("<BQ")
 
 
 _COMPRESSION = {
@@ -84,7 +87,8 @@ _COMPRESSION = {
 }
 
 
-_LIBRARY = "fsw_scheduler.recording"
+#: The library named in the header of every file the journal writes.
+LIBRARY = "fsw_scheduler.recording"
 
 
 JSON_ENCODING = "application/json"
@@ -521,7 +525,7 @@ class Recorder:
             chunk_size=self._chunk_size,
             compression=self._compression,
         )
-        self._writer.start(profile="", library=_LIBRARY)
+        self._writer.start(profile="", library=LIBRARY)
         self.paths.append(path)
         self._channel_ids = {}
         self._schema_ids = {}

@@ -6,4 +6,4 @@ clock, starts no thread.
 
 # Named by the goal format's documentation (and so by the published JSON
 # Schemas, which carry it): ``fsw_scheduler.model.id_issue``.
-from .problem import id_issue as id_issue
+from .limits import id_issue as id_issue

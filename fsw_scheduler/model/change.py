@@ -13,10 +13,8 @@ from typing import Literal
 
 import msgspec
 
+from .codec import decode_strict
 from .goal import Goal, decode_goal
-from .problem import (
-    decode_strict,
-)
 
 __all__ = [
     "ActivityFailed",

@@ -15,17 +15,19 @@ from __future__ import annotations
 import msgspec
 
 from ..errors import FieldIssue, InputError
-from . import problem as model
+from .codec import read_strict
+from .limits import MAX_TIME, id_issue, key_path
 from .problem import (
+    Consumable,
     Id,
     Instant,
     Precedence,
     Problem,
     Resources,
     Task,
-    read_strict,
 )
 from .strict import under
+from .validation import check_task, duplicate_ids
 
 __all__ = ["Goal", "GoalTask", "decode_goal", "validate_goal"]
 
@@ -84,7 +86,7 @@ class Goal(msgspec.Struct, frozen=True, omit_defaults=True):
         )
 
 
-# Issues of model._check_task that depend on the running problem (resource
+# Issues of check_task that depend on the running problem (resource
 # names, the horizon, the window reading) are left to the merge.
 _MERGE_ONLY = (".uses.", ".feasible_interval", ".fixed_start")
 
@@ -103,18 +105,18 @@ def validate_goal(goal: Goal) -> list[FieldIssue]:
         Paths are relative to the goal document (``tasks[0].length``).
     """
     issues: list[FieldIssue] = []
-    reason = model.id_issue(goal.goal_id)
+    reason = id_issue(goal.goal_id)
     if reason is not None:
         issues.append(FieldIssue("goal_id", f"goal id {reason}"))
     for name in ("issued_at", "not_after"):
         value = getattr(goal, name)
-        if value is not None and not 0 <= value <= model.MAX_TIME:
+        if value is not None and not 0 <= value <= MAX_TIME:
             issues.append(
-                FieldIssue(name, f"{value} is outside [0, {model.MAX_TIME}]")
+                FieldIssue(name, f"{value} is outside [0, {MAX_TIME}]")
             )
     # A permissive stand-in problem: every used resource declared, a horizon
     # long enough for any length, so only per-task rules speak.
-    used: dict[str, float | model.Consumable] = {
+    used: dict[str, float | Consumable] = {
         name: 0.0 for t in goal.tasks for name in t.uses
     }
     lengths = [t.length for t in goal.tasks if t.length > 0]
@@ -123,25 +125,25 @@ def validate_goal(goal: Goal) -> list[FieldIssue]:
         tasks=(),
         resources=Resources(consumable=used),
     )
-    issues += model.duplicate_ids(goal.tasks)
+    issues += duplicate_ids(goal.tasks)
     for idx, task in enumerate(goal.tasks):
         path = f"tasks[{idx}]"
         issues += [
             issue
-            for issue in model._check_task(stand_in, task.to_task(), path)
+            for issue in check_task(stand_in, task.to_task(), path)
             if not any(part in issue.path for part in _MERGE_ONLY)
         ]
         for name in task.uses:
-            reason = model.id_issue(name)
+            reason = id_issue(name)
             if reason is not None:
                 issues.append(
                     FieldIssue(
-                        model.key_path(f"{path}.uses", name),
+                        key_path(f"{path}.uses", name),
                         f"resource name {reason}",
                     )
                 )
         for pos, name in enumerate(task.obsoletes):
-            reason = model.id_issue(name)
+            reason = id_issue(name)
             if reason is not None:
                 issues.append(
                     FieldIssue(f"{path}.obsoletes[{pos}]", f"task id {reason}")
@@ -157,7 +159,7 @@ def validate_goal(goal: Goal) -> list[FieldIssue]:
                 )
     for idx, prec in enumerate(goal.precedences):
         for end in ("before", "after"):
-            reason = model.id_issue(getattr(prec, end))
+            reason = id_issue(getattr(prec, end))
             if reason is not None:
                 issues.append(
                     FieldIssue(

@@ -22,9 +22,14 @@ if TYPE_CHECKING:
     from .problem import Problem, Task
 
 __all__ = [
+    "check_now",
+    "cut_to_capacity",
+    "levels_at",
     "lost_charge",
     "predicted_levels",
     "resource_profiles",
+    "tasks_by_id",
+    "walk_level",
 ]
 
 
@@ -52,16 +57,42 @@ def predicted_levels(
     dict
         Resource name to level, for every consumable resource.
     """
-    _check_now(problem, now)
-    runs = {
-        a.task: max(0, min(a.end, now) - a.start)
-        for a in plan.activities
-        if a.start < now
-    }
+    check_now(problem, now)
     spans = {
         a.task: (a.start, min(a.end, now))
         for a in plan.activities
         if a.start < now
+    }
+    return levels_at(problem, spans, now)
+
+
+def levels_at(
+    problem: Problem, spans: Mapping[str, tuple[int, int]], now: int
+) -> dict[str, float]:
+    """Consumable levels at the start of ``now``, given what ran before.
+
+    The one computation behind :func:`predicted_levels` (a plan run as
+    planned) and the execution state of a replan (the plan corrected by
+    the reports): ``initial - amount * units run`` for a consumable
+    without a capacity, the level walked unit by unit for one with a
+    capacity (:func:`walk_level`).
+
+    Parameters
+    ----------
+    problem
+        The problem the tasks belong to (initial levels, capacities, uses).
+    spans
+        Task id to the units ``[since, until)`` it ran, all before ``now``.
+    now
+        Time unit, ``>= problem.start``.
+
+    Returns
+    -------
+    dict
+        Resource name to level, for every consumable resource.
+    """
+    runs = {
+        task: max(0, until - since) for task, (since, until) in spans.items()
     }
     return _capped(problem, _levels(problem, runs), spans, now)
 
@@ -90,7 +121,7 @@ def _capped(
     walked unit by unit from the problem's start.
     """
     for name, top in problem.resources.ceilings.items():
-        levels[name] = _walk_level(
+        levels[name] = walk_level(
             problem,
             spans,
             name,
@@ -101,7 +132,7 @@ def _capped(
     return levels
 
 
-def _walk_level(
+def walk_level(
     problem: Problem,
     spans: Mapping[str, tuple[int, int]],
     name: str,
@@ -109,9 +140,28 @@ def _walk_level(
     window: tuple[int, int],
     top: float,
 ) -> float:
-    """Level of ``name`` at the start of ``window[1]`` from ``level`` at
-    the start of ``window[0]``: ``min(top, level - net use)`` per unit,
-    the units each task ran given by ``spans`` (``[since, until)``).
+    """The level of a consumable with a capacity, walked over a window.
+
+    Parameters
+    ----------
+    problem
+        The problem the tasks belong to (their uses of ``name``).
+    spans
+        Task id to the units ``[since, until)`` it ran.
+    name
+        The consumable.
+    level
+        Its level at the start of ``window[0]``.
+    window
+        The units ``[first, last)`` to walk.
+    top
+        Its capacity.
+
+    Returns
+    -------
+    float
+        The level at the start of ``window[1]``: ``min(top, level - net
+        use)`` unit by unit (:func:`walk`).
     """
     first, last = window
     rates = [0.0] * max(0, last - first)
@@ -160,7 +210,7 @@ def walk(
     return levels, lost
 
 
-def _cut_to_capacity(
+def cut_to_capacity(
     problem: Problem, levels: Mapping[str, float]
 ) -> dict[str, float]:
     """``levels`` with each one above its consumable's capacity cut to it.
@@ -175,7 +225,14 @@ def _cut_to_capacity(
     }
 
 
-def _check_now(problem: Problem, now: int) -> None:
+def check_now(problem: Problem, now: int) -> None:
+    """Refuse a ``now`` before the problem's start.
+
+    Raises
+    ------
+    InputError
+        At path ``now``, for the ``replan`` document.
+    """
     if now < problem.start:
         raise InputError(
             [
@@ -188,14 +245,15 @@ def _check_now(problem: Problem, now: int) -> None:
         )
 
 
-def _task_map(problem: Problem) -> dict[str, Task]:
+def tasks_by_id(problem: Problem) -> dict[str, Task]:
+    """Every task of ``problem`` by its id, in problem order."""
     return {task.id: task for task in problem.tasks}
 
 
 def _known_activities(
     problem: Problem, activities: Iterable[Activity]
 ) -> list[tuple[Activity, Task]]:
-    tasks = _task_map(problem)
+    tasks = tasks_by_id(problem)
     pairs = []
     for activity in activities:
         task = tasks.get(activity.task)

@@ -47,7 +47,48 @@ if TYPE_CHECKING:
 
 
 @dataclass
-class _Work:
+class Work:
+    """What the rules of one replan work on, and what they record.
+
+    Built by :func:`start_work` from the schedule; each ``rule_*`` reads and
+    changes it in turn, and the triggers build the new problem from it.
+
+    Attributes
+    ----------
+    now
+        The time unit of the replan: the start of the new problem.
+    horizon
+        Length of the new problem's window.
+    base
+        The current problem (resources, window reading).
+    tasks
+        The live tasks, by id: what the new problem will hold.
+    precedences
+        The live precedences.
+    catalog, catalog_precedences
+        Every task and precedence ever accepted, for re-adding.
+    history
+        The past executions.
+    obsolete
+        Ids made obsolete by goals.
+    removed
+        The tasks taken out, with the rule that did it.
+    pinned
+        Running tasks that cannot be preempted: fixed at their start.
+    rescheduled
+        Preempted or failed tasks planned again.
+    readded
+        Executed tight partners brought back from the catalog.
+    deferred
+        Tasks kept aside, beyond the horizon.
+    runs
+        Task id to the units ``[start, end)`` its finished execution ran.
+    keep_running
+        Whether every running task continues, as if non-preemptible (a
+        replan that only corrects the world, see
+        :func:`rule_running_preemption`).
+    """
+
     now: int
     horizon: int
     base: Problem
@@ -85,14 +126,15 @@ class _Work:
         )
 
 
-def _start_work(schedule: Schedule, now: int) -> _Work:
+def start_work(schedule: Schedule, now: int) -> Work:
+    """The rules' working state for a replan of ``schedule`` at ``now``."""
     tasks = {t.id: t for t in (*schedule.problem.tasks, *schedule.deferred)}
     runs = {
         e.task: (e.start, e.end)
         for e in schedule.history
         if e.outcome == "completed"
     }
-    return _Work(
+    return Work(
         now=now,
         horizon=schedule.horizon,
         base=schedule.problem,
@@ -106,7 +148,7 @@ def _start_work(schedule: Schedule, now: int) -> _Work:
     )
 
 
-def rule_finished_leave(work: _Work, state: ExecutionState) -> list[str]:
+def rule_finished_leave(work: Work, state: ExecutionState) -> list[str]:
     """Finished tasks leave the problem (rule ``finished``).
 
     Paper, "Online rescheduling": the new activities "must be co-scheduled
@@ -135,7 +177,7 @@ def rule_finished_leave(work: _Work, state: ExecutionState) -> list[str]:
 
 
 def rule_failed_activity(
-    work: _Work, state: ExecutionState, task_id: str
+    work: Work, state: ExecutionState, task_id: str
 ) -> list[str]:
     """A failed activity is handled by its preemption policy.
 
@@ -174,7 +216,7 @@ def rule_failed_activity(
     return []
 
 
-def rule_running_preemption(work: _Work, state: ExecutionState) -> list[str]:
+def rule_running_preemption(work: Work, state: ExecutionState) -> list[str]:
     """Running tasks are treated by their preemption policy.
 
     Paper, "Online rescheduling", the four behaviours for running tasks:
@@ -233,7 +275,7 @@ def rule_running_preemption(work: _Work, state: ExecutionState) -> list[str]:
     return seeds
 
 
-def rule_obsolete(work: _Work, goal: Goal) -> list[str]:
+def rule_obsolete(work: Work, goal: Goal) -> list[str]:
     """A goal's ``obsoletes`` remove tasks from the pending list.
 
     Paper, "Online rescheduling", last case: a new goal can make tasks
@@ -283,11 +325,11 @@ def rule_obsolete(work: _Work, goal: Goal) -> list[str]:
         raise InputError(issues, "goal")
     for name in goal.obsoleted:
         if name not in work.pinned:
-            _forget(work, name)
+            forget(work, name)
     return seeds
 
 
-def rule_removal_cascade(work: _Work, seeds: Sequence[str]) -> None:
+def rule_removal_cascade(work: Work, seeds: Sequence[str]) -> None:
     """Removal follows tight constraints; lax constraints are dropped.
 
     Paper, "Online rescheduling": "When a task is removed from the
@@ -362,7 +404,7 @@ def cascade(
     return kept
 
 
-def rule_tight_chain(work: _Work) -> None:
+def rule_tight_chain(work: Work) -> None:
     """A preempted task that is rescheduled brings its tight chain along.
 
     Paper, "Online rescheduling": "When an activity that belongs to a
@@ -415,7 +457,7 @@ def rule_tight_chain(work: _Work) -> None:
             present.add(prec)
 
 
-def rule_settled_precedences(work: _Work) -> tuple[list[str], list[str]]:
+def rule_settled_precedences(work: Work) -> tuple[list[str], list[str]]:
     """Precedences touching a finished task are dropped.
 
     Paper, "Online rescheduling": only tasks "not already executed" are
@@ -469,7 +511,7 @@ def rule_settled_precedences(work: _Work) -> tuple[list[str], list[str]]:
     return [n for n in redo if n in work.tasks], list(seeds)
 
 
-def rule_window_passed(work: _Work) -> list[str]:
+def rule_window_passed(work: Work) -> list[str]:
     """Tasks whose feasible interval has passed are removed.
 
     Paper, "Scheduling problem definition": the start is bounded to the
@@ -487,7 +529,7 @@ def rule_window_passed(work: _Work) -> list[str]:
     for task in list(work.tasks.values()):
         if task.id in work.pinned:
             continue
-        latest = _latest_start(frame, task)
+        latest = latest_start(frame, task)
         if latest < work.now:
             work.remove(
                 task.id,
@@ -498,7 +540,7 @@ def rule_window_passed(work: _Work) -> list[str]:
     return seeds
 
 
-def rule_defer_beyond_horizon(work: _Work) -> None:
+def rule_defer_beyond_horizon(work: Work) -> None:
     """Tasks that fit only after the horizon are kept aside.
 
     Not in the paper, whose horizon is fixed; with a rolling horizon, a
@@ -537,21 +579,23 @@ def _unpinned(task: Task, length: int | None = None) -> Task:
     )
 
 
-def _forget(work: _Work, name: str) -> None:
+def forget(work: Work, name: str) -> None:
+    """Drop task ``name`` from the catalog, with its precedences, so that
+    it is never re-added (it is obsolete, or its id is reused)."""
     work.catalog.pop(name, None)
     work.catalog_precedences = [
         p for p in work.catalog_precedences if name not in (p.before, p.after)
     ]
 
 
-def _latest_start(frame: Problem, task: Task) -> int:
+def latest_start(frame: Problem, task: Task) -> int:
     """Last start allowed by window and pin, ignoring the horizon end."""
     open_ended = frame.replace(horizon=10**9)
     return open_ended.start_bounds(task)[1]
 
 
 def _bounded(
-    work: _Work, task: Task, low: int, high: int | None
+    work: Work, task: Task, low: int, high: int | None
 ) -> Task | None:
     """``task`` with its start also kept in ``[low, high]``, None if empty."""
     open_ended = work.frame().replace(horizon=10**9)

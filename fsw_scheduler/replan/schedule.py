@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Literal
 import msgspec
 
 from ..model.change import ExecutionReport, Outcome, Removal
-from ..model.levels import _capped, _check_now, _cut_to_capacity, _levels
+from ..model.levels import check_now, cut_to_capacity, levels_at
 from ..model.plan import Activity, Objective, Plan, SolveStatus
 from ..model.problem import (
     Precedence,
@@ -33,6 +33,7 @@ __all__ = [
     "TaskState",
     "empty_plan",
     "execution_state",
+    "run_spans",
 ]
 
 
@@ -131,7 +132,7 @@ def execution_state(
     -------
     ExecutionState
     """
-    _check_now(problem, now)
+    check_now(problem, now)
     continuing = set(continuing)
     latest: dict[str, ExecutionReport] = {}
     for report in sorted(reports, key=lambda r: r.at):
@@ -145,14 +146,9 @@ def execution_state(
         if reported is not None:
             state = _reported_state(task, act, now, reported, problem.start)
         states.append(state)
-    runs = {
-        s.task: (s.until if s.until is not None else now) - s.since
-        for s in states
-        if s.since is not None
-    }
-    levels = _capped(problem, _levels(problem, runs), _spans(states, now), now)
+    levels = levels_at(problem, run_spans(states, now), now)
     if measured:
-        levels.update(_cut_to_capacity(problem, measured))
+        levels.update(cut_to_capacity(problem, measured))
     return ExecutionState(now=now, tasks=tuple(states), levels=levels)
 
 
@@ -192,11 +188,24 @@ def _reported_state(
     return TaskState(task.id, "running", since, done=done)
 
 
-def _spans(
+def run_spans(
     states: Iterable[TaskState], now: int
 ) -> dict[str, tuple[int, int]]:
     """Task to the units ``[since, until)`` it ran (until ``now`` if it
-    still runs), as :func:`execution_state` counts them."""
+    still runs), as :func:`execution_state` counts them.
+
+    Parameters
+    ----------
+    states
+        The tasks' states at ``now`` (:attr:`ExecutionState.tasks`).
+    now
+        The time unit of the states.
+
+    Returns
+    -------
+    dict
+        Task id to its span, for every task that has started.
+    """
     return {
         s.task: (s.since, s.until if s.until is not None else now)
         for s in states

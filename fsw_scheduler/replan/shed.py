@@ -33,11 +33,12 @@ from typing import TYPE_CHECKING
 import msgspec
 
 from ..model.change import Removal
+from ..model.limits import MAX_COST
 from ..model.plan import Blocker, Plan
-from ..model.problem import MAX_COST, Problem, Task
 from .rules import cascade
 
 if TYPE_CHECKING:
+    from ..model.problem import Problem, Task
     from .schedule import Replan
 
 #: Cost of losing a mandatory task in the shedding problem.

@@ -22,21 +22,15 @@ from typing import TYPE_CHECKING, NamedTuple
 import msgspec
 
 from ..errors import FieldIssue, InputError
-from ..model import problem as model
 from ..model.change import ActivityFailed, Change, ExecutionReport
 from ..model.goal import Goal
-from ..model.levels import _cut_to_capacity, _walk_level, predicted_levels
+from ..model.levels import cut_to_capacity, predicted_levels, walk_level
 from ..model.plan import Activity, Plan, SolveStatus
-from ..model.problem import (
-    Precedence,
-    Problem,
-    validate_problem,
-)
+from ..model.validation import check_use, validate_problem
 from .rules import (
-    _forget,
-    _latest_start,
-    _start_work,
-    _Work,
+    Work,
+    forget,
+    latest_start,
     rule_defer_beyond_horizon,
     rule_failed_activity,
     rule_finished_leave,
@@ -46,11 +40,20 @@ from .rules import (
     rule_settled_precedences,
     rule_tight_chain,
     rule_window_passed,
+    start_work,
 )
-from .schedule import ExecutionState, Replan, Schedule, _spans, empty_plan
+from .schedule import (
+    ExecutionState,
+    Replan,
+    Schedule,
+    empty_plan,
+    run_spans,
+)
 
 if TYPE_CHECKING:
     from collections.abc import Mapping
+
+    from ..model.problem import Precedence, Problem
 
 __all__ = [
     "Drift",
@@ -63,7 +66,7 @@ __all__ = [
 ]
 
 
-def _merge_goal(work: _Work, goal: Goal) -> None:
+def _merge_goal(work: Work, goal: Goal) -> None:
     """Add the goal's tasks and precedences, or reject the goal.
 
     Raises
@@ -97,7 +100,7 @@ def _merge_goal(work: _Work, goal: Goal) -> None:
             )
         task = gtask.to_task()
         for name, amount in sorted(task.uses.items()):
-            issues += model._check_use(work.base.resources, name, amount, path)
+            issues += check_use(work.base.resources, name, amount, path)
         if task.length > work.horizon:
             issues.append(
                 FieldIssue(
@@ -105,7 +108,7 @@ def _merge_goal(work: _Work, goal: Goal) -> None:
                     f"length {task.length} exceeds the horizon {work.horizon}",
                 )
             )
-        elif _latest_start(frame, task) < work.now:
+        elif latest_start(frame, task) < work.now:
             where = (
                 "fixed_start"
                 if task.fixed_start is not None
@@ -133,7 +136,7 @@ def _merge_goal(work: _Work, goal: Goal) -> None:
         raise InputError(issues, "goal")
     for gtask in goal.tasks:
         task = gtask.to_task()
-        _forget(work, task.id)  # an id reused for a new task
+        forget(work, task.id)  # an id reused for a new task
         work.tasks[task.id] = task
         work.catalog[task.id] = task
         if task.id in work.obsolete:
@@ -320,7 +323,7 @@ def drift(
     """
     tolerance = tolerance or Tolerance()
     predicted = predicted_levels(problem, plan, now)
-    measured = _cut_to_capacity(problem, measured)
+    measured = cut_to_capacity(problem, measured)
     return [
         Drift(name, predicted[name], float(measured[name]))
         for name in sorted(measured)
@@ -357,9 +360,9 @@ def _levels_at(
             0.0,
             level + later.levels[name] - then[name]
             if name not in ceilings
-            else _walk_level(
+            else walk_level(
                 problem,
-                _spans(later.tasks, now),
+                run_spans(later.tasks, now),
                 name,
                 level,
                 (at, now),
@@ -379,7 +382,7 @@ def _replan(
     keep_running: bool = False,
 ) -> Replan:
     state = schedule.state(now, measured)
-    work = _start_work(schedule, now)
+    work = start_work(schedule, now)
     work.keep_running = keep_running
     rule_finished_leave(work, state)
     seeds = []
@@ -414,7 +417,7 @@ def _replan(
 
 def _finish(
     schedule: Schedule,
-    work: _Work,
+    work: Work,
     state: ExecutionState,
     goal: Goal | None,
 ) -> Replan:

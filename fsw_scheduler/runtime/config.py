@@ -26,7 +26,7 @@ from typing import Literal
 import msgspec
 
 from ..errors import ConfigError, FieldIssue
-from ..model.problem import id_issue
+from ..model.limits import id_issue
 from ..replan.triggers import Tolerance
 
 

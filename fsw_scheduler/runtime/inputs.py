@@ -26,7 +26,7 @@ from ..engine.events import (
     Tick,
 )
 from ..errors import FieldIssue, InputError
-from ..model.problem import MAX_ID_LENGTH, MAX_TIME
+from ..model.limits import MAX_ID_LENGTH, MAX_TIME
 from ..wire import messages
 from ..wire.topics import GOALS, Topics, input_kind
 

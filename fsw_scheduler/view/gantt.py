@@ -21,15 +21,15 @@ from typing import TYPE_CHECKING, Any
 
 from ..model.levels import lost_charge, resource_profiles
 from .gantt_panels import (
-    _draw_consumable,
-    _draw_lanes,
-    _draw_measured,
-    _draw_multiple,
+    draw_consumable,
+    draw_lanes,
+    draw_measured,
+    draw_multiple,
 )
-from .gantt_rows import _draw_legend, _draw_removed, _draw_tasks, _row_ids
+from .gantt_rows import draw_legend, draw_removed, draw_tasks, row_ids
 from .pages import ROWS_PER_PAGE, Page, page_path, split_rows
-from .style import _NOW, _load_matplotlib
-from .timeline import _objective_line
+from .style import NOW_COLOUR, load_matplotlib
+from .timeline import objective_line
 
 if TYPE_CHECKING:
     from collections.abc import Collection, Mapping, Sequence
@@ -168,10 +168,10 @@ def gantt(
         If a plan activity names a task that is not in the problem, or
         ``rows_per_page`` is below 1.
     """
-    Figure, FigureCanvasAgg, Patch = _load_matplotlib()
+    Figure, FigureCanvasAgg, Patch = load_matplotlib()
     history = list(history or ())
     removed = dict(removed or {})
-    rows = _row_ids(problem, history, plan)
+    rows = row_ids(problem, history, plan)
     rows += [name for name in removed if name not in rows]
     x_lo = min([problem.start, *(a.start for a in history)])
     x_hi = max([problem.end, *(a.end for a in history)])
@@ -235,7 +235,7 @@ def _draw_page(
 
     now = chart.now
     task_ax = axes[0]
-    _draw_tasks(
+    draw_tasks(
         task_ax,
         problem,
         chart.plan,
@@ -247,10 +247,10 @@ def _draw_page(
         slots,
     )
     if chart.removed:
-        _draw_removed(
+        draw_removed(
             task_ax, rows, chart.removed, chart.previous, now, chart.plan
         )
-    _draw_legend(
+    draw_legend(
         task_ax,
         problem,
         chart.plan,
@@ -262,7 +262,7 @@ def _draw_page(
     panels = list(axes[1:])
     x_lo, x_hi = chart.x_range
     if lanes:
-        _draw_lanes(
+        draw_lanes(
             panels.pop(0),
             problem,
             chart.plan,
@@ -273,13 +273,13 @@ def _draw_page(
         )
     for ax, name in zip(panels, names, strict=True):
         if name in problem.resources.multiple:
-            _draw_multiple(ax, problem, name, chart.profiles[name])
+            draw_multiple(ax, problem, name, chart.profiles[name])
         else:
-            _draw_consumable(
+            draw_consumable(
                 ax, problem, name, chart.profiles[name], chart.lost.get(name)
             )
             if chart.measured.get(name):
-                _draw_measured(ax, chart.measured[name])
+                draw_measured(ax, chart.measured[name])
 
     def ticks() -> Any:
         return MaxNLocator(nbins=20, integer=True, steps=[1, 2, 5, 10])
@@ -292,7 +292,9 @@ def _draw_page(
         for side in ("top", "right"):
             ax.spines[side].set_visible(False)
         if now is not None:
-            ax.axvline(now, color=_NOW, linewidth=1.4, linestyle="-", zorder=5)
+            ax.axvline(
+                now, color=NOW_COLOUR, linewidth=1.4, linestyle="-", zorder=5
+            )
     # The time axis above the rows too (the same locator, so the same
     # ticks), and its labels under the rows even when panels follow.
     top = task_ax.secondary_xaxis("top")
@@ -305,12 +307,12 @@ def _draw_page(
             xycoords=("data", "axes fraction"),
             xytext=(3, 16),  # above the top axis's labels
             textcoords="offset points",
-            color=_NOW,
+            color=NOW_COLOUR,
             fontsize=9,
             va="bottom",
         )
     axes[-1].set_xlabel("time (units)")
-    heading = _objective_line(chart.plan)
+    heading = objective_line(chart.plan)
     lines = [chart.title, heading] if chart.title else [f"Plan: {heading}"]
     if page.count > 1:
         lines.append(page.heading)

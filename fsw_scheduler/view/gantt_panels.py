@@ -8,9 +8,9 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from ..model.levels import _task_map
-from .style import _LOST, _MEASURED, _PALETTE
-from .timeline import _capacity_note, _fmt
+from ..model.levels import tasks_by_id
+from .style import LOST_COLOUR, MEASURED_COLOUR, PALETTE
+from .timeline import capacity_note, short_number
 
 if TYPE_CHECKING:
     from collections.abc import Mapping, Sequence
@@ -18,7 +18,12 @@ if TYPE_CHECKING:
     from ..model.plan import Activity, Plan
     from ..model.problem import Problem, Task
 
-__all__: list[str] = []
+__all__ = [
+    "draw_consumable",
+    "draw_lanes",
+    "draw_measured",
+    "draw_multiple",
+]
 
 
 def _edges(problem: Problem) -> list[int]:
@@ -41,7 +46,7 @@ def _label(ax: Any, text: str) -> None:
     )
 
 
-def _draw_multiple(
+def draw_multiple(
     ax: Any, problem: Problem, name: str, usage: list[float]
 ) -> None:
     """Usage per time unit as stairs, capacity as a dashed line."""
@@ -65,12 +70,12 @@ def _draw_multiple(
     ax.set_ylabel("use", fontsize=8)
     _label(
         ax,
-        f"{name}  (capacity {_fmt(capacity)}, "
-        f"peak {_fmt(max(usage, default=0.0))})",
+        f"{name}  (capacity {short_number(capacity)}, "
+        f"peak {short_number(max(usage, default=0.0))})",
     )
 
 
-def _draw_consumable(
+def draw_consumable(
     ax: Any,
     problem: Problem,
     name: str,
@@ -120,9 +125,9 @@ def _draw_consumable(
     flag = "  BELOW ZERO" if low_level < 0 else ""
     _label(
         ax,
-        f"{name}  (initial {_fmt(initial)}, "
-        f"min {_fmt(min(low_level, initial))}"
-        f"{_capacity_note(ceiling, lost)}){flag}",
+        f"{name}  (initial {short_number(initial)}, "
+        f"min {short_number(min(low_level, initial))}"
+        f"{capacity_note(ceiling, lost)}){flag}",
     )
 
 
@@ -141,14 +146,14 @@ def _draw_ceiling(
         _edges(problem),
         baseline=ceiling,
         fill=True,
-        color=_LOST,
+        color=LOST_COLOUR,
         alpha=0.8,
         label="lost (full)",
     )
     return ceiling + max(lost)
 
 
-def _draw_lanes(
+def draw_lanes(
     ax: Any,
     problem: Problem,
     plan: Plan,
@@ -162,7 +167,7 @@ def _draw_lanes(
     A bar is named when the name fits inside it (about 4.3 points per
     character at 7 points, on an axis about 650 points wide).
     """
-    tasks = {**past, **_task_map(problem)}
+    tasks = {**past, **tasks_by_id(problem)}
     units_per_char = 4.3 * max(x_span, 1) / 650
     lanes = list(problem.resources.binary)
     y_of = {name: idx for idx, name in enumerate(lanes)}
@@ -183,7 +188,7 @@ def _draw_lanes(
         for name in task.uses:
             if name not in y_of:
                 continue
-            colour = _PALETTE[y_of[name] % len(_PALETTE)]
+            colour = PALETTE[y_of[name] % len(PALETTE)]
             ax.barh(
                 y_of[name],
                 stop - activity.start,
@@ -216,7 +221,7 @@ def _draw_lanes(
     ax.set_ylim(len(lanes) - 0.5, -1.1)
 
 
-def _draw_measured(ax: Any, samples: Sequence[tuple[int, float]]) -> None:
+def draw_measured(ax: Any, samples: Sequence[tuple[int, float]]) -> None:
     """Measured levels (start of unit ``at``) as dots, with a legend."""
     xs = [at for at, _ in samples]
     ys = [level for _, level in samples]
@@ -224,7 +229,7 @@ def _draw_measured(ax: Any, samples: Sequence[tuple[int, float]]) -> None:
         xs,
         ys,
         "o",
-        color=_MEASURED,
+        color=MEASURED_COLOUR,
         markersize=4.5,
         markeredgecolor="white",
         markeredgewidth=0.6,

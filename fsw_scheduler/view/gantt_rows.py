@@ -9,16 +9,16 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from ..model.levels import _task_map
+from ..model.levels import tasks_by_id
 from .style import (
-    _FAILED,
-    _NO_BINARY,
-    _PALETTE,
-    _REMOVED,
-    _UNSCHEDULED,
-    _colour_of,
+    FAILED_COLOUR,
+    NO_BINARY_COLOUR,
+    PALETTE,
+    REMOVED_COLOUR,
+    UNSCHEDULED_COLOUR,
+    colour_of,
 )
-from .timeline import _left_out
+from .timeline import left_out
 
 if TYPE_CHECKING:
     from collections.abc import Collection, Mapping, Sequence
@@ -26,14 +26,14 @@ if TYPE_CHECKING:
     from ..model.plan import Activity, Plan
     from ..model.problem import Problem, Task
 
-__all__: list[str] = []
+__all__ = ["draw_legend", "draw_removed", "draw_tasks", "row_ids"]
 
 #: Background of every other task row, and the guide line through each.
 _BAND = "#f2f4f7"
 _GUIDE = "#dde1e6"
 
 
-def _row_ids(
+def row_ids(
     problem: Problem, history: Sequence[Activity], plan: Plan | None = None
 ) -> list[str]:
     """Task rows in time order, as a timeline reads: by first start (what
@@ -57,7 +57,7 @@ def _row_ids(
     )
 
 
-def _draw_tasks(
+def draw_tasks(
     ax: Any,
     problem: Problem,
     plan: Plan,
@@ -74,10 +74,10 @@ def _draw_tasks(
     ``slots`` is how many rows the panel has room for (at least
     ``len(rows)``), so that pages with fewer rows keep the same pitch.
     """
-    tasks = {**(past or {}), **_task_map(problem)}
+    tasks = {**(past or {}), **tasks_by_id(problem)}
     y_of = {name: idx for idx, name in enumerate(rows)}
     bar_h = 0.62
-    reasons = {name: blockers for name, blockers in _left_out(plan)}
+    reasons = {name: blockers for name, blockers in left_out(plan)}
     _draw_bands(ax, len(rows))
 
     broken = set(failed or ())
@@ -89,10 +89,10 @@ def _draw_tasks(
             continue
         lost = (activity.task, activity.start) in broken
         style: dict[str, Any] = (
-            {"color": "white", "hatch": "xx", "edgecolor": _FAILED}
+            {"color": "white", "hatch": "xx", "edgecolor": FAILED_COLOUR}
             if lost
             else {
-                "color": _colour_of(problem, tasks.get(activity.task)),
+                "color": colour_of(problem, tasks.get(activity.task)),
                 "alpha": 0.3,
                 "edgecolor": "#555555",
                 "linestyle": ":",
@@ -109,7 +109,12 @@ def _draw_tasks(
         )
         if lost:
             ax.text(
-                stop + 0.3, y, "failed", va="center", fontsize=7, color=_FAILED
+                stop + 0.3,
+                y,
+                "failed",
+                va="center",
+                fontsize=7,
+                color=FAILED_COLOUR,
             )
 
     for activity in plan.activities:
@@ -122,7 +127,7 @@ def _draw_tasks(
             length,
             left=activity.start,
             height=bar_h,
-            color=_colour_of(problem, tasks.get(activity.task)),
+            color=colour_of(problem, tasks.get(activity.task)),
             edgecolor="#333333",
             linewidth=0.6,
             zorder=3,
@@ -177,7 +182,7 @@ def _draw_tasks(
             left=problem.start,
             height=bar_h,
             color="none",
-            edgecolor=_UNSCHEDULED,
+            edgecolor=UNSCHEDULED_COLOUR,
             hatch="///",
             linewidth=0.0,
             zorder=1,
@@ -215,7 +220,7 @@ def _draw_bands(ax: Any, num_rows: int) -> None:
         ax.axhline(y, color=_GUIDE, linewidth=0.5, zorder=0.5)
 
 
-def _draw_legend(
+def draw_legend(
     ax: Any,
     problem: Problem,
     plan: Plan,
@@ -229,27 +234,26 @@ def _draw_legend(
     ``rows`` are all the rows of the chart, not only a page's: every page
     of a chart then has the same legend.
     """
-    tasks = {**past, **_task_map(problem)}
+    tasks = {**past, **tasks_by_id(problem)}
     scheduled = {a.task for a in plan.activities}
-    reasons = {name for name, _ in _left_out(plan)}
+    reasons = {name for name, _ in left_out(plan)}
 
     # Colours of every task drawn (executed ones from ``past`` too).
     shown = [tasks[name] for name in rows if name in tasks]
     handles = [
         Patch(
-            facecolor=_PALETTE[idx % len(_PALETTE)],
+            facecolor=PALETTE[idx % len(PALETTE)],
             edgecolor="#333333",
             linewidth=0.6,
             label=name,
         )
         for idx, name in enumerate(problem.resources.binary)
         if any(
-            _colour_of(problem, t) == _PALETTE[idx % len(_PALETTE)]
-            for t in shown
+            colour_of(problem, t) == PALETTE[idx % len(PALETTE)] for t in shown
         )
     ]
-    if any(_colour_of(problem, t) == _NO_BINARY for t in shown):
-        handles.append(Patch(facecolor=_NO_BINARY, label="no binary"))
+    if any(colour_of(problem, t) == NO_BINARY_COLOUR for t in shown):
+        handles.append(Patch(facecolor=NO_BINARY_COLOUR, label="no binary"))
     if history:
         handles.append(
             Patch(
@@ -264,7 +268,7 @@ def _draw_legend(
         handles.append(
             Patch(
                 facecolor="none",
-                edgecolor=_UNSCHEDULED,
+                edgecolor=UNSCHEDULED_COLOUR,
                 hatch="///",
                 label="unscheduled",
             )
@@ -281,7 +285,7 @@ def _draw_legend(
         )
 
 
-def _draw_removed(
+def draw_removed(
     ax: Any,
     rows: list[str],
     removed: Mapping[str, str],
@@ -327,7 +331,7 @@ def _draw_removed(
                 left=was.start,
                 height=0.62,
                 color="#efefef",
-                edgecolor=_REMOVED,
+                edgecolor=REMOVED_COLOUR,
                 linestyle="--",
                 linewidth=0.9,
                 zorder=2,
@@ -339,7 +343,7 @@ def _draw_removed(
             y,
             f" removed: {rule} ",
             {
-                "edgecolor": _REMOVED,
+                "edgecolor": REMOVED_COLOUR,
                 "boxstyle": "round,pad=0.2",
                 "linewidth": 0.6,
                 "alpha": 0.9,
@@ -347,7 +351,7 @@ def _draw_removed(
         )
     for label in ax.get_yticklabels():
         if label.get_text() in removed and label.get_text() not in again:
-            label.set_color(_REMOVED)
+            label.set_color(REMOVED_COLOUR)
             label.set_style("italic")
 
 

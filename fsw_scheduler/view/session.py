@@ -42,7 +42,7 @@ from ..wire.messages import (
 )
 from ..wire.profiles import Profiles
 from .gantt import gantt
-from .style import _PALETTE, _load_matplotlib
+from .style import PALETTE, load_matplotlib
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -301,7 +301,7 @@ def draw_levels(session: Session, path: Path) -> Path:
     it, and dotted afterwards (what it would have been); measured levels
     are dots; each replan is a thin vertical line with the plan id.
     """
-    Figure, FigureCanvasAgg, _Patch = _load_matplotlib()
+    Figure, FigureCanvasAgg, _Patch = load_matplotlib()
     assert session.initial is not None
     names = list(session.initial.resources.consumable)
     fig = Figure(figsize=(11, 0.6 + 2.6 * len(names)), layout="constrained")
@@ -325,7 +325,7 @@ def draw_levels(session: Session, path: Path) -> Path:
             levels = _levels_at_starts(problem, plan, name)
             times = list(range(problem.start, problem.end + 1))
             until = plans[idx + 1].issued_at if idx + 1 < len(plans) else None
-            colour = _PALETTE[idx % 2]
+            colour = PALETTE[idx % 2]
             flown = [
                 (t, v)
                 for t, v in zip(times, levels, strict=True)

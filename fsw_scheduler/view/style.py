@@ -13,8 +13,18 @@ if TYPE_CHECKING:
     from ..model.problem import Problem, Task
 
 __all__ = [
+    "FAILED_COLOUR",
+    "LOST_COLOUR",
+    "MEASURED_COLOUR",
+    "NOW_COLOUR",
+    "NO_BINARY_COLOUR",
+    "PALETTE",
     "PLOT_INSTALL_HINT",
+    "REMOVED_COLOUR",
+    "UNSCHEDULED_COLOUR",
+    "colour_of",
     "have_matplotlib",
+    "load_matplotlib",
 ]
 
 
@@ -42,7 +52,7 @@ def have_matplotlib() -> bool:
 PLOT_INSTALL_HINT = "pip install 'fsw-scheduler[plot]'"
 
 
-def _load_matplotlib() -> tuple[Any, Any, Any]:
+def load_matplotlib() -> tuple[Any, Any, Any]:
     """Import the few matplotlib pieces the pictures need.
 
     The figure is drawn on an explicit Agg canvas instead of through
@@ -60,8 +70,9 @@ def _load_matplotlib() -> tuple[Any, Any, Any]:
     return Figure, FigureCanvasAgg, Patch
 
 
-# Colour-blind friendly (Okabe-Ito), then tab10 for long resource lists.
-_PALETTE = (
+#: Colours of the binary resources, in declaration order: colour-blind
+#: friendly (Okabe-Ito), then tab10 for long resource lists.
+PALETTE = (
     "#0072B2",
     "#E69F00",
     "#009E73",
@@ -77,30 +88,36 @@ _PALETTE = (
 )
 
 
-_NO_BINARY = "#7f7f7f"
+#: A task that uses no binary resource.
+NO_BINARY_COLOUR = "#7f7f7f"
 
 
-_UNSCHEDULED = "#d9d9d9"
+#: The hatching across the row of a task left out of the plan.
+UNSCHEDULED_COLOUR = "#d9d9d9"
 
 
-_NOW = "#c0392b"
+#: The line at the current time unit.
+NOW_COLOUR = "#c0392b"
 #: A failed execution: hatched in this colour, never drawn as finished.
-_FAILED = "#b03a2e"
+FAILED_COLOUR = "#b03a2e"
 
 
-def _colour_of(problem: Problem, task: Task | None) -> str:
+def colour_of(problem: Problem, task: Task | None) -> str:
     """Colour of a task: its first binary resource in declaration order."""
     if task is None:
-        return _NO_BINARY
+        return NO_BINARY_COLOUR
     for idx, name in enumerate(problem.resources.binary):
         if name in task.uses:
-            return _PALETTE[idx % len(_PALETTE)]
-    return _NO_BINARY
+            return PALETTE[idx % len(PALETTE)]
+    return NO_BINARY_COLOUR
 
 
-_LOST = "#e9c46a"
+#: Charge lost because the store was full.
+LOST_COLOUR = "#e9c46a"
 
-_REMOVED = "#9a9a9a"
+#: A task a replan removed: its outline and the rule's note.
+REMOVED_COLOUR = "#9a9a9a"
 
 
-_MEASURED = "#D55E00"
+#: A measured level.
+MEASURED_COLOUR = "#D55E00"

@@ -11,13 +11,17 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from ..model.levels import _task_map, lost_charge, resource_profiles
+from ..model.levels import lost_charge, resource_profiles, tasks_by_id
 
 if TYPE_CHECKING:
     from ..model.plan import Blocker, Plan
     from ..model.problem import Problem
 
 __all__ = [
+    "capacity_note",
+    "left_out",
+    "objective_line",
+    "short_number",
     "timeline_text",
 ]
 
@@ -31,12 +35,13 @@ _ANSI = {
 }
 
 
-def _fmt(value: float) -> str:
+def short_number(value: float) -> str:
     """Short number: integers without a decimal point."""
     return f"{value:g}"
 
 
-def _objective_line(plan: Plan) -> str:
+def objective_line(plan: Plan) -> str:
+    """``status optimal, unscheduled cost 0, delay cost 3, total 3``."""
     status = getattr(plan.status, "value", plan.status)
     parts = [f"status {status}"]
     if plan.objective is not None:
@@ -49,7 +54,7 @@ def _objective_line(plan: Plan) -> str:
     return ", ".join(parts)
 
 
-def _left_out(plan: Plan) -> list[tuple[str, list[Blocker]]]:
+def left_out(plan: Plan) -> list[tuple[str, list[Blocker]]]:
     """Unscheduled tasks, then other blocked tasks, with their reasons.
 
     An infeasible plan explains mandatory tasks in ``why`` that may not be
@@ -131,7 +136,7 @@ def timeline_text(
     cells = horizon * (room // horizon) if room >= horizon else room
 
     lines = [
-        f"{paint['bold']}Plan: {_objective_line(plan)}{paint['off']}",
+        f"{paint['bold']}Plan: {objective_line(plan)}{paint['off']}",
         f"horizon [{origin}, {problem.end}), "
         f"{len(activities)} scheduled, {len(plan.unscheduled)} unscheduled",
         "",
@@ -149,11 +154,11 @@ def timeline_text(
         span = f"{act.start}-{act.end}"
         lines.append(f"{act.task:<{id_w}}  {span:<{span_w}}  |{bar}|")
 
-    left_out = _left_out(plan)
-    if left_out:
+    missing = left_out(plan)
+    if missing:
         lines += ["", "unscheduled:"]
-        tasks = _task_map(problem)
-        for name, blockers in left_out:
+        tasks = tasks_by_id(problem)
+        for name, blockers in missing:
             task = tasks.get(name)
             cost = "" if task is None else f" (cost {task.schedule_cost})"
             if not blockers:
@@ -184,8 +189,8 @@ def _resource_lines(
         over = peak > capacity
         flag = f" {paint['red']}OVER CAPACITY{paint['off']}" if over else ""
         lines.append(
-            f"  {name:<{name_w}}  peak {_fmt(peak)}/{_fmt(capacity)}"
-            f"{when}{flag}"
+            f"  {name:<{name_w}}  peak {short_number(peak)}"
+            f"/{short_number(capacity)}{when}{flag}"
         )
     lost = lost_charge(problem, plan)
     for name, initial in resources.initial_levels.items():
@@ -196,22 +201,22 @@ def _resource_lines(
         else:
             when = f"at end of t={levels.index(low) + problem.start}"
         final = levels[-1] if levels else initial
-        text = f"min {_fmt(low)} {when}"
+        text = f"min {short_number(low)} {when}"
         if low < 0:
             text = f"{paint['red']}{text} BELOW ZERO{paint['off']}"
         lines.append(
             f"  {name:<{name_w}}  {text} "
-            f"(initial {_fmt(initial)}, final {_fmt(final)}"
-            f"{_capacity_note(resources.ceiling(name), lost.get(name))})"
+            f"(initial {short_number(initial)}, final {short_number(final)}"
+            f"{capacity_note(resources.ceiling(name), lost.get(name))})"
         )
     return lines
 
 
-def _capacity_note(ceiling: float | None, lost: list[float] | None) -> str:
+def capacity_note(ceiling: float | None, lost: list[float] | None) -> str:
     """``, capacity 10, lost 4`` for a consumable with a capacity."""
     if ceiling is None:
         return ""
     wasted = sum(lost or ())
-    return f", capacity {_fmt(ceiling)}" + (
-        f", lost {_fmt(wasted)}" if wasted > 0 else ""
+    return f", capacity {short_number(ceiling)}" + (
+        f", lost {short_number(wasted)}" if wasted > 0 else ""
     )

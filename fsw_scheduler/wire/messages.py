@@ -19,6 +19,7 @@ import msgspec
 
 from ..errors import FieldIssue, InputError
 from ..model.change import Removal
+from ..model.codec import decode_strict
 from ..model.goal import Goal, decode_goal
 from ..model.plan import (
     Activity,
@@ -28,7 +29,7 @@ from ..model.plan import (
     SolverStats,
     SolveStatus,
 )
-from ..model.problem import Id, Instant, Problem, decode_strict
+from ..model.problem import Id, Instant, Problem
 from .profiles import LevelCheck, Profiles
 
 #: Largest payload accepted on an input key; bigger ones are rejected

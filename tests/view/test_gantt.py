@@ -13,7 +13,7 @@ from fsw_scheduler.analysis.greedy import greedy_plan
 from fsw_scheduler.model.plan import Activity, Plan, SolveStatus
 from fsw_scheduler.model.problem import Problem, Task, decode_problem
 from fsw_scheduler.view.gantt import gantt
-from fsw_scheduler.view.gantt_rows import _row_ids
+from fsw_scheduler.view.gantt_rows import row_ids
 from fsw_scheduler.view.pages import ROWS_PER_PAGE
 
 from ..factories import TABLE1_PLAN, bench_lib
@@ -143,7 +143,7 @@ def test_rows_keep_their_time_order_across_pages(large: Drawn) -> None:
     """Tests that reading the pages one after another gives the rows in
     time order: by first start, the left-out tasks last."""
     drawn = [name for f in large.figures for name in _rows_of(f)]
-    assert drawn == _row_ids(large.problem, [], large.plan)
+    assert drawn == row_ids(large.problem, [], large.plan)
     start = {a.task: a.start for a in large.plan.activities}
     placed = [name for name in drawn if name in start]
     assert [start[name] for name in placed] == sorted(start.values())
@@ -204,7 +204,7 @@ def test_small_plan_keeps_one_file_and_its_look(
     """Tests that a small chart is one file under the given name, untitled
     by rows, rows in time order, with the legend and a failed run hatched
     in red, and the top axis as well."""
-    from fsw_scheduler.view.style import _FAILED
+    from fsw_scheduler.view.style import FAILED_COLOUR
 
     plan = Plan(
         SolveStatus.OPTIMAL,
@@ -232,7 +232,8 @@ def test_small_plan_keeps_one_file_and_its_look(
     hatched = [
         p
         for p in ax.patches
-        if p.get_hatch() == "xx" and p.get_edgecolor()[:3] == _rgb(_FAILED)
+        if p.get_hatch() == "xx"
+        and p.get_edgecolor()[:3] == _rgb(FAILED_COLOUR)
     ]
     assert len(hatched) == 1
     assert "failed" in [t.get_text() for t in ax.texts]

@@ -407,7 +407,7 @@ def test_gantt_without_binary_resources_has_no_lanes(
 def test_gantt_rows_follow_time_not_problem_order() -> None:
     """Tests that the rows go by first start (what ran first on top), the
     left-out tasks last in problem order."""
-    from fsw_scheduler.view.gantt_rows import _row_ids
+    from fsw_scheduler.view.gantt_rows import row_ids
 
     problem = Problem(
         horizon=10,
@@ -422,7 +422,7 @@ def test_gantt_rows_follow_time_not_problem_order() -> None:
         ("out",),
     )
     history = [Activity("ran", 0, 1), Activity("gone", 1, 2)]
-    assert _row_ids(problem, history, plan) == [
+    assert row_ids(problem, history, plan) == [
         "ran",
         "gone",
         "early",

@@ -24,25 +24,25 @@ if TYPE_CHECKING:
 
     pass
 from .commands import (
-    _cmd_config,
-    _cmd_probe,
-    _cmd_record,
-    _cmd_replay,
-    _number,
-    _remap_rule,
     add_spacecraft_flag,
+    cmd_config,
+    cmd_probe,
+    cmd_record,
+    cmd_replay,
     non_negative_float,
+    number_type,
     positive_float,
     positive_int,
+    remap_rule,
 )
-from .run import _cmd_run
+from .run import cmd_run
 
 
 def add_run_command(add: Add) -> None:
     """The ``run`` command and its flags."""
     run = add(
         "run",
-        _cmd_run,
+        cmd_run,
         "run the scheduler as a component on a Zenoh bus",
         """\
         Run the scheduler on the bus. It listens for goals on
@@ -134,7 +134,7 @@ def add_run_command(add: Add) -> None:
     )
     run.add_argument(
         "--keep-runs",
-        type=_number(int, minimum=2, strict=False),
+        type=number_type(int, minimum=2, strict=False),
         default=20,
         metavar="N",
         help="with --state: journal files of the last N starts are kept "
@@ -148,7 +148,7 @@ def add_run_command(add: Add) -> None:
     )
     run.add_argument(
         "--rank",
-        type=_number(int, minimum=0, strict=False),
+        type=number_type(int, minimum=0, strict=False),
         metavar="N",
         help="preference among redundant schedulers: the lowest rank "
         "commands when none does yet (default 0)",
@@ -246,7 +246,7 @@ def add_config_command(add: Add) -> None:
     """The ``config`` command and its flags."""
     conf = add(
         "config",
-        _cmd_config,
+        cmd_config,
         "write the Zenoh configurations of a deployment profile",
         textwrap.dedent(
             """\
@@ -334,7 +334,7 @@ def add_probe_command(add: Add) -> None:
     """The ``probe`` command and its flags."""
     prb = add(
         "probe",
-        _cmd_probe,
+        cmd_probe,
         "check which inputs the scheduler accepts from this seat",
         """\
         Publish one harmless input of each kind (a goal the scheduler
@@ -373,7 +373,7 @@ def add_record_command(add: Add) -> None:
     """The ``record`` command and its flags."""
     rec = add(
         "record",
-        _cmd_record,
+        cmd_record,
         "record bus traffic to MCAP",
         """\
         Subscribe to a key expression (default fsw/<sc>/**) and write each
@@ -458,7 +458,7 @@ def add_replay_command(add: Add) -> None:
     """The ``replay`` command and its flags."""
     rep = add(
         "replay",
-        _cmd_replay,
+        cmd_replay,
         "publish a recording back on the bus, or --verify it",
         """\
         Publish recorded messages back on the bus in log-time order, or with
@@ -551,7 +551,7 @@ def add_replay_command(add: Add) -> None:
         "--remap",
         action="append",
         default=[],
-        type=_remap_rule,
+        type=remap_rule,
         metavar="OLD=NEW",
         help="publish keys under OLD (a key prefix, chunk by chunk) under "
         "NEW instead, e.g. fsw/sat1=fsw/sat2 (repeatable; the first "

@@ -1,6 +1,6 @@
 """The handlers of ``fsw-scheduler``'s commands on files and recordings.
 
-Each subcommand is one ``_cmd_*`` function taking the parsed arguments and
+Each subcommand is one ``cmd_*`` function taking the parsed arguments and
 returning the exit code (``run`` is in :mod:`fsw_scheduler.app.cli.run`, the
 node's composition root). Exit codes: 0 success, 1 infeasible / unknown /
 violations, 2 bad input (the message on stderr names the field) or a
@@ -19,8 +19,9 @@ from typing import TYPE_CHECKING
 import msgspec
 
 from ...errors import ConfigError, FieldIssue, InputError, SchedulerError
+from ...model.codec import decode_strict
 from ...model.plan import Plan
-from ...model.problem import Problem, decode_problem, decode_strict
+from ...model.problem import Problem, decode_problem
 
 if TYPE_CHECKING:
     import threading
@@ -34,7 +35,7 @@ log = logging.getLogger("fsw_scheduler")
 EXIT_OK, EXIT_NO_PLAN, EXIT_BAD_INPUT = 0, 1, 2
 
 
-def _number(
+def number_type(
     kind: type[float] | type[int], *, minimum: float, strict: bool
 ) -> Callable[[str], float]:
     """An argparse type: a number above (or at) ``minimum``, else exit 2."""
@@ -58,13 +59,13 @@ def _number(
     return parse
 
 
-positive_float = _number(float, minimum=0, strict=True)
+positive_float = number_type(float, minimum=0, strict=True)
 
 
-non_negative_float = _number(float, minimum=0, strict=False)
+non_negative_float = number_type(float, minimum=0, strict=False)
 
 
-positive_int = _number(int, minimum=0, strict=True)
+positive_int = number_type(int, minimum=0, strict=True)
 
 
 def _need_matplotlib(what: str) -> None:
@@ -88,7 +89,8 @@ class MissingDependency(SchedulerError):
     """An optional dependency a requested feature needs is not installed."""
 
 
-def _read_bytes(path: str) -> bytes:
+def read_bytes(path: str) -> bytes:
+    """The bytes of a file (``-``: stdin); InputError if unreadable."""
     if path == "-":
         return sys.stdin.buffer.read()
     try:
@@ -101,12 +103,12 @@ def _read_bytes(path: str) -> bytes:
 
 def load_problem(path: str) -> Problem:
     """Read and validate a problem file (``-`` for stdin)."""
-    return decode_problem(_read_bytes(path))
+    return decode_problem(read_bytes(path))
 
 
 def load_plan(path: str) -> Plan:
     """Read a plan file (``-`` for stdin)."""
-    return decode_strict(_read_bytes(path), Plan, "plan")
+    return decode_strict(read_bytes(path), Plan, "plan")
 
 
 def _write_json(value: object, out: str | None) -> None:
@@ -146,7 +148,8 @@ def _summary(plan: Plan) -> str:
     return "; ".join(parts)
 
 
-def _cmd_solve(args: argparse.Namespace) -> int:
+def cmd_solve(args: argparse.Namespace) -> int:
+    """``fsw-scheduler solve``: solve a problem file, give the plan."""
     from ...solving.solve import solve
 
     if args.gantt:
@@ -177,7 +180,8 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     return EXIT_OK if plan.status.has_plan else EXIT_NO_PLAN
 
 
-def _cmd_check(args: argparse.Namespace) -> int:
+def cmd_check(args: argparse.Namespace) -> int:
+    """``fsw-scheduler check``: check a plan against its problem."""
     from ...analysis.check import check_plan, format_report
 
     problem = load_problem(args.problem)
@@ -187,7 +191,8 @@ def _cmd_check(args: argparse.Namespace) -> int:
     return EXIT_OK if report.ok else EXIT_NO_PLAN
 
 
-def _cmd_replan(args: argparse.Namespace) -> int:
+def cmd_replan(args: argparse.Namespace) -> int:
+    """``fsw-scheduler replan``: apply a goal or an event, solve again."""
     from ...api import replan_typed
     from ...model.change import decode_change
     from ...replan.diff import format_diff
@@ -196,7 +201,7 @@ def _cmd_replan(args: argparse.Namespace) -> int:
         _need_matplotlib("--gantt")
     problem = load_problem(args.problem)
     plan = load_plan(args.plan)
-    change = decode_change(_read_bytes(args.change))
+    change = decode_change(read_bytes(args.change))
     new_problem, new_plan, diff = replan_typed(
         problem,
         plan,
@@ -230,7 +235,8 @@ def _cmd_replan(args: argparse.Namespace) -> int:
     return EXIT_OK if new_plan.status.has_plan else EXIT_NO_PLAN
 
 
-def _cmd_demo(args: argparse.Namespace) -> int:
+def cmd_demo(args: argparse.Namespace) -> int:
+    """``fsw-scheduler demo``: run a scenario of the paper."""
     from ..demo import SCENARIOS, run_demo
 
     if args.scenario == "failover":
@@ -288,13 +294,13 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _checked_spacecraft(spacecraft: str) -> str:
-    _check_spacecraft(spacecraft)
+    check_spacecraft(spacecraft)
     return spacecraft
 
 
-def _check_spacecraft(spacecraft: str | None) -> None:
+def check_spacecraft(spacecraft: str | None) -> None:
     """Refuse a spacecraft id that is not a key-safe id (exit 2)."""
-    from ...model.problem import id_issue
+    from ...model.limits import id_issue
 
     reason = None if spacecraft is None else id_issue(spacecraft)
     if reason is not None:
@@ -322,7 +328,7 @@ def stop_on_signals(stop: threading.Event) -> None:
         signal.signal(sig, lambda *_: stop.set())
 
 
-def _open_bus(settings: zenoh.Config) -> zenoh.Session:
+def open_bus(settings: zenoh.Config) -> zenoh.Session:
     """``zenoh.open``, with Zenoh's errors (a missing certificate, a port
     in use, no route to a client's router) said in one line."""
     import zenoh
@@ -337,7 +343,8 @@ def _open_bus(settings: zenoh.Config) -> zenoh.Session:
         raise BusError(f"cannot open the Zenoh session: {text}") from None
 
 
-def _cmd_config(args: argparse.Namespace) -> int:
+def cmd_config(args: argparse.Namespace) -> int:
+    """``fsw-scheduler config``: write a secure bus profile."""
     from ...bus.security import write_profile
 
     names: dict[str, list[str]] = {}
@@ -371,21 +378,23 @@ def _cmd_config(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _cmd_probe(args: argparse.Namespace) -> int:
+def cmd_probe(args: argparse.Namespace) -> int:
+    """``fsw-scheduler probe``: ask which scheduler inputs answer."""
 
     from ...bus.probe import probe
     from ...bus.session import zenoh_config
     from ...wire.topics import Topics
 
     kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
-    with _open_bus(zenoh_config(args)) as session:
+    with open_bus(zenoh_config(args)) as session:
         results = probe(session, Topics(args.spacecraft), kinds, args.timeout)
     for result in results:
         print(f"{result.kind:<7} {result.key}: {result.detail}")
     return EXIT_NO_PLAN if any(r.reached for r in results) else EXIT_OK
 
 
-def _cmd_record(args: argparse.Namespace) -> int:
+def cmd_record(args: argparse.Namespace) -> int:
+    """``fsw-scheduler record``: record the bus into an MCAP file."""
     import threading
 
     import zenoh
@@ -396,7 +405,7 @@ def _cmd_record(args: argparse.Namespace) -> int:
     from ...journal.writer import Recorder
     from ...wire.topics import Topics
 
-    _check_spacecraft(args.spacecraft)
+    check_spacecraft(args.spacecraft)
     key = args.key or Topics(args.spacecraft).everything
     stop = threading.Event()
     exclude = [_key_expression(k, "--exclude") for k in args.exclude]
@@ -468,7 +477,8 @@ def _key_expression(text: str, flag: str) -> str:
         ) from None
 
 
-def _cmd_replay(args: argparse.Namespace) -> int:
+def cmd_replay(args: argparse.Namespace) -> int:
+    """``fsw-scheduler replay``: replay recordings, or verify them."""
     if args.verify:
         from ...journal.replay import verify
 
@@ -526,7 +536,8 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _cmd_state(args: argparse.Namespace) -> int:
+def cmd_state(args: argparse.Namespace) -> int:
+    """``fsw-scheduler state``: check the journal of a state folder."""
     from ...journal.integrity import check_folder
     from ...journal.state import journal_files
 
@@ -542,7 +553,8 @@ def _cmd_state(args: argparse.Namespace) -> int:
     return EXIT_OK if all(c.ok for c in checks) else EXIT_BAD_INPUT
 
 
-def _cmd_recover(args: argparse.Namespace) -> int:
+def cmd_recover(args: argparse.Namespace) -> int:
+    """``fsw-scheduler recover``: finish an unfinished MCAP file."""
     from ...journal.recover import recover
 
     kept = recover(args.file, args.out)
@@ -552,7 +564,8 @@ def _cmd_recover(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _cmd_info(args: argparse.Namespace) -> int:
+def cmd_info(args: argparse.Namespace) -> int:
+    """``fsw-scheduler info``: describe a recording (text or JSON)."""
     from ...journal.info import format_info, info, info_dict
 
     description = info(args.file)
@@ -563,7 +576,7 @@ def _cmd_info(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _remap_rule(text: str) -> tuple[str, str]:
+def remap_rule(text: str) -> tuple[str, str]:
     """An argparse type: ``OLD=NEW`` key prefixes."""
     from ...bus.record import parse_remap
 
@@ -574,7 +587,8 @@ def _remap_rule(text: str) -> tuple[str, str]:
     return old, new
 
 
-def _cmd_plot(args: argparse.Namespace) -> int:
+def cmd_plot(args: argparse.Namespace) -> int:
+    """``fsw-scheduler plot``: draw the pictures of a recorded session."""
     _need_matplotlib("plot")
     from ...view.session import plot_session
 
@@ -596,7 +610,8 @@ def _cmd_plot(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _cmd_schemas(args: argparse.Namespace) -> int:
+def cmd_schemas(args: argparse.Namespace) -> int:
+    """``fsw-scheduler schemas``: write the formats' JSON Schemas."""
     from ...runtime.schemas import schema_files
 
     out = Path(args.out)

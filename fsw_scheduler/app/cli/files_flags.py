@@ -10,15 +10,15 @@ from collections.abc import Callable
 
 from ...view.pages import ROWS_PER_PAGE
 from .commands import (
-    _cmd_check,
-    _cmd_demo,
-    _cmd_info,
-    _cmd_plot,
-    _cmd_recover,
-    _cmd_replan,
-    _cmd_schemas,
-    _cmd_solve,
-    _cmd_state,
+    cmd_check,
+    cmd_demo,
+    cmd_info,
+    cmd_plot,
+    cmd_recover,
+    cmd_replan,
+    cmd_schemas,
+    cmd_solve,
+    cmd_state,
     non_negative_float,
     positive_float,
 )
@@ -62,7 +62,7 @@ def add_solve_command(add: Add) -> None:
     """The ``solve`` command and its flags."""
     solve = add(
         "solve",
-        _cmd_solve,
+        cmd_solve,
         "solve a problem file and print the plan JSON",
         """\
         Solve a problem file (format: docs/formats.md, "Problem, plan and
@@ -87,7 +87,7 @@ def add_check_command(add: Add) -> None:
     """The ``check`` command and its flags."""
     check = add(
         "check",
-        _cmd_check,
+        cmd_check,
         "check a plan against a problem, independently of the solver",
         """\
         Walk the plan time unit by time unit and report every violated
@@ -106,7 +106,7 @@ def add_replan_command(add: Add) -> None:
     """The ``replan`` command and its flags."""
     replan = add(
         "replan",
-        _cmd_replan,
+        cmd_replan,
         "apply a goal or event to a running plan at time --now",
         """\
         Apply a goal (a goal document) or an event to a running plan at
@@ -152,7 +152,7 @@ def add_demo_command(add: Add) -> None:
     """The ``demo`` command and its flags."""
     demo = add(
         "demo",
-        _cmd_demo,
+        cmd_demo,
         "the paper scenario end to end on an in-process bus",
         """\
         Run the paper's scenario on an in-process Zenoh bus: the scheduler,
@@ -197,7 +197,7 @@ def add_recover_command(add: Add) -> None:
     """The ``recover`` command and its flags."""
     recov = add(
         "recover",
-        _cmd_recover,
+        cmd_recover,
         "rewrite a truncated MCAP file into a readable one",
         """\
         Read every complete chunk and message of an MCAP file whose writer
@@ -222,7 +222,7 @@ def add_state_command(add: Add) -> None:
     """The ``state`` command and its flags."""
     state = add(
         "state",
-        _cmd_state,
+        cmd_state,
         "say what is intact in a state folder (run --state DIR)",
         """\
         Walk every journal file of a state folder record by record: record
@@ -245,7 +245,7 @@ def add_info_command(add: Add) -> None:
     """The ``info`` command and its flags."""
     inf = add(
         "info",
-        _cmd_info,
+        cmd_info,
         "summarise an MCAP file",
         """\
         Print the message count, time span and every channel with its
@@ -272,7 +272,7 @@ def add_plot_command(add: Add) -> None:
     """The ``plot`` command and its flags."""
     plo = add(
         "plot",
-        _cmd_plot,
+        cmd_plot,
         "draw every plan of a recorded session, and levels vs measured",
         """\
         Read a scheduler journal (run --record, demo) and draw, into
@@ -308,7 +308,7 @@ def add_schemas_command(add: Add) -> None:
     """The ``schemas`` command and its flags."""
     sch = add(
         "schemas",
-        _cmd_schemas,
+        cmd_schemas,
         "write the JSON Schema of every message and file format",
         """\
         Write one JSON Schema per message kind (problem, plan, goal, clock,

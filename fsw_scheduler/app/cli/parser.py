@@ -3,7 +3,7 @@
 :func:`build_parser` builds the top level (``--version``, ``--log-level``)
 and calls one ``add_<command>_command`` per subcommand; a new command is
 one more such function (in :mod:`.files_flags` for commands on files, in
-:mod:`.bus_flags` for commands on the bus) and one ``_cmd_*`` handler.
+:mod:`.bus_flags` for commands on the bus) and one ``cmd_*`` handler.
 """
 
 from __future__ import annotations

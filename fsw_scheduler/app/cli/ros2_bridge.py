@@ -15,10 +15,10 @@ from ...bus.session import add_zenoh_arguments
 from .commands import (
     EXIT_OK,
     MissingDependency,
-    _check_spacecraft,
-    _number,
-    _open_bus,
     add_spacecraft_flag,
+    check_spacecraft,
+    number_type,
+    open_bus,
     stop_on_signals,
 )
 
@@ -75,7 +75,7 @@ def add_ros2_bridge_command(add: Add) -> None:
     add_spacecraft_flag(bridge)
     bridge.add_argument(
         "--domain-id",
-        type=_number(int, minimum=0, strict=False),
+        type=number_type(int, minimum=0, strict=False),
         metavar="N",
         help="the ROS 2 domain (default: ROS_DOMAIN_ID, else 0)",
     )
@@ -87,7 +87,7 @@ def _cmd_ros2_bridge(args: argparse.Namespace) -> int:
 
     from ...bus.session import zenoh_config
 
-    _check_spacecraft(args.spacecraft)
+    check_spacecraft(args.spacecraft)
     try:
         from ...bus.ros2 import Ros2Bridge
     except ImportError as error:
@@ -100,7 +100,7 @@ def _cmd_ros2_bridge(args: argparse.Namespace) -> int:
     stop = threading.Event()
     stop_on_signals(stop)
     with (
-        _open_bus(zenoh_config(args)) as session,
+        open_bus(zenoh_config(args)) as session,
         Ros2Bridge(
             session, args.spacecraft, domain_id=args.domain_id
         ) as bridge,

@@ -23,13 +23,14 @@ from .commands import (
     EXIT_BAD_INPUT,
     EXIT_NO_PLAN,
     EXIT_OK,
-    _open_bus,
-    _read_bytes,
     log,
+    open_bus,
+    read_bytes,
 )
 
 
-def _cmd_run(args: argparse.Namespace) -> int:
+def cmd_run(args: argparse.Namespace) -> int:
+    """``fsw-scheduler run``: the scheduler node, until stopped."""
     import signal
     import threading
     import time
@@ -67,7 +68,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
         config = config.replace(node_id=default_node_id())
     if args.problem:
-        problem = decode_problem(_read_bytes(args.problem), allow_empty=True)
+        problem = decode_problem(read_bytes(args.problem), allow_empty=True)
     else:
         if config.horizon is None:
             raise InputError(
@@ -133,7 +134,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
-    with _open_bus(zenoh_settings) as session:
+    with open_bus(zenoh_settings) as session:
         redundancy: Any = None
 
         def make_node(

@@ -19,11 +19,11 @@ from ...bus.session import add_zenoh_arguments
 from .commands import (
     EXIT_NO_PLAN,
     EXIT_OK,
-    _check_spacecraft,
-    _open_bus,
-    _read_bytes,
     add_spacecraft_flag,
+    check_spacecraft,
+    open_bus,
     positive_float,
+    read_bytes,
     stop_on_signals,
 )
 
@@ -121,7 +121,7 @@ def _document(text: str) -> bytes:
     stripped = text.lstrip()
     if stripped.startswith("{"):
         return stripped.encode()
-    return _read_bytes(text)
+    return read_bytes(text)
 
 
 def _checked(kind: str, payload: bytes) -> Any:
@@ -138,7 +138,7 @@ def _client(args: argparse.Namespace) -> Iterator[SchedulerClient]:
     from ...bus.session import zenoh_config
 
     with (
-        _open_bus(zenoh_config(args)) as session,
+        open_bus(zenoh_config(args)) as session,
         SchedulerClient(
             session, args.spacecraft, timeout=args.timeout
         ) as client,
@@ -149,7 +149,7 @@ def _client(args: argparse.Namespace) -> Iterator[SchedulerClient]:
 def _cmd_send(args: argparse.Namespace) -> int:
     from ...wire import messages
 
-    _check_spacecraft(args.spacecraft)
+    check_spacecraft(args.spacecraft)
     payload = _document(args.file)
     message = _checked(args.kind, payload)
     with _client(args) as client:
@@ -227,7 +227,7 @@ def _cmd_query(args: argparse.Namespace) -> int:
 
     from ...wire import messages
 
-    _check_spacecraft(args.spacecraft)
+    check_spacecraft(args.spacecraft)
     with _client(args) as client:
         try:
             answer: Any = (

@@ -16,9 +16,9 @@ from ...bus.session import add_zenoh_arguments
 from .commands import (
     EXIT_OK,
     MissingDependency,
-    _check_spacecraft,
-    _open_bus,
     add_spacecraft_flag,
+    check_spacecraft,
+    open_bus,
     positive_float,
     stop_on_signals,
 )
@@ -121,7 +121,7 @@ def _cmd_view(args: argparse.Namespace) -> int:
     from ...wire import topics as keys
     from ..live_view import LiveBridge
 
-    _check_spacecraft(args.spacecraft)
+    check_spacecraft(args.spacecraft)
     if not have_foxglove():
         raise MissingDependency(
             f"view needs foxglove-sdk, which is not installed: {_hint()}"
@@ -130,7 +130,7 @@ def _cmd_view(args: argparse.Namespace) -> int:
     stop = threading.Event()
     stop_on_signals(stop)
     bridge: LiveBridge | None = None
-    with _open_bus(settings) as session:
+    with open_bus(settings) as session:
         try:
             server = LiveServer(
                 live_channels(args.spacecraft),

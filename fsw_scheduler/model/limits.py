@@ -1,0 +1,68 @@
+"""Limits of the input formats: key-safe ids, time values and costs.
+
+The numbers every format shares, and the id grammar with the helpers that
+name a value or a dictionary key in a field path. The types of
+:mod:`.problem` declare these limits (so the JSON Schemas carry them);
+:mod:`.validation` and :mod:`.codec` word their findings with them. Pure:
+the standard library only.
+"""
+
+from __future__ import annotations
+
+import re
+
+#: Range of a task's schedule cost (the cost of leaving it out; 0 means
+#: mandatory).
+MIN_COST, MAX_COST = 0, 5
+#: Range of a task's delay cost (per time unit of starting late).
+MIN_DELAY_COST, MAX_DELAY_COST = 1, 5
+
+#: Characters allowed in task ids, goal ids, resource names and spacecraft
+#: ids. They become Zenoh key chunks (``scheduler/dispatch/<task>``): ``/``
+#: would split the key, ``* $ ? #`` are wildcards or refused by Zenoh, and
+#: a leading ``@`` marks Zenoh's reserved chunks.
+ID_CHARS = "A-Za-z0-9_.-"
+#: Longest id accepted. Zenoh fails to send keys of about 64 KiB (a Rust
+#: panic in ``put``); ids stay far below that, with room for the prefix.
+MAX_ID_LENGTH = 64
+_ID_RE = re.compile(f"[{ID_CHARS}]+")
+_BAD_ID_CHAR = re.compile(f"[^{ID_CHARS}]")
+
+#: Largest absolute time value (units) in a problem, goal or clock: far
+#: beyond any mission, and exact in the solver's double precision.
+MAX_TIME = 2**31 - 1
+
+
+def shown(value: str, limit: int = 40) -> str:
+    """``value`` quoted for a message, cut to ``limit`` characters."""
+    if len(value) <= limit:
+        return repr(value)
+    return f"{value[:limit]!r}... ({len(value)} characters)"
+
+
+def id_issue(value: str) -> str | None:
+    """Why ``value`` is not a key-safe id (None when it is one).
+
+    The grammar: 1 to :data:`MAX_ID_LENGTH` characters out of
+    ``[A-Za-z0-9_.-]``.
+    """
+    if not value:
+        return "must not be empty"
+    if len(value) > MAX_ID_LENGTH:
+        return (
+            f"is {len(value)} characters long; ids are at most {MAX_ID_LENGTH}"
+        )
+    if _ID_RE.fullmatch(value) is None:
+        bad = "".join(dict.fromkeys(_BAD_ID_CHAR.findall(value)))
+        return (
+            f"{shown(value)} has characters outside [{ID_CHARS}] "
+            f"({bad!r}); ids are used as bus key chunks"
+        )
+    return None
+
+
+def key_path(path: str, key: str) -> str:
+    """``path.key`` for a dictionary key (cut when it is not an id)."""
+    if id_issue(key) is None:
+        return f"{path}.{key}"
+    return f"{path}[{shown(key, 20)}]"
