@@ -239,12 +239,21 @@ def verify(
     """
     from ..runtime.policy import run_solve
 
+    report = VerifyReport()
+    if not any(True for _ in iter_messages(paths)):
+        # A part whose writer was killed right after it opened it (before
+        # the settings and the snapshot that open every part were flushed)
+        # holds no message: no decision was taken in it.
+        report.notes.append(
+            "the journal holds no message (its writer was stopped before "
+            "it wrote anything): nothing to reproduce"
+        )
+        return report
     start = _Start.of(paths)
     recorded, info, info_topic = start.recorded, start.info, start.info_topic
     config, topics, snapshot = start.config, start.topics, start.snapshot
     engine, decoder = start.engine, start.decoder
     solve = solve_fn or run_solve
-    report = VerifyReport()
     records = _solve_records(recorded, topics)
     produced: deque[tuple[str, bytes]] = deque()
     results: dict[int, Plan] = {}

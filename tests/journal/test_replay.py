@@ -447,3 +447,51 @@ def test_a_budget_cut_explanation_is_taken_from_the_record() -> None:
     plan = replay_solve(run_solve, config, command, {1: record}, report)
     assert plan.why == recorded.why
     assert any("cut by its time budget" in n for n in report.notes)
+
+
+def test_a_part_killed_as_it_opened_verifies_with_a_note(
+    tmp_path: Path,
+) -> None:
+    """Tests that a journal part whose writer was killed right after it
+    opened it (only the MCAP header on disk, as a kill just after a
+    rotation leaves it) verifies as holding no decision, with a note,
+    instead of failing as 'not a scheduler journal'."""
+    from fsw_scheduler.journal.recover import recover
+
+    source = REPLAY_DIR / sorted(p.name for p in GOLDEN_FILES)[-1]
+    cut = tmp_path / "cut.mcap"
+    # The magic and the header record: what the writer puts on disk when
+    # it opens a part, before the first chunk is flushed.
+    with open(source, "rb") as stream:
+        head = stream.read(8)
+        opcode = stream.read(1)
+        length = int.from_bytes(stream.read(8), "little")
+        cut.write_bytes(
+            head + opcode + length.to_bytes(8, "little") + stream.read(length)
+        )
+    finished = tmp_path / "finished.mcap"
+    assert recover(cut, finished) == {}
+    report = verify(finished)
+    assert report.identical
+    assert report.outputs == 0
+    assert any("holds no message" in note for note in report.notes)
+    # A journal with messages but no settings is still refused.
+    with pytest.raises(Exception, match="no scheduler/config"):
+        verify(_journal_without_config(tmp_path))
+
+
+def _journal_without_config(tmp_path: Path) -> Path:
+    """A journal of one clock message and no ``scheduler/config``."""
+    path = tmp_path / "no-config.mcap"
+    with open(path, "wb") as stream:
+        writer = Writer(stream)
+        writer.start()
+        schema = writer.register_schema(
+            "clock", SchemaEncoding.JSONSchema, b"{}"
+        )
+        channel = writer.register_channel(
+            TOPICS.key("clock"), MessageEncoding.JSON, schema
+        )
+        writer.add_message(channel, 1, b'{"now": 1}', 1)
+        writer.finish()
+    return path
