@@ -561,7 +561,6 @@ def certs_script(
 @dataclass
 class _Findings:
     exposed: list[str] = field(default_factory=list)
-    problems: list[str] = field(default_factory=list)
 
 
 def _endpoints(value: Any, mode: str) -> list[str]:
