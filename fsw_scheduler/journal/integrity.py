@@ -47,8 +47,6 @@ class FileCheck:
         Messages intact before any damage.
     finished
         Whether it ends with a footer (closed by its writer).
-    truncated
-        Whether it stops inside a record with nothing after it (a crash).
     damage
         What is wrong, None when nothing is.
     offset
@@ -58,7 +56,6 @@ class FileCheck:
     path: Path
     messages: int = 0
     finished: bool = False
-    truncated: bool = False
     damage: str | None = None
     offset: int | None = None
 
@@ -90,19 +87,16 @@ def check_file(path: PathLike) -> FileCheck:
     if len(data) < len(MCAP_MAGIC) and MCAP_MAGIC.startswith(data):
         # A writer killed while it opened the file (rotation, a new run):
         # nothing was written to it, so nothing is lost.
-        result.truncated = True
         return result
     if data[: len(MCAP_MAGIC)] != MCAP_MAGIC:
         if not any(data):
-            result.truncated = True  # zeros only: a power cut at its start
-            return result
+            return result  # zeros only: a power cut at its start
         result.damage, result.offset = "not an MCAP file (bad magic)", 0
         return result
     at = len(MCAP_MAGIC)
     ends = data.endswith(MCAP_MAGIC) and len(data) >= 2 * len(MCAP_MAGIC)
     while True:
         if at + RECORD_HEAD.size > len(data):
-            result.truncated = at < len(data) or not ends
             if ends:
                 result.damage, result.offset = "ends before its footer", at
             return result
@@ -110,8 +104,7 @@ def check_file(path: PathLike) -> FileCheck:
         end = at + RECORD_HEAD.size + length
         if opcode not in _KNOWN or opcode == 0:
             if not ends and not any(data[at:]):
-                result.truncated = True  # zeros after a power cut
-                return result
+                return result  # zeros after a power cut: truncated
             result.damage = f"unknown record type {opcode}"
             result.offset = at
             return result
@@ -125,8 +118,6 @@ def check_file(path: PathLike) -> FileCheck:
             if ends:
                 result.damage = "a record runs past the end of the file"
                 result.offset = at
-            else:
-                result.truncated = True
             return result
         issue = _record_issue(data, at, end, result)
         if issue is not None:

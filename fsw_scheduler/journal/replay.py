@@ -421,9 +421,6 @@ class Rebuilt:
         The last time unit seen (ticks or bus clock), None if none.
     messages
         How many journal messages were read after the starting point.
-    solves_rerun
-        Solve results missing from the journal (older journals) that were
-        computed again.
     """
 
     engine: Engine
@@ -431,7 +428,6 @@ class Rebuilt:
     last_log_time_ns: int = 0
     last_tick: int | None = None
     messages: int = 0
-    solves_rerun: int = 0
 
 
 def rebuild(
@@ -498,7 +494,6 @@ def rebuild(
             plan = record.result
             if plan is None:
                 plan = (solve_fn or run_solve)(config, command)
-                out.solves_rerun += 1
             note(engine.step(SolveDone(record.solve_id, plan), now))
             continue
         if kind in EXCLUDED:

@@ -54,7 +54,8 @@ def validate_problem(
     issues += _check_tasks(problem, allow_empty)
     # Tight precedences that contradict along two paths are valid: they
     # only mean those tasks cannot all be scheduled together (see
-    # fsw_scheduler.proofs for when that makes the problem infeasible).
+    # fsw_scheduler.analysis.proofs for when that makes the problem
+    # infeasible).
     issues += _check_precedences(problem)
     return issues
 

@@ -11,8 +11,8 @@ needs on one channel (``scheduler/levels``, journal only).
 Pure: no bus, no clock, no solver. The levels follow the problem format
 (initial level minus amount times the units run; negative amounts
 generate; never above a consumable's capacity) through
-:func:`fsw_scheduler.view.resource_profiles`, the same function the Gantt
-pictures draw.
+:func:`fsw_scheduler.model.levels.resource_profiles`, the same function
+the Gantt pictures draw.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Tests of the independent plan checker (fsw_scheduler.check)."""
+"""Tests of the independent plan checker (fsw_scheduler.analysis.check)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Tests of the list-scheduling heuristic (fsw_scheduler.greedy)."""
+"""Tests of the list-scheduling heuristic (fsw_scheduler.analysis.greedy)."""
 
 from __future__ import annotations
 

@@ -421,6 +421,29 @@ def test_check_flags_an_open_bus() -> None:
     assert assess(acl_only, acknowledged=True).acknowledged
 
 
+def test_every_deployment_name_is_still_importable_from_the_bus() -> None:
+    """Tests that bus.security gives every name of the pure deployment
+    module, as the same objects, and that assess() reads a live
+    configuration into the pure judgement."""
+    from fsw_scheduler.bus import security
+    from fsw_scheduler.runtime import access
+
+    for name in access.__all__:
+        if name != "assess_settings":
+            assert getattr(security, name) is getattr(access, name), name
+            assert name in security.__all__
+    config = loopback_config(listen="tcp/0.0.0.0:7447")
+
+    def get(key: str) -> object:
+        try:
+            return json.loads(config.get_json(key))
+        except Exception:
+            return None
+
+    assert assess(config) == access.assess_settings(get)
+    assert assess(config).warnings
+
+
 def test_config_command_writes_every_role(tmp_path: Path) -> None:
     """Tests 'config --profile secure' and its certificate names."""
     out = tmp_path / "deploy"

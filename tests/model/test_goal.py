@@ -1,4 +1,4 @@
-"""Tests of goal decoding and checking (fsw_scheduler.goal)."""
+"""Tests of goal decoding and checking (fsw_scheduler.model.goal)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Tests of online rescheduling (fsw_scheduler.reschedule)."""
+"""Tests of online rescheduling (fsw_scheduler.replan)."""
 
 from __future__ import annotations
 

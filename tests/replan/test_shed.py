@@ -1,5 +1,5 @@
 """Tests of degraded plans: shedding mandatory tasks the world made
-impossible (fsw_scheduler.shed and its use by the engine)."""
+impossible (fsw_scheduler.replan.shed and its use by the engine)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Tests of the node settings file (fsw_scheduler.config)."""
+"""Tests of the node settings file (fsw_scheduler.runtime.config)."""
 
 from __future__ import annotations
 

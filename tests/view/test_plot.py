@@ -1,4 +1,4 @@
-"""Tests of the plan views (fsw_scheduler.plot)."""
+"""Tests of the plan views (fsw_scheduler.view: timeline and Gantt)."""
 
 from __future__ import annotations
 
@@ -308,7 +308,8 @@ def test_gantt_missing_matplotlib(
 
 
 def test_import_does_not_load_matplotlib() -> None:
-    """Tests that importing fsw_scheduler.plot leaves matplotlib unloaded."""
+    """Tests that importing fsw_scheduler.view.gantt leaves matplotlib
+    unloaded."""
     code = (
         "import sys, fsw_scheduler.view.gantt; "
         "print('matplotlib' in sys.modules)"

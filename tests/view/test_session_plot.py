@@ -1,4 +1,4 @@
-"""Tests of the session pictures (fsw_scheduler.session_plot, `plot`)."""
+"""Tests of the session pictures (fsw_scheduler.view.session, `plot`)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Tests that schemas/ matches the message types (fsw_scheduler.messages)."""
+"""Tests that schemas/ matches the message types (wire.messages)."""
 
 from __future__ import annotations
 

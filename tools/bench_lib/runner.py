@@ -3,12 +3,13 @@
 Solvers, by name:
 
 ``cbc``, ``highs``
-    :func:`fsw_scheduler.solve.solve` (the time-indexed ILP), one thread.
+    :func:`fsw_scheduler.solving.solve.solve` (the time-indexed ILP), one
+    thread.
 ``cpsat``, ``cpsat2``
     :func:`bench_lib.cpsat.solve_cpsat` with one and two workers.
 
 Every plan that comes with a status having a plan is checked with
-:func:`fsw_scheduler.check.check_plan`; objectives are compared across
+:func:`fsw_scheduler.analysis.check.check_plan`; objectives are compared across
 solvers wherever at least two of them prove optimality.
 """
 

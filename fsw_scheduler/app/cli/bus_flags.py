@@ -30,12 +30,12 @@ from .commands import (
     cmd_record,
     cmd_replay,
     non_negative_float,
-    number_type,
     positive_float,
     positive_int,
     remap_rule,
 )
 from .run import cmd_run
+from .run_flags import add_run_flags
 
 
 def add_run_command(add: Add) -> None:
@@ -66,179 +66,7 @@ def add_run_command(add: Add) -> None:
         a loopback bus without them unless --trust-loopback.
         """,
     )
-    run.add_argument(
-        "--problem",
-        metavar="PROBLEM.json",
-        help="resources, horizon length and any initial tasks",
-    )
-    run.add_argument(
-        "--settings",
-        metavar="FILE.toml",
-        help="the scheduler's settings (strict TOML; an unknown key exits "
-        "2); flags given here override them. The old form --config "
-        "FILE.toml still works, with a deprecation message",
-    )
-    run.add_argument("--spacecraft", help="key prefix id (default sat1)")
-    run.add_argument(
-        "--clock",
-        choices=("bus", "wall"),
-        help="time from fsw/<sc>/clock, or the node's own clock",
-    )
-    run.add_argument(
-        "--time-unit",
-        type=positive_float,
-        metavar="S",
-        help="seconds per time unit with --clock wall",
-    )
-    run.add_argument(
-        "--horizon",
-        type=positive_int,
-        metavar="H",
-        help="horizon length in time units (default: the problem file's)",
-    )
-    run.add_argument(
-        "--record",
-        metavar="FILE.mcap",
-        help="journal every input and output (for replay --verify)",
-    )
-    run.add_argument(
-        "--state",
-        metavar="DIR",
-        help="keep the node's state in DIR: a durable journal that a "
-        "restarted node resumes from (plan ids, accepted goals, activity "
-        "states, a solve in flight); implies journaling",
-    )
-    run.add_argument(
-        "--journal-max-size",
-        type=positive_int,
-        default=64 * 1024 * 1024,
-        metavar="BYTES",
-        help="with --state: start a new journal file, opened by a state "
-        "snapshot, past this size (default %(default)s)",
-    )
-    run.add_argument(
-        "--state-max-bytes",
-        type=positive_int,
-        default=1024 * 1024 * 1024,
-        metavar="BYTES",
-        help="with --state: the folder's budget; past it, the oldest journal "
-        "files go once a newer one opens with the state (default "
-        "%(default)s)",
-    )
-    run.add_argument(
-        "--new-problem",
-        action="store_true",
-        help="with --state: when --problem differs from the one the folder "
-        "started from, set the folder's state aside (in DIR/replaced/) and "
-        "start from the new problem (without it, such a start is refused)",
-    )
-    run.add_argument(
-        "--keep-runs",
-        type=number_type(int, minimum=2, strict=False),
-        default=20,
-        metavar="N",
-        help="with --state: journal files of the last N starts are kept "
-        "(default %(default)s; at least 2)",
-    )
-    run.add_argument(
-        "--node-id",
-        metavar="ID",
-        help="this node's name among redundant schedulers (default "
-        "<host>-<pid>)",
-    )
-    run.add_argument(
-        "--rank",
-        type=number_type(int, minimum=0, strict=False),
-        metavar="N",
-        help="preference among redundant schedulers: the lowest rank "
-        "commands when none does yet (default 0)",
-    )
-    run.add_argument(
-        "--discovery",
-        type=non_negative_float,
-        metavar="S",
-        help="seconds to look for other schedulers before commanding "
-        "(default 1)",
-    )
-    run.add_argument(
-        "--no-standby",
-        action="store_true",
-        help="command whatever else runs: no election, no hot standby",
-    )
-    run.add_argument("--solver", choices=("cbc", "highs"), help="MILP solver")
-    run.add_argument(
-        "--time-limit",
-        type=positive_float,
-        metavar="S",
-        help="seconds per solve (> 0; default 10)",
-    )
-    safety = run.add_mutually_exclusive_group()
-    safety.add_argument(
-        "--insecure",
-        action="store_true",
-        help="acknowledge a bus reachable beyond loopback without TLS or "
-        "access control (recorded in scheduler/config)",
-    )
-    safety.add_argument(
-        "--require-secure",
-        action="store_true",
-        help="refuse to start (exit 2) unless the bus has mutual TLS on "
-        "every endpoint and access control, on loopback too (every "
-        "process of the computer reaches a loopback bus)",
-    )
-    # Not in the group: it qualifies --require-secure, so it goes with it.
-    run.add_argument(
-        "--trust-loopback",
-        action="store_true",
-        help="with --require-secure: accept a loopback-only bus without "
-        "TLS or access control (a single trusted computer, a bench)",
-    )
-    limits = run.add_argument_group(
-        "limits",
-        "What a sender gets beyond each limit is in docs/robustness.md; "
-        "the same settings exist in the TOML file.",
-    )
-    limits.add_argument(
-        "--response-deadline",
-        type=float,
-        metavar="S",
-        help="seconds from a goal's arrival to its plan; the solve gets "
-        "what is left (default 15)",
-    )
-    limits.add_argument(
-        "--tasks-per-goal",
-        type=int,
-        metavar="N",
-        help="a goal with more tasks is rejected (default 100)",
-    )
-    limits.add_argument(
-        "--live-tasks",
-        type=int,
-        metavar="N",
-        help="a goal that would make the plan hold more live tasks is "
-        "rejected (default 300)",
-    )
-    limits.add_argument(
-        "--goals-waiting",
-        type=int,
-        metavar="N",
-        help="goals queued behind a solve; more are rejected 'busy' "
-        "(default 64)",
-    )
-    limits.add_argument(
-        "--max-clock-step",
-        type=int,
-        metavar="UNITS",
-        help="largest forward step of one bus clock message; a bigger one "
-        "is rejected (default 100)",
-    )
-    limits.add_argument(
-        "--clock-stall",
-        type=float,
-        metavar="S",
-        help="seconds without a bus clock message before the status turns "
-        "degraded (default 30)",
-    )
+    add_run_flags(run)
     add_zenoh_arguments(run)
 
 

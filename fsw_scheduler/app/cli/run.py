@@ -27,6 +27,7 @@ from .commands import (
     open_bus,
     read_bytes,
 )
+from .run_flags import run_settings
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -42,25 +43,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from ...runtime.config import load_config
 
     try:
-        config = load_config(settings_file(args)).replace(
-            spacecraft=args.spacecraft,
-            clock=args.clock,
-            time_unit=args.time_unit,
-            solver=args.solver,
-            time_limit=args.time_limit,
-            horizon=args.horizon,
-            node_id=args.node_id,
-            rank=args.rank,
-            discovery=args.discovery,
-            response_deadline=args.response_deadline,
-            tasks_per_goal=args.tasks_per_goal,
-            live_tasks=args.live_tasks,
-            goals_waiting=args.goals_waiting,
-            max_clock_step=args.max_clock_step,
-            clock_stall=args.clock_stall,
-        )
-        if args.no_standby:
-            config = config.replace(standby=False)
+        config = load_config(settings_file(args)).replace(**run_settings(args))
     except ValueError as error:  # a bad value given as a flag
         raise InputError([FieldIssue("", str(error))], "arguments") from None
     if config.node_id is None:
