@@ -31,6 +31,7 @@ from ..errors import FieldIssue, InputError
 from ..model.change import ExecutionReport
 from ..replan.triggers import drift
 from ..wire import topics
+from .config import HELD_REPORTS
 from .dispatch import dispatch_id, dispatch_message
 from .events import (
     ClockStalled,
@@ -205,6 +206,8 @@ class Engine:
             lifecycle=dict(dispatches.lifecycle),
             reported=dict(dispatches.reported),
             sent=dict(dispatches.sent),
+            cancelling=dict(dispatches.cancelling),
+            held=tuple(state.held),
             counters=state.counters,
             last_solve=state.last_solve,
             inputs=state.inputs,
@@ -242,9 +245,9 @@ class Engine:
         A node saves its state before its outputs reach the bus, so when
         it died in between, the plan and dispatches of its last step were
         never seen. They are published again: the current plan (same
-        ``plan_id``) and every dispatch still waiting for its first
+        ``plan_id``), every dispatch still waiting for its first
         report, with its ``dispatch_id``, so that a receiver that has it
-        already drops it.
+        already drops it, and every cancel still waiting for its answer.
         """
         state = self._state
         out: list[Command] = [self.resumed(event)]
@@ -263,6 +266,11 @@ class Engine:
                     state.term,
                 )
             )
+        dispatches = state.dispatches
+        for task, since in sorted(dispatches.cancelling.items()):
+            span = dispatches.sent.get(task)
+            if span is not None:
+                out.append(self._execution.cancel_message(task, span, since))
         return out
 
     def resumed(self, event: str = "resumed", **extra: object) -> Command:
@@ -306,6 +314,7 @@ class Engine:
         if state.now is None or now > state.now:
             state.now = now
         out: list[Command] = []
+        self._release_held(out)
         if isinstance(event, Tick):
             self._on_tick(out)
         elif isinstance(event, GoalArrived):
@@ -391,6 +400,7 @@ class Engine:
         if self._state.unsolved_initial is not None and not self.busy:
             self._replanner.start_initial(out)
         self._execution.check_report_timeouts(out)
+        self._execution.check_cancels(out)
         if self._deferred_due() and not self._queue.has_trigger("horizon"):
             self._queue.add(
                 QueuedChange(
@@ -526,20 +536,64 @@ class Engine:
             )
         )
 
+    def _release_held(self, out: list[Command]) -> None:
+        """Apply each held report the clock has reached, in arrival order.
+
+        At the start of a step, before its event: a deterministic point,
+        so that a replay (the held reports are journaled inputs) applies
+        them on the same step.
+        """
+        state = self._state
+        if not state.held:
+            return
+        now = state.clock()
+        due = [r for r in state.held if r.at <= now]
+        if not due:
+            return
+        state.held = [r for r in state.held if r.at > now]
+        for report in due:
+            self._on_report(report, out)
+
+    def _hold(self, report: ActivityReport, out: list[Command]) -> bool:
+        """Hold ``report`` if its ``at`` is ahead of the clock but within
+        ``report_ahead`` (and fewer than :data:`HELD_REPORTS` wait)."""
+        state = self._state
+        ahead = report.at - state.clock()
+        if (
+            ahead <= 0
+            or ahead > self.config.report_ahead
+            or len(state.held) >= HELD_REPORTS
+        ):
+            return False
+        state.held.append(report)
+        out.append(
+            Log(
+                "info",
+                f"{report.task} {report.state} at {report.at}: held until "
+                f"the clock reaches it (now {state.clock()})",
+            )
+        )
+        return True
+
     def _on_report(self, report: ActivityReport, out: list[Command]) -> None:
+        if report.at > self._state.clock() and self._hold(report, out):
+            return
         schedule = self.schedule
+        dispatches = self._state.dispatches
         if (
             schedule is not None
             and report.task not in {t.id for t in schedule.problem.tasks}
             and report.task in {t.id for t in schedule.catalog}
+            and report.task not in dispatches.cancelling
         ):
             # A late report on a task that already left the problem (for
             # instance finished by the plan's prediction): note it only.
-            self._state.dispatches.note(report.task, report.state)
+            dispatches.note(report.task, report.state)
             return
-        if schedule is None or report.task not in {
-            t.id for t in schedule.problem.tasks
-        }:
+        if (
+            schedule is None
+            or report.task not in {t.id for t in schedule.problem.tasks}
+        ) and report.task not in dispatches.cancelling:
             self._verdicts.reject_input(
                 f"telemetry/activities/{report.task}",
                 "activity_report",
@@ -556,20 +610,68 @@ class Engine:
                 out,
             )
             return
+        assert schedule is not None
         self._state.count(reports=self._state.counters.reports + 1)
-        self._state.dispatches.report(report.task, report.state)
         at = min(report.at, self._state.clock())
+        detail = f"{report.task} {report.state} at {report.at}"
+        if report.state == "cancelled":
+            self._on_cancelled(report.task)
+            out.append(self._verdicts.publish("activity", detail=detail))
+            return
+        cancelled = report.task in dispatches.cancelling
+        dispatches.report(report.task, report.state)
+        out.append(self._verdicts.publish("activity", detail=detail))
+        if cancelled and report.state == "running":
+            return  # it runs until the cancel reaches it: nothing new
+        if cancelled:
+            # The ``missed`` record of the cancel is overtaken by the fact.
+            schedule = msgspec.structs.replace(
+                schedule,
+                reports=tuple(
+                    r
+                    for r in schedule.reports
+                    if r.task != report.task or r.state != "missed"
+                ),
+            )
         self._state.schedule = schedule.with_report(
             ExecutionReport(report.task, report.state, at)
         )
-        out.append(
-            self._verdicts.publish(
-                "activity",
-                detail=f"{report.task} {report.state} at {report.at}",
-            )
-        )
+        if cancelled and report.state != "failed":
+            # It ended before the cancel reached it: what it did is a
+            # fact; the plan that moved it is replanned from it.
+            self._queue.add(QueuedChange("levels", at=at, trigger="cancelled"))
         if report.state == "failed":
             self._queue.add(QueuedChange("failure", task=report.task, at=at))
+
+    def _on_cancelled(self, task: str) -> None:
+        """A cancel answered: the activity stopped (or never started).
+
+        It may now be commanded again where the plan puts it, if that
+        place is still to come; otherwise it is replanned (``missed``).
+        """
+        state = self._state
+        dispatches = state.dispatches
+        schedule = state.schedule
+        assert schedule is not None
+        dispatches.cancelling.pop(task, None)
+        dispatches.dispatched.pop(task, None)
+        dispatches.sent.pop(task, None)
+        placed = schedule.plan.activity(task)
+        if placed is None or task in schedule.continuing:
+            dispatches.note(
+                task, "obsolete" if task in schedule.obsolete else "preempted"
+            )
+            return
+        if placed.start >= state.clock():
+            dispatches.note(task, "planned")
+            return
+        dispatches.note(task, "missed")
+        state.schedule = schedule.with_report(
+            ExecutionReport(task, "missed", state.clock())
+        )
+        self._queue.add(
+            QueuedChange("levels", at=state.clock(), trigger="missed")
+        )
 
     def _report_issue(self, report: ActivityReport) -> FieldIssue | None:
         """Why ``report`` answers no dispatch of this spacecraft (None: it
@@ -582,7 +684,21 @@ class Engine:
             )
         if report.at > self._state.clock():
             return FieldIssue(
-                "at", f"{report.at} is after now ({self._state.clock()})"
+                "at",
+                f"{report.at} is after now ({self._state.clock()}) by more "
+                f"than report-ahead ({self.config.report_ahead})"
+                if len(self._state.held) < HELD_REPORTS
+                else f"{report.at} is after now ({self._state.clock()}) and "
+                f"{HELD_REPORTS} reports are held already",
+            )
+        if (
+            report.state == "cancelled"
+            and task not in self._state.dispatches.cancelling
+        ):
+            return FieldIssue(
+                "state",
+                f"no cancel of {task!r} waits for an answer: an activity "
+                "that stopped by itself is reported failed",
             )
         if report.term > self.term:
             return FieldIssue(

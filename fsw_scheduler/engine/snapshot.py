@@ -17,7 +17,12 @@ from ..model.goal import Goal
 from ..model.plan import Plan
 from ..model.problem import Problem
 from ..replan.schedule import Replan, Schedule
-from ..wire.messages import Counters, PlanMessage, SolveSummary
+from ..wire.messages import (
+    ActivityReport,
+    Counters,
+    PlanMessage,
+    SolveSummary,
+)
 
 #: Bumped when a field's meaning changes; new fields get defaults instead.
 SNAPSHOT_VERSION = 1
@@ -31,6 +36,9 @@ Lifecycle = Literal[
     "preempted",
     "obsolete",
     "missed",
+    "cancelling",
+    "cancelled",
+    "unknown",
 ]
 Health = Literal["ok", "degraded", "error"]
 
@@ -104,6 +112,8 @@ class EngineSnapshot(msgspec.Struct, frozen=True, omit_defaults=True):
     lifecycle: dict[str, Lifecycle] = {}
     reported: dict[str, Lifecycle] = {}
     sent: dict[str, tuple[int, int]] = {}
+    cancelling: dict[str, int] = {}
+    held: tuple[ActivityReport, ...] = ()
     counters: Counters = Counters()
     last_solve: SolveSummary | None = None
     inputs: int = 0

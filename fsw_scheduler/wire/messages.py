@@ -47,14 +47,18 @@ class ActivityReport(msgspec.Struct, frozen=True, omit_defaults=True):
     """``telemetry/activities/<task>``: an execution report.
 
     A report answers a dispatch: its task must have been dispatched and
-    ``at`` must not lie ahead of the scheduler's time. ``dispatch_id`` and
-    ``term``, echoed from the dispatch, name which one (a report naming
-    another dispatch, or a term the scheduler has not reached, is
-    rejected; the ``reports-need-dispatch`` setting makes them required).
+    ``at`` must not lie ahead of the scheduler's time by more than the
+    ``report-ahead`` setting (such a report is held until the clock
+    reaches ``at``, then applied). ``dispatch_id`` and ``term``, echoed
+    from the dispatch, name which one (a report naming another dispatch,
+    or a term the scheduler has not reached, is rejected; the
+    ``reports-need-dispatch`` setting makes them required). ``cancelled``
+    answers a cancel (a dispatch with ``action: cancel``): the activity
+    was stopped, or never started, at ``at``.
     """
 
     task: Id
-    state: Literal["running", "completed", "failed"]
+    state: Literal["running", "completed", "failed", "cancelled"]
     at: Instant
     detail: str = ""
     dispatch_id: str = ""
@@ -136,6 +140,13 @@ class Dispatch(msgspec.Struct, frozen=True, omit_defaults=True):
     acts on that id ignores a repeat, and a new id for the same task
     replaces the earlier command. ``term`` fences: a receiver ignores a
     dispatch whose term is lower than the highest it has seen.
+
+    ``action`` is ``run`` (start it) or ``cancel``: stop the dispatch
+    ``dispatch_id`` names, or never start it, and answer with a report
+    ``cancelled`` echoing its ``dispatch_id`` (``completed`` or ``failed``
+    if it had already ended). The scheduler commands a cancelled
+    activity again, under a new id, only after that answer.
+    ``dispatched_at`` of a cancel is when the cancel was sent.
     """
 
     task: str
@@ -147,6 +158,7 @@ class Dispatch(msgspec.Struct, frozen=True, omit_defaults=True):
     late: bool = False
     dispatch_id: str = ""
     term: int = 0
+    action: Literal["run", "cancel"] = "run"
 
 
 class Source(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -409,6 +421,8 @@ class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     goal_ids: int = 1024
     reports_need_dispatch: bool = False
     durable: bool = True
+    report_ahead: int = 0
+    cancel_timeout: int | None = None
 
 
 #: Message types of each key (relative to ``fsw/<sc>/``), for schemas.
