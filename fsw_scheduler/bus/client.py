@@ -113,11 +113,12 @@ class SchedulerClient:
         self.solves: list[messages.SolveRecord] = []
         self.samples: list[tuple[str, bytes]] = []
         self.decode_errors: list[tuple[str, str]] = []
-        #: The receiver's fence, and the dispatches it let through (each
-        #: ``dispatch_id`` once, no stale term): what an executor that
-        #: follows docs/redundancy.md would have carried out.
+        #: The receiver's fence, the dispatches it let through (each
+        #: ``dispatch_id`` once, no stale term) and the cancels it obeyed:
+        #: what an executor that follows the README would have done.
         self.fence = Fence()
         self.executed: list[messages.Dispatch] = []
+        self.cancels: list[messages.Dispatch] = []
         self._subscriber: Any = session.declare_subscriber(
             self.topics.key("scheduler/**"), self._on_sample
         )
@@ -492,6 +493,8 @@ class SchedulerClient:
                 target.append(decoded)
             if kind == "dispatch" and self.fence.execute(decoded):
                 self.executed.append(decoded)
+            elif kind == "dispatch" and self.fence.cancel(decoded):
+                self.cancels.append(decoded)
             elif decoded is not None:
                 self.fence.admit(decoded)
             elif kind == "term":
@@ -546,18 +549,25 @@ def query_payload(
 
 class Fence:
     """What a receiver of scheduler outputs does, so that a stale
-    commander can never make it act (docs/redundancy.md,
-    "What a receiver must do").
+    commander can never make it act and no command runs twice (README,
+    "Receiving dispatches"; docs/redundancy.md, "What a receiver must
+    do").
 
     * Keep the highest ``term`` seen on any plan, dispatch, status or
       ``scheduler/term`` message; ignore anything with a lower one.
-    * Act on a dispatch once per ``dispatch_id``; a repeat (a resumed or
-      new commander sends the same command again) is not a new command.
+    * Act on a dispatch (``action`` ``run``) once per ``dispatch_id``; a
+      repeat (a resumed or new commander sends the same command again) is
+      not a new command, and neither is a dispatch already cancelled.
+    * Obey a cancel (``action`` ``cancel``) once per ``dispatch_id``: stop
+      that dispatch if it runs, never start it if it has not, and answer
+      with a report ``cancelled`` echoing its ``dispatch_id`` (if it had
+      already ended, its ``completed`` or ``failed`` report answers).
     """
 
     def __init__(self) -> None:
         self.term = 0
         self.acted: set[str] = set()
+        self.cancelled: set[str] = set()
         self.fenced = 0
 
     def admit(self, message: object) -> bool:
@@ -570,14 +580,33 @@ class Fence:
         return True
 
     def execute(self, dispatch: messages.Dispatch) -> bool:
-        """Whether to carry ``dispatch`` out now (first time, not stale)."""
-        if not self.admit(dispatch):
+        """Whether to carry ``dispatch`` out now (a run, the first time,
+        not stale, not cancelled)."""
+        if dispatch.action == "cancel" or not self.admit(dispatch):
             return False
-        key = dispatch.dispatch_id or f"{dispatch.task}:{dispatch.plan_id}"
-        if key in self.acted:
+        key = _command_id(dispatch)
+        if key in self.acted or key in self.cancelled:
             return False
         self.acted.add(key)
         return True
+
+    def cancel(self, dispatch: messages.Dispatch) -> bool:
+        """Whether ``dispatch`` is a cancel to obey now (the first time,
+        not stale): stop or never start the dispatch it names, and answer
+        ``cancelled``."""
+        if dispatch.action != "cancel" or not self.admit(dispatch):
+            return False
+        key = _command_id(dispatch)
+        if key in self.cancelled:
+            return False
+        self.cancelled.add(key)
+        return True
+
+
+def _command_id(dispatch: messages.Dispatch) -> str:
+    """The id a receiver acts on once (``dispatch_id``, or for a
+    scheduler too old to send one, the task and plan)."""
+    return dispatch.dispatch_id or f"{dispatch.task}:{dispatch.plan_id}"
 
 
 #: The final answers to a goal.

@@ -126,8 +126,12 @@ class Dispatches:
             if activity.task in keep:
                 continue
             state = self.lifecycle.get(activity.task)
-            if state in ("cancelling", "unknown"):
-                continue  # waits for its answer; never sent blindly
+            if state in ("cancelling", "unknown") or (
+                now is not None and state == "completed"
+            ):
+                # Waits for its answer, or already ran (a plan computed
+                # before its report): never commanded again blindly.
+                continue
             if state == "dispatched" and self.sent.get(activity.task) == (
                 activity.start,
                 activity.end,

@@ -122,6 +122,17 @@ class Execution:
             )
         out.append(self._verdicts.publish("plan"))
         self._cancel(cancels, out)
+        lifecycle = state.dispatches.lifecycle
+        if state.config.cancel_timeout is not None and any(
+            lifecycle.get(a.task) in ("completed", "unknown")
+            and a.task not in schedule.continuing
+            for a in plan.activities
+        ):
+            # The plan was computed before what ran was known: it holds
+            # an activity that will not be flown; plan from the facts.
+            self._queue.add(
+                QueuedChange("levels", at=state.clock(), trigger="stale")
+            )
 
     def _cancel(
         self, cancels: list[tuple[str, tuple[int, int]]], out: list[Command]

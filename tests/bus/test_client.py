@@ -1,0 +1,53 @@
+"""Tests of the receiver's rules as :class:`Fence` applies them."""
+
+from __future__ import annotations
+
+from fsw_scheduler.testing import Fence
+from fsw_scheduler.wire import messages
+
+
+def _dispatch(
+    dispatch_id: str, term: int = 1, action: str = "run"
+) -> messages.Dispatch:
+    task, span = dispatch_id.split(":")
+    start, end = (int(x) for x in span.split("-"))
+    return messages.Dispatch(
+        task=task,
+        plan_id=1,
+        start=start,
+        end=end,
+        uses={},
+        dispatch_id=dispatch_id,
+        term=term,
+        action=action,  # type: ignore[arg-type]
+    )
+
+
+def test_a_dispatch_is_acted_on_once_and_a_cancel_obeyed_once() -> None:
+    """Tests that a run is carried out once per id, a cancel of it is
+    obeyed once and is never taken for a run."""
+    fence = Fence()
+    assert fence.execute(_dispatch("X:0-4"))
+    assert not fence.execute(_dispatch("X:0-4"))
+    cancel = _dispatch("X:0-4", action="cancel")
+    assert not fence.execute(cancel)
+    assert fence.cancel(cancel)
+    assert not fence.cancel(cancel)
+    assert fence.execute(_dispatch("X:5-9"))
+
+
+def test_a_cancel_before_its_dispatch_keeps_it_from_starting() -> None:
+    """Tests that a dispatch whose cancel came first is never started."""
+    fence = Fence()
+    assert fence.cancel(_dispatch("X:0-4", action="cancel"))
+    assert not fence.execute(_dispatch("X:0-4"))
+
+
+def test_a_stale_term_neither_runs_nor_cancels() -> None:
+    """Tests that a run or a cancel from a term below the highest seen
+    is ignored and counted as fenced."""
+    fence = Fence()
+    assert fence.admit(messages.Term(term=3))
+    assert not fence.execute(_dispatch("X:0-4", term=2))
+    assert not fence.cancel(_dispatch("Y:0-4", term=2, action="cancel"))
+    assert fence.fenced == 2
