@@ -38,6 +38,7 @@ from .events import (
     Command,
     Event,
     Explained,
+    FactsArrived,
     GoalArrived,
     InputRejected,
     LevelArrived,
@@ -51,6 +52,7 @@ from .events import (
 )
 from .execution import Execution
 from .ledger import goal_digest
+from .merge import merge_facts
 from .queue import SolveQueue
 from .snapshot import EngineSnapshot, GoalRecord, QueuedChange
 from .solves import Replanner
@@ -331,6 +333,8 @@ class Engine:
             self._on_explained(event, out)
         elif isinstance(event, TermBegan):
             self._on_term(event, out)
+        elif isinstance(event, FactsArrived):
+            self._on_facts(event, out)
         elif isinstance(event, SolveDone):
             self._replanner.on_solve_done(event, out)
         elif isinstance(event, SolveFailed):
@@ -366,6 +370,32 @@ class Engine:
                 f"term {event.term} begins ({event.reason or 'command'}"
                 f"{', node ' + event.node_id if event.node_id else ''})",
             )
+        )
+
+    def _on_facts(self, event: FactsArrived, out: list[Command]) -> None:
+        """Take what a commander that stood down commanded (see
+        :mod:`.merge`), then replan from it."""
+        facts = event.facts
+        goals, merged, cancelling = merge_facts(self._state, facts)
+        if not (goals or merged):
+            return
+        state = self._state
+        for task in cancelling:
+            span = state.dispatches.sent[task]
+            out.append(
+                self._execution.cancel_message(task, span, state.clock())
+            )
+        detail = (
+            f"from {facts.node_id or '?'} (term {facts.term}): "
+            f"{len(merged)} commanded activities"
+            + (f" ({', '.join(merged)})" if merged else "")
+            + f", {len(goals)} goals carried over"
+            + (f" ({', '.join(goals)})" if goals else "")
+        )
+        out.append(Log("info", f"facts merged {detail}"))
+        out.append(self._verdicts.publish("facts_merged", detail=detail))
+        self._queue.add(
+            QueuedChange("levels", at=state.clock(), trigger="merged")
         )
 
     def _on_explained(self, event: Explained, out: list[Command]) -> None:
@@ -488,7 +518,11 @@ class Engine:
                 return
         self._queue.add(QueuedChange("goal", goal=goal))
         self._state.ledger.queue(
-            goal.goal_id, digest, self._state.clock(), self.term
+            goal.goal_id,
+            digest,
+            self._state.clock(),
+            self.term,
+            tuple(t.id for t in goal.tasks),
         )
         pending = self._queue.pending
         if pending is not None:
@@ -577,6 +611,16 @@ class Engine:
 
     def _on_report(self, report: ActivityReport, out: list[Command]) -> None:
         if report.at > self._state.clock() and self._hold(report, out):
+            return
+        if (
+            report.state == "cancelled"
+            and report.task not in self._state.dispatches.cancelling
+        ):
+            # The answer to a cancel already settled (a new commander
+            # asked again): nothing waits for it.
+            out.append(
+                Log("info", f"{report.task}: cancelled again, already settled")
+            )
             return
         schedule = self.schedule
         dispatches = self._state.dispatches
@@ -691,15 +735,7 @@ class Engine:
                 else f"{report.at} is after now ({self._state.clock()}) and "
                 f"{HELD_REPORTS} reports are held already",
             )
-        if (
-            report.state == "cancelled"
-            and task not in self._state.dispatches.cancelling
-        ):
-            return FieldIssue(
-                "state",
-                f"no cancel of {task!r} waits for an answer: an activity "
-                "that stopped by itself is reported failed",
-            )
+
         if report.term > self.term:
             return FieldIssue(
                 "term", f"{report.term} is above this node's term {self.term}"

@@ -83,6 +83,7 @@ class Dispatches:
         removed: Iterable[Removal],
         max_history: int,
         now: int | None = None,
+        readded: Iterable[str] = (),
     ) -> list[tuple[str, tuple[int, int]]]:
         """Take a new plan: removed tasks leave, planned ones wait again.
 
@@ -92,10 +93,12 @@ class Dispatches:
         commanded again (when ``now`` is given; without it, as journals
         recorded before cancels, it is planned again): it turns
         ``cancelling`` and is returned, with the span of the dispatch to
-        cancel. At most ``max_history`` finished entries are kept (oldest
-        go).
+        cancel. A completed activity is not commanded again, unless the
+        rules brought it back to run again (``readded``: a tight chain).
+        At most ``max_history`` finished entries are kept (oldest go).
         """
         keep = set(continuing)
+        again = set(readded)
         cancels: list[tuple[str, tuple[int, int]]] = []
 
         def cancel(task: str) -> bool:
@@ -127,7 +130,9 @@ class Dispatches:
                 continue
             state = self.lifecycle.get(activity.task)
             if state in ("cancelling", "unknown") or (
-                now is not None and state == "completed"
+                now is not None
+                and state == "completed"
+                and activity.task not in again
             ):
                 # Waits for its answer, or already ran (a plan computed
                 # before its report): never commanded again blindly.

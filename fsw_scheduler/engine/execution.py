@@ -64,11 +64,13 @@ class Execution:
         goals: tuple[str, ...],
         removed: tuple[Removal, ...],
         out: list[Command],
+        readded: tuple[str, ...] = (),
     ) -> None:
         """Make ``plan`` (already in ``state.schedule``) the plan flown.
 
         Gives it the next ``plan_id``, publishes it, and accepts the
-        goals it carries.
+        goals it carries. ``readded``: completed tasks the rules brought
+        back to run again (a tight chain).
         """
         state = self._state
         schedule = state.schedule
@@ -82,6 +84,7 @@ class Execution:
             removed,
             state.config.max_history,
             None if state.config.cancel_timeout is None else state.clock(),
+            readded,
         )
         state.plan_message = PlanMessage(
             plan_id=state.plan_id,
@@ -126,6 +129,7 @@ class Execution:
         if state.config.cancel_timeout is not None and any(
             lifecycle.get(a.task) in ("completed", "unknown")
             and a.task not in schedule.continuing
+            and a.task not in readded
             for a in plan.activities
         ):
             # The plan was computed before what ran was known: it holds

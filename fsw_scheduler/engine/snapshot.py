@@ -84,12 +84,15 @@ class GoalRecord(msgspec.Struct, frozen=True, omit_defaults=True):
     encoding), ``verdict`` is ``queued`` (accepted for processing,
     waiting for its solve) or ``accepted`` (in a plan), ``at`` the time
     unit it arrived at and ``term`` the command term that took it.
+    ``tasks`` are the ids of its tasks: a goal of which something was
+    commanded is a fact a heal carries over, not a goal to send again.
     """
 
     digest: str
     verdict: Literal["queued", "accepted"]
     at: int = 0
     term: int = 0
+    tasks: tuple[str, ...] = ()
 
 
 class EngineSnapshot(msgspec.Struct, frozen=True, omit_defaults=True):

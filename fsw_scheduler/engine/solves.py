@@ -176,6 +176,7 @@ class Replanner:
                 pending.goals,
                 pending.replan.removed,
                 out,
+                readded=pending.replan.readded,
             )
         if pending.stage == "degraded":
             self.raise_alarm(plan, out)
@@ -365,7 +366,7 @@ class Replanner:
                     levels.update(change.levels)
                     at = min(at, change.at)
                 trigger = "drift" if levels else "stale"
-                for named in ("horizon", "missed"):
+                for named in ("horizon", "missed", "cancelled", "merged"):
                     if not levels and any(
                         c.trigger == named for c in queue.changes
                     ):

@@ -29,7 +29,7 @@ from ..model.plan import (
     SolverStats,
     SolveStatus,
 )
-from ..model.problem import Id, Instant, Problem
+from ..model.problem import Id, Instant, Precedence, Problem, Task
 from .profiles import LevelCheck, Profiles
 
 #: Largest payload accepted on an input key; bigger ones are rejected
@@ -101,8 +101,11 @@ class PlanMessage(msgspec.Struct, frozen=True):
         Tasks that left the pending list at this replan, with the rule.
     trigger
         What caused the plan: ``initial``, ``goal``, ``failure``,
-        ``drift``, ``stale`` (the plan came late) or ``horizon`` (the
-        rolling horizon reached a deferred task).
+        ``drift``, ``stale`` (the plan came late, or before what ran was
+        known), ``horizon`` (the rolling horizon reached a deferred task),
+        ``missed`` (an activity was not commanded in its time),
+        ``cancelled`` (a cancel was answered with what ran, or not at
+        all) or ``merged`` (facts handed over at a heal).
     goals
         Goal ids adopted by this plan.
     stats
@@ -391,6 +394,59 @@ class Term(msgspec.Struct, frozen=True, omit_defaults=True):
     reason: str = ""
 
 
+class Fact(msgspec.Struct, frozen=True, omit_defaults=True):
+    """One activity a commander commanded, as that commander knows it.
+
+    ``state`` is its lifecycle there (``dispatched``, ``running``,
+    ``cancelling``, ``completed``, ``failed``, ``unknown``); ``start``
+    and ``end`` the span of the dispatch that stands (its ``dispatch_id``
+    is ``<task>:<start>-<end>``), when one does; ``at`` the time unit of
+    its last report (or of the state, without one).
+    """
+
+    task: Id
+    state: Literal[
+        "dispatched", "running", "cancelling", "completed", "failed", "unknown"
+    ]
+    at: Instant = 0
+    start: int | None = None
+    end: int | None = None
+
+
+class CarriedGoal(msgspec.Struct, frozen=True, omit_defaults=True):
+    """A goal a commander accepted of which something was commanded.
+
+    ``digest`` is the ledger's name of its content, so that the goal sent
+    again is recognised; ``tasks`` and ``precedences`` its definition as
+    that commander holds it.
+    """
+
+    goal_id: Id
+    digest: str
+    at: Instant = 0
+    tasks: tuple[Task, ...] = ()
+    precedences: tuple[Precedence, ...] = ()
+
+
+class Facts(msgspec.Struct, frozen=True, omit_defaults=True):
+    """``scheduler/facts``: what a commander that stands down commanded.
+
+    When two commanders meet after a partition, the one that stands down
+    hands over what it commanded and what its executor reported
+    (``facts``, where the winner's shared state says otherwise) and the
+    goals it accepted that the winner lacks and of which something was
+    commanded (``goals``). The winner journals it as an input and takes
+    them as commanded facts: nothing that ran is commanded again, a goal
+    partly executed keeps what ran. ``term`` and ``node_id`` name the
+    sender.
+    """
+
+    term: Annotated[int, msgspec.Meta(ge=0)]
+    node_id: str = ""
+    facts: tuple[Fact, ...] = ()
+    goals: tuple[CarriedGoal, ...] = ()
+
+
 class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     """``scheduler/config``: settings a recording needs to be replayed."""
 
@@ -437,6 +493,7 @@ SCHEMA_TYPES: dict[str, Any] = {
     "solve_record": SolveRecord,
     "node_info": NodeInfo,
     "term": Term,
+    "facts": Facts,
     "input_source": InputSource,
     "problem": Problem,
     "busy": Busy,
