@@ -224,7 +224,11 @@ class ReadmeExecutor:
             del self._running[task]
             current[1].outcome = "cancelled"
             current[1].end = max(self.now, 0)
-        elif dispatch.dispatch_id in self.fence.acted:
+        elif any(
+            r.dispatch_id == dispatch.dispatch_id
+            and r.outcome in ("completed", "replaced")
+            for r in self.runs.get(task, [])
+        ):
             return  # it ended and said so: that report answers
         self._report(dispatch, "cancelled", max(self.now, 0))
 

@@ -558,10 +558,11 @@ class Fence:
     * Act on a dispatch (``action`` ``run``) once per ``dispatch_id``; a
       repeat (a resumed or new commander sends the same command again) is
       not a new command, and neither is a dispatch already cancelled.
-    * Obey a cancel (``action`` ``cancel``) once per ``dispatch_id``: stop
-      that dispatch if it runs, never start it if it has not, and answer
-      with a report ``cancelled`` echoing its ``dispatch_id`` (if it had
-      already ended, its ``completed`` or ``failed`` report answers).
+    * Obey a cancel (``action`` ``cancel``): stop that dispatch if it
+      runs, never start it if it has not, and answer with a report
+      ``cancelled`` echoing its ``dispatch_id``, each time a cancel comes
+      (if it had already ended, its ``completed`` or ``failed`` report
+      answers).
     """
 
     def __init__(self) -> None:
@@ -591,15 +592,13 @@ class Fence:
         return True
 
     def cancel(self, dispatch: messages.Dispatch) -> bool:
-        """Whether ``dispatch`` is a cancel to obey now (the first time,
-        not stale): stop or never start the dispatch it names, and answer
-        ``cancelled``."""
+        """Whether ``dispatch`` is a cancel to obey now (not stale): stop
+        or never start the dispatch it names, and answer ``cancelled``,
+        every time one comes (a new commander may ask again; a repeated
+        answer is harmless)."""
         if dispatch.action != "cancel" or not self.admit(dispatch):
             return False
-        key = _command_id(dispatch)
-        if key in self.cancelled:
-            return False
-        self.cancelled.add(key)
+        self.cancelled.add(_command_id(dispatch))
         return True
 
 

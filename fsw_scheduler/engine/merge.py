@@ -5,8 +5,10 @@ down. What it commanded in the meantime is a fact (the executor on its
 side may have run it), and so is what its executor reported. It hands
 them over (:func:`facts_of`, published on ``scheduler/facts``) and the
 winner takes them into its state (:func:`merge_facts`, as a journaled
-input): a completed activity is never commanded again, a commanded one is
-kept running where it was commanded (the replan that follows pins it),
+input): a completed activity is never commanded again, one its executor
+reported running is kept running where it was commanded (the replan
+that follows pins it), one commanded with no word back is asked about
+with a cancel in the winner's term (the executor answers what ran),
 and a goal the winner lacks of which something was commanded is carried
 over with what ran, instead of being sent again by its sender. Only a
 goal of which nothing was commanded is told to be sent again
@@ -228,8 +230,11 @@ def merge_facts(state: EngineState, facts: Facts) -> tuple[list[str], ...]:
         )
         if span is not None:
             dispatches.sent[task] = span
-        if fact.state == "cancelling" and span is not None:
-            # Not to run: planned again once its cancel is answered.
+        if fact.state in ("cancelling", "dispatched") and span is not None:
+            # Not to run (a cancel stands), or commanded with no word
+            # back: a fence may have kept it from the executor, or not.
+            # Asked with a cancel in this node's term: the answer says
+            # what ran, and it is planned again from that.
             dispatches.note(task, "cancelling")
             dispatches.cancelling[task] = now
             cancelling.append(task)
@@ -237,11 +242,10 @@ def merge_facts(state: EngineState, facts: Facts) -> tuple[list[str], ...]:
                 ExecutionReport(task, "missed", now)
             )
             continue
-        dispatches.note(
-            task, "running" if fact.state == "running" else "dispatched"
-        )
-        # Commanded there: running since it was commanded, for the rules
-        # (a replan pins it where it runs, never commands it again).
+        dispatches.note(task, "running")
+        # Running there, as its executor said: running since it was
+        # commanded, for the rules (a replan pins it where it runs, never
+        # commands it again).
         schedule = schedule.with_report(
             ExecutionReport(
                 task, "running", clamp(span[0] if span else fact.at)

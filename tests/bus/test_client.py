@@ -23,16 +23,17 @@ def _dispatch(
     )
 
 
-def test_a_dispatch_is_acted_on_once_and_a_cancel_obeyed_once() -> None:
+def test_a_dispatch_is_acted_on_once_and_a_cancel_always_answered() -> None:
     """Tests that a run is carried out once per id, a cancel of it is
-    obeyed once and is never taken for a run."""
+    never taken for a run, and is obeyed (answered) each time it comes."""
     fence = Fence()
     assert fence.execute(_dispatch("X:0-4"))
     assert not fence.execute(_dispatch("X:0-4"))
     cancel = _dispatch("X:0-4", action="cancel")
     assert not fence.execute(cancel)
     assert fence.cancel(cancel)
-    assert not fence.cancel(cancel)
+    assert fence.cancel(cancel)
+    assert not fence.execute(_dispatch("X:0-4"))
     assert fence.execute(_dispatch("X:5-9"))
 
 
