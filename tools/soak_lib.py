@@ -43,10 +43,22 @@ def load_script(name: str, module: str | None = None) -> ModuleType:
     return loaded
 
 
-def start_router() -> tuple[zenoh.Session, int]:
-    """A Zenoh router on loopback, as between the computers of a craft."""
-    config = loopback_config(listen="tcp/127.0.0.1:0")
+def start_router(
+    connect: tuple[str, ...] = (), lease_ms: int | None = None
+) -> tuple[zenoh.Session, int]:
+    """A Zenoh router on loopback, as between the computers of a craft
+    (``connect``: other routers it meshes with; ``lease_ms``: its Zenoh
+    lease, so that a silent link to another router ends within it)."""
+    config = loopback_config(listen="tcp/127.0.0.1:0", connect=connect)
     config.insert_json5("mode", '"router"')
+    if lease_ms is not None:
+        config.insert_json5("transport/link/tx/lease", str(lease_ms))
+    # Back on a router that was cut off within 100 ms: the soaks decide
+    # when links come back.
+    config.insert_json5(
+        "connect/retry",
+        "{period_init_ms: 100, period_max_ms: 100, period_increase_factor: 1}",
+    )
     router = zenoh.open(config)
     (endpoint,) = listening_endpoints(router)
     return router, int(endpoint.rsplit(":", 1)[1])
