@@ -100,8 +100,10 @@ class ReadmeExecutor:
     units late and ``completed`` the moment its own clock reaches the end
     (before the scheduler may have seen that tick: a report racing the
     clock), obeys a cancel (stops the run, or never starts it) and answers
-    ``cancelled``. Everything runs on one worker thread; ticks come from
-    the spacecraft's clock through :meth:`advance`.
+    ``cancelled``, and answers a blind dispatch of a task it ran under a
+    lower term with its last report on that run. Everything runs on one
+    worker thread; ticks come from the spacecraft's clock through
+    :meth:`advance`.
 
     Attributes
     ----------
@@ -124,6 +126,8 @@ class ReadmeExecutor:
         self.reports = 0
         self.raced = 0
         self.cancels = 0
+        self.blind = 0
+        self._last_report: dict[str, messages.ActivityReport] = {}
         self._running: dict[str, tuple[messages.Dispatch, Run]] = {}
         self._pending_running: list[tuple[int, messages.Dispatch]] = []
         self._events: queue.Queue[tuple[str, object]] = queue.Queue()
@@ -209,6 +213,8 @@ class ReadmeExecutor:
         dispatch = msgspec.json.decode(payload, type=messages.Dispatch)
         if self.fence.cancel(dispatch):
             self._cancel(dispatch)
+        elif (earlier := self.fence.earlier_run(dispatch)) is not None:
+            self._report_again(dispatch.task, earlier)
         elif self.fence.execute(dispatch):
             self._start(dispatch)
 
@@ -225,6 +231,14 @@ class ReadmeExecutor:
         self.runs.setdefault(task, []).append(run)
         self._running[task] = (dispatch, run)
         self._pending_running.append((now + self.late, dispatch))
+
+    def _report_again(self, task: str, dispatch_id: str) -> None:
+        """Send the last report on the run ``dispatch_id`` of ``task``
+        again (a new commander commanded the task blind)."""
+        self.blind += 1
+        last = self._last_report.get(dispatch_id)
+        if last is not None:
+            self._put(last)
 
     def _cancel(self, dispatch: messages.Dispatch) -> None:
         self.cancels += 1
@@ -255,8 +269,12 @@ class ReadmeExecutor:
             dispatch_id=dispatch.dispatch_id,
             term=dispatch.term,
         )
+        self._last_report[dispatch.dispatch_id] = report
+        self._put(report)
+
+    def _put(self, report: messages.ActivityReport) -> None:
         self.session.put(
-            self.topics.activity_report(dispatch.task),
+            self.topics.activity_report(report.task),
             messages.encode(report),
             congestion_control=zenoh.CongestionControl.BLOCK,
         )

@@ -645,6 +645,8 @@ class Engine:
                 out,
             )
             return
+        if self._earlier_command(report, out):
+            return
         wrong = self._report_issue(report)
         if wrong is not None:
             self._verdicts.reject_input(
@@ -686,6 +688,56 @@ class Engine:
             self._queue.add(QueuedChange("levels", at=at, trigger="cancelled"))
         if report.state == "failed":
             self._queue.add(QueuedChange("failure", task=report.task, at=at))
+
+    def _earlier_command(
+        self, report: ActivityReport, out: list[Command]
+    ) -> bool:
+        """Take ``report`` as a fact if it answers another commander's
+        dispatch of its task: a lower term, a ``dispatch_id`` this node did
+        not send, while this node has no word on a command of its own.
+
+        A commander that took over from an older state may command, blind,
+        an activity its predecessor commanded last; the executor does not
+        run it again but reports the earlier run (README, "Receiving
+        dispatches"). That run is what happened: this node's own command
+        of the task is void, and the plan is made again from the fact.
+        """
+        if self.config.cancel_timeout is None or report.term >= self.term:
+            return False
+        task = report.task
+        head, _, span_text = report.dispatch_id.rpartition(":")
+        start, _, end = span_text.partition("-")
+        if head != task or not (start.isdigit() and end.isdigit()):
+            return False
+        span = (int(start), int(end))
+        dispatches = self._state.dispatches
+        if dispatches.sent.get(task) == span or dispatches.lifecycle.get(
+            task, "planned"
+        ) not in ("planned", "dispatched", "missed"):
+            return False
+        schedule = self.schedule
+        if schedule is None or report.state == "cancelled":
+            return False
+        dispatches.dispatched.pop(task, None)
+        dispatches.sent[task] = span
+        dispatches.report(task, report.state)
+        at = min(max(report.at, schedule.problem.start), self._state.clock())
+        self._state.schedule = schedule.with_report(
+            ExecutionReport(task, report.state, at)
+        )
+        self._state.count(reports=self._state.counters.reports + 1)
+        detail = (
+            f"{task} {report.state} at {report.at} under "
+            f"{report.dispatch_id} (term {report.term}): commanded before "
+            "this node's term; taken as a fact"
+        )
+        out.append(Log("warning", detail))
+        out.append(self._verdicts.publish("activity", detail=detail))
+        if report.state == "failed":
+            self._queue.add(QueuedChange("failure", task=task, at=at))
+        else:
+            self._queue.add(QueuedChange("levels", at=at, trigger="merged"))
+        return True
 
     def _on_cancelled(self, task: str) -> None:
         """A cancel answered: the activity stopped (or never started).

@@ -52,3 +52,25 @@ def test_a_stale_term_neither_runs_nor_cancels() -> None:
     assert not fence.execute(_dispatch("X:0-4", term=2))
     assert not fence.cancel(_dispatch("Y:0-4", term=2, action="cancel"))
     assert fence.fenced == 2
+
+
+def test_a_blind_dispatch_of_a_task_run_in_a_lower_term_is_not_run() -> None:
+    """Tests that a dispatch from a higher term of a task last run under
+    a lower term (no cancel since) is not run: the earlier run is named,
+    once per task and term, and a later dispatch of that term runs."""
+    fence = Fence()
+    assert fence.execute(_dispatch("X:6-8", term=1))
+    assert fence.earlier_run(_dispatch("X:9-11", term=2)) == "X:6-8"
+    assert not fence.execute(_dispatch("X:9-11", term=2))
+    assert fence.earlier_run(_dispatch("X:12-14", term=2)) is None
+    assert fence.execute(_dispatch("X:12-14", term=2))
+
+
+def test_a_task_cancelled_in_a_lower_term_may_run_again() -> None:
+    """Tests that a task whose earlier run was cancelled is run again when
+    a new commander dispatches it."""
+    fence = Fence()
+    assert fence.execute(_dispatch("X:6-8", term=1))
+    assert fence.cancel(_dispatch("X:6-8", term=1, action="cancel"))
+    assert fence.earlier_run(_dispatch("X:9-11", term=2)) is None
+    assert fence.execute(_dispatch("X:9-11", term=2))

@@ -8,7 +8,7 @@ import json
 
 from fsw_scheduler.engine.config import EngineConfig
 from fsw_scheduler.engine.core import Engine
-from fsw_scheduler.engine.events import FactsArrived, ReportArrived
+from fsw_scheduler.engine.events import FactsArrived, ReportArrived, TermBegan
 from fsw_scheduler.engine.merge import commanded, facts_of
 from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.runtime.inputs import InputDecoder
@@ -146,3 +146,59 @@ def test_facts_are_a_journaled_input() -> None:
         keys.key(topics.FACTS), messages.encode(facts)
     )
     assert event == FactsArrived(facts)
+
+
+def test_a_blind_command_answered_with_an_earlier_run_is_void() -> None:
+    """Tests that a commander that took over from an older state and
+    commanded a task blind takes the executor's report on the earlier
+    commander's run (a lower term, another dispatch_id) as the fact, and
+    never commands the task again."""
+    a = Driver(EMPTY, FACTS)
+    a.step(TermBegan(1))
+    a.tick(0)
+    a.goal(
+        _goal(
+            "g",
+            "X",
+            2,
+            feasible_interval=[3, 6],
+            feasible_interval_applies_to="start",
+        )
+    )
+    b = Driver(EMPTY, FACTS)
+    b.engine = Engine.restore(FACTS, a.engine.snapshot())
+    b.step(TermBegan(2))
+    a.tick(3)
+    assert ("run", "X:3-5") in [
+        (d.action, d.dispatch_id)
+        for d in published(a.history, messages.Dispatch)
+    ]
+    b.tick(4)  # from its older state: X missed at 3, commanded at 4
+    blind = [d for d in published(b.history, messages.Dispatch)]
+    assert [d.dispatch_id for d in blind] == ["X:4-6"]
+    out = b.step(
+        ReportArrived(
+            messages.ActivityReport(
+                "X", "running", 3, dispatch_id="X:3-5", term=1
+            )
+        )
+    )
+    assert not statuses(out, "input_rejected")
+    assert b.engine.status().activities["X"] == "running"
+    for now in range(5, 12):
+        b.tick(now)
+        if now == 5:
+            b.step(
+                ReportArrived(
+                    messages.ActivityReport(
+                        "X", "completed", 5, dispatch_id="X:3-5", term=1
+                    )
+                )
+            )
+    runs = [
+        d.dispatch_id
+        for d in published(b.history, messages.Dispatch)
+        if d.action == "run"
+    ]
+    assert runs == ["X:4-6"]
+    assert b.engine.status().activities["X"] == "completed"
