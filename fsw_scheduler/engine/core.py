@@ -659,6 +659,12 @@ class Engine:
         assert schedule is not None
         self._state.count(reports=self._state.counters.reports + 1)
         at = min(report.at, self._state.clock())
+        if self.config.cancel_timeout is not None:
+            # A report from before the problem's start (a slow executor)
+            # still counts: the rules read reports from the start on, and
+            # a completion they missed would be planned, and not flown,
+            # again and again.
+            at = max(at, schedule.problem.start)
         detail = f"{report.task} {report.state} at {report.at}"
         if report.state == "cancelled":
             self._on_cancelled(report.task)
