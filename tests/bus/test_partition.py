@@ -140,7 +140,7 @@ def test_a_router_split_executes_nothing_twice(
     is rejected "after now", B commands, every journal replays
     identical."""
     result = soak_partition().run_split(
-        tmp_path, spacecraft, before=4, split=14, after=14
+        tmp_path, spacecraft, before=4, split=14, after=25
     )
     assert result.ok, result
     assert result.facts_merged, result  # A did hand facts over
