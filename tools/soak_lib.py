@@ -89,6 +89,7 @@ class Run:
     start: int
     end: int
     outcome: str = "running"  # completed, cancelled, replaced
+    term: int = 0
 
 
 class ReadmeExecutor:
@@ -226,7 +227,10 @@ class ReadmeExecutor:
             # rule): that is the second execution this soak looks for.
             self._running.pop(task)[1].outcome = "replaced"
         run = Run(
-            dispatch.dispatch_id, now, now + dispatch.end - dispatch.start
+            dispatch.dispatch_id,
+            now,
+            now + dispatch.end - dispatch.start,
+            term=dispatch.term,
         )
         self.runs.setdefault(task, []).append(run)
         self._running[task] = (dispatch, run)
