@@ -230,11 +230,16 @@ def merge_facts(state: EngineState, facts: Facts) -> tuple[list[str], ...]:
         )
         if span is not None:
             dispatches.sent[task] = span
-        if fact.state in ("cancelling", "dispatched") and span is not None:
+        steady = schedule.problem.task(task).preemption == "none"
+        if span is not None and (
+            fact.state == "cancelling"
+            or (fact.state == "dispatched" and not steady)
+        ):
             # Not to run (a cancel stands), or commanded with no word
             # back: a fence may have kept it from the executor, or not.
             # Asked with a cancel in this node's term: the answer says
-            # what ran, and it is planned again from that.
+            # what ran, and it is planned again from that. (One that may
+            # not be interrupted is never moved: it is held running.)
             dispatches.note(task, "cancelling")
             dispatches.cancelling[task] = now
             cancelling.append(task)

@@ -202,3 +202,38 @@ def test_a_blind_command_answered_with_an_earlier_run_is_void() -> None:
     ]
     assert runs == ["X:4-6"]
     assert b.engine.status().activities["X"] == "completed"
+
+
+def test_a_command_with_no_word_back_is_asked_about() -> None:
+    """Tests that a task the loser commanded with no report (a fence may
+    have kept it from the executor) is asked about with a cancel of that
+    dispatch in the winner's term, unless it may not be interrupted: then
+    it is held running where it was commanded."""
+    a, _ = _split()
+    a.step(TermBegan(2))
+    for task, preemption in (("Q", "from_start"), ("R", "none")):
+        a.goal(
+            _goal(
+                f"g{task}",
+                task,
+                2,
+                preemption=preemption,
+                feasible_interval=[10, 20],
+                feasible_interval_applies_to="start",
+            )
+        )
+    facts = messages.Facts(
+        term=1,
+        node_id="B",
+        facts=(
+            messages.Fact("Q", "dispatched", at=3, start=3, end=5),
+            messages.Fact("R", "dispatched", at=3, start=3, end=5),
+        ),
+    )
+    out = a.step(FactsArrived(facts))
+    (cancel,) = [
+        d for d in published(out, messages.Dispatch) if d.action == "cancel"
+    ]
+    assert (cancel.dispatch_id, cancel.term) == ("Q:3-5", 2)
+    activities = a.engine.status().activities
+    assert (activities["Q"], activities["R"]) == ("cancelling", "running")
