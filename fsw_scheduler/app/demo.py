@@ -107,7 +107,10 @@ class Executor:
 
     It runs each dispatched activity for its planned length from the unit
     it was dispatched, reports ``running`` then ``completed`` (or
-    ``failed``), and keeps the true consumable levels, which it reports.
+    ``failed``), each echoing the dispatch's ``dispatch_id`` and ``term``,
+    and keeps the true consumable levels, which it reports. A cancel
+    (``action: cancel``) stops the activity it names, or keeps it from
+    starting, and is answered ``cancelled``: the README's receiver rules.
     """
 
     def __init__(self, problem: Problem, scenario: Scenario) -> None:
@@ -115,23 +118,44 @@ class Executor:
         self.ceilings = problem.resources.ceilings
         self.scenario = scenario
         self.running: dict[str, tuple[int, int, dict[str, float]]] = {}
+        self.commands: dict[str, messages.Dispatch] = {}
         self.executed: list[Activity] = []
         self.failed_once: set[str] = set()
 
     def on_dispatch(self, dispatch: messages.Dispatch, now: int) -> list:
-        """Start an activity; returns reports to publish."""
-        length = dispatch.end - dispatch.start
-        self.running[dispatch.task] = (now, now + length, dispatch.uses)
-        return [messages.ActivityReport(dispatch.task, "running", now)]
-
-    def on_plan(self, plan: messages.PlanMessage, now: int) -> None:
-        """Stop activities the new plan took away (preempted/obsolete)."""
-        keep = set(plan.continuing)
-        for task in list(self.running):
-            start, _, _ = self.running[task]
-            if task not in keep and start < now:
-                del self.running[task]
+        """Start (or cancel) an activity; returns reports to publish."""
+        task = dispatch.task
+        if dispatch.action == "cancel":
+            running = self.commands.get(task)
+            if (
+                running is not None
+                and running.dispatch_id != dispatch.dispatch_id
+            ):
+                return []  # a newer command of the task stands
+            if task in self.running:
+                start, _, _ = self.running.pop(task)
                 self.executed.append(Activity(task, start, now))
+            elif running is not None:
+                return []  # it ended, and said so already
+            self.commands[task] = dispatch
+            return [self._report(dispatch, "cancelled", now)]
+        length = dispatch.end - dispatch.start
+        self.running[task] = (now, now + length, dispatch.uses)
+        self.commands[task] = dispatch
+        return [self._report(dispatch, "running", now)]
+
+    @staticmethod
+    def _report(
+        dispatch: messages.Dispatch, state: str, now: int
+    ) -> messages.ActivityReport:
+        """A report on ``dispatch``, echoing its id and term."""
+        return messages.ActivityReport(
+            dispatch.task,
+            state,  # type: ignore[arg-type]
+            now,
+            dispatch_id=dispatch.dispatch_id,
+            term=dispatch.term,
+        )
 
     def step(self, now: int) -> list:
         """Advance the world to the start of unit ``now``; return reports."""
@@ -149,11 +173,11 @@ class Executor:
                 self.failed_once.add(task)
                 del self.running[task]
                 self.executed.append(Activity(task, start, now))
-                out.append(messages.ActivityReport(task, "failed", now))
+                out.append(self._report(self.commands[task], "failed", now))
             elif now >= end:
                 del self.running[task]
                 self.executed.append(Activity(task, start, end))
-                out.append(messages.ActivityReport(task, "completed", now))
+                out.append(self._report(self.commands[task], "completed", now))
         if "battery" in self.levels and now > 0:
             self.levels["battery"] -= self.scenario.battery_drift
         for name, top in self.ceilings.items():
@@ -261,11 +285,13 @@ class World:
             kind = self.topics.schema_kind(key)
             if kind == "dispatch":
                 dispatch = msgspec.json.decode(payload, type=messages.Dispatch)
-                # A receiver keeps one dispatch per dispatch_id: a resumed
-                # or new commander sends standing ones again.
-                if dispatch.dispatch_id in self.dispatch_ids:
+                # A receiver acts once per dispatch_id (and once on its
+                # cancel): a resumed or new commander sends standing ones
+                # again.
+                once = f"{dispatch.action}:{dispatch.dispatch_id}"
+                if once in self.dispatch_ids:
                     continue
-                self.dispatch_ids.add(dispatch.dispatch_id)
+                self.dispatch_ids.add(once)
                 self.printer.dispatch(dispatch)
                 for report in self.executor.on_dispatch(dispatch, now):
                     self.put(self.topics.activity_report(report.task), report)
@@ -274,7 +300,6 @@ class World:
                 if any(p.plan_id == plan.plan_id for p in self.plans):
                     continue  # the same plan again (plan ids never reuse)
                 self.plans.append(plan)
-                self.executor.on_plan(plan, now)
                 self.printer.plan(plan)
             elif kind == "status":
                 self.printer.status(
@@ -303,6 +328,9 @@ class Printer:
     def dispatch(self, d: messages.Dispatch) -> None:
         """A dispatch."""
         late = "  (late)" if d.late else ""
+        if d.action == "cancel":
+            self.line(f"cancel    {d.task:<20} [{d.start}, {d.end})")
+            return
         self.line(f"dispatch  {d.task:<20} [{d.start}, {d.end}){late}")
 
     def plan(self, p: messages.PlanMessage) -> None:

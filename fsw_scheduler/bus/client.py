@@ -113,11 +113,14 @@ class SchedulerClient:
         self.solves: list[messages.SolveRecord] = []
         self.samples: list[tuple[str, bytes]] = []
         self.decode_errors: list[tuple[str, str]] = []
-        #: The receiver's fence, and the dispatches it let through (each
-        #: ``dispatch_id`` once, no stale term): what an executor that
-        #: follows docs/redundancy.md would have carried out.
+        #: The receiver's fence, the dispatches it let through (each
+        #: ``dispatch_id`` once, no stale term), the cancels it obeyed and
+        #: the blind dispatches it answered with an earlier run's report:
+        #: what an executor that follows the README would have done.
         self.fence = Fence()
         self.executed: list[messages.Dispatch] = []
+        self.cancels: list[messages.Dispatch] = []
+        self.blind: list[messages.Dispatch] = []
         self._subscriber: Any = session.declare_subscriber(
             self.topics.key("scheduler/**"), self._on_sample
         )
@@ -490,8 +493,12 @@ class SchedulerClient:
         with self._cond:
             if target is not None:
                 target.append(decoded)
-            if kind == "dispatch" and self.fence.execute(decoded):
+            if kind == "dispatch" and self.fence.earlier_run(decoded):
+                self.blind.append(decoded)
+            elif kind == "dispatch" and self.fence.execute(decoded):
                 self.executed.append(decoded)
+            elif kind == "dispatch" and self.fence.cancel(decoded):
+                self.cancels.append(decoded)
             elif decoded is not None:
                 self.fence.admit(decoded)
             elif kind == "term":
@@ -546,19 +553,34 @@ def query_payload(
 
 class Fence:
     """What a receiver of scheduler outputs does, so that a stale
-    commander can never make it act (docs/redundancy.md,
-    "What a receiver must do").
+    commander can never make it act and no command runs twice (README,
+    "Receiving dispatches"; docs/redundancy.md, "What a receiver must
+    do").
 
     * Keep the highest ``term`` seen on any plan, dispatch, status or
       ``scheduler/term`` message; ignore anything with a lower one.
-    * Act on a dispatch once per ``dispatch_id``; a repeat (a resumed or
-      new commander sends the same command again) is not a new command.
+    * Act on a dispatch (``action`` ``run``) once per ``dispatch_id``; a
+      repeat (a resumed or new commander sends the same command again) is
+      not a new command, and neither is a dispatch already cancelled.
+    * A dispatch of a task last run under a lower term, with no cancel
+      since, is not run: the last report on that run is sent again
+      (:meth:`earlier_run`).
+    * Obey a cancel (``action`` ``cancel``): stop that dispatch if it
+      runs, never start it if it has not, and answer with a report
+      ``cancelled`` echoing its ``dispatch_id``, each time a cancel comes
+      (if it had already ended, its ``completed`` or ``failed`` report
+      answers).
     """
 
     def __init__(self) -> None:
         self.term = 0
         self.acted: set[str] = set()
+        self.cancelled: set[str] = set()
         self.fenced = 0
+        #: Task to the ``(dispatch_id, term)`` of the last run acted on.
+        self.last: dict[str, tuple[str, int]] = {}
+        #: ``(task, term)`` told of an earlier run (:meth:`earlier_run`).
+        self.told: set[tuple[str, int]] = set()
 
     def admit(self, message: object) -> bool:
         """Whether ``message`` comes from a current term (raising it)."""
@@ -570,14 +592,60 @@ class Fence:
         return True
 
     def execute(self, dispatch: messages.Dispatch) -> bool:
-        """Whether to carry ``dispatch`` out now (first time, not stale)."""
-        if not self.admit(dispatch):
+        """Whether to carry ``dispatch`` out now (a run, the first time,
+        not stale, not cancelled)."""
+        if dispatch.action == "cancel" or not self.admit(dispatch):
             return False
-        key = dispatch.dispatch_id or f"{dispatch.task}:{dispatch.plan_id}"
-        if key in self.acted:
+        key = _command_id(dispatch)
+        if key in self.acted or key in self.cancelled:
             return False
         self.acted.add(key)
+        self.last[dispatch.task] = (key, dispatch.term)
         return True
+
+    def earlier_run(self, dispatch: messages.Dispatch) -> str | None:
+        """The ``dispatch_id`` of an earlier run of the task to report
+        again instead of carrying ``dispatch`` out, or None.
+
+        A commander that took over from an older state may command, blind,
+        a task its predecessor (a lower term) commanded last and the
+        receiver ran, with no cancel since: the receiver does not run it
+        again, it sends its last report on the earlier run (that run's
+        ``dispatch_id`` and ``term``), once per task and term; the new
+        commander takes it as a fact. ``dispatch`` then counts as acted on.
+        """
+        if dispatch.action == "cancel" or dispatch.term < self.term:
+            return None
+        key = _command_id(dispatch)
+        earlier = self.last.get(dispatch.task)
+        if (
+            key in self.acted
+            or earlier is None
+            or earlier[1] >= dispatch.term
+            or earlier[0] in self.cancelled
+            or (dispatch.task, dispatch.term) in self.told
+        ):
+            return None
+        self.admit(dispatch)
+        self.acted.add(key)
+        self.told.add((dispatch.task, dispatch.term))
+        return earlier[0]
+
+    def cancel(self, dispatch: messages.Dispatch) -> bool:
+        """Whether ``dispatch`` is a cancel to obey now (not stale): stop
+        or never start the dispatch it names, and answer ``cancelled``,
+        every time one comes (a new commander may ask again; a repeated
+        answer is harmless)."""
+        if dispatch.action != "cancel" or not self.admit(dispatch):
+            return False
+        self.cancelled.add(_command_id(dispatch))
+        return True
+
+
+def _command_id(dispatch: messages.Dispatch) -> str:
+    """The id a receiver acts on once (``dispatch_id``, or for a
+    scheduler too old to send one, the task and plan)."""
+    return dispatch.dispatch_id or f"{dispatch.task}:{dispatch.plan_id}"
 
 
 #: The final answers to a goal.

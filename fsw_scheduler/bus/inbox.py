@@ -80,9 +80,15 @@ class Worker:
 
 
 def _ends_activity(kind: str, payload: bytes) -> bool:
-    """Whether a waiting sample is a report that ends an activity."""
-    return kind == "activity_report" and (
-        b'"failed"' in payload or b'"completed"' in payload
+    """Whether a waiting sample is a report that ends an activity (or
+    answers a cancel), or facts handed over at a heal: never replaced."""
+    return kind == "facts" or (
+        kind == "activity_report"
+        and (
+            b'"failed"' in payload
+            or b'"completed"' in payload
+            or b'"cancelled"' in payload
+        )
     )
 
 
@@ -162,7 +168,8 @@ class Inbox:
         """Queue a sample; a newer one on the same key replaces it.
 
         Except an execution report that ends an activity (``failed``,
-        ``completed``): it is never replaced, the newer sample queues
+        ``completed``, ``cancelled``) and facts handed over at a heal:
+        it is never replaced, the newer sample queues
         behind it, so that a failure followed at once by a new ``running``
         still triggers its replan. (The test is on the raw bytes, to stay
         cheap in the callback; a false match only means less coalescing.)

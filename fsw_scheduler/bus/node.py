@@ -236,6 +236,11 @@ class SchedulerNode:
             topics.PROFILES,
         )
         self._declared.append(self._provenance.declare(session))
+        if self.resumed:
+            # First in the inbox: a rebuilt node speaks (and re-sends its
+            # outputs) before any input, as a replay of its journal does;
+            # a tick arriving as the subscribers are declared waits.
+            self._inbox.put("resume", None)
         for suffix, kind in topics.SUBSCRIPTIONS:
             self._declared.append(
                 session.declare_subscriber(
@@ -272,8 +277,6 @@ class SchedulerNode:
         outputs.put(topics.TERM, self._term_payload)
         outputs.share()
         outputs.watch()  # a journal down from the start: say so
-        if self.resumed:
-            self._inbox.put("resume", None)
         outputs.allow_rotation()
         self._thread = threading.Thread(
             target=self._spin, name="fsw-scheduler-loop", daemon=True

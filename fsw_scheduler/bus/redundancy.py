@@ -56,6 +56,7 @@ from typing import TYPE_CHECKING, NamedTuple, Protocol
 import msgspec
 import zenoh
 
+from ..engine.merge import commanded, facts_of
 from ..engine.snapshot import EngineSnapshot
 from ..errors import FieldIssue
 from ..wire import messages, topics
@@ -364,6 +365,22 @@ class Redundancy:
         )
         self._say(status)
 
+    def hand_over(self, facts: messages.Facts) -> None:
+        """Publish what this node commanded for the commander that
+        outranks it to merge (``scheduler/facts``, see
+        :mod:`fsw_scheduler.engine.merge`)."""
+        if not (facts.facts or facts.goals):
+            return
+        try:
+            self.session.put(
+                self.topics.key(topics.FACTS),
+                messages.encode(facts),
+                encoding=JSON,
+                congestion_control=zenoh.CongestionControl.BLOCK,
+            )
+        except zenoh.ZError as error:
+            log.warning("facts: %s", error)
+
     def _say(self, status: messages.Status) -> None:
         """Publish a status of this node (not commanding: no journal)."""
         try:
@@ -602,6 +619,8 @@ def _stand_down(
             redundancy.ask_snapshot()
         redundancy.publish_standby(winner, "stood_down", reason)
         newer = redundancy.latest_snapshot() if winner is not None else None
+        if winner is not None:
+            redundancy.hand_over(facts_of(state, newer, redundancy.me.node_id))
         if newer is not None:
             for goal_id in lost_goals(state, newer):
                 redundancy.publish_lost_goal(
@@ -612,10 +631,14 @@ def _stand_down(
 
 def lost_goals(own: EngineSnapshot, winner: EngineSnapshot) -> list[str]:
     """Goals this node took in its own term that the state which outranks
-    it does not hold (both sides of a partition accepted goals): each
-    must be told, by name, to be sent again."""
+    it does not hold (both sides of a partition accepted goals) and of
+    which nothing was commanded: each must be told, by name, to be sent
+    again. (A goal partly commanded is handed over with its facts.)"""
+    ran = commanded(own)
     return [
         goal_id
         for goal_id, record in own.ledger.items()
-        if record.term == own.term and goal_id not in winner.ledger
+        if record.term == own.term
+        and goal_id not in winner.ledger
+        and not ran.intersection(record.tasks)
     ]

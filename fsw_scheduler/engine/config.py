@@ -13,6 +13,10 @@ from ..replan.triggers import (
     Tolerance,
 )
 
+#: Execution reports held at most, waiting for the clock to reach them;
+#: one more is rejected (a bounded state, whatever an executor sends).
+HELD_REPORTS = 64
+
 
 class EngineConfig(msgspec.Struct, frozen=True):
     """Settings of the functional core.
@@ -51,6 +55,19 @@ class EngineConfig(msgspec.Struct, frozen=True):
     reports_need_dispatch
         Reject an execution report that does not name the ``dispatch_id``
         it answers (a report always must answer a dispatch of its task).
+    report_ahead
+        Units an execution report's ``at`` may lie ahead of the clock: the
+        executor saw a clock message this node has not processed yet (two
+        publishers, no order between them). Such a report is held, at most
+        :data:`HELD_REPORTS` of them, and applied at the first step whose
+        time reaches ``at``; one further ahead is rejected. 0 rejects
+        every report ahead (journals recorded before held reports).
+    cancel_timeout
+        Units a cancel waits for its answer (``cancelled``, ``completed``
+        or ``failed``) before its activity turns ``unknown``: taken as
+        having run, and never commanded again. None: a commanded activity
+        a replan moves is planned again without a cancel (journals
+        recorded before cancels existed).
     """
 
     report_timeout: int | None = None
@@ -66,3 +83,5 @@ class EngineConfig(msgspec.Struct, frozen=True):
     explain_after_plan: bool = False
     max_goal_ids: int = 1024
     reports_need_dispatch: bool = False
+    report_ahead: int = 0
+    cancel_timeout: int | None = None

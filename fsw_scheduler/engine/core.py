@@ -28,15 +28,15 @@ from typing import TYPE_CHECKING
 import msgspec
 
 from ..errors import FieldIssue, InputError
-from ..model.change import ExecutionReport
 from ..replan.triggers import drift
 from ..wire import topics
-from .dispatch import dispatch_id, dispatch_message
+from .dispatch import dispatch_message
 from .events import (
     ClockStalled,
     Command,
     Event,
     Explained,
+    FactsArrived,
     GoalArrived,
     InputRejected,
     LevelArrived,
@@ -50,7 +50,9 @@ from .events import (
 )
 from .execution import Execution
 from .ledger import goal_digest
+from .merge import merge_facts
 from .queue import SolveQueue
+from .reports import Reports
 from .snapshot import EngineSnapshot, GoalRecord, QueuedChange
 from .solves import Replanner
 from .state import EngineState
@@ -61,7 +63,6 @@ if TYPE_CHECKING:
     from ..model.problem import Problem
     from ..replan.schedule import Schedule
     from ..wire.messages import (
-        ActivityReport,
         PlanMessage,
         ResourceLevel,
         Status,
@@ -106,6 +107,7 @@ class Engine:
         self._queue = queue or SolveQueue()
         self._verdicts = Verdicts(self._state, self._queue)
         self._execution = Execution(self._state, self._queue, self._verdicts)
+        self._reports = Reports(self._state, self._queue, self._verdicts)
         self._replanner = Replanner(
             self._state, self._queue, self._verdicts, self._execution
         )
@@ -205,6 +207,8 @@ class Engine:
             lifecycle=dict(dispatches.lifecycle),
             reported=dict(dispatches.reported),
             sent=dict(dispatches.sent),
+            cancelling=dict(dispatches.cancelling),
+            held=tuple(state.held),
             counters=state.counters,
             last_solve=state.last_solve,
             inputs=state.inputs,
@@ -242,9 +246,9 @@ class Engine:
         A node saves its state before its outputs reach the bus, so when
         it died in between, the plan and dispatches of its last step were
         never seen. They are published again: the current plan (same
-        ``plan_id``) and every dispatch still waiting for its first
+        ``plan_id``), every dispatch still waiting for its first
         report, with its ``dispatch_id``, so that a receiver that has it
-        already drops it.
+        already drops it, and every cancel still waiting for its answer.
         """
         state = self._state
         out: list[Command] = [self.resumed(event)]
@@ -263,6 +267,11 @@ class Engine:
                     state.term,
                 )
             )
+        dispatches = state.dispatches
+        for task, since in sorted(dispatches.cancelling.items()):
+            span = dispatches.sent.get(task)
+            if span is not None:
+                out.append(self._execution.cancel_message(task, span, since))
         return out
 
     def resumed(self, event: str = "resumed", **extra: object) -> Command:
@@ -306,12 +315,13 @@ class Engine:
         if state.now is None or now > state.now:
             state.now = now
         out: list[Command] = []
+        self._reports.release_held(out)
         if isinstance(event, Tick):
             self._on_tick(out)
         elif isinstance(event, GoalArrived):
             self._on_goal(event.goal, out)
         elif isinstance(event, ReportArrived):
-            self._on_report(event.report, out)
+            self._reports.on_report(event.report, out)
         elif isinstance(event, LevelArrived):
             self._on_level(event.level, out)
         elif isinstance(event, InputRejected):
@@ -322,6 +332,8 @@ class Engine:
             self._on_explained(event, out)
         elif isinstance(event, TermBegan):
             self._on_term(event, out)
+        elif isinstance(event, FactsArrived):
+            self._on_facts(event, out)
         elif isinstance(event, SolveDone):
             self._replanner.on_solve_done(event, out)
         elif isinstance(event, SolveFailed):
@@ -359,6 +371,32 @@ class Engine:
             )
         )
 
+    def _on_facts(self, event: FactsArrived, out: list[Command]) -> None:
+        """Take what a commander that stood down commanded (see
+        :mod:`.merge`), then replan from it."""
+        facts = event.facts
+        goals, merged, cancelling = merge_facts(self._state, facts)
+        if not (goals or merged):
+            return
+        state = self._state
+        for task in cancelling:
+            span = state.dispatches.sent[task]
+            out.append(
+                self._execution.cancel_message(task, span, state.clock())
+            )
+        detail = (
+            f"from {facts.node_id or '?'} (term {facts.term}): "
+            f"{len(merged)} commanded activities"
+            + (f" ({', '.join(merged)})" if merged else "")
+            + f", {len(goals)} goals carried over"
+            + (f" ({', '.join(goals)})" if goals else "")
+        )
+        out.append(Log("info", f"facts merged {detail}"))
+        out.append(self._verdicts.publish("facts_merged", detail=detail))
+        self._queue.add(
+            QueuedChange("levels", at=state.clock(), trigger="merged")
+        )
+
     def _on_explained(self, event: Explained, out: list[Command]) -> None:
         message = self._state.plan_message
         if message is None or message.plan_id != event.plan_id:
@@ -391,6 +429,7 @@ class Engine:
         if self._state.unsolved_initial is not None and not self.busy:
             self._replanner.start_initial(out)
         self._execution.check_report_timeouts(out)
+        self._execution.check_cancels(out)
         if self._deferred_due() and not self._queue.has_trigger("horizon"):
             self._queue.add(
                 QueuedChange(
@@ -478,7 +517,11 @@ class Engine:
                 return
         self._queue.add(QueuedChange("goal", goal=goal))
         self._state.ledger.queue(
-            goal.goal_id, digest, self._state.clock(), self.term
+            goal.goal_id,
+            digest,
+            self._state.clock(),
+            self.term,
+            tuple(t.id for t in goal.tasks),
         )
         pending = self._queue.pending
         if pending is not None:
@@ -525,91 +568,6 @@ class Engine:
                 f"t={record.at}: its verdict stands, nothing changes",
             )
         )
-
-    def _on_report(self, report: ActivityReport, out: list[Command]) -> None:
-        schedule = self.schedule
-        if (
-            schedule is not None
-            and report.task not in {t.id for t in schedule.problem.tasks}
-            and report.task in {t.id for t in schedule.catalog}
-        ):
-            # A late report on a task that already left the problem (for
-            # instance finished by the plan's prediction): note it only.
-            self._state.dispatches.note(report.task, report.state)
-            return
-        if schedule is None or report.task not in {
-            t.id for t in schedule.problem.tasks
-        }:
-            self._verdicts.reject_input(
-                f"telemetry/activities/{report.task}",
-                "activity_report",
-                [FieldIssue("task", f"no live task {report.task!r}")],
-                out,
-            )
-            return
-        wrong = self._report_issue(report)
-        if wrong is not None:
-            self._verdicts.reject_input(
-                f"telemetry/activities/{report.task}",
-                "activity_report",
-                [wrong],
-                out,
-            )
-            return
-        self._state.count(reports=self._state.counters.reports + 1)
-        self._state.dispatches.report(report.task, report.state)
-        at = min(report.at, self._state.clock())
-        self._state.schedule = schedule.with_report(
-            ExecutionReport(report.task, report.state, at)
-        )
-        out.append(
-            self._verdicts.publish(
-                "activity",
-                detail=f"{report.task} {report.state} at {report.at}",
-            )
-        )
-        if report.state == "failed":
-            self._queue.add(QueuedChange("failure", task=report.task, at=at))
-
-    def _report_issue(self, report: ActivityReport) -> FieldIssue | None:
-        """Why ``report`` answers no dispatch of this spacecraft (None: it
-        does): its task was never dispatched, it names another dispatch,
-        a later term or a time to come."""
-        task = report.task
-        if self._state.dispatches.lifecycle.get(task, "planned") == "planned":
-            return FieldIssue(
-                "task", f"{task!r} was never dispatched: nothing to report on"
-            )
-        if report.at > self._state.clock():
-            return FieldIssue(
-                "at", f"{report.at} is after now ({self._state.clock()})"
-            )
-        if report.term > self.term:
-            return FieldIssue(
-                "term", f"{report.term} is above this node's term {self.term}"
-            )
-        if not report.dispatch_id:
-            if self.config.reports_need_dispatch:
-                return FieldIssue(
-                    "dispatch_id", "missing: name the dispatch this answers"
-                )
-            return None
-        # The dispatch as it was sent: a replan re-bases a running
-        # activity to start now, but its dispatch keeps its id.
-        sent = self._state.dispatches.sent.get(task)
-        schedule = self.schedule
-        current = schedule.plan.activity(task) if schedule else None
-        if sent is not None:
-            expected: str | None = f"{task}:{sent[0]}-{sent[1]}"
-        else:
-            expected = dispatch_id(current) if current is not None else None
-        if expected is not None and report.dispatch_id != expected:
-            return FieldIssue(
-                "dispatch_id",
-                f"{report.dispatch_id!r} is not the dispatch of {task!r} "
-                f"({expected!r})",
-            )
-        return None
 
     def _on_level(self, level: ResourceLevel, out: list[Command]) -> None:
         self._state.count(levels=self._state.counters.levels + 1)

@@ -2,6 +2,14 @@
 
 An activity goes ``planned -> dispatched -> running -> completed |
 failed``, or ``preempted`` / ``obsolete`` when a replan takes it away.
+A command given is a fact: a replan that takes a commanded activity away
+(moves it, or removes it) never sends it again under another id; it sends
+a *cancel* of the dispatch that stands (``action: cancel``, the same
+``dispatch_id``), and the activity is ``cancelling`` until the executor
+answers ``cancelled`` (then it may be commanded again where the plan now
+puts it) or reports it ``completed`` / ``failed``. With no answer within
+``cancel_timeout`` units it is ``unknown``: never commanded again, taken
+as having run.
 :class:`Dispatches` keeps that map and the bookkeeping around it (when each
 dispatch was sent, which one still stands, what the last status said);
 the :class:`~fsw_scheduler.engine.Engine` decides *when* each step
@@ -12,7 +20,7 @@ time counts as failed) sit in one place.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 from ..wire import topics
 from ..wire.messages import Dispatch
@@ -26,8 +34,10 @@ if TYPE_CHECKING:
     from ..model.problem import Problem
     from .snapshot import Lifecycle
 
-#: The states in which an activity is still to be flown.
-LIVE = ("planned", "dispatched", "running")
+#: The states in which an activity is still to be flown (or stopped).
+LIVE = ("planned", "dispatched", "running", "cancelling")
+#: The states of a command that stands: given, and not answered for good.
+COMMANDED = ("dispatched", "running")
 
 
 class Dispatches:
@@ -45,9 +55,12 @@ class Dispatches:
     reported
         The lifecycle as the last published status gave it: statuses
         carry the difference.
+    cancelling
+        Task to the time unit the cancel of its dispatch (still in
+        ``sent``) was sent, until the executor answers it.
     """
 
-    __slots__ = ("dispatched", "lifecycle", "reported", "sent")
+    __slots__ = ("cancelling", "dispatched", "lifecycle", "reported", "sent")
 
     def __init__(
         self,
@@ -55,11 +68,13 @@ class Dispatches:
         dispatched: dict[str, int] | None = None,
         sent: dict[str, tuple[int, int]] | None = None,
         reported: dict[str, Lifecycle] | None = None,
+        cancelling: dict[str, int] | None = None,
     ) -> None:
         self.lifecycle = dict(lifecycle or {})
         self.dispatched = dict(dispatched or {})
         self.sent = dict(sent or {})
         self.reported = dict(reported or {})
+        self.cancelling = dict(cancelling or {})
 
     def adopt(
         self,
@@ -67,34 +82,73 @@ class Dispatches:
         continuing: Iterable[str],
         removed: Iterable[Removal],
         max_history: int,
-    ) -> None:
+        now: int | None = None,
+        readded: Iterable[str] = (),
+    ) -> list[tuple[str, tuple[int, int]]]:
         """Take a new plan: removed tasks leave, planned ones wait again.
 
         A dispatch that the new plan leaves exactly in place stands and is
         not sent again (sending it again with each replan made storms).
+        A commanded activity the plan moves or removes is cancelled, not
+        commanded again (when ``now`` is given; without it, as journals
+        recorded before cancels, it is planned again): it turns
+        ``cancelling`` and is returned, with the span of the dispatch to
+        cancel. A completed activity is not commanded again, unless the
+        rules brought it back to run again (``readded``: a tight chain).
         At most ``max_history`` finished entries are kept (oldest go).
         """
+        keep = set(continuing)
+        again = set(readded)
+        cancels: list[tuple[str, tuple[int, int]]] = []
+
+        def cancel(task: str) -> bool:
+            span = self.sent.get(task)
+            if (
+                now is None
+                or task in keep
+                or span is None
+                or self.lifecycle.get(task) not in COMMANDED
+            ):
+                return False
+            self.lifecycle[task] = "cancelling"
+            self.cancelling[task] = now
+            self.dispatched.pop(task, None)
+            cancels.append((task, span))
+            return True
+
         for removal in removed:
+            if removal.rule == "finished" or cancel(removal.task):
+                continue
             if removal.rule in ("obsolete", "tight_cascade"):
                 self.lifecycle[removal.task] = "obsolete"
-            elif removal.rule != "finished":
+            else:
                 self.lifecycle.setdefault(removal.task, "preempted")
-                if self.lifecycle[removal.task] in ("running", "dispatched"):
+                if self.lifecycle[removal.task] in COMMANDED:
                     self.lifecycle[removal.task] = "preempted"
-        keep = set(continuing)
         for activity in plan.activities:
             if activity.task in keep:
                 continue
             state = self.lifecycle.get(activity.task)
+            if state in ("cancelling", "unknown") or (
+                now is not None
+                and state == "completed"
+                and activity.task not in again
+            ):
+                # Waits for its answer, or already ran (a plan computed
+                # before its report): never commanded again blindly.
+                continue
             if state == "dispatched" and self.sent.get(activity.task) == (
                 activity.start,
                 activity.end,
             ):
                 continue
+            if cancel(activity.task):
+                continue
             self.lifecycle[activity.task] = "planned"
             self.dispatched.pop(activity.task, None)
             self.sent.pop(activity.task, None)
         self._forget_history(max_history)
+        return cancels
 
     def due(
         self,
@@ -150,8 +204,13 @@ class Dispatches:
 
         What was sent stays while the activity runs: its reports answer
         that dispatch, though a replan re-bases the activity to start now.
+        A ``running`` report on a dispatch being cancelled leaves it
+        ``cancelling``: only an answer ends that.
         """
         self.dispatched.pop(task, None)
+        if state == "running" and task in self.cancelling:
+            return
+        self.cancelling.pop(task, None)
         if state not in LIVE:
             self.sent.pop(task, None)
         self.lifecycle[task] = state
@@ -175,6 +234,21 @@ class Dispatches:
                 late.append((task, since))
         return late
 
+    def cancel_overdue(self, now: int, timeout: int) -> list[str]:
+        """Cancels with no answer for more than ``timeout`` units.
+
+        Each activity turns ``unknown`` (it may have run: it is never
+        commanded again) and is returned, oldest task name first.
+        """
+        late = []
+        for task, since in sorted(self.cancelling.items()):
+            if now - since > timeout:
+                del self.cancelling[task]
+                self.sent.pop(task, None)
+                self.lifecycle[task] = "unknown"
+                late.append(task)
+        return late
+
     def changed(self) -> dict[str, Lifecycle]:
         """Entries changed since the last call: what a status carries."""
         changed = {
@@ -194,6 +268,7 @@ class Dispatches:
             del self.lifecycle[task]
             self.reported.pop(task, None)
             self.sent.pop(task, None)
+            self.cancelling.pop(task, None)
 
 
 def dispatch_id(activity: Activity) -> str:
@@ -208,11 +283,15 @@ def dispatch_message(
     activity: Activity,
     dispatched_at: int,
     term: int = 0,
+    action: Literal["run", "cancel"] = "run",
 ) -> Publish:
     """The dispatch of ``activity``, sent at ``dispatched_at``.
 
     Its ``dispatch_id`` (task, start and end) stays the same for as long
-    as the activity keeps its place, so a receiver keeps one.
+    as the activity keeps its place, so a receiver keeps one. With
+    ``action`` ``cancel``, the same message tells the receiver to stop (or
+    never start) that dispatch and answer ``cancelled``; on the same key
+    as the dispatch, so it cannot overtake it.
     """
     task = activity.task
     return Publish(
@@ -227,5 +306,6 @@ def dispatch_message(
             late=activity.start < dispatched_at,
             dispatch_id=dispatch_id(activity),
             term=term,
+            action=action,
         ),
     )

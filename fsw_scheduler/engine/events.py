@@ -20,6 +20,7 @@ from ..model.plan import Blocker, Plan
 from ..model.problem import Problem
 from ..wire.messages import (
     ActivityReport,
+    Facts,
     ResourceLevel,
 )
 
@@ -77,6 +78,12 @@ class TermBegan(msgspec.Struct, frozen=True, tag=True):
     reason: str = ""
 
 
+class FactsArrived(msgspec.Struct, frozen=True, tag=True):
+    """A commander that stood down handed over what it commanded."""
+
+    facts: Facts
+
+
 class Explained(msgspec.Struct, frozen=True, tag=True):
     """Why tasks of plan ``plan_id`` (from solve ``solve_id``) are out."""
 
@@ -108,6 +115,7 @@ Event = (
     | ClockStalled
     | Explained
     | TermBegan
+    | FactsArrived
     | SolveDone
     | SolveFailed
 )

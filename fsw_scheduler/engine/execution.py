@@ -18,7 +18,7 @@ import msgspec
 from ..model.change import ExecutionReport
 from ..model.plan import Plan, SolveStatus
 from ..wire import topics
-from ..wire.messages import PlanMessage
+from ..wire.messages import Dispatch, PlanMessage
 from .dispatch import dispatch_message
 from .events import Command, Log, Publish
 from .snapshot import QueuedChange
@@ -64,11 +64,13 @@ class Execution:
         goals: tuple[str, ...],
         removed: tuple[Removal, ...],
         out: list[Command],
+        readded: tuple[str, ...] = (),
     ) -> None:
         """Make ``plan`` (already in ``state.schedule``) the plan flown.
 
         Gives it the next ``plan_id``, publishes it, and accepts the
-        goals it carries.
+        goals it carries. ``readded``: completed tasks the rules brought
+        back to run again (a tight chain).
         """
         state = self._state
         schedule = state.schedule
@@ -76,8 +78,13 @@ class Execution:
         # A bounded past: a long mission's state does not grow.
         schedule = state.schedule = schedule.trimmed(PAST_KEPT)
         state.plan_id = (state.plan_id or 0) + 1
-        state.dispatches.adopt(
-            plan, schedule.continuing, removed, state.config.max_history
+        cancels = state.dispatches.adopt(
+            plan,
+            schedule.continuing,
+            removed,
+            state.config.max_history,
+            None if state.config.cancel_timeout is None else state.clock(),
+            readded,
         )
         state.plan_message = PlanMessage(
             plan_id=state.plan_id,
@@ -117,6 +124,98 @@ class Execution:
                 self._verdicts.publish("goal_accepted", goal_id=goal_id)
             )
         out.append(self._verdicts.publish("plan"))
+        self._cancel(cancels, out)
+        lifecycle = state.dispatches.lifecycle
+        if state.config.cancel_timeout is not None and any(
+            lifecycle.get(a.task) in ("completed", "unknown")
+            and a.task not in schedule.continuing
+            and a.task not in readded
+            for a in plan.activities
+        ):
+            # The plan was computed before what ran was known: it holds
+            # an activity that will not be flown; plan from the facts.
+            self._queue.add(
+                QueuedChange("levels", at=state.clock(), trigger="stale")
+            )
+
+    def _cancel(
+        self, cancels: list[tuple[str, tuple[int, int]]], out: list[Command]
+    ) -> None:
+        """Send the cancel of each dispatch the new plan took away.
+
+        Until its answer the activity has not run for the plan: a
+        ``missed`` record at now makes a replan meanwhile plan it again,
+        instead of taking it as running or finished where it was.
+        """
+        state = self._state
+        schedule = state.schedule
+        if not cancels or schedule is None or state.plan_id is None:
+            return
+        for task, (start, end) in cancels:
+            schedule = schedule.with_report(
+                ExecutionReport(task, "missed", state.clock())
+            )
+            out.append(
+                Log(
+                    "info",
+                    f"{task}: cancel of {task}:{start}-{end} sent; not "
+                    "commanded again before the executor answers",
+                )
+            )
+            out.append(self.cancel_message(task, (start, end), state.clock()))
+        state.schedule = schedule
+
+    def cancel_message(
+        self, task: str, span: tuple[int, int], at: int
+    ) -> Publish:
+        """The cancel, sent at ``at``, of the dispatch of ``task`` for
+        ``span`` (the same ``dispatch_id``, ``action: cancel``)."""
+        state = self._state
+        schedule = state.schedule
+        assert schedule is not None and state.plan_id is not None
+        known = {t.id: t for t in (*schedule.catalog, *schedule.problem.tasks)}
+        uses = known[task].uses if task in known else {}
+        return Publish(
+            f"{topics.DISPATCH}/{task}",
+            Dispatch(
+                task=task,
+                plan_id=state.plan_id,
+                start=span[0],
+                end=span[1],
+                uses=dict(sorted(uses.items())),
+                dispatched_at=at,
+                dispatch_id=f"{task}:{span[0]}-{span[1]}",
+                term=state.term,
+                action="cancel",
+            ),
+        )
+
+    def check_cancels(self, out: list[Command]) -> None:
+        """Turn ``unknown`` each activity whose cancel got no answer in
+        ``cancel_timeout`` units: taken as having run where it was
+        commanded, never commanded again, and replanned around."""
+        state = self._state
+        timeout = state.config.cancel_timeout
+        if timeout is None or state.now is None:
+            return
+        late = state.dispatches.cancel_overdue(state.now, timeout)
+        for task in late:
+            detail = (
+                f"{task}: no answer to its cancel in {timeout} units; its "
+                "outcome is unknown: taken as run, never commanded again"
+            )
+            out.append(Log("warning", detail))
+            out.append(
+                self._verdicts.publish("activity_unknown", detail=detail)
+            )
+            if state.schedule is not None:
+                state.schedule = state.schedule.with_report(
+                    ExecutionReport(task, "completed", state.now)
+                )
+        if late:
+            self._queue.add(
+                QueuedChange("levels", at=state.now, trigger="cancelled")
+            )
 
     def dispatch_due(
         self, out: list[Command], before: int | None = None
@@ -164,13 +263,20 @@ class Execution:
         if due:
             # Commanded means started: a replan at this same unit (here, or
             # on a node that takes over before the first report) must not
-            # move it and command it a second time.
+            # move it and command it a second time. A ``missed`` record of
+            # a cancel answered is history now.
+            commanded = {a.task for a in due}
             schedule = msgspec.structs.replace(
                 schedule,
                 continuing=tuple(
                     dict.fromkeys(
                         (*schedule.continuing, *(a.task for a in due))
                     )
+                ),
+                reports=tuple(
+                    r
+                    for r in schedule.reports
+                    if r.task not in commanded or r.state != "missed"
                 ),
             )
         state.schedule = schedule

@@ -58,9 +58,16 @@ class GoalLedger:
         """The entry of ``goal_id`` (None: a new id)."""
         return self.records.get(goal_id)
 
-    def queue(self, goal_id: str, digest: str, at: int, term: int) -> None:
-        """``goal_id`` was accepted for processing."""
-        self.records[goal_id] = GoalRecord(digest, "queued", at, term)
+    def queue(
+        self,
+        goal_id: str,
+        digest: str,
+        at: int,
+        term: int,
+        tasks: tuple[str, ...] = (),
+    ) -> None:
+        """``goal_id`` (of ``tasks``) was accepted for processing."""
+        self.records[goal_id] = GoalRecord(digest, "queued", at, term, tasks)
 
     def accept(self, goal_id: str) -> None:
         """The goal is in a plan: ``accepted`` for good (see the limit)."""

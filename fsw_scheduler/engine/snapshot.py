@@ -17,7 +17,12 @@ from ..model.goal import Goal
 from ..model.plan import Plan
 from ..model.problem import Problem
 from ..replan.schedule import Replan, Schedule
-from ..wire.messages import Counters, PlanMessage, SolveSummary
+from ..wire.messages import (
+    ActivityReport,
+    Counters,
+    PlanMessage,
+    SolveSummary,
+)
 
 #: Bumped when a field's meaning changes; new fields get defaults instead.
 SNAPSHOT_VERSION = 1
@@ -31,6 +36,9 @@ Lifecycle = Literal[
     "preempted",
     "obsolete",
     "missed",
+    "cancelling",
+    "cancelled",
+    "unknown",
 ]
 Health = Literal["ok", "degraded", "error"]
 
@@ -76,12 +84,15 @@ class GoalRecord(msgspec.Struct, frozen=True, omit_defaults=True):
     encoding), ``verdict`` is ``queued`` (accepted for processing,
     waiting for its solve) or ``accepted`` (in a plan), ``at`` the time
     unit it arrived at and ``term`` the command term that took it.
+    ``tasks`` are the ids of its tasks: a goal of which something was
+    commanded is a fact a heal carries over, not a goal to send again.
     """
 
     digest: str
     verdict: Literal["queued", "accepted"]
     at: int = 0
     term: int = 0
+    tasks: tuple[str, ...] = ()
 
 
 class EngineSnapshot(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -104,6 +115,8 @@ class EngineSnapshot(msgspec.Struct, frozen=True, omit_defaults=True):
     lifecycle: dict[str, Lifecycle] = {}
     reported: dict[str, Lifecycle] = {}
     sent: dict[str, tuple[int, int]] = {}
+    cancelling: dict[str, int] = {}
+    held: tuple[ActivityReport, ...] = ()
     counters: Counters = Counters()
     last_solve: SolveSummary | None = None
     inputs: int = 0

@@ -176,6 +176,7 @@ class Replanner:
                 pending.goals,
                 pending.replan.removed,
                 out,
+                readded=pending.replan.readded,
             )
         if pending.stage == "degraded":
             self.raise_alarm(plan, out)
@@ -206,20 +207,30 @@ class Replanner:
         continuing = set(pending.replan.continuing)
         dispatches = self._state.dispatches
         # Commanded after the problem was posed: inside its window (what
-        # was commanded before is pinned, or was let go by the rules), and
-        # not preemptible (a replan may move those: that is preemption).
-        steady = {
-            t.id for t in pending.problem.tasks if t.preemption == "none"
-        }
+        # was commanded before is pinned, or was let go by the rules).
         commanded = {
             task: span
             for task, span in dispatches.sent.items()
-            if task in steady
-            and task not in continuing
+            if task not in continuing
             and span[0] >= pending.problem.start
             and dispatches.lifecycle.get(task) in ("dispatched", "running")
         }
+        steady = {
+            t.id for t in pending.problem.tasks if t.preemption == "none"
+        }
+        if self._state.config.cancel_timeout is None:
+            # Journals recorded before cancels: a preemptible activity
+            # was moved (and commanded again) without a word.
+            commanded = {t: s for t, s in commanded.items() if t in steady}
         kept, moved = keep_commanded(pending.problem, plan, commanded)
+        if kept is None and set(commanded) - steady:
+            # No plan keeps every command: the preemptible ones may move
+            # (the rules allow it), each with a cancel first.
+            kept, moved = keep_commanded(
+                pending.problem,
+                plan,
+                {t: s for t, s in commanded.items() if t in steady},
+            )
         if not moved:
             return plan, ""
         if kept is None:
@@ -355,7 +366,7 @@ class Replanner:
                     levels.update(change.levels)
                     at = min(at, change.at)
                 trigger = "drift" if levels else "stale"
-                for named in ("horizon", "missed"):
+                for named in ("horizon", "missed", "cancelled", "merged"):
                     if not levels and any(
                         c.trigger == named for c in queue.changes
                     ):

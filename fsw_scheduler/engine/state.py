@@ -24,6 +24,7 @@ from .ledger import GoalLedger
 if TYPE_CHECKING:
     from ..model.problem import Problem
     from ..replan.schedule import Schedule
+    from ..wire.messages import ActivityReport
     from .config import EngineConfig
     from .snapshot import EngineSnapshot, Health
 
@@ -56,6 +57,9 @@ class EngineState:
         The status ``state`` and why.
     plan_message
         The current plan as published.
+    held
+        Execution reports whose ``at`` lay ahead of the clock (within
+        ``report_ahead``), in arrival order, until the clock reaches them.
     """
 
     def __init__(self, config: EngineConfig, initial: Problem) -> None:
@@ -74,6 +78,7 @@ class EngineState:
         self.health: Health = "ok"
         self.health_detail = ""
         self.plan_message: PlanMessage | None = None
+        self.held: list[ActivityReport] = []
 
     @classmethod
     def restore(
@@ -92,7 +97,9 @@ class EngineState:
             dispatched=snapshot.dispatched,
             sent=snapshot.sent,
             reported=snapshot.reported,
+            cancelling=snapshot.cancelling,
         )
+        state.held = list(snapshot.held)
         state.counters = snapshot.counters
         state.last_solve = snapshot.last_solve
         state.inputs = snapshot.inputs

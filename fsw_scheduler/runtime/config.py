@@ -121,6 +121,15 @@ class NodeConfig(
         them is answered again, never executed again).
     reports_need_dispatch
         Reject execution reports that do not name their ``dispatch_id``.
+    report_ahead
+        Units an execution report's ``at`` may lie ahead of the node's
+        clock (the executor saw a clock message the node has not processed
+        yet): held, at most 64, until the clock reaches it, then applied.
+        Further ahead: rejected. At least one clock step.
+    cancel_timeout
+        Units a cancel (a dispatch with ``action: cancel``) waits for its
+        answer before the activity turns ``unknown``: taken as having run
+        where commanded, never commanded again.
     """
 
     spacecraft: str = "sat1"
@@ -154,6 +163,8 @@ class NodeConfig(
     discovery: float = 1.0
     goal_ids: int = 1024
     reports_need_dispatch: bool = False
+    report_ahead: int = 1
+    cancel_timeout: int | None = 3
 
     def __post_init__(self) -> None:
         problems = []
@@ -166,6 +177,10 @@ class NodeConfig(
                 problems.append(f"node-id: the node id {reason}")
         if self.rank < 0:
             problems.append("rank must be >= 0")
+        if self.report_ahead < 0:
+            problems.append("report-ahead must be >= 0")
+        if self.cancel_timeout is not None and self.cancel_timeout < 1:
+            problems.append("cancel-timeout must be >= 1")
         if self.discovery < 0:
             problems.append("discovery must be >= 0")
         if self.time_unit <= 0:

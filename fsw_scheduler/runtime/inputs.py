@@ -18,6 +18,7 @@ from ..engine.events import (
     ClockStalled,
     Event,
     Explained,
+    FactsArrived,
     GoalArrived,
     InputRejected,
     LevelArrived,
@@ -80,6 +81,8 @@ class InputDecoder:
             return Explained(message.solve_id, message.plan_id, message.why)
         if kind == "term":
             return TermBegan(message.term, message.node_id, message.reason)
+        if kind == "facts":
+            return FactsArrived(message)
         if kind == "clock":
             self._check_clock(message.now)
             if self.bus_now is not None and message.now < self.bus_now:

@@ -42,6 +42,8 @@ def engine_config(config: NodeConfig) -> EngineConfig:
         explain_after_plan=config.explain and config.explain_after_plan,
         max_goal_ids=config.goal_ids,
         reports_need_dispatch=config.reports_need_dispatch,
+        report_ahead=config.report_ahead,
+        cancel_timeout=config.cancel_timeout,
     )
 
 

@@ -29,7 +29,7 @@ from ..model.plan import (
     SolverStats,
     SolveStatus,
 )
-from ..model.problem import Id, Instant, Problem
+from ..model.problem import Id, Instant, Precedence, Problem, Task
 from .profiles import LevelCheck, Profiles
 
 #: Largest payload accepted on an input key; bigger ones are rejected
@@ -47,14 +47,18 @@ class ActivityReport(msgspec.Struct, frozen=True, omit_defaults=True):
     """``telemetry/activities/<task>``: an execution report.
 
     A report answers a dispatch: its task must have been dispatched and
-    ``at`` must not lie ahead of the scheduler's time. ``dispatch_id`` and
-    ``term``, echoed from the dispatch, name which one (a report naming
-    another dispatch, or a term the scheduler has not reached, is
-    rejected; the ``reports-need-dispatch`` setting makes them required).
+    ``at`` must not lie ahead of the scheduler's time by more than the
+    ``report-ahead`` setting (such a report is held until the clock
+    reaches ``at``, then applied). ``dispatch_id`` and ``term``, echoed
+    from the dispatch, name which one (a report naming another dispatch,
+    or a term the scheduler has not reached, is rejected; the
+    ``reports-need-dispatch`` setting makes them required). ``cancelled``
+    answers a cancel (a dispatch with ``action: cancel``): the activity
+    was stopped, or never started, at ``at``.
     """
 
     task: Id
-    state: Literal["running", "completed", "failed"]
+    state: Literal["running", "completed", "failed", "cancelled"]
     at: Instant
     detail: str = ""
     dispatch_id: str = ""
@@ -97,8 +101,11 @@ class PlanMessage(msgspec.Struct, frozen=True):
         Tasks that left the pending list at this replan, with the rule.
     trigger
         What caused the plan: ``initial``, ``goal``, ``failure``,
-        ``drift``, ``stale`` (the plan came late) or ``horizon`` (the
-        rolling horizon reached a deferred task).
+        ``drift``, ``stale`` (the plan came late, or before what ran was
+        known), ``horizon`` (the rolling horizon reached a deferred task),
+        ``missed`` (an activity was not commanded in its time),
+        ``cancelled`` (a cancel was answered with what ran, or not at
+        all) or ``merged`` (facts handed over at a heal).
     goals
         Goal ids adopted by this plan.
     stats
@@ -136,6 +143,13 @@ class Dispatch(msgspec.Struct, frozen=True, omit_defaults=True):
     acts on that id ignores a repeat, and a new id for the same task
     replaces the earlier command. ``term`` fences: a receiver ignores a
     dispatch whose term is lower than the highest it has seen.
+
+    ``action`` is ``run`` (start it) or ``cancel``: stop the dispatch
+    ``dispatch_id`` names, or never start it, and answer with a report
+    ``cancelled`` echoing its ``dispatch_id`` (``completed`` or ``failed``
+    if it had already ended). The scheduler commands a cancelled
+    activity again, under a new id, only after that answer.
+    ``dispatched_at`` of a cancel is when the cancel was sent.
     """
 
     task: str
@@ -147,6 +161,7 @@ class Dispatch(msgspec.Struct, frozen=True, omit_defaults=True):
     late: bool = False
     dispatch_id: str = ""
     term: int = 0
+    action: Literal["run", "cancel"] = "run"
 
 
 class Source(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -379,6 +394,59 @@ class Term(msgspec.Struct, frozen=True, omit_defaults=True):
     reason: str = ""
 
 
+class Fact(msgspec.Struct, frozen=True, omit_defaults=True):
+    """One activity a commander commanded, as that commander knows it.
+
+    ``state`` is its lifecycle there (``dispatched``, ``running``,
+    ``cancelling``, ``completed``, ``failed``, ``unknown``); ``start``
+    and ``end`` the span of the dispatch that stands (its ``dispatch_id``
+    is ``<task>:<start>-<end>``), when one does; ``at`` the time unit of
+    its last report (or of the state, without one).
+    """
+
+    task: Id
+    state: Literal[
+        "dispatched", "running", "cancelling", "completed", "failed", "unknown"
+    ]
+    at: Instant = 0
+    start: int | None = None
+    end: int | None = None
+
+
+class CarriedGoal(msgspec.Struct, frozen=True, omit_defaults=True):
+    """A goal a commander accepted of which something was commanded.
+
+    ``digest`` is the ledger's name of its content, so that the goal sent
+    again is recognised; ``tasks`` and ``precedences`` its definition as
+    that commander holds it.
+    """
+
+    goal_id: Id
+    digest: str
+    at: Instant = 0
+    tasks: tuple[Task, ...] = ()
+    precedences: tuple[Precedence, ...] = ()
+
+
+class Facts(msgspec.Struct, frozen=True, omit_defaults=True):
+    """``scheduler/facts``: what a commander that stands down commanded.
+
+    When two commanders meet after a partition, the one that stands down
+    hands over what it commanded and what its executor reported
+    (``facts``, where the winner's shared state says otherwise) and the
+    goals it accepted that the winner lacks and of which something was
+    commanded (``goals``). The winner journals it as an input and takes
+    them as commanded facts: nothing that ran is commanded again, a goal
+    partly executed keeps what ran. ``term`` and ``node_id`` name the
+    sender.
+    """
+
+    term: Annotated[int, msgspec.Meta(ge=0)]
+    node_id: str = ""
+    facts: tuple[Fact, ...] = ()
+    goals: tuple[CarriedGoal, ...] = ()
+
+
 class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     """``scheduler/config``: settings a recording needs to be replayed."""
 
@@ -409,6 +477,8 @@ class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     goal_ids: int = 1024
     reports_need_dispatch: bool = False
     durable: bool = True
+    report_ahead: int = 0
+    cancel_timeout: int | None = None
 
 
 #: Message types of each key (relative to ``fsw/<sc>/``), for schemas.
@@ -423,6 +493,7 @@ SCHEMA_TYPES: dict[str, Any] = {
     "solve_record": SolveRecord,
     "node_info": NodeInfo,
     "term": Term,
+    "facts": Facts,
     "input_source": InputSource,
     "problem": Problem,
     "busy": Busy,

@@ -52,6 +52,9 @@ LOG = "scheduler/log"
 #: A node begins a command term (journaled before it commands, published
 #: so that receivers raise their fence): see ``messages.Term``.
 TERM = "scheduler/term"
+#: A commander that stands down hands over what it commanded (a heal
+#: merges facts): an input of the winner, see ``messages.Facts``.
+FACTS = "scheduler/facts"
 
 #: Output suffixes, compared by ``replay --verify``.
 OUTPUTS = (PLAN, DISPATCH, STATUS)
@@ -124,6 +127,7 @@ KINDS = {
     LEVELS: "level_check",
     LOG: "log",
     TERM: "term",
+    FACTS: "facts",
 }
 #: Suffixes followed by one name chunk (a task or a resource).
 NAMED_KINDS = {
@@ -137,6 +141,7 @@ SUBSCRIPTIONS = (
     (CLOCK, KINDS[CLOCK]),
     (ACTIVITY_REPORTS + "/*", NAMED_KINDS[ACTIVITY_REPORTS]),
     (RESOURCE_LEVELS + "/*", NAMED_KINDS[RESOURCE_LEVELS]),
+    (FACTS, KINDS[FACTS]),
 )
 #: Kinds a replay feeds back as inputs, whatever the clock source.
 _INPUTS = {
@@ -146,6 +151,7 @@ _INPUTS = {
     "activity_report",
     "resource_level",
     "term",
+    "facts",
 }
 
 

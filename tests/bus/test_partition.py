@@ -124,3 +124,24 @@ def test_forged_tokens_cannot_stall_the_election(tmp_path: Path) -> None:
         for process in nodes.values():
             process.kill()
         router.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("spacecraft", ["one", "both"])
+def test_a_router_split_executes_nothing_twice(
+    tmp_path: Path, spacecraft: str
+) -> None:
+    """Tests a split between two routers, A on one and B on the other,
+    with the spacecraft (clock and a README executor) on A's side or on
+    both, and goals sent on both sides: both command; at the heal A hands
+    over its facts and B merges them; nothing is executed twice, no
+    accepted goal is lost, every goal ends with one final verdict, no goal
+    of which something was commanded is told to be sent again, no report
+    is rejected "after now", B commands, every journal replays
+    identical."""
+    result = soak_partition().run_split(
+        tmp_path, spacecraft, before=4, split=14, after=25
+    )
+    assert result.ok, result
+    assert result.facts_merged, result  # A did hand facts over
+    assert result.journals >= 2

@@ -7,13 +7,16 @@ from typing import Any
 
 import pytest
 
-from fsw_scheduler.engine.config import EngineConfig
+from fsw_scheduler.engine.config import HELD_REPORTS, EngineConfig
+from fsw_scheduler.engine.core import Engine
 from fsw_scheduler.engine.events import (
     Command,
     InputRejected,
     Log,
+    ReportArrived,
     SolveFailed,
     StartSolve,
+    Tick,
 )
 from fsw_scheduler.errors import FieldIssue
 from fsw_scheduler.model.levels import predicted_levels
@@ -630,3 +633,74 @@ def test_a_dispatch_without_a_report_is_said_once_at_its_end(
     later = started.tick(first_end + 1) + started.tick(first_end + 2)
     again = [s.detail.split(":")[0] for s in statuses(later, "report_overdue")]
     assert not set(again) & set(due)
+
+
+# -- reports that race the clock ---------------------------------------------
+
+
+def _ahead_driver() -> tuple[Driver, messages.Dispatch]:
+    """Table 1 at t=0 with reports one unit ahead held; an activity
+    dispatched at 0 that ends at 1."""
+    driver = Driver(config=EngineConfig(report_ahead=1))
+    driver.tick(0)
+    first = next(
+        d for d in published(driver.history, messages.Dispatch) if d.end == 1
+    )
+    return driver, first
+
+
+def _completed(driver: Driver, dispatch: messages.Dispatch, at: int) -> list:
+    report = messages.ActivityReport(
+        dispatch.task, "completed", at, dispatch_id=dispatch.dispatch_id
+    )
+    return driver.step(ReportArrived(report))
+
+
+def test_a_report_ahead_of_the_clock_is_held_then_applied() -> None:
+    """Tests that a report one unit ahead of the node's clock (the
+    executor saw a tick the node has not processed) is held, not rejected,
+    and applied at the step whose time reaches it."""
+    driver, first = _ahead_driver()
+    out = _completed(driver, first, 1)
+    assert not statuses(out, "input_rejected")
+    assert not statuses(out, "activity")
+    assert driver.engine.status().activities[first.task] == "dispatched"
+    assert driver.engine.snapshot().held
+    out = driver.tick(1)
+    (said,) = statuses(out, "activity")
+    assert said.detail == f"{first.task} completed at 1"
+    assert driver.engine.status().activities[first.task] == "completed"
+    assert not driver.engine.snapshot().held
+
+
+def test_a_held_report_survives_a_resume() -> None:
+    """Tests that held reports are part of the engine's state: an engine
+    rebuilt from its snapshot applies them when the clock reaches them."""
+    driver, first = _ahead_driver()
+    _completed(driver, first, 1)
+    rebuilt = Engine.restore(driver.engine.config, driver.engine.snapshot())
+    rebuilt.step(Tick(1), 1)
+    assert rebuilt.status().activities[first.task] == "completed"
+
+
+def test_a_report_beyond_the_tolerance_is_rejected() -> None:
+    """Tests that a report further ahead than ``report_ahead`` is rejected
+    naming the tolerance, and that at most HELD_REPORTS are held."""
+    driver, first = _ahead_driver()
+    (rejected,) = statuses(_completed(driver, first, 2), "input_rejected")
+    assert "after now (0) by more than report-ahead (1)" in (
+        rejected.errors[0].reason
+    )
+    for _ in range(HELD_REPORTS):
+        assert not statuses(_completed(driver, first, 1), "input_rejected")
+    (full,) = statuses(_completed(driver, first, 1), "input_rejected")
+    assert f"{HELD_REPORTS} reports are held already" in full.errors[0].reason
+
+
+def test_recorded_sessions_reject_every_report_ahead() -> None:
+    """Tests that without ``report_ahead`` (journals recorded before held
+    reports) a report ahead of the clock is rejected, as they recorded."""
+    driver = Driver()
+    driver.tick(0)
+    first = published(driver.history, messages.Dispatch)[0]
+    assert statuses(_completed(driver, first, 1), "input_rejected")

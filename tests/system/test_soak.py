@@ -2,7 +2,12 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from ..factories import tool_script
+
+if TYPE_CHECKING:
+    from pathlib import Path
 
 
 def test_short_soak_loses_nothing() -> None:
@@ -29,3 +34,29 @@ def test_short_soak_loses_nothing() -> None:
     assert figures.unnamed_rejections == 0
     table = soak.table(figures)  # type: ignore[attr-defined]
     assert "| lost (no verdict)" in table
+
+
+def test_reports_racing_the_clock_execute_nothing_twice(
+    tmp_path: Path,
+) -> None:
+    """Tests that with a slow executor whose reports race the clock and
+    goals competing for the running plan's camera just before ticks, a
+    README receiver executes nothing twice, no accepted goal is lost,
+    every goal has one verdict and no report is rejected "after now"."""
+    race = tool_script("soak_race", "fsw_soak_race")
+    figures = race.run_race(  # type: ignore[attr-defined]
+        tmp_path,
+        units=16,
+        unit_s=0.2,
+        seed=3,
+        log=lambda _text: None,
+        settle=10,
+    )
+    assert figures.goals == 8
+    assert figures.raced > 0  # reports did race the clock
+    assert figures.executed_twice == []
+    assert figures.unfinished == []
+    assert figures.lost == []
+    assert figures.no_verdict == [] and figures.two_verdicts == []
+    assert figures.after_now == 0
+    assert figures.journals == 1 and figures.not_identical == []

@@ -1,0 +1,239 @@
+"""Tests of a heal that merges facts: what a commander that stood down
+commanded is never commanded again by the winner, and a goal it took and
+partly executed is carried over, not sent again."""
+
+from __future__ import annotations
+
+import json
+
+from fsw_scheduler.engine.config import EngineConfig
+from fsw_scheduler.engine.core import Engine
+from fsw_scheduler.engine.events import FactsArrived, ReportArrived, TermBegan
+from fsw_scheduler.engine.merge import commanded, facts_of
+from fsw_scheduler.model.problem import decode_problem
+from fsw_scheduler.runtime.inputs import InputDecoder
+from fsw_scheduler.wire import messages, topics
+
+from ..factories import make_doc, make_task
+from .driver import Driver, published, statuses
+
+CAMERA = {"binary": ["camera"], "multiple": {"power": 100}}
+EMPTY = decode_problem(json.dumps(make_doc([], 30, CAMERA)), allow_empty=True)
+FACTS = EngineConfig(report_ahead=1, cancel_timeout=3)
+
+
+def _goal(goal_id: str, task: str, length: int, **over: object) -> dict:
+    return {
+        "goal_id": goal_id,
+        "tasks": [make_task(task, length, uses={"camera": 1}, **over)],
+    }
+
+
+def _report(driver: Driver, task: str, state: str, at: int) -> None:
+    sent = driver.engine.snapshot().sent.get(task)
+    dispatch_id = f"{task}:{sent[0]}-{sent[1]}" if sent else ""
+    driver.step(
+        ReportArrived(
+            messages.ActivityReport(
+                task,
+                state,  # type: ignore[arg-type]
+                at,
+                dispatch_id=dispatch_id,
+            )
+        )
+    )
+
+
+def _split() -> tuple[Driver, Driver]:
+    """A commands P (0-2) at 0; the bus splits; B, from A's state,
+    hears P completed, takes goal gB and commands its task T; A, cut
+    off from the executor, hears nothing."""
+    a = Driver(EMPTY, FACTS)
+    a.tick(0)
+    a.goal(
+        _goal(
+            "g0",
+            "P",
+            2,
+            feasible_interval=[0, 0],
+            feasible_interval_applies_to="start",
+        )
+    )
+    assert [
+        d.dispatch_id for d in published(a.history, messages.Dispatch)
+    ] == ["P:0-2"]
+    b = Driver(EMPTY, FACTS)
+    b.engine = Engine.restore(FACTS, a.engine.snapshot())
+    b.now = 0
+    b.tick(1)
+    b.goal(
+        _goal(
+            "gB",
+            "T",
+            3,
+            feasible_interval=[2, 2],
+            feasible_interval_applies_to="start",
+        )
+    )
+    b.tick(2)
+    _report(b, "P", "completed", 2)
+    _report(b, "T", "running", 2)
+    assert b.engine.status().activities["T"] == "running"
+    a.tick(1)
+    a.tick(2)
+    return a, b
+
+
+def test_the_winner_never_commands_what_the_loser_commanded() -> None:
+    """Tests that facts handed over at a heal make the winner hold a task
+    the loser commanded as running (pinned, never dispatched again), a
+    completion it never heard of as completed, and the loser's goal as
+    accepted (not to be sent again)."""
+    a, b = _split()
+    facts = facts_of(b.engine.snapshot(), a.engine.snapshot(), "B")
+    assert {f.task: f.state for f in facts.facts} == {
+        "P": "completed",
+        "T": "running",
+    }
+    assert [g.goal_id for g in facts.goals] == ["gB"]
+    before = len(published(a.history, messages.Dispatch))
+    out = a.step(FactsArrived(facts))
+    (said,) = statuses(out, "facts_merged")
+    assert "gB" in said.detail
+    assert a.plan.trigger == "merged"
+    assert "T" in a.plan.continuing
+    for now in range(3, 12):
+        a.tick(now)
+    again = published(a.history, messages.Dispatch)[before:]
+    assert [d.task for d in again if d.action == "run"] == []
+    activities = a.engine.status().activities
+    assert activities["P"] == "completed"
+    assert activities["T"] == "running"
+    record = a.engine.snapshot().ledger["gB"]
+    assert record.verdict == "accepted" and record.tasks == ("T",)
+    # The sender re-sending gB hears it is accepted, and nothing changes.
+    out = a.goal(
+        _goal(
+            "gB",
+            "T",
+            3,
+            feasible_interval=[2, 2],
+            feasible_interval_applies_to="start",
+        )
+    )
+    assert statuses(out, "goal_accepted")
+
+
+def test_only_goals_with_nothing_commanded_are_sent_again() -> None:
+    """Tests that a goal the loser took but commanded nothing of is not
+    carried over (its sender is told to send it again), while one of
+    which something ran is."""
+    a, b = _split()
+    b.goal(_goal("gLate", "U", 1, feasible_interval=[20, 25]))
+    own = b.engine.snapshot()
+    assert "U" not in commanded(own) and "T" in commanded(own)
+    facts = facts_of(own, a.engine.snapshot())
+    assert [g.goal_id for g in facts.goals] == ["gB"]
+
+
+def test_facts_are_a_journaled_input() -> None:
+    """Tests that ``scheduler/facts`` decodes into the event replay feeds
+    the engine, so a replay merges them on the same step."""
+    _, b = _split()
+    facts = facts_of(b.engine.snapshot(), None, "B")
+    keys = topics.Topics()
+    event = InputDecoder(keys, "bus").event(
+        keys.key(topics.FACTS), messages.encode(facts)
+    )
+    assert event == FactsArrived(facts)
+
+
+def test_a_blind_command_answered_with_an_earlier_run_is_void() -> None:
+    """Tests that a commander that took over from an older state and
+    commanded a task blind takes the executor's report on the earlier
+    commander's run (a lower term, another dispatch_id) as the fact, and
+    never commands the task again."""
+    a = Driver(EMPTY, FACTS)
+    a.step(TermBegan(1))
+    a.tick(0)
+    a.goal(
+        _goal(
+            "g",
+            "X",
+            2,
+            feasible_interval=[3, 6],
+            feasible_interval_applies_to="start",
+        )
+    )
+    b = Driver(EMPTY, FACTS)
+    b.engine = Engine.restore(FACTS, a.engine.snapshot())
+    b.step(TermBegan(2))
+    a.tick(3)
+    assert ("run", "X:3-5") in [
+        (d.action, d.dispatch_id)
+        for d in published(a.history, messages.Dispatch)
+    ]
+    b.tick(4)  # from its older state: X missed at 3, commanded at 4
+    blind = [d for d in published(b.history, messages.Dispatch)]
+    assert [d.dispatch_id for d in blind] == ["X:4-6"]
+    out = b.step(
+        ReportArrived(
+            messages.ActivityReport(
+                "X", "running", 3, dispatch_id="X:3-5", term=1
+            )
+        )
+    )
+    assert not statuses(out, "input_rejected")
+    assert b.engine.status().activities["X"] == "running"
+    for now in range(5, 12):
+        b.tick(now)
+        if now == 5:
+            b.step(
+                ReportArrived(
+                    messages.ActivityReport(
+                        "X", "completed", 5, dispatch_id="X:3-5", term=1
+                    )
+                )
+            )
+    runs = [
+        d.dispatch_id
+        for d in published(b.history, messages.Dispatch)
+        if d.action == "run"
+    ]
+    assert runs == ["X:4-6"]
+    assert b.engine.status().activities["X"] == "completed"
+
+
+def test_a_command_with_no_word_back_is_asked_about() -> None:
+    """Tests that a task the loser commanded with no report (a fence may
+    have kept it from the executor) is asked about with a cancel of that
+    dispatch in the winner's term, unless it may not be interrupted: then
+    it is held running where it was commanded."""
+    a, _ = _split()
+    a.step(TermBegan(2))
+    for task, preemption in (("Q", "from_start"), ("R", "none")):
+        a.goal(
+            _goal(
+                f"g{task}",
+                task,
+                2,
+                preemption=preemption,
+                feasible_interval=[10, 20],
+                feasible_interval_applies_to="start",
+            )
+        )
+    facts = messages.Facts(
+        term=1,
+        node_id="B",
+        facts=(
+            messages.Fact("Q", "dispatched", at=3, start=3, end=5),
+            messages.Fact("R", "dispatched", at=3, start=3, end=5),
+        ),
+    )
+    out = a.step(FactsArrived(facts))
+    (cancel,) = [
+        d for d in published(out, messages.Dispatch) if d.action == "cancel"
+    ]
+    assert (cancel.dispatch_id, cancel.term) == ("Q:3-5", 2)
+    activities = a.engine.status().activities
+    assert (activities["Q"], activities["R"]) == ("cancelling", "running")
