@@ -604,7 +604,7 @@ class SchedulerNode:
         """Carry out a step's commands: journal, then solves, then the bus.
 
         The step's outputs (and what the annotator derives from each) are
-        journaled first; with ``--state`` the journal is flushed before any
+        journaled first; with ``--state`` the journal is synced before any
         output reaches the bus (write-ahead), so a node killed at any point
         and resumed from its journal never repeats a dispatch the bus saw.
         An output on disk but not yet on the bus when the process died is

@@ -83,7 +83,8 @@ class NodeOutputs:
     wall_ns
         Wall clock in nanoseconds (the journal's session start).
     durable
-        Whether the journal is flushed before outputs reach the bus.
+        Whether the journal is synced (fsync) before outputs reach the
+        bus.
     share_state
         Whether a hot standby wants the state now (asked before each
         step with outputs); None: the state is never shared.
@@ -174,9 +175,10 @@ class NodeOutputs:
             self._write_snapshot()
 
     def sync(self) -> None:
-        """When durable, put what was journaled on disk now."""
+        """When durable, put what was journaled on the disk now (fsync):
+        what precedes a command survives a power loss."""
         if self.durable:
-            self._journal.flush()
+            self._journal.sync()
 
     def allow_rotation(self) -> None:
         """The node has started: a journal grown too big may rotate.
@@ -203,9 +205,10 @@ class NodeOutputs:
         """Journal a step's outputs; return them, for :meth:`send`.
 
         The outputs (and what the annotator derives from each) are
-        journaled; with ``--state`` the journal is flushed before this
-        returns, so that none reaches the bus before it is on disk. With a
-        standby, the state is shared first.
+        journaled; with ``--state`` the journal is synced (``fsync``,
+        once for the whole step) before this returns, so that none
+        reaches the bus before it is on the disk. With a standby, the
+        state is shared first.
         """
         if commands:
             # The standby's copy first, so that it never lags behind
@@ -242,7 +245,12 @@ class NodeOutputs:
 
         for suffix, message in outputs:
             stage(suffix, messages.encode(message), message)
-        self.sync()
+        if puts:
+            # Group commit: one sync for every record of the step (its
+            # inputs, the solve results, its outputs) before any output.
+            self.sync()
+        elif self.durable:
+            self._journal.flush()  # nothing commands: the page cache
         return puts
 
     def send(self, puts: Staged) -> None:
@@ -370,7 +378,7 @@ class NodeOutputs:
             self.topics.key(topics.SNAPSHOT),
             messages.encode(self.engine.snapshot()),
         )
-        self._journal.flush()
+        self._journal.sync()
 
     def _maybe_rotate(self) -> None:
         """Start a new journal file, opened by a snapshot, when too big."""
@@ -380,7 +388,10 @@ class NodeOutputs:
             return
         if not self._may_rotate:
             return
-        path = recorder.rotate()
+        path = self._journal.rotate()
+        if path is None:
+            self.watch()  # the disk refused the next part: say so
+            return
         log.info("journal continues in %s", path)
         self._head_of_part()
         if self._state_max_bytes is not None:

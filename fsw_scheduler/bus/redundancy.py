@@ -9,7 +9,7 @@ the same on every node so that they agree without talking:
 * **Terms.** A node that begins to command (first start, resume, takeover,
   or again after standing down) does so in a new *term*, higher than any
   it has seen: in its own state, in the active tokens, in the states
-  shared with it. The term is journaled (and flushed) before the node
+  shared with it. The term is journaled (and synced) before the node
   commands, and stamped on every plan, dispatch and status; receivers
   fence: they ignore anything from a lower term than the highest seen.
 * **Election.** A starting node first looks for ``discovery`` seconds. If

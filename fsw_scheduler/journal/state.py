@@ -371,6 +371,17 @@ def open_state(
                 start.recovered.append(path)
         except OSError as error:  # a full disk: read it as it is
             log.error("cannot finish %s (%s): read as it is", path, error)
+    for path in [p for p in files if not heads[p].has_config]:
+        if _holds_nothing(path):
+            # Killed between creating a part and writing its head (the
+            # settings): nothing was journaled in it, nothing is lost.
+            path.unlink()
+            files.remove(path)
+            start.removed.append(path)
+            log.warning("%s holds no message: removed", path.name)
+    if not files:
+        start.next_journal = folder / f"journal-{_run(every[-1]) + 1:04d}.mcap"
+        return start
     # The newest file that opens with a snapshot, and what came after it
     # (a file's head is the same once a truncated one is finished).
     base = max(
@@ -390,6 +401,16 @@ def open_state(
                 path.unlink()
                 start.removed.append(path)
     return start
+
+
+def _holds_nothing(path: Path) -> bool:
+    """Whether a (finished) journal file holds no message at all."""
+    from .reader import iter_messages
+
+    try:
+        return next(iter(iter_messages(path)), None) is None
+    except (ValueError, OSError):
+        return False
 
 
 def _run(path: Path) -> int:

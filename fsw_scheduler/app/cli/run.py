@@ -250,7 +250,9 @@ def _open_state(
     fault = None
     try:
         journal = Recorder(
-            start.next_journal, schemas=schema_lookup(config.spacecraft)
+            start.next_journal,
+            schemas=schema_lookup(config.spacecraft),
+            durable=True,
         )
     except OSError as error:
         # A full or failing disk: command anyway, loudly, without
@@ -261,6 +263,7 @@ def _open_state(
             start.next_journal,
             schemas=schema_lookup(config.spacecraft),
             open_now=False,
+            durable=True,
         )
     resume: dict[str, Any] = {
         "journal_fault": fault,
