@@ -20,6 +20,7 @@ import zenoh
 
 from ..wire import messages
 from ..wire import topics as keys
+from ..wire.terms import term_refused
 from .session import (
     wait_matching,
     wait_until,
@@ -495,9 +496,12 @@ class SchedulerClient:
             elif decoded is not None:
                 self.fence.admit(decoded)
             elif kind == "term":
-                self.fence.admit(
-                    msgspec.json.decode(payload, type=messages.Term)
-                )
+                try:
+                    term = msgspec.json.decode(payload, type=messages.Term)
+                except msgspec.DecodeError as error:  # a forged one
+                    self.decode_errors.append((key, repr(error)))
+                else:
+                    self.fence.admit(term)
             self.samples.append((key, payload))
             self._cond.notify_all()
 
@@ -551,6 +555,10 @@ class Fence:
 
     * Keep the highest ``term`` seen on any plan, dispatch, status or
       ``scheduler/term`` message; ignore anything with a lower one.
+    * Never believe a term outside ``0..2**63-1`` or more than
+      :data:`~fsw_scheduler.wire.terms.MAX_TERM_JUMP` above the highest
+      seen: on an open bus anyone can write one, and raising the fence to
+      it would silence every genuine commander (counted in ``refused``).
     * Act on a dispatch once per ``dispatch_id``; a repeat (a resumed or
       new commander sends the same command again) is not a new command.
     """
@@ -559,10 +567,14 @@ class Fence:
         self.term = 0
         self.acted: set[str] = set()
         self.fenced = 0
+        self.refused = 0
 
     def admit(self, message: object) -> bool:
         """Whether ``message`` comes from a current term (raising it)."""
         term = getattr(message, "term", 0)
+        if term_refused(term, self.term) is not None:
+            self.refused += 1
+            return False
         if term < self.term:
             self.fenced += 1
             return False

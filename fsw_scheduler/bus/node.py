@@ -54,6 +54,7 @@ from ..runtime.policy import (
 )
 from ..solving.ilp.cbc import Cancel, cancel_scope, sweep_stale_dirs
 from ..wire import messages, topics
+from ..wire.terms import MAX_TERM
 from .inbox import Inbox, Worker, direct
 from .outputs import FATAL, NodeOutputs
 from .provenance import Origin, Provenance, capture
@@ -295,6 +296,9 @@ class SchedulerNode:
     def _begin_term(self) -> int:
         """Journal a new term, above every one seen, as an input."""
         term = max(self.engine.term, self._term_floor) + 1
+        if term > MAX_TERM:
+            # Never reached by raising one at a time from verified terms.
+            raise BusError(f"no term left above {term - 1}")
         reason = {"took_over": "takeover", "": "start"}.get(
             self.resumed, "resume"
         )

@@ -59,6 +59,7 @@ import zenoh
 from ..engine.snapshot import EngineSnapshot
 from ..errors import FieldIssue
 from ..wire import messages, topics
+from ..wire.terms import term_refused
 from .lease import has_links
 
 if TYPE_CHECKING:
@@ -140,8 +141,15 @@ class Redundancy:
         self.members: set[Member] = set()
         #: Active members and the term each commands in.
         self.actives: dict[Member, int] = {}
-        #: The highest term seen on the bus (tokens, shared states).
+        #: The highest term verified: this node's own, or a member's
+        #: (an active token with its member token, a state it shared);
+        #: a term further above it than the bound is not believed
+        #: (:mod:`fsw_scheduler.wire.terms`).
         self.max_term = 0
+        #: Tokens, terms and states refused (out of range, a jump beyond
+        #: the bound), each also logged once.
+        self.refused = 0
+        self._refused_said: set[str] = set()
         #: Whether another scheduler was ever seen: from then on, this
         #: node commands only while it has a link to the bus.
         self.seen_others = False
@@ -202,21 +210,46 @@ class Redundancy:
                 except ValueError:
                     return
             member = Member.parse(tail)
-            if member is None or term < 0 or member.rank < 0:
+            if member is None or member.rank < 0:
                 return  # not a token a scheduler declares
             put = sample.kind == zenoh.SampleKind.PUT
             with self._lock:
                 if not active:
                     (self.members.add if put else self.members.discard)(member)
                     self.seen_others |= member != self.me
+                    if put and member in self.actives:
+                        # Its member token came after its active one.
+                        self._verify(self.actives[member])
                 elif put:
+                    refused = term_refused(term, self.max_term)
+                    if refused is not None:
+                        # Never a commander: no one stands down for it.
+                        self._refuse(str(sample.key_expr), refused)
+                        return
                     self.actives[member] = term
-                    self.max_term = max(self.max_term, term)
+                    if member in self.members:
+                        self._verify(term)
                 else:
                     self.actives.pop(member, None)
             self.changes.put(None)
 
         return callback
+
+    def _verify(self, term: int) -> None:
+        """A member's term: the highest verified rises (under the lock)."""
+        self.max_term = max(self.max_term, term)
+
+    def learn_term(self, term: int) -> None:
+        """A term this node verified itself (its own state folder)."""
+        with self._lock:
+            self._verify(term)
+
+    def _refuse(self, what: str, why: str) -> None:
+        """Count a token, term or state not believed; say it once."""
+        self.refused += 1
+        if what not in self._refused_said and len(self._refused_said) < 64:
+            self._refused_said.add(what)
+            log.warning("ignored %s: %s", what[:200], why)
 
     def _on_snapshot(self, sample: zenoh.Sample) -> None:
         # Callbacks only keep bytes: decoding waits for a takeover.
@@ -225,11 +258,26 @@ class Redundancy:
     def _keep_snapshot(self, payload: bytes) -> None:
         try:
             head = msgspec.json.decode(payload)
-            rank = (int(head.get("term", 0)), int(head.get("inputs", 0)))
+            term, inputs = head.get("term", 0), head.get("inputs", 0)
         except (msgspec.DecodeError, AttributeError, TypeError, ValueError):
             return
         with self._lock:
-            self.max_term = max(self.max_term, rank[0])
+            refused = term_refused(term, self.max_term)
+            if refused is None and term > self.max_term:
+                # A state is shared by a commander whose term this node
+                # has verified; a higher one is anyone's number.
+                refused = (
+                    f"term {term} is above every verified term "
+                    f"({self.max_term})"
+                )
+            if refused is None and not (
+                isinstance(inputs, int) and inputs >= 0
+            ):
+                refused = f"inputs {inputs!r} is not a count"
+            if refused is not None:
+                self._refuse(f"a shared state of term {term!r}", refused)
+                return
+            rank = (term, inputs)
             # The newest state: the higher term, then more inputs.
             if rank >= self._snapshot_rank:
                 self._snapshot, self._snapshot_rank = payload, rank

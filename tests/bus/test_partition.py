@@ -124,3 +124,19 @@ def test_forged_tokens_cannot_stall_the_election(tmp_path: Path) -> None:
         for process in nodes.values():
             process.kill()
         router.close()
+
+
+@pytest.mark.slow
+def test_forged_terms_and_state_on_an_open_bus_change_nothing(
+    tmp_path: Path,
+) -> None:
+    """Tests forged active tokens of term 2^63-1, 10^30 and 10^50 (with a
+    member token), a forged ``scheduler/term`` of 10^40 and a forged
+    snapshot of a high term holding a goal no one sent: the commander
+    never stands down, every goal is answered, the fencing receiver stays
+    at term 1; when A dies, B takes over in term 2 from the genuine
+    state (the forged goal is not in it)."""
+    result = soak_partition().run_round(tmp_path, "forged")
+    assert result.ok, result
+    assert not result.stood_down
+    assert result.goals == 3
