@@ -122,12 +122,27 @@ class SchedulerClient:
         self._subscriber: Any = session.declare_subscriber(
             self.topics.key("scheduler/**"), self._on_sample
         )
+        # A scheduler about to command asks what terms are in use: a
+        # receiver's fence remembers one its own folder may have lost.
+        self._fence_key = self.topics.key(
+            f"{keys.FENCES}/{session.info.zid()}"
+        )
+        self._fence_answer: Any = None
+        try:
+            self._fence_answer = session.declare_queryable(
+                self._fence_key, self._on_fence_query
+            )
+        except zenoh.ZError as error:  # refused (a secure profile's ACL)
+            log.debug("no fence queryable: %s", error)
 
     def close(self) -> None:
         """Stop listening (idempotent); the session stays open."""
         subscriber, self._subscriber = self._subscriber, None
         if subscriber is not None:
             _undeclare(subscriber)
+        answer, self._fence_answer = self._fence_answer, None
+        if answer is not None:
+            _undeclare(answer)
 
     def __enter__(self) -> SchedulerClient:
         return self
@@ -504,6 +519,19 @@ class SchedulerClient:
                     self.fence.admit(term)
             self.samples.append((key, payload))
             self._cond.notify_all()
+
+    def _on_fence_query(self, query: zenoh.Query) -> None:
+        """Answer the highest term this receiver's fence holds."""
+        try:
+            with self._cond:
+                term = self.fence.term
+            if term > 0:
+                query.reply(
+                    self._fence_key,
+                    messages.encode(messages.Term(term, reason="fence")),
+                )
+        except Exception:  # zenoh only logs what a callback raises
+            log.exception("answering a fence query")
 
 
 def query_payload(

@@ -221,6 +221,9 @@ class SchedulerNode:
         self.lease: Lease | None = None
         #: Why this node stopped commanding (its lease ended), else None.
         self.stood_down: str | None = None
+        #: After a stall under the lease: who else commands now (None: no
+        #: one, this node goes on); set by the election.
+        self.reverify: Callable[[], str | None] | None = None
 
     # -- lifecycle -----------------------------------------------------------
 
@@ -302,8 +305,19 @@ class SchedulerNode:
         reason = {"took_over": "takeover", "": "start"}.get(
             self.resumed, "resume"
         )
+        lost = ""
+        engine, floor = self.engine, self._term_floor
+        if engine.term < floor:
+            # The state is older than a term already in use (a restored,
+            # moved-aside or empty folder, a lagging copy): say so.
+            lost = (
+                f"state of term {engine.term} (plan {engine.plan_id}, "
+                f"t={engine.now}) is older than term {floor}, already in "
+                f"use: what term {floor} decided after it is lost; "
+                "goals without a verdict must be sent again"
+            )
         self._term_payload = messages.encode(
-            messages.Term(term, self.config.node_id or "", reason)
+            messages.Term(term, self.config.node_id or "", reason, lost)
         )
         self._on_sample(
             "term", self.topics.key(topics.TERM), self._term_payload
@@ -460,6 +474,15 @@ class SchedulerNode:
         """False once the lease ended: the loop stops, nothing goes out."""
         if self.stood_down is None and self.lease is not None:
             self.stood_down = self.lease.lost()
+            gap = self.lease.hiccup() if self.stood_down is None else None
+            if gap is not None and self.reverify is not None:
+                # A stall under the lease: still the commander? Ask the
+                # bus before the next output instead of standing down.
+                other = self.reverify()
+                if other is not None:
+                    self.stood_down = (
+                        f"this process did not run for {gap:.1f} s; {other}"
+                    )
             if self.stood_down is not None:
                 self._stop.set()  # redundancy.serve closes the node
         return self.stood_down is None

@@ -51,7 +51,7 @@ import queue
 import socket
 import threading
 import time
-from typing import TYPE_CHECKING, NamedTuple, Protocol
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 
 import msgspec
 import zenoh
@@ -65,6 +65,7 @@ from .lease import has_links
 if TYPE_CHECKING:
     from collections.abc import Callable
 
+    from ..journal.state import StandbyStore
     from .lease import Lease
     from .node import SchedulerNode
 
@@ -159,6 +160,14 @@ class Redundancy:
         self._snapshot_rank = (-1, -1)
         self._entities: list[object] = []
         self._active_token: object | None = None
+        #: The state this node answers peers with on ``scheduler/stored``
+        #: while it does not command (its folder's, then its copy).
+        self.stored: bytes | None = None
+        #: Where a standby keeps the state it is shared (None: memory).
+        self.store: StandbyStore | None = None
+        #: Whether this node commands now (the node answers then).
+        self.commanding = False
+        self._stored_queries: Any = None
 
     # -- membership ----------------------------------------------------------
 
@@ -180,6 +189,12 @@ class Redundancy:
                 key(topics.SNAPSHOT), self._on_snapshot
             )
         )
+        # Answered from the election's loop (:meth:`answer`), not here.
+        self._stored_queries = self.session.declare_queryable(
+            key(f"{topics.STORED}/{self.me.chunks}"),
+            zenoh.handlers.FifoChannel(16),
+        )
+        self._entities.append(self._stored_queries)
 
     def refresh(self, timeout: float = 2.0) -> None:
         """Ask the bus which tokens exist now (a liveliness query: the
@@ -277,10 +292,17 @@ class Redundancy:
             if refused is not None:
                 self._refuse(f"a shared state of term {term!r}", refused)
                 return
-            rank = (term, inputs)
-            # The newest state: the higher term, then more inputs.
-            if rank >= self._snapshot_rank:
-                self._snapshot, self._snapshot_rank = payload, rank
+            self._keep(payload, (term, inputs))
+
+    def _keep(self, payload: bytes, rank: tuple[int, int]) -> None:
+        """Keep a believed state if it is the newest (under the lock)."""
+        # The newest state: the higher term, then more inputs.
+        if rank >= self._snapshot_rank:
+            self._snapshot, self._snapshot_rank = payload, rank
+            if not self.commanding:
+                self.stored = payload
+                if self.store is not None:
+                    self.store.offer(payload)  # saved by the loop
 
     def ask_snapshot(self, timeout: float = 2.0) -> bool:
         """Ask the active node for its state now; True if one came.
@@ -300,6 +322,123 @@ class Redundancy:
         except zenoh.ZError as error:
             log.warning("asking for the active node's state: %s", error)
         return got
+
+    def hold(self, state: EngineSnapshot) -> None:
+        """This node's own state (its folder's, read at start): its term
+        is verified, and it is what peers are told this node holds."""
+        payload = msgspec.json.encode(state)
+        with self._lock:
+            self._verify(state.term)
+            self.stored = payload
+            self._snapshot, self._snapshot_rank = (
+                payload,
+                (state.term, state.inputs),
+            )
+
+    def answer(self) -> None:
+        """Answer the peers that asked for this node's stored state (from
+        the election's loop: no Zenoh call in a callback)."""
+        queries = self._stored_queries
+        if queries is None:
+            return
+        while True:
+            try:
+                query = queries.try_recv()
+            except zenoh.ZError:
+                return
+            if query is None:
+                return
+            try:
+                stored = None if self.commanding else self.stored
+                if stored is not None:
+                    query.reply(
+                        self.topics.key(f"{topics.STORED}/{self.me.chunks}"),
+                        stored,
+                        encoding=JSON,
+                    )
+            except zenoh.ZError as error:
+                log.warning("answering a peer: %s", error)
+            finally:
+                query.drop()
+
+    def save(self, force: bool = False) -> None:
+        """Write the newest state shared with this standby to its folder
+        when due (see :class:`~fsw_scheduler.journal.state.StandbyStore`)."""
+        if self.store is not None and not self.commanding:
+            self.store.save_due(time.monotonic(), force)
+
+    def ask_peers(self, timeout: float = 1.0) -> None:
+        """Before commanding: learn the highest term in use and the
+        newest state, from the other members' stored states and from the
+        receivers' fences (an open bus; the secure profile lets only the
+        scheduler role answer on ``scheduler/**``)."""
+        head = self.topics.key(topics.STORED) + "/"
+        try:
+            replies = list(
+                self.session.get(
+                    self.topics.key(f"{topics.STORED}/**"),
+                    timeout=timeout,
+                    # Its own queryable waits for this thread: not asked.
+                    allowed_destination=zenoh.Locality.REMOTE,
+                )
+            )
+        except zenoh.ZError as error:
+            log.warning("asking the members' states: %s", error)
+            replies = []
+        for reply in replies:
+            if reply.ok is None:
+                continue
+            member = Member.parse(str(reply.ok.key_expr).removeprefix(head))
+            if member is not None and member != self.me:
+                self._keep_stored(member, reply.ok.payload.to_bytes())
+        try:
+            fences = list(
+                self.session.get(
+                    self.topics.key(f"{topics.FENCES}/**"), timeout=timeout
+                )
+            )
+        except zenoh.ZError as error:
+            log.warning("asking the receivers' terms: %s", error)
+            fences = []
+        for reply in fences:
+            if reply.ok is None:
+                continue
+            try:
+                term = msgspec.json.decode(
+                    reply.ok.payload.to_bytes(), type=messages.Term
+                ).term
+            except msgspec.DecodeError:
+                continue
+            with self._lock:
+                refused = term_refused(term, self.max_term)
+                if refused is None:
+                    # A receiver saw it stamped on a command: in use.
+                    self._verify(term)
+                else:
+                    self._refuse(str(reply.ok.key_expr), refused)
+
+    def _keep_stored(self, member: Member, payload: bytes) -> None:
+        """A member's stored state: believed within the bound (it may be
+        of a term no token shows now: both computers were reset)."""
+        try:
+            head = msgspec.json.decode(payload)
+            term, inputs = head.get("term", 0), head.get("inputs", 0)
+        except (msgspec.DecodeError, AttributeError, TypeError, ValueError):
+            return
+        with self._lock:
+            if member not in self.members:
+                self._refuse(f"the state of {member.node_id}", "no member")
+                return
+            refused = term_refused(term, self.max_term)
+            if refused is None and not (
+                isinstance(inputs, int) and inputs >= 0
+            ):
+                refused = f"inputs {inputs!r} is not a count"
+            if refused is not None:
+                self._refuse(f"the state of {member.node_id}", refused)
+                return
+            self._verify(term)
+            self._keep(payload, (term, inputs))
 
     def latest_snapshot(self) -> EngineSnapshot | None:
         """The newest state the active node shared (None: none yet)."""
@@ -483,10 +622,11 @@ def serve(
         restarts meshes with the others within it, and a commander seen
         through it then is no commander lost).
     """
-    _look(stop, discovery_s)
+    _look(stop, discovery_s, redundancy)
+    boot = redundancy.latest_snapshot()  # this node's folder, if any
+    followed = False  # whether it stood by for a commander it saw
     node: SchedulerNode | None = None
     standing_by_for: Member | bool | None = False
-    was_standby = False
     own: EngineSnapshot | None = None  # this node's state, stood down
     reason = ""  # why this node stood down, until it has said so
     idle_since = time.monotonic()
@@ -517,19 +657,23 @@ def serve(
             and time.monotonic() >= hold_until
             and _may_command(redundancy, time.monotonic() - idle_since)
         ):
-            state, event = _newest(redundancy, own, was_standby)
+            # The highest term in use and the newest state, first.
+            redundancy.ask_peers(max(1.0, discovery_s))
+            state, event = _newest(redundancy, own, followed)
             log.info(
                 "commanding %s%s",
                 redundancy.topics.root,
                 f" ({event})" if state is not None else "",
             )
+            redundancy.commanding = True
             node = make_node(
                 state, event, redundancy.max_term, redundancy.declare_active
             )
             if lease is not None:
                 node.lease = lease().start()
+                node.reverify = _recheck(redundancy, node)
             node.start()
-            own = None
+            own = boot = None
         elif node is not None and current is not None:
             other, term = current
             # This node's own token may not be seen yet: compare terms.
@@ -564,7 +708,13 @@ def serve(
             confirming = active is None and time.monotonic() < hold_until
             if (active != standing_by_for and not confirming) or say:
                 if active is not None:
+                    followed = True
                     redundancy.ask_snapshot()
+                    if boot is not None:
+                        # Started with a state of its own, and someone
+                        # commands: goals it alone holds are lost.
+                        _tell_lost(redundancy, boot, active)
+                        boot = None
                 redundancy.publish_standby(
                     active, "stood_down" if say else "standby", say
                 )
@@ -574,11 +724,13 @@ def serve(
                     f" for {active.node_id}" if active else "",
                 )
                 standing_by_for = active
-            was_standby = True
+            redundancy.save()
         elif node.wait_stopped(0):
             break  # the node's loop died: let a supervisor restart us
+        redundancy.answer()
         with contextlib.suppress(queue.Empty):
             redundancy.changes.get(timeout=POLL_S)
+    redundancy.save(force=True)
     return node
 
 
@@ -593,20 +745,45 @@ def _beats(one: tuple[Member, int], other: tuple[Member, int]) -> bool:
     return _precedence(*one) < _precedence(*other)
 
 
+def _recheck(
+    redundancy: Redundancy, node: SchedulerNode
+) -> Callable[[], str | None]:
+    """What a commander asks after a stall under the lease: does another
+    commander outrank it now? (None: no, it goes on in its term.)"""
+
+    def check() -> str | None:
+        redundancy.refresh(1.0)
+        current = redundancy.commander()
+        if current is None:
+            return None
+        other, term = current
+        if other != redundancy.me and _beats(
+            (other, term), (redundancy.me, node.term)
+        ):
+            return f"{other.node_id} commands in term {term}"
+        return None
+
+    return check
+
+
 def _reverify(
     stop: threading.Event, redundancy: Redundancy, discovery_s: float
 ) -> float:
     """Learn who commands before deciding (back on the bus, or after
     standing down): watch, then ask the bus; the new idle clock start."""
-    _look(stop, discovery_s)
+    _look(stop, discovery_s, redundancy)
     redundancy.refresh(max(1.0, discovery_s))
     return time.monotonic()
 
 
-def _look(stop: threading.Event, seconds: float) -> None:
-    """Watch the membership for ``seconds`` (tokens arrive meanwhile)."""
+def _look(
+    stop: threading.Event, seconds: float, redundancy: Redundancy
+) -> None:
+    """Watch the membership for ``seconds`` (tokens arrive meanwhile),
+    answering the peers that ask what this node holds."""
     deadline = time.monotonic() + seconds
     while not stop.is_set() and time.monotonic() < deadline:
+        redundancy.answer()
         stop.wait(min(POLL_S, max(deadline - time.monotonic(), 0)))
 
 
@@ -620,17 +797,19 @@ def _may_command(redundancy: Redundancy, idle_s: float) -> bool:
 
 
 def _newest(
-    redundancy: Redundancy, own: EngineSnapshot | None, was_standby: bool
+    redundancy: Redundancy, own: EngineSnapshot | None, followed: bool
 ) -> tuple[EngineSnapshot | None, str]:
-    """The state to command from: the newest of the shared one and this
-    node's own (after standing down), with the event to say first."""
-    shared = redundancy.latest_snapshot() if was_standby else None
+    """The state to command from: the newest of the shared one (or a
+    member's stored one, or this node's folder's) and this node's own
+    (after standing down), with the event to say first: ``took_over``
+    by a node that followed a commander, else ``resumed``."""
+    shared = redundancy.latest_snapshot()
     if own is not None and (
         shared is None
         or (own.term, own.inputs) >= (shared.term, shared.inputs)
     ):
         return own, "resumed"
-    return shared, "took_over"
+    return shared, "took_over" if followed else "resumed"
 
 
 def _stand_down(
@@ -645,6 +824,8 @@ def _stand_down(
     state = node.engine.snapshot()
     node.close()
     redundancy.withdraw_active()
+    redundancy.commanding = False
+    redundancy.stored = msgspec.json.encode(state)
     if reason is not None:
         if winner is not None:
             redundancy.ask_snapshot()
@@ -656,6 +837,19 @@ def _stand_down(
                     goal_id, state.term, winner, newer.term
                 )
     return state
+
+
+def _tell_lost(
+    redundancy: Redundancy, own: EngineSnapshot, active: Member
+) -> None:
+    """A node that starts with a state of its own finds a commander: each
+    goal it took in its last term that the commander's state lacks is
+    named, to be sent again (as at a heal)."""
+    newer = redundancy.latest_snapshot()
+    if newer is None or (newer.term, newer.inputs) == (own.term, own.inputs):
+        return
+    for goal_id in lost_goals(own, newer):
+        redundancy.publish_lost_goal(goal_id, own.term, active, newer.term)
 
 
 def lost_goals(own: EngineSnapshot, winner: EngineSnapshot) -> list[str]:

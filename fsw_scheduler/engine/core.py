@@ -358,6 +358,14 @@ class Engine:
                 f"{', node ' + event.node_id if event.node_id else ''})",
             )
         )
+        if event.lost:
+            # Older state than the bus has seen: never silent.
+            out.append(Log("error", event.lost))
+            out.append(
+                self._verdicts.publish(
+                    "alarm", detail=event.lost, state="degraded"
+                )
+            )
 
     def _on_explained(self, event: Explained, out: list[Command]) -> None:
         message = self._state.plan_message

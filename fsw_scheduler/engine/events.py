@@ -75,6 +75,7 @@ class TermBegan(msgspec.Struct, frozen=True, tag=True):
     term: int
     node_id: str = ""
     reason: str = ""
+    lost: str = ""
 
 
 class Explained(msgspec.Struct, frozen=True, tag=True):

@@ -17,6 +17,7 @@ import hashlib
 import logging
 import re
 import shutil
+import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, NamedTuple
 
@@ -413,6 +414,11 @@ def _holds_nothing(path: Path) -> bool:
         return False
 
 
+def run_number(path: Path) -> int:
+    """The run number of a journal file name (``journal-<run>...``)."""
+    return _run(path)
+
+
 def _run(path: Path) -> int:
     """The run number of a journal file name."""
     match = _NAME.match(path.name)
@@ -440,3 +446,116 @@ def prune(folder: Path, current: Path, max_bytes: int) -> list[Path]:
         total -= sizes[path]
         removed.append(path)
     return removed
+
+
+class StandbyStore:
+    """A standby's copy of the shared state, kept in its own folder.
+
+    A standby writes no journal of its own, yet the state it follows must
+    survive a reset of both computers: each state it is shared (the
+    commander's snapshot, as it came) is written as a journal part that
+    holds the standby's settings and that snapshot, finished and synced
+    (file and folder), and the part before it is then removed. The folder
+    thus always holds one complete file with the newest saved state, and
+    a start on it (:func:`open_state`) resumes from it like from any other
+    part. Saves are coalesced: :meth:`offer` keeps the newest state,
+    :meth:`save_due` writes it at most every ``every_s`` seconds (the
+    caller's clock), so a standby's disk sees a bounded rate whatever the
+    commander's step rate.
+
+    Parameters
+    ----------
+    folder
+        The standby's ``--state`` folder (opened by :func:`open_state`).
+    run
+        The run number its parts are written under (this start's).
+    head
+        ``(key, payload)`` of the settings message opening each part.
+    snapshot_key
+        The key the state is journaled under.
+    schemas
+        The journal's schema lookup.
+    every_s
+        The shortest time between two saves.
+    """
+
+    def __init__(
+        self,
+        folder: Path,
+        run: int,
+        head: tuple[str, bytes],
+        snapshot_key: str,
+        schemas: object = None,
+        every_s: float = 0.2,
+    ) -> None:
+        self.folder = folder
+        self.run = run
+        self.head = head
+        self.snapshot_key = snapshot_key
+        self.every_s = every_s
+        self.saves = 0
+        self.fault: str | None = None
+        self._schemas = schemas
+        self._pending: bytes | None = None
+        self._saved: bytes | None = None
+        self._part = 0
+        self._last_s = float("-inf")
+        self._current: Path | None = None
+
+    def offer(self, payload: bytes) -> None:
+        """The newest shared state (saved at the next :meth:`save_due`)."""
+        self._pending = payload
+
+    def save_due(self, now_s: float, force: bool = False) -> bool:
+        """Write the newest state offered if it is new and the last save
+        is ``every_s`` old (``force``: now); True if one was written."""
+        payload = self._pending
+        if payload is None or payload is self._saved:
+            return False
+        if not force and now_s - self._last_s < self.every_s:
+            return False
+        self._last_s = now_s
+        try:
+            self._write(payload)
+        except OSError as error:
+            # A standby with a full disk still follows in memory.
+            if self.fault is None:
+                log.error("cannot save the shared state: %s", error)
+            self.fault = f"{type(error).__name__}: {error}"
+            return False
+        self.fault = None
+        self._saved = payload
+        self.saves += 1
+        return True
+
+    def _write(self, payload: bytes) -> None:
+        from .writer import Recorder, sync_folder
+
+        newest = journal_files(self.folder)[-1:]
+        if (
+            newest
+            and newest[0] != self._current
+            and _run(newest[0]) >= self.run
+        ):
+            # This node commanded since (its journal is a later run): the
+            # copy must sort after it, to be the state a start resumes.
+            self.run, self._part = _run(newest[0]) + 1, 0
+        self._part += 1
+        path = self.folder / f"journal-{self.run:04d}-{self._part:03d}.mcap"
+        recorder = Recorder(
+            path,
+            schemas=self._schemas,  # type: ignore[arg-type]
+            durable=True,
+        )
+        try:
+            key, head = self.head
+            # Wall time: a resume counts the time down from the last one.
+            stamp = time.time_ns()
+            recorder.write(key, head, log_time_ns=stamp)
+            recorder.write(self.snapshot_key, payload, log_time_ns=stamp + 1)
+        finally:
+            recorder.close()  # finished and synced
+        previous, self._current = self._current, path
+        if previous is not None:
+            previous.unlink(missing_ok=True)
+            sync_folder(self.folder)

@@ -79,7 +79,9 @@ class InputDecoder:
         if kind == "explanation":
             return Explained(message.solve_id, message.plan_id, message.why)
         if kind == "term":
-            return TermBegan(message.term, message.node_id, message.reason)
+            return TermBegan(
+                message.term, message.node_id, message.reason, message.lost
+            )
         if kind == "clock":
             self._check_clock(message.now)
             if self.bus_now is not None and message.now < self.bus_now:

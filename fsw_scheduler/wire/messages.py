@@ -372,11 +372,17 @@ class Term(msgspec.Struct, frozen=True, omit_defaults=True):
     publishes it so that receivers raise their fence at once: a receiver
     ignores any plan, dispatch or status whose ``term`` is lower than the
     highest it has seen.
+
+    ``lost`` is set when the state this term begins from is older than a
+    term already in use (a restored, moved-aside or empty folder, a
+    standby's copy that lagged): what that term decided after the state
+    is lost, and the node says so (status ``alarm``).
     """
 
     term: int
     node_id: str = ""
     reason: str = ""
+    lost: str = ""
 
 
 class NodeInfo(msgspec.Struct, frozen=True, omit_defaults=True):

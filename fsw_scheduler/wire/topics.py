@@ -37,6 +37,12 @@ SNAPSHOT = "scheduler/snapshot"
 NODES = "scheduler/nodes"
 #: The liveliness token of the node that commands the spacecraft.
 ACTIVE = "scheduler/active"
+#: Queried only: the state each member holds (its own folder's, the
+#: copy it keeps as a standby), ``scheduler/stored/<rank>/<started>/<id>``.
+STORED = "scheduler/stored"
+#: Queried only: the highest term a receiver has seen (its fence),
+#: ``scheduler/fences/<receiver>``.
+FENCES = "scheduler/fences"
 #: Recorded only: goals refused unread because the inbox was full.
 BUSY = "scheduler/busy"
 #: Recorded only: the bus clock stopped ticking (wall-clock detection).
