@@ -23,6 +23,7 @@ the status says why. Published statuses carry the lifecycle entries that
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import msgspec
@@ -653,6 +654,21 @@ class Engine:
                 out,
             )
             return
+        outside = _level_outside(
+            level.level,
+            schedule.problem.resources.ceiling(level.resource),
+            self.config.tolerance.absolute,
+        )
+        if outside is not None:
+            # Beyond the store's range: a sensor fault, not a drift (a
+            # plan replanned on 1e308 would predict it).
+            self._verdicts.reject_input(
+                f"telemetry/resources/{level.resource}",
+                "resource_level",
+                [FieldIssue("level", outside)],
+                out,
+            )
+            return
         at = max(level.at, schedule.problem.start)
         departed = drift(
             schedule.problem,
@@ -691,3 +707,16 @@ class Engine:
 
 
 _STALLED = "bus clock stalled"
+
+
+def _level_outside(
+    level: float, ceiling: float | None, slack: float
+) -> str | None:
+    """Why a measured level cannot be the store's (None: it can): not a
+    finite number, below empty or above the capacity, beyond ``slack``."""
+    if not math.isfinite(level):
+        return f"{level} is not a finite level"
+    top = f"{ceiling:g}" if ceiling is not None else "no capacity"
+    if level < -slack or (ceiling is not None and level > ceiling + slack):
+        return f"{level:g} is outside the store's range [0, {top}]"
+    return None

@@ -22,6 +22,7 @@ from fsw_scheduler.runtime.config import NodeConfig
 from fsw_scheduler.runtime.policy import engine_config
 from fsw_scheduler.wire import messages
 
+from ..factories import make_doc, make_task, problem_from
 from .driver import (
     Driver,
     encoded,
@@ -630,3 +631,33 @@ def test_a_dispatch_without_a_report_is_said_once_at_its_end(
     later = started.tick(first_end + 1) + started.tick(first_end + 2)
     again = [s.detail.split(":")[0] for s in statuses(later, "report_overdue")]
     assert not set(again) & set(due)
+
+
+@pytest.mark.parametrize("level", [1e308, -1e308, float("inf"), 80.6, -0.6])
+def test_level_outside_the_store_is_rejected(level: float) -> None:
+    """Tests that a measured level beyond a battery's range (capacity 80)
+    is ``input_rejected`` on ``level``, never taken as drift."""
+    doc = make_doc(
+        [make_task("a", length=2, uses={"battery": 10})],
+        resources={"consumable": {"battery": {"initial": 60, "max": 80}}},
+    )
+    driver = Driver(problem_from(doc))
+    driver.tick(0)
+    out = driver.level("battery", level, 0)
+    (status,) = statuses(out, "input_rejected")
+    assert [e.path for e in status.errors] == ["level"]
+    assert not statuses(out, "drift")
+    assert driver.engine.pending_solve() is None
+
+
+def test_level_inside_the_store_is_drift() -> None:
+    """Tests that a level within the range but off the plan is drift."""
+    doc = make_doc(
+        [make_task("a", length=2, uses={"battery": 10})],
+        resources={"consumable": {"battery": {"initial": 60, "max": 80}}},
+    )
+    driver = Driver(problem_from(doc))
+    driver.tick(0)
+    out = driver.level("battery", 5.0, 0)
+    assert statuses(out, "drift")
+    assert not statuses(out, "input_rejected")
