@@ -224,6 +224,8 @@ class SchedulerNode:
         #: After a stall under the lease: who else commands now (None: no
         #: one, this node goes on); set by the election.
         self.reverify: Callable[[], str | None] | None = None
+        # A stall re-verified, not yet journaled (seconds).
+        self._paused: float | None = None
 
     # -- lifecycle -----------------------------------------------------------
 
@@ -483,6 +485,8 @@ class SchedulerNode:
                     self.stood_down = (
                         f"this process did not run for {gap:.1f} s; {other}"
                     )
+                else:
+                    self._paused = max(gap, self._paused or 0.0)
             if self.stood_down is not None:
                 self._stop.set()  # redundancy.serve closes the node
         return self.stood_down is None
@@ -491,6 +495,7 @@ class SchedulerNode:
         """Handle at most one inbox item, then any due clock tick."""
         if not self._lease_holds():
             return
+        self._note_pause()
         self._tick_wall_clock()
         self._check_stall()
         self._outputs.watch()  # retries a failed journal without steps
@@ -499,6 +504,11 @@ class SchedulerNode:
         item = self._inbox.get(timeout=max(timeout, 0.001))
         if item is None:
             return
+        # The process may have been stopped while it waited: what came
+        # meanwhile is handled after the pause is said.
+        if not self._lease_holds():
+            return
+        self._note_pause()
         kind, key, payload, arrived, origin = item
         if kind == "wake":
             return
@@ -528,6 +538,18 @@ class SchedulerNode:
             )
         else:
             self._on_sample(kind, key, payload, origin=origin)
+
+    def _note_pause(self) -> None:
+        """Journal and step a stall under the lease this node survived, so
+        that the clock jump after it dispatches late instead of missing."""
+        gap, self._paused = self._paused, None
+        if gap is None:
+            return
+        self._on_sample(
+            "paused",
+            self.topics.key(topics.PAUSED),
+            messages.encode(messages.Paused(round(gap, 3), self._now())),
+        )
 
     def _tick_wall_clock(self) -> None:
         if self._clock is None:

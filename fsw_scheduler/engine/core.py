@@ -42,6 +42,7 @@ from .events import (
     InputRejected,
     LevelArrived,
     Log,
+    NodePaused,
     Publish,
     ReportArrived,
     SolveDone,
@@ -214,6 +215,7 @@ class Engine:
             plan_message=state.plan_message,
             term=state.term,
             ledger=dict(state.ledger.records),
+            paused_at=state.paused_at,
         )
 
     @classmethod
@@ -319,6 +321,8 @@ class Engine:
             self._on_rejected(event, out)
         elif isinstance(event, ClockStalled):
             self._on_stalled(event, out)
+        elif isinstance(event, NodePaused):
+            self._on_paused(event, out)
         elif isinstance(event, Explained):
             self._on_explained(event, out)
         elif isinstance(event, TermBegan):
@@ -330,7 +334,12 @@ class Engine:
         # Dispatch first: a replan started in this step then counts what
         # was just commanded as started, never moves it, never sends it
         # twice.
-        self._execution.dispatch_due(out, before)
+        late = state.paused_at is not None and isinstance(event, Tick)
+        # After this node's own pause, what the jump passed over is
+        # dispatched late (it is still wanted), not missed.
+        self._execution.dispatch_due(out, None if late else before)
+        if late:
+            state.paused_at = None
         self._execution.alarm_overdue(out, before)
         if not self._queue.busy:
             self._replanner.start_queued(out)
@@ -392,6 +401,16 @@ class Engine:
         self._state.set_health("degraded", detail)
         out.append(Log("warning", detail))
         out.append(self._verdicts.publish("clock_stalled"))
+
+    def _on_paused(self, event: NodePaused, out: list[Command]) -> None:
+        detail = (
+            f"this node did not run for {event.seconds:g} s since unit "
+            f"{event.last} (under the lease: it still commands); what "
+            "came due meanwhile is dispatched late"
+        )
+        self._state.paused_at = self._state.now
+        out.append(Log("warning", detail))
+        out.append(self._verdicts.publish("paused", detail=detail))
 
     def _on_tick(self, out: list[Command]) -> None:
         if self._state.health_detail.startswith(_STALLED):

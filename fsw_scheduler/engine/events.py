@@ -64,6 +64,14 @@ class ClockStalled(msgspec.Struct, frozen=True, tag=True):
     last: int | None = None
 
 
+class NodePaused(msgspec.Struct, frozen=True, tag=True):
+    """This node's process did not run for ``seconds`` since unit
+    ``last``; the next clock jump is its own pause, not the bus's."""
+
+    seconds: float
+    last: int | None = None
+
+
 class TermBegan(msgspec.Struct, frozen=True, tag=True):
     """This node commands from now on, in command term ``term``.
 
@@ -107,6 +115,7 @@ Event = (
     | LevelArrived
     | InputRejected
     | ClockStalled
+    | NodePaused
     | Explained
     | TermBegan
     | SolveDone

@@ -56,6 +56,10 @@ class EngineState:
         The status ``state`` and why.
     plan_message
         The current plan as published.
+    paused_at
+        The unit at which this node said it had paused (a stall under
+        its lease), until the next tick: what that tick's jump passed
+        over is dispatched late, not missed.
     """
 
     def __init__(self, config: EngineConfig, initial: Problem) -> None:
@@ -74,6 +78,7 @@ class EngineState:
         self.health: Health = "ok"
         self.health_detail = ""
         self.plan_message: PlanMessage | None = None
+        self.paused_at: int | None = None
 
     @classmethod
     def restore(
@@ -99,6 +104,7 @@ class EngineState:
         state.health = snapshot.health
         state.health_detail = snapshot.health_detail
         state.plan_message = snapshot.plan_message
+        state.paused_at = snapshot.paused_at
         return state
 
     def clock(self) -> int:

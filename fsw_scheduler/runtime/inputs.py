@@ -21,6 +21,7 @@ from ..engine.events import (
     GoalArrived,
     InputRejected,
     LevelArrived,
+    NodePaused,
     ReportArrived,
     TermBegan,
     Tick,
@@ -76,6 +77,8 @@ class InputDecoder:
             return Tick(message.now)
         if kind == "stalled":
             return ClockStalled(message.seconds, message.last)
+        if kind == "paused":
+            return NodePaused(message.seconds, message.last)
         if kind == "explanation":
             return Explained(message.solve_id, message.plan_id, message.why)
         if kind == "term":

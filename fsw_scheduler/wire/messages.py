@@ -237,8 +237,9 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
     ``goal_queued``, ``goal_accepted``, ``goal_rejected``,
     ``solve_failed``, ``input_rejected``, ``activity``, ``drift``,
     ``clock_stalled``, ``clock_resumed``, ``heartbeat``,
-    ``loop_stopped``, ``alarm``, ``resumed``, ``took_over``); with
-    ``goal_id`` and ``errors`` (``path`` + ``reason``) for rejections.
+    ``loop_stopped``, ``alarm``, ``resumed``, ``took_over``,
+    ``paused``); with ``goal_id`` and ``errors`` (``path`` + ``reason``)
+    for rejections.
     ``resumed`` and ``took_over`` carry ``from_plan_id`` and ``at`` (the
     plan and time the state was rebuilt at). ``state`` is ``standby`` on a
     node that follows another one; ``active`` then names the commanding
@@ -299,6 +300,18 @@ class Stalled(msgspec.Struct, frozen=True):
 
     No clock message for ``seconds`` of wall-clock time since the last
     one (unit ``last``); the status turns ``degraded`` until one comes.
+    """
+
+    seconds: float
+    last: int | None = None
+
+
+class Paused(msgspec.Struct, frozen=True):
+    """``scheduler/paused`` (journal only): this node did not run.
+
+    Its process was stopped for ``seconds`` (under the lease: it
+    re-verified and still commands) since unit ``last``; what came due
+    meanwhile is dispatched late at the next tick instead of missed.
     """
 
     seconds: float
@@ -433,6 +446,7 @@ SCHEMA_TYPES: dict[str, Any] = {
     "problem": Problem,
     "busy": Busy,
     "stalled": Stalled,
+    "paused": Paused,
     "explanation": Explanation,
     "profiles": Profiles,
     "level_check": LevelCheck,

@@ -47,6 +47,9 @@ FENCES = "scheduler/fences"
 BUSY = "scheduler/busy"
 #: Recorded only: the bus clock stopped ticking (wall-clock detection).
 STALLED = "scheduler/stalled"
+#: Recorded only: this node's process did not run for a while (a stall
+#: under the lease), so a clock jump after it is this node's, not the bus's.
+PAUSED = "scheduler/paused"
 #: Recorded only: explanations computed after a plan was published.
 EXPLAINED = "scheduler/explained"
 #: Predicted consumable levels, published with each plan.
@@ -125,6 +128,7 @@ KINDS = {
     SNAPSHOT: "snapshot",
     BUSY: "busy",
     STALLED: "stalled",
+    PAUSED: "paused",
     EXPLAINED: "explanation",
     PROFILES: "profiles",
     LEVELS: "level_check",
@@ -152,6 +156,7 @@ _INPUTS = {
     "activity_report",
     "resource_level",
     "term",
+    "paused",
 }
 
 
