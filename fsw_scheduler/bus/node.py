@@ -732,9 +732,12 @@ class SchedulerNode:
     def _answer(self, suffix: str, query: zenoh.Query) -> None:
         self._sync_counters()
         message: msgspec.Struct | None
+        tag: bytes | None = None
         if suffix == topics.PLAN:
             message = self.engine.plan_message
         elif suffix == topics.SNAPSHOT:
+            # The records so far go first; the state says which it follows.
+            tag = self._outputs.snapshot_tag()
             message = self.engine.snapshot()
         elif suffix == topics.PROFILES:
             message = self._annotator.profiles
@@ -748,6 +751,7 @@ class SchedulerNode:
                     self.topics.key(suffix),
                     messages.encode(message),
                     encoding=JSON,
+                    attachment=tag,
                 )
         except _FATAL:
             raise

@@ -46,26 +46,25 @@ from __future__ import annotations
 
 import contextlib
 import logging
-import os
 import queue
-import socket
 import threading
 import time
-from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import msgspec
 import zenoh
 
-from ..engine.snapshot import EngineSnapshot
 from ..errors import FieldIssue
 from ..wire import messages, topics
 from ..wire.terms import term_refused
 from .lease import has_links
+from .members import Member, order
+from .standby import SharedState, Tag, fence_terms, tag_of
 
 if TYPE_CHECKING:
     from collections.abc import Callable
 
-    from ..journal.state import StandbyStore
+    from ..engine.snapshot import EngineSnapshot
     from .lease import Lease
     from .node import SchedulerNode
 
@@ -81,43 +80,6 @@ PASS_OVER_S = 3.0
 #: it drops the link, and a blind node must not read that as a death.
 CONFIRM_S = 0.3
 JSON = zenoh.Encoding.APPLICATION_JSON
-
-
-class Member(NamedTuple):
-    """One scheduler of the spacecraft, as its tokens name it."""
-
-    rank: int
-    started_ns: int
-    node_id: str
-
-    @property
-    def chunks(self) -> str:
-        """The key chunks ``<rank>/<started>/<node id>``."""
-        return f"{self.rank}/{self.started_ns}/{self.node_id}"
-
-    @classmethod
-    def parse(cls, tail: str) -> Member | None:
-        """From ``<rank>/<started>/<node id>``; None if malformed."""
-        parts = tail.split("/")
-        if len(parts) != 3:
-            return None
-        try:
-            return cls(int(parts[0]), int(parts[1]), parts[2])
-        except ValueError:
-            return None
-
-
-def order(member: Member) -> tuple[int, int, str]:
-    """The election order: rank, then start time, then id (lowest wins)."""
-    return (member.rank, member.started_ns, member.node_id)
-
-
-def default_node_id() -> str:
-    """``<host>-<pid>``, made key-safe."""
-    host = "".join(
-        c if c.isalnum() or c in "_.-" else "-" for c in socket.gethostname()
-    )
-    return f"{host or 'node'}-{os.getpid()}"
 
 
 class Redundancy:
@@ -156,17 +118,11 @@ class Redundancy:
         self.seen_others = False
         self.changes: queue.Queue[None] = queue.Queue()
         self._lock = threading.Lock()
-        self._snapshot: bytes | None = None
-        self._snapshot_rank = (-1, -1)
+        #: The state shared with this node, followed and kept
+        #: (:mod:`~fsw_scheduler.bus.standby`).
+        self.shared = SharedState()
         self._entities: list[object] = []
         self._active_token: object | None = None
-        #: The state this node answers peers with on ``scheduler/stored``
-        #: while it does not command (its folder's, then its copy).
-        self.stored: bytes | None = None
-        #: Where a standby keeps the state it is shared (None: memory).
-        self.store: StandbyStore | None = None
-        #: Whether this node commands now (the node answers then).
-        self.commanding = False
         self._stored_queries: Any = None
 
     # -- membership ----------------------------------------------------------
@@ -187,6 +143,11 @@ class Redundancy:
         self._entities.append(
             self.session.declare_subscriber(
                 key(topics.SNAPSHOT), self._on_snapshot
+            )
+        )
+        self._entities.append(
+            self.session.declare_subscriber(
+                key(topics.CHANGES), self._on_changes
             )
         )
         # Answered from the election's loop (:meth:`answer`), not here.
@@ -267,10 +228,13 @@ class Redundancy:
             log.warning("ignored %s: %s", what[:200], why)
 
     def _on_snapshot(self, sample: zenoh.Sample) -> None:
-        # Callbacks only keep bytes: decoding waits for a takeover.
-        self._keep_snapshot(sample.payload.to_bytes())
+        # Callbacks only keep bytes: decoding waits for the loop.
+        self._keep_snapshot(sample.payload.to_bytes(), tag_of(sample))
 
-    def _keep_snapshot(self, payload: bytes) -> None:
+    def _on_changes(self, sample: zenoh.Sample) -> None:
+        self.shared.on_changes(sample.payload.to_bytes())
+
+    def _keep_snapshot(self, payload: bytes, tag: Tag | None = None) -> None:
         try:
             head = msgspec.json.decode(payload)
             term, inputs = head.get("term", 0), head.get("inputs", 0)
@@ -292,17 +256,13 @@ class Redundancy:
             if refused is not None:
                 self._refuse(f"a shared state of term {term!r}", refused)
                 return
-            self._keep(payload, (term, inputs))
+        self.shared.keep(payload, (term, inputs), tag)
 
-    def _keep(self, payload: bytes, rank: tuple[int, int]) -> None:
-        """Keep a believed state if it is the newest (under the lock)."""
-        # The newest state: the higher term, then more inputs.
-        if rank >= self._snapshot_rank:
-            self._snapshot, self._snapshot_rank = payload, rank
-            if not self.commanding:
-                self.stored = payload
-                if self.store is not None:
-                    self.store.offer(payload)  # saved by the loop
+    def follow(self) -> None:
+        """Bring the copy up to date (from the election's loop); after a
+        missing record, ask the commander for its whole state."""
+        if self.shared.follow():
+            self.ask_snapshot()
 
     def ask_snapshot(self, timeout: float = 2.0) -> bool:
         """Ask the active node for its state now; True if one came.
@@ -317,7 +277,9 @@ class Redundancy:
                 self.topics.key(topics.SNAPSHOT), timeout=timeout
             ):
                 if reply.ok is not None:
-                    self._keep_snapshot(reply.ok.payload.to_bytes())
+                    self._keep_snapshot(
+                        reply.ok.payload.to_bytes(), tag_of(reply.ok)
+                    )
                     got = True
         except zenoh.ZError as error:
             log.warning("asking for the active node's state: %s", error)
@@ -329,11 +291,7 @@ class Redundancy:
         payload = msgspec.json.encode(state)
         with self._lock:
             self._verify(state.term)
-            self.stored = payload
-            self._snapshot, self._snapshot_rank = (
-                payload,
-                (state.term, state.inputs),
-            )
+        self.shared.keep(payload, (state.term, state.inputs))
 
     def answer(self) -> None:
         """Answer the peers that asked for this node's stored state (from
@@ -349,7 +307,7 @@ class Redundancy:
             if query is None:
                 return
             try:
-                stored = None if self.commanding else self.stored
+                stored = self.shared.told()
                 if stored is not None:
                     query.reply(
                         self.topics.key(f"{topics.STORED}/{self.me.chunks}"),
@@ -360,12 +318,6 @@ class Redundancy:
                 log.warning("answering a peer: %s", error)
             finally:
                 query.drop()
-
-    def save(self, force: bool = False) -> None:
-        """Write the newest state shared with this standby to its folder
-        when due (see :class:`~fsw_scheduler.journal.state.StandbyStore`)."""
-        if self.store is not None and not self.commanding:
-            self.store.save_due(time.monotonic(), force)
 
     def ask_peers(self, timeout: float = 1.0) -> None:
         """Before commanding: learn the highest term in use and the
@@ -391,31 +343,14 @@ class Redundancy:
             member = Member.parse(str(reply.ok.key_expr).removeprefix(head))
             if member is not None and member != self.me:
                 self._keep_stored(member, reply.ok.payload.to_bytes())
-        try:
-            fences = list(
-                self.session.get(
-                    self.topics.key(f"{topics.FENCES}/**"), timeout=timeout
-                )
-            )
-        except zenoh.ZError as error:
-            log.warning("asking the receivers' terms: %s", error)
-            fences = []
-        for reply in fences:
-            if reply.ok is None:
-                continue
-            try:
-                term = msgspec.json.decode(
-                    reply.ok.payload.to_bytes(), type=messages.Term
-                ).term
-            except msgspec.DecodeError:
-                continue
+        for where, term in fence_terms(self.session, self.topics, timeout):
             with self._lock:
                 refused = term_refused(term, self.max_term)
                 if refused is None:
                     # A receiver saw it stamped on a command: in use.
                     self._verify(term)
                 else:
-                    self._refuse(str(reply.ok.key_expr), refused)
+                    self._refuse(where, refused)
 
     def _keep_stored(self, member: Member, payload: bytes) -> None:
         """A member's stored state: believed within the bound (it may be
@@ -438,19 +373,12 @@ class Redundancy:
                 self._refuse(f"the state of {member.node_id}", refused)
                 return
             self._verify(term)
-            self._keep(payload, (term, inputs))
+        self.shared.keep(payload, (term, inputs))
 
     def latest_snapshot(self) -> EngineSnapshot | None:
         """The newest state the active node shared (None: none yet)."""
-        with self._lock:
-            payload = self._snapshot
-        if payload is None:
-            return None
-        try:
-            return msgspec.json.decode(payload, type=EngineSnapshot)
-        except msgspec.DecodeError as error:
-            log.error("unusable snapshot from the active node: %s", error)
-            return None
+        self.follow()
+        return self.shared.latest()
 
     # -- the election --------------------------------------------------------
 
@@ -665,7 +593,7 @@ def serve(
                 redundancy.topics.root,
                 f" ({event})" if state is not None else "",
             )
-            redundancy.commanding = True
+            redundancy.shared.commanding = True
             node = make_node(
                 state, event, redundancy.max_term, redundancy.declare_active
             )
@@ -724,13 +652,14 @@ def serve(
                     f" for {active.node_id}" if active else "",
                 )
                 standing_by_for = active
-            redundancy.save()
+            redundancy.follow()
+            redundancy.shared.save()
         elif node.wait_stopped(0):
             break  # the node's loop died: let a supervisor restart us
         redundancy.answer()
         with contextlib.suppress(queue.Empty):
             redundancy.changes.get(timeout=POLL_S)
-    redundancy.save(force=True)
+    redundancy.shared.save(force=True)
     return node
 
 
@@ -824,8 +753,8 @@ def _stand_down(
     state = node.engine.snapshot()
     node.close()
     redundancy.withdraw_active()
-    redundancy.commanding = False
-    redundancy.stored = msgspec.json.encode(state)
+    redundancy.shared.commanding = False
+    redundancy.shared.stored = msgspec.json.encode(state)
     if reason is not None:
         if winner is not None:
             redundancy.ask_snapshot()

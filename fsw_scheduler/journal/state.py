@@ -29,6 +29,7 @@ from .recover import is_finished, recover
 from .replay import Rebuilt, rebuild
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
     from pathlib import Path
 
     from ..model.problem import Problem
@@ -496,27 +497,31 @@ class StandbyStore:
         self.saves = 0
         self.fault: str | None = None
         self._schemas = schemas
-        self._pending: bytes | None = None
-        self._saved: bytes | None = None
+        self._pending: Callable[[], bytes] | None = None
+        self._offered = 0
+        self._saved = 0
         self._part = 0
         self._last_s = float("-inf")
         self._current: Path | None = None
 
-    def offer(self, payload: bytes) -> None:
-        """The newest shared state (saved at the next :meth:`save_due`)."""
-        self._pending = payload
+    def offer(self, source: Callable[[], bytes]) -> None:
+        """The newest shared state, as what encodes it (called only when
+        it is saved, at the next :meth:`save_due`)."""
+        self._pending = source
+        self._offered += 1
 
     def save_due(self, now_s: float, force: bool = False) -> bool:
         """Write the newest state offered if it is new and the last save
         is ``every_s`` old (``force``: now); True if one was written."""
-        payload = self._pending
-        if payload is None or payload is self._saved:
+        source = self._pending
+        if source is None or self._offered == self._saved:
             return False
         if not force and now_s - self._last_s < self.every_s:
             return False
         self._last_s = now_s
+        offered = self._offered
         try:
-            self._write(payload)
+            self._write(source())
         except OSError as error:
             # A standby with a full disk still follows in memory.
             if self.fault is None:
@@ -524,7 +529,7 @@ class StandbyStore:
             self.fault = f"{type(error).__name__}: {error}"
             return False
         self.fault = None
-        self._saved = payload
+        self._saved = offered
         self.saves += 1
         return True
 
@@ -542,8 +547,10 @@ class StandbyStore:
             self.run, self._part = _run(newest[0]) + 1, 0
         self._part += 1
         path = self.folder / f"journal-{self.run:04d}-{self._part:03d}.mcap"
+        # Written aside, then renamed: a part is whole or absent.
+        scratch = path.with_name(path.name + ".saving")
         recorder = Recorder(
-            path,
+            scratch,
             schemas=self._schemas,  # type: ignore[arg-type]
             durable=True,
         )
@@ -555,7 +562,8 @@ class StandbyStore:
             recorder.write(self.snapshot_key, payload, log_time_ns=stamp + 1)
         finally:
             recorder.close()  # finished and synced
+        scratch.replace(path)
+        sync_folder(self.folder)
         previous, self._current = self._current, path
         if previous is not None:
             previous.unlink(missing_ok=True)
-            sync_folder(self.folder)

@@ -672,8 +672,14 @@ class OrderedWriter:
         #: Why the journal is not written now (a disk error), else None:
         #: the node goes on without durability and says so.
         self.fault: str | None = None
+        #: Every record written since it was last taken (None: not
+        #: kept): what a hot standby is sent, journal or not.
+        self.tap: list[tuple[str, bytes]] | None = None
 
     def write(self, key: str, payload: bytes) -> None:
+        """Journal one record (and keep it in :attr:`tap`)."""
+        if self.tap is not None:
+            self.tap.append((key, payload))
         if self.recorder is None or self.fault is not None:
             return
         stamp = max(self._wall_ns(), self._last + 1)

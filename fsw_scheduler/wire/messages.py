@@ -306,6 +306,24 @@ class Stalled(msgspec.Struct, frozen=True):
     last: int | None = None
 
 
+class Changes(msgspec.Struct, frozen=True):
+    """``scheduler/changes``: a commander's journal records, for a standby.
+
+    A hot standby keeps the commander's state from a snapshot plus these
+    records, applied in order (:class:`~fsw_scheduler.journal.follow.
+    Follower`), instead of a whole snapshot with every step. ``stream``
+    names the commander's run (``<node id>:<term>``) and ``seq`` counts
+    its messages from 1; a snapshot it shares carries the same two in its
+    attachment (``<stream> <seq>``: the state after message ``seq``).
+    ``records`` are ``[key, message]`` pairs as journaled.
+    """
+
+    stream: str
+    seq: int
+    term: int
+    records: tuple[tuple[str, msgspec.Raw], ...] = ()
+
+
 class Paused(msgspec.Struct, frozen=True):
     """``scheduler/paused`` (journal only): this node did not run.
 

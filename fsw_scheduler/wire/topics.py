@@ -37,6 +37,9 @@ SNAPSHOT = "scheduler/snapshot"
 NODES = "scheduler/nodes"
 #: The liveliness token of the node that commands the spacecraft.
 ACTIVE = "scheduler/active"
+#: What a commander journals, step by step, for its hot standby: the
+#: records after the last shared snapshot (``messages.Changes``).
+CHANGES = "scheduler/changes"
 #: Queried only: the state each member holds (its own folder's, the
 #: copy it keeps as a standby), ``scheduler/stored/<rank>/<started>/<id>``.
 STORED = "scheduler/stored"

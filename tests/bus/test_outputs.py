@@ -20,6 +20,8 @@ from fsw_scheduler.wire import messages
 if TYPE_CHECKING:
     import pytest
 
+    from fsw_scheduler.engine.snapshot import EngineSnapshot
+
 
 class SyncLog:
     """Wraps ``os.fsync``: for each sync of the journal, the bytes then
@@ -135,3 +137,61 @@ def test_a_full_disk_at_a_rotation_is_a_journal_fault(
         h.wait_status(lambda s: s.event == "journal_resumed", 10)
         assert h.node.alive
         assert h.node.failed is None
+
+
+def test_a_standby_kept_by_changes_holds_the_commanders_state() -> None:
+    """Tests the standby's copy: after the whole state once, it gets each
+    step's records (``scheduler/changes``), never the whole state again
+    within :data:`SNAPSHOT_EVERY_S`; applied in order they give exactly
+    the commander's state (goals, plan, lifecycle, term), in far fewer
+    bytes than a snapshot per step."""
+    from fsw_scheduler.bus.redundancy import Member, Redundancy
+
+    from ..factories import ping_goal
+
+    sizes: dict[str, list[int]] = {"snapshot": [], "changes": []}
+
+    def count(sample: Any) -> None:
+        kind = str(sample.key_expr).rsplit("/", 1)[-1]
+        sizes[kind].append(len(sample.payload.to_bytes()))
+
+    options: dict[str, Any] = {"share_state": True}
+    with SchedulerHarness(node_options=options) as h:
+        taps = [
+            h.client.declare_subscriber(f"fsw/sat1/scheduler/{kind}", count)
+            for kind in sizes
+        ]
+        standby = Redundancy(h.client, "sat1", Member(1, 1, "standby"))
+        standby.shared.config = h.config
+        standby.join()
+        try:
+            h.tick(0)
+            h.wait_plan(lambda p: p.plan_id == 1)
+            standby.max_term = h.node.term  # the token's term, verified
+            assert standby.ask_snapshot()
+            for now in range(1, 6):
+                h.publish_goal(ping_goal(f"g{now}", f"T{now}"))
+                h.wait_status(lambda s, n=now: s.goal_id == f"g{n}")
+                h.tick(now)
+            h.settle()
+            copy = standby.latest_snapshot()
+            truth = h.node.engine.snapshot()
+        finally:
+            standby.close()
+            for tap in taps:
+                tap.undeclare()
+
+    def core(state: EngineSnapshot | None) -> Any:
+        assert state is not None
+        return msgspec.structs.replace(
+            state, counters=messages.Counters(), inputs=0
+        )
+
+    assert copy is not None
+    assert set(copy.ledger) == {f"g{n}" for n in range(1, 6)}
+    assert core(copy) == core(truth)
+    assert sizes["snapshot"] == []  # shared at start, then changes only
+    assert len(sizes["changes"]) >= 5
+    whole = len(msgspec.json.encode(truth))
+    # Each step sends a fraction of the whole state, whatever its size.
+    assert max(sizes["changes"]) < whole / 2, (sizes["changes"], whole)

@@ -64,7 +64,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     except ValueError as error:  # a bad value given as a flag
         raise InputError([FieldIssue("", str(error))], "arguments") from None
     if config.node_id is None:
-        from ...bus.redundancy import default_node_id
+        from ...bus.members import default_node_id
 
         config = config.replace(node_id=default_node_id())
     if args.problem:
@@ -207,6 +207,8 @@ def cmd_run(args: argparse.Namespace) -> int:
 
             member = Member(config.rank, time.time_ns(), config.node_id or "")
             redundancy = Redundancy(session, config.spacecraft, member)
+            # A standby follows the commander's records with these.
+            redundancy.shared.config = config
             if args.state:
                 _standby_state(args, config, problem, redundancy)
             redundancy.join()
@@ -272,7 +274,7 @@ def _standby_state(
     if start.rebuilt is not None:
         redundancy.hold(start.rebuilt.engine.snapshot())
     keys = topics.Topics(config.spacecraft)
-    redundancy.store = StandbyStore(
+    redundancy.shared.store = StandbyStore(
         folder,
         run_number(start.next_journal),
         (
