@@ -13,6 +13,7 @@ names the file to write next.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import logging
 import re
@@ -353,6 +354,9 @@ def open_state(
     StateStart
     """
     folder.mkdir(parents=True, exist_ok=True)
+    for scratch in folder.glob("journal-*.mcap.saving"):
+        # A standby's copy cut short by a reset: the one before it stands.
+        scratch.unlink()
     damaged = damaged_files(folder)
     if damaged:
         raise StateDamaged(damaged)
@@ -560,8 +564,12 @@ class StandbyStore:
             stamp = time.time_ns()
             recorder.write(key, head, log_time_ns=stamp)
             recorder.write(self.snapshot_key, payload, log_time_ns=stamp + 1)
-        finally:
             recorder.close()  # finished and synced
+        except BaseException:
+            with contextlib.suppress(OSError, ValueError):
+                recorder.close()
+            scratch.unlink(missing_ok=True)
+            raise
         scratch.replace(path)
         sync_folder(self.folder)
         previous, self._current = self._current, path
