@@ -583,6 +583,17 @@ class Engine:
                 [wrong],
                 out,
             )
+            if wrong.path == "term":
+                # The executor acts on a higher term's dispatches: it
+                # fences this node's. Never report ok meanwhile.
+                detail = (
+                    f"an executor follows term {report.term}, above this "
+                    f"node's term {self.term}: it ignores this node's "
+                    "dispatches"
+                )
+                self._state.set_health("degraded", detail)
+                out.append(Log("error", detail))
+                out.append(self._verdicts.publish("alarm", detail=detail))
             return
         self._state.count(reports=self._state.counters.reports + 1)
         self._state.dispatches.report(report.task, report.state)
