@@ -7,11 +7,16 @@ declares ``scheduler/active/<term>/<rank>/<started>/<node id>``. The rules,
 the same on every node so that they agree without talking:
 
 * **Terms.** A node that begins to command (first start, resume, takeover,
-  or again after standing down) does so in a new *term*, higher than any
-  it has seen: in its own state, in the active tokens, in the states
-  shared with it. The term is journaled (and synced) before the node
-  commands, and stamped on every plan, dispatch and status; receivers
-  fence: they ignore anything from a lower term than the highest seen.
+  or again after standing down) does so in a new *term*, one above the
+  highest it has verified (:mod:`fsw_scheduler.wire.terms`): its own
+  folder's, the members' tokens and stored states (``scheduler/stored``),
+  the receivers' fences (``scheduler/fences``), the states shared with
+  it; a term beyond the bound is ignored. It commands from the newest
+  state it can get; an older one than a term in use is resumed only
+  with an alarm saying what was lost. The term is journaled (and synced)
+  before the node commands, and stamped on every plan, dispatch and
+  status; receivers fence: they ignore anything from a lower term than
+  the highest seen.
 * **Election.** A starting node first looks for ``discovery`` seconds. If
   a node is active, it stands by. If none is, the best member commands:
   lowest rank, then earliest start, then smallest id (:func:`order`). A
@@ -19,8 +24,9 @@ the same on every node so that they agree without talking:
   (dead, stuck, or a forged token) is passed over for the next one.
 * **Standby.** A standby publishes ``state: standby`` on
   ``scheduler/status`` (naming the active node) and follows the active
-  node's state, which that node shares on ``scheduler/snapshot`` before
-  the outputs of every step. When the active token disappears (the process
+  node's state (:mod:`fsw_scheduler.bus.standby`): a snapshot, then the
+  records of each step (``scheduler/changes``) before its outputs, kept
+  in its own folder too. When the active token disappears (the process
   died, or its link: Zenoh notices a closed link at once and a silent one
   after its lease), the best remaining member takes over from the newest
   state it holds, in a new term, and publishes ``event: took_over``. A
@@ -32,10 +38,12 @@ the same on every node so that they agree without talking:
   other stands down, says ``stood_down`` on ``scheduler/status`` and
   becomes its standby.
 * **Leases** (:mod:`fsw_scheduler.bus.lease`): a commanding node whose own
-  view of the bus had a gap longer than half the Zenoh lease (its process
-  was stopped) or that lost every link stops commanding before its next
-  output, stands down and re-verifies: after ``discovery`` seconds it
-  commands again, in a new term, only if no one else does.
+  view of the bus had a gap longer than half the Zenoh lease but shorter
+  than the lease asks the bus who commands and goes on if no one else
+  does; a longer gap, or the loss of every link once others were seen,
+  makes it stop commanding before its next output, stand down and
+  re-verify: after ``discovery`` seconds it commands again, in a new
+  term, only if no one else does.
 
 Takeover time is the link-loss detection plus one pass of this loop
 (:data:`POLL_S`); the tests measure it on separate processes through a
@@ -214,11 +222,6 @@ class Redundancy:
     def _verify(self, term: int) -> None:
         """A member's term: the highest verified rises (under the lock)."""
         self.max_term = max(self.max_term, term)
-
-    def learn_term(self, term: int) -> None:
-        """A term this node verified itself (its own state folder)."""
-        with self._lock:
-            self._verify(term)
 
     def _refuse(self, what: str, why: str) -> None:
         """Count a token, term or state not believed; say it once."""
