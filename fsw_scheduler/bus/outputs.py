@@ -279,8 +279,11 @@ class NodeOutputs:
             return
         if not self._share_state():
             # No one to share with: a standby that comes asks for the
-            # state, which holds what is dropped here.
-            self._journal.tap = []
+            # state, which holds what is dropped here; the number moves
+            # on, so that one that already had a state sees the gap.
+            if self._journal.tap:
+                self._journal.tap = []
+                self._seq += 1
             return
         self.share_changes()
         if time.monotonic() >= self._snapshot_due:
