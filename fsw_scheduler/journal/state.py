@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import logging
+import os
 import re
 import shutil
 import time
@@ -284,10 +285,23 @@ def _settle_identity(
         keep.append(path)
     if identity is not None and not stamp.exists():
         try:
-            stamp.write_bytes(msgspec.json.encode(identity))
+            _write_synced(stamp, msgspec.json.encode(identity))
         except OSError as error:  # written at a later start
             log.error("cannot write %s: %s", stamp, error)
     return keep
+
+
+def _write_synced(path: Path, data: bytes) -> None:
+    """Write a small file whole, on the disk with its name."""
+    from .writer import sync_folder
+
+    scratch = path.with_name(path.name + ".saving")
+    with open(scratch, "wb") as f:
+        f.write(data)
+        f.flush()
+        os.fsync(f.fileno())
+    scratch.replace(path)
+    sync_folder(path.parent)
 
 
 def _set_aside(folder: Path, files: list[Path], why: str) -> list[Path]:
