@@ -43,9 +43,11 @@ log = logging.getLogger("fsw_scheduler.redundancy")
 
 #: Seconds between the watchdog's beats.
 BEAT_S = 0.05
-#: A gap longer than this share of the Zenoh lease ends this node's lease:
-#: below the lease, so that a node stops before the others can have
-#: replaced it (they wait the whole lease), with room for a loaded host.
+#: A gap longer than this share of the Zenoh lease makes the node ask the
+#: bus who commands before its next output (a hiccup); a gap of the whole
+#: lease ends its lease: the others may have replaced it by then (they
+#: wait the whole lease, then confirm). Below the lease, with room for a
+#: loaded host.
 GAP_SHARE = 0.5
 #: Zenoh's default ``transport/link/tx/lease``, in seconds.
 DEFAULT_LEASE_S = 10.0
