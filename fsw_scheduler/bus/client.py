@@ -20,6 +20,7 @@ import zenoh
 
 from ..wire import messages
 from ..wire import topics as keys
+from ..wire.terms import term_refused
 from .session import (
     wait_matching,
     wait_until,
@@ -124,12 +125,27 @@ class SchedulerClient:
         self._subscriber: Any = session.declare_subscriber(
             self.topics.key("scheduler/**"), self._on_sample
         )
+        # A scheduler about to command asks what terms are in use: a
+        # receiver's fence remembers one its own folder may have lost.
+        self._fence_key = self.topics.key(
+            f"{keys.FENCES}/{session.info.zid()}"
+        )
+        self._fence_answer: Any = None
+        try:
+            self._fence_answer = session.declare_queryable(
+                self._fence_key, self._on_fence_query
+            )
+        except zenoh.ZError as error:  # refused (a secure profile's ACL)
+            log.debug("no fence queryable: %s", error)
 
     def close(self) -> None:
         """Stop listening (idempotent); the session stays open."""
         subscriber, self._subscriber = self._subscriber, None
         if subscriber is not None:
             _undeclare(subscriber)
+        answer, self._fence_answer = self._fence_answer, None
+        if answer is not None:
+            _undeclare(answer)
 
     def __enter__(self) -> SchedulerClient:
         return self
@@ -502,11 +518,27 @@ class SchedulerClient:
             elif decoded is not None:
                 self.fence.admit(decoded)
             elif kind == "term":
-                self.fence.admit(
-                    msgspec.json.decode(payload, type=messages.Term)
-                )
+                try:
+                    term = msgspec.json.decode(payload, type=messages.Term)
+                except msgspec.DecodeError as error:  # a forged one
+                    self.decode_errors.append((key, repr(error)))
+                else:
+                    self.fence.admit(term)
             self.samples.append((key, payload))
             self._cond.notify_all()
+
+    def _on_fence_query(self, query: zenoh.Query) -> None:
+        """Answer the highest term this receiver's fence holds."""
+        try:
+            with self._cond:
+                term = self.fence.term
+            if term > 0:
+                query.reply(
+                    self._fence_key,
+                    messages.encode(messages.Term(term, reason="fence")),
+                )
+        except Exception:  # zenoh only logs what a callback raises
+            log.exception("answering a fence query")
 
 
 def query_payload(
@@ -570,6 +602,10 @@ class Fence:
       ``cancelled`` echoing its ``dispatch_id``, each time a cancel comes
       (if it had already ended, its ``completed`` or ``failed`` report
       answers).
+    * Never believe a term outside ``0..2**63-1`` or more than
+      :data:`~fsw_scheduler.wire.terms.MAX_TERM_JUMP` above the highest
+      seen: on an open bus anyone can write one, and raising the fence to
+      it would silence every genuine commander (counted in ``refused``).
     """
 
     def __init__(self) -> None:
@@ -581,10 +617,14 @@ class Fence:
         self.last: dict[str, tuple[str, int]] = {}
         #: ``(task, term)`` told of an earlier run (:meth:`earlier_run`).
         self.told: set[tuple[str, int]] = set()
+        self.refused = 0
 
     def admit(self, message: object) -> bool:
         """Whether ``message`` comes from a current term (raising it)."""
         term = getattr(message, "term", 0)
+        if term_refused(term, self.term) is not None:
+            self.refused += 1
+            return False
         if term < self.term:
             self.fenced += 1
             return False

@@ -10,11 +10,19 @@ commanding node watches its own view of the bus:
 * a **gap**: a watchdog thread beats every :data:`BEAT_S`; if the time
   between two beats (or between the last beat and a check from the loop,
   whichever thread runs first after the process continues) exceeds
-  :data:`GAP_SHARE` of the lease, the process was not running;
+  :data:`GAP_SHARE` of the lease, the process was not running. A gap
+  shorter than the whole lease is a *hiccup*: the others cannot have
+  taken over yet (they wait the lease, then confirm), so the node
+  re-verifies before its next output (asks the bus who commands) and
+  goes on commanding in its term if no one else does. A longer gap ends
+  the lease;
 * **isolation**: the session had a link to a router or a peer and now has
-  none (Zenoh closed them after their lease).
+  none (Zenoh closed them after their lease), and other schedulers were
+  seen: a node that never saw another one is alone on its computer, and
+  its last link going (a peer-mode tool that connected and left) is no
+  partition.
 
-Either ends the lease for good: the node stops commanding before its next
+An ended lease is for good: the node stops commanding before its next
 output, and the election starts again (re-verify: it commands again only
 in a new term, if no one else commands). See docs/redundancy.md.
 """
@@ -35,9 +43,11 @@ log = logging.getLogger("fsw_scheduler.redundancy")
 
 #: Seconds between the watchdog's beats.
 BEAT_S = 0.05
-#: A gap longer than this share of the Zenoh lease ends this node's lease:
-#: below the lease, so that a node stops before the others can have
-#: replaced it (they wait the whole lease), with room for a loaded host.
+#: A gap longer than this share of the Zenoh lease makes the node ask the
+#: bus who commands before its next output (a hiccup); a gap of the whole
+#: lease ends its lease: the others may have replaced it by then (they
+#: wait the whole lease, then confirm). Below the lease, with room for a
+#: loaded host.
 GAP_SHARE = 0.5
 #: Zenoh's default ``transport/link/tx/lease``, in seconds.
 DEFAULT_LEASE_S = 10.0
@@ -79,6 +89,10 @@ class Lease:
         seconds: Callable[[], float] = time.monotonic,
     ) -> None:
         self.gap_s = GAP_SHARE * lease_s
+        self.lease_s = lease_s
+        #: Hiccups (gaps under the lease) re-verified so far.
+        self.hiccups = 0
+        self._hiccup: float | None = None
         self._linked = linked
         self._seconds = seconds
         self._beat = seconds()
@@ -107,6 +121,14 @@ class Lease:
             self._check(self._seconds())
         return self._lost
 
+    def hiccup(self) -> float | None:
+        """A gap under the lease not yet re-verified (its seconds), once;
+        the caller re-verifies before it commands again."""
+        if self._lost is None:
+            self._check(self._seconds())
+        gap, self._hiccup = self._hiccup, None
+        return gap
+
     def _watch(self) -> None:
         while not self._stop.wait(BEAT_S):
             self._check(self._seconds())
@@ -117,9 +139,18 @@ class Lease:
         if self._lost is not None:
             return
         gap = now - self._beat
-        if gap > self.gap_s:
+        if gap >= self.lease_s:
             self._end(f"this process did not run for {gap:.1f} s")
             return
+        if gap > self.gap_s:
+            self.hiccups += 1
+            self._hiccup = max(gap, self._hiccup or 0.0)
+            log.warning(
+                "this process did not run for %.1f s (under the %.1f s "
+                "lease): re-verifying before the next command",
+                gap,
+                self.lease_s,
+            )
         self._beat = max(self._beat, now)
         if self._linked is None:
             return

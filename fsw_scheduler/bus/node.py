@@ -54,6 +54,7 @@ from ..runtime.policy import (
 )
 from ..solving.ilp.cbc import Cancel, cancel_scope, sweep_stale_dirs
 from ..wire import messages, topics
+from ..wire.terms import MAX_TERM
 from .inbox import Inbox, Worker, direct
 from .outputs import FATAL, NodeOutputs
 from .provenance import Origin, Provenance, capture
@@ -220,6 +221,11 @@ class SchedulerNode:
         self.lease: Lease | None = None
         #: Why this node stopped commanding (its lease ended), else None.
         self.stood_down: str | None = None
+        #: After a stall under the lease: who else commands now (None: no
+        #: one, this node goes on); set by the election.
+        self.reverify: Callable[[], str | None] | None = None
+        # A stall re-verified, not yet journaled (seconds).
+        self._paused: float | None = None
 
     # -- lifecycle -----------------------------------------------------------
 
@@ -298,11 +304,25 @@ class SchedulerNode:
     def _begin_term(self) -> int:
         """Journal a new term, above every one seen, as an input."""
         term = max(self.engine.term, self._term_floor) + 1
+        if term > MAX_TERM:
+            # Never reached by raising one at a time from verified terms.
+            raise BusError(f"no term left above {term - 1}")
         reason = {"took_over": "takeover", "": "start"}.get(
             self.resumed, "resume"
         )
+        lost = ""
+        engine, floor = self.engine, self._term_floor
+        if engine.term < floor:
+            # The state is older than a term already in use (a restored,
+            # moved-aside or empty folder, a lagging copy): say so.
+            lost = (
+                f"state of term {engine.term} (plan {engine.plan_id}, "
+                f"t={engine.now}) is older than term {floor}, already in "
+                f"use: what term {floor} decided after it is lost; "
+                "goals without a verdict must be sent again"
+            )
         self._term_payload = messages.encode(
-            messages.Term(term, self.config.node_id or "", reason)
+            messages.Term(term, self.config.node_id or "", reason, lost)
         )
         self._on_sample(
             "term", self.topics.key(topics.TERM), self._term_payload
@@ -459,6 +479,17 @@ class SchedulerNode:
         """False once the lease ended: the loop stops, nothing goes out."""
         if self.stood_down is None and self.lease is not None:
             self.stood_down = self.lease.lost()
+            gap = self.lease.hiccup() if self.stood_down is None else None
+            if gap is not None and self.reverify is not None:
+                # A stall under the lease: still the commander? Ask the
+                # bus before the next output instead of standing down.
+                other = self.reverify()
+                if other is not None:
+                    self.stood_down = (
+                        f"this process did not run for {gap:.1f} s; {other}"
+                    )
+                else:
+                    self._paused = max(gap, self._paused or 0.0)
             if self.stood_down is not None:
                 self._stop.set()  # redundancy.serve closes the node
         return self.stood_down is None
@@ -467,6 +498,7 @@ class SchedulerNode:
         """Handle at most one inbox item, then any due clock tick."""
         if not self._lease_holds():
             return
+        self._note_pause()
         self._tick_wall_clock()
         self._check_stall()
         self._outputs.watch()  # retries a failed journal without steps
@@ -475,6 +507,11 @@ class SchedulerNode:
         item = self._inbox.get(timeout=max(timeout, 0.001))
         if item is None:
             return
+        # The process may have been stopped while it waited: what came
+        # meanwhile is handled after the pause is said.
+        if not self._lease_holds():
+            return
+        self._note_pause()
         kind, key, payload, arrived, origin = item
         if kind == "wake":
             return
@@ -504,6 +541,18 @@ class SchedulerNode:
             )
         else:
             self._on_sample(kind, key, payload, origin=origin)
+
+    def _note_pause(self) -> None:
+        """Journal and step a stall under the lease this node survived, so
+        that the clock jump after it dispatches late instead of missing."""
+        gap, self._paused = self._paused, None
+        if gap is None:
+            return
+        self._on_sample(
+            "paused",
+            self.topics.key(topics.PAUSED),
+            messages.encode(messages.Paused(round(gap, 3), self._now())),
+        )
 
     def _tick_wall_clock(self) -> None:
         if self._clock is None:
@@ -607,7 +656,7 @@ class SchedulerNode:
         """Carry out a step's commands: journal, then solves, then the bus.
 
         The step's outputs (and what the annotator derives from each) are
-        journaled first; with ``--state`` the journal is flushed before any
+        journaled first; with ``--state`` the journal is synced before any
         output reaches the bus (write-ahead), so a node killed at any point
         and resumed from its journal never repeats a dispatch the bus saw.
         An output on disk but not yet on the bus when the process died is
@@ -686,9 +735,12 @@ class SchedulerNode:
     def _answer(self, suffix: str, query: zenoh.Query) -> None:
         self._sync_counters()
         message: msgspec.Struct | None
+        tag: bytes | None = None
         if suffix == topics.PLAN:
             message = self.engine.plan_message
         elif suffix == topics.SNAPSHOT:
+            # The records so far go first; the state says which it follows.
+            tag = self._outputs.snapshot_tag()
             message = self.engine.snapshot()
         elif suffix == topics.PROFILES:
             message = self._annotator.profiles
@@ -702,6 +754,7 @@ class SchedulerNode:
                     self.topics.key(suffix),
                     messages.encode(message),
                     encoding=JSON,
+                    attachment=tag,
                 )
         except _FATAL:
             raise

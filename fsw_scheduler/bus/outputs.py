@@ -22,6 +22,7 @@ import zenoh
 
 from ..engine.events import Command, Publish
 from ..journal.annotate import session_records
+from ..journal.follow import needed
 from ..journal.state import prune
 from ..runtime.policy import node_info
 from ..wire import messages, topics
@@ -44,6 +45,11 @@ FATAL = (KeyboardInterrupt, SystemExit)
 
 #: Seconds between attempts to write a failed journal again.
 JOURNAL_RETRY_S = 5.0
+
+#: Seconds between two whole states shared with a standby: between them
+#: it gets the journal's records (``scheduler/changes``), and a snapshot
+#: only when it asks (it joined, or missed a message).
+SNAPSHOT_EVERY_S = 10.0
 
 
 #: A step's outputs as journaled, waiting for the bus: (suffix, payload).
@@ -83,7 +89,8 @@ class NodeOutputs:
     wall_ns
         Wall clock in nanoseconds (the journal's session start).
     durable
-        Whether the journal is flushed before outputs reach the bus.
+        Whether the journal is synced (fsync) before outputs reach the
+        bus.
     share_state
         Whether a hot standby wants the state now (asked before each
         step with outputs); None: the state is never shared.
@@ -142,6 +149,11 @@ class NodeOutputs:
         self._may_rotate = False
         self._fault_said = False
         self._fault_retry = 0.0
+        # What a standby is sent: the records since the last message.
+        self._seq = 0
+        self._snapshot_due = 0.0
+        if share_state is not None:
+            journal.tap = []
 
     # -- lifecycle -----------------------------------------------------------
 
@@ -174,9 +186,10 @@ class NodeOutputs:
             self._write_snapshot()
 
     def sync(self) -> None:
-        """When durable, put what was journaled on disk now."""
+        """When durable, put what was journaled on the disk now (fsync):
+        what precedes a command survives a power loss."""
         if self.durable:
-            self._journal.flush()
+            self._journal.sync()
 
     def allow_rotation(self) -> None:
         """The node has started: a journal grown too big may rotate.
@@ -203,14 +216,11 @@ class NodeOutputs:
         """Journal a step's outputs; return them, for :meth:`send`.
 
         The outputs (and what the annotator derives from each) are
-        journaled; with ``--state`` the journal is flushed before this
-        returns, so that none reaches the bus before it is on disk. With a
-        standby, the state is shared first.
+        journaled; with ``--state`` the journal is synced (``fsync``,
+        once for the whole step) before this returns, so that none
+        reaches the bus before it is on the disk. With a standby, the
+        state is shared first.
         """
-        if commands:
-            # The standby's copy first, so that it never lags behind
-            # what the bus has seen (same publisher link, in order).
-            self.share()
         undurable = self.durable and self._journal.fault is not None
         outputs = [
             (
@@ -242,7 +252,15 @@ class NodeOutputs:
 
         for suffix, message in outputs:
             stage(suffix, messages.encode(message), message)
-        self.sync()
+        # The standby's copy before the bus sees any output, so that it
+        # never lags behind what the bus has seen (same link, in order).
+        self.share()
+        if puts:
+            # Group commit: one sync for every record of the step (its
+            # inputs, the solve results, its outputs) before any output.
+            self.sync()
+        elif self.durable:
+            self._journal.flush()  # nothing commands: the page cache
         return puts
 
     def send(self, puts: Staged) -> None:
@@ -255,9 +273,59 @@ class NodeOutputs:
             self._maybe_rotate()
 
     def share(self) -> None:
-        """Publish the engine's state if a hot standby wants it."""
-        if self._share_state is not None and self._share_state():
+        """Send a hot standby what was journaled since the last time: the
+        records, and the whole state every :data:`SNAPSHOT_EVERY_S`."""
+        if self._share_state is None:
+            return
+        if not self._share_state():
+            # No one to share with: a standby that comes asks for the
+            # state, which holds what is dropped here; the number moves
+            # on, so that one that already had a state sees the gap.
+            if self._journal.tap:
+                self._journal.tap = []
+                self._seq += 1
+            return
+        self.share_changes()
+        if time.monotonic() >= self._snapshot_due:
             self._share_snapshot()
+
+    def share_changes(self) -> int:
+        """Publish the records journaled since the last message (if any);
+        the sequence number of the last message sent."""
+        tap = self._journal.tap
+        if not tap:
+            return self._seq
+        self._journal.tap = []
+        # What the standby steps on: inputs and solve results, not the
+        # outputs they gave (it would only skip them).
+        tap = [(k, p) for k, p in tap if needed(self.topics, k)]
+        if not tap:
+            return self._seq
+        self._seq += 1
+        self.put(
+            topics.CHANGES,
+            messages.encode(
+                messages.Changes(
+                    self.stream,
+                    self._seq,
+                    self.engine.term,
+                    tuple((k, msgspec.Raw(p)) for k, p in tap),
+                )
+            ),
+        )
+        return self._seq
+
+    @property
+    def stream(self) -> str:
+        """This commander's run, as its standby knows it: a node commands
+        in one term, and a new term starts a new stream."""
+        return f"{self.config.node_id or ''}:{self.engine.term}"
+
+    def snapshot_tag(self) -> bytes:
+        """What a shared state says it follows: ``<stream> <seq>`` (the
+        records journaled until now are sent first)."""
+        seq = self.share_changes() if self._journal.tap is not None else 0
+        return f"{self.stream} {seq}".encode()
 
     def publish(self, suffix: str, payload: bytes) -> None:
         """Journal, publish and annotate one message outside a step."""
@@ -362,7 +430,20 @@ class NodeOutputs:
 
     def _share_snapshot(self) -> None:
         """Publish the engine's state for a hot standby."""
-        self.put(topics.SNAPSHOT, messages.encode(self.engine.snapshot()))
+        tag = self.snapshot_tag()
+        self._snapshot_due = time.monotonic() + SNAPSHOT_EVERY_S
+        try:
+            self.session.put(
+                self.topics.key(topics.SNAPSHOT),
+                messages.encode(self.engine.snapshot()),
+                encoding=JSON,
+                attachment=tag,
+            )
+        except FATAL:
+            raise
+        except BaseException as error:  # ZError, or a panic in zenoh
+            self.publish_failures += 1
+            log.error("sharing the state failed: %s", error)
 
     def _write_snapshot(self) -> None:
         """The engine's state as the next journal message, on disk."""
@@ -370,7 +451,7 @@ class NodeOutputs:
             self.topics.key(topics.SNAPSHOT),
             messages.encode(self.engine.snapshot()),
         )
-        self._journal.flush()
+        self._journal.sync()
 
     def _maybe_rotate(self) -> None:
         """Start a new journal file, opened by a snapshot, when too big."""
@@ -380,7 +461,10 @@ class NodeOutputs:
             return
         if not self._may_rotate:
             return
-        path = recorder.rotate()
+        path = self._journal.rotate()
+        if path is None:
+            self.watch()  # the disk refused the next part: say so
+            return
         log.info("journal continues in %s", path)
         self._head_of_part()
         if self._state_max_bytes is not None:

@@ -7,11 +7,16 @@ declares ``scheduler/active/<term>/<rank>/<started>/<node id>``. The rules,
 the same on every node so that they agree without talking:
 
 * **Terms.** A node that begins to command (first start, resume, takeover,
-  or again after standing down) does so in a new *term*, higher than any
-  it has seen: in its own state, in the active tokens, in the states
-  shared with it. The term is journaled (and flushed) before the node
-  commands, and stamped on every plan, dispatch and status; receivers
-  fence: they ignore anything from a lower term than the highest seen.
+  or again after standing down) does so in a new *term*, one above the
+  highest it has verified (:mod:`fsw_scheduler.wire.terms`): its own
+  folder's, the members' tokens and stored states (``scheduler/stored``),
+  the receivers' fences (``scheduler/fences``), the states shared with
+  it; a term beyond the bound is ignored. It commands from the newest
+  state it can get; an older one than a term in use is resumed only
+  with an alarm saying what was lost. The term is journaled (and synced)
+  before the node commands, and stamped on every plan, dispatch and
+  status; receivers fence: they ignore anything from a lower term than
+  the highest seen.
 * **Election.** A starting node first looks for ``discovery`` seconds. If
   a node is active, it stands by. If none is, the best member commands:
   lowest rank, then earliest start, then smallest id (:func:`order`). A
@@ -19,8 +24,9 @@ the same on every node so that they agree without talking:
   (dead, stuck, or a forged token) is passed over for the next one.
 * **Standby.** A standby publishes ``state: standby`` on
   ``scheduler/status`` (naming the active node) and follows the active
-  node's state, which that node shares on ``scheduler/snapshot`` before
-  the outputs of every step. When the active token disappears (the process
+  node's state (:mod:`fsw_scheduler.bus.standby`): a snapshot, then the
+  records of each step (``scheduler/changes``) before its outputs, kept
+  in its own folder too. When the active token disappears (the process
   died, or its link: Zenoh notices a closed link at once and a silent one
   after its lease), the best remaining member takes over from the newest
   state it holds, in a new term, and publishes ``event: took_over``. A
@@ -32,10 +38,12 @@ the same on every node so that they agree without talking:
   other stands down, says ``stood_down`` on ``scheduler/status`` and
   becomes its standby.
 * **Leases** (:mod:`fsw_scheduler.bus.lease`): a commanding node whose own
-  view of the bus had a gap longer than half the Zenoh lease (its process
-  was stopped) or that lost every link stops commanding before its next
-  output, stands down and re-verifies: after ``discovery`` seconds it
-  commands again, in a new term, only if no one else does.
+  view of the bus had a gap longer than half the Zenoh lease but shorter
+  than the lease asks the bus who commands and goes on if no one else
+  does; a longer gap, or the loss of every link once others were seen,
+  makes it stop commanding before its next output, stand down and
+  re-verify: after ``discovery`` seconds it commands again, in a new
+  term, only if no one else does.
 
 Takeover time is the link-loss detection plus one pass of this loop
 (:data:`POLL_S`); the tests measure it on separate processes through a
@@ -46,25 +54,26 @@ from __future__ import annotations
 
 import contextlib
 import logging
-import os
 import queue
-import socket
 import threading
 import time
-from typing import TYPE_CHECKING, NamedTuple, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import msgspec
 import zenoh
 
 from ..engine.merge import commanded, facts_of
-from ..engine.snapshot import EngineSnapshot
 from ..errors import FieldIssue
 from ..wire import messages, topics
+from ..wire.terms import term_refused
 from .lease import has_links
+from .members import Member, order
+from .standby import SharedState, Tag, fence_terms, tag_of
 
 if TYPE_CHECKING:
     from collections.abc import Callable
 
+    from ..engine.snapshot import EngineSnapshot
     from .lease import Lease
     from .node import SchedulerNode
 
@@ -80,43 +89,6 @@ PASS_OVER_S = 3.0
 #: it drops the link, and a blind node must not read that as a death.
 CONFIRM_S = 0.3
 JSON = zenoh.Encoding.APPLICATION_JSON
-
-
-class Member(NamedTuple):
-    """One scheduler of the spacecraft, as its tokens name it."""
-
-    rank: int
-    started_ns: int
-    node_id: str
-
-    @property
-    def chunks(self) -> str:
-        """The key chunks ``<rank>/<started>/<node id>``."""
-        return f"{self.rank}/{self.started_ns}/{self.node_id}"
-
-    @classmethod
-    def parse(cls, tail: str) -> Member | None:
-        """From ``<rank>/<started>/<node id>``; None if malformed."""
-        parts = tail.split("/")
-        if len(parts) != 3:
-            return None
-        try:
-            return cls(int(parts[0]), int(parts[1]), parts[2])
-        except ValueError:
-            return None
-
-
-def order(member: Member) -> tuple[int, int, str]:
-    """The election order: rank, then start time, then id (lowest wins)."""
-    return (member.rank, member.started_ns, member.node_id)
-
-
-def default_node_id() -> str:
-    """``<host>-<pid>``, made key-safe."""
-    host = "".join(
-        c if c.isalnum() or c in "_.-" else "-" for c in socket.gethostname()
-    )
-    return f"{host or 'node'}-{os.getpid()}"
 
 
 class Redundancy:
@@ -141,17 +113,26 @@ class Redundancy:
         self.members: set[Member] = set()
         #: Active members and the term each commands in.
         self.actives: dict[Member, int] = {}
-        #: The highest term seen on the bus (tokens, shared states).
+        #: The highest term verified: this node's own, or a member's
+        #: (an active token with its member token, a state it shared);
+        #: a term further above it than the bound is not believed
+        #: (:mod:`fsw_scheduler.wire.terms`).
         self.max_term = 0
+        #: Tokens, terms and states refused (out of range, a jump beyond
+        #: the bound), each also logged once.
+        self.refused = 0
+        self._refused_said: set[str] = set()
         #: Whether another scheduler was ever seen: from then on, this
         #: node commands only while it has a link to the bus.
         self.seen_others = False
         self.changes: queue.Queue[None] = queue.Queue()
         self._lock = threading.Lock()
-        self._snapshot: bytes | None = None
-        self._snapshot_rank = (-1, -1)
+        #: The state shared with this node, followed and kept
+        #: (:mod:`~fsw_scheduler.bus.standby`).
+        self.shared = SharedState()
         self._entities: list[object] = []
         self._active_token: object | None = None
+        self._stored_queries: Any = None
 
     # -- membership ----------------------------------------------------------
 
@@ -173,6 +154,17 @@ class Redundancy:
                 key(topics.SNAPSHOT), self._on_snapshot
             )
         )
+        self._entities.append(
+            self.session.declare_subscriber(
+                key(topics.CHANGES), self._on_changes
+            )
+        )
+        # Answered from the election's loop (:meth:`answer`), not here.
+        self._stored_queries = self.session.declare_queryable(
+            key(f"{topics.STORED}/{self.me.chunks}"),
+            zenoh.handlers.FifoChannel(16),
+        )
+        self._entities.append(self._stored_queries)
 
     def refresh(self, timeout: float = 2.0) -> None:
         """Ask the bus which tokens exist now (a liveliness query: the
@@ -203,37 +195,78 @@ class Redundancy:
                 except ValueError:
                     return
             member = Member.parse(tail)
-            if member is None or term < 0 or member.rank < 0:
+            if member is None or member.rank < 0:
                 return  # not a token a scheduler declares
             put = sample.kind == zenoh.SampleKind.PUT
             with self._lock:
                 if not active:
                     (self.members.add if put else self.members.discard)(member)
                     self.seen_others |= member != self.me
+                    if put and member in self.actives:
+                        # Its member token came after its active one.
+                        self._verify(self.actives[member])
                 elif put:
+                    refused = term_refused(term, self.max_term)
+                    if refused is not None:
+                        # Never a commander: no one stands down for it.
+                        self._refuse(str(sample.key_expr), refused)
+                        return
                     self.actives[member] = term
-                    self.max_term = max(self.max_term, term)
+                    if member in self.members:
+                        self._verify(term)
                 else:
                     self.actives.pop(member, None)
             self.changes.put(None)
 
         return callback
 
-    def _on_snapshot(self, sample: zenoh.Sample) -> None:
-        # Callbacks only keep bytes: decoding waits for a takeover.
-        self._keep_snapshot(sample.payload.to_bytes())
+    def _verify(self, term: int) -> None:
+        """A member's term: the highest verified rises (under the lock)."""
+        self.max_term = max(self.max_term, term)
 
-    def _keep_snapshot(self, payload: bytes) -> None:
+    def _refuse(self, what: str, why: str) -> None:
+        """Count a token, term or state not believed; say it once."""
+        self.refused += 1
+        if what not in self._refused_said and len(self._refused_said) < 64:
+            self._refused_said.add(what)
+            log.warning("ignored %s: %s", what[:200], why)
+
+    def _on_snapshot(self, sample: zenoh.Sample) -> None:
+        # Callbacks only keep bytes: decoding waits for the loop.
+        self._keep_snapshot(sample.payload.to_bytes(), tag_of(sample))
+
+    def _on_changes(self, sample: zenoh.Sample) -> None:
+        self.shared.on_changes(sample.payload.to_bytes())
+
+    def _keep_snapshot(self, payload: bytes, tag: Tag | None = None) -> None:
         try:
             head = msgspec.json.decode(payload)
-            rank = (int(head.get("term", 0)), int(head.get("inputs", 0)))
+            term, inputs = head.get("term", 0), head.get("inputs", 0)
         except (msgspec.DecodeError, AttributeError, TypeError, ValueError):
             return
         with self._lock:
-            self.max_term = max(self.max_term, rank[0])
-            # The newest state: the higher term, then more inputs.
-            if rank >= self._snapshot_rank:
-                self._snapshot, self._snapshot_rank = payload, rank
+            refused = term_refused(term, self.max_term)
+            if refused is None and term > self.max_term:
+                # A state is shared by a commander whose term this node
+                # has verified; a higher one is anyone's number.
+                refused = (
+                    f"term {term} is above every verified term "
+                    f"({self.max_term})"
+                )
+            if refused is None and not (
+                isinstance(inputs, int) and inputs >= 0
+            ):
+                refused = f"inputs {inputs!r} is not a count"
+            if refused is not None:
+                self._refuse(f"a shared state of term {term!r}", refused)
+                return
+        self.shared.keep(payload, (term, inputs), tag)
+
+    def follow(self) -> None:
+        """Bring the copy up to date (from the election's loop); after a
+        missing record, ask the commander for its whole state."""
+        if self.shared.follow():
+            self.ask_snapshot()
 
     def ask_snapshot(self, timeout: float = 2.0) -> bool:
         """Ask the active node for its state now; True if one came.
@@ -248,23 +281,108 @@ class Redundancy:
                 self.topics.key(topics.SNAPSHOT), timeout=timeout
             ):
                 if reply.ok is not None:
-                    self._keep_snapshot(reply.ok.payload.to_bytes())
+                    self._keep_snapshot(
+                        reply.ok.payload.to_bytes(), tag_of(reply.ok)
+                    )
                     got = True
         except zenoh.ZError as error:
             log.warning("asking for the active node's state: %s", error)
         return got
 
+    def hold(self, state: EngineSnapshot) -> None:
+        """This node's own state (its folder's, read at start): its term
+        is verified, and it is what peers are told this node holds."""
+        payload = msgspec.json.encode(state)
+        with self._lock:
+            self._verify(state.term)
+        self.shared.keep(payload, (state.term, state.inputs))
+
+    def answer(self) -> None:
+        """Answer the peers that asked for this node's stored state (from
+        the election's loop: no Zenoh call in a callback)."""
+        queries = self._stored_queries
+        if queries is None:
+            return
+        while True:
+            try:
+                query = queries.try_recv()
+            except zenoh.ZError:
+                return
+            if query is None:
+                return
+            try:
+                stored = self.shared.told()
+                if stored is not None:
+                    query.reply(
+                        self.topics.key(f"{topics.STORED}/{self.me.chunks}"),
+                        stored,
+                        encoding=JSON,
+                    )
+            except zenoh.ZError as error:
+                log.warning("answering a peer: %s", error)
+            finally:
+                query.drop()
+
+    def ask_peers(self, timeout: float = 1.0) -> None:
+        """Before commanding: learn the highest term in use and the
+        newest state, from the other members' stored states and from the
+        receivers' fences (an open bus; the secure profile lets only the
+        scheduler role answer on ``scheduler/**``)."""
+        head = self.topics.key(topics.STORED) + "/"
+        try:
+            replies = list(
+                self.session.get(
+                    self.topics.key(f"{topics.STORED}/**"),
+                    timeout=timeout,
+                    # Its own queryable waits for this thread: not asked.
+                    allowed_destination=zenoh.Locality.REMOTE,
+                )
+            )
+        except zenoh.ZError as error:
+            log.warning("asking the members' states: %s", error)
+            replies = []
+        for reply in replies:
+            if reply.ok is None:
+                continue
+            member = Member.parse(str(reply.ok.key_expr).removeprefix(head))
+            if member is not None and member != self.me:
+                self._keep_stored(member, reply.ok.payload.to_bytes())
+        for where, term in fence_terms(self.session, self.topics, timeout):
+            with self._lock:
+                refused = term_refused(term, self.max_term)
+                if refused is None:
+                    # A receiver saw it stamped on a command: in use.
+                    self._verify(term)
+                else:
+                    self._refuse(where, refused)
+
+    def _keep_stored(self, member: Member, payload: bytes) -> None:
+        """A member's stored state: believed within the bound (it may be
+        of a term no token shows now: both computers were reset)."""
+        try:
+            head = msgspec.json.decode(payload)
+            term, inputs = head.get("term", 0), head.get("inputs", 0)
+        except (msgspec.DecodeError, AttributeError, TypeError, ValueError):
+            return
+        with self._lock:
+            if member not in self.members:
+                self._refuse(f"the state of {member.node_id}", "no member")
+                return
+            refused = term_refused(term, self.max_term)
+            if refused is None and not (
+                isinstance(inputs, int) and inputs >= 0
+            ):
+                refused = f"inputs {inputs!r} is not a count"
+            if refused is not None:
+                self._refuse(f"the state of {member.node_id}", refused)
+                return
+            self._verify(term)
+        self.shared.keep(payload, (term, inputs))
+
     def latest_snapshot(self) -> EngineSnapshot | None:
         """The newest state the active node shared (None: none yet)."""
-        with self._lock:
-            payload = self._snapshot
-        if payload is None:
-            return None
-        try:
-            return msgspec.json.decode(payload, type=EngineSnapshot)
-        except msgspec.DecodeError as error:
-            log.error("unusable snapshot from the active node: %s", error)
-            return None
+        self.follow()
+        return self.shared.latest()
 
     # -- the election --------------------------------------------------------
 
@@ -452,10 +570,11 @@ def serve(
         restarts meshes with the others within it, and a commander seen
         through it then is no commander lost).
     """
-    _look(stop, discovery_s)
+    _look(stop, discovery_s, redundancy)
+    boot = redundancy.latest_snapshot()  # this node's folder, if any
+    followed = False  # whether it stood by for a commander it saw
     node: SchedulerNode | None = None
     standing_by_for: Member | bool | None = False
-    was_standby = False
     own: EngineSnapshot | None = None  # this node's state, stood down
     reason = ""  # why this node stood down, until it has said so
     idle_since = time.monotonic()
@@ -486,19 +605,23 @@ def serve(
             and time.monotonic() >= hold_until
             and _may_command(redundancy, time.monotonic() - idle_since)
         ):
-            state, event = _newest(redundancy, own, was_standby)
+            # The highest term in use and the newest state, first.
+            redundancy.ask_peers(max(1.0, discovery_s))
+            state, event = _newest(redundancy, own, followed)
             log.info(
                 "commanding %s%s",
                 redundancy.topics.root,
                 f" ({event})" if state is not None else "",
             )
+            redundancy.shared.commanding = True
             node = make_node(
                 state, event, redundancy.max_term, redundancy.declare_active
             )
             if lease is not None:
                 node.lease = lease().start()
+                node.reverify = _recheck(redundancy, node)
             node.start()
-            own = None
+            own = boot = None
         elif node is not None and current is not None:
             other, term = current
             # This node's own token may not be seen yet: compare terms.
@@ -533,7 +656,13 @@ def serve(
             confirming = active is None and time.monotonic() < hold_until
             if (active != standing_by_for and not confirming) or say:
                 if active is not None:
+                    followed = True
                     redundancy.ask_snapshot()
+                    if boot is not None:
+                        # Started with a state of its own, and someone
+                        # commands: goals it alone holds are lost.
+                        _tell_lost(redundancy, boot, active)
+                        boot = None
                 redundancy.publish_standby(
                     active, "stood_down" if say else "standby", say
                 )
@@ -543,11 +672,14 @@ def serve(
                     f" for {active.node_id}" if active else "",
                 )
                 standing_by_for = active
-            was_standby = True
+            redundancy.follow()
+            redundancy.shared.save()
         elif node.wait_stopped(0):
             break  # the node's loop died: let a supervisor restart us
+        redundancy.answer()
         with contextlib.suppress(queue.Empty):
             redundancy.changes.get(timeout=POLL_S)
+    redundancy.shared.save(force=True)
     return node
 
 
@@ -562,20 +694,45 @@ def _beats(one: tuple[Member, int], other: tuple[Member, int]) -> bool:
     return _precedence(*one) < _precedence(*other)
 
 
+def _recheck(
+    redundancy: Redundancy, node: SchedulerNode
+) -> Callable[[], str | None]:
+    """What a commander asks after a stall under the lease: does another
+    commander outrank it now? (None: no, it goes on in its term.)"""
+
+    def check() -> str | None:
+        redundancy.refresh(1.0)
+        current = redundancy.commander()
+        if current is None:
+            return None
+        other, term = current
+        if other != redundancy.me and _beats(
+            (other, term), (redundancy.me, node.term)
+        ):
+            return f"{other.node_id} commands in term {term}"
+        return None
+
+    return check
+
+
 def _reverify(
     stop: threading.Event, redundancy: Redundancy, discovery_s: float
 ) -> float:
     """Learn who commands before deciding (back on the bus, or after
     standing down): watch, then ask the bus; the new idle clock start."""
-    _look(stop, discovery_s)
+    _look(stop, discovery_s, redundancy)
     redundancy.refresh(max(1.0, discovery_s))
     return time.monotonic()
 
 
-def _look(stop: threading.Event, seconds: float) -> None:
-    """Watch the membership for ``seconds`` (tokens arrive meanwhile)."""
+def _look(
+    stop: threading.Event, seconds: float, redundancy: Redundancy
+) -> None:
+    """Watch the membership for ``seconds`` (tokens arrive meanwhile),
+    answering the peers that ask what this node holds."""
     deadline = time.monotonic() + seconds
     while not stop.is_set() and time.monotonic() < deadline:
+        redundancy.answer()
         stop.wait(min(POLL_S, max(deadline - time.monotonic(), 0)))
 
 
@@ -589,17 +746,19 @@ def _may_command(redundancy: Redundancy, idle_s: float) -> bool:
 
 
 def _newest(
-    redundancy: Redundancy, own: EngineSnapshot | None, was_standby: bool
+    redundancy: Redundancy, own: EngineSnapshot | None, followed: bool
 ) -> tuple[EngineSnapshot | None, str]:
-    """The state to command from: the newest of the shared one and this
-    node's own (after standing down), with the event to say first."""
-    shared = redundancy.latest_snapshot() if was_standby else None
+    """The state to command from: the newest of the shared one (or a
+    member's stored one, or this node's folder's) and this node's own
+    (after standing down), with the event to say first: ``took_over``
+    by a node that followed a commander, else ``resumed``."""
+    shared = redundancy.latest_snapshot()
     if own is not None and (
         shared is None
         or (own.term, own.inputs) >= (shared.term, shared.inputs)
     ):
         return own, "resumed"
-    return shared, "took_over"
+    return shared, "took_over" if followed else "resumed"
 
 
 def _stand_down(
@@ -614,6 +773,8 @@ def _stand_down(
     state = node.engine.snapshot()
     node.close()
     redundancy.withdraw_active()
+    redundancy.shared.commanding = False
+    redundancy.shared.stored = msgspec.json.encode(state)
     if reason is not None:
         if winner is not None:
             redundancy.ask_snapshot()
@@ -627,6 +788,19 @@ def _stand_down(
                     goal_id, state.term, winner, newer.term
                 )
     return state
+
+
+def _tell_lost(
+    redundancy: Redundancy, own: EngineSnapshot, active: Member
+) -> None:
+    """A node that starts with a state of its own finds a commander: each
+    goal it took in its last term that the commander's state lacks is
+    named, to be sent again (as at a heal)."""
+    newer = redundancy.latest_snapshot()
+    if newer is None or (newer.term, newer.inputs) == (own.term, own.inputs):
+        return
+    for goal_id in lost_goals(own, newer):
+        redundancy.publish_lost_goal(goal_id, own.term, active, newer.term)
 
 
 def lost_goals(own: EngineSnapshot, winner: EngineSnapshot) -> list[str]:

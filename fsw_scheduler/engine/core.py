@@ -23,6 +23,7 @@ the status says why. Published statuses carry the lifecycle entries that
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import msgspec
@@ -41,6 +42,7 @@ from .events import (
     InputRejected,
     LevelArrived,
     Log,
+    NodePaused,
     Publish,
     ReportArrived,
     SolveDone,
@@ -217,6 +219,7 @@ class Engine:
             plan_message=state.plan_message,
             term=state.term,
             ledger=dict(state.ledger.records),
+            paused_at=state.paused_at,
         )
 
     @classmethod
@@ -328,6 +331,8 @@ class Engine:
             self._on_rejected(event, out)
         elif isinstance(event, ClockStalled):
             self._on_stalled(event, out)
+        elif isinstance(event, NodePaused):
+            self._on_paused(event, out)
         elif isinstance(event, Explained):
             self._on_explained(event, out)
         elif isinstance(event, TermBegan):
@@ -341,7 +346,12 @@ class Engine:
         # Dispatch first: a replan started in this step then counts what
         # was just commanded as started, never moves it, never sends it
         # twice.
-        self._execution.dispatch_due(out, before)
+        late = state.paused_at is not None and isinstance(event, Tick)
+        # After this node's own pause, what the jump passed over is
+        # dispatched late (it is still wanted), not missed.
+        self._execution.dispatch_due(out, None if late else before)
+        if late:
+            state.paused_at = None
         self._execution.alarm_overdue(out, before)
         if not self._queue.busy:
             self._replanner.start_queued(out)
@@ -370,6 +380,14 @@ class Engine:
                 f"{', node ' + event.node_id if event.node_id else ''})",
             )
         )
+        if event.lost:
+            # Older state than the bus has seen: never silent.
+            out.append(Log("error", event.lost))
+            out.append(
+                self._verdicts.publish(
+                    "alarm", detail=event.lost, state="degraded"
+                )
+            )
 
     def _on_facts(self, event: FactsArrived, out: list[Command]) -> None:
         """Take what a commander that stood down commanded (see
@@ -421,6 +439,16 @@ class Engine:
         self._state.set_health("degraded", detail)
         out.append(Log("warning", detail))
         out.append(self._verdicts.publish("clock_stalled"))
+
+    def _on_paused(self, event: NodePaused, out: list[Command]) -> None:
+        detail = (
+            f"this node did not run for {event.seconds:g} s since unit "
+            f"{event.last} (under the lease: it still commands); what "
+            "came due meanwhile is dispatched late"
+        )
+        self._state.paused_at = self._state.now
+        out.append(Log("warning", detail))
+        out.append(self._verdicts.publish("paused", detail=detail))
 
     def _on_tick(self, out: list[Command]) -> None:
         if self._state.health_detail.startswith(_STALLED):
@@ -603,6 +631,21 @@ class Engine:
                 out,
             )
             return
+        outside = _level_outside(
+            level.level,
+            schedule.problem.resources.ceiling(level.resource),
+            self.config.tolerance.absolute,
+        )
+        if outside is not None:
+            # Beyond the store's range: a sensor fault, not a drift (a
+            # plan replanned on 1e308 would predict it).
+            self._verdicts.reject_input(
+                f"telemetry/resources/{level.resource}",
+                "resource_level",
+                [FieldIssue("level", outside)],
+                out,
+            )
+            return
         at = max(level.at, schedule.problem.start)
         departed = drift(
             schedule.problem,
@@ -641,3 +684,16 @@ class Engine:
 
 
 _STALLED = "bus clock stalled"
+
+
+def _level_outside(
+    level: float, ceiling: float | None, slack: float
+) -> str | None:
+    """Why a measured level cannot be the store's (None: it can): not a
+    finite number, below empty or above the capacity, beyond ``slack``."""
+    if not math.isfinite(level):
+        return f"{level} is not a finite level"
+    top = f"{ceiling:g}" if ceiling is not None else "no capacity"
+    if level < -slack or (ceiling is not None and level > ceiling + slack):
+        return f"{level:g} is outside the store's range [0, {top}]"
+    return None

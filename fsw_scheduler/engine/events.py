@@ -65,6 +65,14 @@ class ClockStalled(msgspec.Struct, frozen=True, tag=True):
     last: int | None = None
 
 
+class NodePaused(msgspec.Struct, frozen=True, tag=True):
+    """This node's process did not run for ``seconds`` since unit
+    ``last``; the next clock jump is its own pause, not the bus's."""
+
+    seconds: float
+    last: int | None = None
+
+
 class TermBegan(msgspec.Struct, frozen=True, tag=True):
     """This node commands from now on, in command term ``term``.
 
@@ -76,6 +84,7 @@ class TermBegan(msgspec.Struct, frozen=True, tag=True):
     term: int
     node_id: str = ""
     reason: str = ""
+    lost: str = ""
 
 
 class FactsArrived(msgspec.Struct, frozen=True, tag=True):
@@ -113,6 +122,7 @@ Event = (
     | LevelArrived
     | InputRejected
     | ClockStalled
+    | NodePaused
     | Explained
     | TermBegan
     | FactsArrived

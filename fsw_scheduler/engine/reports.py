@@ -137,6 +137,17 @@ class Reports:
                 [wrong],
                 out,
             )
+            if wrong.path == "term":
+                # The executor acts on a higher term's dispatches: it
+                # fences this node's. Never report ok meanwhile.
+                detail = (
+                    f"an executor follows term {report.term}, above this "
+                    f"node's term {self._state.term}: it ignores this "
+                    "node's dispatches"
+                )
+                self._state.set_health("degraded", detail)
+                out.append(Log("error", detail))
+                out.append(self._verdicts.publish("alarm", detail=detail))
             return
         assert schedule is not None
         self._state.count(reports=self._state.counters.reports + 1)

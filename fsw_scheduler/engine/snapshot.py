@@ -126,3 +126,4 @@ class EngineSnapshot(msgspec.Struct, frozen=True, omit_defaults=True):
     term: int = 0
     ledger: dict[str, GoalRecord] = {}
     version: int = SNAPSHOT_VERSION
+    paused_at: int | None = None

@@ -60,6 +60,10 @@ class EngineState:
     held
         Execution reports whose ``at`` lay ahead of the clock (within
         ``report_ahead``), in arrival order, until the clock reaches them.
+    paused_at
+        The unit at which this node said it had paused (a stall under
+        its lease), until the next tick: what that tick's jump passed
+        over is dispatched late, not missed.
     """
 
     def __init__(self, config: EngineConfig, initial: Problem) -> None:
@@ -79,6 +83,7 @@ class EngineState:
         self.health_detail = ""
         self.plan_message: PlanMessage | None = None
         self.held: list[ActivityReport] = []
+        self.paused_at: int | None = None
 
     @classmethod
     def restore(
@@ -106,6 +111,7 @@ class EngineState:
         state.health = snapshot.health
         state.health_detail = snapshot.health_detail
         state.plan_message = snapshot.plan_message
+        state.paused_at = snapshot.paused_at
         return state
 
     def clock(self) -> int:

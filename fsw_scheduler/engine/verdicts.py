@@ -47,7 +47,7 @@ class Verdicts:
         """
         state = self._state
         return Status(
-            state=state.health,
+            state=extra.pop("state", state.health),  # type: ignore[arg-type]
             plan_id=state.plan_id,
             now=state.now,
             event=event,

@@ -456,55 +456,24 @@ def rebuild(
     -------
     Rebuilt
     """
-    from ..runtime.policy import run_solve
+    from .follow import Follower
 
     start = _Start.of(paths)
     recorded, info_topic = start.recorded, start.info_topic
-    config, topics, snapshot = start.config, start.topics, start.snapshot
-    engine, decoder = start.engine, start.decoder
-    out = Rebuilt(engine, config)
-    now = (snapshot.now or 0) if snapshot is not None else 0
-    out.last_tick = snapshot.now if snapshot is not None else None
-    requested: dict[int, StartSolve] = {}
-    if snapshot is not None and snapshot.pending is not None:
-        pending = engine.pending_solve()
-        assert pending is not None
-        requested[pending.solve_id] = pending
-
-    def note(commands: list) -> None:
-        for command in commands:
-            if isinstance(command, StartSolve):
-                requested[command.solve_id] = command
-
+    follower = Follower(
+        start.config, start.snapshot, start.info.problem, solve_fn
+    )
+    out = Rebuilt(follower.engine, start.config)
+    out.last_tick = follower.last_tick
     for message in recorded:
         out.last_log_time_ns = max(out.last_log_time_ns, message.log_time_ns)
         if message.topic == info_topic:
             continue
-        kind = topics.schema_kind(message.topic)
-        if kind == "snapshot":
+        if start.topics.schema_kind(message.topic) == "snapshot":
             continue
         out.messages += 1
-        if kind == "solve_record":
-            record = msgspec.json.decode(
-                message.payload, type=messages.SolveRecord
-            )
-            command = requested.pop(record.solve_id, None)
-            if command is None:
-                continue
-            plan = record.result
-            if plan is None:
-                plan = (solve_fn or run_solve)(config, command)
-            note(engine.step(SolveDone(record.solve_id, plan), now))
-            continue
-        if kind in EXCLUDED:
-            continue
-        event = decoder.event(message.topic, message.payload)
-        if event is None:
-            continue
-        if hasattr(event, "now"):
-            now = max(now, event.now)  # type: ignore[attr-defined]
-            out.last_tick = now
-        note(engine.step(event, now))
+        follower.apply(message.topic, message.payload)
+    out.last_tick = follower.last_tick
     return out
 
 

@@ -13,10 +13,13 @@ names the file to write next.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import logging
+import os
 import re
 import shutil
+import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, NamedTuple
 
@@ -28,6 +31,7 @@ from .recover import is_finished, recover
 from .replay import Rebuilt, rebuild
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
     from pathlib import Path
 
     from ..model.problem import Problem
@@ -281,10 +285,23 @@ def _settle_identity(
         keep.append(path)
     if identity is not None and not stamp.exists():
         try:
-            stamp.write_bytes(msgspec.json.encode(identity))
+            _write_synced(stamp, msgspec.json.encode(identity))
         except OSError as error:  # written at a later start
             log.error("cannot write %s: %s", stamp, error)
     return keep
+
+
+def _write_synced(path: Path, data: bytes) -> None:
+    """Write a small file whole, on the disk with its name."""
+    from .writer import sync_folder
+
+    scratch = path.with_name(path.name + ".saving")
+    with open(scratch, "wb") as f:
+        f.write(data)
+        f.flush()
+        os.fsync(f.fileno())
+    scratch.replace(path)
+    sync_folder(path.parent)
 
 
 def _set_aside(folder: Path, files: list[Path], why: str) -> list[Path]:
@@ -351,6 +368,9 @@ def open_state(
     StateStart
     """
     folder.mkdir(parents=True, exist_ok=True)
+    for scratch in folder.glob("journal-*.mcap.saving"):
+        # A standby's copy cut short by a reset: the one before it stands.
+        scratch.unlink()
     damaged = damaged_files(folder)
     if damaged:
         raise StateDamaged(damaged)
@@ -371,6 +391,17 @@ def open_state(
                 start.recovered.append(path)
         except OSError as error:  # a full disk: read it as it is
             log.error("cannot finish %s (%s): read as it is", path, error)
+    for path in [p for p in files if not heads[p].has_config]:
+        if _holds_nothing(path):
+            # Killed between creating a part and writing its head (the
+            # settings): nothing was journaled in it, nothing is lost.
+            path.unlink()
+            files.remove(path)
+            start.removed.append(path)
+            log.warning("%s holds no message: removed", path.name)
+    if not files:
+        start.next_journal = folder / f"journal-{_run(every[-1]) + 1:04d}.mcap"
+        return start
     # The newest file that opens with a snapshot, and what came after it
     # (a file's head is the same once a truncated one is finished).
     base = max(
@@ -390,6 +421,21 @@ def open_state(
                 path.unlink()
                 start.removed.append(path)
     return start
+
+
+def _holds_nothing(path: Path) -> bool:
+    """Whether a (finished) journal file holds no message at all."""
+    from .reader import iter_messages
+
+    try:
+        return next(iter(iter_messages(path)), None) is None
+    except (ValueError, OSError):
+        return False
+
+
+def run_number(path: Path) -> int:
+    """The run number of a journal file name (``journal-<run>...``)."""
+    return _run(path)
 
 
 def _run(path: Path) -> int:
@@ -419,3 +465,127 @@ def prune(folder: Path, current: Path, max_bytes: int) -> list[Path]:
         total -= sizes[path]
         removed.append(path)
     return removed
+
+
+class StandbyStore:
+    """A standby's copy of the shared state, kept in its own folder.
+
+    A standby writes no journal of its own, yet the state it follows must
+    survive a reset of both computers: each state it is shared (the
+    commander's snapshot, as it came) is written as a journal part that
+    holds the standby's settings and that snapshot, finished and synced
+    (file and folder), and the part before it is then removed. The folder
+    thus always holds one complete file with the newest saved state, and
+    a start on it (:func:`open_state`) resumes from it like from any other
+    part. Saves are coalesced: :meth:`offer` keeps the newest state,
+    :meth:`save_due` writes it at most every ``every_s`` seconds (the
+    caller's clock), so a standby's disk sees a bounded rate whatever the
+    commander's step rate.
+
+    Parameters
+    ----------
+    folder
+        The standby's ``--state`` folder (opened by :func:`open_state`).
+    run
+        The run number its parts are written under (this start's).
+    head
+        ``(key, payload)`` of the settings message opening each part.
+    snapshot_key
+        The key the state is journaled under.
+    schemas
+        The journal's schema lookup.
+    every_s
+        The shortest time between two saves.
+    """
+
+    def __init__(
+        self,
+        folder: Path,
+        run: int,
+        head: tuple[str, bytes],
+        snapshot_key: str,
+        schemas: object = None,
+        every_s: float = 0.2,
+    ) -> None:
+        self.folder = folder
+        self.run = run
+        self.head = head
+        self.snapshot_key = snapshot_key
+        self.every_s = every_s
+        self.saves = 0
+        self.fault: str | None = None
+        self._schemas = schemas
+        self._pending: Callable[[], bytes] | None = None
+        self._offered = 0
+        self._saved = 0
+        self._part = 0
+        self._last_s = float("-inf")
+        self._current: Path | None = None
+
+    def offer(self, source: Callable[[], bytes]) -> None:
+        """The newest shared state, as what encodes it (called only when
+        it is saved, at the next :meth:`save_due`)."""
+        self._pending = source
+        self._offered += 1
+
+    def save_due(self, now_s: float, force: bool = False) -> bool:
+        """Write the newest state offered if it is new and the last save
+        is ``every_s`` old (``force``: now); True if one was written."""
+        source = self._pending
+        if source is None or self._offered == self._saved:
+            return False
+        if not force and now_s - self._last_s < self.every_s:
+            return False
+        self._last_s = now_s
+        offered = self._offered
+        try:
+            self._write(source())
+        except OSError as error:
+            # A standby with a full disk still follows in memory.
+            if self.fault is None:
+                log.error("cannot save the shared state: %s", error)
+            self.fault = f"{type(error).__name__}: {error}"
+            return False
+        self.fault = None
+        self._saved = offered
+        self.saves += 1
+        return True
+
+    def _write(self, payload: bytes) -> None:
+        from .writer import Recorder, sync_folder
+
+        newest = journal_files(self.folder)[-1:]
+        if (
+            newest
+            and newest[0] != self._current
+            and _run(newest[0]) >= self.run
+        ):
+            # This node commanded since (its journal is a later run): the
+            # copy must sort after it, to be the state a start resumes.
+            self.run, self._part = _run(newest[0]) + 1, 0
+        self._part += 1
+        path = self.folder / f"journal-{self.run:04d}-{self._part:03d}.mcap"
+        # Written aside, then renamed: a part is whole or absent.
+        scratch = path.with_name(path.name + ".saving")
+        recorder = Recorder(
+            scratch,
+            schemas=self._schemas,  # type: ignore[arg-type]
+            durable=True,
+        )
+        try:
+            key, head = self.head
+            # Wall time: a resume counts the time down from the last one.
+            stamp = time.time_ns()
+            recorder.write(key, head, log_time_ns=stamp)
+            recorder.write(self.snapshot_key, payload, log_time_ns=stamp + 1)
+            recorder.close()  # finished and synced
+        except BaseException:
+            with contextlib.suppress(OSError, ValueError):
+                recorder.close()
+            scratch.unlink(missing_ok=True)
+            raise
+        scratch.replace(path)
+        sync_folder(self.folder)
+        previous, self._current = self._current, path
+        if previous is not None:
+            previous.unlink(missing_ok=True)

@@ -29,7 +29,13 @@ on every :meth:`Recorder.write` and on :meth:`Recorder.tick` (the bus
 recorder ticks while idle). Data then sits in the OS page cache, which
 survives the death of the process; ``fsync=True`` also asks for it to reach
 the disk, which protects against power loss at the cost of a disk sync per
-flush. An unfinished file has no summary or footer, so
+flush. A journal that must survive a power loss without paying a sync at
+every flush calls :meth:`Recorder.sync` where it matters (the node: once
+per step that commands, group-committing the step's records) and passes
+``durable=True``, which syncs the folder when a file is created and the
+file when it is finished, so that a new part's name is on disk too (a
+file synced into a directory entry that was not is lost with it). An
+unfinished file has no summary or footer, so
 ``mcap.reader.make_reader`` cannot open it:
 :func:`fsw_scheduler.journal.recover.recover` rewrites it.
 """
@@ -56,6 +62,7 @@ __all__ = [
     "Recorder",
     "mcap_encoding",
     "split_name",
+    "sync_folder",
 ]
 
 
@@ -211,6 +218,9 @@ class Recorder:
     only_json
         Skip (and count in :attr:`skipped`) messages whose encoding is not
         JSON instead of recording them under their own encoding.
+    durable
+        Sync the folder after a file is created and the file when it is
+        finished (see :meth:`sync` for the records in between).
 
     Attributes
     ----------
@@ -220,6 +230,8 @@ class Recorder:
         Messages written over all files.
     flush_count
         Periodic and explicit flushes done.
+    sync_count
+        Syncs to the disk done by :meth:`sync`.
     skipped
         Messages refused by ``only_json`` (non-JSON encodings).
     """
@@ -237,6 +249,7 @@ class Recorder:
         fsync: bool = False,
         only_json: bool = False,
         open_now: bool = True,
+        durable: bool = False,
     ) -> None:
         if compression not in _COMPRESSION:
             raise ValueError(
@@ -258,9 +271,11 @@ class Recorder:
         self._schema_of = _schema_lookup(schemas)
         self._fsync = fsync
         self._only_json = only_json
+        self._durable = durable
         self.paths: list[Path] = []
         self.message_count = 0
         self.flush_count = 0
+        self.sync_count = 0
         self.skipped = 0
         # Re-written at the head of every split part, so each part
         # describes its session on its own.
@@ -483,6 +498,19 @@ class Recorder:
         self._dirty = False
         self.flush_count += 1
 
+    def sync(self) -> None:
+        """Flush, then put the file on the disk (``fsync``) now.
+
+        What precedes a command must survive a power loss, not only the
+        death of the process (``flush`` leaves it in the page cache).
+        """
+        if self._closed or self._writer is None or self._file is None:
+            return
+        self.flush()
+        if not self._fsync:  # flush() synced already
+            os.fsync(self._file.fileno())
+        self.sync_count += 1
+
     def close(self) -> None:
         """Finish the current file (summary, footer) and close it."""
         if self._closed:
@@ -527,6 +555,9 @@ class Recorder:
         )
         self._writer.start(profile="", library=LIBRARY)
         self.paths.append(path)
+        if self._durable:
+            # The new name must be on disk for its content to be found.
+            sync_folder(path.parent)
         self._channel_ids = {}
         self._schema_ids = {}
         self._sequences = {}
@@ -540,7 +571,7 @@ class Recorder:
             self._writer.finish()
         if self._file is not None:
             self._file.flush()
-            if self._fsync:
+            if self._fsync or self._durable:
                 os.fsync(self._file.fileno())
             self._file.close()
         self._writer = None
@@ -593,6 +624,16 @@ class Recorder:
         return channel_id
 
 
+def sync_folder(folder: Path) -> None:
+    """``fsync`` a directory: files created, renamed or removed in it
+    stay so after a power loss."""
+    fd = os.open(folder, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
 def _finish_chunk(writer: Writer) -> None:
     """Write out the chunk in progress, below ``chunk_size`` if need be."""
     public = getattr(writer, "flush", None)
@@ -631,8 +672,14 @@ class OrderedWriter:
         #: Why the journal is not written now (a disk error), else None:
         #: the node goes on without durability and says so.
         self.fault: str | None = None
+        #: Every record written since it was last taken (None: not
+        #: kept): what a hot standby is sent, journal or not.
+        self.tap: list[tuple[str, bytes]] | None = None
 
     def write(self, key: str, payload: bytes) -> None:
+        """Journal one record (and keep it in :attr:`tap`)."""
+        if self.tap is not None:
+            self.tap.append((key, payload))
         if self.recorder is None or self.fault is not None:
             return
         stamp = max(self._wall_ns(), self._last + 1)
@@ -643,11 +690,34 @@ class OrderedWriter:
             self.fail(error)
 
     def flush(self) -> None:
+        """Flush the recorder (the page cache: a crash loses nothing)."""
         if self.recorder is not None and self.fault is None:
             try:
                 self.recorder.flush()
             except OSError as error:
                 self.fail(error)
+
+    def sync(self) -> None:
+        """Flush and sync the recorder (the disk: a power loss loses
+        nothing); one call per step commits all of its records."""
+        if self.recorder is not None and self.fault is None:
+            try:
+                self.recorder.sync()
+            except OSError as error:
+                self.fail(error)
+
+    def rotate(self) -> Path | None:
+        """Continue in the next part (None: the disk refused it; the
+        journal is down, as after any write error, and is retried)."""
+        if self.recorder is None or self.fault is not None:
+            return None
+        try:
+            return self.recorder.rotate()
+        except OSError as error:
+            # Finishing the part (summary, footer) or opening the next
+            # can meet a full disk too: inside the guard, like a write.
+            self.fail(error)
+            return None
 
     def fail(self, error: OSError) -> None:
         """Stop writing: the journal is down (see :attr:`fault`)."""

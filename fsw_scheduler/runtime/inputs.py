@@ -22,6 +22,7 @@ from ..engine.events import (
     GoalArrived,
     InputRejected,
     LevelArrived,
+    NodePaused,
     ReportArrived,
     TermBegan,
     Tick,
@@ -77,10 +78,14 @@ class InputDecoder:
             return Tick(message.now)
         if kind == "stalled":
             return ClockStalled(message.seconds, message.last)
+        if kind == "paused":
+            return NodePaused(message.seconds, message.last)
         if kind == "explanation":
             return Explained(message.solve_id, message.plan_id, message.why)
         if kind == "term":
-            return TermBegan(message.term, message.node_id, message.reason)
+            return TermBegan(
+                message.term, message.node_id, message.reason, message.lost
+            )
         if kind == "facts":
             return FactsArrived(message)
         if kind == "clock":

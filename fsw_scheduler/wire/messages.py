@@ -252,8 +252,9 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
     ``goal_queued``, ``goal_accepted``, ``goal_rejected``,
     ``solve_failed``, ``input_rejected``, ``activity``, ``drift``,
     ``clock_stalled``, ``clock_resumed``, ``heartbeat``,
-    ``loop_stopped``, ``alarm``, ``resumed``, ``took_over``); with
-    ``goal_id`` and ``errors`` (``path`` + ``reason``) for rejections.
+    ``loop_stopped``, ``alarm``, ``resumed``, ``took_over``,
+    ``paused``); with ``goal_id`` and ``errors`` (``path`` + ``reason``)
+    for rejections.
     ``resumed`` and ``took_over`` carry ``from_plan_id`` and ``at`` (the
     plan and time the state was rebuilt at). ``state`` is ``standby`` on a
     node that follows another one; ``active`` then names the commanding
@@ -314,6 +315,36 @@ class Stalled(msgspec.Struct, frozen=True):
 
     No clock message for ``seconds`` of wall-clock time since the last
     one (unit ``last``); the status turns ``degraded`` until one comes.
+    """
+
+    seconds: float
+    last: int | None = None
+
+
+class Changes(msgspec.Struct, frozen=True):
+    """``scheduler/changes``: a commander's journal records, for a standby.
+
+    A hot standby keeps the commander's state from a snapshot plus these
+    records, applied in order (:class:`~fsw_scheduler.journal.follow.
+    Follower`), instead of a whole snapshot with every step. ``stream``
+    names the commander's run (``<node id>:<term>``) and ``seq`` counts
+    its messages from 1; a snapshot it shares carries the same two in its
+    attachment (``<stream> <seq>``: the state after message ``seq``).
+    ``records`` are ``[key, message]`` pairs as journaled.
+    """
+
+    stream: str
+    seq: int
+    term: int
+    records: tuple[tuple[str, msgspec.Raw], ...] = ()
+
+
+class Paused(msgspec.Struct, frozen=True):
+    """``scheduler/paused`` (journal only): this node did not run.
+
+    Its process was stopped for ``seconds`` (under the lease: it
+    re-verified and still commands) since unit ``last``; what came due
+    meanwhile is dispatched late at the next tick instead of missed.
     """
 
     seconds: float
@@ -387,11 +418,17 @@ class Term(msgspec.Struct, frozen=True, omit_defaults=True):
     publishes it so that receivers raise their fence at once: a receiver
     ignores any plan, dispatch or status whose ``term`` is lower than the
     highest it has seen.
+
+    ``lost`` is set when the state this term begins from is older than a
+    term already in use (a restored, moved-aside or empty folder, a
+    standby's copy that lagged): what that term decided after the state
+    is lost, and the node says so (status ``alarm``).
     """
 
     term: int
     node_id: str = ""
     reason: str = ""
+    lost: str = ""
 
 
 class Fact(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -498,6 +535,7 @@ SCHEMA_TYPES: dict[str, Any] = {
     "problem": Problem,
     "busy": Busy,
     "stalled": Stalled,
+    "paused": Paused,
     "explanation": Explanation,
     "profiles": Profiles,
     "level_check": LevelCheck,

@@ -37,10 +37,22 @@ SNAPSHOT = "scheduler/snapshot"
 NODES = "scheduler/nodes"
 #: The liveliness token of the node that commands the spacecraft.
 ACTIVE = "scheduler/active"
+#: What a commander journals, step by step, for its hot standby: the
+#: records after the last shared snapshot (``messages.Changes``).
+CHANGES = "scheduler/changes"
+#: Queried only: the state each member holds (its own folder's, the
+#: copy it keeps as a standby), ``scheduler/stored/<rank>/<started>/<id>``.
+STORED = "scheduler/stored"
+#: Queried only: the highest term a receiver has seen (its fence),
+#: ``scheduler/fences/<receiver>``.
+FENCES = "scheduler/fences"
 #: Recorded only: goals refused unread because the inbox was full.
 BUSY = "scheduler/busy"
 #: Recorded only: the bus clock stopped ticking (wall-clock detection).
 STALLED = "scheduler/stalled"
+#: Recorded only: this node's process did not run for a while (a stall
+#: under the lease), so a clock jump after it is this node's, not the bus's.
+PAUSED = "scheduler/paused"
 #: Recorded only: explanations computed after a plan was published.
 EXPLAINED = "scheduler/explained"
 #: Predicted consumable levels, published with each plan.
@@ -122,6 +134,7 @@ KINDS = {
     SNAPSHOT: "snapshot",
     BUSY: "busy",
     STALLED: "stalled",
+    PAUSED: "paused",
     EXPLAINED: "explanation",
     PROFILES: "profiles",
     LEVELS: "level_check",
@@ -152,6 +165,7 @@ _INPUTS = {
     "resource_level",
     "term",
     "facts",
+    "paused",
 }
 
 

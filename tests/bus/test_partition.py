@@ -145,3 +145,111 @@ def test_a_router_split_executes_nothing_twice(
     assert result.ok, result
     assert result.facts_merged, result  # A did hand facts over
     assert result.journals >= 2
+
+
+def test_forged_terms_and_state_on_an_open_bus_change_nothing(
+    tmp_path: Path,
+) -> None:
+    """Tests forged active tokens of term 2^63-1, 10^30 and 10^50 (with a
+    member token), a forged ``scheduler/term`` of 10^40 and a forged
+    snapshot of a high term holding a goal no one sent: the commander
+    never stands down, every goal is answered, the fencing receiver stays
+    at term 1; when A dies, B takes over in term 2 from the genuine
+    state (the forged goal is not in it)."""
+    result = soak_partition().run_round(tmp_path, "forged")
+    assert result.ok, result
+    assert not result.stood_down
+    assert result.goals == 3
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", ["reset", "restored", "aside", "empty"])
+def test_a_reset_never_reuses_or_lowers_a_term(
+    tmp_path: Path, kind: str
+) -> None:
+    """Tests both computers reset after a history of two terms: the
+    standby back first resumes from the copy it saved (term 2); a node
+    with a restored or moved-aside folder adopts the peer's newer state
+    before anyone commands (term 3); a node alone on an empty folder
+    learns term 2 from the receivers, commands in term 3 and raises an
+    alarm saying what was lost. In each: no (term, plan_id) with two
+    contents, every goal one verdict, no accepted goal forgotten (but by
+    the lone empty folder, which says so), the fencing receiver executes
+    the new commander's dispatches."""
+    result = soak_partition().run_reset(tmp_path, kind)
+    assert result.ok, result
+    if kind == "empty":
+        assert "term 2" in result.alarm
+    else:
+        assert result.forgotten == []
+
+
+@pytest.mark.slow
+def test_a_stall_under_the_lease_is_not_a_stand_down(tmp_path: Path) -> None:
+    """Tests the commander stopped (SIGSTOP) for 0.8 x the lease while
+    goals arrive: it re-verifies without leaving command, answers every
+    goal in term 1, never says ``stood_down``; B never takes over."""
+    result = soak_partition().run_round(tmp_path, "stall")
+    assert result.ok, result
+    assert result.goals == 3
+
+
+@pytest.mark.slow
+def test_a_peer_tool_leaving_a_standalone_node_costs_nothing(
+    tmp_path: Path,
+) -> None:
+    """Tests the README's topology (one node listening, peer mode) when a
+    peer-mode session connects to it and leaves, twice: the node never
+    says its lease was lost and answers a goal afterwards in term 1."""
+    import zenoh
+
+    from fsw_scheduler.bus.session import loopback_config
+    from fsw_scheduler.testing import SchedulerClient, SchedulerProcess
+
+    from ..factories import DATA, free_port, ping_goal
+
+    port = free_port()
+    endpoint = f"tcp/127.0.0.1:{port}"
+    lease = soak_partition().LEASE_MS
+    node = SchedulerProcess(
+        [
+            "--problem",
+            str(DATA / "paper_table1.json"),
+            "--clock",
+            "bus",
+            "--state",
+            str(tmp_path / "state"),
+            "--listen",
+            endpoint,
+            "--no-multicast-scouting",
+            "--insecure",
+            "--discovery",
+            "0.2",
+            "--cfg",
+            f"transport/link/tx/lease:{lease}",
+        ]
+    )
+    try:
+        assert node.start() == "scheduler up on"
+        for _ in range(2):
+            config = loopback_config(listen=None, connect=[endpoint])
+            with zenoh.open(config) as tool:
+                client = SchedulerClient(tool, timeout=30.0)
+                client.wait_scheduler(30)
+                assert client.query_status().term == 1
+                client.close()
+            # Past the lease: a lost link would have been noticed.
+            with pytest.raises(RuntimeError, match=r"no .* in the sched"):
+                node.wait_log(("lease lost",), 2 * lease / 1000)
+        config = loopback_config(listen=None, connect=[endpoint])
+        with zenoh.open(config) as session:
+            client = SchedulerClient(session, timeout=30.0)
+            client.wait_scheduler(30)
+            client.tick(0)
+            answers = client.send_goals([ping_goal("after", "After")])
+            assert answers["after"] == {"goal_accepted"}
+            assert client.query_status().term == 1
+            client.close()
+        assert not any("lease lost" in line for line in node.log)
+    finally:
+        node.kill()

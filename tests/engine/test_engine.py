@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import json
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import pytest
 
@@ -13,6 +13,7 @@ from fsw_scheduler.engine.events import (
     Command,
     InputRejected,
     Log,
+    NodePaused,
     ReportArrived,
     SolveFailed,
     StartSolve,
@@ -25,6 +26,10 @@ from fsw_scheduler.runtime.config import NodeConfig
 from fsw_scheduler.runtime.policy import engine_config
 from fsw_scheduler.wire import messages
 
+if TYPE_CHECKING:
+    from fsw_scheduler.model.plan import Activity
+
+from ..factories import make_doc, make_task, problem_from
 from .driver import (
     Driver,
     encoded,
@@ -704,3 +709,78 @@ def test_recorded_sessions_reject_every_report_ahead() -> None:
     driver.tick(0)
     first = published(driver.history, messages.Dispatch)[0]
     assert statuses(_completed(driver, first, 1), "input_rejected")
+
+
+@pytest.mark.parametrize("level", [1e308, -1e308, float("inf"), 80.6, -0.6])
+def test_level_outside_the_store_is_rejected(level: float) -> None:
+    """Tests that a measured level beyond a battery's range (capacity 80)
+    is ``input_rejected`` on ``level``, never taken as drift."""
+    doc = make_doc(
+        [make_task("a", length=2, uses={"battery": 10})],
+        resources={"consumable": {"battery": {"initial": 60, "max": 80}}},
+    )
+    driver = Driver(problem_from(doc))
+    driver.tick(0)
+    out = driver.level("battery", level, 0)
+    (status,) = statuses(out, "input_rejected")
+    assert [e.path for e in status.errors] == ["level"]
+    assert not statuses(out, "drift")
+    assert driver.engine.pending_solve() is None
+
+
+def test_level_inside_the_store_is_drift() -> None:
+    """Tests that a level within the range but off the plan is drift."""
+    doc = make_doc(
+        [make_task("a", length=2, uses={"battery": 10})],
+        resources={"consumable": {"battery": {"initial": 60, "max": 80}}},
+    )
+    driver = Driver(problem_from(doc))
+    driver.tick(0)
+    out = driver.level("battery", 5.0, 0)
+    assert statuses(out, "drift")
+    assert not statuses(out, "input_rejected")
+
+
+def _next_planned(driver: Driver) -> Activity:
+    """The next planned activity of the schedule being flown."""
+    snapshot = driver.engine.snapshot()
+    assert snapshot.schedule is not None and snapshot.now is not None
+    return min(
+        (
+            a
+            for a in snapshot.schedule.plan.activities
+            if a.start > snapshot.now
+            and snapshot.lifecycle.get(a.task) == "planned"
+        ),
+        key=lambda a: a.start,
+    )
+
+
+@pytest.mark.parametrize("paused", [True, False])
+def test_a_pause_of_this_node_dispatches_late_not_missed(paused: bool) -> None:
+    """Tests the clock jump after this node's own pause (a stall under its
+    lease, said by ``NodePaused``): what the jump passed over is
+    dispatched late (``late: true``), with a ``paused`` status; the same
+    jump without the pause is the bus's, and the activity is missed."""
+    driver = Driver()
+    driver.tick(0)
+    now = 0
+    # Unit by unit (no jump) until an activity starts two units on.
+    while (activity := _next_planned(driver)).start > now + 2:
+        now += 1
+        driver.tick(now)
+    if paused:
+        out = driver.step(NodePaused(1.6, now))
+        (said,) = statuses(out, "paused")
+        assert "1.6 s" in said.detail
+    out = driver.tick(activity.start + 1)
+    sent = {d.task: d for d in published(out, messages.Dispatch)}
+    missed = statuses(out, "activity_missed")
+    if paused:
+        assert sent[activity.task].late
+        assert not missed
+        # Only the jump right after the pause: the next one is the bus's.
+        assert driver.engine.snapshot().paused_at is None
+    else:
+        assert activity.task not in sent
+        assert missed

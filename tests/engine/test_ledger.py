@@ -191,3 +191,16 @@ def test_levels_out_of_time_are_rejected() -> None:
         out = driver.level("battery", 1.0, at)
         assert _rejected_reason(out).startswith("at"), at
         assert not _solves(out)
+
+
+def test_an_executor_following_a_higher_term_is_an_alarm() -> None:
+    """Tests a report echoing a term above the node's: the executor acts
+    on another commander's dispatches and fences this node's, so the
+    node says ``alarm`` and turns ``degraded`` instead of reporting ok."""
+    driver = _started()
+    task = published(driver.history, messages.Dispatch)[0].task
+    out = _report(driver, task=task, state="running", at=0, term=9)
+    (alarm,) = statuses(out, "alarm")
+    assert alarm.state == "degraded"
+    assert "term 9" in alarm.detail and "ignores" in alarm.detail
+    assert driver.engine.status().state == "degraded"

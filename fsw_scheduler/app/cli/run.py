@@ -47,7 +47,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     except ValueError as error:  # a bad value given as a flag
         raise InputError([FieldIssue("", str(error))], "arguments") from None
     if config.node_id is None:
-        from ...bus.redundancy import default_node_id
+        from ...bus.members import default_node_id
 
         config = config.replace(node_id=default_node_id())
     if args.problem:
@@ -133,11 +133,23 @@ def cmd_run(args: argparse.Namespace) -> int:
             nonlocal journal
             extra: dict[str, Any] = {}
             if args.state:
-                # Opened only to command: a standby writes no journal.
+                # Opened only to command: a standby keeps only the state
+                # it is shared (StandbyStore), not a journal.
                 if journal is not None:
                     journal.close()
                 journal, opened = _open_state(args, config, problem)
                 extra.update(opened)
+                folder = opened.get("engine")
+                if (
+                    shared is not None
+                    and folder is not None
+                    and (folder.term, folder.snapshot().inputs)
+                    >= (shared.term, shared.inputs)
+                ):
+                    # The folder holds the newest state (a standby's
+                    # saved copy, or this node's own): resume it.
+                    shared = None
+                    extra["resumed_event"] = event
             if shared is not None:
                 from ...engine.core import Engine
                 from ...runtime.policy import engine_config
@@ -178,6 +190,10 @@ def cmd_run(args: argparse.Namespace) -> int:
 
             member = Member(config.rank, time.time_ns(), config.node_id or "")
             redundancy = Redundancy(session, config.spacecraft, member)
+            # A standby follows the commander's records with these.
+            redundancy.shared.config = config
+            if args.state:
+                _standby_state(args, config, problem, redundancy)
             redundancy.join()
             node = None
             try:
@@ -187,7 +203,14 @@ def cmd_run(args: argparse.Namespace) -> int:
                     make_node,
                     stop,
                     config.discovery,
-                    lambda: Lease(lease_s, lambda: has_links(session)),
+                    lambda: Lease(
+                        lease_s,
+                        # Isolation counts once other schedulers were
+                        # seen: alone, a tool's link leaving is no cut.
+                        lambda: (
+                            has_links(session) or not redundancy.seen_others
+                        ),
+                    ),
                     settle_s=lease_s,
                 )
             finally:
@@ -200,6 +223,50 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"fsw-scheduler: error: {node.failed}", file=sys.stderr)
         return EXIT_NO_PLAN
     return EXIT_OK
+
+
+def _standby_state(
+    args: argparse.Namespace, config: Any, problem: Any, redundancy: Any
+) -> None:
+    """Before the election: read this node's folder (its term and state
+    are what it knows, and what it tells peers it holds), and keep the
+    state a commander shares in it while standing by."""
+    from ...journal.annotate import schema_lookup
+    from ...journal.state import (
+        FolderIdentity,
+        StandbyStore,
+        open_state,
+        problem_digest,
+        run_number,
+    )
+    from ...runtime.policy import node_info
+    from ...wire import messages, topics
+
+    given = (
+        problem
+        if config.horizon is None
+        else problem.replace(horizon=config.horizon)
+    )
+    folder = Path(args.state)
+    start = open_state(
+        folder,
+        keep_runs=args.keep_runs,
+        identity=FolderIdentity(config.spacecraft, problem_digest(given)),
+        new_problem=args.new_problem,
+    )
+    if start.rebuilt is not None:
+        redundancy.hold(start.rebuilt.engine.snapshot())
+    keys = topics.Topics(config.spacecraft)
+    redundancy.shared.store = StandbyStore(
+        folder,
+        run_number(start.next_journal),
+        (
+            keys.key(topics.NODE_INFO),
+            messages.encode(node_info(config, given)),
+        ),
+        keys.key(topics.SNAPSHOT),
+        schema_lookup(config.spacecraft),
+    )
 
 
 def _open_state(
@@ -233,7 +300,9 @@ def _open_state(
     fault = None
     try:
         journal = Recorder(
-            start.next_journal, schemas=schema_lookup(config.spacecraft)
+            start.next_journal,
+            schemas=schema_lookup(config.spacecraft),
+            durable=True,
         )
     except OSError as error:
         # A full or failing disk: command anyway, loudly, without
@@ -244,6 +313,7 @@ def _open_state(
             start.next_journal,
             schemas=schema_lookup(config.spacecraft),
             open_now=False,
+            durable=True,
         )
     resume: dict[str, Any] = {
         "journal_fault": fault,
