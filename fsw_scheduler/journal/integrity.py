@@ -135,13 +135,31 @@ def check_file(path: PathLike) -> FileCheck:
         at = end
 
 
+class _Exact(io.BytesIO):
+    """A record's bytes that refuse a read past their end.
+
+    A length field flipped upwards inside a record (a string of a
+    metadata record, say) would otherwise read to the record's end and
+    parse: alone it fits, while a reader of the whole file reads on into
+    the next records and fails there.
+    """
+
+    def read(self, size: int | None = -1, /) -> bytes:
+        data = super().read(size)
+        if size is not None and size >= 0 and len(data) < size:
+            raise ValueError(
+                f"a field of {size} bytes runs past its record's end"
+            )
+        return data
+
+
 def _record_issue(
     data: bytes, at: int, end: int, result: FileCheck
 ) -> str | None:
     """Parse one record (chunks: decompressed, CRC checked); count its
     messages; the problem, if any."""
     try:
-        stream = io.BytesIO(data[at:end])
+        stream = _Exact(data[at:end])
         reader = StreamReader(
             stream,
             skip_magic=True,

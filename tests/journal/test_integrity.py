@@ -247,3 +247,26 @@ def test_a_flipped_magic_is_damage(tmp_path: Path) -> None:
     path.write_bytes(bytes(data))
     check = check_file(path)
     assert not check.ok and check.offset == 0, check.describe()
+
+
+def test_a_length_flipped_past_its_record_is_damage(tmp_path: Path) -> None:
+    """Tests a metadata record whose last value's length field grew past
+    the record's end (one bit flip): the record alone would still parse,
+    a reader of the whole file fails on it; it is damage at its offset."""
+    import io
+
+    from mcap.writer import Writer
+
+    stream = io.BytesIO()
+    writer = Writer(stream)
+    writer.start()
+    writer.add_metadata("settings", {"a": "yes", "b": "False"})
+    writer.finish()
+    data = bytearray(stream.getvalue())
+    value = data.index(b"False")
+    data[value - 2] ^= 0x10  # length 5 -> 1,048,581
+    path = tmp_path / "flipped.mcap"
+    path.write_bytes(bytes(data))
+    check = check_file(path)
+    assert check.damage is not None and "past its record" in check.damage
+    assert check.offset is not None and check.offset < value
