@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, TextIO
 import msgspec
 import zenoh
 
+from ..bus.client import Fence
 from ..bus.node import SchedulerNode
 from ..bus.session import open_peer_pair, wait_matching
 from ..journal.annotate import schema_lookup
@@ -119,6 +120,7 @@ class Executor:
         self.scenario = scenario
         self.running: dict[str, tuple[int, int, dict[str, float]]] = {}
         self.commands: dict[str, messages.Dispatch] = {}
+        self.last_reports: dict[str, messages.ActivityReport] = {}
         self.executed: list[Activity] = []
         self.failed_once: set[str] = set()
 
@@ -135,7 +137,7 @@ class Executor:
             if task in self.running:
                 start, _, _ = self.running.pop(task)
                 self.executed.append(Activity(task, start, now))
-            elif running is not None:
+            elif running is not None and running.action != "cancel":
                 return []  # it ended, and said so already
             self.commands[task] = dispatch
             return [self._report(dispatch, "cancelled", now)]
@@ -144,18 +146,25 @@ class Executor:
         self.commands[task] = dispatch
         return [self._report(dispatch, "running", now)]
 
-    @staticmethod
+    def again(self, dispatch_id: str) -> list:
+        """The last report on the run ``dispatch_id``, sent again (a new
+        commander commanded its task blind)."""
+        last = self.last_reports.get(dispatch_id)
+        return [] if last is None else [last]
+
     def _report(
-        dispatch: messages.Dispatch, state: str, now: int
+        self, dispatch: messages.Dispatch, state: str, now: int
     ) -> messages.ActivityReport:
         """A report on ``dispatch``, echoing its id and term."""
-        return messages.ActivityReport(
+        report = messages.ActivityReport(
             dispatch.task,
             state,  # type: ignore[arg-type]
             now,
             dispatch_id=dispatch.dispatch_id,
             term=dispatch.term,
         )
+        self.last_reports[dispatch.dispatch_id] = report
+        return report
 
     def step(self, now: int) -> list:
         """Advance the world to the start of unit ``now``; return reports."""
@@ -208,7 +217,7 @@ class World:
         self.printer = printer
         self.inbox: queue.Queue[tuple[str, bytes]] = queue.Queue()
         self.plans: list[messages.PlanMessage] = []
-        self.dispatch_ids: set[str] = set()
+        self.fence = Fence()
         self._sub = session.declare_subscriber(
             topics.key("scheduler/**"),
             zenoh.handlers.Callback(  # type: ignore[arg-type]
@@ -285,26 +294,33 @@ class World:
             kind = self.topics.schema_kind(key)
             if kind == "dispatch":
                 dispatch = msgspec.json.decode(payload, type=messages.Dispatch)
-                # A receiver acts once per dispatch_id (and once on its
-                # cancel): a resumed or new commander sends standing ones
-                # again.
-                once = f"{dispatch.action}:{dispatch.dispatch_id}"
-                if once in self.dispatch_ids:
+                # The README's receiver rules: fenced by term, a run once
+                # per dispatch_id (a resumed or new commander sends
+                # standing ones again), a cancel answered each time it
+                # comes, a blind command answered with the earlier run.
+                fence = self.fence
+                if fence.cancel(dispatch):
+                    reports = self.executor.on_dispatch(dispatch, now)
+                elif (earlier := fence.earlier_run(dispatch)) is not None:
+                    reports = self.executor.again(earlier)
+                elif fence.execute(dispatch):
+                    reports = self.executor.on_dispatch(dispatch, now)
+                else:
                     continue
-                self.dispatch_ids.add(once)
                 self.printer.dispatch(dispatch)
-                for report in self.executor.on_dispatch(dispatch, now):
+                for report in reports:
                     self.put(self.topics.activity_report(report.task), report)
             elif kind == "plan":
                 plan = msgspec.json.decode(payload, type=messages.PlanMessage)
+                self.fence.admit(plan)
                 if any(p.plan_id == plan.plan_id for p in self.plans):
                     continue  # the same plan again (plan ids never reuse)
                 self.plans.append(plan)
                 self.printer.plan(plan)
             elif kind == "status":
-                self.printer.status(
-                    msgspec.json.decode(payload, type=messages.Status)
-                )
+                status = msgspec.json.decode(payload, type=messages.Status)
+                self.fence.admit(status)
+                self.printer.status(status)
 
 
 class Printer:
