@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from mcap.opcode import Opcode
-from mcap.records import Chunk, Message, Metadata
+from mcap.records import Chunk, Message
 from mcap.stream_reader import StreamReader, breakup_chunk
 
 from .writer import MCAP_MAGIC, RECORD_HEAD, PathLike
@@ -184,41 +184,8 @@ def _record_issue(
             result.messages += sum(isinstance(r, Message) for r in inner)
         elif isinstance(record, Message):
             result.messages += 1
-        elif isinstance(record, Metadata):
-            return _metadata_issue(data[at + RECORD_HEAD.size : end])
     except Exception as error:  # any parse failure is damage here
         return f"{type(error).__name__}: {error}"[:300]
-    return None
-
-
-def _metadata_issue(body: bytes) -> str | None:
-    """Check a metadata record's strings lie within it and are UTF-8.
-
-    The ``mcap`` parser reads a string of a flipped length past the
-    record without a word when the record is read alone, while a reader
-    of the whole file then reads other records' bytes as that string.
-    """
-    at = 0
-
-    def string(limit: int) -> int:
-        (size,) = struct.unpack_from("<I", body, at)
-        if at + 4 + size > limit:
-            raise ValueError("a metadata string runs past its record")
-        body[at + 4 : at + 4 + size].decode("utf-8")
-        return at + 4 + size
-
-    try:
-        at = string(len(body))  # the name
-        (size,) = struct.unpack_from("<I", body, at)
-        at += 4
-        stop = at + size
-        if stop != len(body):
-            return "a metadata map does not fill its record"
-        while at < stop:
-            at = string(stop)  # a key, then its value
-            at = string(stop)
-    except (ValueError, struct.error) as error:
-        return f"metadata: {error}"[:300]
     return None
 
 
