@@ -41,6 +41,17 @@ def order(member: Member) -> tuple[int, int, str]:
     return (member.rank, member.started_ns, member.node_id)
 
 
+def precedence(member: Member, term: int) -> tuple[int, int, int, str]:
+    """Sort key of active members: the higher term first (it took over
+    from the other, its state is the newer), then the better order."""
+    return (-term, *order(member))
+
+
+def beats(one: tuple[Member, int], other: tuple[Member, int]) -> bool:
+    """Whether active ``one`` outranks ``other`` (member, term)."""
+    return precedence(*one) < precedence(*other)
+
+
 def default_node_id() -> str:
     """``<host>-<pid>``, made key-safe."""
     host = "".join(

@@ -62,12 +62,12 @@ from typing import TYPE_CHECKING, Any, Protocol
 import msgspec
 import zenoh
 
-from ..engine.merge import commanded, facts_of
+from ..engine.merge import facts_of, lost_goals
 from ..errors import FieldIssue
 from ..wire import messages, topics
 from ..wire.terms import term_refused
 from .lease import has_links
-from .members import Member, order
+from .members import Member, beats, order, precedence
 from .standby import SharedState, Tag, fence_terms, tag_of
 
 if TYPE_CHECKING:
@@ -407,7 +407,7 @@ class Redundancy:
         actives = {m: t for m, t in actives.items() if m in members}
         if not actives:
             return None
-        best = min(actives, key=lambda m: _precedence(m, actives[m]))
+        best = min(actives, key=lambda m: precedence(m, actives[m]))
         return best, actives[best]
 
     def candidate(self, idle_s: float) -> Member:
@@ -625,7 +625,7 @@ def serve(
         elif node is not None and current is not None:
             other, term = current
             # This node's own token may not be seen yet: compare terms.
-            if other != redundancy.me and _beats(
+            if other != redundancy.me and beats(
                 (other, term), (redundancy.me, node.term)
             ):
                 # A lease that ended is the cause; the other commander is
@@ -683,17 +683,6 @@ def serve(
     return node
 
 
-def _precedence(member: Member, term: int) -> tuple[int, int, int, str]:
-    """Sort key of active members: the higher term first (it took over
-    from the other, its state is the newer), then the better order."""
-    return (-term, *order(member))
-
-
-def _beats(one: tuple[Member, int], other: tuple[Member, int]) -> bool:
-    """Whether active ``one`` outranks ``other`` (member, term)."""
-    return _precedence(*one) < _precedence(*other)
-
-
 def _recheck(
     redundancy: Redundancy, node: SchedulerNode
 ) -> Callable[[], str | None]:
@@ -706,7 +695,7 @@ def _recheck(
         if current is None:
             return None
         other, term = current
-        if other != redundancy.me and _beats(
+        if other != redundancy.me and beats(
             (other, term), (redundancy.me, node.term)
         ):
             return f"{other.node_id} commands in term {term}"
@@ -801,18 +790,3 @@ def _tell_lost(
         return
     for goal_id in lost_goals(own, newer):
         redundancy.publish_lost_goal(goal_id, own.term, active, newer.term)
-
-
-def lost_goals(own: EngineSnapshot, winner: EngineSnapshot) -> list[str]:
-    """Goals this node took in its own term that the state which outranks
-    it does not hold (both sides of a partition accepted goals) and of
-    which nothing was commanded: each must be told, by name, to be sent
-    again. (A goal partly commanded is handed over with its facts.)"""
-    ran = commanded(own)
-    return [
-        goal_id
-        for goal_id, record in own.ledger.items()
-        if record.term == own.term
-        and goal_id not in winner.ledger
-        and not ran.intersection(record.tasks)
-    ]

@@ -53,6 +53,21 @@ def commanded(snapshot: EngineSnapshot) -> set[str]:
     } | set(snapshot.sent)
 
 
+def lost_goals(own: EngineSnapshot, winner: EngineSnapshot) -> list[str]:
+    """Goals this node took in its own term that the state which outranks
+    it does not hold (both sides of a partition accepted goals) and of
+    which nothing was commanded: each must be told, by name, to be sent
+    again. (A goal partly commanded is handed over with its facts.)"""
+    ran = commanded(own)
+    return [
+        goal_id
+        for goal_id, record in own.ledger.items()
+        if record.term == own.term
+        and goal_id not in winner.ledger
+        and not ran.intersection(record.tasks)
+    ]
+
+
 def facts_of(
     own: EngineSnapshot, winner: EngineSnapshot | None, node_id: str = ""
 ) -> Facts:
