@@ -19,6 +19,7 @@ Example ``scheduler.toml``::
 
 from __future__ import annotations
 
+import re
 import tomllib
 from pathlib import Path
 from typing import Literal
@@ -220,6 +221,27 @@ class NodeConfig(
         return msgspec.structs.replace(self, **kept)
 
 
+_AT_LINE = re.compile(r"\(at line (\d+), column \d+\)")
+_KEY = re.compile(r"\s*([A-Za-z0-9_.\"'-]+?)\s*=")
+
+
+def _toml_error(path: str | Path, error: tomllib.TOMLDecodeError) -> str:
+    """``error`` in words, naming the key TOML refuses to set twice."""
+    text = str(error)
+    match = _AT_LINE.search(text)
+    if match is None or not text.startswith("Cannot overwrite"):
+        return text
+    lines = Path(path).read_text().splitlines()
+    number = int(match.group(1))
+    key = _KEY.match(lines[number - 1]) if number <= len(lines) else None
+    if key is None:
+        return text
+    return (
+        f"{key.group(1)} is set twice (line {number} sets it again); "
+        "a key is set once"
+    )
+
+
 def load_config(path: str | Path | None) -> NodeConfig:
     """Read a TOML settings file (None: defaults).
 
@@ -236,7 +258,7 @@ def load_config(path: str | Path | None) -> NodeConfig:
     except OSError as error:
         raise ConfigError(f"cannot read {path}: {error.strerror}") from None
     except tomllib.TOMLDecodeError as error:
-        raise ConfigError(f"{path}: {error}") from None
+        raise ConfigError(f"{path}: {_toml_error(path, error)}") from None
     from ..model.strict import shape_issues
 
     issues = shape_issues(data, NodeConfig)
