@@ -130,7 +130,7 @@ def read_strict(
             {issue.path for issue in issues},
         )
     try:
-        return msgspec.convert(raw, kind), [], set()
+        return strict.convert(raw, kind), [], set()
     except msgspec.ValidationError as error:  # a rule in __post_init__
         issue = _msgspec_issue(error, data)
         return None, [issue], {issue.path}

@@ -12,6 +12,8 @@ field paths. This module is pure: no solver, no bus, no clock.
 
 from __future__ import annotations
 
+from typing import Annotated
+
 import msgspec
 
 from ..errors import FieldIssue, InputError
@@ -73,7 +75,10 @@ class Goal(msgspec.Struct, frozen=True, omit_defaults=True):
     """
 
     goal_id: Id
-    tasks: tuple[GoalTask, ...]
+    tasks: Annotated[
+        tuple[GoalTask, ...],
+        msgspec.Meta(min_length=1, description="a goal brings a task"),
+    ]
     precedences: tuple[Precedence, ...] = ()
     issued_at: Instant | None = None
     not_after: Instant | None = None

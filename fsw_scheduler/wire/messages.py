@@ -68,7 +68,10 @@ class ResourceLevel(msgspec.Struct, frozen=True):
     """
 
     resource: Id
-    level: float
+    level: Annotated[
+        float,
+        msgspec.Meta(ge=0, description="a stored amount is never negative"),
+    ]
     at: Instant
 
 
