@@ -205,7 +205,10 @@ class SchedulerNode:
         self._cancel = Cancel()
         self._clock: UnitClock | None = None
         self._decoder = InputDecoder(
-            self.topics, config.clock, config.max_clock_step
+            self.topics,
+            config.clock,
+            config.max_clock_step,
+            self.engine.initial.resources,
         )
         self._last_clock_s = seconds()
         self._stall_reported = False

@@ -615,6 +615,20 @@ class Engine:
         self._state.count(levels=self._state.counters.levels + 1)
         schedule = self.schedule
         if schedule is None:
+            # Nothing to compare it with: say so rather than drop it.
+            self._verdicts.reject_input(
+                f"telemetry/resources/{level.resource}",
+                "resource_level",
+                [
+                    FieldIssue(
+                        "",
+                        "no plan yet: a measured level is compared with a "
+                        "plan's prediction; the first plan starts from the "
+                        "problem's levels",
+                    )
+                ],
+                out,
+            )
             return
         consumables = schedule.problem.resources.consumable
         if level.resource not in consumables:

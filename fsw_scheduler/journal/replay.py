@@ -365,7 +365,12 @@ class _Start:
             if snapshot is not None
             else Engine(engine_config(config), info.problem)
         )
-        decoder = InputDecoder(topics, config.clock, config.max_clock_step)
+        decoder = InputDecoder(
+            topics,
+            config.clock,
+            config.max_clock_step,
+            engine.initial.resources,
+        )
         return cls(
             recorded,
             info,

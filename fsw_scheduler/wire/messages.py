@@ -29,7 +29,7 @@ from ..model.plan import (
     SolverStats,
     SolveStatus,
 )
-from ..model.problem import Id, Instant, Problem
+from ..model.problem import Id, Instant, Problem, Resources
 from .profiles import LevelCheck, Profiles
 
 #: Largest payload accepted on an input key; bigger ones are rejected
@@ -443,8 +443,13 @@ def encode(message: object) -> bytes:
     return _encoder.encode(message)
 
 
-def decode_input(kind: str, payload: bytes) -> Any:
+def decode_input(
+    kind: str, payload: bytes, resources: Resources | None = None
+) -> Any:
     """Decode an input payload of ``kind`` (clock, activity_report, ...).
+
+    ``resources``, when known, are the running problem's: a goal's uses
+    are checked against them in the same pass as its shape.
 
     Raises
     ------
@@ -463,5 +468,5 @@ def decode_input(kind: str, payload: bytes) -> Any:
             kind,
         )
     if kind == "goal":
-        return decode_goal(payload)
+        return decode_goal(payload, resources)
     return decode_strict(payload, SCHEMA_TYPES[kind], kind)

@@ -630,3 +630,34 @@ def test_a_dispatch_without_a_report_is_said_once_at_its_end(
     later = started.tick(first_end + 1) + started.tick(first_end + 2)
     again = [s.detail.split(":")[0] for s in statuses(later, "report_overdue")]
     assert not set(again) & set(due)
+
+
+def test_level_before_any_plan_is_answered() -> None:
+    """Tests that a level arriving before the first plan is rejected with
+    its reason, not dropped in silence."""
+    driver = Driver()
+    out = driver.level("battery", 3.0, 0)
+    (status,) = statuses(out, "input_rejected")
+    assert "no plan yet" in status.errors[0].reason
+    assert "telemetry/resources/battery" in status.detail
+
+
+def test_a_level_the_replan_cannot_use_is_answered() -> None:
+    """Tests a drift queued behind a goal's solve whose time the goal's
+    plan has left behind: ``input_rejected`` on the level's key names why
+    (it was a log line only)."""
+    driver = Driver(hold=True)
+    driver.tick(0)
+    driver.finish()
+    for now in range(1, 6):
+        driver.tick(now)
+    driver.goal(small_goal("g1", "Ping"))
+    predicted = battery_at(driver, 3)
+    out = driver.level("battery", predicted + 6.0, 3)
+    assert statuses(out, "drift")
+    out = driver.finish()
+    (status,) = statuses(out, "input_rejected")
+    assert status.detail.startswith("resource_level on ")
+    assert "telemetry/resources/battery" in status.detail
+    assert [e.path for e in status.errors] == ["at"]
+    assert driver.engine.status().counters.inputs_rejected == 1
