@@ -302,6 +302,19 @@ class SchedulerClient:
             return None
         return msgspec.json.decode(payload, type=messages.PlanMessage)
 
+    def query_config(
+        self, timeout: float | None = None
+    ) -> messages.NodeInfo | None:
+        """Ask the node for its settings and problem (``scheduler/config``);
+        None from a node too old to answer, or one that does not."""
+        payload = self._query(keys.NODE_INFO, timeout)
+        if payload is None:
+            return None
+        try:
+            return msgspec.json.decode(payload, type=messages.NodeInfo)
+        except msgspec.DecodeError:  # a newer node's settings: not needed
+            return None
+
     def _query(self, suffix: str, timeout: float | None) -> bytes | None:
         return query_payload(
             self.client, self.topics.key(suffix), timeout or self.timeout

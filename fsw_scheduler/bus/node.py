@@ -247,7 +247,14 @@ class SchedulerNode:
             )
         # Profiles too: a monitor that starts after a plan shows its
         # predicted levels at once (``fsw-scheduler view``).
-        queryables = [topics.PLAN, topics.STATUS, topics.PROFILES]
+        # The settings too: ``send`` checks a goal against the resources,
+        # a late view fills its config channel.
+        queryables = [
+            topics.PLAN,
+            topics.STATUS,
+            topics.PROFILES,
+            topics.NODE_INFO,
+        ]
         if self._sharing:
             # A standby that joins later asks for the state at once.
             queryables.append(topics.SNAPSHOT)
@@ -692,6 +699,8 @@ class SchedulerNode:
             message = self.engine.snapshot()
         elif suffix == topics.PROFILES:
             message = self._annotator.profiles
+        elif suffix == topics.NODE_INFO:
+            message = self._outputs.info()
         else:
             message = self.engine.status("query")
         try:

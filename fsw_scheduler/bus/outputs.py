@@ -142,6 +142,7 @@ class NodeOutputs:
         self._may_rotate = False
         self._fault_said = False
         self._fault_retry = 0.0
+        self._resumed = ""
 
     # -- lifecycle -----------------------------------------------------------
 
@@ -159,19 +160,23 @@ class NodeOutputs:
         published; the state is written only when durable.
         """
         self._describe_journal()
-        self.publish(
-            topics.NODE_INFO,
-            messages.encode(
-                node_info(
-                    self.config,
-                    self.engine.initial,
-                    self._security,
-                    resumed=resumed,
-                )
-            ),
-        )
+        self._resumed = resumed
+        self.publish(topics.NODE_INFO, messages.encode(self.info()))
         if self.durable:
             self._write_snapshot()
+
+    def info(self) -> messages.NodeInfo:
+        """The settings as ``scheduler/config`` says them now (a query's
+        answer: a view or a ``send`` that starts after the node)."""
+        return msgspec.structs.replace(
+            node_info(
+                self.config,
+                self.engine.initial,
+                self._security,
+                resumed=self._resumed,
+            ),
+            durable=self._journal.fault is None,
+        )
 
     def sync(self) -> None:
         """When durable, put what was journaled on disk now."""

@@ -272,3 +272,29 @@ def test_demo_says_what_it_does_after_the_timeline(tmp_path: Path) -> None:
     checking = text.index("through a fresh scheduler")
     verdict = text.index("replay --verify: IDENTICAL")
     assert drawing < checking < verdict
+
+
+def test_every_command_takes_verbose_and_quiet() -> None:
+    """Tests that ``-v`` and ``-q`` exist on every command, before or
+    after its name, and set the log level (debug; warning)."""
+    import argparse
+
+    from fsw_scheduler.app.cli.parser import build_parser, log_level
+
+    parser = build_parser()
+    (commands,) = [
+        action
+        for action in parser._actions
+        if isinstance(action, argparse._SubParsersAction)
+    ]
+    assert len(commands.choices) > 15
+    for name, sub in commands.choices.items():
+        flags = {
+            flag for action in sub._actions for flag in action.option_strings
+        }
+        assert {"-v", "--verbose", "-q", "--quiet"} <= flags, name
+    args = parser.parse_args(["schemas", "--out", "x", "-v"])
+    assert log_level(args) == "debug"
+    args = parser.parse_args(["-q", "schemas", "--out", "x"])
+    assert (log_level(args), args.quiet) == ("warning", True)
+    assert log_level(parser.parse_args(["schemas", "--out", "x"])) == "info"

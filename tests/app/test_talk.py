@@ -179,3 +179,70 @@ def test_status_follow_prints_each_new_status(node: int) -> None:
         for stream in (follow.stdout, follow.stderr):
             if stream is not None:
                 stream.close()
+
+
+def test_send_checks_a_goal_against_the_node_s_resources(
+    node: int, tmp_path: Path
+) -> None:
+    """Tests the issue's goal (a bad id, a type error, an unknown
+    resource): ``send`` asks the node's settings for its resources and
+    names all three at once, exit 2, nothing sent."""
+    goal = {
+        "goal_id": "bad/id",
+        "tasks": [
+            {
+                "id": "T",
+                "length": "3",
+                "delay_cost": 1,
+                "schedule_cost": 1,
+                "uses": {"laser": 1},
+            }
+        ],
+    }
+    done = _cli(node, "send", "goal", json.dumps(goal), "--wait")
+    assert done.returncode == 2, done.stderr
+    for path in ("goal_id", "tasks[0].length", "tasks[0].uses.laser"):
+        assert f"  {path}: " in done.stderr, done.stderr
+    assert "unknown resource (known: " in done.stderr
+    assert "Traceback" not in done.stderr
+    level = _cli(
+        node, "send", "level", '{"resource": "power", "level": 3, "at": 0}'
+    )
+    assert level.returncode == 2
+    assert "'power' is not a consumable" in level.stderr
+    status = json.loads(_cli(node, "status").stdout)
+    assert status["counters"].get("goals_rejected", 0) == 0
+    assert status["counters"].get("inputs_rejected", 0) == 0
+
+
+def test_send_says_what_it_published_and_the_verdict_of_a_level(
+    node: int,
+) -> None:
+    """Tests ``send`` without ``--wait`` (one line: what, on which key;
+    ``-q``: nothing), a negative level refused before it leaves (exit 2)
+    and a level the node refuses (exit 1, its reason)."""
+    done = _cli(node, "send", "clock", '{"now": 0}')
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith("published clock on fsw/sat1/clock")
+    quiet = _cli(node, "send", "clock", '{"now": 0}', "-q")
+    assert (quiet.returncode, quiet.stdout) == (0, "")
+    negative = _cli(
+        node,
+        "send",
+        "level",
+        '{"resource": "battery", "level": -3, "at": 0}',
+        "--wait",
+    )
+    assert negative.returncode == 2
+    assert "level: must be >= 0, got -3" in negative.stderr
+    ahead = _cli(
+        node,
+        "send",
+        "level",
+        '{"resource": "battery", "level": 3, "at": 40}',
+        "--wait",
+    )
+    assert ahead.returncode == 1, ahead.stderr
+    verdict = json.loads(ahead.stdout)
+    assert verdict["event"] == "input_rejected"
+    assert verdict["errors"][0]["path"] == "at"

@@ -183,7 +183,6 @@ def add_demo_command(add: Add) -> None:
     demo.add_argument(
         "--no-verify", action="store_true", help="skip the replay check"
     )
-    demo.add_argument("--quiet", action="store_true", help="no live timeline")
     demo.add_argument(
         "--time-unit",
         type=non_negative_float,

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 from ...errors import ConfigError, InputError, SchedulerError
 from ...journal.reader import McapError
 from .commands import EXIT_BAD_INPUT, EXIT_NO_PLAN, MissingDependency
-from .parser import build_parser
+from .parser import build_parser, log_level
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -23,7 +23,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run ``fsw-scheduler``; returns the exit code."""
     args = build_parser().parse_args(argv)
     logging.basicConfig(
-        level=args.log_level.upper(),
+        level=log_level(args).upper(),
         format="%(asctime)s %(levelname)-7s %(name)s: %(message)s",
         stream=sys.stderr,
     )
