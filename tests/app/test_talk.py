@@ -246,3 +246,65 @@ def test_send_says_what_it_published_and_the_verdict_of_a_level(
     verdict = json.loads(ahead.stdout)
     assert verdict["event"] == "input_rejected"
     assert verdict["errors"][0]["path"] == "at"
+
+
+_KEYS = {
+    "goal": "scheduler/goals",
+    "clock": "clock",
+    "activity_report": "telemetry/activities/A",
+    "resource_level": "telemetry/resources/battery",
+}
+_SEND = {
+    "goal": "goal",
+    "clock": "clock",
+    "activity_report": "report",
+    "resource_level": "level",
+}
+
+
+def test_every_invalid_input_is_refused_by_send_the_node_and_the_schema(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """Tests each invalid input of the suite three ways: ``send`` exits 2
+    naming its path (nothing sent), the node on the bus answers it with a
+    rejection naming the path, the shipped schema refuses it (where JSON
+    Schema can say it)."""
+    import jsonschema
+
+    from fsw_scheduler.app.cli.main import main
+    from fsw_scheduler.testing import SchedulerHarness
+
+    from ..factories import INVALID_INPUTS, ROOT
+
+    schemas = {
+        kind: jsonschema.Draft202012Validator(
+            json.loads((ROOT / "schemas" / f"{kind}.schema.json").read_text())
+        )
+        for kind in _KEYS
+    }
+    wrong: list[str] = []
+    with SchedulerHarness() as h:
+        h.tick(0)
+        (endpoint,) = h.endpoints()[:1]
+        flags = ["-m", "client", "-e", endpoint, "--no-multicast-scouting"]
+        for case in INVALID_INPUTS:
+            code = main(["send", _SEND[case.kind], case.text, *flags])
+            err = capsys.readouterr().err
+            if code != 2 or f"  {case.path}: " not in err:
+                wrong.append(f"send: {case.name}: exit {code}: {err}")
+            seen = len(h.statuses)
+            h.put(_KEYS[case.kind], case.text.encode())
+            status = h.wait_status(
+                lambda s: s.event in ("input_rejected", "goal_rejected"),
+                since=seen,
+            )
+            if case.path not in {e.path for e in status.errors}:
+                wrong.append(f"node: {case.name}: {status.errors}")
+            doc = json.loads(case.text)
+            if case.schema and not list(schemas[case.kind].iter_errors(doc)):
+                wrong.append(f"schema: {case.name}: accepted")
+        counters = h.query_status().counters
+    assert not wrong, "\n".join(wrong)
+    assert counters.inputs_rejected + counters.goals_rejected == len(
+        INVALID_INPUTS
+    )
