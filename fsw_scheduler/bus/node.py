@@ -530,6 +530,10 @@ class SchedulerNode:
         limit = self.config.clock_stall
         if self.config.clock != "bus" or limit is None:
             return
+        if self._decoder.bus_now is None:
+            # No clock yet: the node waits for time to start (its status
+            # says now null), it has not lost a clock it had.
+            return
         quiet = self._seconds() - self._last_clock_s
         if quiet < limit or self._stall_reported:
             return

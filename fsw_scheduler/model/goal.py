@@ -141,10 +141,17 @@ def validate_goal(
     issues += duplicate_ids(goal.tasks)
     for idx, task in enumerate(goal.tasks):
         path = f"tasks[{idx}]"
+        # A name that is not an id is said so below, once.
+        unsafe = {
+            key_path(f"{path}.uses", name)
+            for name in task.uses
+            if id_issue(name) is not None
+        }
         issues += [
             issue
             for issue in check_task(stand_in, task.to_task(), path)
             if not any(part in issue.path for part in merge_only)
+            and issue.path not in unsafe
         ]
         for name in task.uses:
             reason = id_issue(name)

@@ -27,6 +27,7 @@ from typing import Annotated, Literal
 import msgspec
 
 from ..errors import ConfigError, FieldIssue
+from ..model.limits import id_issue
 from ..model.problem import Id, Units
 from ..model.strict import shape_issues
 from ..replan.triggers import Tolerance
@@ -173,9 +174,12 @@ class NodeConfig(
         # The ranges are declared once, in the field types (Meta): the
         # file's decoder reads them there, and so does this check of a
         # value built in code or changed by a command-line flag.
-        issues = shape_issues(msgspec.to_builtins(self), NodeConfig)
+        issues = [
+            _worded(issue, self)
+            for issue in shape_issues(msgspec.to_builtins(self), NodeConfig)
+        ]
         if issues:
-            raise ValueError("; ".join(str(issue) for issue in issues))
+            raise SettingsError(issues)
 
     @property
     def lead(self) -> int:
@@ -199,6 +203,29 @@ class NodeConfig(
 
 _AT_LINE = re.compile(r"\(at line (\d+), column \d+\)")
 _KEY = re.compile(r"\s*([A-Za-z0-9_.\"'-]+?)\s*=")
+
+
+class SettingsError(ValueError):
+    """Settings out of their declared ranges, every one named.
+
+    A ``ValueError`` (msgspec reports it as a validation error of the
+    file); ``issues`` holds them one by one, for a caller that names the
+    flags.
+    """
+
+    def __init__(self, issues: list[FieldIssue]) -> None:
+        self.issues = issues
+        super().__init__("; ".join(str(issue) for issue in issues))
+
+
+def _worded(issue: FieldIssue, config: NodeConfig) -> FieldIssue:
+    """An id's issue in the words every id is refused with."""
+    name = {"spacecraft": "spacecraft", "node-id": "node"}.get(issue.path)
+    value = getattr(config, issue.path.replace("-", "_"), None)
+    if name is None or not isinstance(value, str):
+        return issue
+    reason = id_issue(value)
+    return FieldIssue(issue.path, f"the {name} id {reason or issue.reason}")
 
 
 def _toml_error(path: str | Path, error: tomllib.TOMLDecodeError) -> str:

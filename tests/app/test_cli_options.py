@@ -298,3 +298,57 @@ def test_every_command_takes_verbose_and_quiet() -> None:
     args = parser.parse_args(["-q", "schemas", "--out", "x"])
     assert (log_level(args), args.quiet) == ("warning", True)
     assert log_level(parser.parse_args(["schemas", "--out", "x"])) == "info"
+
+
+@pytest.mark.parametrize(
+    ("args", "flag"),
+    [
+        (["status"], "-e/--connect"),
+        (["send", "clock", '{"now": 1}'], "-e/--connect"),
+        (["record", "--out", "{tmp}/bus.mcap"], "-e/--connect"),
+        (["replay", str(ROOT / "replay" / "paper.mcap")], "-e/--connect"),
+        (["view", "--port", "0"], "-e/--connect"),
+    ],
+)
+def test_an_unreachable_endpoint_is_one_line_naming_the_flag(
+    args: list[str], flag: str, tmp_path: Path
+) -> None:
+    """Tests each command on the bus given a router that is not there:
+    one line naming the endpoint and the flag, no traceback, no Rust
+    internals, no file left behind by ``record``."""
+    from ..factories import free_port
+
+    args = [a.replace("{tmp}", str(tmp_path)) for a in args]
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    done = run(*args, "-m", "client", "-e", endpoint)
+    assert done.returncode == 1, done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1, done.stderr
+    assert f"cannot reach {endpoint}" in lines[0]
+    assert flag in lines[0]
+    for internal in ("Traceback", ".rs:", "Single(", "Json5Err"):
+        assert internal not in done.stderr
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["-l", "tcp/127.0.0.1:99999"], "-l/--listen"),
+        (["--cfg", "mode:bogus"], "--cfg 'mode:bogus': not a JSON5 value"),
+        (["-e", "tcp127.0.0.1:7447"], "-e/--connect"),
+        (["-c", "/nonexistent/zenoh.json5"], "-c/--config"),
+    ],
+)
+def test_a_bad_zenoh_setting_is_one_line_naming_the_flag(
+    args: list[str], words: str
+) -> None:
+    """Tests a bad port, a --cfg value that is not JSON5, an endpoint
+    without its protocol and a missing Zenoh file: one line, the flag."""
+    done = run("status", "--timeout", "1", *args)
+    assert done.returncode in (1, 2), done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1, done.stderr
+    assert words in lines[0]
+    for internal in ("Traceback", ".rs:", "Single(", "Json5Err", "cargo"):
+        assert internal not in done.stderr

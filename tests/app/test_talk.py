@@ -308,3 +308,21 @@ def test_every_invalid_input_is_refused_by_send_the_node_and_the_schema(
     assert counters.inputs_rejected + counters.goals_rejected == len(
         INVALID_INPUTS
     )
+
+
+def test_a_wrong_spacecraft_is_answered_with_the_ones_on_the_bus(
+    node: int,
+) -> None:
+    """Tests ``status`` and ``send`` for ``sat2`` on a bus where ``sat1``
+    runs: they say so (and suggest ``--spacecraft sat1``) well before
+    their 10 s timeout, nothing sent."""
+    start = time.monotonic()
+    status = _cli(node, "status", "--spacecraft", "sat2")
+    send = _cli(node, "send", "clock", '{"now": 1}', "--spacecraft", "sat2")
+    took = time.monotonic() - start
+    for done in (status, send):
+        assert done.returncode == 1
+        assert "no scheduler of sat2 on the bus" in done.stderr
+        assert "schedulers alive: sat1 (--spacecraft sat1?)" in done.stderr
+    assert "nothing sent" in send.stderr
+    assert took < 15, took

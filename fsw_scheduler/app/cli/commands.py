@@ -333,14 +333,15 @@ def open_bus(settings: zenoh.Config) -> zenoh.Session:
     in use, no route to a client's router) said in one line."""
     import zenoh
 
+    from ...bus.session import plain_zenoh_error
     from ...errors import BusError
 
     try:
         return zenoh.open(settings)
     except zenoh.ZError as error:
-        # Zenoh appends the Rust source location: keep the first sentence.
-        text = str(error).split(" at /")[0]
-        raise BusError(f"cannot open the Zenoh session: {text}") from None
+        raise BusError(
+            f"cannot open the Zenoh session: {plain_zenoh_error(str(error))}"
+        ) from None
 
 
 def cmd_config(args: argparse.Namespace) -> int:
@@ -397,8 +398,6 @@ def cmd_record(args: argparse.Namespace) -> int:
     """``fsw-scheduler record``: record the bus into an MCAP file."""
     import threading
 
-    import zenoh
-
     from ...bus.record import record
     from ...bus.session import zenoh_config
     from ...journal.annotate import schema_lookup
@@ -410,6 +409,8 @@ def cmd_record(args: argparse.Namespace) -> int:
     stop = threading.Event()
     exclude = [_key_expression(k, "--exclude") for k in args.exclude]
     stop_on_signals(stop)
+    # The bus first: an endpoint that cannot be reached leaves no file.
+    session = open_bus(zenoh_config(args))
     recorder = Recorder(
         args.out,
         compression=args.compression,
@@ -421,7 +422,7 @@ def cmd_record(args: argparse.Namespace) -> int:
         schemas=schema_lookup(args.spacecraft),
         only_json=args.json_only,
     )
-    with zenoh.open(zenoh_config(args)) as session, recorder:
+    with session, recorder:
         recorder.add_metadata(
             "fsw_scheduler.recording",
             recording_metadata(key, exclude, args.spacecraft),
@@ -485,13 +486,12 @@ def cmd_replay(args: argparse.Namespace) -> int:
         report = verify(args.files, progress=lambda line: log.info("%s", line))
         print(report.summary())
         return EXIT_OK if report.identical else EXIT_NO_PLAN
-    import zenoh
 
     from ...bus.record import replay
     from ...bus.session import zenoh_config
     from ...wire.topics import Topics
 
-    with zenoh.open(zenoh_config(args)) as session:
+    with open_bus(zenoh_config(args)) as session:
         if not args.into_live:
             from ...bus.record import live_schedulers, recorded_spacecraft
 

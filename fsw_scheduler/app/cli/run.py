@@ -62,7 +62,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         if args.no_standby:
             config = config.replace(standby=False)
     except ValueError as error:  # a bad value given as a flag
-        raise InputError([FieldIssue("", str(error))], "arguments") from None
+        issues = getattr(error, "issues", None) or [FieldIssue("", str(error))]
+        raise InputError(issues, "arguments") from None
     if config.node_id is None:
         from ...bus.redundancy import default_node_id
 

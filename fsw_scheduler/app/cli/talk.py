@@ -169,7 +169,10 @@ def _cmd_send(args: argparse.Namespace) -> int:
         raise
     with _client(args) as client:
         try:
-            client.wait_scheduler(args.timeout)
+            client.find_scheduler(args.timeout)
+        except LookupError as error:
+            print(f"fsw-scheduler: {error}: nothing sent", file=sys.stderr)
+            return EXIT_NO_PLAN
         except TimeoutError:
             print(
                 f"fsw-scheduler: no scheduler of {args.spacecraft} reachable "
@@ -340,6 +343,13 @@ def _cmd_query(args: argparse.Namespace) -> int:
 
     check_spacecraft(args.spacecraft)
     with _client(args) as client:
+        try:
+            client.find_scheduler(args.timeout)
+        except LookupError as error:
+            print(f"fsw-scheduler: {error}", file=sys.stderr)
+            return EXIT_NO_PLAN
+        except TimeoutError:
+            pass  # said below, as no answer
         try:
             answer: Any = (
                 client.query_status(args.timeout)
