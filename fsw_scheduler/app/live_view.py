@@ -42,7 +42,7 @@ __all__ = ["QUERIED", "LiveBridge"]
 log = logging.getLogger("fsw_scheduler.view")
 
 #: What is asked of the scheduler at start, in this order.
-QUERIED = (keys.PLAN, keys.STATUS, keys.PROFILES)
+QUERIED = (keys.PLAN, keys.STATUS, keys.PROFILES, keys.NODE_INFO)
 
 _JSON = ("application/json", "text/json")
 _profiles_decoder = msgspec.json.Decoder(Profiles)
