@@ -250,9 +250,11 @@ class LiveBridge:
             self._declared(self.topics.resource_level(resource))
 
     def _publish(self, key: str, payload: bytes, now: int) -> None:
-        # Keys with a name chunk (a task, a resource) get their channel
-        # at first sight; the server gives that first message to whoever
-        # subscribes next, so it is not lost.
+        # The journal's channels: every dispatch on one, declared up
+        # front. Keys with a name chunk (a report, a resource) get their
+        # channel at first sight; the server gives that first message to
+        # whoever subscribes next, so it is not lost.
+        key = keys.journal_key(key)
         self._declared(key)
         self.server.publish(key, payload, now)
 

@@ -599,22 +599,26 @@ def _compare(
         )
         return False
     key, payload = produced.popleft()
+    # One dispatch channel now, one per task in older journals: compared
+    # by bus key (a dispatch's task is in the message).
+    recorded_key = keys.bus_key(message.topic, message.payload)
+    same = key == recorded_key
     got = _normalise(kind, payload)
     if kind == "status" and isinstance(got, dict):
         _rebuild_lifecycle(report.lifecycle, got, expected)
     got = (
         _only_recorded_fields(got, expected)
-        if key == message.topic
+        if same
         else (msgspec.json.decode(payload))
     )
-    if key != message.topic or got != expected:
+    if not same or got != expected:
         report.divergence = Divergence(
             report.outputs,
-            message.topic,
+            recorded_key,
             key,
             expected,
             got,
-            _first_difference(expected, got) if key == message.topic else "",
+            _first_difference(expected, got) if same else "",
         )
         return False
     report.outputs += 1
