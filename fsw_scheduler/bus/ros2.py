@@ -401,7 +401,9 @@ class Ros2Bridge:
                 cache=ext.CacheConfig(max_samples=LATEST_QOS.history_depth),
                 # Samples numbered by sequence, not by timestamp: the
                 # session's own flags need not turn timestamping on.
-                sample_miss_detection=ext.MissDetectionConfig(),
+                sample_miss_detection=ext.MissDetectionConfig(
+                    heartbeat=None, sporadic_heartbeat=None
+                ),
                 publisher_detection=True,
             )
         token = self.session.liveliness().declare_token(
