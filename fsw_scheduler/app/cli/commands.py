@@ -14,7 +14,7 @@ import logging
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import msgspec
 
@@ -619,6 +619,41 @@ def cmd_schemas(args: argparse.Namespace) -> int:
     for name, text in sorted(schema_files().items()):
         (out / name).write_text(text)
         print(out / name)
+    return EXIT_OK
+
+
+def _shipped(*parts: str) -> Any:
+    """A file or folder of ``fsw_scheduler/data`` in the installed
+    package (a wheel holds them as package data)."""
+    from importlib import resources
+
+    node = resources.files("fsw_scheduler").joinpath("data")
+    for part in parts:
+        node = node.joinpath(part)
+    return node
+
+
+def cmd_layout(args: argparse.Namespace) -> int:
+    """``fsw-scheduler layout``: write the shipped Foxglove layout."""
+    text = _shipped("foxglove-layout.json").read_text()
+    if args.out is None:
+        sys.stdout.write(text)
+        return EXIT_OK
+    Path(args.out).write_text(text)
+    print(args.out)
+    return EXIT_OK
+
+
+def cmd_examples(args: argparse.Namespace) -> int:
+    """``fsw-scheduler examples``: write the shipped example files."""
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    for item in sorted(
+        _shipped("examples").iterdir(), key=lambda i: str(i.name)
+    ):
+        if item.is_file():
+            (out / item.name).write_text(item.read_text())
+            print(out / item.name)
     return EXIT_OK
 
 

@@ -27,6 +27,7 @@ from .files_flags import (
     add_check_command,
     add_demo_command,
     add_info_command,
+    add_layout_command,
     add_plot_command,
     add_recover_command,
     add_replan_command,
@@ -170,4 +171,5 @@ def build_parser() -> argparse.ArgumentParser:
     add_info_command(add)
     add_plot_command(add)
     add_schemas_command(add)
+    add_layout_command(add)
     return parser
