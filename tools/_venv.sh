@@ -47,10 +47,19 @@ else
         stamp=$full
     fi
     if [ ! -e "$stamp" ]; then
+        # A line at least every 10 s while a step is silent (creating the
+        # venv, pip resolving or unpacking): a first run is never mute.
+        SECONDS=0
+        ( while sleep 10; do
+            echo "  ... still setting up ($SECONDS s)" >&2
+        done ) &
+        ticker=$!
+        trap 'kill "$ticker" 2>/dev/null || true' EXIT
         if [ ! -e "$full" ] && [ ! -e "$demo" ]; then
             echo "setting up $VENV with $PYTHON from $lock" \
                 "(first run only)..." >&2
             rm -rf "$VENV"
+            echo "creating the virtual environment ($PYTHON -m venv)..." >&2
             "$PYTHON" -m venv "$VENV"
         else
             echo "adding the rest of $lock to $VENV..." >&2
@@ -76,5 +85,8 @@ else
             --no-build-isolation -e . >&2
         "$VENV/bin/python" -m pip check >&2
         touch "$stamp"
+        kill "$ticker" 2>/dev/null || true
+        trap - EXIT
+        echo "set up in $SECONDS s" >&2
     fi
 fi
