@@ -53,7 +53,7 @@ from .ledger import goal_digest
 from .queue import SolveQueue
 from .snapshot import EngineSnapshot, GoalRecord, QueuedChange
 from .solves import Replanner
-from .state import EngineState
+from .state import CLOCK_STALLED, EngineState
 from .verdicts import Verdicts
 
 if TYPE_CHECKING:
@@ -696,4 +696,4 @@ class Engine:
     # -- status helpers ------------------------------------------------------
 
 
-_STALLED = "bus clock stalled"
+_STALLED = CLOCK_STALLED

@@ -9,6 +9,7 @@ import pytest
 
 from fsw_scheduler.engine.config import EngineConfig
 from fsw_scheduler.engine.events import (
+    ClockStalled,
     Command,
     InputRejected,
     Log,
@@ -661,3 +662,23 @@ def test_a_level_the_replan_cannot_use_is_answered() -> None:
     assert "telemetry/resources/battery" in status.detail
     assert [e.path for e in status.errors] == ["at"]
     assert driver.engine.status().counters.inputs_rejected == 1
+
+
+def test_a_plan_adopted_while_the_clock_is_stalled_keeps_it_said() -> None:
+    """Tests a stall during the initial solve: the plan adopted meanwhile
+    does not clear ``bus clock stalled`` (it did, so the next tick never
+    said ``clock_resumed``); the next tick does."""
+    driver = Driver(hold=True)
+    driver.tick(0)
+    out = driver.step(ClockStalled(31.0, 0))
+    assert statuses(out, "clock_stalled")
+    driver.finish()
+    status = driver.engine.status()
+    assert status.plan_id == 1
+    assert (status.state, status.detail[:17]) == (
+        "degraded",
+        "bus clock stalled",
+    )
+    out = driver.tick(1)
+    (resumed,) = statuses(out, "clock_resumed")
+    assert resumed.state == "ok"
