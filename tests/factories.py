@@ -15,7 +15,7 @@ import shutil
 import socket
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import pytest
 
@@ -147,3 +147,160 @@ def tool_script(name: str, module: str | None = None) -> ModuleType:
     if str(TOOLS) not in sys.path:
         sys.path.insert(0, str(TOOLS))
     return importlib.import_module("soak_lib").load_script(name, module)
+
+
+class InvalidInput(NamedTuple):
+    """A bus input that must be refused, and where.
+
+    Attributes
+    ----------
+    name
+        What is wrong, in words (the test's id).
+    kind
+        ``goal``, ``clock``, ``activity_report`` or ``resource_level``.
+    text
+        The payload, as sent (a key written twice cannot be a dict).
+    path
+        The field path every refusal must name.
+    schema
+        Whether JSON Schema can say it: a key written twice is gone from
+        the parsed document, an unknown resource depends on the node.
+    """
+
+    name: str
+    kind: str
+    text: str
+    path: str
+    schema: bool = True
+
+
+def _goal_text(**task: Any) -> str:
+    doc = {
+        "goal_id": "g-bad",
+        "tasks": [make_task("T", **{"length": 1, **task})],
+    }
+    return json.dumps(doc)
+
+
+#: Every invalid bus input of the suite, against the paper's Table 1
+#: (power, battery): refused by ``send`` (exit 2, naming ``path``), by the
+#: node on the bus (its rejection names ``path``) and, where it can say
+#: it, by the shipped JSON Schema.
+INVALID_INPUTS = [
+    InvalidInput("clock before 0", "clock", '{"now": -1}', "now"),
+    InvalidInput(
+        "clock past the limit", "clock", '{"now": 4611686018427387904}', "now"
+    ),
+    InvalidInput("clock as a string", "clock", '{"now": "5"}', "now"),
+    InvalidInput("clock misspelt", "clock", '{"nwo": 5}', "nwo"),
+    InvalidInput(
+        "clock twice", "clock", '{"now": 3, "now": 30}', "now", False
+    ),
+    InvalidInput(
+        "report of a key-unsafe task",
+        "activity_report",
+        '{"task": "a/b", "state": "running", "at": 1}',
+        "task",
+    ),
+    InvalidInput(
+        "report state misspelt",
+        "activity_report",
+        '{"task": "A", "state": "done", "at": 1}',
+        "state",
+    ),
+    InvalidInput(
+        "report before 0",
+        "activity_report",
+        '{"task": "A", "state": "running", "at": -1}',
+        "at",
+    ),
+    InvalidInput(
+        "report of a negative term",
+        "activity_report",
+        '{"task": "A", "state": "running", "at": 1, "term": -2}',
+        "term",
+    ),
+    InvalidInput(
+        "report state twice",
+        "activity_report",
+        '{"task": "A", "state": "running", "state": "failed", "at": 1}',
+        "state",
+        False,
+    ),
+    InvalidInput(
+        "level of a key-unsafe resource",
+        "resource_level",
+        '{"resource": "b*", "level": 1.0, "at": 1}',
+        "resource",
+    ),
+    InvalidInput(
+        "level as a word",
+        "resource_level",
+        '{"resource": "battery", "level": "full", "at": 1}',
+        "level",
+    ),
+    InvalidInput(
+        "level before 0",
+        "resource_level",
+        '{"resource": "battery", "level": 1.0, "at": -3}',
+        "at",
+    ),
+    InvalidInput(
+        "negative level",
+        "resource_level",
+        '{"resource": "battery", "level": -3, "at": 1}',
+        "level",
+    ),
+    InvalidInput(
+        "level twice",
+        "resource_level",
+        '{"resource": "battery", "level": 1, "level": 9, "at": 1}',
+        "level",
+        False,
+    ),
+    InvalidInput(
+        "goal without a task",
+        "goal",
+        '{"goal_id": "g-bad", "tasks": []}',
+        "tasks",
+    ),
+    InvalidInput(
+        "window before 0",
+        "goal",
+        _goal_text(feasible_interval=[-5, 50]),
+        "tasks[0].feasible_interval[0]",
+    ),
+    InvalidInput(
+        "fractional length", "goal", _goal_text(length=1.5), "tasks[0].length"
+    ),
+    InvalidInput(
+        "misspelt task field",
+        "goal",
+        _goal_text(feasable_interval=[1, 9]),
+        "tasks[0].feasable_interval",
+    ),
+    InvalidInput(
+        "key-unsafe task id", "goal", _goal_text(id="T/1"), "tasks[0].id"
+    ),
+    InvalidInput(
+        "schedule cost 6",
+        "goal",
+        _goal_text(schedule_cost=6),
+        "tasks[0].schedule_cost",
+    ),
+    InvalidInput(
+        "length twice",
+        "goal",
+        '{"goal_id": "g-bad", "tasks": [{"id": "T", "delay_cost": 1, '
+        '"schedule_cost": 1, "length": 3, "length": 30}]}',
+        "tasks[0].length",
+        False,
+    ),
+    InvalidInput(
+        "unknown resource",
+        "goal",
+        _goal_text(uses={"laser": 1}),
+        "tasks[0].uses.laser",
+        False,
+    ),
+]

@@ -30,23 +30,51 @@ if [ "${FSW_LATEST:-0}" = 1 ]; then
     "$VENV/bin/python" -m pip freeze --exclude-editable >&2
 else
     VENV=${VENV:-.venv}
-    stamp="$VENV/.installed-$(cat pyproject.toml requirements-lock.txt |
+    # tools/demo asks for the demo's part of the lock only (LOCK_PART=demo):
+    # the package, its pictures and nothing of the development tools. The
+    # whole lock (tools/test) includes it, so either environment serves
+    # the demo; tools/test completes a demo environment in place.
+    full="$VENV/.installed-$(cat pyproject.toml requirements-lock.txt |
         cksum | cut -d' ' -f1)"
+    demo="$VENV/.installed-demo-$(cat pyproject.toml requirements-demo.txt |
+        cksum | cut -d' ' -f1)"
+    if [ "${LOCK_PART:-all}" = demo ]; then
+        lock=requirements-demo.txt
+        stamp=$demo
+        [ -e "$full" ] && stamp=$full
+    else
+        lock=requirements-lock.txt
+        stamp=$full
+    fi
     if [ ! -e "$stamp" ]; then
-        echo "setting up $VENV with $PYTHON from requirements-lock.txt" \
-            "(first run only)..." >&2
-        rm -rf "$VENV"
-        "$PYTHON" -m venv "$VENV"
-        total=$(grep -c '^[A-Za-z0-9]' requirements-lock.txt)
+        # A line at least every 10 s while a step is silent (creating the
+        # venv, pip resolving or unpacking): a first run is never mute.
+        SECONDS=0
+        ( while sleep 10; do
+            echo "  ... still setting up ($SECONDS s)" >&2
+        done ) &
+        ticker=$!
+        trap 'kill "$ticker" 2>/dev/null || true' EXIT
+        if [ ! -e "$full" ] && [ ! -e "$demo" ]; then
+            echo "setting up $VENV with $PYTHON from $lock" \
+                "(first run only)..." >&2
+            rm -rf "$VENV"
+            echo "creating the virtual environment ($PYTHON -m venv)..." >&2
+            "$PYTHON" -m venv "$VENV"
+        else
+            echo "adding the rest of $lock to $VENV..." >&2
+        fi
+        total=$(grep -c '^[A-Za-z0-9]' "$lock")
         echo "installing $total locked packages (a line each as it comes)..." >&2
         # pip is quiet when not on a terminal: say each package, numbered.
         "$VENV/bin/python" -m pip install --require-hashes --no-deps \
-            --progress-bar off -r requirements-lock.txt 2>&1 |
+            --progress-bar off -r "$lock" 2>&1 |
             awk -v total="$total" '
                 /^(Collecting|Processing) / {
                     name = $2; sub(/.*\//, "", name); sub(/(==|-[0-9]).*/, "", name)
                     n++; printf "  [%d/%d] %s\n", n, total, name; fflush()
                 }
+                /^Requirement already satisfied/ { n++ }
                 /^(ERROR|error)/ { print; fflush() }
                 /^Installing collected/ { print "  unpacking..."; fflush() }
             ' >&2
@@ -57,5 +85,8 @@ else
             --no-build-isolation -e . >&2
         "$VENV/bin/python" -m pip check >&2
         touch "$stamp"
+        kill "$ticker" 2>/dev/null || true
+        trap - EXIT
+        echo "set up in $SECONDS s" >&2
     fi
 fi

@@ -42,7 +42,7 @@ __all__ = ["QUERIED", "LiveBridge"]
 log = logging.getLogger("fsw_scheduler.view")
 
 #: What is asked of the scheduler at start, in this order.
-QUERIED = (keys.PLAN, keys.STATUS, keys.PROFILES)
+QUERIED = (keys.PLAN, keys.STATUS, keys.PROFILES, keys.NODE_INFO)
 
 _JSON = ("application/json", "text/json")
 _profiles_decoder = msgspec.json.Decoder(Profiles)
@@ -250,9 +250,11 @@ class LiveBridge:
             self._declared(self.topics.resource_level(resource))
 
     def _publish(self, key: str, payload: bytes, now: int) -> None:
-        # Keys with a name chunk (a task, a resource) get their channel
-        # at first sight; the server gives that first message to whoever
-        # subscribes next, so it is not lost.
+        # The journal's channels: every dispatch on one, declared up
+        # front. Keys with a name chunk (a report, a resource) get their
+        # channel at first sight; the server gives that first message to
+        # whoever subscribes next, so it is not lost.
+        key = keys.journal_key(key)
         self._declared(key)
         self.server.publish(key, payload, now)
 

@@ -172,6 +172,37 @@ class SchedulerClient:
         for suffix in (keys.STATUS, keys.PLAN):
             self._wait_queryable(self.topics.key(suffix), timeout)
 
+    def find_scheduler(self, timeout: float | None = None) -> None:
+        """:meth:`wait_scheduler`, told early when it waits in vain.
+
+        After a short wait the bus is asked which spacecraft have a
+        scheduler alive: when others do and this one does not (a wrong
+        ``--spacecraft``), waiting longer cannot help.
+
+        Raises
+        ------
+        LookupError
+            Schedulers of other spacecraft are alive, and none of this
+            one; the message names them.
+        TimeoutError
+            No scheduler of this spacecraft in time.
+        """
+        timeout = timeout or self.timeout
+        start = time.monotonic()
+        first = min(timeout, _FIND_FIRST_S)
+        try:
+            self.wait_scheduler(first)
+            return
+        except TimeoutError:
+            seen = spacecraft_on_bus(self.client)
+            if seen and self.topics.spacecraft not in seen:
+                raise LookupError(
+                    f"no scheduler of {self.topics.spacecraft} on the bus; "
+                    f"schedulers alive: {', '.join(seen)} (--spacecraft "
+                    f"{seen[0]}?)"
+                ) from None
+        self.wait_scheduler(max(timeout - (time.monotonic() - start), 0.1))
+
     # -- publishing ----------------------------------------------------------
 
     def put(self, key: str, message: object) -> None:
@@ -320,6 +351,19 @@ class SchedulerClient:
         if payload is None:
             return None
         return msgspec.json.decode(payload, type=messages.PlanMessage)
+
+    def query_config(
+        self, timeout: float | None = None
+    ) -> messages.NodeInfo | None:
+        """Ask the node for its settings and problem (``scheduler/config``);
+        None from a node too old to answer, or one that does not."""
+        payload = self._query(keys.NODE_INFO, timeout)
+        if payload is None:
+            return None
+        try:
+            return msgspec.json.decode(payload, type=messages.NodeInfo)
+        except msgspec.DecodeError:  # a newer node's settings: not needed
+            return None
 
     def _query(self, suffix: str, timeout: float | None) -> bytes | None:
         return query_payload(
@@ -539,6 +583,34 @@ class SchedulerClient:
                 )
         except Exception:  # zenoh only logs what a callback raises
             log.exception("answering a fence query")
+
+
+#: Seconds :meth:`SchedulerClient.find_scheduler` waits before it asks
+#: which spacecraft are on the bus.
+_FIND_FIRST_S = 1.5
+
+
+def spacecraft_on_bus(
+    session: zenoh.Session, timeout: float = 1.0
+) -> list[str]:
+    """The spacecraft whose scheduler is alive on the bus, sorted.
+
+    Read from the ``fsw/<spacecraft>/scheduler/alive`` liveliness tokens;
+    empty when none answers within ``timeout``.
+    """
+    found: set[str] = set()
+    try:
+        replies = session.liveliness().get(
+            f"{keys.PREFIX}/*/{keys.ALIVE}", timeout=timeout
+        )
+        for reply in replies:
+            if reply.ok is not None:
+                parts = str(reply.ok.key_expr).split("/")
+                if len(parts) > 1:
+                    found.add(parts[1])
+    except zenoh.ZError:
+        return []
+    return sorted(found)
 
 
 def query_payload(

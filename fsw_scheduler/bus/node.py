@@ -206,7 +206,10 @@ class SchedulerNode:
         self._cancel = Cancel()
         self._clock: UnitClock | None = None
         self._decoder = InputDecoder(
-            self.topics, config.clock, config.max_clock_step
+            self.topics,
+            config.clock,
+            config.max_clock_step,
+            self.engine.initial.resources,
         )
         self._last_clock_s = seconds()
         self._stall_reported = False
@@ -255,7 +258,14 @@ class SchedulerNode:
             )
         # Profiles too: a monitor that starts after a plan shows its
         # predicted levels at once (``fsw-scheduler view``).
-        queryables = [topics.PLAN, topics.STATUS, topics.PROFILES]
+        # The settings too: ``send`` checks a goal against the resources,
+        # a late view fills its config channel.
+        queryables = [
+            topics.PLAN,
+            topics.STATUS,
+            topics.PROFILES,
+            topics.NODE_INFO,
+        ]
         if self._sharing:
             # A standby that joins later asks for the state at once.
             queryables.append(topics.SNAPSHOT)
@@ -572,6 +582,10 @@ class SchedulerNode:
         limit = self.config.clock_stall
         if self.config.clock != "bus" or limit is None:
             return
+        if self._decoder.bus_now is None:
+            # No clock yet: the node waits for time to start (its status
+            # says now null), it has not lost a clock it had.
+            return
         quiet = self._seconds() - self._last_clock_s
         if quiet < limit or self._stall_reported:
             return
@@ -744,6 +758,8 @@ class SchedulerNode:
             message = self.engine.snapshot()
         elif suffix == topics.PROFILES:
             message = self._annotator.profiles
+        elif suffix == topics.NODE_INFO:
+            message = self._outputs.info()
         else:
             message = self.engine.status("query")
         try:

@@ -154,6 +154,7 @@ class NodeOutputs:
         self._snapshot_due = 0.0
         if share_state is not None:
             journal.tap = []
+        self._resumed = ""
 
     # -- lifecycle -----------------------------------------------------------
 
@@ -171,19 +172,23 @@ class NodeOutputs:
         published; the state is written only when durable.
         """
         self._describe_journal()
-        self.publish(
-            topics.NODE_INFO,
-            messages.encode(
-                node_info(
-                    self.config,
-                    self.engine.initial,
-                    self._security,
-                    resumed=resumed,
-                )
-            ),
-        )
+        self._resumed = resumed
+        self.publish(topics.NODE_INFO, messages.encode(self.info()))
         if self.durable:
             self._write_snapshot()
+
+    def info(self) -> messages.NodeInfo:
+        """The settings as ``scheduler/config`` says them now (a query's
+        answer: a view or a ``send`` that starts after the node)."""
+        return msgspec.structs.replace(
+            node_info(
+                self.config,
+                self.engine.initial,
+                self._security,
+                resumed=self._resumed,
+            ),
+            durable=self._journal.fault is None,
+        )
 
     def sync(self) -> None:
         """When durable, put what was journaled on the disk now (fsync):

@@ -30,6 +30,7 @@ from ..errors import BusError
 from ..journal.info import info as recording_info
 from ..journal.reader import iter_messages
 from ..journal.writer import PathLike, RecordedMessage
+from ..wire.topics import bus_key
 
 if TYPE_CHECKING:
     import threading
@@ -510,10 +511,12 @@ def _replay_pass(
                 sleep(delay)
                 if stop is not None and stop.is_set():
                     break
-        publisher = publishers.get(message.topic)
+        # A dispatch goes back on its task's key (journal channel: all).
+        key = bus_key(message.topic, message.payload)
+        publisher = publishers.get(key)
         if publisher is None:
-            publisher = session.declare_publisher(message.topic)
-            publishers[message.topic] = publisher
+            publisher = session.declare_publisher(key)
+            publishers[key] = publisher
         publisher.put(message.payload, encoding=encoding or message.encoding)
         count += 1
     return count

@@ -45,7 +45,11 @@ from zenoh_ros2_sdk.keyexpr import (
     node_liveliness_keyexpr,
     topic_keyexpr,
 )
-from zenoh_ros2_sdk.qos import DEFAULT_QOS_PROFILE
+from zenoh_ros2_sdk.qos import (
+    DEFAULT_QOS_PROFILE,
+    QosDurability,
+    QosProfile,
+)
 from zenoh_ros2_sdk.utils import (
     get_type_hash,
     resolve_domain_id,
@@ -81,12 +85,22 @@ NODE_NAME = "scheduler_bridge"
 #: Samples held per scheduler key between two turns of the loop; past it
 #: the oldest go (a ring: the bridge never holds Zenoh's network thread).
 DEFAULT_CAPACITY = 256
-#: (ROS 2 topic leaf, scheduler key suffix to subscribe to).
+#: (ROS 2 topic leaf, scheduler key suffix to subscribe to, latest
+#: state): plan and status are states, a subscriber that starts late wants
+#: the current one; dispatches are events.
 _BRIDGED = (
-    ("plan", keys.PLAN),
-    ("status", keys.STATUS),
-    ("dispatches", keys.DISPATCH + "/*"),
+    ("plan", keys.PLAN, True),
+    ("status", keys.STATUS, True),
+    ("dispatches", keys.DISPATCH + "/*", False),
 )
+#: The QoS of the latest-state topics, as rmw_zenoh reads it from the
+#: liveliness token: reliable, transient local, keep last 1 (the publisher
+#: keeps the latest sample for subscribers that start after it).
+LATEST_QOS = QosProfile(
+    durability=QosDurability.TRANSIENT_LOCAL, history_depth=1
+)
+#: The QoS of the event topics (dispatches): volatile, keep last 10.
+EVENT_QOS = DEFAULT_QOS_PROFILE
 _NOT_IN_NAME = re.compile(r"[^A-Za-z0-9_]")
 
 
@@ -123,11 +137,15 @@ class BridgedTopic:
         The scheduler's Zenoh key expression, e.g. ``fsw/sat1/scheduler/plan``.
     ros_topic
         The ROS 2 topic, e.g. ``/fsw/sat1/scheduler/plan``.
+    latest
+        A latest-state topic (plan, status): transient local, depth 1
+        (:data:`LATEST_QOS`); else volatile (:data:`EVENT_QOS`).
     """
 
     leaf: str
     key_expr: str
     ros_topic: str
+    latest: bool = False
 
 
 def bridged_topics(
@@ -149,8 +167,10 @@ def bridged_topics(
     names = keys.Topics(spacecraft)
     namespace = ros_namespace(spacecraft)
     return tuple(
-        BridgedTopic(leaf, names.key(suffix), f"{namespace}/scheduler/{leaf}")
-        for leaf, suffix in _BRIDGED
+        BridgedTopic(
+            leaf, names.key(suffix), f"{namespace}/scheduler/{leaf}", latest
+        )
+        for leaf, suffix, latest in _BRIDGED
     )
 
 
@@ -247,9 +267,11 @@ class BridgeStats:
 class _Route:
     topic: BridgedTopic
     subscriber: zenoh.Subscriber
-    publisher: zenoh.Publisher
+    publisher: Any  # zenoh.Publisher, or zenoh.ext.AdvancedPublisher
     token: zenoh.LivelinessToken
     gid: bytes
+    # Where matching is read (an advanced publisher does not say).
+    matcher: zenoh.Publisher
     sequence: int = 0
 
 
@@ -273,6 +295,9 @@ class Ros2Bridge:
         ROS 2 does.
     capacity
         Samples held per scheduler key between two turns of the loop.
+    seed_s
+        Seconds :meth:`open` waits for the scheduler's plan and status
+        (its queryables) to fill the latest-state topics; 0: none.
     clock_ns
         Source timestamp of each ROS 2 sample, in ns since the Unix epoch.
 
@@ -290,6 +315,7 @@ class Ros2Bridge:
         domain_id: int | None = None,
         capacity: int = DEFAULT_CAPACITY,
         clock_ns: Callable[[], int] = time.time_ns,
+        seed_s: float = 1.0,
     ) -> None:
         self.session = session
         self.spacecraft = spacecraft
@@ -299,6 +325,7 @@ class Ros2Bridge:
         self.stats = BridgeStats()
         self._capacity = capacity
         self._clock_ns = clock_ns
+        self._seed_s = seed_s
         self._routes: list[_Route] = []
         self._node_token: zenoh.LivelinessToken | None = None
 
@@ -329,6 +356,8 @@ class Ros2Bridge:
             )
             for idx, topic in enumerate(self.topics, start=1):
                 self._routes.append(self._declare(node, idx, topic))
+            if self._seed_s > 0:
+                self._seed(self._seed_s)
         except zenoh.ZError as error:
             self.close()
             raise BusError(
@@ -348,7 +377,7 @@ class Ros2Bridge:
             name=topic.ros_topic,
             dds_type_name=self.codec.dds_type,
             type_hash=self.codec.type_hash,
-            qos=DEFAULT_QOS_PROFILE.encode(),
+            qos=(LATEST_QOS if topic.latest else EVENT_QOS).encode(),
             gid=gid,
         )
         key = topic_keyexpr(
@@ -357,26 +386,43 @@ class Ros2Bridge:
             self.codec.dds_type,
             self.codec.type_hash,
         )
-        publisher = self.session.declare_publisher(
-            key, encoding=zenoh.Encoding("application/cdr")
-        )
+        cdr = zenoh.Encoding("application/cdr")
+        matcher = self.session.declare_publisher(key, encoding=cdr)
+        publisher: Any = matcher
+        if topic.latest:
+            # As rmw_zenoh does for transient local: an advanced publisher
+            # whose cache a late subscriber queries (``@adv/pub/...``).
+            from zenoh import ext
+
+            publisher = ext.declare_advanced_publisher(
+                self.session,
+                key,
+                encoding=cdr,
+                cache=ext.CacheConfig(max_samples=LATEST_QOS.history_depth),
+                # Samples numbered by sequence, not by timestamp: the
+                # session's own flags need not turn timestamping on.
+                sample_miss_detection=ext.MissDetectionConfig(
+                    heartbeat=None, sporadic_heartbeat=None
+                ),
+                publisher_detection=True,
+            )
         token = self.session.liveliness().declare_token(
             endpoint_liveliness_keyexpr(endpoint)
         )
         subscriber = self.session.declare_subscriber(
             topic.key_expr, zenoh.handlers.RingChannel(self._capacity)
         )
-        return _Route(topic, subscriber, publisher, token, gid)
+        return _Route(topic, subscriber, publisher, token, gid, matcher)
 
     def close(self) -> None:
         """Undeclare everything the bridge declared (idempotent)."""
         routes, self._routes = self._routes, []
         node, self._node_token = self._node_token, None
-        entities: list[Any] = [
-            entity
-            for route in routes
-            for entity in (route.subscriber, route.token, route.publisher)
-        ]
+        entities: list[Any] = []
+        for route in routes:
+            entities += [route.subscriber, route.token, route.publisher]
+            if route.matcher is not route.publisher:
+                entities.append(route.matcher)
         if node is not None:
             entities.append(node)
         for entity in entities:
@@ -400,7 +446,7 @@ class Ros2Bridge:
         """Whether a ROS 2 subscriber of topic ``leaf`` is reachable."""
         for route in self._routes:
             if route.topic.leaf == leaf:
-                status = route.publisher.matching_status
+                status = route.matcher.matching_status
                 return bool(status.matching)  # type: ignore[attr-defined]
         raise KeyError(leaf)
 
@@ -439,11 +485,38 @@ class Ros2Bridge:
                 stop.wait(poll_interval_s)
 
     def _forward(self, route: _Route, sample: zenoh.Sample) -> None:
+        payload = (
+            sample.payload.to_bytes()
+            if sample.kind == zenoh.SampleKind.PUT
+            else None
+        )
+        self._send(route, payload)
+
+    def _seed(self, timeout: float) -> None:
+        """Ask the scheduler for its plan and status and publish them, so
+        that the latest state is in the cache of a bridge started after
+        it (a node that does not answer: the next one comes live)."""
+        from .client import query_payload
+
+        for route in self._routes:
+            if not route.topic.latest:
+                continue
+            try:
+                payload = query_payload(
+                    self.session, route.topic.key_expr, timeout
+                )
+            except zenoh.ZError as error:
+                log.debug("%s: query: %s", route.topic.key_expr, error)
+                continue
+            if payload is not None:
+                self._send(route, payload)
+
+    def _send(self, route: _Route, payload: bytes | None) -> None:
         leaf = route.topic.leaf
         text = None
-        if sample.kind == zenoh.SampleKind.PUT:
+        if payload is not None:
             try:
-                text = sample.payload.to_bytes().decode("utf-8")
+                text = payload.decode("utf-8")
             except UnicodeDecodeError:
                 log.warning("%s: payload is not UTF-8, not bridged", leaf)
         if text is None:

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import re
 import threading
 import time
 from typing import TYPE_CHECKING
@@ -202,29 +203,111 @@ def zenoh_config(args: argparse.Namespace) -> zenoh.Config:
     try:
         config = zenoh.Config.from_file(path) if path else zenoh.Config()
     except (zenoh.ZError, OSError) as exc:
-        raise ConfigError(f"--config {path}: {exc}") from exc
-    settings: list[tuple[str, str]] = []
+        raise ConfigError(
+            f"-c/--config {path}: {plain_zenoh_error(str(exc))}"
+        ) from None
+    settings: list[tuple[str, str, str]] = []
     if getattr(args, "mode", None):
-        settings.append(("mode", json.dumps(args.mode)))
+        settings.append(("mode", json.dumps(args.mode), "-m/--mode"))
     if getattr(args, "connect", None):
-        settings.append(("connect/endpoints", json.dumps(args.connect)))
+        settings.append(
+            ("connect/endpoints", json.dumps(args.connect), "-e/--connect")
+        )
     if getattr(args, "listen", None):
-        settings.append(("listen/endpoints", json.dumps(args.listen)))
+        settings.append(
+            ("listen/endpoints", json.dumps(args.listen), "-l/--listen")
+        )
     if getattr(args, "no_multicast_scouting", False):
-        settings.append(("scouting/multicast/enabled", "false"))
+        settings.append(
+            ("scouting/multicast/enabled", "false", "--no-multicast-scouting")
+        )
     for entry in getattr(args, "cfg", None) or ():
         # Split on the first colon only: values such as endpoints
         # ("tcp/1.2.3.4:7447") contain colons themselves.
         key, sep, value = entry.partition(":")
         if not sep or not key:
             raise ConfigError(f"--cfg {entry!r}: expected KEY:VALUE")
-        settings.append((key.strip(), value))
-    for key, value in settings:
+        settings.append((key.strip(), value, f"--cfg {entry!r}"))
+    for key, value, flag in settings:
         try:
             config.insert_json5(key, value)
         except zenoh.ZError as exc:
-            raise ConfigError(f"zenoh setting {key}={value}: {exc}") from exc
+            # Name the flag to fix, and what Zenoh says of its value.
+            given = value if flag.startswith("-") and "cfg" not in flag else ""
+            raise ConfigError(
+                f"{flag}{' ' + given if given else ''}: "
+                f"{plain_zenoh_error(str(exc))}"
+            ) from None
     return config
+
+
+_RUST_AT = re.compile(r" at /\S+\.rs:\d+\.?")
+_JSON5_MSG = re.compile(r'Json5Err\(Message \{ msg: "(?P<msg>.*?)", location')
+_SINGLE = re.compile(r"Single\((?P<endpoint>[^)]*)\)")
+_UNREACHABLE = re.compile(r"Unable to connect to any of \[(?P<what>.*)\]")
+_LISTENER = re.compile(
+    r"Can not create a new \w+ listener bound to (?P<endpoint>\S+?):? \[?"
+    r"(?:\S+: )?(?P<why>[^(\]]*)"
+)
+
+
+def plain_zenoh_error(text: str) -> str:
+    """A Zenoh error in one line a person can act on.
+
+    Zenoh's messages carry Rust internals: the source file of the error
+    (``at /root/.cargo/.../orchestrator.rs:447``), debug forms
+    (``[Single(tcp/...)]``, ``Json5Err(Message {...})``). This keeps the
+    words, names the flag to fix where the error says which, and leaves
+    any other message as it is, without the internals.
+
+    Parameters
+    ----------
+    text
+        ``str()`` of a ``zenoh.ZError``.
+
+    Returns
+    -------
+    str
+        One line, without a source path.
+    """
+    json5 = _JSON5_MSG.search(text)
+    if json5 is not None:
+        words = json5.group("msg").replace("\\n", "\n")
+        words = _RUST_AT.sub("", words)
+        lines = [ln.strip() for ln in words.splitlines() if ln.strip()]
+        said = [ln.lstrip("= ") for ln in lines if ln.startswith("=")]
+        detail = said[-1] if said else lines[0] if lines else words
+        if detail.startswith("expected array, boolean"):
+            detail = (
+                "not a JSON5 value (a string needs quotes: "
+                "--cfg 'mode:\"client\"')"
+            )
+        return detail
+    unreachable = _UNREACHABLE.search(text)
+    if unreachable is not None:
+        endpoints = ", ".join(
+            m.group("endpoint") for m in _SINGLE.finditer(text)
+        ) or unreachable.group("what")
+        return (
+            f"cannot reach {endpoints}: nothing answers there (check "
+            "-e/--connect, and -m/--mode: a client needs a router or a "
+            "node listening on that endpoint)"
+        )
+    listener = _LISTENER.search(text)
+    if listener is not None:
+        return (
+            f"cannot listen on {listener.group('endpoint')}: "
+            f"{listener.group('why').strip() or 'refused'} (check "
+            "-l/--listen: a free port in 1..65535, an address of this "
+            "machine)"
+        )
+    if "invalid port value" in text:
+        return (
+            "invalid port value (check -l/--listen and -e/--connect: "
+            "ports are 1..65535)"
+        )
+    text = _RUST_AT.sub("", text)
+    return _SINGLE.sub(lambda m: m.group("endpoint"), text).strip()
 
 
 def loopback_config(

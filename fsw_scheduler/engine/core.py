@@ -57,7 +57,7 @@ from .queue import SolveQueue
 from .reports import Reports
 from .snapshot import EngineSnapshot, GoalRecord, QueuedChange
 from .solves import Replanner
-from .state import EngineState
+from .state import CLOCK_STALLED, EngineState
 from .verdicts import Verdicts
 
 if TYPE_CHECKING:
@@ -601,6 +601,20 @@ class Engine:
         self._state.count(levels=self._state.counters.levels + 1)
         schedule = self.schedule
         if schedule is None:
+            # Nothing to compare it with: say so rather than drop it.
+            self._verdicts.reject_input(
+                f"telemetry/resources/{level.resource}",
+                "resource_level",
+                [
+                    FieldIssue(
+                        "",
+                        "no plan yet: a measured level is compared with a "
+                        "plan's prediction; the first plan starts from the "
+                        "problem's levels",
+                    )
+                ],
+                out,
+            )
             return
         consumables = schedule.problem.resources.consumable
         if level.resource not in consumables:
@@ -683,7 +697,7 @@ class Engine:
     # -- status helpers ------------------------------------------------------
 
 
-_STALLED = "bus clock stalled"
+_STALLED = CLOCK_STALLED
 
 
 def _level_outside(

@@ -106,7 +106,9 @@ class Execution:
         )
         if plan.status is SolveStatus.DEGRADED:
             state.set_health("degraded", degraded_detail(state.plan_id, plan))
-        else:
+        elif not state.clock_stalled:
+            # A stalled clock stays said until it ticks again (and then
+            # ``clock_resumed``): a plan is no news about the clock.
             state.set_health("ok", "")
         out.append(Publish(topics.PLAN, state.plan_message))
         out.append(

@@ -352,7 +352,14 @@ class Replanner:
                         schedule, change.task, min(change.at, now), now=now
                     )
                 except InputError as error:
-                    out.append(Log("warning", f"failure ignored: {error}"))
+                    # The report was taken, and now cannot be acted on:
+                    # its sender hears why (never a log line alone).
+                    self._verdicts.reject_input(
+                        f"telemetry/activities/{change.task}",
+                        "activity_report",
+                        error.issues,
+                        out,
+                    )
                     continue
                 self.start_solve(
                     "failure", replan.problem, replan, replan.warm, (), out
@@ -377,11 +384,39 @@ class Replanner:
                         schedule, levels, now, at=at, keep_running=True
                     )
                 except InputError as error:
-                    out.append(Log("warning", f"levels ignored: {error}"))
+                    self._reject_levels(levels, error, out)
                     continue
                 self.start_solve(
                     trigger, replan.problem, replan, replan.warm, (), out
                 )
+
+    def _reject_levels(
+        self,
+        levels: dict[str, float],
+        error: InputError,
+        out: list[Command],
+    ) -> None:
+        """Answer each level a replan could not use (``input_rejected``
+        on its key, with the reasons about it), or log why a replan with
+        no level failed."""
+        if not levels:
+            out.append(Log("warning", f"replan skipped: {error}"))
+            return
+        for name in sorted(levels):
+            mine = [
+                FieldIssue("level", issue.reason)
+                if issue.path == f"levels.{name}"
+                else issue
+                for issue in error.issues
+                if not issue.path.startswith("levels.")
+                or issue.path == f"levels.{name}"
+            ]
+            self._verdicts.reject_input(
+                f"telemetry/resources/{name}",
+                "resource_level",
+                mine or error.issues,
+                out,
+            )
 
     def start_goals(
         self,

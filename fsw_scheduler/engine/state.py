@@ -29,6 +29,11 @@ if TYPE_CHECKING:
     from .snapshot import EngineSnapshot, Health
 
 
+#: The start of the health detail while the bus clock is stalled; only a
+#: tick clears it (a plan adopted meanwhile does not).
+CLOCK_STALLED = "bus clock stalled"
+
+
 class EngineState:
     """The shared state of an engine (see the module docstring).
 
@@ -121,6 +126,11 @@ class EngineState:
     def count(self, **changes: int) -> None:
         """Set counters (``Counters`` field names) to new values."""
         self.counters = msgspec.structs.replace(self.counters, **changes)
+
+    @property
+    def clock_stalled(self) -> bool:
+        """Whether the health says the bus clock stopped (until a tick)."""
+        return self.health_detail.startswith(CLOCK_STALLED)
 
     def set_health(self, state: Health, detail: str) -> None:
         """Set the status ``state`` and the reason it gives."""

@@ -43,6 +43,7 @@ JSON_SCHEMA = "jsonschema"
 LIVE_SUFFIXES: tuple[str, ...] = (
     keys.PLAN,
     keys.STATUS,
+    keys.DISPATCH,
     keys.PROFILES,
     keys.SOLVES,
     keys.NODE_INFO,

@@ -374,7 +374,12 @@ class _Start:
             if snapshot is not None
             else Engine(engine_config(config), info.problem)
         )
-        decoder = InputDecoder(topics, config.clock, config.max_clock_step)
+        decoder = InputDecoder(
+            topics,
+            config.clock,
+            config.max_clock_step,
+            engine.initial.resources,
+        )
         return cls(
             recorded,
             info,
@@ -567,22 +572,26 @@ def _compare(
         )
         return False
     key, payload = produced.popleft()
+    # One dispatch channel now, one per task in older journals: compared
+    # by bus key (a dispatch's task is in the message).
+    recorded_key = keys.bus_key(message.topic, message.payload)
+    same = key == recorded_key
     got = _normalise(kind, payload)
     if kind == "status" and isinstance(got, dict):
         _rebuild_lifecycle(report.lifecycle, got, expected)
     got = (
         _only_recorded_fields(got, expected)
-        if key == message.topic
+        if same
         else (msgspec.json.decode(payload))
     )
-    if key != message.topic or got != expected:
+    if not same or got != expected:
         report.divergence = Divergence(
             report.outputs,
-            message.topic,
+            recorded_key,
             key,
             expected,
             got,
-            _first_difference(expected, got) if key == message.topic else "",
+            _first_difference(expected, got) if same else "",
         )
         return False
     report.outputs += 1

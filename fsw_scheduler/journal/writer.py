@@ -53,6 +53,7 @@ from typing import IO, Any, Literal, NamedTuple
 from mcap.well_known import MessageEncoding, SchemaEncoding
 from mcap.writer import CompressionType, Writer
 
+from ..wire.topics import journal_key
 from .channels import schema_data, schema_name
 
 log = logging.getLogger("fsw_scheduler.journal")
@@ -328,7 +329,8 @@ class Recorder:
         ----------
         topic
             Key expression the message was seen on; one channel per topic
-            and encoding.
+            and encoding, every ``scheduler/dispatch/<task>`` on one
+            (:func:`~fsw_scheduler.wire.topics.journal_key`).
         payload
             The bytes, written unchanged.
         log_time_ns
@@ -351,6 +353,7 @@ class Recorder:
         """
         if self._closed:
             raise ValueError("write to a closed Recorder")
+        topic = journal_key(topic)
         message_encoding = mcap_encoding(encoding)
         if self._only_json and message_encoding != MessageEncoding.JSON:
             self.skipped += 1

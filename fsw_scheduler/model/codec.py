@@ -1,7 +1,8 @@
 """The input codec: JSON documents to Structs, strictly, and back.
 
-:func:`read_strict` parses a document and checks its shape (:mod:`.strict`),
-giving every issue with its field path; :func:`decode_strict` raises them
+:func:`read_strict` parses a document, refuses keys written twice
+(:mod:`.duplicates`) and checks its shape (:mod:`.strict`), giving every
+issue with its field path; :func:`decode_strict` raises them
 as one :class:`~fsw_scheduler.errors.InputError`. Both serve every format
 that commands (problems, goals, changes, plans, bus inputs); the semantic
 rules of each format run on what they return (:mod:`.validation` for the
@@ -17,6 +18,7 @@ import msgspec
 
 from ..errors import FieldIssue, InputError
 from . import strict
+from .duplicates import duplicate_issues
 from .limits import key_path
 
 T = TypeVar("T")
@@ -119,7 +121,8 @@ def read_strict(
     except RecursionError:
         issue = FieldIssue("", f"{MAX_DEPTH_NOTE} (recursion limit reached)")
         return None, [issue], {""}
-    issues = strict.shape_issues(raw, kind)
+    # Duplicate keys first: msgspec kept the last one without a word.
+    issues = duplicate_issues(data, raw) + strict.shape_issues(raw, kind)
     if issues:
         return (
             strict.repaired(raw, kind, issues),
@@ -127,7 +130,7 @@ def read_strict(
             {issue.path for issue in issues},
         )
     try:
-        return msgspec.convert(raw, kind), [], set()
+        return strict.convert(raw, kind), [], set()
     except msgspec.ValidationError as error:  # a rule in __post_init__
         issue = _msgspec_issue(error, data)
         return None, [issue], {issue.path}
@@ -137,8 +140,9 @@ def decode_strict(data: bytes | str, kind: type[T], what: str) -> T:
     """Decode JSON into ``kind``, raising InputError naming every mistake.
 
     Unknown fields are mistakes (with the closest known name), as are
-    wrong types, values outside their declared range or enumeration, and
-    missing fields: all of them, in one pass (:mod:`.strict`). A document
+    keys written twice in one object (:mod:`.duplicates`), wrong types,
+    values outside their declared range or enumeration, and missing
+    fields: all of them, in one pass (:mod:`.strict`). A document
     nested deeper than the decoder's recursion limit is bad input too.
     """
     value, issues, _ = read_strict(data, kind, what)

@@ -12,6 +12,8 @@ field paths. This module is pure: no solver, no bus, no clock.
 
 from __future__ import annotations
 
+from typing import Annotated
+
 import msgspec
 
 from ..errors import FieldIssue, InputError
@@ -73,7 +75,10 @@ class Goal(msgspec.Struct, frozen=True, omit_defaults=True):
     """
 
     goal_id: Id
-    tasks: tuple[GoalTask, ...]
+    tasks: Annotated[
+        tuple[GoalTask, ...],
+        msgspec.Meta(min_length=1, description="a goal brings a task"),
+    ]
     precedences: tuple[Precedence, ...] = ()
     issued_at: Instant | None = None
     not_after: Instant | None = None
@@ -91,13 +96,20 @@ class Goal(msgspec.Struct, frozen=True, omit_defaults=True):
 _MERGE_ONLY = (".uses.", ".feasible_interval", ".fixed_start")
 
 
-def validate_goal(goal: Goal) -> list[FieldIssue]:
+def validate_goal(
+    goal: Goal, resources: Resources | None = None
+) -> list[FieldIssue]:
     """Return every issue found in ``goal`` alone (empty when valid).
 
     Parameters
     ----------
     goal
         A decoded goal.
+    resources
+        The resources of the problem the goal is for, when known (a node's
+        own, or those its ``scheduler/config`` publishes): each use is
+        then checked against them too (an unknown resource, a binary use
+        other than 1), as the merge would.
 
     Returns
     -------
@@ -123,15 +135,23 @@ def validate_goal(goal: Goal) -> list[FieldIssue]:
     stand_in = Problem(
         horizon=max(lengths, default=1),
         tasks=(),
-        resources=Resources(consumable=used),
+        resources=resources or Resources(consumable=used),
     )
+    merge_only = _MERGE_ONLY[1:] if resources is not None else _MERGE_ONLY
     issues += duplicate_ids(goal.tasks)
     for idx, task in enumerate(goal.tasks):
         path = f"tasks[{idx}]"
+        # A name that is not an id is said so below, once.
+        unsafe = {
+            key_path(f"{path}.uses", name)
+            for name in task.uses
+            if id_issue(name) is not None
+        }
         issues += [
             issue
             for issue in check_task(stand_in, task.to_task(), path)
-            if not any(part in issue.path for part in _MERGE_ONLY)
+            if not any(part in issue.path for part in merge_only)
+            and issue.path not in unsafe
         ]
         for name in task.uses:
             reason = id_issue(name)
@@ -176,13 +196,16 @@ def validate_goal(goal: Goal) -> list[FieldIssue]:
     return issues
 
 
-def decode_goal(data: bytes | str) -> Goal:
+def decode_goal(data: bytes | str, resources: Resources | None = None) -> Goal:
     """Decode and check a goal document (the goal format).
 
     Parameters
     ----------
     data
         The goal JSON.
+    resources
+        The resources of the running problem, when known: the uses are
+        checked against them in the same pass (see :func:`validate_goal`).
 
     Returns
     -------
@@ -199,7 +222,7 @@ def decode_goal(data: bytes | str) -> Goal:
     if goal is not None:
         issues += [
             issue
-            for issue in validate_goal(goal)
+            for issue in validate_goal(goal, resources)
             if not under(issue.path, bad)
         ]
     if issues or goal is None:

@@ -59,9 +59,10 @@ Id = Annotated[
         ),
     ),
 ]
-#: A time value (units), possibly before the problem start.
+#: A signed number of time units (a precedence's offset).
 Time = Annotated[int, msgspec.Meta(ge=-MAX_TIME, le=MAX_TIME)]
-#: A time unit of the mission clock.
+#: A time unit of the mission clock: windows, starts, reports, the clock
+#: itself; never before time 0.
 Instant = Annotated[int, msgspec.Meta(ge=0, le=MAX_TIME)]
 #: A number of time units, at least one.
 Units = Annotated[int, msgspec.Meta(ge=1, le=MAX_TIME)]
@@ -109,10 +110,10 @@ class Task(msgspec.Struct, frozen=True, omit_defaults=True):
     delay_cost: DelayCost
     schedule_cost: ScheduleCost
     preemption: Preemption = "none"
-    feasible_interval: tuple[Time, Time] | None = None
+    feasible_interval: tuple[Instant, Instant] | None = None
     uses: dict[str, float] = {}
     feasible_interval_applies_to: WindowReading | None = None
-    fixed_start: Time | None = None
+    fixed_start: Instant | None = None
 
     @property
     def mandatory(self) -> bool:

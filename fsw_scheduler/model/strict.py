@@ -189,7 +189,13 @@ def _check_number(
         want = "an integer" if integer else "a number"
         out.append(FieldIssue(path, f"must be {want}, got {_name(value)}"))
         return
-    if integer and not isinstance(value, int):
+    # 5.0 and 1e1 are integers to JSON Schema (a number whose fraction is
+    # zero), so they are to the scheduler too; read_strict converts them.
+    if (
+        integer
+        and isinstance(value, float)
+        and not (math.isfinite(value) and value.is_integer())
+    ):
         out.append(
             FieldIssue(path, f"must be an integer, got {_shown(value)}")
         )
@@ -244,13 +250,17 @@ def _check_str(
         )
 
 
+_ONE = {"items": "item", "characters": "character", "entries": "entry"}
+
+
 def _check_length(
     size: int, info: Any, unit: str, path: str, out: list[FieldIssue]
 ) -> None:
     low, high = info.min_length, info.max_length
     if low is not None and size < low:
+        named = _ONE.get(unit, unit) if low == 1 else unit
         out.append(
-            FieldIssue(path, f"needs at least {low} {unit}, got {size}")
+            FieldIssue(path, f"needs at least {low} {named}, got {size}")
         )
     if high is not None and size > high:
         out.append(
@@ -430,6 +440,17 @@ def _kind_issue(
     out.append(FieldIssue(path, f"must be {want}, got {_name(value)}"))
 
 
+def convert(value: object, kind: Any) -> Any:
+    """``value`` (checked by :func:`shape_issues`) as ``kind``.
+
+    Not strict about one thing only: a float with no fraction where an
+    integer is declared becomes that integer, as JSON Schema reads it.
+    Everything else lax conversion would allow (strings as numbers) the
+    shape check has already refused.
+    """
+    return msgspec.convert(value, kind, strict=False)
+
+
 # -- repair: set bad parts aside so that the semantic rules can run ---------
 
 
@@ -444,7 +465,7 @@ def repaired(value: object, kind: object, issues: list[FieldIssue]) -> Any:
     bad = {issue.path for issue in issues}
     try:
         fixed = _repair(value, type_info(kind), "", bad)
-        return msgspec.convert(fixed, kind)  # type: ignore[call-overload]
+        return convert(fixed, kind)
     except (msgspec.ValidationError, _Unrepairable, TypeError, ValueError):
         return None
 

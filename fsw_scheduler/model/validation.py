@@ -262,7 +262,7 @@ def check_use(
 
 
 def time_issues(task: Task, path: str) -> list[FieldIssue]:
-    """Time values of ``task`` outside ``[-MAX_TIME, MAX_TIME]``."""
+    """Time values of ``task`` outside ``[0, MAX_TIME]``."""
     values = {
         "length": task.length,
         "fixed_start": task.fixed_start,
@@ -274,13 +274,13 @@ def time_issues(task: Task, path: str) -> list[FieldIssue]:
             )
         ),
     }
+    # Times are units of the mission clock, as the types declare them.
     return [
-        FieldIssue(
-            f"{path}.{name}",
-            f"{value} is out of range (at most {MAX_TIME} in absolute value)",
-        )
+        FieldIssue(f"{path}.{name}", f"{value} is outside [0, {MAX_TIME}]")
         for name, value in values.items()
-        if value is not None and abs(value) > MAX_TIME
+        if value is not None
+        # A length below 1 has its own rule (check_task).
+        and not (0 if name != "length" else -MAX_TIME) <= value <= MAX_TIME
     ]
 
 

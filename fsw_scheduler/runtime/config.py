@@ -19,15 +19,27 @@ Example ``scheduler.toml``::
 
 from __future__ import annotations
 
+import re
 import tomllib
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
 import msgspec
 
 from ..errors import ConfigError, FieldIssue
 from ..model.limits import id_issue
+from ..model.problem import Id, Units
+from ..model.strict import shape_issues
 from ..replan.triggers import Tolerance
+
+#: A count that may be zero (units, ranks).
+Count = Annotated[int, msgspec.Meta(ge=0)]
+#: A count or a limit of at least one.
+AtLeastOne = Annotated[int, msgspec.Meta(ge=1)]
+#: A duration in seconds, more than zero.
+Seconds = Annotated[float, msgspec.Meta(gt=0)]
+#: A budget or a tolerance that may be zero.
+NonNegative = Annotated[float, msgspec.Meta(ge=0)]
 
 
 class NodeConfig(
@@ -132,88 +144,53 @@ class NodeConfig(
         where commanded, never commanded again.
     """
 
-    spacecraft: str = "sat1"
-    horizon: int | None = None
+    spacecraft: Id = "sat1"
+    horizon: Units | None = None
     solver: Literal["cbc", "highs"] = "cbc"
-    time_limit: float | None = 10.0
+    time_limit: Seconds | None = 10.0
     seed: int = 0
-    threads: int = 1
+    threads: AtLeastOne = 1
     explain: bool = True
-    explain_budget: float = 2.0
+    explain_budget: NonNegative = 2.0
     clock: Literal["bus", "wall"] = "wall"
-    time_unit: float = 1.0
-    report_timeout: int | None = None
-    drift_absolute: float = 0.5
-    drift_relative: float = 0.0
-    inbox_capacity: int = 256
-    inbox_bytes: int = 64 << 20
-    tasks_per_goal: int = 100
-    live_tasks: int = 300
-    goals_waiting: int = 64
-    goals_per_solve: int = 16
-    max_clock_step: int | None = 100
-    clock_stall: float | None = 30.0
-    response_deadline: float | None = 15.0
+    time_unit: Seconds = 1.0
+    report_timeout: AtLeastOne | None = None
+    drift_absolute: NonNegative = 0.5
+    drift_relative: NonNegative = 0.0
+    inbox_capacity: AtLeastOne = 256
+    inbox_bytes: Annotated[
+        int,
+        msgspec.Meta(ge=1 << 20, description="at least one payload (1 MiB)"),
+    ] = 64 << 20
+    tasks_per_goal: AtLeastOne = 100
+    live_tasks: AtLeastOne = 300
+    goals_waiting: AtLeastOne = 64
+    goals_per_solve: AtLeastOne = 16
+    max_clock_step: AtLeastOne | None = 100
+    clock_stall: Seconds | None = 30.0
+    response_deadline: Seconds | None = 15.0
     explain_after_plan: bool = True
-    heartbeat: int = 10
-    replan_lead: int | None = None
-    node_id: str | None = None
-    rank: int = 0
+    heartbeat: Count = 10
+    replan_lead: Count | None = None
+    node_id: Id | None = None
+    rank: Count = 0
     standby: bool = True
-    discovery: float = 1.0
-    goal_ids: int = 1024
+    discovery: NonNegative = 1.0
+    goal_ids: AtLeastOne = 1024
     reports_need_dispatch: bool = False
-    report_ahead: int = 1
-    cancel_timeout: int | None = 3
+    report_ahead: Count = 1
+    cancel_timeout: AtLeastOne | None = 3
 
     def __post_init__(self) -> None:
-        problems = []
-        reason = id_issue(self.spacecraft)
-        if reason is not None:
-            problems.append(f"spacecraft: the spacecraft id {reason}")
-        if self.node_id is not None:
-            reason = id_issue(self.node_id)
-            if reason is not None:
-                problems.append(f"node-id: the node id {reason}")
-        if self.rank < 0:
-            problems.append("rank must be >= 0")
-        if self.report_ahead < 0:
-            problems.append("report-ahead must be >= 0")
-        if self.cancel_timeout is not None and self.cancel_timeout < 1:
-            problems.append("cancel-timeout must be >= 1")
-        if self.discovery < 0:
-            problems.append("discovery must be >= 0")
-        if self.time_unit <= 0:
-            problems.append("time-unit must be > 0")
-        if self.explain_budget < 0:
-            problems.append("explain-budget must be >= 0")
-        if self.time_limit is not None and self.time_limit <= 0:
-            problems.append("time-limit must be > 0")
-        if self.horizon is not None and self.horizon <= 0:
-            problems.append("horizon must be > 0")
-        if self.replan_lead is not None and self.replan_lead < 0:
-            problems.append("replan-lead must be >= 0")
-        if self.inbox_capacity < 1:
-            problems.append("inbox-capacity must be >= 1")
-        for name in (
-            "tasks_per_goal",
-            "live_tasks",
-            "goals_waiting",
-            "goals_per_solve",
-            "goal_ids",
-        ):
-            if getattr(self, name) < 1:
-                problems.append(f"{name.replace('_', '-')} must be >= 1")
-        if self.response_deadline is not None and self.response_deadline <= 0:
-            problems.append("response-deadline must be > 0")
-        if self.max_clock_step is not None and self.max_clock_step < 1:
-            problems.append("max-clock-step must be >= 1")
-        if self.clock_stall is not None and self.clock_stall <= 0:
-            problems.append("clock-stall must be > 0")
-        if self.inbox_bytes < 1 << 20:
-            problems.append("inbox-bytes must be >= 1048576 (one payload)")
-        if problems:
-            raise ValueError("; ".join(problems))
+        # The ranges are declared once, in the field types (Meta): the
+        # file's decoder reads them there, and so does this check of a
+        # value built in code or changed by a command-line flag.
+        issues = [
+            _worded(issue, self)
+            for issue in shape_issues(msgspec.to_builtins(self), NodeConfig)
+        ]
+        if issues:
+            raise SettingsError(issues)
 
     @property
     def lead(self) -> int:
@@ -235,6 +212,50 @@ class NodeConfig(
         return msgspec.structs.replace(self, **kept)
 
 
+_AT_LINE = re.compile(r"\(at line (\d+), column \d+\)")
+_KEY = re.compile(r"\s*([A-Za-z0-9_.\"'-]+?)\s*=")
+
+
+class SettingsError(ValueError):
+    """Settings out of their declared ranges, every one named.
+
+    A ``ValueError`` (msgspec reports it as a validation error of the
+    file); ``issues`` holds them one by one, for a caller that names the
+    flags.
+    """
+
+    def __init__(self, issues: list[FieldIssue]) -> None:
+        self.issues = issues
+        super().__init__("; ".join(str(issue) for issue in issues))
+
+
+def _worded(issue: FieldIssue, config: NodeConfig) -> FieldIssue:
+    """An id's issue in the words every id is refused with."""
+    name = {"spacecraft": "spacecraft", "node-id": "node"}.get(issue.path)
+    value = getattr(config, issue.path.replace("-", "_"), None)
+    if name is None or not isinstance(value, str):
+        return issue
+    reason = id_issue(value)
+    return FieldIssue(issue.path, f"the {name} id {reason or issue.reason}")
+
+
+def _toml_error(path: str | Path, error: tomllib.TOMLDecodeError) -> str:
+    """``error`` in words, naming the key TOML refuses to set twice."""
+    text = str(error)
+    match = _AT_LINE.search(text)
+    if match is None or not text.startswith("Cannot overwrite"):
+        return text
+    lines = Path(path).read_text().splitlines()
+    number = int(match.group(1))
+    key = _KEY.match(lines[number - 1]) if number <= len(lines) else None
+    if key is None:
+        return text
+    return (
+        f"{key.group(1)} is set twice (line {number} sets it again); "
+        "a key is set once"
+    )
+
+
 def load_config(path: str | Path | None) -> NodeConfig:
     """Read a TOML settings file (None: defaults).
 
@@ -251,9 +272,7 @@ def load_config(path: str | Path | None) -> NodeConfig:
     except OSError as error:
         raise ConfigError(f"cannot read {path}: {error.strerror}") from None
     except tomllib.TOMLDecodeError as error:
-        raise ConfigError(f"{path}: {error}") from None
-    from ..model.strict import shape_issues
-
+        raise ConfigError(f"{path}: {_toml_error(path, error)}") from None
     issues = shape_issues(data, NodeConfig)
     if any("_" in i.path and "unknown field" in i.reason for i in issues):
         issues.append(

@@ -10,7 +10,7 @@ engine reports on the status key; nothing here raises.
 from __future__ import annotations
 
 import re
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import msgspec
 
@@ -32,6 +32,9 @@ from ..model.limits import MAX_ID_LENGTH, MAX_TIME
 from ..wire import messages
 from ..wire.topics import GOALS, Topics, input_kind
 
+if TYPE_CHECKING:
+    from ..model.problem import Resources
+
 
 class InputDecoder:
     """Decodes input samples into events, keeping the bus clock's state.
@@ -48,14 +51,23 @@ class InputDecoder:
         Largest forward step of one bus clock message, in units (None: no
         limit); a bigger step is rejected and time stays where it was.
         Clock values are integers in ``[0, MAX_TIME]`` in any case.
+    resources
+        The resources of the node's problem (they never change over a
+        run): a goal is checked against them in the same pass as its
+        shape, so that every mistake comes back in one rejection.
     """
 
     def __init__(
-        self, topics: Topics, clock: str, max_clock_step: int | None = None
+        self,
+        topics: Topics,
+        clock: str,
+        max_clock_step: int | None = None,
+        resources: Resources | None = None,
     ) -> None:
         self.topics = topics
         self.clock = clock
         self.max_clock_step = max_clock_step
+        self.resources = resources
         self.bus_now: int | None = None
 
     def event(self, key: str, payload: bytes) -> Event | None:
@@ -65,7 +77,7 @@ class InputDecoder:
             return None
         try:
             message = messages.decode_input(
-                "clock" if kind == "tick" else kind, payload
+                "clock" if kind == "tick" else kind, payload, self.resources
             )
             return self._event(kind, key, message)
         except InputError as error:

@@ -5,7 +5,9 @@ is logged after it subscribed, and a channel it learns of at its first
 message loses that message. :class:`LiveServer` therefore declares its
 channels before the server starts, keeps the latest message of each, and
 sends it again when a client subscribes, so that a Foxglove window opened
-at any time shows the current plan and status at once. Channels are those
+at any time shows the current plan and status at once. Clients reach it
+through :class:`~.subprotocol.SubprotocolBridge`, so that one offering
+only the older ``foxglove.websocket.v1`` is served too. Channels are those
 of the journal (:mod:`fsw_scheduler.journal.channels`): the same layout
 opens a recording and a running scheduler.
 
@@ -19,6 +21,8 @@ from __future__ import annotations
 import logging
 import queue
 from typing import TYPE_CHECKING, Any
+
+from .subprotocol import SubprotocolBridge
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterable
@@ -119,13 +123,22 @@ class LiveServer:
         for spec in channels:
             self.declare(spec)
         self.host = host
+        # The SDK's server on a loopback port of its own, reached through
+        # a relay that also takes the older subprotocol name.
         self._server: Any = foxglove.start_server(
             name=name,
-            host=host,
-            port=port,
+            host="127.0.0.1",
+            port=0,
             context=self._context,
             server_listener=_listener(self._on_subscribe),
         )
+        try:
+            self._relay = SubprotocolBridge(
+                ("127.0.0.1", int(self._server.port)), host, port
+            )
+        except OSError:
+            self._server.stop()
+            raise
 
     # -- channels ----------------------------------------------------------
 
@@ -221,7 +234,7 @@ class LiveServer:
     @property
     def port(self) -> int:
         """The TCP port the server listens on."""
-        return int(self._server.port)
+        return self._relay.port
 
     @property
     def url(self) -> str:
@@ -232,7 +245,14 @@ class LiveServer:
     def app_url(self, *, desktop: bool = False) -> str:
         """The app.foxglove.dev link that opens this server (in the
         desktop app with ``desktop``), as foxglove-sdk builds it."""
-        return str(self._server.app_url(open_in_desktop=desktop) or "")
+        from urllib.parse import quote
+
+        link = str(self._server.app_url(open_in_desktop=desktop) or "")
+        # The SDK names its own port; clients come in through the relay.
+        inner = f"127.0.0.1:{self._server.port}"
+        return link.replace(
+            quote(inner, safe=""), quote(self.url[5:], safe="")
+        )
 
     @property
     def open_url(self) -> str:
@@ -248,6 +268,7 @@ class LiveServer:
         server, self._server = self._server, None
         if server is None:
             return
+        self._relay.close()
         server.stop()
         for channel in self._channels.values():
             channel.close()

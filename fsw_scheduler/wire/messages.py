@@ -29,7 +29,14 @@ from ..model.plan import (
     SolverStats,
     SolveStatus,
 )
-from ..model.problem import Id, Instant, Precedence, Problem, Task
+from ..model.problem import (
+    Id,
+    Instant,
+    Precedence,
+    Problem,
+    Resources,
+    Task,
+)
 from .profiles import LevelCheck, Profiles
 
 #: Largest payload accepted on an input key; bigger ones are rejected
@@ -72,7 +79,10 @@ class ResourceLevel(msgspec.Struct, frozen=True):
     """
 
     resource: Id
-    level: float
+    level: Annotated[
+        float,
+        msgspec.Meta(ge=0, description="a stored amount is never negative"),
+    ]
     at: Instant
 
 
@@ -549,8 +559,13 @@ def encode(message: object) -> bytes:
     return _encoder.encode(message)
 
 
-def decode_input(kind: str, payload: bytes) -> Any:
+def decode_input(
+    kind: str, payload: bytes, resources: Resources | None = None
+) -> Any:
     """Decode an input payload of ``kind`` (clock, activity_report, ...).
+
+    ``resources``, when known, are the running problem's: a goal's uses
+    are checked against them in the same pass as its shape.
 
     Raises
     ------
@@ -569,5 +584,5 @@ def decode_input(kind: str, payload: bytes) -> Any:
             kind,
         )
     if kind == "goal":
-        return decode_goal(payload)
+        return decode_goal(payload, resources)
     return decode_strict(payload, SCHEMA_TYPES[kind], kind)

@@ -6,6 +6,8 @@ names. Recording, replay and the scheduler node all derive their keys here.
 
 from __future__ import annotations
 
+import re
+
 import msgspec
 
 PREFIX = "fsw"
@@ -141,6 +143,8 @@ KINDS = {
     LOG: "log",
     TERM: "term",
     FACTS: "facts",
+    # Every dispatch's journal and view channel (see journal_key).
+    DISPATCH: "dispatch",
 }
 #: Suffixes followed by one name chunk (a task or a resource).
 NAMED_KINDS = {
@@ -175,6 +179,43 @@ def kind_of(suffix: str) -> str | None:
         return KINDS[suffix]
     head, _, name = suffix.rpartition("/")
     return NAMED_KINDS.get(head) if name else None
+
+
+_DISPATCH_KEY = re.compile(rf"^(?P<channel>.+/{DISPATCH})/[^/]+$")
+
+
+def journal_key(key: str) -> str:
+    """The channel a journal and the live view keep ``key``'s messages on.
+
+    Every dispatch goes on one channel, ``<root>/scheduler/dispatch``
+    (the task is in the message), so that a long mission does not make a
+    channel per task and a view that starts late knows the dispatches
+    already made; any other key is its own channel. A journal written
+    before (one channel per ``scheduler/dispatch/<task>``) reads the same:
+    readers compare keys through this function.
+    """
+    match = _DISPATCH_KEY.match(key)
+    return match.group("channel") if match else key
+
+
+def bus_key(topic: str, payload: bytes) -> str:
+    """The bus key of a message kept on journal channel ``topic``.
+
+    The inverse of :func:`journal_key`: a dispatch goes back to
+    ``scheduler/dispatch/<task>``, its task read from the message (the
+    topic as it is when the message names none).
+    """
+    if not topic.endswith("/" + DISPATCH):
+        return topic
+    try:
+        task = msgspec.json.decode(payload, type=_Named).task
+    except (msgspec.DecodeError, RecursionError):
+        return topic
+    return f"{topic}/{task}" if task else topic
+
+
+class _Named(msgspec.Struct):
+    task: str = ""
 
 
 def input_kind(topics: Topics, key: str, clock: str) -> str | None:

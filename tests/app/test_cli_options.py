@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import subprocess
 import sys
 from typing import TYPE_CHECKING
@@ -272,3 +273,229 @@ def test_demo_says_what_it_does_after_the_timeline(tmp_path: Path) -> None:
     checking = text.index("through a fresh scheduler")
     verdict = text.index("replay --verify: IDENTICAL")
     assert drawing < checking < verdict
+
+
+def test_every_command_takes_verbose_and_quiet() -> None:
+    """Tests that ``-v`` and ``-q`` exist on every command, before or
+    after its name, and set the log level (debug; warning)."""
+    import argparse
+
+    from fsw_scheduler.app.cli.parser import build_parser, log_level
+
+    parser = build_parser()
+    (commands,) = [
+        action
+        for action in parser._actions
+        if isinstance(action, argparse._SubParsersAction)
+    ]
+    assert len(commands.choices) > 15
+    for name, sub in commands.choices.items():
+        flags = {
+            flag for action in sub._actions for flag in action.option_strings
+        }
+        assert {"-v", "--verbose", "-q", "--quiet"} <= flags, name
+    args = parser.parse_args(["schemas", "--out", "x", "-v"])
+    assert log_level(args) == "debug"
+    args = parser.parse_args(["-q", "schemas", "--out", "x"])
+    assert (log_level(args), args.quiet) == ("warning", True)
+    assert log_level(parser.parse_args(["schemas", "--out", "x"])) == "info"
+
+
+@pytest.mark.parametrize(
+    ("args", "flag"),
+    [
+        (["status"], "-e/--connect"),
+        (["send", "clock", '{"now": 1}'], "-e/--connect"),
+        (["record", "--out", "{tmp}/bus.mcap"], "-e/--connect"),
+        (["replay", str(ROOT / "replay" / "paper.mcap")], "-e/--connect"),
+        (["view", "--port", "0"], "-e/--connect"),
+    ],
+)
+def test_an_unreachable_endpoint_is_one_line_naming_the_flag(
+    args: list[str], flag: str, tmp_path: Path
+) -> None:
+    """Tests each command on the bus given a router that is not there:
+    one line naming the endpoint and the flag, no traceback, no Rust
+    internals, no file left behind by ``record``."""
+    from ..factories import free_port
+
+    args = [a.replace("{tmp}", str(tmp_path)) for a in args]
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    done = run(*args, "-m", "client", "-e", endpoint)
+    assert done.returncode == 1, done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1, done.stderr
+    assert f"cannot reach {endpoint}" in lines[0]
+    assert flag in lines[0]
+    for internal in ("Traceback", ".rs:", "Single(", "Json5Err"):
+        assert internal not in done.stderr
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["-l", "tcp/127.0.0.1:99999"], "-l/--listen"),
+        (["--cfg", "mode:bogus"], "--cfg 'mode:bogus': not a JSON5 value"),
+        (["-e", "tcp127.0.0.1:7447"], "-e/--connect"),
+        (["-c", "/nonexistent/zenoh.json5"], "-c/--config"),
+    ],
+)
+def test_a_bad_zenoh_setting_is_one_line_naming_the_flag(
+    args: list[str], words: str
+) -> None:
+    """Tests a bad port, a --cfg value that is not JSON5, an endpoint
+    without its protocol and a missing Zenoh file: one line, the flag."""
+    done = run("status", "--timeout", "1", *args)
+    assert done.returncode in (1, 2), done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1, done.stderr
+    assert words in lines[0]
+    for internal in ("Traceback", ".rs:", "Single(", "Json5Err", "cargo"):
+        assert internal not in done.stderr
+
+
+#: Modules a command that talks to a node has no use for: the solver, the
+#: journal, the pictures, the Foxglove server and what they pull in.
+HEAVY = (
+    "pulp",
+    "highspy",
+    "mcap",
+    "matplotlib",
+    "numpy",
+    "foxglove",
+    "fsw_scheduler.solving",
+    "fsw_scheduler.engine",
+    "fsw_scheduler.journal",
+    "fsw_scheduler.analysis",
+    "fsw_scheduler.replan",
+    "fsw_scheduler.api",
+)
+
+
+def test_the_command_line_imports_only_what_a_command_needs() -> None:
+    """Tests the import cost of the command line: parsing ``status``
+    loads none of the solver, the journal, MCAP, the pictures or the
+    Foxglove server (they come with the commands that use them)."""
+    code = (
+        "import sys\n"
+        "from fsw_scheduler.app.cli.main import main\n"
+        "try:\n"
+        "    main(['status', '--help'])\n"
+        "except SystemExit:\n"
+        "    pass\n"
+        "print('\\n'.join(sorted(sys.modules)))\n"
+    )
+    done = run(code=code)
+    assert done.returncode == 0, done.stderr
+    loaded = set(done.stdout.split())
+    heavy = sorted(
+        name
+        for name in loaded
+        if any(name == h or name.startswith(h + ".") for h in HEAVY)
+    )
+    assert heavy == [], heavy
+
+
+def test_the_layout_and_the_examples_are_shipped(tmp_path: Path) -> None:
+    """Tests that the package holds the layout and the examples the clone
+    has (byte for byte), that ``layout`` and ``examples`` write them, and
+    that a wheel built from the project carries them."""
+    data = ROOT / "fsw_scheduler" / "data"
+    docs_layout = ROOT / "docs" / "foxglove-layout.json"
+    assert (data / "foxglove-layout.json").read_bytes() == (
+        docs_layout.read_bytes()
+    )
+    clone = sorted(p.name for p in (ROOT / "examples").iterdir())
+    assert sorted(p.name for p in (data / "examples").iterdir()) == clone
+    for name in clone:
+        assert (data / "examples" / name).read_bytes() == (
+            ROOT / "examples" / name
+        ).read_bytes()
+    done = run("layout", "--out", str(tmp_path / "layout.json"))
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "layout.json").read_bytes() == docs_layout.read_bytes()
+    done = run("examples", "--out", str(tmp_path / "examples"))
+    assert done.returncode == 0, done.stderr
+    assert sorted(p.name for p in (tmp_path / "examples").iterdir()) == clone
+    # Built from a copy: an in-tree build would leave build/ behind.
+    source = tmp_path / "source"
+    shutil.copytree(
+        ROOT,
+        source,
+        ignore=shutil.ignore_patterns(
+            ".*", "build", "*.egg-info", "__pycache__", "replay", "tests"
+        ),
+    )
+    wheel = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "wheel",
+            "--no-deps",
+            "--no-build-isolation",
+            "--wheel-dir",
+            str(tmp_path / "dist"),
+            str(source),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert wheel.returncode == 0, wheel.stderr
+    import zipfile
+
+    (built,) = (tmp_path / "dist").glob("*.whl")
+    names = set(zipfile.ZipFile(built).namelist())
+    assert "fsw_scheduler/data/foxglove-layout.json" in names
+    for name in clone:
+        assert f"fsw_scheduler/data/examples/{name}" in names
+
+
+def test_the_sdist_is_the_whole_project(tmp_path: Path) -> None:
+    """Tests a source distribution built from the project: it holds the
+    docs, examples, schemas, golden journals, every test, the tools and
+    the lock, besides the package."""
+    source = tmp_path / "source"
+    shutil.copytree(
+        ROOT,
+        source,
+        ignore=shutil.ignore_patterns(
+            ".*", "build", "dist", "*.egg-info", "__pycache__", "out"
+        ),
+    )
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import sys; from setuptools import build_meta; "
+            "print(build_meta.build_sdist(sys.argv[1]))",
+            str(tmp_path / "dist"),
+        ],
+        cwd=source,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    import tarfile
+
+    (built,) = (tmp_path / "dist").glob("*.tar.gz")
+    with tarfile.open(built) as archive:
+        names = {
+            name.split("/", 1)[1] for name in archive.getnames() if "/" in name
+        }
+    wanted = {
+        str(path.relative_to(source))
+        for top in ("docs", "examples", "schemas", "replay", "tests", "tools")
+        for path in (source / top).rglob("*")
+        if path.is_file()
+    }
+    wanted |= {
+        "requirements-lock.txt",
+        "fsw_scheduler/data/foxglove-layout.json",
+    }
+    assert not wanted - names, sorted(wanted - names)[:10]

@@ -70,11 +70,17 @@ class FoxgloveClient:
     message received on a subscription, as (topic, payload).
     """
 
-    def __init__(self, url: str) -> None:
+    def __init__(
+        self, url: str, subprotocols: list[Subprotocol] | None = None
+    ) -> None:
         # websockets 17 wants the connection entered as a context.
         self._stack = contextlib.ExitStack()
         self.ws = self._stack.enter_context(
-            connect(url, subprotocols=SUBPROTOCOLS, open_timeout=WAIT_S)
+            connect(
+                url,
+                subprotocols=subprotocols or SUBPROTOCOLS,
+                open_timeout=WAIT_S,
+            )
         )
         self.info: dict[str, Any] | None = None
         self.channels: dict[str, dict[str, Any]] = {}
@@ -264,14 +270,16 @@ def test_a_view_started_after_the_plan_shows_it_at_once(
     scheduler_harness: SchedulerHarness,
     client_factory: Callable[[str], FoxgloveClient],
 ) -> None:
-    """Tests the start-up queries: plan, status and profiles of a node
-    that planned before the view existed, and nothing published since."""
+    """Tests the start-up queries: plan, status, profiles and settings of
+    a node that planned before the view existed, and nothing published
+    since."""
     h = scheduler_harness
     h.tick(0)
     plan = h.wait_plan(lambda p: p.plan_id == 1)
     h.settle()
     with live_view(h) as (server, bridge):
-        assert set(bridge.seeded) == {PLAN, STATUS, PROFILES}
+        config = TOPICS.key(keys.NODE_INFO)
+        assert set(bridge.seeded) == {PLAN, STATUS, PROFILES, config}
         client = client_factory(server.url)
         client.subscribe(PLAN, STATUS, PROFILES)
         assert client.wait_for(PLAN, PlanMessage, lambda _p: True) == plan
@@ -349,3 +357,33 @@ def test_view_process_prints_its_url_and_stops_on_sigterm() -> None:
         for stream in (process.stdout, process.stderr):
             if stream is not None:
                 stream.close()
+
+
+@pytest.mark.parametrize(
+    "protocol", ["foxglove.websocket.v1", "foxglove.sdk.v1"]
+)
+def test_a_late_view_serves_either_subprotocol_the_state_and_the_config(
+    scheduler_harness: SchedulerHarness, protocol: str
+) -> None:
+    """Tests a view started after the node's first plan, and a client
+    that offers one subprotocol only (the older ``foxglove.websocket.v1``
+    of Foxglove Studio and ws-protocol clients, or the SDK's): it is
+    answered in that protocol and gets the plan and the node's settings
+    (``scheduler/config``, published long before the view started)."""
+    h = scheduler_harness
+    h.tick(0)
+    plan = h.wait_plan(lambda p: p.plan_id == 1)
+    config = TOPICS.key(keys.NODE_INFO)
+    with live_view(h) as (server, _bridge):
+        client = FoxgloveClient(server.url, [Subprotocol(protocol)])
+        try:
+            assert client.ws.subprotocol == protocol
+            client.pump(lambda: client.info is not None, "serverInfo")
+            client.pump(lambda: config in client.channels, "config channel")
+            client.subscribe(PLAN, config)
+            assert client.wait_for(PLAN, PlanMessage, lambda _p: True) == plan
+            info = client.wait_for(config, dict, lambda _i: True)
+            assert info["spacecraft"] == "sat1"
+            assert "battery" in info["problem"]["resources"]["consumable"]
+        finally:
+            client.close()

@@ -526,3 +526,36 @@ def test_replay_remaps_keys_and_publishes_a_clock(tmp_path: Path) -> None:
         sub.undeclare()
     assert all(k.startswith("fsw/sat2/") for k in keys)
     assert keys.count("fsw/sat2/clock") == 3
+
+
+def test_dispatches_share_one_channel_and_replay_on_their_keys(
+    tmp_path: Path,
+) -> None:
+    """Tests that dispatches of several tasks are recorded on one channel
+    (``scheduler/dispatch``, the task in the message) and replayed onto
+    each task's own key."""
+    path = tmp_path / "bus.mcap"
+    tasks = ["Acquire", "Downlink", "Point", "Acquire"]
+    with Recorder(path) as rec:
+        for i, task in enumerate(tasks):
+            rec.write(
+                f"fsw/sat1/scheduler/dispatch/{task}",
+                json.dumps({"task": task, "i": i}).encode(),
+                log_time_ns=T0 + i * 1_000_000,
+            )
+    recorded = list(iter_messages(path))
+    assert {m.topic for m in recorded} == {"fsw/sat1/scheduler/dispatch"}
+    with open_peer_pair() as (a, b):
+        sub = a.declare_subscriber(
+            "fsw/sat1/**", zenoh.handlers.FifoChannel(64)
+        )
+        try:
+            wait_matching(b, "fsw/sat1/scheduler/dispatch/Point", TIMEOUT_S)
+            assert replay(b, path, burst=True) == len(tasks)
+            got = _receive(sub, len(tasks))
+        finally:
+            sub.undeclare()
+    assert got == [
+        (f"fsw/sat1/scheduler/dispatch/{task}", i)
+        for i, task in enumerate(tasks)
+    ]

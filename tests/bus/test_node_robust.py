@@ -635,6 +635,22 @@ def test_a_stalled_bus_clock_degrades_the_status(
     assert resumed.state == "ok"
 
 
+@pytest.mark.parametrize("scheduler_config", [harness_config(clock_stall=0.2)])
+def test_the_stall_alarm_waits_for_a_first_clock(
+    scheduler_harness: SchedulerHarness, scheduler_config: NodeConfig
+) -> None:
+    """Tests a node that has never seen a clock (a session typed by hand):
+    no ``clock_stalled`` for five times the limit, then one once a clock
+    has come and stopped."""
+    h = scheduler_harness
+    with pytest.raises(TimeoutError):
+        h.wait_status(lambda s: s.event == "clock_stalled", timeout=1.0)
+    assert h.query_status().state == "ok"
+    h.tick(0)
+    stalled = h.wait_status(lambda s: s.event == "clock_stalled")
+    assert "since unit 0" in stalled.detail
+
+
 # -- finding 6: the solver dies with the node; a stop interrupts a solve ------
 
 

@@ -5,6 +5,7 @@ subscriber as the ROS 2 side, with every git fetch made impossible."""
 from __future__ import annotations
 
 import contextlib
+import queue
 import threading
 import uuid
 from typing import TYPE_CHECKING, Any
@@ -24,6 +25,8 @@ from zenoh_ros2_sdk import (
 from zenoh_ros2_sdk import message_registry as sdk_registry
 
 from fsw_scheduler.bus.ros2 import (
+    EVENT_QOS,
+    LATEST_QOS,
     NODE_NAME,
     STRING_TYPE,
     Ros2Bridge,
@@ -110,11 +113,16 @@ class Inbox:
 
 
 @contextlib.contextmanager
-def bridged_scheduler() -> Iterator[tuple[SchedulerHarness, Ros2Bridge, int]]:
+def bridged_scheduler(
+    first_plan: bool = False,
+) -> Iterator[tuple[SchedulerHarness, Ros2Bridge, int]]:
     """A scheduler on Table 1, the bridge on a peer of its own connected
-    to it and listening on a loopback port (yielded for the ROS 2 side)."""
+    to it and listening on a loopback port (yielded for the ROS 2 side);
+    with ``first_plan``, the bridge starts after the node's plan 1."""
     with contextlib.ExitStack() as stack:
         harness = stack.enter_context(SchedulerHarness())
+        if first_plan:
+            harness.tick(0)
         session = zenoh.open(loopback_config(connect=harness.endpoints()))
         stack.callback(session.close)
         bridge = stack.enter_context(Ros2Bridge(session))
@@ -267,3 +275,52 @@ def test_spacecraft_ids_become_ros2_name_tokens(
     plan = bridged_topics(spacecraft)[0]
     assert plan.ros_topic == f"/fsw/{token}/scheduler/plan"
     assert plan.key_expr == f"fsw/{spacecraft}/scheduler/plan"
+
+
+def test_a_late_ros2_subscriber_gets_the_plan_already_made() -> None:
+    """Tests the latest-state topics as rmw_zenoh users expect them: a
+    bridge started after the plan, then a transient-local subscriber as
+    rmw_zenoh makes one (an advanced subscriber asking for history, depth
+    1) started after that, receives the plan at once; the graph says
+    transient local, depth 1, for plan and status, volatile for
+    dispatches."""
+    from zenoh import ext
+
+    with bridged_scheduler(first_plan=True) as (harness, bridge, port):
+        plan = harness.query_plan()
+        assert plan is not None and plan.plan_id == 1
+        topics = {t.leaf: t for t in bridge.topics}
+        assert topics["plan"].latest and topics["status"].latest
+        assert not topics["dispatches"].latest
+        (plan_key,) = [k for k in bridge.ros_keys if "/plan/" in k]
+        received: queue.SimpleQueue[bytes] = queue.SimpleQueue()
+        with zenoh.open(
+            loopback_config(listen=None, connect=[f"tcp/127.0.0.1:{port}"])
+        ) as late:
+            subscriber = ext.declare_advanced_subscriber(
+                late,
+                plan_key,
+                lambda sample: received.put(sample.payload.to_bytes()),
+                history=ext.HistoryConfig(
+                    detect_late_publishers=True, max_samples=1
+                ),
+            )
+            try:
+                text = bridge.codec.decode(received.get(timeout=WAIT_S))
+            finally:
+                subscriber.undeclare()
+        assert msgspec.json.decode(text, type=messages.PlanMessage) == plan
+        tokens = [
+            str(reply.ok.key_expr)
+            for reply in bridge.session.liveliness().get(
+                "@ros2_lv/**", timeout=2.0
+            )
+            if reply.ok is not None
+        ]
+        qos = {
+            leaf: [t.rsplit("/", 1)[1] for t in tokens if f"%{leaf}/" in t]
+            for leaf in topics
+        }
+        assert qos["plan"] == qos["status"] == [LATEST_QOS.encode()]
+        assert ":1:,1:" in LATEST_QOS.encode()  # transient local, depth 1
+        assert qos["dispatches"] == [EVENT_QOS.encode()]

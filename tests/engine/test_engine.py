@@ -10,6 +10,7 @@ import pytest
 from fsw_scheduler.engine.config import HELD_REPORTS, EngineConfig
 from fsw_scheduler.engine.core import Engine
 from fsw_scheduler.engine.events import (
+    ClockStalled,
     Command,
     InputRejected,
     Log,
@@ -784,3 +785,54 @@ def test_a_pause_of_this_node_dispatches_late_not_missed(paused: bool) -> None:
     else:
         assert activity.task not in sent
         assert missed
+
+
+def test_level_before_any_plan_is_answered() -> None:
+    """Tests that a level arriving before the first plan is rejected with
+    its reason, not dropped in silence."""
+    driver = Driver()
+    out = driver.level("battery", 3.0, 0)
+    (status,) = statuses(out, "input_rejected")
+    assert "no plan yet" in status.errors[0].reason
+    assert "telemetry/resources/battery" in status.detail
+
+
+def test_a_level_the_replan_cannot_use_is_answered() -> None:
+    """Tests a drift queued behind a goal's solve whose time the goal's
+    plan has left behind: ``input_rejected`` on the level's key names why
+    (it was a log line only)."""
+    driver = Driver(hold=True)
+    driver.tick(0)
+    driver.finish()
+    for now in range(1, 6):
+        driver.tick(now)
+    driver.goal(small_goal("g1", "Ping"))
+    predicted = battery_at(driver, 3)
+    out = driver.level("battery", predicted + 6.0, 3)
+    assert statuses(out, "drift")
+    out = driver.finish()
+    (status,) = statuses(out, "input_rejected")
+    assert status.detail.startswith("resource_level on ")
+    assert "telemetry/resources/battery" in status.detail
+    assert [e.path for e in status.errors] == ["at"]
+    assert driver.engine.status().counters.inputs_rejected == 1
+
+
+def test_a_plan_adopted_while_the_clock_is_stalled_keeps_it_said() -> None:
+    """Tests a stall during the initial solve: the plan adopted meanwhile
+    does not clear ``bus clock stalled`` (it did, so the next tick never
+    said ``clock_resumed``); the next tick does."""
+    driver = Driver(hold=True)
+    driver.tick(0)
+    out = driver.step(ClockStalled(31.0, 0))
+    assert statuses(out, "clock_stalled")
+    driver.finish()
+    status = driver.engine.status()
+    assert status.plan_id == 1
+    assert (status.state, status.detail[:17]) == (
+        "degraded",
+        "bus clock stalled",
+    )
+    out = driver.tick(1)
+    (resumed,) = statuses(out, "clock_resumed")
+    assert resumed.state == "ok"

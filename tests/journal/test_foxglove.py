@@ -394,3 +394,35 @@ def test_layout_topics_are_journal_and_live_channels(session: Path) -> None:
     profile = plots["Plot!profile"]
     assert profile["xAxisVal"] == "currentCustom"
     assert PROFILES_TOPIC in profile["xAxisPath"]["value"]
+
+
+def test_every_dispatch_is_on_one_channel(session: Path) -> None:
+    """Tests a fresh journal: one ``scheduler/dispatch`` channel holds
+    every dispatch, each naming its task (no channel per task), and the
+    journal verifies."""
+    _, _, messages = _read(session)
+    root = TOPICS.key("scheduler/dispatch")
+    topics = {ch.topic for _s, ch, _m in messages}
+    assert not [t for t in topics if t.startswith(root + "/")]
+    dispatched = [
+        json.loads(m.data)["task"]
+        for _s, ch, m in messages
+        if ch.topic == root
+    ]
+    assert len(set(dispatched)) > 3, dispatched
+    assert verify(session).identical
+
+
+def test_the_layout_names_no_task() -> None:
+    """Tests that the layout works for any task names: none of the
+    scenarios' tasks is named in it (the state-transition panel follows
+    the scheduler's state, events, plan and dispatched task)."""
+    text = LAYOUT.read_text()
+    tasks = {
+        task["id"]
+        for path in (ROOT / "fsw_scheduler" / "data").glob("*.json")
+        for task in json.loads(path.read_text()).get("tasks", [])
+    }
+    assert len(tasks) > 10
+    assert not [task for task in tasks if task in text]
+    assert r"\"fsw/sat1/scheduler/dispatch\".task" in text

@@ -8,7 +8,7 @@ import pytest
 
 from fsw_scheduler.errors import InputError
 from fsw_scheduler.model.goal import Goal, GoalTask, decode_goal
-from fsw_scheduler.model.problem import Task
+from fsw_scheduler.model.problem import Resources, Task
 
 from ..factories import make_task
 
@@ -89,3 +89,33 @@ def test_resources_are_left_to_the_merge() -> None:
     """Tests that unknown resource names are not judged without a problem."""
     doc = {"goal_id": "g", "tasks": [make_task(uses={"whatever": -3})]}
     assert decode_goal(json.dumps(doc)).tasks[0].uses == {"whatever": -3}
+
+
+def test_a_goal_s_mistakes_come_in_one_pass_with_the_resources() -> None:
+    """Tests the issue's goal (a bad id, a type error, an unknown
+    resource): with the running problem's resources known, all three are
+    named at once, not the third after the first two are fixed."""
+    doc = {
+        "goal_id": "bad/id",
+        "tasks": [
+            {
+                "id": "T",
+                "length": "3",
+                "delay_cost": 1,
+                "schedule_cost": 1,
+                "uses": {"laser": 1, "power": 2},
+            }
+        ],
+    }
+    resources = Resources(multiple={"power": 10})
+    with pytest.raises(InputError) as info:
+        decode_goal(json.dumps(doc), resources)
+    paths = [issue.path for issue in info.value.issues]
+    assert sorted(paths) == [
+        "goal_id",
+        "tasks[0].length",
+        "tasks[0].uses.laser",
+    ]
+    with pytest.raises(InputError) as info:
+        decode_goal(json.dumps(doc))
+    assert "tasks[0].uses.laser" not in {i.path for i in info.value.issues}

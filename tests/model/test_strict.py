@@ -5,17 +5,21 @@ from __future__ import annotations
 
 import copy
 import json
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import jsonschema
 import pytest
 
+from fsw_scheduler.app.cli.main import main
 from fsw_scheduler.errors import InputError
 from fsw_scheduler.model.goal import decode_goal
 from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.wire import messages
 
 from ..factories import DATA, ROOT, make_doc, make_task
+
+if TYPE_CHECKING:
+    from pathlib import Path
 
 
 def _validator(kind: str) -> jsonschema.Draft202012Validator:
@@ -100,21 +104,31 @@ STATIC = {
     "uses as a list": (("tasks", 0, "uses"), [1], "tasks[0].uses"),
     "boolean length": (("tasks", 0, "length"), True, "tasks[0].length"),
     "tasks as an object": (("tasks",), {}, "tasks"),
+    "window before 0": (
+        ("tasks", 0, "feasible_interval"),
+        [-5, 50],
+        "tasks[0].feasible_interval[0]",
+    ),
 }
 
 
 @pytest.mark.parametrize("name", sorted(STATIC))
 def test_shape_mistakes_are_rejected_by_the_scheduler_and_the_schema(
-    name: str,
+    name: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """Tests each shape mistake: the scheduler names its path, the shipped
-    schema rejects the same document."""
+    """Tests each shape mistake: the scheduler names its path, so does the
+    command line (``solve`` exits 2), the shipped schema rejects the same
+    document."""
     path, value, where = STATIC[name]
     doc = _table1(_set(path, value))
     with pytest.raises(InputError) as info:
         decode_problem(json.dumps(doc))
     assert where in {issue.path for issue in info.value.issues}, info.value
     assert list(PROBLEM.iter_errors(doc)), f"the schema accepts {name}"
+    file = tmp_path / "problem.json"
+    file.write_text(json.dumps(doc))
+    assert main(["solve", str(file)]) == 2
+    assert f"  {where}: " in capsys.readouterr().err
 
 
 #: Mistakes across fields (references, uniqueness, windows against the

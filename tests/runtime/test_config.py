@@ -91,3 +91,34 @@ def test_every_mistake_of_a_settings_file_at_once(tmp_path: Path) -> None:
     assert "heartbeat: must be an integer" in text
     assert "clock: must be one of 'bus', 'wall', got 'gps'" in text
     assert "kebab-case" in text
+
+
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [
+        ("heartbeat = -1\n", "heartbeat: must be >= 0, got -1"),
+        ("threads = 0\n", "threads: must be >= 1, got 0"),
+        ("drift-relative = -0.1\n", "drift-relative: must be >= 0"),
+        ("report-timeout = 0\n", "report-timeout: must be >= 1"),
+        ("replan-lead = -2\n", "replan-lead: must be >= 0"),
+        ("time-unit = nan\n", "time-unit: must be finite"),
+    ],
+)
+def test_every_range_of_the_settings_is_declared_in_the_types(
+    tmp_path: Path, text: str, words: str
+) -> None:
+    """Tests the ranges read from the field types (``heartbeat = -1`` was
+    accepted): the file is refused naming the key and the range."""
+    path = tmp_path / "scheduler.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError) as info:
+        load_config(path)
+    assert words in str(info.value)
+
+
+def test_a_setting_changed_in_code_keeps_its_range() -> None:
+    """Tests that a value set by a flag (``replace``) or in code is held to
+    the same declared range, every mistake at once."""
+    with pytest.raises(ValueError, match="heartbeat: must be >= 0") as info:
+        NodeConfig().replace(heartbeat=-1, rank=-1)
+    assert "rank: must be >= 0" in str(info.value)

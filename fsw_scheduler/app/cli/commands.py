@@ -14,7 +14,7 @@ import logging
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import msgspec
 
@@ -333,14 +333,15 @@ def open_bus(settings: zenoh.Config) -> zenoh.Session:
     in use, no route to a client's router) said in one line."""
     import zenoh
 
+    from ...bus.session import plain_zenoh_error
     from ...errors import BusError
 
     try:
         return zenoh.open(settings)
     except zenoh.ZError as error:
-        # Zenoh appends the Rust source location: keep the first sentence.
-        text = str(error).split(" at /")[0]
-        raise BusError(f"cannot open the Zenoh session: {text}") from None
+        raise BusError(
+            f"cannot open the Zenoh session: {plain_zenoh_error(str(error))}"
+        ) from None
 
 
 def cmd_config(args: argparse.Namespace) -> int:
@@ -397,8 +398,6 @@ def cmd_record(args: argparse.Namespace) -> int:
     """``fsw-scheduler record``: record the bus into an MCAP file."""
     import threading
 
-    import zenoh
-
     from ...bus.record import record
     from ...bus.session import zenoh_config
     from ...journal.annotate import schema_lookup
@@ -410,6 +409,8 @@ def cmd_record(args: argparse.Namespace) -> int:
     stop = threading.Event()
     exclude = [_key_expression(k, "--exclude") for k in args.exclude]
     stop_on_signals(stop)
+    # The bus first: an endpoint that cannot be reached leaves no file.
+    session = open_bus(zenoh_config(args))
     recorder = Recorder(
         args.out,
         compression=args.compression,
@@ -421,7 +422,7 @@ def cmd_record(args: argparse.Namespace) -> int:
         schemas=schema_lookup(args.spacecraft),
         only_json=args.json_only,
     )
-    with zenoh.open(zenoh_config(args)) as session, recorder:
+    with session, recorder:
         recorder.add_metadata(
             "fsw_scheduler.recording",
             recording_metadata(key, exclude, args.spacecraft),
@@ -485,13 +486,12 @@ def cmd_replay(args: argparse.Namespace) -> int:
         report = verify(args.files, progress=lambda line: log.info("%s", line))
         print(report.summary())
         return EXIT_OK if report.identical else EXIT_NO_PLAN
-    import zenoh
 
     from ...bus.record import replay
     from ...bus.session import zenoh_config
     from ...wire.topics import Topics
 
-    with zenoh.open(zenoh_config(args)) as session:
+    with open_bus(zenoh_config(args)) as session:
         if not args.into_live:
             from ...bus.record import live_schedulers, recorded_spacecraft
 
@@ -619,6 +619,41 @@ def cmd_schemas(args: argparse.Namespace) -> int:
     for name, text in sorted(schema_files().items()):
         (out / name).write_text(text)
         print(out / name)
+    return EXIT_OK
+
+
+def _shipped(*parts: str) -> Any:
+    """A file or folder of ``fsw_scheduler/data`` in the installed
+    package (a wheel holds them as package data)."""
+    from importlib import resources
+
+    node = resources.files("fsw_scheduler").joinpath("data")
+    for part in parts:
+        node = node.joinpath(part)
+    return node
+
+
+def cmd_layout(args: argparse.Namespace) -> int:
+    """``fsw-scheduler layout``: write the shipped Foxglove layout."""
+    text = _shipped("foxglove-layout.json").read_text()
+    if args.out is None:
+        sys.stdout.write(text)
+        return EXIT_OK
+    Path(args.out).write_text(text)
+    print(args.out)
+    return EXIT_OK
+
+
+def cmd_examples(args: argparse.Namespace) -> int:
+    """``fsw-scheduler examples``: write the shipped example files."""
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    for item in sorted(
+        _shipped("examples").iterdir(), key=lambda i: str(i.name)
+    ):
+        if item.is_file():
+            (out / item.name).write_text(item.read_text())
+            print(out / item.name)
     return EXIT_OK
 
 

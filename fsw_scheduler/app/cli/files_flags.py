@@ -12,7 +12,9 @@ from ...view.pages import ROWS_PER_PAGE
 from .commands import (
     cmd_check,
     cmd_demo,
+    cmd_examples,
     cmd_info,
+    cmd_layout,
     cmd_plot,
     cmd_recover,
     cmd_replan,
@@ -183,7 +185,6 @@ def add_demo_command(add: Add) -> None:
     demo.add_argument(
         "--no-verify", action="store_true", help="skip the replay check"
     )
-    demo.add_argument("--quiet", action="store_true", help="no live timeline")
     demo.add_argument(
         "--time-unit",
         type=non_negative_float,
@@ -301,6 +302,48 @@ def add_plot_command(add: Add) -> None:
         metavar="COPY.mcap",
         help="also write a copy of the journal with the pictures attached "
         "(the journal itself is left as it is)",
+    )
+
+
+def add_layout_command(add: Add) -> None:
+    """The ``layout`` and ``examples`` commands and their flags."""
+    lay = add(
+        "layout",
+        cmd_layout,
+        "write the Foxglove layout for journals and the live view",
+        """\
+        Write the Foxglove layout shipped with this version (the
+        project's docs/foxglove-layout.json): import it in Foxglove with
+        Layouts, Import from file. It opens an MCAP journal and the live
+        view (fsw-scheduler view) alike, for any task names. Without
+        --out, the layout goes to stdout.
+
+        example:
+          fsw-scheduler layout --out fsw-layout.json
+        """,
+    )
+    lay.add_argument(
+        "--out", metavar="FILE", help="file to write (default: stdout)"
+    )
+    exa = add(
+        "examples",
+        cmd_examples,
+        "write the example problem, goal and settings files",
+        """\
+        Write the examples shipped with this version (the project's
+        examples/ folder): resources.json and goal.json for the README's
+        session on the bus, problem.json, full-battery.json and the node's
+        settings, scheduler.toml.
+
+        example:
+          fsw-scheduler examples --out examples/
+        """,
+    )
+    exa.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="folder to write into (created if missing)",
     )
 
 

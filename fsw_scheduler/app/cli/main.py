@@ -11,9 +11,8 @@ import sys
 from typing import TYPE_CHECKING
 
 from ...errors import ConfigError, InputError, SchedulerError
-from ...journal.reader import McapError
 from .commands import EXIT_BAD_INPUT, EXIT_NO_PLAN, MissingDependency
-from .parser import build_parser
+from .parser import build_parser, log_level
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -23,7 +22,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run ``fsw-scheduler``; returns the exit code."""
     args = build_parser().parse_args(argv)
     logging.basicConfig(
-        level=args.log_level.upper(),
+        level=log_level(args).upper(),
         format="%(asctime)s %(levelname)-7s %(name)s: %(message)s",
         stream=sys.stderr,
     )
@@ -45,8 +44,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except TimeoutError as error:  # an OSError, but not bad input
         print(f"fsw-scheduler: error: {error}", file=sys.stderr)
         return EXIT_NO_PLAN
-    except (OSError, McapError) as error:
+    except SchedulerError as error:
+        print(f"fsw-scheduler: error: {error}", file=sys.stderr)
+        return EXIT_NO_PLAN
+    except Exception as error:
         # Unreadable or non-MCAP recordings are bad input, not crashes.
+        if not _unreadable(error):
+            raise
         where = (
             getattr(error, "filename", None)
             or " ".join(
@@ -61,8 +65,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
         print(f"fsw-scheduler: {where}: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except SchedulerError as error:
-        print(f"fsw-scheduler: error: {error}", file=sys.stderr)
-        return EXIT_NO_PLAN
     except KeyboardInterrupt:
         return 130
+
+
+def _unreadable(error: Exception) -> bool:
+    """Whether ``error`` says a file could not be read (an OS error, or
+    not MCAP). The MCAP reader is imported only then: a command that
+    talks to a node never loads it."""
+    if isinstance(error, OSError):
+        return True
+    from ...journal.reader import McapError
+
+    return isinstance(error, McapError)

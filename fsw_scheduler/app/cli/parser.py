@@ -27,6 +27,7 @@ from .files_flags import (
     add_check_command,
     add_demo_command,
     add_info_command,
+    add_layout_command,
     add_plot_command,
     add_recover_command,
     add_replan_command,
@@ -71,6 +72,35 @@ message formats; `fsw-scheduler schemas --out DIR` writes their JSON Schemas.
 """
 
 
+def _add_verbosity(parser: argparse.ArgumentParser, default: object) -> None:
+    """``-v``/``-q``, as every command line tool has them."""
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument(
+        "-v",
+        "--verbose",
+        action="store_true",
+        default=default,
+        help="say more: debug logs (--log-level debug)",
+    )
+    group.add_argument(
+        "-q",
+        "--quiet",
+        action="store_true",
+        default=default,
+        help="say less: warnings and errors only, no progress lines",
+    )
+
+
+def log_level(args: argparse.Namespace) -> str:
+    """The log level the flags ask for: ``-v`` debug, ``-q`` warning,
+    else ``--log-level``."""
+    if getattr(args, "verbose", False):
+        return "debug"
+    if getattr(args, "quiet", False) and args.log_level in ("debug", "info"):
+        return "warning"
+    return str(args.log_level)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``fsw-scheduler`` (all subcommands)."""
     parser = argparse.ArgumentParser(
@@ -90,8 +120,11 @@ def build_parser() -> argparse.ArgumentParser:
         choices=LOG_LEVELS,
         help="log verbosity on stderr (default: %(default)s)",
     )
-    # The same flag after the command name (`solve --log-level debug`);
-    # SUPPRESS keeps the value given before the command when absent here.
+    _add_verbosity(parser, argparse.SUPPRESS)
+    parser.set_defaults(verbose=False, quiet=False)
+    # The same flags after the command name (`solve --log-level debug`,
+    # `send -q`); SUPPRESS keeps the value given before the command when
+    # absent here.
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument(
         "--log-level",
@@ -99,6 +132,7 @@ def build_parser() -> argparse.ArgumentParser:
         choices=LOG_LEVELS,
         help="log verbosity on stderr (default: info)",
     )
+    _add_verbosity(common, argparse.SUPPRESS)
     commands = parser.add_subparsers(dest="command", metavar="COMMAND")
     commands.required = True
 
@@ -137,4 +171,5 @@ def build_parser() -> argparse.ArgumentParser:
     add_info_command(add)
     add_plot_command(add)
     add_schemas_command(add)
+    add_layout_command(add)
     return parser

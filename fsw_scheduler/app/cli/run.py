@@ -45,7 +45,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         config = load_config(settings_file(args)).replace(**run_settings(args))
     except ValueError as error:  # a bad value given as a flag
-        raise InputError([FieldIssue("", str(error))], "arguments") from None
+        issues = getattr(error, "issues", None) or [FieldIssue("", str(error))]
+        raise InputError(issues, "arguments") from None
     if config.node_id is None:
         from ...bus.members import default_node_id
 

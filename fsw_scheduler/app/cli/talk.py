@@ -16,6 +16,7 @@ import sys
 from typing import TYPE_CHECKING, Any
 
 from ...bus.session import add_zenoh_arguments
+from ...errors import InputError
 from .commands import (
     EXIT_NO_PLAN,
     EXIT_OK,
@@ -34,6 +35,13 @@ if TYPE_CHECKING:
     from ...bus.client import SchedulerClient
     from .files_flags import Add
 
+#: Seconds ``send`` waits for the node's settings (a node too old to
+#: answer them costs this much, once).
+_CONFIG_WAIT_S = 2.0
+#: The same wait for a document already refused: a node that is there
+#: answers in milliseconds; without one, the refusal comes this late.
+_COMPLETE_S = 1.0
+
 KINDS = {
     "goal": "goal",
     "report": "activity_report",
@@ -49,10 +57,13 @@ def add_talk_commands(add: Add) -> None:
         _cmd_send,
         "send a goal, report, level or clock to a running scheduler",
         """\
-        Check a document as the scheduler will (unknown fields, types,
-        ranges: every mistake is named, exit 2, nothing is sent), wait for
-        a scheduler of the spacecraft to be reachable, and publish it on
-        its key. With --wait, print the verdict: goal_accepted (exit 0) or
+        Check a document as the scheduler will (unknown fields, keys
+        written twice, types, ranges and, asked from the scheduler's
+        settings, its resources: every mistake is named at once, exit 2,
+        nothing is sent), wait for a scheduler of the spacecraft to be
+        reachable, and publish it on its key; without --wait, one line
+        says what was published where (-q: nothing). With --wait, print
+        the verdict: goal_accepted (exit 0) or
         goal_rejected with every reason (exit 1) for a goal (re-sent
         unchanged until answered, which is safe: a goal id is answered
         once); for a report, a level or a clock, the node's status after
@@ -151,10 +162,17 @@ def _cmd_send(args: argparse.Namespace) -> int:
 
     check_spacecraft(args.spacecraft)
     payload = _document(args.file)
-    message = _checked(args.kind, payload)
+    try:
+        message = _checked(args.kind, payload)
+    except InputError as error:
+        _complete(args, payload, error)
+        raise
     with _client(args) as client:
         try:
-            client.wait_scheduler(args.timeout)
+            client.find_scheduler(args.timeout)
+        except LookupError as error:
+            print(f"fsw-scheduler: {error}: nothing sent", file=sys.stderr)
+            return EXIT_NO_PLAN
         except TimeoutError:
             print(
                 f"fsw-scheduler: no scheduler of {args.spacecraft} reachable "
@@ -162,10 +180,12 @@ def _cmd_send(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
             return EXIT_NO_PLAN
+        _check_with_the_node(client, args, message, payload)
         if args.kind == "goal":
             doc = json.loads(payload)
             if not args.wait:
                 client.publish_goal(payload)
+                _published(args, f"goal {doc['goal_id']!r}", client, None)
                 return EXIT_OK
             answers = client.send_goals([doc], timeout=args.timeout)
             verdicts = answers[doc["goal_id"]]
@@ -188,6 +208,7 @@ def _cmd_send(args: argparse.Namespace) -> int:
         }[args.kind](message)
         if not args.wait:
             client.put(key, payload)
+            _published(args, args.kind, client, key)
             return EXIT_OK
         # A query travels behind the inputs sent before it, so its answer
         # has seen them: one before and one after the input, and the count
@@ -222,6 +243,99 @@ def _cmd_send(args: argparse.Namespace) -> int:
         return EXIT_NO_PLAN if rejected else EXIT_OK
 
 
+def _complete(
+    args: argparse.Namespace, payload: bytes, error: InputError
+) -> None:
+    """Raise ``error`` with the mistakes only the node's resources show.
+
+    A goal refused for its shape may also name a resource the node does
+    not have: asked for its settings (briefly: nothing will be sent), a
+    reachable node makes the report complete in one pass. Without one,
+    returns and the shape's mistakes stand.
+    """
+    if args.kind != "goal":
+        return
+    from ...bus.client import SchedulerClient
+    from ...bus.session import zenoh_config
+    from ...wire import messages
+
+    try:
+        with (
+            open_bus(zenoh_config(args)) as session,
+            SchedulerClient(session, args.spacecraft) as client,
+        ):
+            info = client.query_config(min(args.timeout, _COMPLETE_S))
+    except Exception:  # no bus: the shape's mistakes are the answer
+        return
+    if info is None or info.problem is None:
+        return
+    try:
+        messages.decode_input("goal", payload, info.problem.resources)
+    except InputError as complete:
+        if len(complete.issues) > len(error.issues):
+            raise complete from None
+
+
+def _check_with_the_node(
+    client: SchedulerClient,
+    args: argparse.Namespace,
+    message: Any,
+    payload: bytes,
+) -> None:
+    """Check what depends on the node's problem before sending.
+
+    The node's ``scheduler/config`` names its resources: a goal is checked
+    against them in the same pass as its shape (every mistake at once), a
+    level must be of one of its consumables. A node that does not answer
+    leaves those checks to itself.
+
+    Raises
+    ------
+    InputError
+        Nothing is sent (exit 2), every mistake named.
+    """
+    from ...errors import FieldIssue
+    from ...wire import messages
+
+    if args.kind not in ("goal", "level"):
+        return
+    info = client.query_config(min(args.timeout, _CONFIG_WAIT_S))
+    if info is None or info.problem is None:
+        return
+    resources = info.problem.resources
+    if args.kind == "goal":
+        messages.decode_input("goal", payload, resources)
+    elif message.resource not in resources.consumable:
+        known = ", ".join(resources.consumable) or "none"
+        raise InputError(
+            [
+                FieldIssue(
+                    "resource",
+                    f"{message.resource!r} is not a consumable of the "
+                    f"scheduler of {args.spacecraft} (consumables: {known})"
+                    ": nothing sent",
+                )
+            ],
+            "resource_level",
+        )
+
+
+def _published(
+    args: argparse.Namespace,
+    what: str,
+    client: SchedulerClient,
+    key: str | None,
+) -> None:
+    """Say what was published, where (``-q``: nothing)."""
+    if getattr(args, "quiet", False):
+        return
+    where = key or client.topics.key("scheduler/goals")
+    print(
+        f"published {what} on {where}; --wait for the scheduler's verdict",
+        flush=True,
+    )
+
+
 def _cmd_query(args: argparse.Namespace) -> int:
     import threading
 
@@ -229,6 +343,13 @@ def _cmd_query(args: argparse.Namespace) -> int:
 
     check_spacecraft(args.spacecraft)
     with _client(args) as client:
+        try:
+            client.find_scheduler(args.timeout)
+        except LookupError as error:
+            print(f"fsw-scheduler: {error}", file=sys.stderr)
+            return EXIT_NO_PLAN
+        except TimeoutError:
+            pass  # said below, as no answer
         try:
             answer: Any = (
                 client.query_status(args.timeout)

@@ -28,8 +28,9 @@ if TYPE_CHECKING:
 
 __all__ = ["add_view_command"]
 
-#: Where the layout for this view (and for journals) is shipped.
-LAYOUT = "docs/foxglove-layout.json"
+#: How to get the layout for this view (and for journals): it is shipped
+#: in the package (a clone also has it as docs/foxglove-layout.json).
+LAYOUT = "fsw-scheduler layout --out layout.json"
 
 
 def _port(text: str) -> int:
@@ -55,8 +56,8 @@ def add_view_command(add: Add) -> None:
         spacecraft's keys carry (fsw/<sc>/**), asks the scheduler for its
         current plan, status and profiles, and serves it all over the
         Foxglove WebSocket protocol: one channel per key, with the JSON
-        Schemas and names of the journal, so the layout
-        {LAYOUT} works for the live view and for a
+        Schemas and names of the journal, so the layout (written by
+        {LAYOUT}) works for the live view and for a
         recording alike. It also derives the journal's level checks
         (scheduler/levels) and log (scheduler/log, foxglove.Log). A window
         opened at any time gets the current plan, status and profiles at
@@ -70,8 +71,8 @@ def add_view_command(add: Add) -> None:
 
         To open it in Foxglove: follow the printed app.foxglove.dev link,
         or in Foxglove choose "Open connection", "Foxglove WebSocket" and
-        paste the ws:// address; then "Layouts", "Import from file",
-        {LAYOUT}. Needs {_hint()}.
+        paste the ws:// address; then "Layouts", "Import from file", the
+        file {LAYOUT} writes. Needs {_hint()}.
 
         examples:
           fsw-scheduler view
@@ -150,7 +151,7 @@ def _cmd_view(args: argparse.Namespace) -> int:
                 f"fsw-scheduler view: {where} on {server.url}\n"
                 f"  open in the browser: {server.app_url()}\n"
                 f"  open in the app:     {server.open_url}\n"
-                f"  layout:              {LAYOUT} (Layouts, Import)\n"
+                f"  layout:              {LAYOUT}, then Layouts, Import\n"
                 f"  scheduler: "
                 + (
                     "answered " + ", ".join(answered)
