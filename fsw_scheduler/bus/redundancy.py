@@ -68,6 +68,7 @@ from ..wire import messages, topics
 from ..wire.terms import term_refused
 from .lease import has_links
 from .members import Member, beats, order, precedence
+from .members import default_node_id as default_node_id  # its old home
 from .standby import SharedState, Tag, fence_terms, tag_of
 
 if TYPE_CHECKING:
