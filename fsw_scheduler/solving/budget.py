@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 from ..model.plan import Plan, SolveStatus
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Sequence
 
     from ..model.problem import Problem
 
@@ -51,6 +51,13 @@ class SolveBudget:
         limit does not cover: the start plan of a large merged problem,
         reading CBC's answer back, publishing (the soak's p99 overran
         0.2 s by 0.3 s).
+    min_part_s
+        The least share of the limit an independent part of a problem
+        gets when the limit has room for it (:meth:`part_share`): enough
+        for CBC to start on a small model and prove it. Below about 0.6 s
+        it is never started (the model's reading margin, CBC's
+        ``STOP_MARGIN_S`` and ``MIN_CBC_S``), and a part that needs it
+        keeps its start plan unproved.
     """
 
     greedy_share: float = 0.4
@@ -59,6 +66,7 @@ class SolveBudget:
     explain_budget_s: float = 10.0
     min_solve_s: float = 0.05
     publish_margin_s: float = 1.0
+    min_part_s: float = 1.0
 
     def budgeted(
         self, run: Callable[..., Plan], budget_s: float
@@ -84,6 +92,33 @@ class SolveBudget:
             return run(problem, time_limit=left)
 
         return attempt
+
+    def part_share(self, left_s: float, weights: Sequence[float]) -> float:
+        """The limit of the first of the parts still to solve.
+
+        Parameters
+        ----------
+        left_s
+            Seconds left of the whole solve's limit.
+        weights
+            The sizes of the parts still to solve (their start times), the
+            one to solve now first.
+
+        Returns
+        -------
+        float
+            Its share of ``left_s`` by size, raised to :attr:`min_part_s`
+            when an equal split of ``left_s`` among the parts still to
+            solve allows it (else to that equal split): a small part that
+            needs CBC is never given less than CBC needs to start only
+            because the other parts are large. A part done early leaves
+            the rest of its share to the parts after it.
+        """
+        if left_s <= 0 or not weights:
+            return 0.0
+        share = left_s * weights[0] / sum(weights)
+        floor = min(self.min_part_s, left_s / len(weights))
+        return max(share, floor)
 
     def deadline_limit(
         self, left_s: float, batches: int, time_limit: float | None

@@ -192,30 +192,14 @@ def _solve_parts(
     # the limit goes to the large one instead of waiting unused.
     order = sorted(range(len(parts)), key=lambda k: (weights[k], k))
     weights = [weights[k] for k in order]
+    subs = [_part(problem, parts[k], warm) for k in order]
     plans = []
-    for idx, part in enumerate(parts[k] for k in order):
-        members = set(part)
-        sub = problem.replace(
-            tasks=tuple(t for t in problem.tasks if t.id in members),
-            precedences=tuple(
-                p for p in problem.precedences if p.before in members
-            ),
-        )
-        sub_warm = None
-        if warm is not None:
-            sub_warm = warm.replace(
-                objective=None,
-                activities=tuple(
-                    a for a in warm.activities if a.task in members
-                ),
-                unscheduled=tuple(n for n in warm.unscheduled if n in members),
-                why=(),
-            )
+    for idx, (sub, sub_warm) in enumerate(subs):
         limit = None
         now = time.perf_counter()
         if time_limit is not None:
             left = time_limit - (now - began)
-            limit = max(0.0, left * weights[idx] / sum(weights[idx:]))
+            limit = BUDGET.part_share(left, weights[idx:])
         plans.append(
             _solve_whole(
                 sub,
@@ -223,10 +207,82 @@ def _solve_parts(
                 now,
                 limit,
                 sub_warm,
-                {n: domains[n] for n in part},
+                {t.id: domains[t.id] for t in sub.tasks},
             )
         )
+    if time_limit is not None:
+        _reopen(plans, subs, weights, run, began, time_limit, domains)
     return _joined(problem, plans, began, time_limit)
+
+
+def _part(problem: Problem, part: list[str], warm: Plan | None) -> tuple[
+    Problem, Plan | None
+]:
+    """The sub-problem of ``part``, and the part of ``warm`` that is its."""
+    members = set(part)
+    sub = problem.replace(
+        tasks=tuple(t for t in problem.tasks if t.id in members),
+        precedences=tuple(
+            p for p in problem.precedences if p.before in members
+        ),
+    )
+    if warm is None:
+        return sub, None
+    return sub, warm.replace(
+        objective=None,
+        activities=tuple(a for a in warm.activities if a.task in members),
+        unscheduled=tuple(n for n in warm.unscheduled if n in members),
+        why=(),
+    )
+
+
+def _reopen(
+    plans: list[Plan],
+    subs: list[tuple[Problem, Plan | None]],
+    weights: list[int],
+    run: functools.partial[Plan],
+    began: float,
+    time_limit: float,
+    domains: dict[str, Domain],
+) -> None:
+    """Solve the unproved parts again with what the others left unused.
+
+    Parts proved at once (most are) leave most of their shares; a part
+    that stopped at its own share, before the large parts were done,
+    gets that time now, warm-started from its plan. ``plans`` is
+    updated in place: a part's new plan replaces its plan when it is
+    proved or better.
+    """
+    still = [
+        idx
+        for idx, plan in enumerate(plans)
+        if plan.status in (SolveStatus.FEASIBLE, SolveStatus.UNKNOWN)
+    ]
+    for pos, idx in enumerate(still):
+        now = time.perf_counter()
+        left = time_limit - (now - began)
+        limit = BUDGET.part_share(left, [weights[k] for k in still[pos:]])
+        if limit < BUDGET.min_part_s:
+            return  # no more than the first pass had: nothing to gain
+        sub, _ = subs[idx]
+        before = plans[idx]
+        again = _solve_whole(
+            sub,
+            run,
+            now,
+            limit,
+            before if before.status.has_plan else None,
+            {t.id: domains[t.id] for t in sub.tasks},
+        )
+        gained = again.status is SolveStatus.OPTIMAL or (
+            again.objective is not None
+            and (
+                before.objective is None
+                or again.objective.total < before.objective.total
+            )
+        )
+        if gained or not before.status.has_plan:
+            plans[idx] = again
 
 
 def _joined(
@@ -252,7 +308,8 @@ def _joined(
             for status in SolveStatus
             if status in statuses
         )
-        + (f"; largest: {stats[-1].solver_status}" if stats else ""),
+        + (f"; largest: {stats[-1].solver_status}" if stats else "")
+        + "".join(_unproved(plan) for plan in plans),
         time_limit_s=time_limit,
     )
     everything = tuple(task.id for task in problem.tasks)
@@ -284,6 +341,27 @@ def _joined(
         stats=msgspec.structs.replace(
             summary, bound=total if optimal else None
         ),
+    )
+
+
+def _unproved(plan: Plan) -> str:
+    """What the joined status says of a part that is not proved: its
+    tasks, the limit it had, and its own solver status (why)."""
+    if plan.status is SolveStatus.OPTIMAL:
+        return ""
+    names = sorted(
+        [a.task for a in plan.activities] + list(plan.unscheduled)
+    )
+    stats = plan.stats
+    limit = (
+        ""
+        if stats is None or stats.time_limit_s is None
+        else f" after {stats.wall_s:.2f} s of {stats.time_limit_s:.2f} s"
+    )
+    why = stats.solver_status if stats is not None else "no statistics"
+    return (
+        f"; {plan.status.value}: the part of {len(names)} tasks from "
+        f"{names[0] if names else '-'}{limit}: {why}"
     )
 
 

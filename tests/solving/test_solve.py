@@ -522,6 +522,65 @@ def test_independent_parts_are_solved_apart() -> None:
     assert report.ok and report.objective == plan.objective
 
 
+def _small_part_beside(num_free: int) -> Problem:
+    """``num_free`` lone tasks over a day, each proved without a solver,
+    beside a small part that needs CBC: four camera tasks crowding one
+    window. The lone tasks' start times give them nearly all the weight
+    of the parts' share rule."""
+    tasks = [make_task(f"free{idx}", 5) for idx in range(num_free)]
+    tasks += [
+        make_task(
+            f"c{idx}",
+            3 + idx,
+            delay_cost=1 + idx,
+            uses={"cam": 1},
+            feasible_interval=[0, 40],
+        )
+        for idx in range(4)
+    ]
+    return problem_from(
+        make_doc(tasks, horizon=1440, resources={"binary": ["cam"]})
+    )
+
+
+def test_a_small_part_that_needs_cbc_gets_time_to_start_it() -> None:
+    """Tests that a small part needing CBC beside six large parts is
+    proved within a 20 s limit (it used to get 0.25 s by its size, too
+    little to start CBC, and the solve said feasible after 0.05 s)."""
+    problem = _small_part_beside(6)
+    plan = solve(problem, time_limit=20)
+    assert plan.status is SolveStatus.OPTIMAL, plan.stats
+    assert plan.stats is not None
+    assert "cbc" in plan.stats.solver.split("+"), plan.stats
+    assert plan.stats.solver_status.startswith("7 independent parts: 7 opt")
+    assert (
+        plan.objective
+        == solve(
+            problem.replace(
+                tasks=tuple(t for t in problem.tasks if t.id.startswith("c"))
+            )
+        ).objective
+    )
+
+
+def test_time_the_other_parts_leave_goes_to_the_unproved_one() -> None:
+    """Tests that a part whose first share was too small to start CBC
+    (31 parts, 6 s) is solved again with what the parts proved at once
+    left, and proved; and that with no time to give, the status names the
+    unproved part, its share and why."""
+    problem = _small_part_beside(30)
+    plan = solve(problem, time_limit=6)
+    assert plan.status is SolveStatus.OPTIMAL, plan.stats
+    assert plan.stats is not None and "cbc" in plan.stats.solver
+    short = solve(problem, time_limit=0.5)
+    assert short.status is SolveStatus.FEASIBLE
+    assert short.stats is not None
+    said = short.stats.solver_status
+    assert "30 optimal, 1 feasible" in said, said
+    assert "feasible: the part of 4 tasks from c0 after" in said, said
+    assert said.endswith("time limit spent on the start plan: no solve")
+
+
 def test_no_solver_when_only_impossible_tasks_are_out() -> None:
     """Tests that a start plan leaving out only tasks no plan can hold, the
     others at their earliest starts, is optimal without a solve."""
