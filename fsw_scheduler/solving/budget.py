@@ -39,6 +39,13 @@ class SolveBudget:
         model to the solver.
     lns_margin_s
         Seconds of the limit left when the neighbourhood search stops.
+    lns_share
+        Share of the time left after the start plan that the
+        neighbourhood search may take before the whole model, narrowed
+        around its incumbent, gets the rest (to prove it, improve it or
+        raise the bound); the search stops sooner when its incumbent
+        meets the kept-set bound or a sweep of its largest
+        neighbourhoods finds nothing.
     explain_budget_s
         Seconds all explanation solves may take together when the solve
         itself has no time limit (with one, they share what it left).
@@ -63,6 +70,7 @@ class SolveBudget:
     greedy_share: float = 0.4
     lns_min_tasks: int = 30
     lns_margin_s: float = 0.2
+    lns_share: float = 0.5
     explain_budget_s: float = 10.0
     min_solve_s: float = 0.05
     publish_margin_s: float = 1.0

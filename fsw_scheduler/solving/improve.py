@@ -54,6 +54,7 @@ def improve(
     domains: dict[str, Domain],
     run: SolveIlp,
     deadline: float,
+    bound: float | None = None,
 ) -> tuple[Plan, int]:
     """Improve ``incumbent`` by solving sub-models until ``deadline``.
 
@@ -71,6 +72,9 @@ def improve(
         ``time_limit``.
     deadline
         :func:`time.perf_counter` value by which to return.
+    bound
+        A proven lower bound on every plan's objective, if known: the
+        search stops as soon as its incumbent meets it (it is optimal).
 
     Returns
     -------
@@ -87,20 +91,21 @@ def improve(
     while True:
         now = time.perf_counter()
         left = deadline - now
-        if left < MIN_ROUND_S:
+        if left < MIN_ROUND_S or _meets(best, bound):
             break
         if now - last_log >= PROGRESS_S and best.objective is not None:
             last_log = now
             log.info(
                 "neighbourhood search %.0f s on %d tasks: incumbent left-out "
                 "cost %d, delay %d; %d improvements, neighbourhoods of %d "
-                "tasks, no bound",
+                "tasks, bound %s",
                 now - began,
                 problem.num_tasks,
                 best.objective.unscheduled_cost,
                 best.objective.delay_cost,
                 improved,
                 size,
+                "none" if bound is None else f"{bound:.0f}",
             )
         if stale >= len(windows):
             # A whole sweep found nothing: larger neighbourhoods.
@@ -135,6 +140,16 @@ def improve(
         else:
             stale += 1
     return best, improved
+
+
+def _meets(plan: Plan, bound: float | None) -> bool:
+    """True if ``plan``'s objective is within half a unit of ``bound``
+    (every objective is an integer): nothing can be better."""
+    return (
+        bound is not None
+        and plan.objective is not None
+        and plan.objective.total <= bound + 0.5
+    )
 
 
 def _windows(problem: Problem, size: int) -> list[tuple[int, int]]:

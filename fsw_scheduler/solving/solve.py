@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import msgspec
 
-from ..analysis.bounds import KeptSetProof, kept_set_plan
+from ..analysis.bounds import KeptSetProof, kept_set_bound, kept_set_plan
 from ..analysis.check import check_plan
 from ..analysis.domains import start_domains
 from ..analysis.explain import explain as explain_plan
@@ -114,6 +114,7 @@ def solve(
         )
     else:
         plan = _solve_whole(problem, run, began, time_limit, warm, domains)
+    plan = _with_gap(plan)
     if explain and (plan.unscheduled or not plan.status.has_plan):
         budget = explain_budget
         if budget is None:
@@ -128,6 +129,17 @@ def solve(
             why=explain_plan(problem, plan, BUDGET.budgeted(run, budget))
         )
     return plan
+
+
+def _with_gap(plan: Plan) -> Plan:
+    """``plan`` with ``stats.gap``: its objective less its proven bound."""
+    stats = plan.stats
+    if stats is None or stats.bound is None or plan.objective is None:
+        return plan
+    gap = max(0.0, plan.objective.total - stats.bound)
+    if plan.status is SolveStatus.OPTIMAL:
+        gap = 0.0
+    return plan.replace(stats=msgspec.structs.replace(stats, gap=gap))
 
 
 def components(problem: Problem) -> list[list[str]]:
@@ -215,9 +227,9 @@ def _solve_parts(
     return _joined(problem, plans, began, time_limit)
 
 
-def _part(problem: Problem, part: list[str], warm: Plan | None) -> tuple[
-    Problem, Plan | None
-]:
+def _part(
+    problem: Problem, part: list[str], warm: Plan | None
+) -> tuple[Problem, Plan | None]:
     """The sub-problem of ``part``, and the part of ``warm`` that is its."""
     members = set(part)
     sub = problem.replace(
@@ -333,15 +345,38 @@ def _joined(
     )
     optimal = statuses == {SolveStatus.OPTIMAL}
     total = weight * missed + delay
+    bound = float(total) if optimal else _joined_bound(problem, plans)
     return Plan(
         status=SolveStatus.OPTIMAL if optimal else SolveStatus.FEASIBLE,
         objective=Objective(missed, delay, total),
         activities=activities,
         unscheduled=tuple(n for n in everything if n in left_out),
-        stats=msgspec.structs.replace(
-            summary, bound=total if optimal else None
-        ),
+        stats=msgspec.structs.replace(summary, bound=bound),
     )
+
+
+def _joined_bound(problem: Problem, plans: list[Plan]) -> float | None:
+    """A bound on the whole objective from the parts' bounds, if each
+    part has one.
+
+    A part's objective weighs a left-out cost by its own ``W_p`` (its
+    tasks' delay costs), the whole's by ``W``: a part bound ``L`` says
+    that a plan leaving out ``m = L // W_p`` has a delay of at least
+    ``L - m W_p``, and one leaving out more costs more than any delay, so
+    ``W m + L - m W_p`` bounds the part in the whole's units; the parts'
+    bounds add up.
+    """
+    delay = {task.id: task.delay_cost for task in problem.tasks}
+    whole = objective_weight(list(delay.values()), problem.horizon)
+    total = 0.0
+    for plan in plans:
+        if plan.stats is None or plan.stats.bound is None:
+            return None
+        names = [a.task for a in plan.activities] + list(plan.unscheduled)
+        weight = objective_weight([delay[n] for n in names], problem.horizon)
+        missed = int(plan.stats.bound // weight)
+        total += whole * missed + plan.stats.bound - weight * missed
+    return total
 
 
 def _unproved(plan: Plan) -> str:
@@ -349,9 +384,7 @@ def _unproved(plan: Plan) -> str:
     tasks, the limit it had, and its own solver status (why)."""
     if plan.status is SolveStatus.OPTIMAL:
         return ""
-    names = sorted(
-        [a.task for a in plan.activities] + list(plan.unscheduled)
-    )
+    names = sorted([a.task for a in plan.activities] + list(plan.unscheduled))
     stats = plan.stats
     limit = (
         ""
@@ -493,6 +526,15 @@ def _solve_whole(
                 # A stopped CBC can report the value of an LP that is not
                 # the root's; above a valid plan, it bounds nothing.
                 bound = None
+            if (
+                relaxed is not None
+                and relaxed.bound is not None
+                and plan.objective is not None
+                and relaxed.bound <= plan.objective.total
+            ):
+                # The kept-set relaxation bounds every plan at least as
+                # good as the start plan, so the optimum too.
+                bound = _higher(bound, relaxed.bound)
             plan = plan.replace(
                 stats=msgspec.structs.replace(
                     plan.stats,
@@ -504,6 +546,16 @@ def _solve_whole(
     return plan
 
 
+#: Seconds (at most; a tenth of what is left) that the whole model run
+#: after the neighbourhood search leaves of the limit for its own end.
+FULL_MARGIN_S = 1.0
+
+#: The whole model is run after the neighbourhood search only with at
+#: least this long left: a 60-task model's building and CBC's start took
+#: all of 1.7 s, and the search had lost that time for nothing.
+FULL_MIN_S = 2.0
+
+
 def _improved(
     problem: Problem,
     start: Plan,
@@ -513,23 +565,138 @@ def _improved(
     time_limit: float,
 ) -> Plan:
     """The start plan improved by
-    :func:`fsw_scheduler.solving.improve.improve`.
+    :func:`fsw_scheduler.solving.improve.improve`, with a proven bound.
 
     For large problems under a limit: the whole model does not get
     through CBC's root LP in seconds (on the scaling set CBC never
-    improved the start plan), small neighbourhood models do.
+    improved the start plan), small neighbourhood models do. The
+    kept-set relaxation (:func:`~fsw_scheduler.analysis.bounds.
+    kept_set_plan`) bounds every plan from the start, and the search
+    stops when its incumbent meets the bound. Otherwise, once a sweep of
+    the largest neighbourhoods finds nothing or its share of the limit
+    (:attr:`~fsw_scheduler.solving.budget.SolveBudget.lns_share`) is
+    spent, the whole model, narrowed around the incumbent (every plan at
+    least as good fits in it), gets the rest of the limit: CBC may prove
+    the incumbent, improve it, or at least raise the bound. The plan
+    carries the best bound found (``stats.bound``) and its ``gap``.
     """
     deadline = began + time_limit - BUDGET.lns_margin_s
-    best, improved = improve(problem, start, domains, run, deadline)
+    relaxed = kept_set_bound(problem, start, domains)
+    if relaxed.plan is not None:
+        return _proved_start(
+            relaxed.plan,
+            began,
+            time_limit,
+            "every kept task at its earliest start, and no other choice "
+            "of tasks to keep costs less: no solve",
+        )
+    bound = None if relaxed.bound is None else float(relaxed.bound)
+    now = time.perf_counter()
+    lns_end = deadline
+    if (1 - BUDGET.lns_share) * (deadline - now) >= FULL_MIN_S:
+        lns_end = now + BUDGET.lns_share * (deadline - now)
+    best, improved = improve(problem, start, domains, run, lns_end, bound)
+    said = f"neighbourhood search: {improved} improvements of the start plan"
+    solver = (
+        f"{run.keywords.get('solver', 'cbc')}-lns"
+        if isinstance(run, functools.partial)
+        else "lns"
+    )
+    status = SolveStatus.FEASIBLE
+    left = deadline - time.perf_counter()
+    if _meets(best, bound):
+        status = SolveStatus.OPTIMAL
+        said += "; it meets the kept-set bound"
+    elif left >= FULL_MIN_S:
+        again = relaxed
+        if improved:
+            # The search costs up to a second here: only when it can say
+            # more than it did of the start plan.
+            again = kept_set_bound(problem, best, domains)
+            bound = _higher(bound, again.bound)
+        answer = checked(
+            problem,
+            run(
+                problem,
+                warm=best.starts(),
+                domains=narrow(problem, best, domains, again),
+                # A large model's CBC, killed at its deadline, and its
+                # answer read back, ran up to 1.6 s past a 20 s limit.
+                time_limit=left - min(FULL_MARGIN_S, 0.1 * left),
+            ),
+        )
+        found = answer.stats.bound if answer.stats is not None else None
+        if answer.status is SolveStatus.OPTIMAL and (
+            answer.objective is not None
+            and best.objective is not None
+            and answer.objective.total <= best.objective.total
+        ):
+            best, status = answer, SolveStatus.OPTIMAL
+            found = float(answer.objective.total)
+        elif (
+            answer.status.has_plan
+            and answer.objective is not None
+            and best.objective is not None
+            and answer.objective.total < best.objective.total
+        ):
+            best = answer
+        if (
+            found is not None
+            and best.objective is not None
+            and found <= best.objective.total + 0.5
+        ):
+            # A bound of the narrowed model bounds the whole problem: the
+            # optimum fits in it. Above the incumbent it bounds nothing
+            # (a stopped CBC's last LP, not its root's).
+            bound = _higher(bound, found)
+        said += "; then the whole model, narrowed: " + (
+            answer.stats.solver_status if answer.stats else "no answer"
+        )
+        if _meets(best, bound):
+            status = SolveStatus.OPTIMAL
+    if status is SolveStatus.OPTIMAL and best.objective is not None:
+        bound = float(best.objective.total)
     return best.replace(
-        status=SolveStatus.FEASIBLE,
+        status=status,
+        why=(),
         stats=SolverStats(
-            solver=f"{run.keywords.get('solver', 'cbc')}-lns"
-            if isinstance(run, functools.partial)
-            else "lns",
+            solver=solver,
             wall_s=time.perf_counter() - began,
-            solver_status=f"neighbourhood search: {improved} improvements "
-            "of the start plan",
+            bound=bound,
+            solver_status=said,
+            time_limit_s=time_limit,
+        ),
+    )
+
+
+def _higher(bound: float | None, other: float | None) -> float | None:
+    """The higher of two lower bounds, either of which may be unknown."""
+    if bound is None or other is None:
+        return other if bound is None else bound
+    return max(bound, other)
+
+
+def _meets(plan: Plan, bound: float | None) -> bool:
+    """True if ``plan``'s objective (an integer) is within half a unit of
+    ``bound``: no plan is better."""
+    return (
+        bound is not None
+        and plan.objective is not None
+        and plan.objective.total <= bound + 0.5
+    )
+
+
+def _proved_start(
+    plan: Plan, began: float, time_limit: float | None, proof: str
+) -> Plan:
+    """``plan`` proved optimal without a solver, with its statistics."""
+    return plan.replace(
+        status=SolveStatus.OPTIMAL,
+        stats=SolverStats(
+            solver="greedy",
+            wall_s=time.perf_counter() - began,
+            bound=plan.objective.total if plan.objective else None,
+            solver_status=proof,
             time_limit_s=time_limit,
         ),
     )
