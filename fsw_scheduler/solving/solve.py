@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import msgspec
 
-from ..analysis.bounds import KeptSetProof, kept_set_bound, kept_set_plan
+from ..analysis.bounds import KeptSetProof, kept_set_plan
 from ..analysis.check import check_plan
 from ..analysis.domains import start_domains
 from ..analysis.explain import explain as explain_plan
@@ -22,8 +22,8 @@ from ..model.plan import (
     SolveStatus,
     objective_weight,
 )
+from . import large
 from .budget import BUDGET
-from .improve import improve
 from .incumbent import checked, narrow, probed
 
 if TYPE_CHECKING:
@@ -68,7 +68,11 @@ def solve(
         Also say why each left-out task is out (and, when infeasible, which
         mandatory tasks cannot be placed); costs extra solves.
     warm
-        A previous plan, a candidate MIP start (see :func:`best_start`).
+        The plan in force, mapped onto ``problem`` (a replan): a candidate
+        MIP start (see :func:`best_start`). Under a time limit a replan
+        takes :meth:`~fsw_scheduler.solving.budget.SolveBudget.
+        replan_limit` of it, and a large part is repaired from this plan
+        and searched around what changed instead of solved afresh.
     explain_budget
         Seconds all explanation solves may take together (default: the
         time limit, else
@@ -91,6 +95,10 @@ def solve(
         seed=seed,
     )
     began = time.perf_counter()
+    limit = time_limit
+    if warm is not None and time_limit is not None:
+        # A replan pays for what changed (repair.py), not a fresh solve.
+        limit = BUDGET.replan_limit(time_limit)
     domains = start_domains(problem)
     proof = infeasibility(problem, domains)
     if proof:
@@ -109,11 +117,9 @@ def solve(
         )
     parts = components(problem)
     if len(parts) > 1:
-        plan = _solve_parts(
-            problem, parts, run, began, time_limit, warm, domains
-        )
+        plan = _solve_parts(problem, parts, run, began, limit, warm, domains)
     else:
-        plan = _solve_whole(problem, run, began, time_limit, warm, domains)
+        plan = _solve_whole(problem, run, began, limit, warm, domains)
     plan = _with_gap(plan)
     if explain and (plan.unscheduled or not plan.status.has_plan):
         budget = explain_budget
@@ -412,6 +418,16 @@ def _solve_whole(
     domains: dict[str, Domain],
 ) -> Plan:
     """Start plan, then the solver or the neighbourhood search; no ``why``."""
+    if (
+        warm is not None
+        and time_limit is not None
+        and problem.num_tasks >= BUDGET.lns_min_tasks
+    ):
+        replanned = large.replanned(
+            problem, warm, domains, run, began, time_limit
+        )
+        if replanned is not None:
+            return replanned
     stop = None
     if time_limit is not None:
         # The heuristic gets a share of the limit; its trivial plan (the
@@ -485,7 +501,7 @@ def _solve_whole(
         and time_limit is not None
         and problem.num_tasks >= BUDGET.lns_min_tasks
     ):
-        plan = _improved(problem, start, domains, run, began, time_limit)
+        plan = large.improved(problem, start, domains, run, began, time_limit)
     else:
         narrowed = narrow(problem, start, domains, relaxed)
         answer, start, narrowed = probed(
@@ -534,7 +550,7 @@ def _solve_whole(
             ):
                 # The kept-set relaxation bounds every plan at least as
                 # good as the start plan, so the optimum too.
-                bound = _higher(bound, relaxed.bound)
+                bound = large.higher(bound, relaxed.bound)
             plan = plan.replace(
                 stats=msgspec.structs.replace(
                     plan.stats,
@@ -544,162 +560,6 @@ def _solve_whole(
                 )
             )
     return plan
-
-
-#: Seconds (at most; a tenth of what is left) that the whole model run
-#: after the neighbourhood search leaves of the limit for its own end.
-FULL_MARGIN_S = 1.0
-
-#: The whole model is run after the neighbourhood search only with at
-#: least this long left: a 60-task model's building and CBC's start took
-#: all of 1.7 s, and the search had lost that time for nothing.
-FULL_MIN_S = 2.0
-
-
-def _improved(
-    problem: Problem,
-    start: Plan,
-    domains: dict[str, Domain],
-    run: Callable[..., Plan],
-    began: float,
-    time_limit: float,
-) -> Plan:
-    """The start plan improved by
-    :func:`fsw_scheduler.solving.improve.improve`, with a proven bound.
-
-    For large problems under a limit: the whole model does not get
-    through CBC's root LP in seconds (on the scaling set CBC never
-    improved the start plan), small neighbourhood models do. The
-    kept-set relaxation (:func:`~fsw_scheduler.analysis.bounds.
-    kept_set_plan`) bounds every plan from the start, and the search
-    stops when its incumbent meets the bound. Otherwise, once a sweep of
-    the largest neighbourhoods finds nothing or its share of the limit
-    (:attr:`~fsw_scheduler.solving.budget.SolveBudget.lns_share`) is
-    spent, the whole model, narrowed around the incumbent (every plan at
-    least as good fits in it), gets the rest of the limit: CBC may prove
-    the incumbent, improve it, or at least raise the bound. The plan
-    carries the best bound found (``stats.bound``) and its ``gap``.
-    """
-    deadline = began + time_limit - BUDGET.lns_margin_s
-    relaxed = kept_set_bound(problem, start, domains)
-    if relaxed.plan is not None:
-        return _proved_start(
-            relaxed.plan,
-            began,
-            time_limit,
-            "every kept task at its earliest start, and no other choice "
-            "of tasks to keep costs less: no solve",
-        )
-    bound = None if relaxed.bound is None else float(relaxed.bound)
-    now = time.perf_counter()
-    lns_end = deadline
-    if (1 - BUDGET.lns_share) * (deadline - now) >= FULL_MIN_S:
-        lns_end = now + BUDGET.lns_share * (deadline - now)
-    best, improved = improve(problem, start, domains, run, lns_end, bound)
-    said = f"neighbourhood search: {improved} improvements of the start plan"
-    solver = (
-        f"{run.keywords.get('solver', 'cbc')}-lns"
-        if isinstance(run, functools.partial)
-        else "lns"
-    )
-    status = SolveStatus.FEASIBLE
-    left = deadline - time.perf_counter()
-    if _meets(best, bound):
-        status = SolveStatus.OPTIMAL
-        said += "; it meets the kept-set bound"
-    elif left >= FULL_MIN_S:
-        again = relaxed
-        if improved:
-            # The search costs up to a second here: only when it can say
-            # more than it did of the start plan.
-            again = kept_set_bound(problem, best, domains)
-            bound = _higher(bound, again.bound)
-        answer = checked(
-            problem,
-            run(
-                problem,
-                warm=best.starts(),
-                domains=narrow(problem, best, domains, again),
-                # A large model's CBC, killed at its deadline, and its
-                # answer read back, ran up to 1.6 s past a 20 s limit.
-                time_limit=left - min(FULL_MARGIN_S, 0.1 * left),
-            ),
-        )
-        found = answer.stats.bound if answer.stats is not None else None
-        if answer.status is SolveStatus.OPTIMAL and (
-            answer.objective is not None
-            and best.objective is not None
-            and answer.objective.total <= best.objective.total
-        ):
-            best, status = answer, SolveStatus.OPTIMAL
-            found = float(answer.objective.total)
-        elif (
-            answer.status.has_plan
-            and answer.objective is not None
-            and best.objective is not None
-            and answer.objective.total < best.objective.total
-        ):
-            best = answer
-        if (
-            found is not None
-            and best.objective is not None
-            and found <= best.objective.total + 0.5
-        ):
-            # A bound of the narrowed model bounds the whole problem: the
-            # optimum fits in it. Above the incumbent it bounds nothing
-            # (a stopped CBC's last LP, not its root's).
-            bound = _higher(bound, found)
-        said += "; then the whole model, narrowed: " + (
-            answer.stats.solver_status if answer.stats else "no answer"
-        )
-        if _meets(best, bound):
-            status = SolveStatus.OPTIMAL
-    if status is SolveStatus.OPTIMAL and best.objective is not None:
-        bound = float(best.objective.total)
-    return best.replace(
-        status=status,
-        why=(),
-        stats=SolverStats(
-            solver=solver,
-            wall_s=time.perf_counter() - began,
-            bound=bound,
-            solver_status=said,
-            time_limit_s=time_limit,
-        ),
-    )
-
-
-def _higher(bound: float | None, other: float | None) -> float | None:
-    """The higher of two lower bounds, either of which may be unknown."""
-    if bound is None or other is None:
-        return other if bound is None else bound
-    return max(bound, other)
-
-
-def _meets(plan: Plan, bound: float | None) -> bool:
-    """True if ``plan``'s objective (an integer) is within half a unit of
-    ``bound``: no plan is better."""
-    return (
-        bound is not None
-        and plan.objective is not None
-        and plan.objective.total <= bound + 0.5
-    )
-
-
-def _proved_start(
-    plan: Plan, began: float, time_limit: float | None, proof: str
-) -> Plan:
-    """``plan`` proved optimal without a solver, with its statistics."""
-    return plan.replace(
-        status=SolveStatus.OPTIMAL,
-        stats=SolverStats(
-            solver="greedy",
-            wall_s=time.perf_counter() - began,
-            bound=plan.objective.total if plan.objective else None,
-            solver_status=proof,
-            time_limit_s=time_limit,
-        ),
-    )
 
 
 def at_lower_bound(

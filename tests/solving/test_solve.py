@@ -758,3 +758,52 @@ def test_neighbourhood_search_bound_and_gap_hold(doc: dict) -> None:
         ) or (plan.status is SolveStatus.OPTIMAL)
     else:
         assert plan.stats.gap is None
+
+
+def test_a_large_part_spends_its_limit_and_says_its_gap() -> None:
+    """Tests that a 30-task problem solved by neighbourhood search under a
+    limit reports a proven bound and its gap, and while the gap is open
+    uses its limit (it used to stop after 13 of 20 s, with no bound)."""
+    import time
+
+    doc = bench_lib("fresh").generate_problem(30, 2880, 7003)
+    problem = problem_from(doc)
+    began = time.perf_counter()
+    plan = solve(problem, time_limit=8)
+    wall = time.perf_counter() - began
+    assert plan.stats is not None and plan.objective is not None
+    assert plan.stats.solver == "cbc-lns", plan.stats
+    assert check_plan(problem, plan).ok
+    assert plan.stats.bound is not None, plan.stats
+    assert plan.stats.gap == pytest.approx(
+        plan.objective.total - plan.stats.bound
+    )
+    if plan.status is SolveStatus.FEASIBLE:
+        assert plan.stats.gap > 0
+        assert wall >= 0.75 * 8, plan.stats
+    assert wall < 8 + 0.5
+
+
+def test_the_whole_model_gets_what_the_search_leaves() -> None:
+    """Tests that when the neighbourhood search ends before the limit (its
+    share here cut to half), the narrowed whole model gets the rest, and
+    its answer keeps a valid plan, bound and gap within the limit."""
+    import time
+
+    from fsw_scheduler.solving import large
+
+    problem = problem_from(bench_lib("fresh").generate_problem(45, 1440, 7001))
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(
+            large, "BUDGET", dataclasses.replace(BUDGET, lns_share=0.5)
+        )
+        began = time.perf_counter()
+        plan = solve(problem, time_limit=10)
+        wall = time.perf_counter() - began
+    assert plan.stats is not None and plan.objective is not None
+    said = plan.stats.solver_status
+    assert "then the whole model, narrowed" in said, said
+    assert check_plan(problem, plan).ok
+    assert plan.stats.bound is not None
+    assert plan.stats.bound <= plan.objective.total
+    assert 0.75 * 10 <= wall < 10 + 0.5
