@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -12,6 +14,7 @@ from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.api import replan_typed
 from fsw_scheduler.model.change import decode_change
 from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.solving import solve as solve_module
 from fsw_scheduler.solving.budget import BUDGET
 from fsw_scheduler.solving.repair import changed_tasks, repair
 from fsw_scheduler.solving.solve import solve
@@ -119,3 +122,40 @@ def test_a_large_replan_pays_for_what_changed() -> None:
     assert "repair" in plan.stats.solver, plan.stats
     assert wall < BUDGET.replan_limit(limit) + 0.5, plan.stats
     assert plan.stats.bound is not None and plan.stats.gap is not None
+
+
+@settings(COMMON, max_examples=40)
+@given(
+    doc=problem_docs(max_tasks=4, max_horizon=8),
+    keep=st.sets(st.integers(0, 3)),
+)
+def test_a_replan_claims_no_more_than_brute_force(
+    doc: dict, keep: set[int]
+) -> None:
+    """Tests that a replan from part of an optimal plan (the repair path
+    here from two tasks on) returns a valid plan whose bound and
+    optimality agree with brute force."""
+    problem = decode_doc(doc)
+    best = brute_force(problem)
+    if best is None:
+        return
+    starts = {
+        name: start
+        for idx, (name, start) in enumerate(best[1].items())
+        if idx in keep and start is not None
+    }
+    in_force = plan_of(problem, {**dict.fromkeys(best[1]), **starts})
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(
+            solve_module,
+            "BUDGET",
+            dataclasses.replace(BUDGET, lns_min_tasks=2),
+        )
+        plan = solve(problem, time_limit=3, warm=in_force)
+    assert plan.status.has_plan and plan.objective is not None, plan
+    assert check_plan(problem, plan).ok
+    assert plan.stats is not None
+    if plan.status is SolveStatus.OPTIMAL:
+        assert plan.objective.total == best[0].total, plan
+    if plan.stats.bound is not None:
+        assert plan.stats.bound <= best[0].total + 0.5, plan.stats
