@@ -10,9 +10,9 @@ replan pays for what changed:
 
 1. :func:`repair`: every task the plan in force schedules is pinned where
    it is, and the start heuristic places the others (the new goal's
-   tasks, and those the old plan left out) into the gaps. A new task that
-   must be scheduled but finds no gap forces moves: the old tasks in its
-   way are set free and placed again.
+   tasks, and those the old plan left out) into the gaps. A task that
+   must be scheduled and that the old plan lacks forces moves: the old
+   tasks where it could run are set free and placed again with it.
 2. :func:`changed_tasks` names the tasks the neighbourhood search works
    around (:func:`fsw_scheduler.solving.improve.improve` with
    ``around``): the ones the plan in force did not schedule where they
@@ -31,13 +31,12 @@ import msgspec
 from ..analysis.check import check_plan
 from ..analysis.greedy import greedy_plan
 from ..analysis.proofs import forced_tasks
-from ..model.plan import SolveStatus
+from ..model.plan import Activity, Plan, SolveStatus
 
 if TYPE_CHECKING:
     from collections.abc import Callable
 
     from ..analysis.domains import Domain
-    from ..model.plan import Plan
     from ..model.problem import Problem
 
 
@@ -75,34 +74,43 @@ def repair(
         if name in domains
         and domains[name].earliest <= start <= domains[name].latest
     }
-    repaired = _pinned_greedy(problem, starts, stop)
-    if repaired is not None:
-        return repaired
-    # A forced task the old plan lacks found no gap: free the old tasks
-    # that run where it could, and place them again with it.
     lengths = {t.id: t.length for t in problem.tasks}
+    # Forced tasks the old plan lacks (a mandatory new task, a running
+    # one rescheduled in full) may find no gap: the old tasks that run
+    # where they could are set free at once and placed again with them.
+    # (Trying the pinned plan first cost a whole start heuristic, seconds
+    # on 45 tasks, only to fail.)
     missing = [
         domains[n]
         for n in forced_tasks(problem)
         if n not in starts and not domains[n].empty
     ]
+    longest = max(lengths.values(), default=0)
     kept = {
         name: start
         for name, start in starts.items()
         if not any(
-            start < dom.latest + _longest(problem)
+            start < dom.latest + longest
             and start + lengths[name] > dom.earliest
             for dom in missing
         )
     }
-    if len(kept) == len(starts):
+    repaired = _pinned_greedy(problem, kept, stop)
+    if repaired is None and len(kept) < len(starts):
+        repaired = _pinned_greedy(problem, starts, stop)
+    # Stopped early (a loaded machine), the heuristic may have placed
+    # little beside the pinned tasks: the plan in force as it is, the new
+    # tasks left out, is then the better one when it is valid.
+    as_is = _checked(problem, starts)
+    candidates = [p for p in (repaired, as_is) if p is not None]
+    if not candidates:
         return None
-    return _pinned_greedy(problem, kept, stop)
+    return min(candidates, key=_total)
 
 
-def _longest(problem: Problem) -> int:
-    """The longest task's length."""
-    return max((t.length for t in problem.tasks), default=0)
+def _total(plan: Plan) -> int:
+    """A checked plan's objective total."""
+    return plan.objective.total if plan.objective is not None else 0
 
 
 def _pinned_greedy(
@@ -123,14 +131,26 @@ def _pinned_greedy(
     plan = greedy_plan(pinned, stop=stop)
     if plan is None:
         return None
-    plan = plan.replace(
+    return _checked(problem, plan.starts())
+
+
+def _checked(problem: Problem, starts: dict[str, int]) -> Plan | None:
+    """The plan of ``starts`` (every other task left out) if the checker
+    accepts it on ``problem``, with its objective."""
+    lengths = {t.id: t.length for t in problem.tasks}
+    plan = Plan(
         status=SolveStatus.FEASIBLE,
         objective=None,
-        why=(),
-        stats=None,
-        unscheduled=tuple(
-            t.id for t in problem.tasks if t.id not in plan.starts()
+        activities=tuple(
+            sorted(
+                (
+                    Activity(name, start, start + lengths[name])
+                    for name, start in starts.items()
+                ),
+                key=lambda a: (a.start, a.task),
+            )
         ),
+        unscheduled=tuple(t.id for t in problem.tasks if t.id not in starts),
     )
     report = check_plan(problem, plan)
     if not report.ok:
