@@ -95,22 +95,12 @@ def repair(
             for dom in missing
         )
     }
+    # Pinned tasks are forced: even a heuristic stopped at once keeps
+    # every one of them (its trivial plan places the forced tasks).
     repaired = _pinned_greedy(problem, kept, stop)
     if repaired is None and len(kept) < len(starts):
         repaired = _pinned_greedy(problem, starts, stop)
-    # Stopped early (a loaded machine), the heuristic may have placed
-    # little beside the pinned tasks: the plan in force as it is, the new
-    # tasks left out, is then the better one when it is valid.
-    as_is = _checked(problem, starts)
-    candidates = [p for p in (repaired, as_is) if p is not None]
-    if not candidates:
-        return None
-    return min(candidates, key=_total)
-
-
-def _total(plan: Plan) -> int:
-    """A checked plan's objective total."""
-    return plan.objective.total if plan.objective is not None else 0
+    return repaired
 
 
 def _pinned_greedy(

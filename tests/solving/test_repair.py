@@ -50,6 +50,21 @@ def test_a_new_task_goes_into_a_gap_and_nothing_moves() -> None:
     assert changed_tasks(new, in_force, repaired) == ["new"]
 
 
+def test_a_stopped_repair_keeps_at_least_the_plan_in_force() -> None:
+    """Tests that a repair whose start heuristic is stopped at once (a
+    loaded machine) still returns every task of the plan in force where it
+    was, the new task left out."""
+    old = problem_from(_day(make_task("spare", 2)))
+    in_force = solve(old)
+    new = problem_from(
+        _day(make_task("spare", 2), make_task("new", 3, uses={"cam": 1}))
+    )
+    repaired = repair(new, in_force, start_domains(new), stop=lambda: True)
+    assert repaired is not None and check_plan(new, repaired).ok
+    assert repaired.starts() == in_force.starts()
+    assert repaired.unscheduled == ("new",)
+
+
 def test_a_mandatory_new_task_moves_the_tasks_in_its_way() -> None:
     """Tests that a mandatory new task whose window the plan in force
     fills moves the old tasks there, and the plan stays valid."""
