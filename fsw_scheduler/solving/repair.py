@@ -74,12 +74,16 @@ def repair(
         if name in domains
         and domains[name].earliest <= start <= domains[name].latest
     }
+    # Pinned tasks are forced, so the heuristic's first plan (the forced
+    # tasks alone, cheap) says at once whether the forced tasks the old
+    # plan lacks (a mandatory new task, a running one rescheduled in
+    # full) fit among them; only then is the whole heuristic run. Even
+    # stopped early, it keeps every pinned task.
+    if _pinned_greedy(problem, starts, _at_once) is not None:
+        return _pinned_greedy(problem, starts, stop)
+    # They do not: the old tasks where they could run are set free and
+    # placed again with them.
     lengths = {t.id: t.length for t in problem.tasks}
-    # Forced tasks the old plan lacks (a mandatory new task, a running
-    # one rescheduled in full) may find no gap: the old tasks that run
-    # where they could are set free at once and placed again with them.
-    # (Trying the pinned plan first cost a whole start heuristic, seconds
-    # on 45 tasks, only to fail.)
     missing = [
         domains[n]
         for n in forced_tasks(problem)
@@ -95,12 +99,14 @@ def repair(
             for dom in missing
         )
     }
-    # Pinned tasks are forced: even a heuristic stopped at once keeps
-    # every one of them (its trivial plan places the forced tasks).
-    repaired = _pinned_greedy(problem, kept, stop)
-    if repaired is None and len(kept) < len(starts):
-        repaired = _pinned_greedy(problem, starts, stop)
-    return repaired
+    if len(kept) == len(starts):
+        return None
+    return _pinned_greedy(problem, kept, stop)
+
+
+def _at_once() -> bool:
+    """A stop that is always due: the heuristic's trivial plan alone."""
+    return True
 
 
 def _pinned_greedy(
