@@ -156,11 +156,25 @@ def _checked(problem: Problem, starts: dict[str, int]) -> Plan | None:
 
 def changed_tasks(problem: Problem, in_force: Plan, plan: Plan) -> list[str]:
     """Tasks of ``problem`` that ``plan`` does not hold as ``in_force``
-    did: new or left out there, moved, or left out here. In problem
-    order."""
+    did: new or left out there, moved, or left out here.
+
+    The ones ``plan`` leaves out come first, the most valuable first (a
+    new goal's tasks that found no gap: the search around them starts
+    there, where leaving less out is worth more than any delay), then the
+    others in problem order.
+    """
     before, after = in_force.starts(), plan.starts()
-    return [
-        task.id
+    changed = [
+        task
         for task in problem.tasks
         if task.id not in before or before[task.id] != after.get(task.id)
     ]
+    order = {task.id: idx for idx, task in enumerate(changed)}
+    changed.sort(
+        key=lambda t: (
+            t.id in after,
+            -t.schedule_cost if t.id not in after else 0,
+            order[t.id],
+        )
+    )
+    return [task.id for task in changed]

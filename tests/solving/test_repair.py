@@ -65,6 +65,36 @@ def test_a_stopped_repair_keeps_at_least_the_plan_in_force() -> None:
     assert repaired.unscheduled == ("new",)
 
 
+def test_changed_tasks_put_the_valuable_left_out_ones_first() -> None:
+    """Tests that the tasks the search works around start with those the
+    repaired plan leaves out, the most valuable first, then the moved and
+    new placed ones in problem order."""
+    problem = problem_from(
+        _day(
+            make_task("cheap", 3, schedule_cost=1),
+            make_task("dear", 3, schedule_cost=5),
+            make_task("placed", 2),
+        )
+    )
+    in_force = plan_of(
+        problem,
+        {"old0": 0, "old1": 4, "old2": 8, "old3": 12, "cheap": None}
+        | {"dear": None, "placed": None},
+    )
+    plan = plan_of(
+        problem,
+        {"old0": 0, "old1": 4, "old2": 9, "old3": 13, "cheap": None}
+        | {"dear": None, "placed": 20},
+    )
+    assert changed_tasks(problem, in_force, plan) == [
+        "dear",
+        "cheap",
+        "old2",
+        "old3",
+        "placed",
+    ]
+
+
 def test_a_mandatory_new_task_moves_the_tasks_in_its_way() -> None:
     """Tests that a mandatory new task whose window the plan in force
     fills moves the old tasks there, and the plan stays valid."""
