@@ -196,6 +196,55 @@ def problem_docs(
     }
 
 
+@st.composite
+def apart_docs(draw: st.DrawFn, max_tasks: int = 5) -> dict:
+    """Draw a problem of mostly mandatory tasks that crowd one window on a
+    multiple resource (uses above and below half its capacity) and a
+    binary one: the shapes the "no two at once" proofs look at.
+
+    Parameters
+    ----------
+    draw
+        Hypothesis' draw function.
+    max_tasks
+        At most this many tasks (at least two).
+
+    Returns
+    -------
+    dict
+        A problem document of the problem format.
+    """
+    horizon = draw(st.integers(4, 9))
+    num_tasks = draw(st.integers(2, max_tasks))
+    tasks = []
+    for idx in range(num_tasks):
+        length = draw(st.integers(1, 3))
+        uses: dict[str, float] = {}
+        if draw(st.integers(0, 3)):
+            uses["power"] = draw(st.sampled_from((6, 4, 5.5, 7, 3, 10)))
+        if draw(st.integers(0, 3)) == 0:
+            uses["cam"] = 1
+        task: dict = {
+            "id": f"t{idx}",
+            "length": length,
+            "delay_cost": 1,
+            "schedule_cost": draw(st.sampled_from([0, 0, 1])),
+        }
+        if uses:
+            task["uses"] = uses
+        if draw(st.booleans()):
+            low = draw(st.integers(0, horizon - length))
+            high = draw(st.integers(low + length, horizon))
+            task["feasible_interval"] = [low, high]
+            task["feasible_interval_applies_to"] = "task"
+        tasks.append(task)
+    return {
+        "horizon": horizon,
+        "resources": {"binary": ["cam"], "multiple": {"power": 10}},
+        "tasks": tasks,
+    }
+
+
 def decode_doc(doc: dict) -> Problem:
     """Decode ``doc``, discarding the example if validation rejects it."""
     try:

@@ -541,3 +541,31 @@ class _KeptSetSearch:
             if not done:
                 return False
         return True
+
+
+def kept_set_bound(
+    problem: Problem,
+    plan: Plan,
+    domains: Mapping[str, Domain],
+    max_nodes: int = MAX_NODES,
+) -> KeptSetProof:
+    """:func:`kept_set_plan` without its list-scheduled plan.
+
+    :func:`kept_set_plan` also list-schedules the relaxed optimum's set
+    when it proves nothing (``better``), which takes as long as the start
+    plan did: seconds on parts of 50 tasks (3.6 of the 3.9 s it took on
+    one). A caller that needs the proof and the bound alone (a large
+    part's neighbourhood search, which improves its own incumbent) asks
+    for this: ``better`` is always None.
+    """
+    if plan.objective is None:
+        return KeptSetProof(None, None)
+    search = _KeptSetSearch(problem, domains, plan.objective.total)
+    if not search.run(max_nodes):
+        return KeptSetProof(None, None)
+    if search.best is None:
+        return KeptSetProof(
+            plan.replace(status=SolveStatus.OPTIMAL), search.best_cost
+        )
+    proved = _at_earliest(problem, domains, search.best, search.best_cost)
+    return KeptSetProof(proved, search.best_cost)

@@ -20,6 +20,13 @@ without a solver, in time polynomial in their number:
   start in its domain) exceeding ``capacity x (b - a)``: the energetic
   test of cumulative scheduling, which also covers a task that alone
   needs more than the capacity;
+* sets of forced tasks no two of which can run at once (a binary
+  resource both use, or a multiple one whose capacity their two uses
+  exceed, such as tasks each needing more than half of it): the same
+  energetic test, one task at a time, over cliques of that "apart"
+  relation (:func:`apart_cliques`), which catches what the per-resource
+  test cannot (five tasks each needing 60 % of a capacity in a window
+  shorter than their total length need only 3 lengths of energy);
 * consumables: by the end of the latest possible end of some forced
   consumers, their consumption exceeding the initial level plus all the
   generation any task could have delivered by then.
@@ -334,6 +341,9 @@ def infeasibility(
         found = _energy(problem, tasks, domains, name, capacity)
         if found:
             return found
+    found = _apart_overload(problem, tasks, domains)
+    if found:
+        return found
     for name, initial in res.initial_levels.items():
         found = _budget(problem, tasks, domains, name, initial)
         if found:
@@ -449,4 +459,151 @@ def _budget(
                 "there (initial level and all generation possible by then)"
             )
             return tuple(Blocker(name, "consumable", detail) for name in done)
+    return ()
+
+
+#: Cliques grown from single tasks (beyond one per resource) are tried
+#: only among at most this many forced resource users: each check costs
+#: the cube of the clique's size.
+MAX_SEEDED_USERS = 120
+
+
+def apart_cliques(
+    problem: Problem, tasks: Collection[Task]
+) -> list[tuple[list[Task], str]]:
+    """Sets of ``tasks`` no two of which can run at the same time.
+
+    Two tasks are *apart* when a binary resource is used by both, or a
+    multiple resource's capacity is less than their two uses together.
+    Cliques of that relation are found greedily (a maximum clique is
+    NP-hard, and any clique gives a valid test): one per capacity
+    resource, its users by decreasing use (every user above half the
+    capacity first, which are all pairwise apart), then one from each
+    task; each is extended by the tasks apart from all its members, the
+    longest first. Subsets of a clique already found are dropped.
+
+    Returns
+    -------
+    list[tuple[list[Task], str]]
+        Cliques of two or more tasks, in a fixed order, each with the kind
+        of resource that keeps its members apart (``multiple`` when any
+        pair is apart only on a multiple resource, else ``binary``).
+    """
+    res = problem.resources
+    users = [
+        task
+        for task in tasks
+        if any(
+            task.uses.get(name, 0) > 0 for name in (*res.binary, *res.multiple)
+        )
+    ]
+    apart: dict[str, dict[str, str]] = {task.id: {} for task in users}
+    for idx, one in enumerate(users):
+        for other in users[idx + 1 :]:
+            kind = _apart(problem, one, other)
+            if kind is not None:
+                apart[one.id][other.id] = apart[other.id][one.id] = kind
+    by_length = sorted(users, key=lambda t: (-t.length, t.id))
+
+    def grown(seed: list[Task]) -> list[Task]:
+        clique: list[Task] = []
+        members: set[str] = set()
+        for task in [*seed, *by_length]:
+            if task.id not in members and members <= apart[task.id].keys():
+                clique.append(task)
+                members.add(task.id)
+        return clique
+
+    seeds: list[list[Task]] = []
+    for name in (*res.binary, *res.multiple):
+        ranked = sorted(
+            (t for t in users if t.uses.get(name, 0) > 0),
+            key=lambda t: (-t.uses[name], -t.length, t.id),
+        )
+        seeds.append(ranked)
+    if len(users) <= MAX_SEEDED_USERS:
+        seeds.extend([task] for task in by_length)
+    found: list[tuple[list[Task], str]] = []
+    seen: list[frozenset[str]] = []
+    for seed in seeds:
+        clique = grown(seed)
+        key = frozenset(t.id for t in clique)
+        if len(clique) < 2 or any(key <= other for other in seen):
+            continue
+        seen.append(key)
+        kinds = {
+            apart[a.id][b.id]
+            for idx, a in enumerate(clique)
+            for b in clique[idx + 1 :]
+        }
+        found.append((clique, "multiple" if "multiple" in kinds else "binary"))
+    return found
+
+
+def _apart(problem: Problem, one: Task, other: Task) -> str | None:
+    """The kind of resource on which ``one`` and ``other`` cannot run at
+    once (``binary`` first), or None."""
+    res = problem.resources
+    for name in res.binary:
+        if one.uses.get(name, 0) > 0 and other.uses.get(name, 0) > 0:
+            return "binary"
+    for name, capacity in res.multiple.items():
+        first, second = one.uses.get(name, 0), other.uses.get(name, 0)
+        if first > 0 and second > 0 and first + second > capacity + _EPS:
+            return "multiple"
+    return None
+
+
+def _apart_overload(
+    problem: Problem, forced: list[Task], domains: Mapping[str, Domain]
+) -> tuple[Blocker, ...]:
+    """The energetic test of one task at a time over each clique of forced
+    tasks that pairwise cannot overlap (:func:`apart_cliques`).
+
+    Over ``[low, high)`` the clique's members must run, one after the
+    other, at least their least overlap with it whatever their starts:
+    more than ``high - low`` in all cannot be. Interval ends are those of
+    :func:`_energy`.
+    """
+    binary_users = [
+        {task.id for task in forced if task.uses.get(name, 0) > 0}
+        for name in problem.resources.binary
+    ]
+    for clique, kind in apart_cliques(problem, forced):
+        ids = {task.id for task in clique}
+        if any(ids <= users for users in binary_users):
+            continue  # :func:`_energy` tested all of them on that resource
+        members = [(task, domains[task.id]) for task in clique]
+        lows = sorted(
+            {d.earliest for _, d in members} | {d.latest for _, d in members}
+        )
+        highs = sorted(
+            {d.latest + t.length for t, d in members}
+            | {d.earliest + t.length for t, d in members}
+        )
+        for low in lows:
+            for high in highs:
+                if high <= low:
+                    continue
+                need, inside = 0, []
+                for task, dom in members:
+                    least = min(
+                        task.length,
+                        high - low,
+                        max(0, dom.earliest + task.length - low),
+                        max(0, high - dom.latest),
+                    )
+                    if least > 0:
+                        need += least
+                        inside.append(task.id)
+                if need > high - low:
+                    detail = (
+                        f"{', '.join(inside)} must be scheduled and no two "
+                        f"can run at once ({kind} resources), but need "
+                        f"{need} time units in [{low}, {high}), which has "
+                        f"{high - low}"
+                    )
+                    return tuple(
+                        Blocker(name, kind, detail) for name in inside
+                    )
     return ()

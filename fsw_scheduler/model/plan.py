@@ -69,7 +69,13 @@ class Blocker(msgspec.Struct, frozen=True):
 
 
 class SolverStats(msgspec.Struct, frozen=True, omit_defaults=True):
-    """How the solve went; figures in seconds."""
+    """How the solve went; figures in seconds.
+
+    ``bound`` is a proven lower bound on the objective ``total`` of every
+    plan (None when none is known); ``gap`` is the plan's ``total`` less
+    that bound (0 when the plan is proved optimal, None without a bound
+    or a plan): how much better a plan could at most be.
+    """
 
     solver: str
     build_s: float = 0.0
@@ -81,6 +87,7 @@ class SolverStats(msgspec.Struct, frozen=True, omit_defaults=True):
     bound: float | None = None
     solver_status: str = ""
     time_limit_s: float | None = None
+    gap: float | None = None
 
 
 class Plan(msgspec.Struct, frozen=True):

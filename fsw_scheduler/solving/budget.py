@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 from ..model.plan import Plan, SolveStatus
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Sequence
 
     from ..model.problem import Problem
 
@@ -39,6 +39,18 @@ class SolveBudget:
         model to the solver.
     lns_margin_s
         Seconds of the limit left when the neighbourhood search stops.
+    lns_share
+        Share of the time left after the start plan that the
+        neighbourhood search may take before the whole model, narrowed
+        around its incumbent, gets the rest (to prove it, improve it or
+        raise the bound); the search stops sooner when its incumbent
+        meets the kept-set bound or a sweep of its largest
+        neighbourhoods finds nothing, and the whole model then gets what
+        is left. All of it by default: with half, on 17 problems of 30-60
+        tasks (fresh seeds 7000 and 9000, 20 s), the whole model improved
+        one plan by a few delay units and proved none, while the search,
+        cut short, left out more on three (40 tasks: 8 improvements with
+        the whole time, 3 with half).
     explain_budget_s
         Seconds all explanation solves may take together when the solve
         itself has no time limit (with one, they share what it left).
@@ -51,14 +63,34 @@ class SolveBudget:
         limit does not cover: the start plan of a large merged problem,
         reading CBC's answer back, publishing (the soak's p99 overran
         0.2 s by 0.3 s).
+    replan_share
+        Share of the time limit a solve from a plan in force (a replan:
+        ``warm`` given) may take, at least :attr:`replan_min_s`: large
+        parts are repaired and searched around what changed
+        (:mod:`fsw_scheduler.solving.repair`), small ones solved as
+        before within it. A replan pays for what changed, not for a whole
+        fresh solve.
+    replan_min_s
+        The least limit of a replan (when the caller's allows it).
+    min_part_s
+        The least share of the limit an independent part of a problem
+        gets when the limit has room for it (:meth:`part_share`): enough
+        for CBC to start on a small model and prove it. Below about 0.6 s
+        it is never started (the model's reading margin, CBC's
+        ``STOP_MARGIN_S`` and ``MIN_CBC_S``), and a part that needs it
+        keeps its start plan unproved.
     """
 
     greedy_share: float = 0.4
     lns_min_tasks: int = 30
     lns_margin_s: float = 0.2
+    lns_share: float = 1.0
     explain_budget_s: float = 10.0
     min_solve_s: float = 0.05
     publish_margin_s: float = 1.0
+    min_part_s: float = 1.0
+    replan_share: float = 0.2
+    replan_min_s: float = 1.5
 
     def budgeted(
         self, run: Callable[..., Plan], budget_s: float
@@ -84,6 +116,40 @@ class SolveBudget:
             return run(problem, time_limit=left)
 
         return attempt
+
+    def part_share(self, left_s: float, weights: Sequence[float]) -> float:
+        """The limit of the first of the parts still to solve.
+
+        Parameters
+        ----------
+        left_s
+            Seconds left of the whole solve's limit.
+        weights
+            The sizes of the parts still to solve (their start times), the
+            one to solve now first.
+
+        Returns
+        -------
+        float
+            Its share of ``left_s`` by size, raised to :attr:`min_part_s`
+            when an equal split of ``left_s`` among the parts still to
+            solve allows it (else to that equal split): a small part that
+            needs CBC is never given less than CBC needs to start only
+            because the other parts are large. A part done early leaves
+            the rest of its share to the parts after it.
+        """
+        if left_s <= 0 or not weights:
+            return 0.0
+        share = left_s * weights[0] / sum(weights)
+        floor = min(self.min_part_s, left_s / len(weights))
+        return max(share, floor)
+
+    def replan_limit(self, time_limit: float) -> float:
+        """The limit of a solve from a plan in force under ``time_limit``
+        (see :attr:`replan_share`)."""
+        return min(
+            time_limit, max(self.replan_min_s, self.replan_share * time_limit)
+        )
 
     def deadline_limit(
         self, left_s: float, batches: int, time_limit: float | None

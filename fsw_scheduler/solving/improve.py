@@ -27,7 +27,7 @@ from ..analysis.domains import Domain
 from ..model.plan import Plan, SolveStatus
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Collection
 
     from ..model.problem import Problem
 
@@ -54,6 +54,8 @@ def improve(
     domains: dict[str, Domain],
     run: SolveIlp,
     deadline: float,
+    bound: float | None = None,
+    around: Collection[str] | None = None,
 ) -> tuple[Plan, int]:
     """Improve ``incumbent`` by solving sub-models until ``deadline``.
 
@@ -71,6 +73,15 @@ def improve(
         ``time_limit``.
     deadline
         :func:`time.perf_counter` value by which to return.
+    bound
+        A proven lower bound on every plan's objective, if known: the
+        search stops as soon as its incumbent meets it (it is optimal).
+    around
+        Tasks to search around (a replan's changed tasks,
+        :func:`fsw_scheduler.solving.repair.changed_tasks`): the windows
+        are those about where each runs or could run, not a sweep of the
+        whole horizon, and the search ends when they have all been tried
+        at the largest size without a gain.
 
     Returns
     -------
@@ -82,33 +93,42 @@ def improve(
     improved = 0
     began = last_log = time.perf_counter()
     size = MIN_FREE
-    windows = _windows(problem, size)
+
+    def sweep() -> list[tuple[int, int]]:
+        if around is None:
+            return _windows(problem, size)
+        return _windows_around(problem, best, domains, around, size)
+
+    windows = sweep()
     stale = index = 0
     while True:
         now = time.perf_counter()
         left = deadline - now
-        if left < MIN_ROUND_S:
+        if left < MIN_ROUND_S or _meets(best, bound):
             break
         if now - last_log >= PROGRESS_S and best.objective is not None:
             last_log = now
             log.info(
                 "neighbourhood search %.0f s on %d tasks: incumbent left-out "
                 "cost %d, delay %d; %d improvements, neighbourhoods of %d "
-                "tasks, no bound",
+                "tasks, bound %s",
                 now - began,
                 problem.num_tasks,
                 best.objective.unscheduled_cost,
                 best.objective.delay_cost,
                 improved,
                 size,
+                "none" if bound is None else f"{bound:.0f}",
             )
         if stale >= len(windows):
             # A whole sweep found nothing: larger neighbourhoods.
             if size >= MAX_FREE:
                 break
             size = min(MAX_FREE, size + STEP_FREE)
-            windows = _windows(problem, size)
+            windows = sweep()
             stale = index = 0
+        if not windows:
+            break
         low, high = windows[index % len(windows)]
         index += 1
         narrowed = _neighbourhood(problem, best, domains, low, high, size)
@@ -137,6 +157,16 @@ def improve(
     return best, improved
 
 
+def _meets(plan: Plan, bound: float | None) -> bool:
+    """True if ``plan``'s objective is within half a unit of ``bound``
+    (every objective is an integer): nothing can be better."""
+    return (
+        bound is not None
+        and plan.objective is not None
+        and plan.objective.total <= bound + 0.5
+    )
+
+
 def _windows(problem: Problem, size: int) -> list[tuple[int, int]]:
     """Windows over the horizon, overlapping by half.
 
@@ -151,6 +181,37 @@ def _windows(problem: Problem, size: int) -> list[tuple[int, int]]:
         (problem.start + low, problem.start + min(span, low + width))
         for low in range(0, max(1, span - step), step)
     ]
+
+
+def _windows_around(
+    problem: Problem,
+    plan: Plan,
+    domains: dict[str, Domain],
+    names: Collection[str],
+    size: int,
+) -> list[tuple[int, int]]:
+    """Windows of :func:`_windows`' width about where each of ``names``
+    runs in ``plan``, or about the middle of its domain when it is left
+    out; without repeats, in the order of ``names``."""
+    span, count = problem.horizon, problem.num_tasks
+    mean = sum(t.length for t in problem.tasks) / count
+    width = int(min(span, max(8, size * span / count - mean)))
+    lengths = {t.id: t.length for t in problem.tasks}
+    starts = plan.starts()
+    found: list[tuple[int, int]] = []
+    for name in names:
+        domain = domains.get(name)
+        if name in starts:
+            centre = starts[name] + lengths[name] // 2
+        elif domain is not None and not domain.empty:
+            centre = (domain.earliest + domain.latest + lengths[name]) // 2
+        else:
+            continue
+        low = max(problem.start, min(centre - width // 2, problem.end - width))
+        window = (low, min(problem.end, low + width))
+        if window not in found:
+            found.append(window)
+    return found
 
 
 def _neighbourhood(

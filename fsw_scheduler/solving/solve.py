@@ -22,8 +22,8 @@ from ..model.plan import (
     SolveStatus,
     objective_weight,
 )
+from . import large
 from .budget import BUDGET
-from .improve import improve
 from .incumbent import checked, narrow, probed
 
 if TYPE_CHECKING:
@@ -68,7 +68,11 @@ def solve(
         Also say why each left-out task is out (and, when infeasible, which
         mandatory tasks cannot be placed); costs extra solves.
     warm
-        A previous plan, a candidate MIP start (see :func:`best_start`).
+        The plan in force, mapped onto ``problem`` (a replan): a candidate
+        MIP start (see :func:`best_start`). Under a time limit a replan
+        takes :meth:`~fsw_scheduler.solving.budget.SolveBudget.
+        replan_limit` of it, and a large part is repaired from this plan
+        and searched around what changed instead of solved afresh.
     explain_budget
         Seconds all explanation solves may take together (default: the
         time limit, else
@@ -91,6 +95,10 @@ def solve(
         seed=seed,
     )
     began = time.perf_counter()
+    limit = time_limit
+    if warm is not None and time_limit is not None:
+        # A replan pays for what changed (repair.py), not a fresh solve.
+        limit = BUDGET.replan_limit(time_limit)
     domains = start_domains(problem)
     proof = infeasibility(problem, domains)
     if proof:
@@ -109,11 +117,10 @@ def solve(
         )
     parts = components(problem)
     if len(parts) > 1:
-        plan = _solve_parts(
-            problem, parts, run, began, time_limit, warm, domains
-        )
+        plan = _solve_parts(problem, parts, run, began, limit, warm, domains)
     else:
-        plan = _solve_whole(problem, run, began, time_limit, warm, domains)
+        plan = _solve_whole(problem, run, began, limit, warm, domains)
+    plan = _with_gap(plan)
     if explain and (plan.unscheduled or not plan.status.has_plan):
         budget = explain_budget
         if budget is None:
@@ -128,6 +135,17 @@ def solve(
             why=explain_plan(problem, plan, BUDGET.budgeted(run, budget))
         )
     return plan
+
+
+def _with_gap(plan: Plan) -> Plan:
+    """``plan`` with ``stats.gap``: its objective less its proven bound."""
+    stats = plan.stats
+    if stats is None or stats.bound is None or plan.objective is None:
+        return plan
+    gap = max(0.0, plan.objective.total - stats.bound)
+    if plan.status is SolveStatus.OPTIMAL:
+        gap = 0.0
+    return plan.replace(stats=msgspec.structs.replace(stats, gap=gap))
 
 
 def components(problem: Problem) -> list[list[str]]:
@@ -192,30 +210,14 @@ def _solve_parts(
     # the limit goes to the large one instead of waiting unused.
     order = sorted(range(len(parts)), key=lambda k: (weights[k], k))
     weights = [weights[k] for k in order]
+    subs = [_part(problem, parts[k], warm) for k in order]
     plans = []
-    for idx, part in enumerate(parts[k] for k in order):
-        members = set(part)
-        sub = problem.replace(
-            tasks=tuple(t for t in problem.tasks if t.id in members),
-            precedences=tuple(
-                p for p in problem.precedences if p.before in members
-            ),
-        )
-        sub_warm = None
-        if warm is not None:
-            sub_warm = warm.replace(
-                objective=None,
-                activities=tuple(
-                    a for a in warm.activities if a.task in members
-                ),
-                unscheduled=tuple(n for n in warm.unscheduled if n in members),
-                why=(),
-            )
+    for idx, (sub, sub_warm) in enumerate(subs):
         limit = None
         now = time.perf_counter()
         if time_limit is not None:
             left = time_limit - (now - began)
-            limit = max(0.0, left * weights[idx] / sum(weights[idx:]))
+            limit = BUDGET.part_share(left, weights[idx:])
         plans.append(
             _solve_whole(
                 sub,
@@ -223,10 +225,82 @@ def _solve_parts(
                 now,
                 limit,
                 sub_warm,
-                {n: domains[n] for n in part},
+                {t.id: domains[t.id] for t in sub.tasks},
             )
         )
+    if time_limit is not None:
+        _reopen(plans, subs, weights, run, began, time_limit, domains)
     return _joined(problem, plans, began, time_limit)
+
+
+def _part(
+    problem: Problem, part: list[str], warm: Plan | None
+) -> tuple[Problem, Plan | None]:
+    """The sub-problem of ``part``, and the part of ``warm`` that is its."""
+    members = set(part)
+    sub = problem.replace(
+        tasks=tuple(t for t in problem.tasks if t.id in members),
+        precedences=tuple(
+            p for p in problem.precedences if p.before in members
+        ),
+    )
+    if warm is None:
+        return sub, None
+    return sub, warm.replace(
+        objective=None,
+        activities=tuple(a for a in warm.activities if a.task in members),
+        unscheduled=tuple(n for n in warm.unscheduled if n in members),
+        why=(),
+    )
+
+
+def _reopen(
+    plans: list[Plan],
+    subs: list[tuple[Problem, Plan | None]],
+    weights: list[int],
+    run: functools.partial[Plan],
+    began: float,
+    time_limit: float,
+    domains: dict[str, Domain],
+) -> None:
+    """Solve the unproved parts again with what the others left unused.
+
+    Parts proved at once (most are) leave most of their shares; a part
+    that stopped at its own share, before the large parts were done,
+    gets that time now, warm-started from its plan. ``plans`` is
+    updated in place: a part's new plan replaces its plan when it is
+    proved or better.
+    """
+    still = [
+        idx
+        for idx, plan in enumerate(plans)
+        if plan.status in (SolveStatus.FEASIBLE, SolveStatus.UNKNOWN)
+    ]
+    for pos, idx in enumerate(still):
+        now = time.perf_counter()
+        left = time_limit - (now - began)
+        limit = BUDGET.part_share(left, [weights[k] for k in still[pos:]])
+        if limit < BUDGET.min_part_s:
+            return  # no more than the first pass had: nothing to gain
+        sub, _ = subs[idx]
+        before = plans[idx]
+        again = _solve_whole(
+            sub,
+            run,
+            now,
+            limit,
+            before if before.status.has_plan else None,
+            {t.id: domains[t.id] for t in sub.tasks},
+        )
+        gained = again.status is SolveStatus.OPTIMAL or (
+            again.objective is not None
+            and (
+                before.objective is None
+                or again.objective.total < before.objective.total
+            )
+        )
+        if gained or not before.status.has_plan:
+            plans[idx] = again
 
 
 def _joined(
@@ -252,7 +326,8 @@ def _joined(
             for status in SolveStatus
             if status in statuses
         )
-        + (f"; largest: {stats[-1].solver_status}" if stats else ""),
+        + (f"; largest: {stats[-1].solver_status}" if stats else "")
+        + "".join(_unproved(plan) for plan in plans),
         time_limit_s=time_limit,
     )
     everything = tuple(task.id for task in problem.tasks)
@@ -276,14 +351,56 @@ def _joined(
     )
     optimal = statuses == {SolveStatus.OPTIMAL}
     total = weight * missed + delay
+    bound = float(total) if optimal else _joined_bound(problem, plans)
     return Plan(
         status=SolveStatus.OPTIMAL if optimal else SolveStatus.FEASIBLE,
         objective=Objective(missed, delay, total),
         activities=activities,
         unscheduled=tuple(n for n in everything if n in left_out),
-        stats=msgspec.structs.replace(
-            summary, bound=total if optimal else None
-        ),
+        stats=msgspec.structs.replace(summary, bound=bound),
+    )
+
+
+def _joined_bound(problem: Problem, plans: list[Plan]) -> float | None:
+    """A bound on the whole objective from the parts' bounds, if each
+    part has one.
+
+    A part's objective weighs a left-out cost by its own ``W_p`` (its
+    tasks' delay costs), the whole's by ``W``: a part bound ``L`` says
+    that a plan leaving out ``m = L // W_p`` has a delay of at least
+    ``L - m W_p``, and one leaving out more costs more than any delay, so
+    ``W m + L - m W_p`` bounds the part in the whole's units; the parts'
+    bounds add up.
+    """
+    delay = {task.id: task.delay_cost for task in problem.tasks}
+    whole = objective_weight(list(delay.values()), problem.horizon)
+    total = 0.0
+    for plan in plans:
+        if plan.stats is None or plan.stats.bound is None:
+            return None
+        names = [a.task for a in plan.activities] + list(plan.unscheduled)
+        weight = objective_weight([delay[n] for n in names], problem.horizon)
+        missed = int(plan.stats.bound // weight)
+        total += whole * missed + plan.stats.bound - weight * missed
+    return total
+
+
+def _unproved(plan: Plan) -> str:
+    """What the joined status says of a part that is not proved: its
+    tasks, the limit it had, and its own solver status (why)."""
+    if plan.status is SolveStatus.OPTIMAL:
+        return ""
+    names = sorted([a.task for a in plan.activities] + list(plan.unscheduled))
+    stats = plan.stats
+    limit = (
+        ""
+        if stats is None or stats.time_limit_s is None
+        else f" after {stats.wall_s:.2f} s of {stats.time_limit_s:.2f} s"
+    )
+    why = stats.solver_status if stats is not None else "no statistics"
+    return (
+        f"; {plan.status.value}: the part of {len(names)} tasks from "
+        f"{names[0] if names else '-'}{limit}: {why}"
     )
 
 
@@ -301,6 +418,16 @@ def _solve_whole(
     domains: dict[str, Domain],
 ) -> Plan:
     """Start plan, then the solver or the neighbourhood search; no ``why``."""
+    if (
+        warm is not None
+        and time_limit is not None
+        and problem.num_tasks >= BUDGET.lns_min_tasks
+    ):
+        replanned = large.replanned(
+            problem, warm, domains, run, began, time_limit
+        )
+        if replanned is not None:
+            return replanned
     stop = None
     if time_limit is not None:
         # The heuristic gets a share of the limit; its trivial plan (the
@@ -374,7 +501,7 @@ def _solve_whole(
         and time_limit is not None
         and problem.num_tasks >= BUDGET.lns_min_tasks
     ):
-        plan = _improved(problem, start, domains, run, began, time_limit)
+        plan = large.improved(problem, start, domains, run, began, time_limit)
     else:
         narrowed = narrow(problem, start, domains, relaxed)
         answer, start, narrowed = probed(
@@ -415,6 +542,15 @@ def _solve_whole(
                 # A stopped CBC can report the value of an LP that is not
                 # the root's; above a valid plan, it bounds nothing.
                 bound = None
+            if (
+                relaxed is not None
+                and relaxed.bound is not None
+                and plan.objective is not None
+                and relaxed.bound <= plan.objective.total
+            ):
+                # The kept-set relaxation bounds every plan at least as
+                # good as the start plan, so the optimum too.
+                bound = large.higher(bound, relaxed.bound)
             plan = plan.replace(
                 stats=msgspec.structs.replace(
                     plan.stats,
@@ -424,37 +560,6 @@ def _solve_whole(
                 )
             )
     return plan
-
-
-def _improved(
-    problem: Problem,
-    start: Plan,
-    domains: dict[str, Domain],
-    run: Callable[..., Plan],
-    began: float,
-    time_limit: float,
-) -> Plan:
-    """The start plan improved by
-    :func:`fsw_scheduler.solving.improve.improve`.
-
-    For large problems under a limit: the whole model does not get
-    through CBC's root LP in seconds (on the scaling set CBC never
-    improved the start plan), small neighbourhood models do.
-    """
-    deadline = began + time_limit - BUDGET.lns_margin_s
-    best, improved = improve(problem, start, domains, run, deadline)
-    return best.replace(
-        status=SolveStatus.FEASIBLE,
-        stats=SolverStats(
-            solver=f"{run.keywords.get('solver', 'cbc')}-lns"
-            if isinstance(run, functools.partial)
-            else "lns",
-            wall_s=time.perf_counter() - began,
-            solver_status=f"neighbourhood search: {improved} improvements "
-            "of the start plan",
-            time_limit_s=time_limit,
-        ),
-    )
 
 
 def at_lower_bound(

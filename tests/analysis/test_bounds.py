@@ -11,6 +11,7 @@ from fsw_scheduler.analysis.bounds import (
     KeptSetProof,
     delay_caps,
     fixings,
+    kept_set_bound,
     kept_set_plan,
 )
 from fsw_scheduler.analysis.check import check_plan
@@ -235,3 +236,25 @@ def test_fixings_leave_out_a_task_no_good_plan_keeps() -> None:
     assert fixed.dropped == {"c"}
     # a and b are at their earliest starts in every plan as good.
     assert fixed.caps["a"] == 0 and fixed.caps["b"] == 0
+
+
+@settings(COMMON, max_examples=200)
+@given(doc=problem_docs(max_tasks=5, max_horizon=10, capacities=True))
+def test_the_bound_alone_agrees_with_the_full_search(doc: dict) -> None:
+    """Tests that the kept-set bound without list scheduling gives the
+    bound and proof of the full search, never above brute force's
+    optimum, and never a list-scheduled plan."""
+    problem = decode_doc(doc)
+    domains = start_domains(problem)
+    start = best_start(problem, None, domains=domains)
+    if start is None:
+        return
+    alone = kept_set_bound(problem, start, domains)
+    full = kept_set_plan(problem, start, domains)
+    assert alone.bound == full.bound
+    assert alone.better is None
+    assert (alone.plan is None) == (full.plan is None)
+    if alone.bound is not None:
+        best = brute_force(problem)
+        assert best is not None
+        assert alone.bound <= best[0].total, (doc, alone, best)

@@ -12,6 +12,7 @@ from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.analysis.greedy import greedy_plan
 from fsw_scheduler.analysis.proofs import (
+    apart_cliques,
     block_conflicts,
     forced_tasks,
     infeasibility,
@@ -21,7 +22,13 @@ from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.solving.solve import solve
 
 from ..factories import CLI, make_task, problem_from
-from ..problems import COMMON, brute_force, decode_doc, problem_docs
+from ..problems import (
+    COMMON,
+    apart_docs,
+    brute_force,
+    decode_doc,
+    problem_docs,
+)
 
 
 def _tight(before: str, after: str, offset: int = 0, **over: object) -> dict:
@@ -249,6 +256,94 @@ def test_proofs_never_reject_a_feasible_problem(doc: dict) -> None:
     start = greedy_plan(problem)
     if start is not None:
         assert check_plan(problem, start).ok
+
+
+# -- tasks no two of which can run at once --------------------------------
+
+
+def _crowded(
+    uses: list[dict],
+    window: tuple[int, int] = (10, 40),
+    horizon: int = 200,
+) -> dict:
+    """Mandatory tasks of length 7 with ``uses``, all in ``window``."""
+    return {
+        "horizon": horizon,
+        "resources": {"binary": ["cam"], "multiple": {"power": 100}},
+        "tasks": [
+            make_task(
+                f"t{idx}",
+                7,
+                schedule_cost=0,
+                uses=use,
+                feasible_interval=list(window),
+                feasible_interval_applies_to="task",
+            )
+            for idx, use in enumerate(uses)
+        ],
+    }
+
+
+def test_tasks_over_half_a_capacity_cannot_share_a_short_window() -> None:
+    """Tests that five mandatory tasks each needing more than half of a
+    multiple resource, in a window shorter than their total length, are
+    proved infeasible without a solve, at once."""
+    # 35 units of work in 30 units of time; the energy (5 x 60 x 7 =
+    # 2100 of 3000) fits, so only the pairwise argument proves it.
+    doc = _crowded([{"power": 60}] * 5)
+    plan = solve(problem_from(doc), time_limit=30)
+    assert plan.status is SolveStatus.INFEASIBLE, plan
+    assert plan.stats is not None and plan.stats.solver == "proof"
+    assert plan.stats.wall_s < 1.0, plan.stats
+    assert {(b.task, b.cause) for b in plan.why} == {
+        (f"t{idx}", "multiple") for idx in range(5)
+    }
+    assert "[10, 40)" in plan.why[0].detail, plan.why[0].detail
+    # One more unit of room and they fit one after the other.
+    roomy = _crowded([{"power": 60}] * 5, window=(10, 45))
+    assert solve(problem_from(roomy), time_limit=30).status.has_plan
+
+
+def test_a_clique_held_by_two_resources_proves_what_neither_does() -> None:
+    """Tests that tasks kept apart partly by a binary resource and partly
+    by pairs over a multiple capacity form one clique whose proof neither
+    resource's energy test gives, and that brute force agrees."""
+    # a, b share the camera (50 + 40 power fit together); c needs 65, too
+    # much beside either. 9 units of work, 8 of time; the camera holds 6
+    # units and the power 3 x 155 = 465 of 800.
+    uses = [{"power": 50, "cam": 1}, {"power": 40, "cam": 1}, {"power": 65}]
+    doc = _crowded(uses, window=(2, 10), horizon=12)
+    for task in doc["tasks"]:
+        task["length"] = 3
+    problem = problem_from(doc)
+    found = [
+        ([t.id for t in clique], kind)
+        for clique, kind in apart_cliques(problem, problem.tasks)
+    ]
+    assert found[-1] == (["t0", "t1", "t2"], "multiple"), found
+    proof = infeasibility(problem, start_domains(problem))
+    assert {(b.task, b.cause) for b in proof} == {
+        ("t0", "multiple"),
+        ("t1", "multiple"),
+        ("t2", "multiple"),
+    }, proof
+    assert brute_force(problem) is None
+    doc["tasks"][2]["uses"] = {"power": 55}  # c fits beside b: solvable
+    relaxed = problem_from(doc)
+    assert not infeasibility(relaxed, start_domains(relaxed))
+    assert brute_force(relaxed) is not None
+
+
+@settings(COMMON, max_examples=150)
+@given(doc=apart_docs())
+def test_apart_proof_never_rejects_a_feasible_problem(doc: dict) -> None:
+    """Tests that on crowded multiple and binary resources a proof of
+    infeasibility is only ever given for a problem brute force cannot
+    solve."""
+    problem = decode_doc(doc)
+    proof = infeasibility(problem, start_domains(problem))
+    if proof:
+        assert brute_force(problem) is None, proof
 
 
 # -- tight blocks that cannot hold ------------------------------------------

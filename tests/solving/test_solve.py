@@ -3,17 +3,22 @@
 from __future__ import annotations
 
 import copy
+import dataclasses
 import subprocess
 import sys
 from typing import TYPE_CHECKING
 
 import pytest
+from hypothesis import given, settings
 
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.solving import solve as solve_module
+from fsw_scheduler.solving.budget import BUDGET
 from fsw_scheduler.solving.solve import solve
 
 from ..factories import bench_lib, make_doc, make_task, problem_from
+from ..problems import COMMON, brute_force, decode_doc, problem_docs
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -522,6 +527,66 @@ def test_independent_parts_are_solved_apart() -> None:
     assert report.ok and report.objective == plan.objective
 
 
+def _small_part_beside(num_free: int) -> Problem:
+    """``num_free`` lone tasks over a day, each proved without a solver,
+    beside a small part that needs CBC: four camera tasks crowding one
+    window. The lone tasks' start times give them nearly all the weight
+    of the parts' share rule."""
+    tasks = [make_task(f"free{idx}", 5) for idx in range(num_free)]
+    tasks += [
+        make_task(
+            f"c{idx}",
+            3 + idx,
+            delay_cost=1 + idx,
+            uses={"cam": 1},
+            feasible_interval=[0, 40],
+        )
+        for idx in range(4)
+    ]
+    return problem_from(
+        make_doc(tasks, horizon=1440, resources={"binary": ["cam"]})
+    )
+
+
+def test_a_small_part_that_needs_cbc_gets_time_to_start_it() -> None:
+    """Tests that a small part needing CBC beside six large parts is
+    proved within a 20 s limit (it used to get 0.25 s by its size, too
+    little to start CBC, and the solve said feasible after 0.05 s)."""
+    problem = _small_part_beside(6)
+    plan = solve(problem, time_limit=20)
+    assert plan.status is SolveStatus.OPTIMAL, plan.stats
+    assert plan.stats is not None
+    assert "cbc" in plan.stats.solver.split("+"), plan.stats
+    assert plan.stats.solver_status.startswith("7 independent parts: 7 opt")
+    assert (
+        plan.objective
+        == solve(
+            problem.replace(
+                tasks=tuple(t for t in problem.tasks if t.id.startswith("c"))
+            )
+        ).objective
+    )
+
+
+def test_time_the_other_parts_leave_goes_to_the_unproved_one() -> None:
+    """Tests that a part whose first share was too small to start CBC
+    (31 parts, 6 s) is solved again with what the parts proved at once
+    left, and proved; and that with no time to give, the status names the
+    unproved part, its share and why."""
+    problem = _small_part_beside(30)
+    plan = solve(problem, time_limit=6)
+    assert plan.status is SolveStatus.OPTIMAL, plan.stats
+    assert plan.stats is not None and "cbc" in plan.stats.solver
+    short = solve(problem, time_limit=0.5)
+    assert short.status is SolveStatus.FEASIBLE
+    assert short.stats is not None
+    said = short.stats.solver_status
+    assert "30 optimal, 1 feasible" in said, said
+    assert "feasible: the part of 4 tasks from c0 after" in said, said
+    # Its share ended on the start plan or before CBC (timing decides).
+    assert "time limit spent" in said.split("from c0 after")[1], said
+
+
 def test_no_solver_when_only_impossible_tasks_are_out() -> None:
     """Tests that a start plan leaving out only tasks no plan can hold, the
     others at their earliest starts, is optimal without a solve."""
@@ -656,3 +721,89 @@ def test_heuristics_stay_on_when_asked(
         assert check_plan(problem, plan).ok
     assert "heuristics off" in seen[0]
     assert "heuristics off" not in seen[1]
+
+
+# -- bounds of the neighbourhood search --------------------------------------
+
+
+@settings(COMMON, max_examples=30)
+@given(doc=problem_docs(max_tasks=4, max_horizon=8))
+def test_neighbourhood_search_bound_and_gap_hold(doc: dict) -> None:
+    """Tests that the bound and gap a solve reports through the
+    neighbourhood search (here from two tasks on) never claim more than
+    brute force's optimum allows, and that optimal means that optimum."""
+    problem = decode_doc(doc)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(
+            solve_module,
+            "BUDGET",
+            dataclasses.replace(BUDGET, lns_min_tasks=2),
+        )
+        plan = solve(problem, time_limit=4)
+    best = brute_force(problem)
+    if best is None:
+        assert not plan.status.has_plan, plan
+        return
+    assert plan.status.has_plan and plan.objective is not None, plan
+    assert plan.stats is not None
+    optimum = best[0].total
+    if plan.status is SolveStatus.OPTIMAL:
+        assert plan.objective.total == optimum, plan
+        assert plan.stats.gap == 0.0
+    if plan.stats.bound is not None:
+        assert plan.stats.bound <= optimum + 0.5, plan.stats
+        assert plan.stats.gap is not None
+        assert plan.stats.gap == pytest.approx(
+            plan.objective.total - plan.stats.bound
+        ) or (plan.status is SolveStatus.OPTIMAL)
+    else:
+        assert plan.stats.gap is None
+
+
+def test_a_large_part_spends_its_limit_and_says_its_gap() -> None:
+    """Tests that a 30-task problem solved by neighbourhood search under a
+    limit reports a proven bound and its gap, and while the gap is open
+    uses its limit (it used to stop after 13 of 20 s, with no bound)."""
+    import time
+
+    doc = bench_lib("fresh").generate_problem(30, 2880, 7003)
+    problem = problem_from(doc)
+    began = time.perf_counter()
+    plan = solve(problem, time_limit=8)
+    wall = time.perf_counter() - began
+    assert plan.stats is not None and plan.objective is not None
+    assert plan.stats.solver == "cbc-lns", plan.stats
+    assert check_plan(problem, plan).ok
+    assert plan.stats.bound is not None, plan.stats
+    assert plan.stats.gap == pytest.approx(
+        plan.objective.total - plan.stats.bound
+    )
+    if plan.status is SolveStatus.FEASIBLE:
+        assert plan.stats.gap > 0
+        assert wall >= 0.75 * 8, plan.stats
+    assert wall < 8 + 0.5
+
+
+def test_the_whole_model_gets_what_the_search_leaves() -> None:
+    """Tests that when the neighbourhood search ends before the limit (its
+    share here cut to half), the narrowed whole model gets the rest, and
+    its answer keeps a valid plan, bound and gap within the limit."""
+    import time
+
+    from fsw_scheduler.solving import large
+
+    problem = problem_from(bench_lib("fresh").generate_problem(45, 1440, 7001))
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(
+            large, "BUDGET", dataclasses.replace(BUDGET, lns_share=0.5)
+        )
+        began = time.perf_counter()
+        plan = solve(problem, time_limit=10)
+        wall = time.perf_counter() - began
+    assert plan.stats is not None and plan.objective is not None
+    said = plan.stats.solver_status
+    assert "then the whole model, narrowed" in said, said
+    assert check_plan(problem, plan).ok
+    assert plan.stats.bound is not None
+    assert plan.stats.bound <= plan.objective.total
+    assert 0.75 * 10 <= wall < 10 + 0.5
