@@ -166,7 +166,10 @@ def kept_set_plan(
     KeptSetProof
         The optimal plan (status ``optimal``) if proved, and the bound.
     """
-    if plan.objective is None:
+    if plan.objective is None or problem.has_mission_model:
+        # The relaxation prices tasks one by one and reads constant
+        # capacities: alternatives and changing resources are the
+        # solver's to decide.
         return KeptSetProof(None, None)
     search = _KeptSetSearch(problem, domains, plan.objective.total)
     if not search.run(max_nodes):

@@ -197,9 +197,14 @@ def cost_caps(
     if objective is None or objective.unscheduled_cost != 0:
         return None
 
+    member = problem.groups.member
+
     def must(task_id: str) -> bool:
+        # A group member need not be scheduled: another option may be.
         task = problem.task(task_id)
-        return task.mandatory or task.schedule_cost > 0
+        if task_id in member:
+            return task.fixed_start is not None
+        return problem.required(task) or task.schedule_cost > 0
 
     floor = {
         task.id: domains[task.id].earliest - problem.start

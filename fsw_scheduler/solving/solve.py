@@ -15,6 +15,7 @@ from ..analysis.domains import start_domains
 from ..analysis.explain import explain as explain_plan
 from ..analysis.greedy import greedy_plan
 from ..analysis.proofs import infeasibility
+from ..model import groups
 from ..model.plan import (
     Objective,
     Plan,
@@ -114,7 +115,9 @@ def solve(
         )
     else:
         plan = _solve_whole(problem, run, began, time_limit, warm, domains)
-    if explain and (plan.unscheduled or not plan.status.has_plan):
+    if explain and (
+        plan.unscheduled or not plan.status.has_plan or plan.picks
+    ):
         budget = explain_budget
         if budget is None:
             # Explanations share the caller's limit: whatever the solve
@@ -153,6 +156,12 @@ def components(problem: Problem) -> list[list[str]]:
 
     for prec in problem.precedences:
         join(prec.before, prec.after)
+    present = set(parent)
+    for group in problem.alternatives:
+        # The options of a group exclude each other: one part.
+        names = [n for o in group.options for n in o if n in present]
+        for name in names[1:]:
+            join(names[0], name)
     first_user: dict[str, str] = {}
     for task in problem.tasks:
         for name, amount in task.uses.items():
@@ -200,6 +209,7 @@ def _solve_parts(
             precedences=tuple(
                 p for p in problem.precedences if p.before in members
             ),
+            alternatives=groups.kept_alternatives(problem, members),
         )
         sub_warm = None
         if warm is not None:
@@ -259,14 +269,14 @@ def _joined(
     for status in (SolveStatus.INFEASIBLE, SolveStatus.UNKNOWN):
         if status in statuses:
             return Plan(status, None, unscheduled=everything, stats=summary)
-    left_out = {name for plan in plans for name in plan.unscheduled}
     activities = tuple(
         sorted(
             (a for plan in plans for a in plan.activities),
             key=lambda a: (a.start, a.task),
         )
     )
-    missed = sum(t.schedule_cost for t in problem.tasks if t.id in left_out)
+    scheduled = {a.task for a in activities}
+    missed = groups.unscheduled_cost(problem, scheduled)
     delay = sum(
         problem.task(a.task).delay_cost * (a.start - problem.start)
         for a in activities
@@ -280,7 +290,8 @@ def _joined(
         status=SolveStatus.OPTIMAL if optimal else SolveStatus.FEASIBLE,
         objective=Objective(missed, delay, total),
         activities=activities,
-        unscheduled=tuple(n for n in everything if n in left_out),
+        unscheduled=groups.left_out(problem, scheduled),
+        chosen=groups.chosen(problem, scheduled),
         stats=msgspec.structs.replace(
             summary, bound=total if optimal else None
         ),

@@ -49,18 +49,32 @@ def _label(ax: Any, text: str) -> None:
 def draw_multiple(
     ax: Any, problem: Problem, name: str, usage: list[float]
 ) -> None:
-    """Usage per time unit as stairs, capacity as a dashed line."""
-    capacity = problem.resources.multiple[name]
+    """Usage per time unit as stairs, capacity as a dashed line (dashed
+    steps when the capacity changes over time)."""
+    profile = problem.resources.capacity_profile(
+        name, problem.start, problem.horizon
+    )
+    capacity = problem.resources.peak_capacity(name)
     edges = _edges(problem)
     ax.stairs(usage, edges, fill=True, color="#4c72b0", alpha=0.35)
     ax.stairs(usage, edges, color="#4c72b0", linewidth=1.2)
-    ax.axhline(capacity, color="#333333", linestyle="--", linewidth=1.0)
-    over = [max(0.0, u - capacity) for u in usage]
+    if name in problem.resources.changing:
+        ax.stairs(
+            profile,
+            edges,
+            baseline=None,
+            color="#333333",
+            linestyle="--",
+            linewidth=1.0,
+        )
+    else:
+        ax.axhline(capacity, color="#333333", linestyle="--", linewidth=1.0)
+    over = [max(0.0, u - c) for u, c in zip(usage, profile, strict=True)]
     if any(over):
         ax.stairs(
-            [capacity + o for o in over],
+            [c + o for c, o in zip(profile, over, strict=True)],
             edges,
-            baseline=capacity,
+            baseline=profile,
             fill=True,
             color="#d62728",
             alpha=0.5,

@@ -181,16 +181,21 @@ def _resource_lines(
     profiles = resource_profiles(problem, plan)
     name_w = max(len(n) for n in (*resources.multiple, *resources.consumable))
     lines = ["", "resources:"]
-    for name, capacity in resources.multiple.items():
+    for name in resources.multiple:
         use = profiles[name]
+        capacity = resources.capacity_profile(
+            name, problem.start, problem.horizon
+        )
         peak = max(use, default=0.0)
         at = use.index(peak) + problem.start if peak > 0 else None
         when = f" at t={at}" if at is not None else ""
-        over = peak > capacity
+        over = any(u > c + 1e-9 for u, c in zip(use, capacity, strict=True))
         flag = f" {paint['red']}OVER CAPACITY{paint['off']}" if over else ""
+        top = resources.peak_capacity(name)
+        steps = "" if name not in resources.changing else " (in steps)"
         lines.append(
             f"  {name:<{name_w}}  peak {short_number(peak)}"
-            f"/{short_number(capacity)}{when}{flag}"
+            f"/{short_number(top)}{steps}{when}{flag}"
         )
     lost = lost_charge(problem, plan)
     for name, initial in resources.initial_levels.items():
