@@ -233,7 +233,8 @@ def _over_budget(
 
     Started at ``latest`` it runs the fewest units inside the horizon; by
     its end the level is at most the initial level plus all generation by
-    tasks that can run before it ends, minus what it took. Tasks that
+    tasks that can run before it ends and all external charge, minus what
+    it took. Tasks that
     follow it through precedences starting no earlier than its end (the
     first link with offset >= 0, later links with gap >= 0) cannot help;
     ``following`` maps a task to its ``(successor, offset, gap)`` links.
@@ -246,10 +247,21 @@ def _over_budget(
         if after is None:
             after = _after_end(task.id, following)
         need = amount * max(0, min(task.length, problem.end - latest))
-        supply = initial + sum(
-            -other.uses.get(resource, 0) * other.length
-            for other in problem.tasks
-            if other.uses.get(resource, 0) < 0 and other.id not in after
+        # Charge from outside over the whole horizon: a bound.
+        charge = sum(
+            max(0.0, rate)
+            for rate in problem.resources.external_profile(
+                resource, problem.start, problem.horizon
+            )
+        )
+        supply = (
+            initial
+            + charge
+            + sum(
+                -other.uses.get(resource, 0) * other.length
+                for other in problem.tasks
+                if other.uses.get(resource, 0) < 0 and other.id not in after
+            )
         )
         if need > supply + 1e-9:
             return (
@@ -276,7 +288,11 @@ def _over_capacity(
             continue
         need = amount * task.length  # every task ends inside the horizon
         first, last = earliest, latest + task.length
-        inflow = 0.0
+        # Charge from outside in the units it may run in: a bound.
+        external = problem.resources.external_profile(
+            resource, first, max(0, last - first)
+        )
+        inflow = sum(max(0.0, rate) for rate in external)
         for other in problem.tasks:
             rate = -other.uses.get(resource, 0)
             if rate <= 0 or other.id == task.id:

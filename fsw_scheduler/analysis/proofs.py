@@ -317,6 +317,9 @@ def infeasibility(
         empty when no cheap proof exists (the problem may still be
         infeasible).
     """
+    drained = _drain(problem, domains)
+    if drained:
+        return drained
     forced = forced_tasks(problem)
     if not forced:
         return ()
@@ -427,6 +430,43 @@ def _energy(
                 return tuple(
                     Blocker(name, kind or "multiple", detail)
                     for name in inside
+                )
+    return ()
+
+
+def _drain(
+    problem: Problem, domains: Mapping[str, Domain]
+) -> tuple[Blocker, ...]:
+    """An external rate that empties a store whatever the plan, or ``()``.
+
+    With no task consuming, the level at the end of unit ``t`` is at most
+    the initial level, plus the external rate summed up to ``t``, plus
+    everything every generator can ever give; below 0 there, no plan is
+    valid. The blocker names the resource (no task is at fault).
+    """
+    res = problem.resources
+    for name in res.changing:
+        if name not in res.consumable:
+            continue
+        external = res.external_profile(name, problem.start, problem.horizon)
+        generation = sum(
+            -task.uses[name] * task.length
+            for task in problem.tasks
+            if task.uses.get(name, 0) < 0 and not domains[task.id].empty
+        )
+        level = res.initial(name) + generation
+        for unit, rate in enumerate(external):
+            level += rate
+            if level < -_EPS:
+                return (
+                    Blocker(
+                        name,
+                        "consumable",
+                        f"{name}: its external rate alone takes the level "
+                        f"below 0 by the end of t={problem.start + unit} "
+                        f"(initial {res.initial(name):g}, all generation "
+                        f"possible {generation:g})",
+                    ),
                 )
     return ()
 

@@ -182,10 +182,15 @@ def changing_in_use(
     problem: Problem, domains: Mapping[str, Domain]
 ) -> list[str]:
     """Resources whose capacity changes over time that a placeable task
-    of ``problem`` uses (the disjunctive model cannot read them)."""
+    of ``problem`` uses, and every consumable with an external rate, used
+    or not (its level rows bind with no task): the disjunctive model can
+    read none of them."""
     changing = set(problem.resources.changing)
+    # An external rate is a use of its consumable that no task makes.
+    drained = [n for n in problem.resources.consumable if n in changing]
     return sorted(
-        {
+        {*drained}
+        | {
             name
             for task in problem.tasks
             if not domains[task.id].empty
