@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import pytest
 
 from fsw_scheduler.analysis.check import check_plan
-from fsw_scheduler.model.plan import Activity, SolveStatus
+from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.solving.solve import solve
 
 from ..factories import bench_lib, make_doc, make_task, problem_from
