@@ -30,6 +30,7 @@ __all__ = [
     "left_out",
     "mandatory_group_missing",
     "of",
+    "settle",
     "unscheduled_cost",
 ]
 
@@ -260,3 +261,70 @@ def mandatory_group_missing(problem: Problem, starts: Collection[str]) -> bool:
         and not any(all(n in starts for n in o) for o in group.options)
         for group in problem.alternatives
     )
+
+
+def settle(
+    alternatives: tuple[Alternative, ...],
+    live: Collection[str],
+    started: Collection[str],
+) -> tuple[tuple[Alternative, ...], dict[str, str]]:
+    """The groups of a replan, and the live tasks they take out.
+
+    Parameters
+    ----------
+    alternatives
+        The groups of the running problem.
+    live
+        The tasks still to plan.
+    started
+        Tasks that have run or are running (dispatched, running or
+        completed): a started member pins its option.
+
+    Returns
+    -------
+    tuple
+        The groups to plan: a group with a started member keeps only its
+        option (what is left of it, all or none, at the group's cost); a
+        group loses every option one of whose tasks is gone (neither live
+        nor started), and is dropped with none left. Then the live tasks
+        to take out, with the reason: the other options of a pinned group,
+        and what is left of an option that lost a task.
+    """
+    groups_out: list[Alternative] = []
+    drop: dict[str, str] = {}
+    for group in alternatives:
+        pinned = next(
+            (
+                k
+                for k, option in enumerate(group.options)
+                if any(name in started for name in option)
+            ),
+            None,
+        )
+        options: list[tuple[str, ...]] = []
+        for k, option in enumerate(group.options):
+            rest = tuple(name for name in option if name in live)
+            if pinned is not None and k != pinned:
+                for name in rest:
+                    drop[name] = (
+                        f"group {group.id}: option {pinned} has started"
+                    )
+                continue
+            gone = [n for n in option if n not in live and n not in started]
+            if gone:
+                for name in rest:
+                    drop[name] = (
+                        f"group {group.id}: its option {k} lost {gone[0]}"
+                    )
+                continue
+            if rest:
+                options.append(rest)
+        if options:
+            groups_out.append(
+                type(group)(
+                    id=group.id,
+                    schedule_cost=group.schedule_cost,
+                    options=tuple(options),
+                )
+            )
+    return tuple(groups_out), drop
