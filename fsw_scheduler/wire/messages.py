@@ -107,6 +107,9 @@ class PlanMessage(msgspec.Struct, frozen=True):
         The command term of the node that issued it: a plan is named by
         ``(term, plan_id)``; a receiver ignores a lower term than the
         highest it has seen (0: a node older than terms).
+    chosen
+        The option index of each group of alternatives that has one
+        scheduled (only written when the problem has groups).
     """
 
     plan_id: int
@@ -125,6 +128,7 @@ class PlanMessage(msgspec.Struct, frozen=True):
     goals: tuple[str, ...] = ()
     stats: SolverStats | None = None
     term: int = 0
+    chosen: dict[str, int] | msgspec.UnsetType = msgspec.UNSET
 
 
 class Dispatch(msgspec.Struct, frozen=True, omit_defaults=True):
