@@ -31,12 +31,14 @@ from ..errors import FieldIssue, InputError
 from ..model.change import ExecutionReport
 from ..replan.triggers import drift
 from ..wire import topics
+from . import forecasts
 from .dispatch import dispatch_id, dispatch_message
 from .events import (
     ClockStalled,
     Command,
     Event,
     Explained,
+    ForecastArrived,
     GoalArrived,
     InputRejected,
     LevelArrived,
@@ -213,6 +215,7 @@ class Engine:
             plan_message=state.plan_message,
             term=state.term,
             ledger=dict(state.ledger.records),
+            forecasts=tuple(state.forecasts),
         )
 
     @classmethod
@@ -314,6 +317,10 @@ class Engine:
             self._on_report(event.report, out)
         elif isinstance(event, LevelArrived):
             self._on_level(event.level, out)
+        elif isinstance(event, ForecastArrived):
+            forecasts.take(
+                self._state, self._queue, self._verdicts, event.forecast, out
+            )
         elif isinstance(event, InputRejected):
             self._on_rejected(event, out)
         elif isinstance(event, ClockStalled):

@@ -20,6 +20,7 @@ from ..model.plan import Blocker, Plan
 from ..model.problem import Problem
 from ..wire.messages import (
     ActivityReport,
+    ResourceForecast,
     ResourceLevel,
 )
 
@@ -46,6 +47,12 @@ class LevelArrived(msgspec.Struct, frozen=True, tag=True):
     """A consumable level from ``telemetry/resources/<name>``."""
 
     level: ResourceLevel
+
+
+class ForecastArrived(msgspec.Struct, frozen=True, tag=True):
+    """A profile forecast from ``telemetry/resources/<name>/forecast``."""
+
+    forecast: ResourceForecast
 
 
 class InputRejected(msgspec.Struct, frozen=True, tag=True):
@@ -104,6 +111,7 @@ Event = (
     | GoalArrived
     | ReportArrived
     | LevelArrived
+    | ForecastArrived
     | InputRejected
     | ClockStalled
     | Explained

@@ -17,7 +17,12 @@ from ..model.goal import Goal
 from ..model.plan import Plan
 from ..model.problem import Problem
 from ..replan.schedule import Replan, Schedule
-from ..wire.messages import Counters, PlanMessage, SolveSummary
+from ..wire.messages import (
+    Counters,
+    PlanMessage,
+    ResourceForecast,
+    SolveSummary,
+)
 
 #: Bumped when a field's meaning changes; new fields get defaults instead.
 SNAPSHOT_VERSION = 1
@@ -112,4 +117,5 @@ class EngineSnapshot(msgspec.Struct, frozen=True, omit_defaults=True):
     plan_message: PlanMessage | None = None
     term: int = 0
     ledger: dict[str, GoalRecord] = {}
+    forecasts: tuple[ResourceForecast, ...] = ()
     version: int = SNAPSHOT_VERSION

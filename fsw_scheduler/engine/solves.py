@@ -36,6 +36,7 @@ from ..wire.messages import (
     SolveRecord,
     SolveSummary,
 )
+from . import forecasts
 from .events import (
     Command,
     Log,
@@ -177,6 +178,8 @@ class Replanner:
                 pending.replan.removed,
                 out,
             )
+        # Forecasts that came during the solve apply to what it gave.
+        forecasts.after_adoption(state, self._queue, out)
         if pending.stage == "degraded":
             self.raise_alarm(plan, out)
         if (
@@ -355,7 +358,7 @@ class Replanner:
                     levels.update(change.levels)
                     at = min(at, change.at)
                 trigger = "drift" if levels else "stale"
-                for named in ("horizon", "missed"):
+                for named in ("horizon", "missed", "forecast"):
                     if not levels and any(
                         c.trigger == named for c in queue.changes
                     ):

@@ -17,7 +17,12 @@ from typing import TYPE_CHECKING
 
 import msgspec
 
-from ..wire.messages import Counters, PlanMessage, SolveSummary
+from ..wire.messages import (
+    Counters,
+    PlanMessage,
+    ResourceForecast,
+    SolveSummary,
+)
 from .dispatch import Dispatches
 from .ledger import GoalLedger
 
@@ -56,6 +61,9 @@ class EngineState:
         The status ``state`` and why.
     plan_message
         The current plan as published.
+    forecasts
+        Forecasts that arrived while a solve was in flight: taken into the
+        plan it gives (:mod:`.forecasts`).
     """
 
     def __init__(self, config: EngineConfig, initial: Problem) -> None:
@@ -74,6 +82,8 @@ class EngineState:
         self.health: Health = "ok"
         self.health_detail = ""
         self.plan_message: PlanMessage | None = None
+        #: Forecasts taken while a solve was in flight, for its plan.
+        self.forecasts: list[ResourceForecast] = []
 
     @classmethod
     def restore(
@@ -87,6 +97,7 @@ class EngineState:
         state.now = snapshot.now
         state.term = snapshot.term
         state.ledger = GoalLedger(snapshot.ledger, config.max_goal_ids)
+        state.forecasts = list(snapshot.forecasts)
         state.dispatches = Dispatches(
             lifecycle=snapshot.lifecycle,
             dispatched=snapshot.dispatched,

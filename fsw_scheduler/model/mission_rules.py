@@ -26,6 +26,7 @@ if TYPE_CHECKING:
 __all__ = [
     "alternatives_issues",
     "fill_member_costs",
+    "forecast_issues",
     "mission_issues",
     "resource_profile_issues",
 ]
@@ -131,7 +132,10 @@ def window_issues(
 
 
 def step_issues(
-    steps: Sequence[tuple[int, float]], path: str, start: int | None
+    steps: Sequence[tuple[int, float]],
+    path: str,
+    start: int | None,
+    what: str = "the problem start",
 ) -> list[FieldIssue]:
     """Steps whose times do not strictly increase, or that start late."""
     issues = []
@@ -148,8 +152,8 @@ def step_issues(
         issues.append(
             FieldIssue(
                 f"{path}[0][0]",
-                f"the first step is at {steps[0][0]}, after the problem "
-                f"start {start}: say the capacity from the start on",
+                f"the first step is at {steps[0][0]}, after {what} "
+                f"{start}: say the value from there on",
             )
         )
     return issues
@@ -250,3 +254,77 @@ def _member_cost_issue(
             "leave the member's out or make it equal",
         )
     ]
+
+
+def forecast_issues(
+    resources: Resources,
+    name: str,
+    at: int,
+    fields: dict[str, Sequence[tuple[int, float]] | None],
+) -> list[FieldIssue]:
+    """Every reason a forecast of ``name`` cannot be taken.
+
+    Parameters
+    ----------
+    resources
+        The running problem's resources.
+    name
+        The resource named by the forecast (and its key).
+    at
+        From when the forecast holds.
+    fields
+        The forecast's ``available``, ``steps`` and ``external`` (None for
+        the ones it does not carry): exactly the one of the resource's
+        kind must be there.
+
+    Returns
+    -------
+    list of FieldIssue
+        Paths relative to the forecast message.
+    """
+    kind = _forecast_kind(resources, name)
+    if kind is None:
+        known = ", ".join(resources.names) or "none declared"
+        return [FieldIssue("resource", f"unknown resource (known: {known})")]
+    issues = [
+        FieldIssue(
+            other,
+            f"{name!r} is a {resources.kind_of(name)} resource: its "
+            f"forecast carries {kind!r}",
+        )
+        for other, value in fields.items()
+        if value is not None and other != kind
+    ]
+    values = fields.get(kind)
+    if values is None:
+        issues.append(
+            FieldIssue(kind, f"missing: the forecast of {name!r} carries it")
+        )
+        return issues
+    if kind == "available":
+        issues += window_issues(values, "available")  # type: ignore[arg-type]
+        return issues
+    issues += step_issues(values, kind, at, "at")
+    if kind == "steps":
+        issues += [
+            FieldIssue(
+                f"steps[{k}][1]",
+                f"capacity must be a whole number >= 0, got {value:g}",
+            )
+            for k, (_, value) in enumerate(values)
+            if value < 0 or value != int(value)
+        ]
+    return issues
+
+
+def _forecast_kind(resources: Resources, name: str) -> str | None:
+    """The field a forecast of ``name`` carries (None: unknown name)."""
+    kind = resources.kind_of(name)
+    return None if kind is None else _FORECAST_FIELDS[kind]
+
+
+_FORECAST_FIELDS = {
+    "binary": "available",
+    "multiple": "steps",
+    "consumable": "external",
+}

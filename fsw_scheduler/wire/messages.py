@@ -29,7 +29,7 @@ from ..model.plan import (
     SolverStats,
     SolveStatus,
 )
-from ..model.problem import Id, Instant, Problem
+from ..model.problem import Id, Instant, Problem, StepCapacity, Time
 from .profiles import LevelCheck, Profiles
 
 #: Largest payload accepted on an input key; bigger ones are rejected
@@ -70,6 +70,32 @@ class ResourceLevel(msgspec.Struct, frozen=True):
     resource: Id
     level: float
     at: Instant
+
+
+class ResourceForecast(msgspec.Struct, frozen=True, omit_defaults=True):
+    """``telemetry/resources/<name>/forecast``: a resource's profile ahead.
+
+    From ``at`` on, the resource's profile is the forecast's; before it,
+    what the problem had stays. A binary resource's forecast carries
+    ``available`` (windows ``[a, b)``), a multiple one's ``steps``
+    (``[t, capacity]``), a consumable's ``external`` (``[t, rate]``): the
+    fields of the mission model.
+    """
+
+    resource: Id
+    at: Instant
+    available: tuple[tuple[Time, Time], ...] | None = None
+    steps: tuple[tuple[Time, StepCapacity], ...] | None = None
+    external: tuple[tuple[Time, float], ...] | None = None
+
+    @property
+    def fields(self) -> dict[str, tuple[tuple[int, float], ...] | None]:
+        """The three profile fields by name (None where absent)."""
+        return {
+            "available": self.available,
+            "steps": self.steps,
+            "external": self.external,
+        }
 
 
 class PlanMessage(msgspec.Struct, frozen=True):
@@ -421,6 +447,7 @@ SCHEMA_TYPES: dict[str, Any] = {
     "goal": Goal,
     "activity_report": ActivityReport,
     "resource_level": ResourceLevel,
+    "resource_forecast": ResourceForecast,
     "plan": PlanMessage,
     "dispatch": Dispatch,
     "status": Status,
