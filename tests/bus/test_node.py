@@ -542,3 +542,50 @@ def test_cli_run_serves_and_stops_on_sigterm() -> None:
     finally:
         run.stop()
     assert "scheduler stopped" in "".join(run.log)
+
+
+def test_a_forecast_on_the_bus_replans_and_replays(tmp_path: Path) -> None:
+    """Tests forecasts end to end on a real loopback bus: one the plan
+    meets changes nothing, one that closes the planned pass replans
+    (trigger ``forecast``) into the new window, a malformed one is
+    answered ``input_rejected``, and the journal replays IDENTICAL."""
+    from fsw_scheduler.journal.annotate import schema_lookup
+    from fsw_scheduler.journal.replay import verify
+    from fsw_scheduler.journal.writer import Recorder
+
+    problem = {
+        "horizon": 30,
+        "resources": {"binary": {"antenna": {"available": [[0, 30]]}}},
+        "tasks": [
+            {
+                "id": "Down",
+                "length": 4,
+                "delay_cost": 1,
+                "schedule_cost": 2,
+                "feasible_interval": [5, 30],
+                "uses": {"antenna": 1},
+            },
+        ],
+    }
+    path = tmp_path / "forecast.mcap"
+    journal = Recorder(path, schemas=schema_lookup("sat1"))
+    with SchedulerHarness(problem, node_options={"journal": journal}) as h:
+        h.tick(0)
+        first = h.wait_plan(lambda p: p.plan_id == 1)
+        assert first.activities[0].start == 5
+        h.forecast("antenna", 1, available=[[3, 12]])
+        h.tick(1)
+        h.forecast("antenna", 2, available=[[12, 20]])
+        h.tick(2)
+        plan = h.wait_plan(lambda p: p.trigger == "forecast")
+        assert plan.plan_id == 2
+        assert plan.activities[0].start == 12
+        h.forecast("antenna", 3, available=[[20, 10]])
+        status = h.wait_status(lambda s: s.event == "input_rejected")
+        assert status.errors[0].path == "available[0]"
+        h.tick(3)
+        assert h.query_status().last_solve is not None
+        assert h.query_status().last_solve.trigger == "forecast"  # type: ignore[union-attr]
+    report = verify(path)
+    assert report.identical, report.summary()
+    assert report.solves == 2
