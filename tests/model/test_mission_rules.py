@@ -267,3 +267,11 @@ def test_goal_groups_name_the_goals_own_tasks() -> None:
     paths = [i.path for i in info.value.issues]
     assert "alternatives[0].options[1][0]" in paths
     assert "tasks[1].schedule_cost" in paths
+
+
+def test_the_mission_model_example_passes_both() -> None:
+    """Tests that examples/mission-model.json (the documented example)
+    passes the scheduler and the shipped schema."""
+    text = (ROOT / "examples" / "mission-model.json").read_text()
+    assert PROBLEM.is_valid(json.loads(text))
+    assert decode_problem(text).has_mission_model
