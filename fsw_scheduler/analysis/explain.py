@@ -115,6 +115,31 @@ def _with_group(problem: Problem, group: Alternative) -> Problem:
     )
 
 
+def _only_option(problem: Problem, group: Alternative, k: int) -> Problem:
+    """``problem`` where ``group`` must have its option ``k``: the group
+    reduced to it, mandatory, and the other options' tasks taken out
+    (with their precedences), so that nothing else stands in for them."""
+    option = group.options[k]
+    others = {
+        name
+        for idx, other in enumerate(group.options)
+        if idx != k
+        for name in other
+    }
+    reduced = _with_group(
+        problem,
+        msgspec.structs.replace(group, schedule_cost=0, options=(option,)),
+    )
+    return reduced.replace(
+        tasks=tuple(t for t in reduced.tasks if t.id not in others),
+        precedences=tuple(
+            p
+            for p in reduced.precedences
+            if p.before not in others and p.after not in others
+        ),
+    )
+
+
 def _group_blocker(
     problem: Problem, plan: Plan, group: Alternative, solve: SolveFn
 ) -> Blocker:
@@ -178,12 +203,7 @@ def _options_not_chosen(
                 )
                 continue
             explained += 1
-            alone = _with_group(
-                problem,
-                msgspec.structs.replace(
-                    group, schedule_cost=0, options=(option,)
-                ),
-            )
+            alone = _only_option(problem, group, k)
             attempt = solve(alone)
             if attempt.status is SolveStatus.UNKNOWN:
                 reason = "the analysis ran out of time"
@@ -192,10 +212,12 @@ def _options_not_chosen(
                 and attempt.objective
                 and plan.objective
             ):
+                total = attempt.objective.total
                 reason = (
-                    f"with it the objective would be "
-                    f"{attempt.objective.total}, not "
+                    f"with it the objective would be {total}, not "
                     f"{plan.objective.total}"
+                    if total != plan.objective.total
+                    else f"a tie: with it the objective would be {total} too"
                 )
             else:
                 reason = "it cannot be scheduled with the tasks every plan "
