@@ -441,8 +441,10 @@ def _drain(
 
     With no task consuming, the level at the end of unit ``t`` is at most
     the initial level, plus the external rate summed up to ``t``, plus
-    everything every generator can ever give; below 0 there, no plan is
-    valid. The blocker names the resource (no task is at fault).
+    everything every generator can ever give (with no generator, walked
+    with the capacity, which loses charge as the store does); below 0
+    there, no plan is valid. The blocker names the resource (no task is
+    at fault).
     """
     res = problem.resources
     for name in res.changing:
@@ -455,8 +457,13 @@ def _drain(
             if task.uses.get(name, 0) < 0 and not domains[task.id].empty
         )
         level = res.initial(name) + generation
+        # With no generator the capacity binds exactly: what a full store
+        # cannot take of the external charge is lost.
+        top = res.ceiling(name) if not generation else None
         for unit, rate in enumerate(external):
             level += rate
+            if top is not None:
+                level = min(top, level)
             if level < -_EPS:
                 return (
                     Blocker(
@@ -465,7 +472,9 @@ def _drain(
                         f"{name}: its external rate alone takes the level "
                         f"below 0 by the end of t={problem.start + unit} "
                         f"(initial {res.initial(name):g}, all generation "
-                        f"possible {generation:g})",
+                        f"possible {generation:g}"
+                        + ("" if top is None else f", capacity {top:g}")
+                        + ")",
                     ),
                 )
     return ()
