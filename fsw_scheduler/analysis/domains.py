@@ -32,6 +32,7 @@ that plan leaves to spare (see there).
 
 from __future__ import annotations
 
+import itertools
 from typing import TYPE_CHECKING
 
 import msgspec
@@ -107,6 +108,17 @@ def start_domains(
 
     for name, (kind, why) in block_conflicts(problem).items():
         kill(name, why, kind)
+
+    # Resources that change over time: a start whose run meets a unit
+    # where the capacity is below the task's own amount (outside every
+    # window of a binary resource) is no start at all.
+    for task in problem.tasks:
+        if not empty(task.id):
+            found = _open_starts(problem, task, low[task.id], high[task.id])
+            if found is not None:
+                low[task.id], high[task.id], kind, why = found
+                if empty(task.id):
+                    cause[task.id] = (kind, why)
 
     if problem.resources.consumable:
         following: dict[str, list[tuple[str, int, int]]] = {}
@@ -307,6 +319,50 @@ def _over_capacity(
                 "generation while it runs)"
             )
     return ""
+
+
+def _open_starts(
+    problem: Problem, task: Task, earliest: int, latest: int
+) -> tuple[int, int, str, str] | None:
+    """The first and last start in ``[earliest, latest]`` whose run meets
+    no unit too small for ``task`` (None: no resource of it changes).
+
+    An empty range (first > last) comes with the kind and words of why.
+    """
+    res = problem.resources
+    changing = [n for n in res.changing if task.uses.get(n, 0) > 0]
+    changing = [n for n in changing if n not in res.consumable]
+    if not changing:
+        return None
+    closed = [False] * problem.horizon
+    for name in changing:
+        amount = task.uses[name]
+        profile = res.capacity_profile(name, problem.start, problem.horizon)
+        for idx, top in enumerate(profile):
+            if top + 1e-9 < amount:
+                closed[idx] = True
+    # blocked[k]: closed units among the first k units of the horizon.
+    blocked = list(itertools.accumulate(closed, initial=0))
+
+    def fits(start: int) -> bool:
+        first = start - problem.start
+        last = first + task.length
+        return (
+            first >= 0
+            and last <= problem.horizon
+            and (blocked[last] == blocked[first])
+        )
+
+    starts = [s for s in range(earliest, latest + 1) if fits(s)]
+    if not starts:
+        kind = res.kind_of(changing[0]) or "multiple"
+        words = (
+            f"{', '.join(changing)} never available for its whole length"
+            if kind == "binary"
+            else f"{', '.join(changing)} capacity below its use at every start"
+        )
+        return earliest, earliest - 1, kind, words
+    return starts[0], starts[-1], "", ""
 
 
 def _after_end(
