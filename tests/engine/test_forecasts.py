@@ -107,7 +107,7 @@ def test_power_dropping_under_a_running_task_degrades_the_plan() -> None:
     plan = driver.plan
     assert (plan.trigger, plan.status.value) == ("forecast", "degraded")
     (shed,) = [b for b in plan.why if b.task == "Survey"]
-    assert "power capacity (in steps)" in shed.detail
+    assert "power capacity below its use at every start" in shed.detail
 
 
 def test_an_invalid_forecast_is_rejected_with_its_reasons() -> None:
