@@ -245,6 +245,78 @@ def apart_docs(draw: st.DrawFn, max_tasks: int = 5) -> dict:
     }
 
 
+@st.composite
+def mission_docs(
+    draw: st.DrawFn, max_tasks: int = 5, max_horizon: int = 8
+) -> dict:
+    """A :func:`problem_docs` problem with every field of the mission model.
+
+    Added to the drawn problem: a binary resource ``w0`` with availability
+    windows, a multiple resource ``s0`` with capacity steps, a consumable
+    ``e0`` with an external rate (sometimes a capacity), each used by some
+    tasks, and (with two tasks or more) a group of two options of one or
+    two tasks each, whose members mostly leave their cost out.
+    """
+    names = st.sampled_from
+    doc = draw(problem_docs(max_tasks=max_tasks, max_horizon=max_horizon))
+    start, end = doc["start"], doc["start"] + doc["horizon"]
+    first = draw(st.integers(start - 1, start + 2))
+    windows = [[first, draw(st.integers(first + 1, max(first + 1, end + 1)))]]
+    if draw(st.booleans()) and windows[0][1] + 1 < end:
+        again = draw(st.integers(windows[0][1] + 1, end - 1))
+        windows.append([again, again + draw(st.integers(1, 3))])
+    steps: list[list[int]] = [[draw(names([start, start - 1])), 0]]
+    if end - 1 > start:
+        later = st.lists(st.integers(start + 1, end - 1), max_size=2)
+        steps += [[t, 0] for t in sorted(set(draw(later)))]
+    for step in steps:
+        step[1] = draw(names([2, 1, 3, 0, 4]))
+    external = [
+        [draw(names([start, start + 2])), draw(names([1, -1, 0.5, 2]))]
+    ]
+    if draw(st.booleans()):
+        external.append([external[0][0] + 3, draw(names([0, -1, 1]))])
+    store: dict = {"initial": draw(names([2, 0, 4, 1])), "external": external}
+    if draw(st.booleans()):
+        store["max"] = store["initial"] + draw(names([0, 1, 3]))
+    resources = doc["resources"]
+    resources["binary"] = {
+        **{name: {} for name in resources["binary"]},
+        "w0": {"available": windows},
+    }
+    resources["multiple"]["s0"] = {"steps": steps}
+    resources["consumable"]["e0"] = store
+    for task in doc["tasks"]:
+        uses = task.setdefault("uses", {})
+        if task["schedule_cost"] == 0 or "fixed_start" in task:
+            continue  # a task every plan holds: keep most problems feasible
+        if draw(st.integers(0, 2)) == 0:
+            uses["w0"] = 1
+        if draw(st.booleans()):
+            uses["s0"] = draw(names([1, 2, 3]))
+        if draw(st.integers(0, 2)) == 0:
+            uses["e0"] = draw(names([1, 2, -1]))
+    ids = [task["id"] for task in doc["tasks"]]
+    if len(ids) >= 2:
+        picked = draw(st.permutations(ids))
+        split = draw(st.integers(1, max(1, min(2, len(ids) - 1))))
+        rest = picked[split:][: draw(st.integers(1, 2))]
+        cost = draw(names([3, 1, 0]))
+        doc["alternatives"] = [
+            {
+                "id": "g0",
+                "schedule_cost": cost,
+                "options": [picked[:split], rest],
+            }
+        ]
+        for task in doc["tasks"]:
+            if task["id"] in picked[:split] or task["id"] in rest:
+                task["schedule_cost"] = cost
+                if draw(st.booleans()):
+                    del task["schedule_cost"]
+    return doc
+
+
 def decode_doc(doc: dict) -> Problem:
     """Decode ``doc``, discarding the example if validation rejects it."""
     try:
@@ -296,15 +368,20 @@ def joint_ok(problem: Problem, starts: Assignment) -> bool:
             return False
         if prec.kind == "lax" and after < target:
             return False
+    if not groups_ok(problem, starts):
+        return False
     resources = problem.resources
-    levels, tops = {}, {}
+    levels, tops, outside = {}, {}, {}
     for name, spec in resources.consumable.items():
-        # The raw field: a number, or an object with initial and max.
+        # The raw field: a number, or an object with initial, max and
+        # external steps.
         if isinstance(spec, int | float):
             levels[name], tops[name] = spec, math.inf
+            outside[name] = ()
         else:
             levels[name] = spec.initial
             tops[name] = math.inf if spec.max is None else spec.max
+            outside[name] = spec.external
     for t in range(problem.start, problem.start + problem.horizon):
         use: dict[str, float] = {}
         for task in problem.tasks:
@@ -314,26 +391,72 @@ def joint_ok(problem: Problem, starts: Assignment) -> bool:
             for name, amount in task.uses.items():
                 use[name] = use.get(name, 0) + amount
         for name in resources.binary:
-            if use.get(name, 0) > 1:
+            if use.get(name, 0) > (1 if open_at(problem, name, t) else 0):
                 return False
         for name, capacity in resources.multiple.items():
+            if not isinstance(capacity, int | float):
+                capacity = step_at(capacity.steps, t)
             if use.get(name, 0) > capacity + TOLERANCE:
                 return False
         for name in levels:
             # Net use of the unit, then the capacity: a full store loses
             # what it is offered beyond it.
-            levels[name] = min(tops[name], levels[name] - use.get(name, 0))
+            levels[name] = min(
+                tops[name],
+                levels[name] + step_at(outside[name], t) - use.get(name, 0),
+            )
             if levels[name] < -TOLERANCE:
                 return False
     return True
 
 
+def step_at(steps: object, t: int) -> float:
+    """The value of the last step ``[t_k, v_k]`` at or before ``t``, 0
+    before the first."""
+    value = 0.0
+    for since, amount in steps:  # type: ignore[attr-defined]
+        if since <= t:
+            value = amount
+    return value
+
+
+def open_at(problem: Problem, name: str, t: int) -> bool:
+    """Whether binary ``name`` is available in unit ``t``."""
+    binary = problem.resources.binary
+    if not isinstance(binary, dict) or binary[name].available is None:
+        return True
+    return any(a <= t < b for a, b in binary[name].available)
+
+
+def members_of(problem: Problem) -> set[str]:
+    return {
+        n for g in problem.alternatives for option in g.options for n in option
+    }
+
+
+def groups_ok(problem: Problem, starts: Assignment) -> bool:
+    """All or none of an option, at most one option, mandatory groups."""
+    for group in problem.alternatives:
+        full = 0
+        for option in group.options:
+            placed = [starts[n] is not None for n in option]
+            if any(placed) and not all(placed):
+                return False
+            full += all(placed)
+        if full > 1 or (group.schedule_cost == 0 and full == 0):
+            return False
+    return True
+
+
 def is_feasible(problem: Problem, starts: Assignment) -> bool:
     """Whether ``starts`` (task id to start, None = left out) is valid."""
+    members = members_of(problem)
     for task in problem.tasks:
         start = starts[task.id]
         if start is None:
-            if task.schedule_cost == 0 or task.fixed_start is not None:
+            if task.fixed_start is not None or (
+                task.schedule_cost == 0 and task.id not in members
+            ):
                 return False
         elif not start_ok(problem, task, start):
             return False
@@ -342,8 +465,16 @@ def is_feasible(problem: Problem, starts: Assignment) -> bool:
 
 def objective_of(problem: Problem, starts: Assignment) -> Objective:
     weight = 1 + problem.horizon * sum(t.delay_cost for t in problem.tasks)
+    members = members_of(problem)
     left_out = sum(
-        t.schedule_cost for t in problem.tasks if starts[t.id] is None
+        t.schedule_cost
+        for t in problem.tasks
+        if starts[t.id] is None and t.id not in members
+    )
+    left_out += sum(
+        g.schedule_cost
+        for g in problem.alternatives
+        if all(starts[n] is None for o in g.options for n in o)
     )
     delay = sum(
         t.delay_cost * (starts[t.id] - problem.start)  # type: ignore[operator]
@@ -368,13 +499,16 @@ def brute_force(problem: Problem) -> tuple[Objective, Assignment] | None:
         None for left out), or None when no assignment is feasible.
     """
     options = []
+    members = members_of(problem)
     for task in problem.tasks:
         starts: list[int | None] = [
             s
             for s in range(problem.start, problem.start + problem.horizon)
             if start_ok(problem, task, s)
         ]
-        if task.schedule_cost != 0 and task.fixed_start is None:
+        if task.fixed_start is None and (
+            task.schedule_cost != 0 or task.id in members
+        ):
             starts.append(None)
         options.append(starts)
     ids = [task.id for task in problem.tasks]
@@ -413,7 +547,15 @@ def assert_brute_force_optimum(
 
 
 def plan_of(problem: Problem, starts: Assignment) -> Plan:
+    """The plan of ``starts`` in the plan format (groups listed by id)."""
     lengths = {task.id: task.length for task in problem.tasks}
+    members = members_of(problem)
+    left = [n for n, s in starts.items() if s is None and n not in members]
+    left += [
+        g.id
+        for g in problem.alternatives
+        if all(starts[n] is None for o in g.options for n in o)
+    ]
     return Plan(
         SolveStatus.OPTIMAL,
         objective_of(problem, starts),
@@ -422,7 +564,7 @@ def plan_of(problem: Problem, starts: Assignment) -> Plan:
             for name, s in starts.items()
             if s is not None
         ),
-        tuple(name for name, s in starts.items() if s is None),
+        tuple(left),
     )
 
 

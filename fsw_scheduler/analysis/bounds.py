@@ -166,7 +166,10 @@ def kept_set_plan(
     KeptSetProof
         The optimal plan (status ``optimal``) if proved, and the bound.
     """
-    if plan.objective is None:
+    if plan.objective is None or problem.has_mission_model:
+        # The relaxation prices tasks one by one and reads constant
+        # capacities: alternatives and changing resources are the
+        # solver's to decide.
         return KeptSetProof(None, None)
     search = _KeptSetSearch(problem, domains, plan.objective.total)
     if not search.run(max_nodes):
@@ -558,7 +561,9 @@ def kept_set_bound(
     part's neighbourhood search, which improves its own incumbent) asks
     for this: ``better`` is always None.
     """
-    if plan.objective is None:
+    if plan.objective is None or problem.has_mission_model:
+        # As kept_set_plan: the relaxation knows neither alternatives
+        # nor capacities that change.
         return KeptSetProof(None, None)
     search = _KeptSetSearch(problem, domains, plan.objective.total)
     if not search.run(max_nodes):

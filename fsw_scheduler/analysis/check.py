@@ -13,7 +13,9 @@ Every violation is reported, not just the first. Rule names:
 
 ``coverage``
     every task exactly once across ``activities`` and ``unscheduled``;
-    no unknown task ids.
+    no unknown task ids. A group member is listed at most once (only in
+    ``activities`` in the plan format); a group none of whose tasks is
+    scheduled is listed in ``unscheduled`` by its id, and only then.
 ``length``
     ``end - start == length``.
 ``horizon``
@@ -26,15 +28,22 @@ Every violation is reported, not just the first. Rule names:
 ``fixed_start``
     a pinned task is scheduled and starts exactly at its pin.
 ``mandatory``
-    a task with ``schedule_cost`` 0 is scheduled.
+    a task with ``schedule_cost`` 0 that is no group member is scheduled;
+    a group with ``schedule_cost`` 0 has an option scheduled.
+``alternatives``
+    the tasks of an option are scheduled all together or not at all, and
+    at most one option of a group is.
 ``binary``
-    at most one running user of a binary resource per time unit.
+    at most one running user of a binary resource per time unit, and
+    none in a unit outside its ``available`` windows.
 ``multiple``
-    the summed amounts of running users stay within capacity.
+    the summed amounts of running users stay within the capacity of each
+    unit (a number, or the capacity step the unit is in).
 ``consumable``
     the level at the end of every time unit stays >= 0; with a capacity
-    the level at the end of unit ``t`` is ``min(max, level at t-1 - net
-    use in t)`` (what a full store cannot take is lost).
+    the level at the end of unit ``t`` is ``min(max, level at t-1 +
+    external(t) - net use in t)`` (what a full store cannot take is lost);
+    ``external`` is 0 without steps and before the first one.
 ``precedence``
     tight: ``s_after == s_before + l_before + offset``; lax: ``>=``.
     Only checked when both tasks are scheduled.
@@ -42,7 +51,9 @@ Every violation is reported, not just the first. Rule names:
     ``both``: both tasks or neither are scheduled; ``at_least_first``:
     ``after`` scheduled needs ``before`` scheduled.
 ``objective``
-    the plan's reported objective equals the recomputed one.
+    the plan's reported objective equals the recomputed one: a task left
+    out costs its schedule cost unless it is a group member; a group with
+    no scheduled task costs the group's, once.
 
 Conventions for malformed plans (documented so that reports are stable):
 
@@ -87,6 +98,7 @@ RULES = (
     "window",
     "fixed_start",
     "mandatory",
+    "alternatives",
     "binary",
     "multiple",
     "consumable",
@@ -180,6 +192,7 @@ def check_plan(problem: Problem, plan: Plan) -> CheckReport:
     if plan.status.has_plan:
         violations += _placement(problem, tasks, known)
         violations += _selection(problem, first)
+        violations += _alternatives(problem, first)
         violations += _binary(problem, tasks, known)
         violations += _multiple(problem, tasks, known)
         violations += _consumable(problem, tasks, known)
@@ -234,8 +247,25 @@ def format_report(report: CheckReport) -> str:
 # Objective
 
 
+def _members(problem: Problem) -> set[str]:
+    return {
+        name
+        for group in problem.alternatives
+        for option in group.options
+        for name in option
+    }
+
+
 def _objective(problem: Problem, first: dict[str, Activity]) -> Objective:
-    left_out = sum(t.schedule_cost for t in problem.tasks if t.id not in first)
+    members = _members(problem)
+    left_out = sum(
+        t.schedule_cost
+        for t in problem.tasks
+        if t.id not in first and t.id not in members
+    )
+    for group in problem.alternatives:
+        if not any(n in first for option in group.options for n in option):
+            left_out += group.schedule_cost
     delay = sum(
         task.delay_cost * (first[task.id].start - problem.start)
         for task in problem.tasks
@@ -260,6 +290,8 @@ def _show(objective: Objective) -> str:
 
 def _coverage(problem: Problem, plan: Plan) -> Iterator[Violation]:
     ids = {task.id for task in problem.tasks}
+    members = _members(problem)
+    group_ids = {group.id for group in problem.alternatives}
     placed = Counter(a.task for a in plan.activities)
     dropped = Counter(plan.unscheduled)
     for task in problem.tasks:
@@ -267,6 +299,8 @@ def _coverage(problem: Problem, plan: Plan) -> Iterator[Violation]:
         if n_placed + n_dropped == 1:
             continue
         if n_placed + n_dropped == 0:
+            if task.id in members:
+                continue  # a group's tasks are not listed one by one
             detail = "appears neither in activities nor in unscheduled"
         elif n_placed and n_dropped:
             detail = (
@@ -278,9 +312,38 @@ def _coverage(problem: Problem, plan: Plan) -> Iterator[Violation]:
         else:
             detail = f"appears {n_dropped} times in unscheduled"
         yield Violation("coverage", task.id, None, detail)
+    for group in problem.alternatives:
+        names = [n for option in group.options for n in option]
+        if not any(n in ids for n in names):
+            continue
+        scheduled = any(placed[n] for n in names)
+        listed = dropped[group.id]
+        if scheduled and listed:
+            yield Violation(
+                "coverage",
+                group.id,
+                None,
+                "is listed in unscheduled but has an option scheduled",
+            )
+        elif listed > 1:
+            yield Violation(
+                "coverage",
+                group.id,
+                None,
+                f"appears {listed} times in unscheduled",
+            )
+        elif not scheduled and not listed and plan.status.has_plan:
+            yield Violation(
+                "coverage",
+                group.id,
+                None,
+                "no option is scheduled, and the group is not listed in "
+                "unscheduled",
+            )
     for where, counts in (("activities", placed), ("unscheduled", dropped)):
         for name in counts:
-            if name not in ids:
+            known = ids | group_ids if where == "unscheduled" else ids
+            if name not in known:
                 yield Violation(
                     "coverage", name, None, f"unknown task id in {where}"
                 )
@@ -352,6 +415,7 @@ def _window(
 def _selection(
     problem: Problem, first: dict[str, Activity]
 ) -> Iterator[Violation]:
+    members = _members(problem)
     for task in problem.tasks:
         if task.id in first:
             continue
@@ -363,12 +427,52 @@ def _selection(
                 f"is pinned to start at {task.fixed_start} but is not "
                 "scheduled",
             )
-        if task.schedule_cost == 0:
+        if task.schedule_cost == 0 and task.id not in members:
             yield Violation(
                 "mandatory",
                 task.id,
                 None,
                 "is mandatory (schedule_cost 0) but is not scheduled",
+            )
+    for group in problem.alternatives:
+        if group.schedule_cost == 0 and not any(
+            name in first for option in group.options for name in option
+        ):
+            yield Violation(
+                "mandatory",
+                group.id,
+                None,
+                "is a mandatory group (schedule_cost 0) but no option is "
+                "scheduled",
+            )
+
+
+def _alternatives(
+    problem: Problem, first: dict[str, Activity]
+) -> Iterator[Violation]:
+    for group in problem.alternatives:
+        picked = []
+        for idx, option in enumerate(group.options):
+            placed = [name for name in option if name in first]
+            if placed:
+                picked.append(idx)
+            if placed and len(placed) < len(option):
+                missing = [name for name in option if name not in first]
+                yield Violation(
+                    "alternatives",
+                    missing[0],
+                    None,
+                    f"group {group.id!r} option {idx}: {', '.join(placed)} "
+                    f"scheduled without {', '.join(missing)} (an option's "
+                    "tasks are scheduled all together or not at all)",
+                )
+        if len(picked) > 1:
+            yield Violation(
+                "alternatives",
+                None,
+                None,
+                f"group {group.id!r}: options {picked} are all scheduled, "
+                "at most one may be",
             )
 
 
@@ -427,10 +531,49 @@ def _key(running: Iterable[tuple[Activity, float]]) -> tuple[str, ...]:
     return tuple(a.task for a, _ in running)
 
 
+def _steps_at(steps: Sequence[tuple[int, float]], t: int) -> float | None:
+    """The value of the last step at or before ``t`` (None before all)."""
+    value = None
+    for since, amount in steps:
+        if since > t:
+            break
+        value = float(amount)
+    return value
+
+
+def _available(problem: Problem, resource: str, t: int) -> bool:
+    binary = problem.resources.binary
+    spec = binary.get(resource) if isinstance(binary, dict) else None
+    if spec is None or spec.available is None:
+        return True
+    return any(low <= t < high for low, high in spec.available)
+
+
+def _capacity(problem: Problem, resource: str, t: int) -> float:
+    value = problem.resources.multiple[resource]
+    if isinstance(value, int | float):
+        return float(value)
+    found = _steps_at(value.steps, t)
+    return 0.0 if found is None else found
+
+
 def _binary(
     problem: Problem, tasks: dict[str, Task], known: Sequence[Activity]
 ) -> Iterator[Violation]:
     for resource in problem.resources.binary:
+        closed = [
+            _Hit(t, _key(running), len(running))
+            for t, running in _walk(problem, _users(tasks, known, resource))
+            if running and not _available(problem, resource, t)
+        ]
+        for run in _runs(closed):
+            yield Violation(
+                "binary",
+                None,
+                run[0].t,
+                f"{resource!r} at {_span(run)}: used by "
+                f"{', '.join(run[0].key)} outside its available windows",
+            )
         hits = [
             _Hit(t, _key(running), len(running))
             for t, running in _walk(problem, _users(tasks, known, resource))
@@ -449,13 +592,14 @@ def _binary(
 def _multiple(
     problem: Problem, tasks: dict[str, Task], known: Sequence[Activity]
 ) -> Iterator[Violation]:
-    for resource, capacity in problem.resources.multiple.items():
+    for resource in problem.resources.multiple:
         hits = []
         for t, running in _walk(problem, _users(tasks, known, resource)):
             used = sum(amount for _, amount in running)
-            if used > capacity + TOLERANCE:
+            if used > _capacity(problem, resource, t) + TOLERANCE:
                 hits.append(_Hit(t, _key(running), used))
         for run in _runs(hits):
+            capacity = _capacity(problem, resource, run[0].t)
             yield Violation(
                 "multiple",
                 None,
@@ -470,6 +614,7 @@ def _consumable(
 ) -> Iterator[Violation]:
     for resource, spec in problem.resources.consumable.items():
         initial, ceiling = _initial_and_ceiling(spec)
+        external = () if isinstance(spec, int | float) else spec.external
         top = math.inf if ceiling is None else ceiling
         users = _users(tasks, known, resource)
         # Units run before the horizon (already a horizon violation) still
@@ -483,7 +628,10 @@ def _consumable(
         for t, running in _walk(problem, users):
             # Net use of the unit, then the ceiling: what a full store
             # cannot take is lost.
-            level = min(top, level - sum(amount for _, amount in running))
+            outside = _steps_at(external, t) or 0.0
+            level = min(
+                top, level + outside - sum(amount for _, amount in running)
+            )
             if level < -TOLERANCE:
                 # The level keeps falling while the same tasks run: merge
                 # on "below zero" alone, not on who runs.

@@ -32,6 +32,7 @@ that plan leaves to spare (see there).
 
 from __future__ import annotations
 
+import itertools
 from typing import TYPE_CHECKING
 
 import msgspec
@@ -107,6 +108,17 @@ def start_domains(
 
     for name, (kind, why) in block_conflicts(problem).items():
         kill(name, why, kind)
+
+    # Resources that change over time: a start whose run meets a unit
+    # where the capacity is below the task's own amount (outside every
+    # window of a binary resource) is no start at all.
+    for task in problem.tasks:
+        if not empty(task.id):
+            found = _open_starts(problem, task, low[task.id], high[task.id])
+            if found is not None:
+                low[task.id], high[task.id], kind, why = found
+                if empty(task.id):
+                    cause[task.id] = (kind, why)
 
     if problem.resources.consumable:
         following: dict[str, list[tuple[str, int, int]]] = {}
@@ -197,9 +209,14 @@ def cost_caps(
     if objective is None or objective.unscheduled_cost != 0:
         return None
 
+    member = problem.groups.member
+
     def must(task_id: str) -> bool:
+        # A group member need not be scheduled: another option may be.
         task = problem.task(task_id)
-        return task.mandatory or task.schedule_cost > 0
+        if task_id in member:
+            return task.fixed_start is not None
+        return problem.required(task) or task.schedule_cost > 0
 
     floor = {
         task.id: domains[task.id].earliest - problem.start
@@ -228,7 +245,8 @@ def _over_budget(
 
     Started at ``latest`` it runs the fewest units inside the horizon; by
     its end the level is at most the initial level plus all generation by
-    tasks that can run before it ends, minus what it took. Tasks that
+    tasks that can run before it ends and all external charge, minus what
+    it took. Tasks that
     follow it through precedences starting no earlier than its end (the
     first link with offset >= 0, later links with gap >= 0) cannot help;
     ``following`` maps a task to its ``(successor, offset, gap)`` links.
@@ -241,10 +259,21 @@ def _over_budget(
         if after is None:
             after = _after_end(task.id, following)
         need = amount * max(0, min(task.length, problem.end - latest))
-        supply = initial + sum(
-            -other.uses.get(resource, 0) * other.length
-            for other in problem.tasks
-            if other.uses.get(resource, 0) < 0 and other.id not in after
+        # Charge from outside over the whole horizon: a bound.
+        charge = sum(
+            max(0.0, rate)
+            for rate in problem.resources.external_profile(
+                resource, problem.start, problem.horizon
+            )
+        )
+        supply = (
+            initial
+            + charge
+            + sum(
+                -other.uses.get(resource, 0) * other.length
+                for other in problem.tasks
+                if other.uses.get(resource, 0) < 0 and other.id not in after
+            )
         )
         if need > supply + 1e-9:
             return (
@@ -271,7 +300,11 @@ def _over_capacity(
             continue
         need = amount * task.length  # every task ends inside the horizon
         first, last = earliest, latest + task.length
-        inflow = 0.0
+        # Charge from outside in the units it may run in: a bound.
+        external = problem.resources.external_profile(
+            resource, first, max(0, last - first)
+        )
+        inflow = sum(max(0.0, rate) for rate in external)
         for other in problem.tasks:
             rate = -other.uses.get(resource, 0)
             if rate <= 0 or other.id == task.id:
@@ -286,6 +319,50 @@ def _over_capacity(
                 "generation while it runs)"
             )
     return ""
+
+
+def _open_starts(
+    problem: Problem, task: Task, earliest: int, latest: int
+) -> tuple[int, int, str, str] | None:
+    """The first and last start in ``[earliest, latest]`` whose run meets
+    no unit too small for ``task`` (None: no resource of it changes).
+
+    An empty range (first > last) comes with the kind and words of why.
+    """
+    res = problem.resources
+    changing = [n for n in res.changing if task.uses.get(n, 0) > 0]
+    changing = [n for n in changing if n not in res.consumable]
+    if not changing:
+        return None
+    closed = [False] * problem.horizon
+    for name in changing:
+        amount = task.uses[name]
+        profile = res.capacity_profile(name, problem.start, problem.horizon)
+        for idx, top in enumerate(profile):
+            if top + 1e-9 < amount:
+                closed[idx] = True
+    # blocked[k]: closed units among the first k units of the horizon.
+    blocked = list(itertools.accumulate(closed, initial=0))
+
+    def fits(start: int) -> bool:
+        first = start - problem.start
+        last = first + task.length
+        return (
+            first >= 0
+            and last <= problem.horizon
+            and (blocked[last] == blocked[first])
+        )
+
+    starts = [s for s in range(earliest, latest + 1) if fits(s)]
+    if not starts:
+        kind = res.kind_of(changing[0]) or "multiple"
+        words = (
+            f"{', '.join(changing)} never available for its whole length"
+            if kind == "binary"
+            else f"{', '.join(changing)} capacity below its use at every start"
+        )
+        return earliest, earliest - 1, kind, words
+    return starts[0], starts[-1], "", ""
 
 
 def _after_end(

@@ -21,6 +21,11 @@ solve.
   for what the precedence does. For a consumable with a capacity, one
   more solve without the capacity says whether charge lost while the
   store is full is what keeps the task out.
+* A group left out (its id in ``unscheduled``) is forced in the same way
+  (made mandatory): ``cost`` when an option then fits, else the reason
+  shared by its options. Each option a plan did not choose is solved
+  alone (the group reduced to it, mandatory): cause ``alternative``, with
+  what it would cost or why it cannot be scheduled.
 """
 
 from __future__ import annotations
@@ -30,7 +35,13 @@ from collections.abc import Callable
 import msgspec
 
 from ..model.plan import Blocker, Plan, SolveStatus
-from ..model.problem import Problem, Resources, Task
+from ..model.problem import (
+    Alternative,
+    Consumable,
+    Problem,
+    Resources,
+    Task,
+)
 from .domains import start_domains
 
 SolveFn = Callable[[Problem], Plan]
@@ -71,8 +82,16 @@ def explain(
         )
     else:
         culprits = list(plan.unscheduled)
+    by_group = {group.id: group for group in problem.alternatives}
     blockers = []
     for idx, task_id in enumerate(culprits):
+        if task_id in by_group:
+            blockers.append(
+                _group_blocker(problem, plan, by_group[task_id], solve)
+                if idx < MAX_EXPLAINED
+                else Blocker(task_id, "not_analysed", "too many to analyse")
+            )
+            continue
         domain = domains[task_id]
         if domain.empty:
             blockers.append(Blocker(task_id, domain.cause, domain.detail))
@@ -82,7 +101,129 @@ def explain(
             )
         else:
             blockers.append(_forced(problem, plan, task_id, solve, infeasible))
+    if not infeasible:
+        blockers += _options_not_chosen(problem, plan, solve)
     return tuple(blockers)
+
+
+def _with_group(problem: Problem, group: Alternative) -> Problem:
+    """``problem`` with ``group`` in place of the group of the same id."""
+    return problem.replace(
+        alternatives=tuple(
+            group if g.id == group.id else g for g in problem.alternatives
+        )
+    )
+
+
+def _only_option(problem: Problem, group: Alternative, k: int) -> Problem:
+    """``problem`` where ``group`` must have its option ``k``: the group
+    reduced to it, mandatory, and the other options' tasks taken out
+    (with their precedences), so that nothing else stands in for them."""
+    option = group.options[k]
+    others = {
+        name
+        for idx, other in enumerate(group.options)
+        if idx != k
+        for name in other
+    }
+    reduced = _with_group(
+        problem,
+        msgspec.structs.replace(group, schedule_cost=0, options=(option,)),
+    )
+    return reduced.replace(
+        tasks=tuple(t for t in reduced.tasks if t.id not in others),
+        precedences=tuple(
+            p
+            for p in reduced.precedences
+            if p.before not in others and p.after not in others
+        ),
+    )
+
+
+def _group_blocker(
+    problem: Problem, plan: Plan, group: Alternative, solve: SolveFn
+) -> Blocker:
+    """Why no option of ``group`` is scheduled: forced in, what then."""
+    domains = start_domains(problem)
+    stuck = [
+        next((n for n in option if n in domains and domains[n].empty), None)
+        for option in group.options
+    ]
+    if all(name is not None for name in stuck):
+        return Blocker(
+            group.id,
+            domains[stuck[0]].cause or "window",  # type: ignore[index]
+            "no option can be placed: "
+            + "; ".join(
+                f"option {k}: {name} {domains[name].detail}"  # type: ignore[index]
+                for k, name in enumerate(stuck)
+            ),
+        )
+    forced = _with_group(
+        problem, msgspec.structs.replace(group, schedule_cost=0)
+    )
+    attempt = solve(forced)
+    if attempt.status is SolveStatus.UNKNOWN:
+        return _not_analysed(group.id)
+    if attempt.status.has_plan and attempt.objective and plan.objective:
+        return Blocker(
+            group.id,
+            "cost",
+            f"option {attempt.picks.get(group.id, 0)} fits, but placing it "
+            f"raises the objective from {plan.objective.total} to "
+            f"{attempt.objective.total}",
+        )
+    return Blocker(
+        group.id,
+        "combination",
+        "no option fits with the tasks every plan must hold",
+    )
+
+
+def _options_not_chosen(
+    problem: Problem, plan: Plan, solve: SolveFn
+) -> list[Blocker]:
+    """One ``alternative`` blocker per option a plan did not choose."""
+    found = []
+    explained = 0
+    for group in problem.alternatives:
+        pick = plan.picks.get(group.id)
+        if pick is None:
+            continue
+        for k, option in enumerate(group.options):
+            if k == pick:
+                continue
+            head = (
+                f"option {k} ({', '.join(option)}) not chosen, option "
+                f"{pick} is"
+            )
+            if explained >= MAX_EXPLAINED:
+                found.append(
+                    Blocker(group.id, "alternative", f"{head}: not analysed")
+                )
+                continue
+            explained += 1
+            alone = _only_option(problem, group, k)
+            attempt = solve(alone)
+            if attempt.status is SolveStatus.UNKNOWN:
+                reason = "the analysis ran out of time"
+            elif (
+                attempt.status.has_plan
+                and attempt.objective
+                and plan.objective
+            ):
+                total = attempt.objective.total
+                reason = (
+                    f"with it the objective would be {total}, not "
+                    f"{plan.objective.total}"
+                    if total != plan.objective.total
+                    else f"a tie: with it the objective would be {total} too"
+                )
+            else:
+                reason = "it cannot be scheduled with the tasks every plan "
+                reason += "must hold"
+            found.append(Blocker(group.id, "alternative", f"{head}: {reason}"))
+    return found
 
 
 def _infeasible_mandatory(
@@ -93,14 +234,27 @@ def _infeasible_mandatory(
     Forcing one of them into the relaxed model (the other mandatory tasks
     optional) then tells what blocks it, as for an unscheduled task.
     """
-    mandatory = [t.id for t in problem.tasks if t.mandatory]
+    mandatory = [t.id for t in problem.tasks if problem.required(t)]
+    mandatory += [g.id for g in problem.alternatives if g.schedule_cost == 0]
+    members = problem.groups.member
     relaxed = problem.replace(
         tasks=tuple(
-            _optional(task) if task.mandatory else task
+            _optional(task)
+            if problem.required(task)
+            or (task.id in members and task.schedule_cost == 0)
+            else task
             for task in problem.tasks
-        )
+        ),
+        alternatives=tuple(
+            msgspec.structs.replace(g, schedule_cost=5)
+            if g.schedule_cost == 0
+            else g
+            for g in problem.alternatives
+        ),
     )
-    stuck = [name for name in mandatory if domains[name].empty]
+    stuck = [
+        name for name in mandatory if name in domains and domains[name].empty
+    ]
     if stuck:
         return stuck, relaxed, Plan(SolveStatus.UNKNOWN, None)
     plan = solve(relaxed)
@@ -128,7 +282,9 @@ def _force(problem: Problem, task_id: str) -> Problem:
 def _without_resource(problem: Problem, name: str) -> Problem:
     res = problem.resources
     resources = Resources(
-        binary=tuple(r for r in res.binary if r != name),
+        binary={k: v for k, v in res.binary.items() if k != name}
+        if isinstance(res.binary, dict)
+        else tuple(r for r in res.binary if r != name),
         multiple={k: v for k, v in res.multiple.items() if k != name},
         consumable={k: v for k, v in res.consumable.items() if k != name},
     )
@@ -275,7 +431,14 @@ def _resource_detail(problem: Problem, name: str) -> str:
     if kind == "binary":
         return f"{name} is busy whenever it could run"
     if kind == "multiple":
-        return f"{name} capacity {res.multiple[name]:g} would be exceeded"
+        value = res.multiple[name]
+        words = (
+            f"{value:g}"
+            if isinstance(value, int | float)
+            else "(in steps) "
+            + ", ".join(f"{c} from {t}" for t, c in value.steps)
+        )
+        return f"{name} capacity {words} would be exceeded"
     ceiling = res.ceiling(name)
     capacity = "" if ceiling is None else f", capacity {ceiling:g}"
     return (
@@ -298,7 +461,12 @@ def _capacity_note(forced: Problem, name: str, solve: SolveFn) -> str:
             forced.resources,
             consumable={
                 **forced.resources.consumable,
-                name: forced.resources.initial(name),
+                name: Consumable(
+                    forced.resources.initial(name),
+                    external=getattr(
+                        forced.resources.consumable[name], "external", ()
+                    ),
+                ),
             },
         )
     )

@@ -30,6 +30,7 @@ from collections import defaultdict
 from collections.abc import Callable, Set
 from typing import TYPE_CHECKING, Any
 
+from ..model import groups
 from ..model.plan import (
     Activity,
     Objective,
@@ -87,13 +88,19 @@ class _Board:
         self.problem = problem
         span = problem.horizon
         res = problem.resources
-        self.used = {name: [0.0] * span for name in res.binary}
-        self.used.update({name: [0.0] * span for name in res.multiple})
-        self.capacity = {name: 1.0 for name in res.binary}
-        self.capacity.update(res.multiple)
-        # level[t]: level at the end of unit start + t
+        self.used = {n: [0.0] * span for n in (*res.binary, *res.multiple)}
+        # The capacity of each unit: windows and steps included.
+        self.capacity = {
+            name: res.capacity_profile(name, problem.start, span)
+            for name in (*res.binary, *res.multiple)
+        }
+        self.external = ext = {
+            n: res.external_profile(n, problem.start, span)
+            for n in res.consumable
+        }
+        # level[t]: level at the end of unit start + t, external rate in
         self.level = {
-            name: [float(initial)] * span
+            name: list(itertools.accumulate(ext[name], initial=initial))[1:]
             for name, initial in res.initial_levels.items()
         }
         self.lowest = {name: list(v) for name, v in self.level.items()}
@@ -143,7 +150,7 @@ class _Board:
             if name in self.used:
                 used, cap = self.used[name], self.capacity[name]
                 if any(
-                    used[low + k] + a > cap + 1e-9
+                    used[low + k] + a > cap[low + k] + 1e-9
                     for k, a in enumerate(units)
                     if a
                 ):
@@ -173,9 +180,9 @@ class _Board:
                 continue
             used = self.used.get(name)
             if used is not None:
-                cap = self.capacity[name] + 1e-9
+                cap = self.capacity[name]
                 for t in range(first, end):
-                    if used[t] + amount > cap:
+                    if used[t] + amount > cap[t] + 1e-9:
                         return False
                 continue
             level = self.level.get(name)
@@ -222,7 +229,13 @@ class _Board:
         """
         self.ceiling = problem.resources.ceilings
         self.initial = problem.resources.initial_levels
-        self.net = {name: [0.0] * problem.horizon for name in self.ceiling}
+        # Net use per unit: the external rate counts as negative use.
+        self.net = {
+            name: [-rate for rate in self.external[name]]
+            for name in self.ceiling
+        }
+        for name in self.ceiling:
+            self._add_capped(name, 0, 0, 0.0)
 
     def _add_capped(
         self, name: str, base: int, length: int, amount: float
@@ -387,8 +400,12 @@ def _rule_plan(
         if found is None:
             return None
         starts = found
-        dropped = _drop_unsupported(problem, starts)
-        if any(t.mandatory and t.id not in starts for t in problem.tasks):
+        # Half options and rival options out: the next pass fills in.
+        dropped = groups.keep_one_option(problem, starts)
+        dropped |= _drop_unsupported(problem, starts)
+        if any(
+            problem.required(t) and t.id not in starts for t in problem.tasks
+        ) or groups.mandatory_group_missing(problem, starts):
             return None
         if not dropped:
             break
@@ -760,17 +777,17 @@ def _as_plan(problem: Problem, starts: dict[str, int]) -> Plan:
         ),
         key=lambda a: (a.start, a.task),
     )
-    unscheduled = tuple(t.id for t in problem.tasks if t.id not in starts)
     return Plan(
         status=SolveStatus.FEASIBLE,
         objective=_objective(problem, starts),
         activities=tuple(activities),
-        unscheduled=unscheduled,
+        unscheduled=groups.left_out(problem, starts),
+        chosen=groups.chosen(problem, starts),
     )
 
 
 def _objective(problem: Problem, starts: dict[str, int]) -> Objective:
-    missed = sum(t.schedule_cost for t in problem.tasks if t.id not in starts)
+    missed = groups.unscheduled_cost(problem, starts)
     delay = sum(
         t.delay_cost * (starts[t.id] - problem.start)
         for t in problem.tasks

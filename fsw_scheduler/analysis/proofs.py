@@ -44,6 +44,7 @@ holds them and the proof above sees a forced one among them.
 
 from __future__ import annotations
 
+import itertools
 from typing import TYPE_CHECKING, NamedTuple
 
 from ..model.plan import Blocker
@@ -60,14 +61,23 @@ _EPS = 1e-9
 def forced_tasks(problem: Problem) -> set[str]:
     """Tasks that every valid plan schedules.
 
-    The mandatory tasks, closed under "needs": the ``before`` of any
-    precedence whose ``after`` is forced, and the ``after`` of a ``both``
-    precedence whose ``before`` is forced.
+    The required tasks (:meth:`Problem.required`: a member of a group is
+    not, one by one), closed under "needs": the ``before`` of any
+    precedence whose ``after`` is forced, the ``after`` of a ``both``
+    precedence whose ``before`` is forced, and the other tasks of a
+    forced member's option.
     """
-    forced = {task.id for task in problem.tasks if task.mandatory}
+    forced = {task.id for task in problem.tasks if problem.required(task)}
+    index = problem.groups
+    present = {task.id for task in problem.tasks}
     changed = bool(forced)
     while changed:
         changed = False
+        for name in list(forced):
+            for partner in index.partners(name):
+                if partner in present and partner not in forced:
+                    forced.add(partner)
+                    changed = True
         for prec in problem.precedences:
             if prec.after in forced and prec.before not in forced:
                 forced.add(prec.before)
@@ -224,8 +234,11 @@ def _block_conflict(
                 f"least {gap}",
             )
     res = problem.resources
-    capacities = {name: 1.0 for name in res.binary}
-    capacities.update(res.multiple)
+    # The largest capacity a resource ever has: a block over it is over
+    # every capacity the resource has at any time.
+    capacities = {
+        name: res.peak_capacity(name) for name in (*res.binary, *res.multiple)
+    }
     for block in blocks:
         for name, capacity in capacities.items():
             users = sorted(
@@ -311,6 +324,9 @@ def infeasibility(
         empty when no cheap proof exists (the problem may still be
         infeasible).
     """
+    drained = _drain(problem, domains)
+    if drained:
+        return drained
     forced = forced_tasks(problem)
     if not forced:
         return ()
@@ -335,10 +351,9 @@ def infeasibility(
             Blocker(prec.after, "precedence", detail),
         )
     res = problem.resources
-    capacities = {name: 1.0 for name in res.binary}
-    capacities.update(res.multiple)
-    for name, capacity in capacities.items():
-        found = _energy(problem, tasks, domains, name, capacity)
+    for name in (*res.binary, *res.multiple):
+        profile = res.capacity_profile(name, problem.start, problem.horizon)
+        found = _energy(problem, tasks, domains, name, profile)
         if found:
             return found
     found = _apart_overload(problem, tasks, domains)
@@ -356,10 +371,23 @@ def _energy(
     forced: list[Task],
     domains: Mapping[str, Domain],
     resource: str,
-    capacity: float,
+    profile: list[float],
 ) -> tuple[Blocker, ...]:
-    """Energetic test of one capacity resource over the forced users."""
+    """Energetic test of one capacity resource over the forced users.
+
+    ``profile`` is the capacity of each unit from the problem's start
+    (windows and steps): the work an interval allows is its integral.
+    """
     kind = problem.resources.kind_of(resource)
+    capacity = max(profile, default=0.0)
+    # allowed[k]: capacity summed over the units before start + k.
+    allowed = list(itertools.accumulate(profile, initial=0.0))
+
+    def room(low: int, high: int) -> float:
+        first = min(max(low - problem.start, 0), len(profile))
+        last = min(max(high - problem.start, 0), len(profile))
+        return allowed[last] - allowed[first]
+
     users = [
         (task, task.uses[resource], domains[task.id])
         for task in forced
@@ -375,7 +403,7 @@ def _energy(
                     f"{capacity:g}",
                 ),
             )
-    if sum(a * t.length for t, a, _ in users) <= capacity + _EPS:
+    if sum(a * t.length for t, a, _ in users) <= min(profile, default=0.0):
         return ()  # not even two units of work: nothing to find
     # Interval ends at the ends of the tasks' ranges and of their
     # compulsory parts ([latest, earliest + length) when not empty).
@@ -402,18 +430,70 @@ def _energy(
                 if least > 0:
                     need += amount * least
                     inside.append(task.id)
-            if need > capacity * (high - low) + _EPS:
+            if need > room(low, high) + _EPS:
                 detail = (
                     f"{resource}: tasks that must be scheduled need "
                     f"{need:g} units of work in [{low}, {high}), where "
-                    f"capacity {capacity:g} allows "
-                    f"{capacity * (high - low):g}"
+                    f"capacity {_capacity_words(profile)} allows "
+                    f"{room(low, high):g}"
                 )
                 return tuple(
                     Blocker(name, kind or "multiple", detail)
                     for name in inside
                 )
     return ()
+
+
+def _drain(
+    problem: Problem, domains: Mapping[str, Domain]
+) -> tuple[Blocker, ...]:
+    """An external rate that empties a store whatever the plan, or ``()``.
+
+    With no task consuming, the level at the end of unit ``t`` is at most
+    the initial level, plus the external rate summed up to ``t``, plus
+    everything every generator can ever give (with no generator, walked
+    with the capacity, which loses charge as the store does); below 0
+    there, no plan is valid. The blocker names the resource (no task is
+    at fault).
+    """
+    res = problem.resources
+    for name in res.changing:
+        if name not in res.consumable:
+            continue
+        external = res.external_profile(name, problem.start, problem.horizon)
+        generation = sum(
+            -task.uses[name] * task.length
+            for task in problem.tasks
+            if task.uses.get(name, 0) < 0 and not domains[task.id].empty
+        )
+        level = res.initial(name) + generation
+        # With no generator the capacity binds exactly: what a full store
+        # cannot take of the external charge is lost.
+        top = res.ceiling(name) if not generation else None
+        for unit, rate in enumerate(external):
+            level += rate
+            if top is not None:
+                level = min(top, level)
+            if level < -_EPS:
+                return (
+                    Blocker(
+                        name,
+                        "consumable",
+                        f"{name}: its external rate alone takes the level "
+                        f"below 0 by the end of t={problem.start + unit} "
+                        f"(initial {res.initial(name):g}, all generation "
+                        f"possible {generation:g}"
+                        + ("" if top is None else f", capacity {top:g}")
+                        + ")",
+                    ),
+                )
+    return ()
+
+
+def _capacity_words(profile: list[float]) -> str:
+    """``4`` for a constant capacity, ``0..4`` for one that changes."""
+    low, high = min(profile, default=0.0), max(profile, default=0.0)
+    return f"{high:g}" if low == high else f"{low:g}..{high:g}"
 
 
 def _budget(
@@ -443,14 +523,26 @@ def _budget(
         for task in problem.tasks
         if task.uses.get(resource, 0) < 0 and not domains[task.id].empty
     ]
+    # Charge from outside by the end of each unit (drain left out: a
+    # bound on what can be there).
+    external = problem.resources.external_profile(
+        resource, problem.start, problem.horizon
+    )
+    charged = list(
+        itertools.accumulate((max(0.0, r) for r in external), initial=0.0)
+    )
     need = 0.0
     done: list[str] = []
     for end, task in consumers:
         need += task.uses[resource] * task.length
         done.append(task.id)
-        supply = initial + sum(
-            amount * max(0, min(gen.length, end - dom.earliest))
-            for gen, amount, dom in generators
+        supply = (
+            initial
+            + charged[min(max(end - problem.start, 0), len(external))]
+            + sum(
+                amount * max(0, min(gen.length, end - dom.earliest))
+                for gen, amount, dom in generators
+            )
         )
         if need > supply + _EPS:
             detail = (
@@ -547,7 +639,9 @@ def _apart(problem: Problem, one: Task, other: Task) -> str | None:
     for name in res.binary:
         if one.uses.get(name, 0) > 0 and other.uses.get(name, 0) > 0:
             return "binary"
-    for name, capacity in res.multiple.items():
+    for name in res.multiple:
+        # The peak: over it the two never run at once, at any time.
+        capacity = res.peak_capacity(name)
         first, second = one.uses.get(name, 0), other.uses.get(name, 0)
         if first > 0 and second > 0 and first + second > capacity + _EPS:
             return "multiple"

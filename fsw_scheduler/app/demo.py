@@ -26,7 +26,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from importlib import resources
-from typing import TYPE_CHECKING, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
 import msgspec
 import zenoh
@@ -74,6 +74,11 @@ class Scenario:
         Last time unit of the session.
     drift_absolute
         Level departure (units) that makes the scheduler replan.
+    problem
+        The package data file of the problem flown.
+    forecasts
+        Time unit -> (resource, forecast fields) sent then on
+        ``telemetry/resources/<name>/forecast``.
     """
 
     goals: dict[int, bytes] = field(default_factory=dict)
@@ -82,6 +87,10 @@ class Scenario:
     level_every: int = 5
     until: int = 66
     drift_absolute: float = 0.5
+    problem: str = "paper_table1.json"
+    forecasts: dict[int, tuple[str, dict[str, Any]]] = field(
+        default_factory=dict
+    )
 
 
 def paper_scenario() -> Scenario:
@@ -100,7 +109,25 @@ def failure_scenario() -> Scenario:
     )
 
 
-SCENARIOS = {"paper": paper_scenario, "failure": failure_scenario}
+def orbit_scenario() -> Scenario:
+    """An Earth-observation day (examples/orbit.json): three orbits, HF or
+    LF per target; at t=100 a forecast of a longer eclipse over T3."""
+    eclipse = [[100, 100], [118, 60], [140, 100], [157, 60], [190, 100]]
+    return Scenario(
+        problem="orbit.json",
+        forecasts={
+            100: ("power", {"at": 100, "steps": [*eclipse, [252, 60]]})
+        },
+        level_every=20,
+        until=240,
+    )
+
+
+SCENARIOS = {
+    "paper": paper_scenario,
+    "failure": failure_scenario,
+    "orbit": orbit_scenario,
+}
 
 
 class Executor:
@@ -115,6 +142,7 @@ class Executor:
     """
 
     def __init__(self, problem: Problem, scenario: Scenario) -> None:
+        self.problem = problem
         self.levels = problem.resources.initial_levels
         self.ceilings = problem.resources.ceilings
         self.scenario = scenario
@@ -189,6 +217,12 @@ class Executor:
                 out.append(self._report(self.commands[task], "completed", now))
         if "battery" in self.levels and now > 0:
             self.levels["battery"] -= self.scenario.battery_drift
+        if now > self.problem.start:
+            # The sun and the heaters (the external rate of unit now - 1).
+            for name in self.levels:
+                self.levels[name] += self.problem.resources.external_profile(
+                    name, now - 1, 1
+                )[0]
         for name, top in self.ceilings.items():
             self.levels[name] = min(top, self.levels[name])  # full: lost
         if now % self.scenario.level_every == 0 and now > 0:
@@ -282,6 +316,13 @@ class World:
             name = json.loads(goal).get("goal_id", "?")
             self.printer.line(f"goal      {name} sent")
             self.put(topics.key(keys.GOALS), goal)
+        if now in scenario.forecasts:
+            resource, fields = scenario.forecasts[now]
+            self.printer.line(f"forecast  {resource} from t={fields['at']}")
+            self.put(
+                topics.resource_forecast(resource),
+                {"resource": resource, **fields},
+            )
         self.settle(now)
 
     def drain(self, now: int) -> None:
@@ -444,7 +485,7 @@ def run_demo(
     """
     scenario = scenario or paper_scenario()
     out_dir.mkdir(parents=True, exist_ok=True)
-    problem = decode_problem(scenario_file("paper_table1.json"))
+    problem = decode_problem(scenario_file(scenario.problem))
     topics = keys.Topics(spacecraft)
     config = NodeConfig(
         spacecraft=spacecraft,

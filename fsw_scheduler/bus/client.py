@@ -328,6 +328,22 @@ class SchedulerClient:
             {"resource": resource, "level": level, "at": at},
         )
 
+    def forecast(
+        self,
+        resource: str,
+        at: int,
+        **profile: list[list[float]],
+    ) -> None:
+        """Publish a forecast of ``resource`` from ``at`` on.
+
+        ``profile`` is one of ``available`` (binary windows), ``steps``
+        (multiple capacities) or ``external`` (a consumable's rate).
+        """
+        self.put(
+            self.topics.resource_forecast(resource),
+            {"resource": resource, "at": at, **profile},
+        )
+
     # -- queries -------------------------------------------------------------
 
     def query_status(self, timeout: float | None = None) -> messages.Status:

@@ -83,7 +83,15 @@ MAX_CONSECUTIVE_FAULTS = 20
 
 #: Inbox kinds that are samples from the bus (the others are the node's
 #: own notices: busy, stalled, explained...): only these have a source.
-_BUS_INPUTS = frozenset({"goal", "clock", "activity_report", "resource_level"})
+_BUS_INPUTS = frozenset(
+    {
+        "goal",
+        "clock",
+        "activity_report",
+        "resource_level",
+        "resource_forecast",
+    }
+)
 
 
 # Faults that end the loop at once instead of being survived.

@@ -13,6 +13,7 @@ from .events import ClockStalled as ClockStalled
 from .events import Command as Command
 from .events import Event as Event
 from .events import Explained as Explained
+from .events import ForecastArrived as ForecastArrived
 from .events import GoalArrived as GoalArrived
 from .events import InputRejected as InputRejected
 from .events import LevelArrived as LevelArrived

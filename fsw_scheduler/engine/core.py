@@ -31,6 +31,7 @@ import msgspec
 from ..errors import FieldIssue, InputError
 from ..replan.triggers import drift
 from ..wire import topics
+from . import forecasts
 from .dispatch import dispatch_message
 from .events import (
     ClockStalled,
@@ -38,6 +39,7 @@ from .events import (
     Event,
     Explained,
     FactsArrived,
+    ForecastArrived,
     GoalArrived,
     InputRejected,
     LevelArrived,
@@ -220,6 +222,7 @@ class Engine:
             term=state.term,
             ledger=dict(state.ledger.records),
             paused_at=state.paused_at,
+            forecasts=tuple(state.forecasts),
         )
 
     @classmethod
@@ -327,6 +330,10 @@ class Engine:
             self._reports.on_report(event.report, out)
         elif isinstance(event, LevelArrived):
             self._on_level(event.level, out)
+        elif isinstance(event, ForecastArrived):
+            forecasts.take(
+                self._state, self._queue, self._verdicts, event.forecast, out
+            )
         elif isinstance(event, InputRejected):
             self._on_rejected(event, out)
         elif isinstance(event, ClockStalled):

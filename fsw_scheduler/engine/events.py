@@ -21,6 +21,7 @@ from ..model.problem import Problem
 from ..wire.messages import (
     ActivityReport,
     Facts,
+    ResourceForecast,
     ResourceLevel,
 )
 
@@ -47,6 +48,12 @@ class LevelArrived(msgspec.Struct, frozen=True, tag=True):
     """A consumable level from ``telemetry/resources/<name>``."""
 
     level: ResourceLevel
+
+
+class ForecastArrived(msgspec.Struct, frozen=True, tag=True):
+    """A profile forecast from ``telemetry/resources/<name>/forecast``."""
+
+    forecast: ResourceForecast
 
 
 class InputRejected(msgspec.Struct, frozen=True, tag=True):
@@ -120,6 +127,7 @@ Event = (
     | GoalArrived
     | ReportArrived
     | LevelArrived
+    | ForecastArrived
     | InputRejected
     | ClockStalled
     | NodePaused

@@ -103,6 +103,7 @@ class Execution:
             goals=goals,
             stats=plan.stats,
             term=state.term,
+            chosen=plan.chosen,
         )
         if plan.status is SolveStatus.DEGRADED:
             state.set_health("degraded", degraded_detail(state.plan_id, plan))

@@ -21,6 +21,7 @@ from ..wire.messages import (
     ActivityReport,
     Counters,
     PlanMessage,
+    ResourceForecast,
     SolveSummary,
 )
 
@@ -125,5 +126,6 @@ class EngineSnapshot(msgspec.Struct, frozen=True, omit_defaults=True):
     plan_message: PlanMessage | None = None
     term: int = 0
     ledger: dict[str, GoalRecord] = {}
+    forecasts: tuple[ResourceForecast, ...] = ()
     version: int = SNAPSHOT_VERSION
     paused_at: int | None = None

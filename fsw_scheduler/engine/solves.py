@@ -36,6 +36,7 @@ from ..wire.messages import (
     SolveRecord,
     SolveSummary,
 )
+from . import forecasts
 from .events import (
     Command,
     Log,
@@ -178,6 +179,8 @@ class Replanner:
                 out,
                 readded=pending.replan.readded,
             )
+        # Forecasts that came during the solve apply to what it gave.
+        forecasts.after_adoption(state, self._queue, out)
         if pending.stage == "degraded":
             self.raise_alarm(plan, out)
         if (
@@ -373,7 +376,13 @@ class Replanner:
                     levels.update(change.levels)
                     at = min(at, change.at)
                 trigger = "drift" if levels else "stale"
-                for named in ("horizon", "missed", "cancelled", "merged"):
+                for named in (
+                    "horizon",
+                    "missed",
+                    "cancelled",
+                    "merged",
+                    "forecast",
+                ):
                     if not levels and any(
                         c.trigger == named for c in queue.changes
                     ):

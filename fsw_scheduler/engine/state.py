@@ -17,7 +17,12 @@ from typing import TYPE_CHECKING
 
 import msgspec
 
-from ..wire.messages import Counters, PlanMessage, SolveSummary
+from ..wire.messages import (
+    Counters,
+    PlanMessage,
+    ResourceForecast,
+    SolveSummary,
+)
 from .dispatch import Dispatches
 from .ledger import GoalLedger
 
@@ -69,6 +74,9 @@ class EngineState:
         The unit at which this node said it had paused (a stall under
         its lease), until the next tick: what that tick's jump passed
         over is dispatched late, not missed.
+    forecasts
+        Forecasts that arrived while a solve was in flight: taken into the
+        plan it gives (:mod:`.forecasts`).
     """
 
     def __init__(self, config: EngineConfig, initial: Problem) -> None:
@@ -89,6 +97,8 @@ class EngineState:
         self.plan_message: PlanMessage | None = None
         self.held: list[ActivityReport] = []
         self.paused_at: int | None = None
+        #: Forecasts taken while a solve was in flight, for its plan.
+        self.forecasts: list[ResourceForecast] = []
 
     @classmethod
     def restore(
@@ -102,6 +112,7 @@ class EngineState:
         state.now = snapshot.now
         state.term = snapshot.term
         state.ledger = GoalLedger(snapshot.ledger, config.max_goal_ids)
+        state.forecasts = list(snapshot.forecasts)
         state.dispatches = Dispatches(
             lifecycle=snapshot.lifecycle,
             dispatched=snapshot.dispatched,

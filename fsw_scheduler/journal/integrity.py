@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from mcap.opcode import Opcode
+from mcap.reader import make_reader
 from mcap.records import Chunk, Message
 from mcap.stream_reader import StreamReader, breakup_chunk
 
@@ -125,7 +126,7 @@ def check_file(path: PathLike) -> FileCheck:
             return result
         if opcode == Opcode.FOOTER:
             result.finished = end + len(MCAP_MAGIC) == len(data) and ends
-            issue = _summary_issue(data, at)
+            issue = _summary_issue(data, at) or _index_issue(data)
             if issue is not None:
                 result.damage, result.offset = issue, at
             elif not result.finished:
@@ -186,6 +187,24 @@ def _record_issue(
             result.messages += 1
     except Exception as error:  # any parse failure is damage here
         return f"{type(error).__name__}: {error}"[:300]
+    return None
+
+
+def _index_issue(data: bytes) -> str | None:
+    """What a reader of a finished file would meet through its summary.
+
+    Readers find metadata and attachments through the summary's indexes,
+    which a summary written without a CRC does not protect: each indexed
+    record is read here as they would read it.
+    """
+    try:
+        reader = make_reader(io.BytesIO(data))
+        for _ in reader.iter_metadata():
+            pass
+        for _ in reader.iter_attachments():
+            pass
+    except Exception as error:  # any parse failure is damage here
+        return f"the summary leads to no record: {type(error).__name__}"
     return None
 
 

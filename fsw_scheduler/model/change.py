@@ -41,6 +41,7 @@ RULES = (
     "obsolete",
     "tight_cascade",
     "window_passed",
+    "alternative",
 )
 
 

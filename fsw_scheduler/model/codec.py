@@ -12,7 +12,7 @@ problem). :func:`encode` is the other direction. Pure: no bus, no clock.
 from __future__ import annotations
 
 import re
-from typing import TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import msgspec
 
@@ -20,6 +20,9 @@ from ..errors import FieldIssue, InputError
 from . import strict
 from .duplicates import duplicate_issues
 from .limits import key_path
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
 
 T = TypeVar("T")
 
@@ -100,9 +103,17 @@ def _walk_path(node: object, path: str) -> object:
 
 
 def read_strict(
-    data: bytes | str, kind: type[T], what: str
+    data: bytes | str,
+    kind: type[T],
+    what: str,
+    *,
+    prepare: Callable[[Any], None] | None = None,
 ) -> tuple[T | None, list[FieldIssue], set[str]]:
     """Parse ``data`` and check it against ``kind`` (:mod:`.strict`).
+
+    ``prepare``, if given, completes the parsed document in place before
+    its shape is checked (a default that depends on other fields: a group
+    member's schedule cost is its group's).
 
     Returns
     -------
@@ -121,6 +132,8 @@ def read_strict(
     except RecursionError:
         issue = FieldIssue("", f"{MAX_DEPTH_NOTE} (recursion limit reached)")
         return None, [issue], {""}
+    if prepare is not None:
+        prepare(raw)
     # Duplicate keys first: msgspec kept the last one without a word.
     issues = duplicate_issues(data, raw) + strict.shape_issues(raw, kind)
     if issues:

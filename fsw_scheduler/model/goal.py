@@ -19,7 +19,9 @@ import msgspec
 from ..errors import FieldIssue, InputError
 from .codec import read_strict
 from .limits import MAX_TIME, id_issue, key_path
+from .mission_rules import alternatives_issues, fill_member_costs
 from .problem import (
+    Alternative,
     Consumable,
     Id,
     Instant,
@@ -72,6 +74,9 @@ class Goal(msgspec.Struct, frozen=True, omit_defaults=True):
     not_after
         Time unit after which the goal is stale: arriving later, it is
         rejected (None: it never expires).
+    alternatives
+        Groups of alternatives among the goal's own tasks; they join the
+        running problem's groups.
     """
 
     goal_id: Id
@@ -82,6 +87,7 @@ class Goal(msgspec.Struct, frozen=True, omit_defaults=True):
     precedences: tuple[Precedence, ...] = ()
     issued_at: Instant | None = None
     not_after: Instant | None = None
+    alternatives: tuple[Alternative, ...] = ()
 
     @property
     def obsoleted(self) -> tuple[str, ...]:
@@ -177,6 +183,7 @@ def validate_goal(
                         f"start {low} is after end {high}",
                     )
                 )
+    issues += alternatives_issues(goal.alternatives, goal.tasks, ())
     for idx, prec in enumerate(goal.precedences):
         for end in ("before", "after"):
             reason = id_issue(getattr(prec, end))
@@ -218,7 +225,9 @@ def decode_goal(data: bytes | str, resources: Resources | None = None) -> Goal:
         With one :class:`FieldIssue` per problem, paths naming the field
         (``tasks[0].length``).
     """
-    goal, issues, bad = read_strict(data, Goal, "goal")
+    goal, issues, bad = read_strict(
+        data, Goal, "goal", prepare=fill_member_costs
+    )
     if goal is not None:
         issues += [
             issue

@@ -118,16 +118,22 @@ def _capped(
     Units run add up for a consumable without a capacity (``levels`` as
     :func:`_levels` gives them); with one, generation a full store cannot
     take is lost, so the level depends on when each unit ran and is
-    walked unit by unit from the problem's start.
+    walked unit by unit from the problem's start. So is a consumable with
+    an external rate (it adds in every unit, ``external`` of the mission
+    model).
     """
-    for name, top in problem.resources.ceilings.items():
+    ceilings = problem.resources.ceilings
+    walked = [*ceilings, *problem.resources.changing]
+    for name in dict.fromkeys(walked):
+        if name not in levels:
+            continue  # a binary or multiple resource
         levels[name] = walk_level(
             problem,
             spans,
             name,
             problem.resources.initial(name),
             (problem.start, now),
-            top,
+            ceilings.get(name),
         )
     return levels
 
@@ -138,7 +144,7 @@ def walk_level(
     name: str,
     level: float,
     window: tuple[int, int],
-    top: float,
+    top: float | None,
 ) -> float:
     """The level of a consumable with a capacity, walked over a window.
 
@@ -155,16 +161,22 @@ def walk_level(
     window
         The units ``[first, last)`` to walk.
     top
-        Its capacity.
+        Its capacity (None: none).
 
     Returns
     -------
     float
-        The level at the start of ``window[1]``: ``min(top, level - net
-        use)`` unit by unit (:func:`walk`).
+        The level at the start of ``window[1]``: ``min(top, level +
+        external - net use)`` unit by unit (:func:`walk`).
     """
     first, last = window
-    rates = [0.0] * max(0, last - first)
+    # The external rate is negative use.
+    rates = [
+        0.0 - rate
+        for rate in problem.resources.external_profile(
+            name, first, max(0, last - first)
+        )
+    ]
     for task in problem.tasks:
         amount = task.uses.get(name, 0)
         span = spans.get(task.id)
@@ -173,7 +185,9 @@ def walk_level(
         for t in range(max(span[0], first), min(span[1], last)):
             rates[t - first] += amount
     levels, _ = walk(level, rates, top)
-    return levels[-1] if levels else min(top, level)
+    if levels:
+        return levels[-1]
+    return level if top is None else min(top, level)
 
 
 def walk(
@@ -327,10 +341,19 @@ def lost_charge(problem: Problem, plan: Plan) -> dict[str, list[float]]:
 def _rates(problem: Problem, plan: Plan) -> dict[str, list[float]]:
     """Summed amount of the running activities per unit and resource."""
     resources = problem.resources
-    rate = {
-        name: [0.0] * problem.horizon
-        for name in (*resources.multiple, *resources.consumable)
-    }
+    rate = {name: [0.0] * problem.horizon for name in resources.multiple}
+    # The external rate of a consumable is negative use.
+    rate.update(
+        {
+            name: [
+                0.0 - r
+                for r in resources.external_profile(
+                    name, problem.start, problem.horizon
+                )
+            ]
+            for name in resources.consumable
+        }
+    )
     for activity, task in _known_activities(problem, plan.activities):
         first = max(activity.start, problem.start) - problem.start
         last = min(activity.end, problem.end) - problem.start

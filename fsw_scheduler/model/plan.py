@@ -96,6 +96,11 @@ class Plan(msgspec.Struct, frozen=True):
     Every task of the problem appears once, in ``activities`` or in
     ``unscheduled``; ``why`` explains each left-out task (and, when the
     status is ``infeasible``, the mandatory tasks that cannot be placed).
+    With alternatives, a group member is listed only in ``activities``;
+    a group left out is listed in ``unscheduled`` by its id, and
+    ``chosen`` gives the option index of every group that has one
+    scheduled (``why`` names each option not chosen, cause
+    ``alternative``).
     """
 
     status: SolveStatus
@@ -104,6 +109,14 @@ class Plan(msgspec.Struct, frozen=True):
     unscheduled: tuple[str, ...] = ()
     why: tuple[Blocker, ...] = ()
     stats: SolverStats | None = None
+    # UNSET (not written) for a problem without groups: plans of such
+    # problems keep their bytes.
+    chosen: dict[str, int] | msgspec.UnsetType = msgspec.UNSET
+
+    @property
+    def picks(self) -> dict[str, int]:
+        """``chosen``, or an empty dict when the plan has none."""
+        return {} if self.chosen is msgspec.UNSET else dict(self.chosen)
 
     def activity(self, task_id: str) -> Activity | None:
         """The activity of ``task_id``, or None if it is not scheduled."""

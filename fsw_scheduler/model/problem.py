@@ -16,7 +16,8 @@ from typing import TYPE_CHECKING, Annotated, Literal
 import msgspec
 
 from ..errors import InputError
-from . import strict
+from . import groups as groups_
+from . import profiles, strict
 from .codec import MAX_DEPTH_NOTE as MAX_DEPTH_NOTE
 from .codec import decode_strict as decode_strict
 from .codec import encode as encode
@@ -31,6 +32,7 @@ from .limits import MIN_DELAY_COST as MIN_DELAY_COST
 from .limits import id_issue as id_issue
 from .limits import key_path as key_path
 from .limits import shown as shown
+from .mission_rules import fill_member_costs
 from .validation import duplicate_ids as duplicate_ids
 from .validation import time_issues as time_issues
 from .validation import validate_problem as validate_problem
@@ -73,6 +75,8 @@ ScheduleCost = Annotated[
 ]
 #: A capacity or a level: never negative.
 Amount = Annotated[float, msgspec.Meta(ge=0)]
+#: A capacity of a step profile: a whole number of units, never negative.
+StepCapacity = Annotated[int, msgspec.Meta(ge=0, le=MAX_TIME)]
 
 
 class Task(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -144,29 +148,110 @@ class Consumable(msgspec.Struct, frozen=True, omit_defaults=True):
     beyond ``max`` is lost, like charge offered to a full battery. Without
     ``max`` (or written as a plain number) the level has no ceiling.
 
+    With ``external`` (steps ``[[t, r], ...]`` of a net change per unit
+    that no task causes, ``r > 0`` charging) the level at the end of unit
+    ``t`` is ``min(max, level(t-1) + external(t) - net use during t)``;
+    before its first step the rate is 0.
+
     Attributes
     ----------
     initial
         Level at the start of the problem, ``0 <= initial <= max``.
     max
         The ceiling (capacity), ``>= 0``; None for none.
+    external
+        Steps of the external rate, ``t`` strictly increasing.
     """
 
     initial: Amount
     max: Amount | None = None
+    external: tuple[tuple[Time, float], ...] = ()
+
+
+class Binary(msgspec.Struct, frozen=True, omit_defaults=True):
+    """A binary resource written as an object: when it is available.
+
+    ``{"available": [[10, 20], [35, 45]]}``: a user may run only in units
+    inside one of the half-open windows ``[a, b)``, sorted and disjoint.
+    ``{}`` (no ``available``) is always available; ``[]`` never.
+
+    Attributes
+    ----------
+    available
+        The windows, or None for "always".
+    """
+
+    available: tuple[tuple[Time, Time], ...] | None = None
+
+
+class Capacity(msgspec.Struct, frozen=True, omit_defaults=True):
+    """A multiple resource whose capacity changes: a step profile.
+
+    ``{"steps": [[0, 60], [30, 40], [45, 60]]}``: capacity ``c_k`` during
+    ``[t_k, t_{k+1})``, the last step to the end of the horizon; ``t``
+    strictly increasing, the first at or before the problem's start.
+
+    Attributes
+    ----------
+    steps
+        ``[t, capacity]`` pairs, capacities whole numbers ``>= 0``.
+    """
+
+    steps: Annotated[
+        tuple[tuple[Time, StepCapacity], ...], msgspec.Meta(min_length=1)
+    ]
 
 
 class Resources(msgspec.Struct, frozen=True, omit_defaults=True):
     """The three resource kinds and their capacities / initial levels.
 
-    A consumable is its initial level (a number: no ceiling) or a
-    :class:`Consumable` (initial level and optional capacity); read them
-    through :attr:`initial_levels` and :attr:`ceilings`.
+    ``binary`` is a list of names (always available) or an object of
+    :class:`Binary` (availability windows). A multiple resource's capacity
+    is a number or a :class:`Capacity` step profile. A consumable is its
+    initial level (a number: no ceiling) or a :class:`Consumable` (initial
+    level, optional capacity and external rate); read them through
+    :attr:`initial_levels`, :attr:`ceilings`, :meth:`capacity_profile` and
+    :meth:`external_profile` (module :mod:`.profiles`).
     """
 
-    binary: tuple[Id, ...] = ()
-    multiple: dict[str, Amount] = {}
+    binary: tuple[Id, ...] | dict[str, Binary] = ()
+    multiple: dict[str, Amount | Capacity] = {}
     consumable: dict[str, Amount | Consumable] = {}
+
+    def capacity_profile(
+        self, name: str, start: int, horizon: int
+    ) -> list[float]:
+        """Capacity of a binary or multiple resource in every unit.
+
+        Index ``i`` is unit ``start + i``: 1 or 0 for a binary resource
+        (inside or outside its windows), the step's capacity for a
+        multiple one (KeyError for any other name).
+        """
+        return profiles.capacity_profile(self, name, start, horizon)
+
+    def external_profile(
+        self, name: str, start: int, horizon: int
+    ) -> list[float]:
+        """A consumable's external net change in every unit (0 without).
+
+        Index ``i`` is unit ``start + i``; ``> 0`` charges.
+        """
+        return profiles.external_profile(self, name, start, horizon)
+
+    def peak_capacity(self, name: str) -> float:
+        """The largest capacity a binary or multiple resource ever has.
+
+        A bound for the analyses that read one capacity for the whole
+        horizon (relaxations stay valid with it); equal to the capacity
+        of a resource whose capacity never changes.
+        """
+        return profiles.peak_capacity(self, name)
+
+    @property
+    def changing(self) -> tuple[str, ...]:
+        """Names of the resources whose capacity or level changes by
+        itself: windows, capacity steps or an external rate."""
+        return profiles.changing(self)
 
     @property
     def initial_levels(self) -> dict[str, float]:
@@ -213,6 +298,11 @@ class Resources(msgspec.Struct, frozen=True, omit_defaults=True):
                 consumable[name] = level
         return msgspec.structs.replace(self, consumable=consumable)
 
+    @property
+    def binary_names(self) -> tuple[str, ...]:
+        """The binary resources' names, however they are written."""
+        return tuple(self.binary)
+
     def kind_of(self, name: str) -> ResourceKind | None:
         """Return the kind of resource ``name``, or None if unknown."""
         if name in self.binary:
@@ -229,6 +319,33 @@ class Resources(msgspec.Struct, frozen=True, omit_defaults=True):
         return (*self.binary, *self.multiple, *self.consumable)
 
 
+class Alternative(msgspec.Struct, frozen=True, omit_defaults=True):
+    """A group of alternatives: options of tasks, at most one scheduled.
+
+    The tasks of an option are scheduled all together or not at all; at
+    most one option of the group is. Leaving the whole group out costs
+    its ``schedule_cost`` (0: one option is mandatory); a member task's
+    own schedule cost is not used.
+
+    Attributes
+    ----------
+    id
+        The group's name: a key-safe id that no task has.
+    schedule_cost
+        Cost of leaving every option out, 0..5; 0 means mandatory.
+    options
+        Each a non-empty list of task ids; a task is in at most one
+        option of at most one group.
+    """
+
+    id: Id
+    schedule_cost: ScheduleCost
+    options: Annotated[
+        tuple[Annotated[tuple[Id, ...], msgspec.Meta(min_length=1)], ...],
+        msgspec.Meta(min_length=1),
+    ]
+
+
 class Problem(msgspec.Struct, frozen=True, omit_defaults=True):
     """A scheduling problem over ``[start, start + horizon)``."""
 
@@ -238,6 +355,29 @@ class Problem(msgspec.Struct, frozen=True, omit_defaults=True):
     feasible_interval_applies_to: WindowReading = "task"
     resources: Resources = Resources()
     precedences: tuple[Precedence, ...] = ()
+    alternatives: tuple[Alternative, ...] = ()
+
+    @property
+    def groups(self) -> groups_.Groups:
+        """The alternatives, indexed (:class:`.groups.Groups`)."""
+        return groups_.of(self)
+
+    def required(self, task: Task) -> bool:
+        """True if every plan must schedule ``task``.
+
+        A pinned task, or a mandatory one (schedule cost 0) that is no
+        member of a group: a member of a mandatory group is not required
+        on its own, one option of its group is.
+        """
+        if task.fixed_start is not None:
+            return True
+        return task.schedule_cost == 0 and task.id not in self.groups.member
+
+    @property
+    def has_mission_model(self) -> bool:
+        """True when the problem uses alternatives or resources that change
+        over time (the fields of the mission model)."""
+        return bool(self.alternatives or self.resources.changing)
 
     @property
     def end(self) -> int:
@@ -307,7 +447,9 @@ def decode_problem(data: bytes | str, *, allow_empty: bool = False) -> Problem:
     InputError
         With one :class:`FieldIssue` per problem found.
     """
-    problem, issues, bad = read_strict(data, Problem, "problem")
+    problem, issues, bad = read_strict(
+        data, Problem, "problem", prepare=fill_member_costs
+    )
     # Every rule reads the horizon and the start: with a stand-in for one
     # of them, only the shape is reported.
     if problem is not None and not bad & _EVERYWHERE:
@@ -318,5 +460,4 @@ def decode_problem(data: bytes | str, *, allow_empty: bool = False) -> Problem:
         ]
     if issues or problem is None:
         raise InputError(issues, "problem")
-    return problem
     return problem

@@ -28,6 +28,7 @@ from .limits import (
     key_path,
     shown,
 )
+from .mission_rules import mission_issues
 
 if TYPE_CHECKING:
     from collections.abc import Iterable, Iterator
@@ -57,6 +58,7 @@ def validate_problem(
     # fsw_scheduler.analysis.proofs for when that makes the problem
     # infeasible).
     issues += _check_precedences(problem)
+    issues += mission_issues(problem)
     return issues
 
 
@@ -75,20 +77,26 @@ def _check_horizon(problem: Problem) -> Iterator[FieldIssue]:
 
 def _check_resources(resources: Resources) -> Iterator[FieldIssue]:
     seen: dict[str, str] = {}
+    # Binary resources written as a list are named by position, written
+    # as an object by name.
+    listed = not isinstance(resources.binary, dict)
     named = [
-        *(("binary", i, n) for i, n in enumerate(resources.binary)),
+        *(
+            ("binary", i if listed else n, n)
+            for i, n in enumerate(resources.binary)
+        ),
         *(("multiple", n, n) for n in resources.multiple),
         *(("consumable", n, n) for n in resources.consumable),
     ]
     for kind, key, name in named:
         path = (
             f"resources.{kind}[{key}]"
-            if kind == "binary"
+            if kind == "binary" and listed
             else f"resources.{kind}.{key}"
         )
         reason = id_issue(name)
         if reason is not None:
-            if kind != "binary":
+            if kind != "binary" or not listed:
                 path = key_path(f"resources.{kind}", name)
             yield FieldIssue(path, f"resource name {reason}")
         if name in seen:
@@ -97,7 +105,7 @@ def _check_resources(resources: Resources) -> Iterator[FieldIssue]:
             )
         seen[name] = kind
     for name, capacity in resources.multiple.items():
-        if capacity < 0:
+        if isinstance(capacity, int | float) and capacity < 0:
             yield FieldIssue(
                 key_path("resources.multiple", name),
                 f"capacity must be >= 0, got {capacity}",

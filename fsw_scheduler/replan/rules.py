@@ -32,8 +32,10 @@ from typing import TYPE_CHECKING
 import msgspec
 
 from ..errors import FieldIssue, InputError
+from ..model import groups
 from ..model.change import Removal
 from ..model.problem import (
+    Alternative,
     Precedence,
     Problem,
     Task,
@@ -41,7 +43,7 @@ from ..model.problem import (
 from .schedule import Execution, ExecutionState, Schedule
 
 if TYPE_CHECKING:
-    from collections.abc import Callable, Sequence
+    from collections.abc import Callable, Collection, Sequence
 
     from ..model.goal import Goal
 
@@ -87,6 +89,8 @@ class Work:
         Whether every running task continues, as if non-preemptible (a
         replan that only corrects the world, see
         :func:`rule_running_preemption`).
+    groups
+        The groups of alternatives (the problem's and accepted goals').
     """
 
     now: int
@@ -105,6 +109,7 @@ class Work:
     deferred: list[str] = field(default_factory=list)
     runs: dict[str, tuple[int, int]] = field(default_factory=dict)
     keep_running: bool = False
+    groups: list[Alternative] = field(default_factory=list)
 
     def remove(self, task_id: str, rule: str, detail: str) -> None:
         """Take ``task_id`` out of the live set and record why."""
@@ -145,6 +150,7 @@ def start_work(schedule: Schedule, now: int) -> Work:
         history=list(schedule.history),
         obsolete=list(schedule.obsolete),
         runs=runs,
+        groups=list(schedule.problem.alternatives),
     )
 
 
@@ -297,8 +303,13 @@ def rule_obsolete(work: Work, goal: Goal) -> list[str]:
     """
     issues = []
     seeds = []
+    by_group = {group.id: group for group in work.groups}
     for idx, task in enumerate(goal.tasks):
         for jdx, name in enumerate(task.obsoletes):
+            if name in by_group:
+                # A group named: every live member of it goes.
+                seeds += _obsolete_group(work, by_group[name], task, goal)
+                continue
             known = (
                 name in work.tasks
                 or name in work.catalog
@@ -327,6 +338,49 @@ def rule_obsolete(work: Work, goal: Goal) -> list[str]:
         if name not in work.pinned:
             forget(work, name)
     return seeds
+
+
+def _obsolete_group(
+    work: Work, group: Alternative, task: Task, goal: Goal
+) -> list[str]:
+    """Rule ``obsolete`` for a group named in ``obsoletes``: the group
+    leaves the replan, and so do its live members (a running member
+    that cannot be interrupted finishes first, as a task would)."""
+    work.groups = [g for g in work.groups if g.id != group.id]
+    seeds = []
+    for name in (n for option in group.options for n in option):
+        if name in work.tasks and name not in work.pinned:
+            work.remove(
+                name,
+                "obsolete",
+                f"its group {group.id} made obsolete by {task.id} of goal "
+                f"{goal.goal_id}",
+            )
+            seeds.append(name)
+    return seeds
+
+
+def rule_alternatives(work: Work, started: Collection[str]) -> list[str]:
+    """Groups settle with what has run (rule ``alternative``).
+
+    A dispatched, running or completed member pins its option: the other
+    options of its group leave the pending list. An option one of whose
+    tasks is gone (failed and deleted, obsolete, its window passed) cannot
+    be completed: what is left of it leaves too
+    (:func:`fsw_scheduler.model.groups.settle`).
+
+    Returns
+    -------
+    list of str
+        Seeds for the removal cascade.
+    """
+    settled, drop = groups.settle(
+        tuple(work.groups), work.tasks.keys(), started
+    )
+    work.groups = list(settled)
+    for name, why in drop.items():
+        work.remove(name, "alternative", why)
+    return list(drop)
 
 
 def rule_removal_cascade(work: Work, seeds: Sequence[str]) -> None:

@@ -21,6 +21,11 @@ solves:
    remaining mandatory task fits (step 1 placed them all), so this problem
    has a plan.
 
+A mandatory group of alternatives (schedule cost 0) is shed as a whole:
+in step 1 it is made optional at :data:`MANDATORY_LOSS`, and when the
+shedding plan leaves it out, step 2 drops its tasks (each recorded as
+shed).
+
 The plan is published with status ``degraded``; its ``why`` names each
 shed task and the constraint that forced it (from the infeasible solve's
 explanation where it named the task). Pure: no solver, no bus, no clock.
@@ -32,6 +37,7 @@ from typing import TYPE_CHECKING
 
 import msgspec
 
+from ..model import groups
 from ..model.change import Removal
 from ..model.limits import MAX_COST
 from ..model.plan import Blocker, Plan
@@ -67,7 +73,14 @@ def mandatory_closure(problem: Problem) -> list[str]:
     list of str
         Task ids, in the order of ``problem.tasks``.
     """
-    needed = {t.id for t in problem.tasks if t.mandatory}
+    needed = {t.id for t in problem.tasks if problem.required(t)}
+    needed |= {
+        name
+        for group in problem.alternatives
+        if group.schedule_cost == 0
+        for option in group.options
+        for name in option
+    } & {t.id for t in problem.tasks}
     grew = True
     while grew:
         grew = False
@@ -114,15 +127,32 @@ def shedding_problem(problem: Problem) -> Problem:
         precedences among them. Always has a plan (the empty one).
     """
     keep = set(mandatory_closure(problem))
+    mandatory_groups = [
+        group
+        for group in groups.kept_alternatives(problem, keep)
+        if group.schedule_cost == 0
+    ]
+    members = {n for g in mandatory_groups for o in g.options for n in o}
     tasks = tuple(
-        _optional(t, MANDATORY_LOSS if t.mandatory else PARTNER_LOSS)
+        _optional(
+            t,
+            MANDATORY_LOSS
+            if problem.required(t) or t.id in members
+            else PARTNER_LOSS,
+        )
         for t in problem.tasks
         if t.id in keep
     )
     precedences = tuple(
         p for p in problem.precedences if p.before in keep and p.after in keep
     )
-    return problem.replace(tasks=tasks, precedences=precedences)
+    alternatives = tuple(
+        msgspec.structs.replace(g, schedule_cost=MANDATORY_LOSS)
+        for g in mandatory_groups
+    )
+    return problem.replace(
+        tasks=tasks, precedences=precedences, alternatives=alternatives
+    )
 
 
 def shed_tasks(problem: Problem, shedding_plan: Plan) -> tuple[str, ...]:
@@ -141,7 +171,16 @@ def shed_tasks(problem: Problem, shedding_plan: Plan) -> tuple[str, ...]:
         Task ids in problem order.
     """
     out = set(shedding_plan.unscheduled)
-    return tuple(t.id for t in problem.tasks if t.mandatory and t.id in out)
+    shed = [t.id for t in problem.tasks if problem.required(t) and t.id in out]
+    # A mandatory group left out is shed whole: its tasks go.
+    shed += [
+        name
+        for group in problem.alternatives
+        if group.schedule_cost == 0 and group.id in out
+        for option in group.options
+        for name in option
+    ]
+    return tuple(shed)
 
 
 def without_tasks(
@@ -183,7 +222,9 @@ def without_tasks(
         "shed task",
     )
     problem = replan.problem.replace(
-        tasks=tuple(tasks.values()), precedences=tuple(precedences)
+        tasks=tuple(tasks.values()),
+        precedences=tuple(precedences),
+        alternatives=groups.kept_alternatives(replan.problem, tasks),
     )
     continuing = tuple(n for n in replan.continuing if n in tasks)
     warm = replan.warm

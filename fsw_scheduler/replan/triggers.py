@@ -22,15 +22,18 @@ from typing import TYPE_CHECKING, NamedTuple
 import msgspec
 
 from ..errors import FieldIssue, InputError
+from ..model import groups
 from ..model.change import ActivityFailed, Change, ExecutionReport
 from ..model.goal import Goal
 from ..model.levels import cut_to_capacity, predicted_levels, walk_level
+from ..model.mission_rules import alternatives_issues
 from ..model.plan import Activity, Plan, SolveStatus
 from ..model.validation import check_use, validate_problem
 from .rules import (
     Work,
     forget,
     latest_start,
+    rule_alternatives,
     rule_defer_beyond_horizon,
     rule_failed_activity,
     rule_finished_leave,
@@ -132,6 +135,21 @@ def _merge_goal(work: Work, goal: Goal) -> None:
                 else f"unknown task {name!r}"
             )
             issues.append(FieldIssue(f"precedences[{idx}].{end}", reason))
+    taken = {g.id for g in work.groups} | set(work.tasks) - goal_ids
+    issues += [
+        issue
+        for issue in alternatives_issues(goal.alternatives, goal.tasks, ())
+        if issue.path.startswith("alternatives")
+    ]
+    for idx, group in enumerate(goal.alternatives):
+        if group.id in taken:
+            issues.append(
+                FieldIssue(
+                    f"alternatives[{idx}].id",
+                    f"{group.id!r} is already the name of a task or group "
+                    "of the running problem",
+                )
+            )
     if issues:
         raise InputError(issues, "goal")
     for gtask in goal.tasks:
@@ -144,6 +162,7 @@ def _merge_goal(work: Work, goal: Goal) -> None:
         work.runs.pop(task.id, None)
     work.precedences += goal.precedences
     work.catalog_precedences += goal.precedences
+    work.groups += goal.alternatives
 
 
 def apply_goal(
@@ -411,6 +430,12 @@ def _replan(
             seeds.append(name)
     rule_removal_cascade(work, seeds)
     rule_removal_cascade(work, rule_window_passed(work))
+    # A failed member does not pin its option: another may be chosen.
+    started = {*work.runs} | {
+        ts.task for ts in state.tasks if ts.phase in ("running", "finished")
+    }
+    for _ in range(2):  # a cascade can take a member of another option
+        rule_removal_cascade(work, rule_alternatives(work, started))
     rule_defer_beyond_horizon(work)
     return _finish(schedule, work, state, goal)
 
@@ -438,11 +463,14 @@ def _finish(
     # Each capacity is kept, and a level above it is cut to it.
     levels = {name: max(0.0, level) for name, level in state.levels.items()}
     resources = schedule.problem.resources.with_levels(levels)
+    settled = schedule.problem.replace(alternatives=tuple(work.groups))
     problem = schedule.problem.replace(
         start=work.now,
         tasks=tasks,
         precedences=precedences,
         resources=resources,
+        # Options with a task deferred beyond the horizon wait for it.
+        alternatives=groups.kept_alternatives(settled, live),
     )
     _validate_merged(problem, goal)
     pinned = tuple(name for name in work.pinned if name in live)

@@ -143,7 +143,8 @@ ROLES: dict[str, Role] = {
         Role(
             "telemetry",
             "A telemetry source: publishes measured levels on "
-            "telemetry/resources/<name>.",
+            "telemetry/resources/<name> and forecasts on "
+            "telemetry/resources/<name>/forecast.",
             puts=(topics.RESOURCE_LEVELS + "/**",),
         ),
         Role(

@@ -19,6 +19,7 @@ from ..engine.events import (
     Event,
     Explained,
     FactsArrived,
+    ForecastArrived,
     GoalArrived,
     InputRejected,
     LevelArrived,
@@ -124,7 +125,8 @@ class InputDecoder:
                 (FieldIssue("", f"busy: {message.waiting} goals waiting"),),
                 message.goal_id,
             )
-        name = key.rsplit("/", 1)[-1]
+        # The name chunk: the last, or the one before ``/forecast``.
+        name = key.rsplit("/", 2)[-2 if kind == "resource_forecast" else -1]
         field = "task" if kind == "activity_report" else "resource"
         value = getattr(message, field)
         if value != name:
@@ -138,6 +140,8 @@ class InputDecoder:
             )
         if kind == "activity_report":
             return ReportArrived(message)
+        if kind == "resource_forecast":
+            return ForecastArrived(message)
         return LevelArrived(message)
 
     def _check_clock(self, now: int) -> None:

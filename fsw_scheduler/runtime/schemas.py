@@ -50,7 +50,14 @@ def json_schemas() -> dict[str, dict]:
 #: (:mod:`fsw_scheduler.model.strict`), and so do their schemas. Messages it
 #: publishes stay open: readers accept fields newer than themselves.
 STRICT_KINDS = frozenset(
-    {"problem", "goal", "clock", "activity_report", "resource_level"}
+    {
+        "problem",
+        "goal",
+        "clock",
+        "activity_report",
+        "resource_level",
+        "resource_forecast",
+    }
 )
 
 

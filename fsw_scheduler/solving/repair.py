@@ -31,6 +31,7 @@ import msgspec
 from ..analysis.check import check_plan
 from ..analysis.greedy import greedy_plan
 from ..analysis.proofs import forced_tasks
+from ..model import groups
 from ..model.plan import Activity, Plan, SolveStatus
 
 if TYPE_CHECKING:
@@ -146,7 +147,8 @@ def _checked(problem: Problem, starts: dict[str, int]) -> Plan | None:
                 key=lambda a: (a.start, a.task),
             )
         ),
-        unscheduled=tuple(t.id for t in problem.tasks if t.id not in starts),
+        unscheduled=groups.left_out(problem, starts),
+        chosen=groups.chosen(problem, starts),
     )
     report = check_plan(problem, plan)
     if not report.ok:

@@ -15,6 +15,7 @@ from ..analysis.domains import start_domains
 from ..analysis.explain import explain as explain_plan
 from ..analysis.greedy import greedy_plan
 from ..analysis.proofs import infeasibility
+from ..model import groups
 from ..model.plan import (
     Objective,
     Plan,
@@ -121,7 +122,9 @@ def solve(
     else:
         plan = _solve_whole(problem, run, began, limit, warm, domains)
     plan = _with_gap(plan)
-    if explain and (plan.unscheduled or not plan.status.has_plan):
+    if explain and (
+        plan.unscheduled or not plan.status.has_plan or plan.picks
+    ):
         budget = explain_budget
         if budget is None:
             # Explanations share the caller's limit: whatever the solve
@@ -171,6 +174,12 @@ def components(problem: Problem) -> list[list[str]]:
 
     for prec in problem.precedences:
         join(prec.before, prec.after)
+    present = set(parent)
+    for group in problem.alternatives:
+        # The options of a group exclude each other: one part.
+        names = [n for o in group.options for n in o if n in present]
+        for name in names[1:]:
+            join(names[0], name)
     first_user: dict[str, str] = {}
     for task in problem.tasks:
         for name, amount in task.uses.items():
@@ -230,7 +239,7 @@ def _solve_parts(
         )
     if time_limit is not None:
         _reopen(plans, subs, weights, run, began, time_limit, domains)
-    return _joined(problem, plans, began, time_limit)
+    return _joined(problem, plans, [sub for sub, _ in subs], began, time_limit)
 
 
 def _part(
@@ -243,6 +252,7 @@ def _part(
         precedences=tuple(
             p for p in problem.precedences if p.before in members
         ),
+        alternatives=groups.kept_alternatives(problem, members),
     )
     if warm is None:
         return sub, None
@@ -306,6 +316,7 @@ def _reopen(
 def _joined(
     problem: Problem,
     plans: list[Plan],
+    subs: list[Problem],
     began: float,
     time_limit: float | None,
 ) -> Plan:
@@ -334,14 +345,14 @@ def _joined(
     for status in (SolveStatus.INFEASIBLE, SolveStatus.UNKNOWN):
         if status in statuses:
             return Plan(status, None, unscheduled=everything, stats=summary)
-    left_out = {name for plan in plans for name in plan.unscheduled}
     activities = tuple(
         sorted(
             (a for plan in plans for a in plan.activities),
             key=lambda a: (a.start, a.task),
         )
     )
-    missed = sum(t.schedule_cost for t in problem.tasks if t.id in left_out)
+    scheduled = {a.task for a in activities}
+    missed = groups.unscheduled_cost(problem, scheduled)
     delay = sum(
         problem.task(a.task).delay_cost * (a.start - problem.start)
         for a in activities
@@ -351,17 +362,20 @@ def _joined(
     )
     optimal = statuses == {SolveStatus.OPTIMAL}
     total = weight * missed + delay
-    bound = float(total) if optimal else _joined_bound(problem, plans)
+    bound = float(total) if optimal else _joined_bound(problem, plans, subs)
     return Plan(
         status=SolveStatus.OPTIMAL if optimal else SolveStatus.FEASIBLE,
         objective=Objective(missed, delay, total),
         activities=activities,
-        unscheduled=tuple(n for n in everything if n in left_out),
+        unscheduled=groups.left_out(problem, scheduled),
+        chosen=groups.chosen(problem, scheduled),
         stats=msgspec.structs.replace(summary, bound=bound),
     )
 
 
-def _joined_bound(problem: Problem, plans: list[Plan]) -> float | None:
+def _joined_bound(
+    problem: Problem, plans: list[Plan], subs: list[Problem]
+) -> float | None:
     """A bound on the whole objective from the parts' bounds, if each
     part has one.
 
@@ -375,11 +389,12 @@ def _joined_bound(problem: Problem, plans: list[Plan]) -> float | None:
     delay = {task.id: task.delay_cost for task in problem.tasks}
     whole = objective_weight(list(delay.values()), problem.horizon)
     total = 0.0
-    for plan in plans:
+    for plan, sub in zip(plans, subs, strict=True):
         if plan.stats is None or plan.stats.bound is None:
             return None
-        names = [a.task for a in plan.activities] + list(plan.unscheduled)
-        weight = objective_weight([delay[n] for n in names], problem.horizon)
+        weight = objective_weight(
+            [delay[t.id] for t in sub.tasks], problem.horizon
+        )
         missed = int(plan.stats.bound // weight)
         total += whole * missed + plan.stats.bound - weight * missed
     return total

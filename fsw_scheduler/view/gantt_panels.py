@@ -9,7 +9,14 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from ..model.levels import tasks_by_id
-from .style import LOST_COLOUR, MEASURED_COLOUR, PALETTE
+from .style import (
+    CHARGE_COLOUR,
+    CLOSED_COLOUR,
+    DRAIN_COLOUR,
+    LOST_COLOUR,
+    MEASURED_COLOUR,
+    PALETTE,
+)
 from .timeline import capacity_note, short_number
 
 if TYPE_CHECKING:
@@ -49,18 +56,32 @@ def _label(ax: Any, text: str) -> None:
 def draw_multiple(
     ax: Any, problem: Problem, name: str, usage: list[float]
 ) -> None:
-    """Usage per time unit as stairs, capacity as a dashed line."""
-    capacity = problem.resources.multiple[name]
+    """Usage per time unit as stairs, capacity as a dashed line (dashed
+    steps when the capacity changes over time)."""
+    profile = problem.resources.capacity_profile(
+        name, problem.start, problem.horizon
+    )
+    capacity = problem.resources.peak_capacity(name)
     edges = _edges(problem)
     ax.stairs(usage, edges, fill=True, color="#4c72b0", alpha=0.35)
     ax.stairs(usage, edges, color="#4c72b0", linewidth=1.2)
-    ax.axhline(capacity, color="#333333", linestyle="--", linewidth=1.0)
-    over = [max(0.0, u - capacity) for u in usage]
+    if name in problem.resources.changing:
+        ax.stairs(
+            profile,
+            edges,
+            baseline=None,
+            color="#333333",
+            linestyle="--",
+            linewidth=1.0,
+        )
+    else:
+        ax.axhline(capacity, color="#333333", linestyle="--", linewidth=1.0)
+    over = [max(0.0, u - c) for u, c in zip(usage, profile, strict=True)]
     if any(over):
         ax.stairs(
-            [capacity + o for o in over],
+            [c + o for c, o in zip(profile, over, strict=True)],
             edges,
-            baseline=capacity,
+            baseline=profile,
             fill=True,
             color="#d62728",
             alpha=0.5,
@@ -68,9 +89,12 @@ def draw_multiple(
     top = max([capacity, *usage])
     ax.set_ylim(0, top * 1.3 if top > 0 else 1)
     ax.set_ylabel("use", fontsize=8)
+    words = short_number(capacity)
+    if name in problem.resources.changing:
+        words = f"{short_number(min(profile, default=0.0))}..{words} in steps"
     _label(
         ax,
-        f"{name}  (capacity {short_number(capacity)}, "
+        f"{name}  (capacity {words}, "
         f"peak {short_number(max(usage, default=0.0))})",
     )
 
@@ -123,11 +147,12 @@ def draw_consumable(
     ax.set_ylabel("level", fontsize=8)
     low_level = min(levels, default=initial)
     flag = "  BELOW ZERO" if low_level < 0 else ""
+    external = draw_external(ax, problem, name)
     _label(
         ax,
         f"{name}  (initial {short_number(initial)}, "
         f"min {short_number(min(low_level, initial))}"
-        f"{capacity_note(ceiling, lost)}){flag}",
+        f"{capacity_note(ceiling, lost)}{external}){flag}",
     )
 
 
@@ -214,11 +239,67 @@ def draw_lanes(
                     clip_on=True,
                     zorder=4,
                 )
+    _draw_closed(ax, problem, y_of)
     ax.set_yticks(range(len(lanes)), lanes, fontsize=8)
     ax.set_ylim(len(lanes) - 0.5, -0.5)
     ax.tick_params(axis="y", length=0)
     _label(ax, "who holds each binary resource")
     ax.set_ylim(len(lanes) - 0.5, -1.1)
+
+
+def _runs_of(values: Sequence[float], origin: int) -> list[tuple[int, int]]:
+    """``(start, length)`` of each run of true values, in time units."""
+    runs: list[tuple[int, int]] = []
+    for idx, value in enumerate(values):
+        if not value:
+            continue
+        if runs and runs[-1][0] + runs[-1][1] == origin + idx:
+            runs[-1] = (runs[-1][0], runs[-1][1] + 1)
+        else:
+            runs.append((origin + idx, 1))
+    return runs
+
+
+def _draw_closed(ax: Any, problem: Problem, y_of: Mapping[str, int]) -> None:
+    """Hatched grey behind a binary lane where it is not available."""
+    for name in problem.resources.changing:
+        if name not in y_of:
+            continue
+        profile = problem.resources.capacity_profile(
+            name, problem.start, problem.horizon
+        )
+        closed = _runs_of([c == 0 for c in profile], problem.start)
+        ax.broken_barh(
+            closed,
+            (y_of[name] - 0.45, 0.9),
+            facecolors=CLOSED_COLOUR,
+            edgecolor="#bbbbbb",
+            hatch="//",
+            linewidth=0.0,
+            zorder=1,
+        )
+
+
+def draw_external(ax: Any, problem: Problem, name: str) -> str:
+    """Units a consumable's external rate charges (gold) or drains (blue),
+    as bands behind its level; returns words for the panel's label."""
+    rates = problem.resources.external_profile(
+        name, problem.start, problem.horizon
+    )
+    if not any(rates):
+        return ""
+    for test, colour in (
+        (lambda r: r > 0, CHARGE_COLOUR),
+        (lambda r: r < 0, DRAIN_COLOUR),
+    ):
+        for start, length in _runs_of([test(r) for r in rates], problem.start):
+            ax.axvspan(
+                start, start + length, color=colour, alpha=0.25, zorder=0
+            )
+    charge = sum(r for r in rates if r > 0)
+    drain = -sum(r for r in rates if r < 0)
+    words = f", external +{short_number(charge)}"
+    return words + (f" -{short_number(drain)}" if drain else "")
 
 
 def draw_measured(ax: Any, samples: Sequence[tuple[int, float]]) -> None:

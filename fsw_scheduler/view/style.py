@@ -13,6 +13,9 @@ if TYPE_CHECKING:
     from ..model.problem import Problem, Task
 
 __all__ = [
+    "CHARGE_COLOUR",
+    "CLOSED_COLOUR",
+    "DRAIN_COLOUR",
     "FAILED_COLOUR",
     "LOST_COLOUR",
     "MEASURED_COLOUR",
@@ -114,6 +117,12 @@ def colour_of(problem: Problem, task: Task | None) -> str:
 
 #: Charge lost because the store was full.
 LOST_COLOUR = "#e9c46a"
+#: Units an external rate charges a store (sunlight), behind its level.
+CHARGE_COLOUR = "#f4d35e"
+#: Units an external rate drains a store (a heater), behind its level.
+DRAIN_COLOUR = "#8ecae6"
+#: A binary resource outside its availability windows, behind its lane.
+CLOSED_COLOUR = "#e3e3e3"
 
 #: A task a replan removed: its outline and the rule's note.
 REMOVED_COLOUR = "#9a9a9a"

@@ -63,7 +63,8 @@ def left_out(plan: Plan) -> list[tuple[str, list[Blocker]]]:
     reasons: dict[str, list[Blocker]] = {}
     for blocker in plan.why:
         reasons.setdefault(blocker.task, []).append(blocker)
-    scheduled = {a.task for a in plan.activities}
+    # A chosen group's reasons are its options not chosen: shown apart.
+    scheduled = {a.task for a in plan.activities} | set(plan.picks)
     names = list(plan.unscheduled)
     names += [
         name
@@ -71,6 +72,33 @@ def left_out(plan: Plan) -> list[tuple[str, list[Blocker]]]:
         if name not in scheduled and name not in plan.unscheduled
     ]
     return [(name, reasons.get(name, [])) for name in names]
+
+
+def chosen_lines(problem: Problem, plan: Plan) -> list[str]:
+    """The option each group of alternatives got, and why not the others.
+
+    One line per group (``img: option 1 (SetLF, AcqLF)``, or ``left
+    out``), then the plan's ``alternative`` reasons for the options not
+    chosen, indented. Nothing for a problem without groups.
+    """
+    if not problem.alternatives:
+        return []
+    lines = ["", "alternatives:"]
+    picks = plan.picks
+    for group in problem.alternatives:
+        pick = picks.get(group.id)
+        text = (
+            f"left out (cost {group.schedule_cost})"
+            if pick is None
+            else f"option {pick} ({', '.join(group.options[pick])})"
+        )
+        lines.append(f"  {group.id}: {text}")
+        lines += [
+            f"    {blocker.detail}"
+            for blocker in plan.why
+            if blocker.task == group.id and blocker.cause == "alternative"
+        ]
+    return lines
 
 
 def _bar(start: int, end: int, origin: int, horizon: int, cells: int) -> str:
@@ -154,13 +182,17 @@ def timeline_text(
         span = f"{act.start}-{act.end}"
         lines.append(f"{act.task:<{id_w}}  {span:<{span_w}}  |{bar}|")
 
+    lines += chosen_lines(problem, plan)
     missing = left_out(plan)
     if missing:
         lines += ["", "unscheduled:"]
         tasks = tasks_by_id(problem)
+        group_cost = {g.id: g.schedule_cost for g in problem.alternatives}
         for name, blockers in missing:
             task = tasks.get(name)
             cost = "" if task is None else f" (cost {task.schedule_cost})"
+            if name in group_cost:
+                cost = f" (group, cost {group_cost[name]})"
             if not blockers:
                 lines.append(f"  {name}{cost}")
             for blocker in blockers:
@@ -181,16 +213,21 @@ def _resource_lines(
     profiles = resource_profiles(problem, plan)
     name_w = max(len(n) for n in (*resources.multiple, *resources.consumable))
     lines = ["", "resources:"]
-    for name, capacity in resources.multiple.items():
+    for name in resources.multiple:
         use = profiles[name]
+        capacity = resources.capacity_profile(
+            name, problem.start, problem.horizon
+        )
         peak = max(use, default=0.0)
         at = use.index(peak) + problem.start if peak > 0 else None
         when = f" at t={at}" if at is not None else ""
-        over = peak > capacity
+        over = any(u > c + 1e-9 for u, c in zip(use, capacity, strict=True))
         flag = f" {paint['red']}OVER CAPACITY{paint['off']}" if over else ""
+        top = resources.peak_capacity(name)
+        steps = "" if name not in resources.changing else " (in steps)"
         lines.append(
             f"  {name:<{name_w}}  peak {short_number(peak)}"
-            f"/{short_number(capacity)}{when}{flag}"
+            f"/{short_number(top)}{steps}{when}{flag}"
         )
     lost = lost_charge(problem, plan)
     for name, initial in resources.initial_levels.items():

@@ -35,7 +35,9 @@ from ..model.problem import (
     Precedence,
     Problem,
     Resources,
+    StepCapacity,
     Task,
+    Time,
 )
 from .profiles import LevelCheck, Profiles
 
@@ -86,6 +88,32 @@ class ResourceLevel(msgspec.Struct, frozen=True):
     at: Instant
 
 
+class ResourceForecast(msgspec.Struct, frozen=True, omit_defaults=True):
+    """``telemetry/resources/<name>/forecast``: a resource's profile ahead.
+
+    From ``at`` on, the resource's profile is the forecast's; before it,
+    what the problem had stays. A binary resource's forecast carries
+    ``available`` (windows ``[a, b)``), a multiple one's ``steps``
+    (``[t, capacity]``), a consumable's ``external`` (``[t, rate]``): the
+    fields of the mission model.
+    """
+
+    resource: Id
+    at: Instant
+    available: tuple[tuple[Time, Time], ...] | None = None
+    steps: tuple[tuple[Time, StepCapacity], ...] | None = None
+    external: tuple[tuple[Time, float], ...] | None = None
+
+    @property
+    def fields(self) -> dict[str, tuple[tuple[int, float], ...] | None]:
+        """The three profile fields by name (None where absent)."""
+        return {
+            "available": self.available,
+            "steps": self.steps,
+            "external": self.external,
+        }
+
+
 class PlanMessage(msgspec.Struct, frozen=True):
     """``scheduler/plan``: the plan being executed (the plan format).
 
@@ -124,6 +152,9 @@ class PlanMessage(msgspec.Struct, frozen=True):
         The command term of the node that issued it: a plan is named by
         ``(term, plan_id)``; a receiver ignores a lower term than the
         highest it has seen (0: a node older than terms).
+    chosen
+        The option index of each group of alternatives that has one
+        scheduled (only written when the problem has groups).
     """
 
     plan_id: int
@@ -142,6 +173,7 @@ class PlanMessage(msgspec.Struct, frozen=True):
     goals: tuple[str, ...] = ()
     stats: SolverStats | None = None
     term: int = 0
+    chosen: dict[str, int] | msgspec.UnsetType = msgspec.UNSET
 
 
 class Dispatch(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -534,6 +566,7 @@ SCHEMA_TYPES: dict[str, Any] = {
     "goal": Goal,
     "activity_report": ActivityReport,
     "resource_level": ResourceLevel,
+    "resource_forecast": ResourceForecast,
     "plan": PlanMessage,
     "dispatch": Dispatch,
     "status": Status,

@@ -19,6 +19,8 @@ CLOCK = "clock"
 TELEMETRY = "telemetry/**"
 ACTIVITY_REPORTS = "telemetry/activities"
 RESOURCE_LEVELS = "telemetry/resources"
+#: The last chunk of a forecast key: ``telemetry/resources/<name>/forecast``.
+FORECAST = "forecast"
 
 # Outputs
 PLAN = "scheduler/plan"
@@ -111,6 +113,10 @@ class Topics(msgspec.Struct, frozen=True):
         """The level telemetry key of ``resource``."""
         return self.key(f"{RESOURCE_LEVELS}/{resource}")
 
+    def resource_forecast(self, resource: str) -> str:
+        """The forecast key of ``resource``."""
+        return self.key(f"{RESOURCE_LEVELS}/{resource}/{FORECAST}")
+
     def suffix(self, key: str) -> str | None:
         """The part of ``key`` after ``fsw/<sc>/``, None if outside."""
         head = self.root + "/"
@@ -159,6 +165,7 @@ SUBSCRIPTIONS = (
     (ACTIVITY_REPORTS + "/*", NAMED_KINDS[ACTIVITY_REPORTS]),
     (RESOURCE_LEVELS + "/*", NAMED_KINDS[RESOURCE_LEVELS]),
     (FACTS, KINDS[FACTS]),
+    (f"{RESOURCE_LEVELS}/*/{FORECAST}", "resource_forecast"),
 )
 #: Kinds a replay feeds back as inputs, whatever the clock source.
 _INPUTS = {
@@ -167,6 +174,7 @@ _INPUTS = {
     "explanation",
     "activity_report",
     "resource_level",
+    "resource_forecast",
     "term",
     "facts",
     "paused",
@@ -177,6 +185,14 @@ def kind_of(suffix: str) -> str | None:
     """The message kind of a key ``suffix`` (None if it has none)."""
     if suffix in KINDS:
         return KINDS[suffix]
+    parts = suffix.split("/")
+    if (
+        len(parts) == 4
+        and "/".join(parts[:2]) == RESOURCE_LEVELS
+        and parts[2]
+        and parts[3] == FORECAST
+    ):
+        return "resource_forecast"
     head, _, name = suffix.rpartition("/")
     return NAMED_KINDS.get(head) if name else None
 
@@ -224,7 +240,8 @@ def input_kind(topics: Topics, key: str, clock: str) -> str | None:
     Returns ``goal``, ``clock`` (bus clock only), ``tick`` (the journal's
     record of the node's own clock, wall clock only), ``busy`` (the
     journal's record of a goal refused unread), ``activity_report``,
-    ``resource_level``, or None for keys that are not scheduler inputs.
+    ``resource_level``, ``resource_forecast``, or None for keys that are
+    not scheduler inputs.
     """
     suffix = topics.suffix(key)
     if suffix is None:

@@ -493,7 +493,8 @@ def test_every_violation_is_reported() -> None:
         "scope",
         "objective",
     }
-    assert set(_rules(report)) == set(check.RULES)
+    # Every rule but the alternatives' (no group here: see below).
+    assert set(_rules(report)) == set(check.RULES) - {"alternatives"}
     # Sorted by rule, in RULES order.
     order = [check.RULES.index(rule) for rule in _rules(report)]
     assert order == sorted(order)
@@ -533,3 +534,139 @@ def test_checker_is_independent() -> None:
         node.attr for node in ast.walk(tree) if isinstance(node, ast.Attribute)
     }
     assert "start_bounds" not in attributes
+
+
+# --------------------------------------------------------------------------
+# The mission model: alternatives and resources that change over time
+
+
+def _grouped(cost: int = 2) -> Problem:
+    """Two options, ``a1 + a2`` or ``b``, and a plain task ``c``."""
+    return problem_from(
+        make_doc(
+            [
+                make_task("a1", schedule_cost=cost),
+                make_task("a2", schedule_cost=cost),
+                make_task("b", schedule_cost=cost),
+                make_task("c", schedule_cost=1),
+            ],
+            alternatives=[
+                {
+                    "id": "g",
+                    "schedule_cost": cost,
+                    "options": [["a1", "a2"], ["b"]],
+                }
+            ],
+        )
+    )
+
+
+def test_an_option_is_all_or_none_and_one_option_at_most() -> None:
+    """Tests that half an option, and two options, break ``alternatives``,
+    each named with the group."""
+    problem = _grouped()
+    half = check_plan(problem, _plan(("a1", 0, 2), unscheduled=("c",)))
+    _only(half, "alternatives")
+    assert "'g' option 0" in half.violations[0].detail
+    both = check_plan(
+        problem,
+        _plan(("a1", 0, 2), ("a2", 2, 4), ("b", 4, 6), unscheduled=("c",)),
+    )
+    _only(both, "alternatives")
+    assert "options [0, 1]" in both.violations[0].detail
+
+
+def test_a_group_left_out_costs_its_own_cost_once() -> None:
+    """Tests the objective of groups: a group left out costs its schedule
+    cost once (not its members'), an option chosen costs nothing, and the
+    plan lists the group, not its members."""
+    problem = _grouped(cost=3)
+    weight = objective_weight([1, 1, 1, 1], 10)
+    out = check_plan(problem, _plan(("c", 0, 2), unscheduled=("g",)))
+    assert out.ok, format_report(out)
+    assert out.objective == Objective(3, 0, 3 * weight)
+    chosen = check_plan(problem, _plan(("b", 1, 3), unscheduled=("c",)))
+    assert chosen.ok, format_report(chosen)
+    assert chosen.objective == Objective(1, 1, weight + 1)
+
+
+def test_group_listing_is_checked() -> None:
+    """Tests ``coverage`` for groups: a group left out must be listed by
+    its id, and a group with an option scheduled must not be."""
+    problem = _grouped()
+    silent = check_plan(problem, _plan(("c", 0, 2)))
+    _only(silent, "coverage")
+    assert silent.violations[0].task == "g"
+    listed = check_plan(
+        problem, _plan(("b", 0, 2), ("c", 2, 4), unscheduled=("g",))
+    )
+    _only(listed, "coverage")
+
+
+def test_a_mandatory_group_needs_an_option() -> None:
+    """Tests that a group of cost 0 left out breaks ``mandatory`` (and that
+    its members, cost 0 too, are not mandatory one by one)."""
+    problem = _grouped(cost=0)
+    report = check_plan(problem, _plan(("c", 0, 2), unscheduled=("g",)))
+    _only(report, "mandatory")
+    assert [v.task for v in report.violations] == ["g"]
+    assert check_plan(problem, _plan(("b", 0, 2), ("c", 2, 4))).ok
+
+
+def _changing(**resources: object) -> Problem:
+    return problem_from(
+        make_doc(
+            [
+                make_task("x", 2, uses={"cam": 1, "power": 2, "battery": 2}),
+                make_task("y", 2, uses={"power": 2}),
+            ],
+            resources={
+                "binary": {"cam": {"available": [[2, 6]]}},
+                "multiple": {"power": {"steps": [[0, 4], [5, 2]]}},
+                "consumable": {
+                    "battery": {"initial": 1, "external": [[0, 1]]}
+                },
+            }
+            | resources,
+        )
+    )
+
+
+def test_a_binary_user_runs_only_inside_a_window() -> None:
+    """Tests that a binary resource is free inside its windows and refused
+    outside (the window is half-open)."""
+    problem = _changing()
+    assert check_plan(problem, _plan(("x", 2, 4), ("y", 8, 10))).ok
+    late = check_plan(problem, _plan(("x", 5, 7), ("y", 0, 2)))
+    _only(late, "binary")
+    assert "outside its available windows" in late.of_rule("binary")[0].detail
+    assert late.of_rule("binary")[0].time == 6
+
+
+def test_a_capacity_step_holds_in_its_units_only() -> None:
+    """Tests that two users of 2 fit under the first step (4) and break the
+    second (2), from its first unit on."""
+    problem = _changing()
+    assert check_plan(problem, _plan(("x", 2, 4), ("y", 2, 4))).ok
+    report = check_plan(problem, _plan(("x", 4, 6), ("y", 4, 6)))
+    _only(report, "multiple")
+    assert report.violations[0].time == 5
+    assert "capacity 2" in report.violations[0].detail
+
+
+def test_the_external_rate_charges_and_drains() -> None:
+    """Tests the level with an external rate: the charge lets a consumer
+    run that the initial level alone would not allow, and a drain with no
+    task at all takes the level below 0."""
+    problem = _changing()
+    # level: 1 +1 (t=0), +1 (t=1), then x takes 2 and gets 1 per unit.
+    assert check_plan(problem, _plan(("x", 2, 4), ("y", 6, 8))).ok
+    early = _changing(consumable={"battery": {"initial": 1}})
+    report = check_plan(early, _plan(("x", 2, 4), ("y", 6, 8)))
+    _only(report, "consumable")
+    drain = _changing(
+        consumable={"battery": {"initial": 2, "external": [[3, -1]]}}
+    )
+    report = check_plan(drain, _plan(("y", 0, 2), unscheduled=("x",)))
+    _only(report, "consumable")
+    assert report.violations[0].time == 5

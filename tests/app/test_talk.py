@@ -99,6 +99,23 @@ def test_a_session_driven_from_the_command_line(
     rejected = json.loads(report.stdout)
     assert rejected["event"] == "input_rejected"
     assert "no live task 'NoSuchTask'" in rejected["errors"][0]["reason"]
+    # A forecast of the wrong kind for a multiple resource: the reasons.
+    forecast = _cli(
+        port,
+        "send",
+        "forecast",
+        '{"resource": "power", "at": 0, "available": [[0, 5]]}',
+        "--wait",
+    )
+    assert forecast.returncode == 1
+    rejected = json.loads(forecast.stdout)
+    assert rejected["event"] == "input_rejected"
+    assert {e["path"] for e in rejected["errors"]} == {"available", "steps"}
+    misspelt = _cli(
+        port, "send", "forecast", '{"resource": "power", "at": 0, "stesp": []}'
+    )
+    assert misspelt.returncode == 2
+    assert "did you mean 'steps'" in misspelt.stderr
 
 
 def test_a_misspelt_goal_is_refused_before_it_is_sent(

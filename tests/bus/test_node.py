@@ -25,7 +25,7 @@ from fsw_scheduler.testing import (
 from fsw_scheduler.wire import messages
 from fsw_scheduler.wire import topics as keys
 
-from ..factories import DATA, cli_command, free_port, ping_goal
+from ..factories import DATA, ROOT, cli_command, free_port, ping_goal
 from .peers import ALIVE, Liveliness
 
 if TYPE_CHECKING:
@@ -542,3 +542,115 @@ def test_cli_run_serves_and_stops_on_sigterm() -> None:
     finally:
         run.stop()
     assert "scheduler stopped" in "".join(run.log)
+
+
+def test_a_forecast_on_the_bus_replans_and_replays(tmp_path: Path) -> None:
+    """Tests forecasts end to end on a real loopback bus: one the plan
+    meets changes nothing, one that closes the planned pass replans
+    (trigger ``forecast``) into the new window, a malformed one is
+    answered ``input_rejected``, and the journal replays IDENTICAL."""
+    from fsw_scheduler.journal.annotate import schema_lookup
+    from fsw_scheduler.journal.replay import verify
+    from fsw_scheduler.journal.writer import Recorder
+
+    problem = {
+        "horizon": 30,
+        "resources": {"binary": {"antenna": {"available": [[0, 30]]}}},
+        "tasks": [
+            {
+                "id": "Down",
+                "length": 4,
+                "delay_cost": 1,
+                "schedule_cost": 2,
+                "feasible_interval": [5, 30],
+                "uses": {"antenna": 1},
+            },
+        ],
+    }
+    path = tmp_path / "forecast.mcap"
+    journal = Recorder(path, schemas=schema_lookup("sat1"))
+    with SchedulerHarness(problem, node_options={"journal": journal}) as h:
+        h.tick(0)
+        first = h.wait_plan(lambda p: p.plan_id == 1)
+        assert first.activities[0].start == 5
+        h.forecast("antenna", 1, available=[[3, 12]])
+        h.tick(1)
+        h.forecast("antenna", 2, available=[[12, 20]])
+        h.tick(2)
+        plan = h.wait_plan(lambda p: p.trigger == "forecast")
+        assert plan.plan_id == 2
+        assert plan.activities[0].start == 12
+        h.forecast("antenna", 3, available=[[20, 10]])
+        status = h.wait_status(lambda s: s.event == "input_rejected")
+        assert status.errors[0].path == "available[0]"
+        h.tick(3)
+        assert h.query_status().last_solve is not None
+        assert h.query_status().last_solve.trigger == "forecast"  # type: ignore[union-attr]
+    report = verify(path)
+    assert report.identical, report.summary()
+    assert report.solves == 2
+
+
+def test_the_orbit_day_replans_out_of_a_new_eclipse(tmp_path: Path) -> None:
+    """Tests the Earth-observation day of examples/orbit.json on the bus:
+    the first plan images T3 in high resolution in daylight; a forecast
+    of a longer eclipse over it replans (trigger ``forecast``) so that
+    nothing needing more power than the eclipse gives runs in it; the
+    journal replays IDENTICAL."""
+    from fsw_scheduler.journal.annotate import schema_lookup
+    from fsw_scheduler.journal.replay import verify
+    from fsw_scheduler.journal.writer import Recorder
+    from fsw_scheduler.model.problem import decode_problem
+
+    text = (ROOT / "examples" / "orbit.json").read_text()
+    problem = decode_problem(text)
+    path = tmp_path / "orbit.mcap"
+    journal = Recorder(path, schemas=schema_lookup("sat1"))
+    with SchedulerHarness(problem, node_options={"journal": journal}) as h:
+        h.tick(0)
+        first = h.wait_plan(lambda p: p.plan_id == 1)
+        assert first.chosen == {
+            "image-T1": 0,
+            "image-T2": 1,
+            "image-T3": 0,
+            "image-T4": 0,
+        }
+        starts = {a.task: a.start for a in first.activities}
+        assert starts["T3-HF"] == 121
+        _fly(h, first, 100)
+        # A longer eclipse in the second orbit: 60 of power in [118, 140).
+        eclipse = [[100, 100], [118, 60], [140, 100], [157, 60], [190, 100]]
+        h.forecast("power", 100, steps=[*eclipse, [252, 60]])
+        h.tick(101)
+        plan = h.wait_plan(lambda p: p.trigger == "forecast")
+        assert plan.status.value == "optimal"
+        moved = {a.task: a for a in plan.activities}
+        assert "T3-HF" in moved or "T3-LF" in moved
+        for activity in plan.activities:
+            needs = problem.task(activity.task).uses.get("power", 0)
+            if activity.start < 140 and activity.end > 118:
+                assert needs <= 60, activity
+        assert not isinstance(plan.chosen, msgspec.UnsetType)
+        assert set(plan.chosen) == {"image-T3", "image-T4"}
+    report = verify(path)
+    assert report.identical, report.summary()
+
+
+def _fly(h: SchedulerHarness, plan: messages.PlanMessage, until: int) -> None:
+    """Tick to ``until``, reporting each activity of ``plan`` running at its
+    start and completed at its end, as an executor would."""
+    events = sorted(
+        [(a.start, 0, a.task, "running") for a in plan.activities]
+        + [(a.end, 1, a.task, "completed") for a in plan.activities]
+    )
+    now = 0
+    for at, _, task, state in events:
+        if at > until:
+            break
+        if at > now:
+            h.tick(at)
+            now = at
+        if state == "running":
+            h.wait_dispatch(task)
+        h.report(task, state, at)
+    h.tick(until)

@@ -354,6 +354,27 @@ def test_scheduler_policy_grants_each_input_to_one_role() -> None:
     assert puts == {role: [SC.key(k) for k in ks] for role, ks in PUTS.items()}
 
 
+def test_forecasts_are_the_telemetry_roles() -> None:
+    """Tests that with the secure profile the telemetry role, and only it,
+    may put a forecast the scheduler reads."""
+    acl = access_control("scheduler", "sat1")
+    rules = {r["id"]: r for r in acl["rules"]}
+    forecast = zenoh.KeyExpr(SC.resource_forecast("battery"))
+    allowed = set()
+    for policy in acl["policies"]:
+        (subject,) = policy["subjects"]
+        for rule in (rules[i] for i in policy["rules"]):
+            ingress = "put" in rule["messages"] and rule["flows"] == [
+                "ingress"
+            ]
+            if ingress and any(
+                forecast.intersects(zenoh.KeyExpr(key))
+                for key in rule["key_exprs"]
+            ):
+                allowed.add(subject)
+    assert allowed == {"telemetry"}
+
+
 def test_role_policies_mirror_the_scheduler() -> None:
     """Tests that each role only sends what the scheduler accepts of it."""
     scheduler = access_control("scheduler", "sat1", {"goals": ["ground"]})

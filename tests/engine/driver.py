@@ -17,6 +17,7 @@ from fsw_scheduler.engine.core import Engine
 from fsw_scheduler.engine.events import (
     Command,
     Event,
+    ForecastArrived,
     GoalArrived,
     LevelArrived,
     Publish,
@@ -133,6 +134,14 @@ class Driver:
         """A measured level arrives."""
         reading = messages.ResourceLevel(resource, level, at)
         return self.step(LevelArrived(reading))
+
+    def forecast(
+        self, resource: str, at: int, **profile: Any
+    ) -> list[Command]:
+        """A forecast arrives, read strictly as the node reads it."""
+        payload = json.dumps({"resource": resource, "at": at, **profile})
+        forecast = messages.decode_input("resource_forecast", payload.encode())
+        return self.step(ForecastArrived(forecast))
 
     @property
     def plan(self) -> messages.PlanMessage:

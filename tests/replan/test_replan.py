@@ -871,3 +871,111 @@ def test_a_long_missions_past_is_bounded() -> None:
     assert trimmed.trimmed(100) == trimmed  # stable
     small = schedule.trimmed(5000)
     assert small is schedule  # nothing to trim
+
+
+# --------------------------------------------------------------------------
+# Alternatives through replans
+
+
+def _grouped_schedule() -> tuple[Problem, Plan]:
+    """HF (SetHF then AcqHF) or LF (AcqLF) and a plain task, HF chosen."""
+    problem = problem_from(
+        {
+            "horizon": 20,
+            "tasks": [
+                task("SetHF", 2, schedule_cost=3),
+                task("AcqHF", 3, schedule_cost=3),
+                task("AcqLF", 2, schedule_cost=3),
+                task("Other", 2),
+            ],
+            "precedences": [tight("SetHF", "AcqHF")],
+            "alternatives": [
+                {
+                    "id": "img",
+                    "schedule_cost": 3,
+                    "options": [["SetHF", "AcqHF"], ["AcqLF"]],
+                }
+            ],
+        }
+    )
+    plan = plan_of(problem, {"SetHF": 0, "AcqHF": 2, "Other": 5})
+    return problem, plan
+
+
+def test_a_started_member_pins_its_option() -> None:
+    """Tests that once a member has run, a replan keeps only its option:
+    the rival option leaves (rule ``alternative``) and the rest of the
+    option stays grouped, all or none."""
+    problem, plan = _grouped_schedule()
+    replan = apply_goal(Schedule.begin(problem, plan), goal(task("New", 1)), 1)
+    assert rules(replan)["AcqLF"] == "alternative"
+    assert "AcqLF" not in ids(replan)
+    # SetHF runs (preemption none, pinned): its option is all that is left.
+    (group,) = replan.problem.alternatives
+    assert group.options == (("SetHF", "AcqHF"),)
+    assert replan.continuing == ("SetHF",)
+    solved = solve(replan.problem, warm=replan.warm)
+    assert check_plan(replan.problem, solved).ok
+    assert "AcqHF" in solved.starts()
+
+
+def test_before_any_member_starts_the_choice_stays_open() -> None:
+    """Tests that a replan before any member ran keeps every option."""
+    problem, plan = _grouped_schedule()
+    plan = plan_of(problem, {"SetHF": 4, "AcqHF": 6, "Other": 0})
+    replan = apply_goal(Schedule.begin(problem, plan), goal(task("New", 1)), 1)
+    assert replan.problem.alternatives == problem.alternatives
+    assert "alternative" not in rules(replan).values()
+
+
+def test_obsoletes_may_name_a_group() -> None:
+    """Tests that a goal making a group obsolete removes its live members
+    and the group, and that a goal's own group joins the problem."""
+    problem, plan = _grouped_schedule()
+    plan = plan_of(problem, {"SetHF": 4, "AcqHF": 6, "Other": 0})
+    new = decode_goal(
+        json.dumps(
+            {
+                "goal_id": "g2",
+                "tasks": [
+                    task("HF2", 2, obsoletes=["img"], schedule_cost=2),
+                    {"id": "LF2", "length": 1, "delay_cost": 1},
+                ],
+                "alternatives": [
+                    {
+                        "id": "img2",
+                        "schedule_cost": 2,
+                        "options": [["HF2"], ["LF2"]],
+                    }
+                ],
+            }
+        )
+    )
+    replan = apply_goal(Schedule.begin(problem, plan), new, 1)
+    assert {rules(replan)[n] for n in ("SetHF", "AcqHF", "AcqLF")} == {
+        "obsolete"
+    }
+    assert [g.id for g in replan.problem.alternatives] == ["img2"]
+    solved = solve(replan.problem)
+    assert check_plan(replan.problem, solved).ok
+    assert set(solved.picks) == {"img2"}
+
+
+def test_a_goal_group_may_not_take_a_live_name() -> None:
+    """Tests that a goal's group named like a live task is refused with
+    its path."""
+    problem, plan = _grouped_schedule()
+    new = decode_goal(
+        json.dumps(
+            {
+                "goal_id": "g3",
+                "tasks": [task("X", 1, schedule_cost=2)],
+                "alternatives": [
+                    {"id": "Other", "schedule_cost": 2, "options": [["X"]]}
+                ],
+            }
+        )
+    )
+    with pytest.raises(InputError) as info:
+        apply_goal(Schedule.begin(problem, plan), new, 1)
+    assert [i.path for i in info.value.issues] == ["alternatives[0].id"]

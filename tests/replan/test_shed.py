@@ -205,3 +205,40 @@ def test_without_tasks_cascades_tight_followers() -> None:
     rules = {r.task: r.rule for r in smaller.removed}
     assert rules["Point"] == "shed" and rules["Shoot"] == "tight_cascade"
     assert shed_tasks(problem, Plan(SolveStatus.OPTIMAL, None)) == ()
+
+
+def test_a_mandatory_group_that_no_longer_fits_is_shed_whole() -> None:
+    """Tests shedding with alternatives: a mandatory group none of whose
+    options can run any more (the antenna has no window left) is made
+    optional in the shedding problem, left out there, and shed with all
+    its members."""
+    problem = decode_problem(
+        json.dumps(
+            {
+                "horizon": 8,
+                "resources": {
+                    "binary": {"camera": {}, "antenna": {"available": []}}
+                },
+                "tasks": [
+                    _task("A", 0),
+                    _task("B", 0),
+                    {**_task("HF", 0), "length": 3, "uses": {"antenna": 1}},
+                    {**_task("LF", 0), "length": 2, "uses": {"antenna": 1}},
+                ],
+                "alternatives": [
+                    {
+                        "id": "img",
+                        "schedule_cost": 0,
+                        "options": [["HF"], ["LF"]],
+                    }
+                ],
+            }
+        )
+    )
+    assert solve(problem).status is SolveStatus.INFEASIBLE
+    shedding = shedding_problem(problem)
+    assert [g.schedule_cost for g in shedding.alternatives] == [MANDATORY_LOSS]
+    plan = solve(shedding)
+    assert check_plan(shedding, plan).ok
+    assert plan.unscheduled == ("img",)
+    assert shed_tasks(problem, plan) == ("HF", "LF")

@@ -20,6 +20,7 @@ from hypothesis import strategies as st
 from fsw_scheduler.analysis.check import check_plan, format_report
 from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.model.problem import decode_problem
+from fsw_scheduler.solving.ilp import solve_ilp
 from fsw_scheduler.solving.solve import solve
 
 from ..factories import bench_lib
@@ -30,6 +31,7 @@ from ..problems import (
     brute_force,
     decode_doc,
     is_feasible,
+    mission_docs,
     objective_of,
     plan_of,
     problem_docs,
@@ -264,3 +266,89 @@ def test_cpsat_baseline_matches_brute_force_under_capacities(
     assert plan.status is SolveStatus.OPTIMAL, show(doc, plan)
     assert plan.objective == best[0], f"{show(doc, plan)}\n{best}"
     assert check_plan(problem, plan).ok, show(doc, plan)
+
+
+# --------------------------------------------------------------------------
+# The mission model (issue 28): alternatives, windows, capacity steps and
+# external rates, every one in each generated problem
+
+
+@settings(COMMON, max_examples=300)
+@given(doc=mission_docs(max_tasks=4, max_horizon=8), data=st.data())
+def test_checker_agrees_with_brute_force_on_the_mission_model(
+    doc: dict, data: st.DataObject
+) -> None:
+    """Tests that check_plan accepts exactly the assignments the brute
+    force calls feasible, with groups, windows, steps and external rates."""
+    problem = decode_doc(doc)
+    starts: Assignment = {}
+    for task in problem.tasks:
+        admitted = [
+            s
+            for s in range(problem.start, problem.end - task.length + 1)
+            if start_ok(problem, task, s)
+        ]
+        starts[task.id] = data.draw(
+            st.none() | st.sampled_from(admitted), label=task.id
+        )
+    report = check_plan(problem, plan_of(problem, starts))
+    assert report.ok == is_feasible(problem, starts), (
+        f"{format_report(report)}\n{json.dumps(doc)}\n{starts}"
+    )
+
+
+@settings(COMMON, max_examples=150)
+@given(doc=mission_docs(max_tasks=4, max_horizon=8))
+def test_cbc_cpsat_and_brute_force_agree_on_the_mission_model(
+    doc: dict,
+) -> None:
+    """Tests that on problems with every field of the mission model CBC's
+    plan passes the checker and its proved optimum equals exhaustive
+    search's and the CP-SAT baseline's (whose plan passes too)."""
+    pytest.importorskip("ortools")
+    cpsat = bench_lib("cpsat")
+    problem = decode_doc(doc)
+    plan = solve(problem, solver="cbc")
+    report = check_plan(problem, plan)
+    assert report.ok, f"{format_report(report)}\n{show(doc, plan)}"
+    objective = assert_brute_force_optimum(doc, problem, plan)
+    baseline = cpsat.solve_cpsat(problem, time_limit=20)
+    assert baseline.status is plan.status, show(doc, plan, baseline)
+    if objective is None:
+        return
+    assert plan.objective == objective, show(doc, plan)
+    assert baseline.objective == objective, show(doc, plan, baseline)
+    assert check_plan(problem, baseline).ok, show(doc, baseline)
+
+
+@settings(COMMON, max_examples=80)
+@given(doc=mission_docs(max_tasks=4, max_horizon=8))
+def test_both_formulations_agree_on_alternatives(doc: dict) -> None:
+    """Tests that the disjunctive model, given the problems it takes (no
+    consumable, no changing resource in use), finds the time-indexed
+    optimum with alternatives."""
+    problem = decode_doc(doc)
+    kept = {
+        "binary": [n for n in problem.resources.binary if n != "w0"],
+        "multiple": {
+            n: v for n, v in doc["resources"]["multiple"].items() if n != "s0"
+        },
+    }
+    for task in doc["tasks"]:
+        task["uses"] = {
+            n: a
+            for n, a in task.get("uses", {}).items()
+            if n in {*kept["binary"], *kept["multiple"]}
+        }
+    doc["resources"] = kept
+    problem = decode_doc(doc)
+    indexed = solve_ilp(problem, formulation="time-indexed")
+    disjunctive = solve_ilp(problem, formulation="disjunctive")
+    assert check_plan(problem, disjunctive).ok, show(doc, disjunctive)
+    assert indexed.status is disjunctive.status, show(
+        doc, indexed, disjunctive
+    )
+    if indexed.objective is not None:
+        assert disjunctive.objective == indexed.objective, show(
+            doc, indexed, disjunctive
+        )

@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 
 from fsw_scheduler.analysis.check import check_plan
-from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.model.plan import Activity, SolveStatus
 from fsw_scheduler.solving import solve as solve_module
 from fsw_scheduler.solving.budget import BUDGET
 from fsw_scheduler.solving.solve import solve
@@ -807,3 +807,193 @@ def test_the_whole_model_gets_what_the_search_leaves() -> None:
     assert plan.stats.bound is not None
     assert plan.stats.bound <= plan.objective.total
     assert 0.75 * 10 <= wall < 10 + 0.5
+
+
+# -- the mission model: alternatives and resources that change over time ---
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_a_user_waits_for_the_window(solver: str) -> None:
+    """Tests that a task on a binary resource with windows starts at the
+    first window that holds it (not the first one, too short)."""
+    doc = make_doc(
+        [make_task("down", 3, uses={"antenna": 1})],
+        horizon=20,
+        resources={"binary": {"antenna": {"available": [[2, 4], [9, 15]]}}},
+    )
+    assert _starts(doc, solver) == {"down": 9}
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_capacity_steps_hold_unit_by_unit(solver: str) -> None:
+    """Tests that two users of 2 run together only once the capacity steps
+    up to 4, and never where it drops back to 2."""
+    doc = make_doc(
+        [
+            make_task("a", 3, uses={"power": 2}),
+            make_task("b", 3, uses={"power": 2}, delay_cost=2),
+        ],
+        horizon=20,
+        resources={"multiple": {"power": {"steps": [[0, 2], [5, 4], [7, 2]]}}},
+    )
+    starts = _starts(doc, solver)
+    plan = solve(problem_from(doc), solver)
+    assert check_plan(problem_from(doc), plan).ok
+    assert starts == {"b": 0, "a": 3}
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_the_external_charge_lets_a_consumer_run_later(solver: str) -> None:
+    """Tests that a consumer starts as soon as the sun's charge has made
+    room for it, and not before."""
+    doc = make_doc(
+        [make_task("heat", 2, uses={"battery": 4})],
+        horizon=20,
+        resources={
+            "consumable": {
+                "battery": {
+                    "initial": 1,
+                    "max": 6,
+                    "external": [[0, 0], [3, 1]],
+                }
+            }
+        },
+    )
+    # No earlier start passes the checker: the charge decides the start.
+    problem = problem_from(doc)
+    plan = solve(problem, solver)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert check_plan(problem, plan).ok
+    start = plan.starts()["heat"]
+    assert start > 0
+    for sooner in range(start):
+        probe = plan.replace(
+            activities=(Activity("heat", sooner, sooner + 2),),
+            objective=None,
+        )
+        assert not check_plan(problem, probe).ok
+
+
+def _imaging(cost: int) -> dict:
+    """HF (long, delays a lot) or LF (short), and a downlink."""
+    return make_doc(
+        [
+            {"id": "SetHF", "length": 1, "delay_cost": 1},
+            {
+                "id": "AcqHF",
+                "length": 4,
+                "delay_cost": 5,
+                "uses": {"camera": 1},
+            },
+            {"id": "SetLF", "length": 1, "delay_cost": 1},
+            {
+                "id": "AcqLF",
+                "length": 2,
+                "delay_cost": 1,
+                "uses": {"camera": 1},
+            },
+            make_task("Down", 2, uses={"camera": 1}, schedule_cost=0),
+        ],
+        horizon=12,
+        resources={"binary": ["camera"]},
+        precedences=[
+            {"before": "SetHF", "after": "AcqHF", "kind": "tight"},
+            {"before": "SetLF", "after": "AcqLF", "kind": "tight"},
+        ],
+        alternatives=[
+            {
+                "id": "img",
+                "schedule_cost": cost,
+                "options": [["SetHF", "AcqHF"], ["SetLF", "AcqLF"]],
+            }
+        ],
+    )
+
+
+@pytest.mark.parametrize("formulation", ["time-indexed", "disjunctive"])
+def test_the_cheaper_option_is_chosen(formulation: str) -> None:
+    """Tests that the solver picks the option that delays least, lists
+    only its tasks, says which in ``chosen``, and costs the group once."""
+    from fsw_scheduler.solving.ilp import solve_ilp
+
+    problem = problem_from(_imaging(3))
+    plan = solve_ilp(problem, formulation=formulation)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.chosen == {"img": 1}
+    assert {a.task for a in plan.activities} == {"SetLF", "AcqLF", "Down"}
+    assert plan.unscheduled == ()
+    assert check_plan(problem, plan).ok
+    assert plan.objective is not None
+    assert plan.objective.unscheduled_cost == 0
+
+
+def test_a_mandatory_group_is_kept_and_a_costly_one_dropped() -> None:
+    """Tests both ends of the group cost: with cost 0 an option is always
+    scheduled; when no option fits, the group is left out, listed by its
+    id and charged its cost once (not its members')."""
+    doc = _imaging(0)
+    doc["horizon"] = 4  # Down (mandatory, 2) and at most one of 2 more
+    plan = solve(problem_from(doc))
+    assert plan.chosen == {"img": 1}
+    doc = _imaging(2)
+    doc["horizon"] = 6
+    doc["tasks"][4]["length"] = 6  # the camera is never free
+    plan = solve(problem_from(doc), explain=True)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.chosen == {}
+    assert plan.unscheduled == ("img",)
+    assert plan.objective is not None
+    assert plan.objective.unscheduled_cost == 2
+    assert [b.task for b in plan.why] == ["img"]
+
+
+def test_why_names_each_option_not_chosen() -> None:
+    """Tests that with explanations each option not chosen gets a reason
+    (cause ``alternative``) with the objective it would give."""
+    plan = solve(problem_from(_imaging(3)), explain=True)
+    (blocker,) = plan.why
+    assert blocker.task == "img"
+    assert blocker.cause == "alternative"
+    assert blocker.detail.startswith("option 0 (SetHF, AcqHF) not chosen")
+    # HF alone: SetHF 0, AcqHF 1-5 (delay 5), Down 5-7 (delay 5): 10;
+    # the LF tasks are out of that solve, not scheduled beside it.
+    assert blocker.detail.endswith("objective would be 10, not 3")
+
+
+def test_the_disjunctive_model_refuses_changing_capacities() -> None:
+    """Tests that the disjunctive model, which reads one capacity per
+    resource, is never built for windows (auto picks the time-indexed
+    one, and asking for it is an error)."""
+    from fsw_scheduler.errors import SolverError
+    from fsw_scheduler.solving.ilp import solve_ilp
+
+    doc = make_doc(
+        [make_task(f"t{k}", 2, uses={"antenna": 1}) for k in range(3)],
+        horizon=20,
+        resources={"binary": {"antenna": {"available": [[4, 12]]}}},
+    )
+    problem = problem_from(doc)
+    plan = solve_ilp(problem)
+    assert "disjunctive" not in (
+        plan.stats.solver_status if plan.stats else ""
+    )
+    assert plan.starts() == {"t0": 4, "t1": 6, "t2": 8}
+    with pytest.raises(SolverError, match="time-indexed"):
+        solve_ilp(problem, formulation="disjunctive")
+
+
+def test_an_external_drain_alone_is_a_proof() -> None:
+    """Tests that a heater that empties the battery whatever the plan makes
+    the problem infeasible without a solve, naming the resource."""
+    doc = make_doc(
+        [make_task("a", 2)],
+        horizon=10,
+        resources={
+            "consumable": {"battery": {"initial": 3, "external": [[2, -1]]}}
+        },
+    )
+    plan = solve(problem_from(doc))
+    assert plan.status is SolveStatus.INFEASIBLE
+    assert plan.stats is not None and plan.stats.solver == "proof"
+    assert plan.why[0].task == "battery"
+    assert "t=5" in plan.why[0].detail  # 3, then 2, 1, 0, -1

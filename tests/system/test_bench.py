@@ -574,3 +574,25 @@ def test_bench_refuses_a_suite_the_generator_lacks() -> None:
     )
     assert result.returncode == 2
     assert "no 'scaling' suite" in result.stderr
+
+
+def test_mission_suite_has_its_shape() -> None:
+    """Tests the mission suite (``tools/bench --suite mission``): 5, 10
+    and 15 tasks x alternatives and profiles x 7 problems, each valid and
+    rebuilt alone from its seed; the alternatives class has groups, the
+    profiles class resources that change over time and no group."""
+    problems = generator.suite("mission", 0)
+    assert len(problems) == 42
+    assert generator.suite("mission", 0)[5].to_json() == problems[5].to_json()
+    grouped = 0
+    for bench in problems:
+        problem = decode_problem(bench.to_json())
+        assert problem.num_tasks == bench.num_tasks
+        if bench.resource_class == "alternatives":
+            grouped += bool(problem.alternatives)
+            assert not problem.resources.changing
+        else:
+            assert problem.resources.changing
+            assert not problem.alternatives
+    # A problem whose optional tasks are all in precedences has no pair.
+    assert grouped >= 14

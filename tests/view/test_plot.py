@@ -430,3 +430,122 @@ def test_gantt_rows_follow_time_not_problem_order() -> None:
         "late",
         "out",
     ]
+
+
+# --------------------------------------------------------------------------
+# The mission model in the views
+
+
+@pytest.fixture(scope="session")
+def orbit() -> tuple[Problem, Plan]:
+    """A pass window, power steps, sunlight charge and a group, solved."""
+    import json
+
+    from fsw_scheduler.model.problem import decode_problem
+    from fsw_scheduler.solving.solve import solve
+
+    problem = decode_problem(
+        json.dumps(
+            {
+                "horizon": 20,
+                "resources": {
+                    "binary": {"antenna": {"available": [[6, 12]]}},
+                    "multiple": {"power": {"steps": [[0, 2], [10, 4]]}},
+                    "consumable": {
+                        "battery": {
+                            "initial": 2,
+                            "max": 6,
+                            "external": [[0, 1], [8, 0], [14, -0.5]],
+                        }
+                    },
+                },
+                "tasks": [
+                    {
+                        "id": "Down",
+                        "length": 3,
+                        "delay_cost": 1,
+                        "schedule_cost": 2,
+                        "uses": {"antenna": 1, "power": 1},
+                    },
+                    {
+                        "id": "HF",
+                        "length": 4,
+                        "delay_cost": 2,
+                        "uses": {"power": 2, "battery": 1},
+                    },
+                    {
+                        "id": "LF",
+                        "length": 2,
+                        "delay_cost": 1,
+                        "uses": {"power": 1, "battery": 1},
+                    },
+                ],
+                "alternatives": [
+                    {
+                        "id": "img",
+                        "schedule_cost": 3,
+                        "options": [["HF"], ["LF"]],
+                    }
+                ],
+            }
+        )
+    )
+    return problem, solve(problem, explain=True)
+
+
+def test_timeline_names_the_chosen_option(orbit: tuple) -> None:
+    """Tests that the text timeline names each group's option and says
+    why the other was not chosen, and calls capacity steps so."""
+    problem, plan = orbit
+    text = timeline_text(problem, plan)
+    assert "alternatives:\n  img: option 1 (LF)\n    option 0 (HF) not" in text
+    assert "(in steps)" in text
+    assert "unscheduled:" not in text
+
+
+def test_gantt_draws_windows_steps_and_external_charge(
+    tmp_path: Path, orbit: tuple, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Tests the pictures of changing resources: the antenna lane hatched
+    outside its window, the power capacity as steps, the battery panel
+    banded where the sun charges (gold) and the heater drains (blue),
+    with the totals in its label."""
+    from matplotlib.colors import to_hex
+
+    from fsw_scheduler.view.style import (
+        CHARGE_COLOUR,
+        CLOSED_COLOUR,
+        DRAIN_COLOUR,
+    )
+
+    figures = _drawn_figure(monkeypatch)
+    problem, plan = orbit
+    gantt(problem, plan, tmp_path / "orbit.png")
+    (figure,) = figures
+    texts = _texts(figure)
+    lanes = next(
+        ax
+        for ax in figure.axes
+        if "who holds each binary resource" in [t.get_text() for t in ax.texts]
+    )
+    closed = [
+        c
+        for c in lanes.collections
+        if to_hex(c.get_facecolor()[0]) == CLOSED_COLOUR
+    ]
+    (bars,) = closed
+    spans = sorted(
+        (round(path.get_extents().x0), round(path.get_extents().x1))
+        for path in bars.get_paths()
+    )
+    assert spans == [(0, 6), (12, 20)]
+    assert any("power  (capacity 2..4 in steps" in t for t in texts)
+    battery = next(
+        ax
+        for ax in figure.axes
+        if any(t.get_text().startswith("battery") for t in ax.texts)
+    )
+    colours = {to_hex(p.get_facecolor()) for p in battery.patches}
+    assert {CHARGE_COLOUR, DRAIN_COLOUR} <= colours
+    assert any("external +8 -3" in t for t in texts)
+    _check_png(tmp_path / "orbit.png")

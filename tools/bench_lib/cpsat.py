@@ -24,6 +24,20 @@ The same semantics as the problem format, written independently of the ILP:
 * objective ``W x unscheduled + delay`` with
   ``W = 1 + sum(delay_cost) x horizon`` (lexicographic by construction).
 
+The mission model, written with CP-SAT's own means rather than per-unit
+rows:
+
+* alternatives: one literal per option, the presence of every task of the
+  option equal to it, at most one option literal per group true (exactly
+  one for a group of cost 0); a member is never mandatory on its own, and
+  a group left out costs ``W x`` its cost once;
+* binary ``available`` windows: fixed intervals over the gaps between the
+  windows join the resource's ``NoOverlap``;
+* capacity ``steps``: ``Cumulative`` at the largest capacity, with a fixed
+  interval of demand ``peak - c_k`` over each step;
+* ``external`` rates: one fixed, always active reservoir event per unit
+  with a rate (``L[t] <= L[t-1] + external(t) - net use`` with a capacity).
+
 Fractional amounts are scaled to integers per resource (powers of ten up
 to 10**6). OR-Tools is imported lazily: it is the optional ``bench`` extra.
 """
@@ -119,9 +133,20 @@ def solve_cpsat(
         [task.delay_cost for task in problem.tasks], problem.horizon
     )
     terms: list[Any] = []
+    members = _members(problem)
+    constant = 0
+    for group in problem.alternatives:
+        picks = _options(model, group, present)
+        if group.schedule_cost == 0:
+            model.add(sum(picks) == 1)
+        else:
+            model.add(sum(picks) <= 1)
+            terms.append(weight * group.schedule_cost * (1 - sum(picks)))
     for task in problem.tasks:
         lit = present[task.id]
-        if task.schedule_cost and lit is not None:
+        if task.id in members:
+            pass
+        elif task.schedule_cost and lit is not None:
             terms.append(weight * task.schedule_cost * (1 - lit))
         if lit is None:
             continue
@@ -132,8 +157,10 @@ def solve_cpsat(
         )
         model.add(delay == 0).only_enforce_if(~lit)
         terms.append(task.delay_cost * delay)
-    constant = weight * sum(
-        problem.task(tid).schedule_cost for tid in impossible
+    constant += weight * sum(
+        problem.task(tid).schedule_cost
+        for tid in impossible
+        if tid not in members
     )
     model.minimize(sum(terms) + constant)
     proto = model.proto
@@ -154,6 +181,7 @@ def solve_cpsat(
     activities: list[Activity] = []
     unscheduled: list[str] = []
     objective = None
+    chosen: dict[str, int] = {}
     if status.has_plan:
         for task in problem.tasks:
             lit = present[task.id]
@@ -162,8 +190,15 @@ def solve_cpsat(
                 activities.append(
                     Activity(task.id, start, start + task.length)
                 )
-            else:
+            elif task.id not in members:
                 unscheduled.append(task.id)
+        placed = {a.task for a in activities}
+        for group in problem.alternatives:
+            for idx, option in enumerate(group.options):
+                if option[0] in placed:
+                    chosen[group.id] = idx
+            if group.id not in chosen:
+                unscheduled.append(group.id)
         objective = _objective(problem, activities, unscheduled, weight)
     else:
         unscheduled = [task.id for task in problem.tasks]
@@ -180,13 +215,38 @@ def solve_cpsat(
         solver_status=solver.status_name(code),
         time_limit_s=time_limit,
     )
-    return Plan(
+    plan = Plan(
         status=status,
         objective=objective,
         activities=tuple(activities),
         unscheduled=tuple(unscheduled),
         stats=stats,
     )
+    return plan.replace(chosen=chosen) if problem.alternatives else plan
+
+
+def _members(problem: Problem) -> set[str]:
+    return {
+        name
+        for group in problem.alternatives
+        for option in group.options
+        for name in option
+    }
+
+
+def _options(model: Any, group: Any, present: dict[str, Any]) -> list[Any]:
+    """One literal per option of ``group``: its tasks' common presence."""
+    picks = []
+    for option in group.options:
+        pick = model.new_bool_var(f"o_{group.id}_{len(picks)}")
+        for name in option:
+            lit = present.get(name)
+            if lit is None:
+                model.add(pick == 0)  # a task that cannot be placed
+            else:
+                model.add(lit == pick)
+        picks.append(pick)
+    return picks
 
 
 def _objective(
@@ -195,8 +255,12 @@ def _objective(
     unscheduled: list[str],
     weight: int,
 ) -> Objective:
+    groups = {group.id: group for group in problem.alternatives}
     unscheduled_cost = sum(
-        problem.task(tid).schedule_cost for tid in unscheduled
+        groups[tid].schedule_cost
+        if tid in groups
+        else problem.task(tid).schedule_cost
+        for tid in unscheduled
     )
     delay = sum(
         problem.task(a.task).delay_cost * (a.start - problem.start)
@@ -218,16 +282,21 @@ def _tasks(
     present: dict[str, Any] = {}
     starts: dict[str, Any] = {}
     impossible: list[str] = []
+    members = _members(problem)
     for task in problem.tasks:
+        # A group member is never mandatory alone: its group may be.
+        mandatory = task.fixed_start is not None or (
+            task.schedule_cost == 0 and task.id not in members
+        )
         earliest, latest = problem.start_bounds(task)
         if earliest > latest:
             present[task.id] = None
             impossible.append(task.id)
-            if task.mandatory:
+            if mandatory:
                 model.add_bool_or([])  # nothing can satisfy it
             continue
         starts[task.id] = model.new_int_var(earliest, latest, f"s_{task.id}")
-        if task.mandatory:
+        if mandatory:
             present[task.id] = model.new_constant(1)
         else:
             present[task.id] = model.new_bool_var(f"p_{task.id}")
@@ -256,20 +325,44 @@ def _resources(
             if amount != 0:
                 users[name].append((task.id, amount))
     for name in problem.resources.binary:
-        if len(users[name]) > 1:
-            model.add_no_overlap([intervals[tid] for tid, _ in users[name]])
-    for name, capacity in problem.resources.multiple.items():
+        closed = _closed(model, problem, name)
+        if len(users[name]) + len(closed) > 1:
+            model.add_no_overlap(
+                [intervals[tid] for tid, _ in users[name]] + closed
+            )
+    for name, value in problem.resources.multiple.items():
         if not users[name]:
             continue
+        steps = (
+            [(problem.start, value)]
+            if isinstance(value, int | float)
+            else list(value.steps)
+        )
+        capacity = max(c for _, c in steps)
         scale = integer_scale([capacity, *(a for _, a in users[name])])
+        # The capacity below the peak, as fixed demand over each step.
+        fixed = []
+        for k, (since, cap) in enumerate(steps):
+            until = steps[k + 1][0] if k + 1 < len(steps) else problem.end
+            low, high = max(since, problem.start), min(until, problem.end)
+            if high > low and cap < capacity:
+                fixed.append(
+                    (
+                        model.new_fixed_size_interval_var(
+                            low, high - low, f"cap_{name}_{k}"
+                        ),
+                        round((capacity - cap) * scale),
+                    )
+                )
         model.add_cumulative(
-            [intervals[tid] for tid, _ in users[name]],
-            [round(a * scale) for _, a in users[name]],
+            [intervals[tid] for tid, _ in users[name]] + [f for f, _ in fixed],
+            [round(a * scale) for _, a in users[name]] + [d for _, d in fixed],
             math.floor(capacity * scale + 1e-9),
         )
     ceilings = problem.resources.ceilings
     for name, initial in problem.resources.initial_levels.items():
-        if not users[name]:
+        external = _external(problem, name)
+        if not users[name] and not any(external):
             continue
         if name in ceilings:
             _capped_levels(
@@ -280,13 +373,22 @@ def _resources(
                 users[name],
                 present,
                 starts,
+                external,
             )
             continue
-        scale = integer_scale([initial, *(a for _, a in users[name])])
+        scale = integer_scale(
+            [initial, *(a for _, a in users[name]), *external]
+        )
         times: list[Any] = []
         changes: list[int] = []
         actives: list[Any] = []
         generation = 0
+        for unit, rate in enumerate(external):
+            if rate:
+                times.append(problem.start + unit)
+                changes.append(round(rate * scale))
+                actives.append(model.new_constant(1))
+                generation += max(0, round(rate * scale))
         for tid, amount in users[name]:
             change = -round(amount * scale)
             generation += max(0, change) * problem.task(tid).length
@@ -308,6 +410,7 @@ def _capped_levels(
     users: list[tuple[str, float]],
     present: dict[str, Any],
     starts: dict[str, Any],
+    external: list[float],
 ) -> None:
     """Per-unit levels of one consumable with a capacity.
 
@@ -316,7 +419,7 @@ def _capped_levels(
     at ``t`` iff one of ``x[i, t - length + 1 .. t]`` is set.
     """
     amounts = [a for _, a in users]
-    scale = integer_scale([initial, ceiling, *amounts])
+    scale = integer_scale([initial, ceiling, *amounts, *external])
     top = math.floor(ceiling * scale + 1e-9)
     net: list[list[tuple[int, Any]]] = [[] for _ in range(problem.horizon)]
     for tid, amount in users:
@@ -337,8 +440,39 @@ def _capped_levels(
     previous: Any = math.floor(initial * scale + 1e-9)
     for t, terms in enumerate(net):
         level = model.new_int_var(0, top, f"L_{t}")
-        model.add(level <= previous - sum(c * x for c, x in terms))
+        charge = round(external[t] * scale)
+        model.add(level <= previous + charge - sum(c * x for c, x in terms))
         previous = level
+
+
+def _external(problem: Problem, name: str) -> list[float]:
+    """The external rate of consumable ``name`` per unit, from its steps."""
+    spec = problem.resources.consumable[name]
+    rates = [0.0] * problem.horizon
+    steps = list(getattr(spec, "external", ()))
+    for k, (since, rate) in enumerate(steps):
+        until = steps[k + 1][0] if k + 1 < len(steps) else problem.end
+        for t in range(max(since, problem.start), min(until, problem.end)):
+            rates[t - problem.start] = float(rate)
+    return rates
+
+
+def _closed(model: Any, problem: Problem, name: str) -> list[Any]:
+    """Fixed intervals over the gaps between binary ``name``'s windows."""
+    binary = problem.resources.binary
+    spec = binary.get(name) if isinstance(binary, dict) else None
+    if spec is None or spec.available is None:
+        return []
+    gaps, since = [], problem.start
+    for low, high in [*spec.available, (problem.end, problem.end)]:
+        low = min(max(low, problem.start), problem.end)
+        if low > since:
+            gaps.append((since, low))
+        since = max(since, min(high, problem.end))
+    return [
+        model.new_fixed_size_interval_var(a, b - a, f"off_{name}_{a}")
+        for a, b in gaps
+    ]
 
 
 def _precedences(

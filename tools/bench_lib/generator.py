@@ -36,7 +36,7 @@ from typing import Any
 
 from fsw_scheduler.model.problem import Problem, decode_problem
 
-from . import broad, fresh
+from . import broad, fresh, mission
 
 CLASSES: tuple[str, ...] = ("none", "binary", "multiple", "consumable")
 CAMPAIGN_SIZES: tuple[int, ...] = (5, 10, 15)
@@ -216,6 +216,38 @@ def fresh_campaign(
     return problems
 
 
+def mission_suite(seed: int = 0) -> list[BenchProblem]:
+    """Return the mission suite (:mod:`bench_lib.mission`): sizes 5, 10,
+    15 x classes ``alternatives`` and ``profiles`` x 7 problems, H = 336,
+    each a paper-style problem of a base class (binary, multiple,
+    consumable in turn) given the fields of the mission model."""
+    problems = []
+    for size in CAMPAIGN_SIZES:
+        for cls in mission.MISSION_CLASSES:
+            for index in range(CAMPAIGN_PER_CELL):
+                name = f"m{size:02d}-{cls}-{index}"
+                own_seed = problem_seed(seed, name)
+                base = mission.BASE_CLASSES[index % len(mission.BASE_CLASSES)]
+                doc = generate_problem(size, base, CAMPAIGN_HORIZON, own_seed)
+                doc = (
+                    mission.with_alternatives(doc)
+                    if cls == "alternatives"
+                    else mission.with_profiles(doc)
+                )
+                problems.append(
+                    BenchProblem(
+                        name,
+                        "mission",
+                        size,
+                        cls,
+                        CAMPAIGN_HORIZON,
+                        own_seed,
+                        doc,
+                    )
+                )
+    return problems
+
+
 def suite(
     name: str, seed: int = 0, style: str = "paper"
 ) -> list[BenchProblem]:
@@ -242,6 +274,8 @@ def suite(
         return campaign(seed, style) + scaling(seed, style=style)
     if name == "quick":
         return quick(seed, style)
+    if name == "mission":
+        return mission_suite(seed)
     raise ValueError(f"unknown suite {name!r}")
 
 

@@ -174,12 +174,14 @@ def add_demo_command(add: Add) -> None:
     )
     demo.add_argument(
         "--scenario",
-        choices=("paper", "failure", "failover"),
+        choices=("paper", "failure", "failover", "orbit"),
         default="paper",
         help="paper: Table 1 then the Table 2 goal; failure: also a failed "
         "activity and a draining battery; failover: the paper scenario on "
         "two redundant schedulers (separate processes) that are killed "
-        "and resume or take over (default: %(default)s)",
+        "and resume or take over; orbit: an Earth-observation day with "
+        "eclipses, passes and HF/LF alternatives, and a forecast of a "
+        "longer eclipse (default: %(default)s)",
     )
     demo.add_argument("--spacecraft", default="sat1", help="key prefix id")
     demo.add_argument(

@@ -46,6 +46,7 @@ KINDS = {
     "goal": "goal",
     "report": "activity_report",
     "level": "resource_level",
+    "forecast": "resource_forecast",
     "clock": "clock",
 }
 
@@ -55,7 +56,7 @@ def add_talk_commands(add: Add) -> None:
     send = add(
         "send",
         _cmd_send,
-        "send a goal, report, level or clock to a running scheduler",
+        "send a goal, report, level, forecast or clock to a running scheduler",
         """\
         Check a document as the scheduler will (unknown fields, keys
         written twice, types, ranges and, asked from the scheduler's
@@ -75,6 +76,8 @@ def add_talk_commands(add: Add) -> None:
               '{"task": "Ping", "state": "completed", "at": 12}'
           fsw-scheduler send level \\
               '{"resource": "battery", "level": 18, "at": 12}'
+          fsw-scheduler send forecast \\
+              '{"resource": "power", "at": 40, "steps": [[40, 60], [75, 35]]}'
           fsw-scheduler send clock '{"now": 12}' -e tcp/10.0.0.1:7447 -m client
         """,
     )
@@ -204,6 +207,7 @@ def _cmd_send(args: argparse.Namespace) -> int:
         key = {
             "report": lambda m: client.topics.activity_report(m.task),
             "level": lambda m: client.topics.resource_level(m.resource),
+            "forecast": lambda m: client.topics.resource_forecast(m.resource),
             "clock": lambda m: client.topics.key("clock"),
         }[args.kind](message)
         if not args.wait:

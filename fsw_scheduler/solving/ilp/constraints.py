@@ -12,6 +12,7 @@ from __future__ import annotations
 import itertools
 from typing import TYPE_CHECKING
 
+from .alternatives import alternative_rows
 from .program import EQ, LE
 
 if TYPE_CHECKING:
@@ -31,11 +32,12 @@ def identical_tasks(
     Same length, costs, mandatory flag, resource uses and start domain,
     and in no precedence; each class lists its task ids in problem order.
     """
+    # Members of groups are told apart by their options.
     linked = {
         name
         for prec in problem.precedences
         for name in (prec.before, prec.after)
-    }
+    } | set(problem.groups.member)
     classes: dict[tuple, list[str]] = {}
     for task in problem.tasks:
         domain = domains[task.id]
@@ -45,7 +47,7 @@ def identical_tasks(
             task.length,
             task.delay_cost,
             task.schedule_cost,
-            task.mandatory,
+            problem.required(task),
             tuple(sorted((k, v) for k, v in task.uses.items() if v)),
             domain.earliest,
             domain.latest,
@@ -85,6 +87,7 @@ class Constraints:
         for prec in self.problem.precedences:
             self._precedence(prec)
         self._identical_tasks()
+        self._alternatives()
 
     # -- helpers ------------------------------------------------------------
 
@@ -114,27 +117,43 @@ class Constraints:
                 for before, after in itertools.pairwise(steps)
             )
 
-    def _capacity_rows(self, resource: str, capacity: float) -> None:
-        """``sum_i amount_i * R(i, t) <= capacity`` for every time unit."""
-        start = self.problem.start
-        demand = [0.0] * self.problem.horizon  # most the users may need
-        rows: list[Terms] = [{} for _ in range(self.problem.horizon)]
+    def _capacity_rows(self, resource: str) -> None:
+        """``sum_i amount_i * R(i, t) <= capacity(t)`` for every time unit.
+
+        ``capacity(t)`` is the resource's capacity profile: 1 or 0 for a
+        binary resource (inside or outside its windows), the step's
+        capacity for a multiple one.
+        """
+        problem = self.problem
+        start = problem.start
+        capacity = problem.resources.capacity_profile(
+            resource, start, problem.horizon
+        )
+        demand = [0.0] * problem.horizon  # most the users may need
+        rows: list[Terms] = [{} for _ in range(problem.horizon)]
         for task, amount in self._users(resource):
             for time in self.vars.add_running(rows, task, amount, start):
                 demand[time - start] += amount
-        for need, terms in zip(demand, rows, strict=True):
-            if need > capacity:
-                self._row(terms, LE, capacity)
+        for need, terms, top in zip(demand, rows, capacity, strict=True):
+            if need > top:
+                self._row(terms, LE, top)
 
     def _binary_resources(self) -> None:
-        """Paper eq. (1): at most one running user per time unit."""
+        """Paper eq. (1): at most one running user per time unit, none
+        outside the resource's windows."""
         for resource in self.problem.resources.binary:
-            self._capacity_rows(resource, 1.0)
+            self._capacity_rows(resource)
 
     def _multiple_resources(self) -> None:
-        """Paper eq. (2): running users' amounts within the capacity."""
-        for resource, capacity in self.problem.resources.multiple.items():
-            self._capacity_rows(resource, capacity)
+        """Paper eq. (2): running users' amounts within the capacity of
+        each unit."""
+        for resource in self.problem.resources.multiple:
+            self._capacity_rows(resource)
+
+    def _alternatives(self) -> None:
+        """All or none of an option, at most one option per group
+        (:func:`.alternatives.alternative_rows`)."""
+        alternative_rows(self.program, self.problem, self.vars)
 
     def _consumable_resources(self) -> None:
         """Paper eq. (3): the level never goes below zero.
@@ -156,31 +175,47 @@ class Constraints:
         scheduled gets no rows at all. A consumable with a capacity gets
         ``L[c] <= L[p] - ...`` instead (see :meth:`_level_column`).
         """
-        consumables = self.problem.resources.initial_levels.items()
+        problem = self.problem
+        consumables = problem.resources.initial_levels.items()
         for resource, initial in consumables:
             users = self._users(resource)
-            worst = sum(a * t.length for t, a in users if a > 0)
+            external = problem.resources.external_profile(
+                resource, problem.start, problem.horizon
+            )
+            # Charge from outside only raises the level (a full store
+            # loses the excess, never more), so drain is all that counts.
+            drain = -sum(rate for rate in external if rate < 0)
+            worst = sum(a * t.length for t, a in users if a > 0) + drain
             if worst <= initial:
                 continue
-            self._consumable_total(resource, initial, users)
+            self._consumable_total(resource, initial, users, sum(external))
             # Which tasks fit the budget is the hard part here: branch on
             # "scheduled" first (consumable class of the campaign: total
             # CBC time -23 %; on resource-only models it was slower).
             for task, _ in users:
                 self.program.priorities[self.vars.scheduled(task.id)] = 1
-            checkpoints = self._checkpoints(users)
-            if len(checkpoints) > 1:
-                self._level_rows(resource, initial, users, checkpoints)
+            checkpoints = self._checkpoints(users, external)
+            if len(checkpoints) > 1 or any(external):
+                self._level_rows(
+                    resource, initial, users, checkpoints, external
+                )
 
-    def _checkpoints(self, users: list[tuple[Task, float]]) -> list[int]:
+    def _checkpoints(
+        self, users: list[tuple[Task, float]], external: list[float]
+    ) -> list[int]:
         """Units at whose end a level row of these users is needed.
 
         The unit before and the unit of every unit in which some generator
-        (negative amount) may run, and the last unit of the horizon;
-        sorted. Only the last one when nothing generates.
+        (negative amount) may run or the external rate charges, and the
+        last unit of the horizon; sorted. Only the last one when nothing
+        generates.
         """
         end = self.problem.end
+        start = self.problem.start
         points = {end - 1}
+        for idx, rate in enumerate(external):
+            if rate > 0:
+                points.update((start + idx - 1, start + idx))
         for task, amount in users:
             if amount >= 0:
                 continue
@@ -196,8 +231,11 @@ class Constraints:
         initial: float,
         users: list[tuple[Task, float]],
         checkpoints: list[int],
+        external: list[float],
     ) -> None:
-        """The level balance from checkpoint to checkpoint (see above)."""
+        """The level balance from checkpoint to checkpoint (see above);
+        the external rate of the units between adds to the right side."""
+        start = self.problem.start
         add_step = self.vars.add_step
         previous: int | None = None
         after = self.problem.start - 1  # the last unit already counted
@@ -212,6 +250,7 @@ class Constraints:
                     add_step(terms, task.id, unit, amount)
                     add_step(terms, task.id, unit - task.length, -amount)
             rhs = initial if previous is None else 0.0
+            rhs += sum(external[after + 1 - start : point + 1 - start])
             self._row(terms, sense, rhs)
             previous, after = level, point
 
@@ -235,14 +274,20 @@ class Constraints:
         return self.program.add_column(0, ceiling), LE
 
     def _consumable_total(
-        self, resource: str, initial: float, users: list[tuple[Task, float]]
+        self,
+        resource: str,
+        initial: float,
+        users: list[tuple[Task, float]],
+        charge: float,
     ) -> None:
         """The level rows summed up to the horizon's end, on "scheduled".
 
         Implied by the level rows, but over binaries only: a knapsack row
         that CBC's cover cuts can work on. A consumer counts the units it
         runs in the horizon at least (starting at its latest), a generator
-        the units it can run at most (starting at its earliest).
+        the units it can run at most (starting at its earliest); ``charge``
+        is the external rate summed over the horizon (a full store only
+        loses some of it, so the row stays valid).
         """
         end = self.problem.end
         terms: Terms = {}
@@ -252,7 +297,7 @@ class Constraints:
             units = max(0, min(task.length, end - start))
             column = self.vars.scheduled(task.id)
             terms[column] = terms.get(column, 0.0) + amount * units
-        self._row(terms, LE, initial)
+        self._row(terms, LE, initial + charge)
 
     def _identical_tasks(self) -> None:
         """Symmetry breaking: of identical tasks, the first starts first.

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from ...model import groups
 from ...model.plan import Activity, Objective, Plan
 from .objective import weight
 from .program import Program
@@ -72,21 +73,22 @@ def decode_plan(
 
     The objective is recomputed from the starts, not taken from the solver.
     """
-    activities, unscheduled = [], []
-    delay = unscheduled_cost = 0
+    activities = []
+    delay = 0
     for task in problem.tasks:
         start = start_of(task.id, values)
         if start is None:
-            unscheduled.append(task.id)
-            unscheduled_cost += task.schedule_cost
             continue
         activities.append(Activity(task.id, start, start + task.length))
         delay += task.delay_cost * (start - problem.start)
     activities.sort(key=lambda a: (a.start, a.task))
+    scheduled = {a.task for a in activities}
+    unscheduled_cost = groups.unscheduled_cost(problem, scheduled)
     total = weight(problem) * unscheduled_cost + delay
     return Plan(
         status=status,
         objective=Objective(unscheduled_cost, delay, total),
         activities=tuple(activities),
-        unscheduled=tuple(unscheduled),
+        unscheduled=groups.left_out(problem, scheduled),
+        chosen=groups.chosen(problem, scheduled),
     )

@@ -19,11 +19,17 @@ from typing import TYPE_CHECKING, Any
 from ...analysis.domains import start_domains
 from ...errors import SolverError
 from ...model.plan import Plan, SolverStats, SolveStatus
+from .alternatives import impossible_groups
 from .cbc import ABS_GAP, MIN_CBC_S, CbcResult
 from .constraints import Constraints
 from .decode import Formulation
 from .disjunctive.model import DisjunctiveModel
-from .disjunctive.rule import FORMULATIONS, pick, used_kinds
+from .disjunctive.rule import (
+    FORMULATIONS,
+    changing_in_use,
+    pick,
+    used_kinds,
+)
 from .objective import objective
 from .progress import WITH_START, WITH_START_DISJUNCTIVE, WatchedCbcRun
 from .variables import Variables
@@ -364,6 +370,11 @@ def solve_ilp(
         problem, domains
     ):
         raise SolverError("the disjunctive model has no consumables")
+    elif formulation == "disjunctive" and changing_in_use(problem, domains):
+        raise SolverError(
+            "the disjunctive model reads one capacity per resource: "
+            "windows and capacity steps need the time-indexed model"
+        )
     if time_limit is not None and formulation == "time-indexed":
         columns = sum(
             d.latest - d.earliest + 1 for d in domains.values() if not d.empty
@@ -391,8 +402,8 @@ def solve_ilp(
     impossible = [
         task.id
         for task in problem.tasks
-        if task.mandatory and not built.vars.placeable(task.id)
-    ]
+        if problem.required(task) and not built.vars.placeable(task.id)
+    ] + impossible_groups(problem, built.vars)
     stats: dict[str, Any] = dict(
         solver=solver,
         build_s=built_at - began,

@@ -104,7 +104,7 @@ class Variables:
             if task.id in shared and shared[task.id] in self.steps:
                 self.steps[task.id] = self.steps[shared[task.id]]
         for task in self.tasks:
-            if task.mandatory and task.id in self.steps:
+            if problem.required(task) and task.id in self.steps:
                 program.lower[self.scheduled(task.id)] = 1
         self._spans = {
             task_id: (
@@ -195,7 +195,7 @@ class Variables:
             first = self.domains[task.id].earliest
             start = starts.get(task.id)
             if start is None or not first <= start < first + len(steps):
-                if not task.mandatory:
+                if not self.problem.required(task):
                     continue
                 # A mandatory task new to this problem: suggest its earliest
                 # start rather than an unscheduled value below its bound.

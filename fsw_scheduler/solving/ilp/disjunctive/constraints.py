@@ -16,6 +16,7 @@ from __future__ import annotations
 import itertools
 from typing import TYPE_CHECKING
 
+from ..alternatives import alternative_rows
 from ..constraints import identical_tasks
 from ..program import EQ, GE, LE
 from .energy import add_busy_rows
@@ -65,6 +66,8 @@ class Constraints:
         for prec in self.problem.precedences:
             self._precedence(prec)
         self._identical_tasks()
+        # All or none of an option, at most one option per group.
+        alternative_rows(self.program, self.problem, self.vars)
 
     # -- helpers ------------------------------------------------------------
 
@@ -166,7 +169,11 @@ class Constraints:
         otherwise the load is also bounded at every user's start
         (:meth:`_load_at_starts`).
         """
-        multiple = self.problem.resources.multiple
+        # Only constant capacities come here (rule.changing_in_use).
+        multiple = {
+            name: self.problem.resources.peak_capacity(name)
+            for name in self.problem.resources.multiple
+        }
         fitting: dict[str, list[tuple[Task, float]]] = {}
         for resource, capacity in multiple.items():
             users = self._users(resource)

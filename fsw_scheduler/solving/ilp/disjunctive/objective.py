@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from ..objective import weight
+from ..objective import unscheduled_terms
 
 if TYPE_CHECKING:
     from ....model.problem import Problem
@@ -24,17 +24,14 @@ if TYPE_CHECKING:
 
 def objective(problem: Problem, variables: Variables) -> tuple[Terms, float]:
     """The objective's terms and its constant part."""
-    big = weight(problem)
-    terms: Terms = {}
-    constant = 0.0
+    terms, constant = unscheduled_terms(problem, variables)
     for task in problem.tasks:
-        constant += big * task.schedule_cost
         if not variables.placeable(task.id):
             continue
         earliest = variables.domains[task.id].earliest
-        terms[variables.scheduled(task.id)] = (
-            -big * task.schedule_cost
-            + task.delay_cost * (earliest - problem.start)
+        column = variables.scheduled(task.id)
+        terms[column] = terms.get(column, 0.0) + task.delay_cost * (
+            earliest - problem.start
         )
         terms[variables.start(task.id)] = float(task.delay_cost)
         constant -= task.delay_cost * earliest

@@ -11,6 +11,10 @@ time-indexed model is kept
 
 * for consumables: levels over time are what its rows express, and the
   disjunctive model has none;
+* for resources whose capacity changes over time (binary windows,
+  capacity steps) in use: the disjunctive model's pair and load rows
+  read one capacity, the time-indexed model has a row per unit with
+  that unit's capacity (:func:`changing_in_use`);
 * for parts without a binary or multiple resource in use (precedences
   only): its LP is tight there and the part is small;
 * for multiple resources where almost every set of users over a
@@ -135,9 +139,12 @@ def pick(problem: Problem, domains: Mapping[str, Domain]) -> Formulation:
     kinds = used_kinds(problem, domains)
     if "consumable" in kinds or not kinds:
         return "time-indexed"
+    if changing_in_use(problem, domains):
+        return "time-indexed"
     exact = True
     pairs = triples = 0
-    for name, capacity in problem.resources.multiple.items():
+    for name in problem.resources.multiple:
+        capacity = problem.resources.peak_capacity(name)
         amounts = [
             task.uses.get(name, 0)
             for task in problem.tasks
@@ -169,3 +176,25 @@ def used_kinds(
             if amount and kind is not None:
                 kinds.add(kind)
     return kinds
+
+
+def changing_in_use(
+    problem: Problem, domains: Mapping[str, Domain]
+) -> list[str]:
+    """Resources whose capacity changes over time that a placeable task
+    of ``problem`` uses, and every consumable with an external rate, used
+    or not (its level rows bind with no task): the disjunctive model can
+    read none of them."""
+    changing = set(problem.resources.changing)
+    # An external rate is a use of its consumable that no task makes.
+    drained = [n for n in problem.resources.consumable if n in changing]
+    return sorted(
+        {*drained}
+        | {
+            name
+            for task in problem.tasks
+            if not domains[task.id].empty
+            for name, amount in task.uses.items()
+            if amount and name in changing
+        }
+    )

@@ -55,7 +55,7 @@ class Variables:
                 domain.earliest, domain.latest, integer=True
             )
             (self.chosen[task.id],) = program.add_binaries(1)
-            if task.mandatory:
+            if problem.required(task):
                 program.lower[self.chosen[task.id]] = 1
         #: Order columns by (first, second) task id.
         self.orders: dict[tuple[str, str], int] = {}
@@ -116,7 +116,7 @@ class Variables:
             chosen = start is not None and (
                 domain.earliest <= start <= domain.latest
             )
-            if not chosen and task.mandatory:
+            if not chosen and self.problem.required(task):
                 start, chosen = domain.earliest, True
             time = start if chosen and start is not None else domain.earliest
             values[self.starts[task.id]] = float(time)
