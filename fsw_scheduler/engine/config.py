@@ -51,6 +51,15 @@ class EngineConfig(msgspec.Struct, frozen=True):
     reports_need_dispatch
         Reject an execution report that does not name the ``dispatch_id``
         it answers (a report always must answer a dispatch of its task).
+    commit_window
+        Units from a replan's time in which every planned activity keeps
+        its start (0: none); see :mod:`fsw_scheduler.replan.commit`.
+    stability, move_cost
+        How a replan weighs moving a previously planned activity (``off``,
+        ``moves`` at ``move_cost`` each, ``lexicographic``).
+    early_completion_gain
+        Units a ``completed`` report must come before the end of its
+        dispatch to replan at once (0: never).
     """
 
     report_timeout: int | None = None
@@ -66,3 +75,15 @@ class EngineConfig(msgspec.Struct, frozen=True):
     explain_after_plan: bool = False
     max_goal_ids: int = 1024
     reports_need_dispatch: bool = False
+    commit_window: int = 0
+    stability: str = "off"
+    move_cost: int = 5
+    early_completion_gain: int = 0
+
+    @property
+    def reports_moves(self) -> bool:
+        """Whether plans say what they moved (``moved``, ``last_solve.
+        moved``): with a commit window or a stability term. Off, plans
+        and statuses are exactly those of a node without these settings,
+        so that recordings of one replay identical on the other."""
+        return self.commit_window > 0 or self.stability != "off"

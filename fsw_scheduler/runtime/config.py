@@ -15,19 +15,34 @@ Example ``scheduler.toml``::
     report-timeout = 5      # units after a dispatch without a report
     drift-absolute = 0.5    # level departure that triggers a replan
     replan-lead = 1         # units a solve may take before its plan starts
+    commit-window = 5       # a replan keeps what starts within 5 units
+    stability = "moves"     # or "off", "lexicographic"
+    move-cost = 5           # the price of one moved activity ("moves")
+    early-completion-gain = 2  # replan when a report frees >= 2 units
 """
 
 from __future__ import annotations
 
 import tomllib
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
 import msgspec
 
 from ..errors import ConfigError, FieldIssue
-from ..model.limits import id_issue
+from ..model.limits import MAX_TIME, id_issue
 from ..replan.triggers import Tolerance
+
+#: The most one moved activity may cost under ``stability = "moves"``:
+#: above it the move part would dwarf the delays it is weighed against.
+MAX_MOVE_COST = 1000
+
+#: Units of the mission clock, zero allowed (a window, a gain: 0 is off).
+Span = Annotated[int, msgspec.Meta(ge=0, le=MAX_TIME)]
+#: The price of one moved activity.
+MoveCost = Annotated[int, msgspec.Meta(ge=1, le=MAX_MOVE_COST)]
+#: How a replan weighs moving what was already planned.
+Stability = Literal["off", "moves", "lexicographic"]
 
 
 class NodeConfig(
@@ -121,6 +136,24 @@ class NodeConfig(
         them is answered again, never executed again).
     reports_need_dispatch
         Reject execution reports that do not name their ``dispatch_id``.
+    commit_window
+        Units from a replan's ``now``: every planned (not yet dispatched)
+        activity that starts in ``[now, now + commit_window)`` keeps its
+        start, unless keeping them leaves no plan (then the degraded path
+        releases them, and says which it moved). 0: no window.
+    stability
+        ``off``: a replan may move any planned activity for the least
+        cost (the paper). ``moves``: each previously planned activity
+        whose start changes costs ``move_cost``, added to the delay part.
+        ``lexicographic``: compare plans by unscheduled cost, then the
+        number of moved activities, then delay.
+    move_cost
+        The price of one moved activity under ``stability = "moves"``.
+    early_completion_gain
+        A ``completed`` report at least this many units before the end of
+        its dispatch replans at once (trigger ``early_completion``), so
+        that what waits for its resources or follows it may start
+        earlier; a smaller gain replans nothing. 0: never.
     """
 
     spacecraft: str = "sat1"
@@ -154,6 +187,10 @@ class NodeConfig(
     discovery: float = 1.0
     goal_ids: int = 1024
     reports_need_dispatch: bool = False
+    commit_window: Span = 0
+    stability: Stability = "off"
+    move_cost: MoveCost = 5
+    early_completion_gain: Span = 0
 
     def __post_init__(self) -> None:
         problems = []
@@ -195,6 +232,15 @@ class NodeConfig(
             problems.append("max-clock-step must be >= 1")
         if self.clock_stall is not None and self.clock_stall <= 0:
             problems.append("clock-stall must be > 0")
+        # Declared in the types too (read from a file); checked here for
+        # a struct built in code or changed by replace().
+        for name in ("commit_window", "early_completion_gain"):
+            if not 0 <= getattr(self, name) <= MAX_TIME:
+                problems.append(
+                    f"{name.replace('_', '-')} must be in [0, {MAX_TIME}]"
+                )
+        if not 1 <= self.move_cost <= MAX_MOVE_COST:
+            problems.append(f"move-cost must be in [1, {MAX_MOVE_COST}]")
         if self.inbox_bytes < 1 << 20:
             problems.append("inbox-bytes must be >= 1048576 (one payload)")
         if problems:

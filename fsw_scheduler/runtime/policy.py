@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+import msgspec
+
 from ..engine.config import EngineConfig
 from ..solving.budget import BUDGET
 from ..wire import messages
@@ -42,6 +44,10 @@ def engine_config(config: NodeConfig) -> EngineConfig:
         explain_after_plan=config.explain and config.explain_after_plan,
         max_goal_ids=config.goal_ids,
         reports_need_dispatch=config.reports_need_dispatch,
+        commit_window=config.commit_window,
+        stability=config.stability,
+        move_cost=config.move_cost,
+        early_completion_gain=config.early_completion_gain,
     )
 
 
@@ -54,7 +60,13 @@ _RENAMED = {"time_limit_s": "time_limit"}
 #: Settings that change decisions but are not NodeInfo fields (its schema
 #: is a recorded format): the journal keeps them in its
 #: ``fsw_scheduler.settings`` metadata, which replay reads back.
-IN_METADATA = ("threads",)
+IN_METADATA = (
+    "threads",
+    "commit_window",
+    "stability",
+    "move_cost",
+    "early_completion_gain",
+)
 
 
 def _setting_fields() -> list[tuple[str, str]]:
@@ -112,8 +124,23 @@ def config_from_info(
         name: getattr(info, field) for field, name in _setting_fields()
     }
     recorded = settings or {}
+    # Metadata values are text, under the settings' kebab-case names.
+    kebab = {
+        name.replace("_", "-"): recorded[name.replace("_", "-")]
+        for name in IN_METADATA
+        if recorded.get(name.replace("_", "-"))
+    }
     if recorded.get("threads"):
-        values["threads"] = int(recorded["threads"])
+        kebab["threads"] = recorded["threads"]
+    if kebab:
+        read = msgspec.convert(kebab, NodeConfig, strict=False)
+        values.update(
+            {
+                name: getattr(read, name)
+                for name in IN_METADATA
+                if name.replace("_", "-") in kebab
+            }
+        )
     return NodeConfig(**values)
 
 

@@ -18,6 +18,7 @@ from ...bus.security import (
     TOPOLOGIES,
 )
 from ...bus.session import add_zenoh_arguments
+from ...runtime.config import MAX_MOVE_COST
 
 if TYPE_CHECKING:
     from .files_flags import Add
@@ -238,6 +239,39 @@ def add_run_command(add: Add) -> None:
         metavar="S",
         help="seconds without a bus clock message before the status turns "
         "degraded (default 30)",
+    )
+    replans = run.add_argument_group(
+        "predictable replans",
+        "What a replan may move (docs/rescheduling.md, 'Predictable "
+        "replans'); the same settings exist in the TOML file.",
+    )
+    replans.add_argument(
+        "--commit-window",
+        type=number_type(int, minimum=0, strict=False),
+        metavar="UNITS",
+        help="a replan keeps every planned activity starting within this "
+        "many units of it where it was (default 0: none)",
+    )
+    replans.add_argument(
+        "--stability",
+        choices=("off", "moves", "lexicographic"),
+        help="off: move anything for the least cost; moves: each moved "
+        "activity costs --move-cost; lexicographic: fewest moves before "
+        "least delay (default off)",
+    )
+    replans.add_argument(
+        "--move-cost",
+        type=number_type(int, minimum=1, strict=False, maximum=MAX_MOVE_COST),
+        metavar="N",
+        help=f"price of one moved activity under --stability moves (1 to "
+        f"{MAX_MOVE_COST}, default 5)",
+    )
+    replans.add_argument(
+        "--early-completion-gain",
+        type=number_type(int, minimum=0, strict=False),
+        metavar="UNITS",
+        help="replan when an activity completes at least this many units "
+        "before the end of its dispatch (default 0: never)",
     )
     add_zenoh_arguments(run)
 

@@ -18,6 +18,8 @@ from ...model.problem import Problem, decode_problem
 if TYPE_CHECKING:
     import argparse
 
+    from ...runtime.config import NodeConfig
+
     pass
 from .commands import (
     EXIT_BAD_INPUT,
@@ -36,33 +38,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     import time
 
     from ...bus.node import SchedulerNode
-    from ...bus.session import settings_file, zenoh_config
+    from ...bus.session import zenoh_config
     from ...journal.annotate import schema_lookup
     from ...journal.writer import Recorder
-    from ...runtime.config import load_config
 
-    try:
-        config = load_config(settings_file(args)).replace(
-            spacecraft=args.spacecraft,
-            clock=args.clock,
-            time_unit=args.time_unit,
-            solver=args.solver,
-            time_limit=args.time_limit,
-            horizon=args.horizon,
-            node_id=args.node_id,
-            rank=args.rank,
-            discovery=args.discovery,
-            response_deadline=args.response_deadline,
-            tasks_per_goal=args.tasks_per_goal,
-            live_tasks=args.live_tasks,
-            goals_waiting=args.goals_waiting,
-            max_clock_step=args.max_clock_step,
-            clock_stall=args.clock_stall,
-        )
-        if args.no_standby:
-            config = config.replace(standby=False)
-    except ValueError as error:  # a bad value given as a flag
-        raise InputError([FieldIssue("", str(error))], "arguments") from None
+    config = node_settings(args)
     if config.node_id is None:
         from ...bus.redundancy import default_node_id
 
@@ -306,3 +286,46 @@ def _open_state(
     else:
         log.info("new state folder %s", args.state)
     return journal, resume
+
+
+def node_settings(args: argparse.Namespace) -> NodeConfig:
+    """The node's settings: the ``--settings`` file, then the flags of
+    ``run`` given on the command line over it.
+
+    Raises
+    ------
+    ConfigError
+        The settings file is unreadable or wrong (exit 2).
+    InputError
+        A flag's value breaks a rule of the settings (exit 2).
+    """
+    from ...bus.session import settings_file
+    from ...runtime.config import load_config
+
+    try:
+        config = load_config(settings_file(args)).replace(
+            spacecraft=args.spacecraft,
+            clock=args.clock,
+            time_unit=args.time_unit,
+            solver=args.solver,
+            time_limit=args.time_limit,
+            horizon=args.horizon,
+            node_id=args.node_id,
+            rank=args.rank,
+            discovery=args.discovery,
+            response_deadline=args.response_deadline,
+            tasks_per_goal=args.tasks_per_goal,
+            live_tasks=args.live_tasks,
+            goals_waiting=args.goals_waiting,
+            max_clock_step=args.max_clock_step,
+            clock_stall=args.clock_stall,
+            commit_window=args.commit_window,
+            stability=args.stability,
+            move_cost=args.move_cost,
+            early_completion_gain=args.early_completion_gain,
+        )
+        if args.no_standby:
+            config = config.replace(standby=False)
+    except ValueError as error:  # a bad value given as a flag
+        raise InputError([FieldIssue("", str(error))], "arguments") from None
+    return config
