@@ -17,6 +17,7 @@ import msgspec
 
 from ..model.change import ExecutionReport
 from ..model.plan import Plan, SolveStatus
+from ..replan.commit import PIN_CAUSE
 from ..wire import topics
 from ..wire.messages import PlanMessage
 from .dispatch import dispatch_message
@@ -25,6 +26,7 @@ from .snapshot import QueuedChange
 
 if TYPE_CHECKING:
     from ..model.change import Removal
+    from ..model.plan import Moved
     from .queue import SolveQueue
     from .state import EngineState
     from .verdicts import Verdicts
@@ -64,11 +66,14 @@ class Execution:
         goals: tuple[str, ...],
         removed: tuple[Removal, ...],
         out: list[Command],
+        *,
+        moved: tuple[Moved, ...] | msgspec.UnsetType = msgspec.UNSET,
     ) -> None:
         """Make ``plan`` (already in ``state.schedule``) the plan flown.
 
-        Gives it the next ``plan_id``, publishes it, and accepts the
-        goals it carries.
+        Gives it the next ``plan_id``, publishes it (with what it
+        ``moved``, where plans report it), and accepts the goals it
+        carries.
         """
         state = self._state
         schedule = state.schedule
@@ -96,6 +101,7 @@ class Execution:
             goals=goals,
             stats=plan.stats,
             term=state.term,
+            moved=moved,
         )
         if plan.status is SolveStatus.DEGRADED:
             state.set_health("degraded", degraded_detail(state.plan_id, plan))
@@ -226,7 +232,13 @@ class Execution:
 
 
 def degraded_detail(plan_id: int | None, plan: Plan) -> str:
-    """The alarm text of a degraded plan: each shed task and why."""
+    """The alarm text of a degraded plan: each shed task and each pin of
+    the commit window it broke, and why."""
     return f"plan {plan_id} is degraded: " + "; ".join(
-        f"{b.task} shed ({b.detail})" for b in plan.why if b.cause == "shed"
+        [f"{b.task} shed ({b.detail})" for b in plan.why if b.cause == "shed"]
+        + [
+            f"{b.task} pin broken ({b.detail})"
+            for b in plan.why
+            if b.cause == PIN_CAUSE
+        ]
     )

@@ -68,6 +68,26 @@ class Blocker(msgspec.Struct, frozen=True):
     detail: str
 
 
+class Moved(msgspec.Struct, frozen=True, omit_defaults=True):
+    """A previously planned activity that a new plan starts elsewhere.
+
+    Attributes
+    ----------
+    task
+        The task id.
+    from_, to
+        Its start in the plan replaced and in the new plan (``from`` and
+        ``to`` on the wire).
+    why
+        Plain words: why it moved, when that is known.
+    """
+
+    task: str
+    from_: int = msgspec.field(name="from")
+    to: int = msgspec.field(name="to")
+    why: str = ""
+
+
 class SolverStats(msgspec.Struct, frozen=True, omit_defaults=True):
     """How the solve went; figures in seconds."""
 

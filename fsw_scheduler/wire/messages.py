@@ -24,6 +24,7 @@ from ..model.goal import Goal, decode_goal
 from ..model.plan import (
     Activity,
     Blocker,
+    Moved,
     Objective,
     Plan,
     SolverStats,
@@ -107,6 +108,13 @@ class PlanMessage(msgspec.Struct, frozen=True):
         The command term of the node that issued it: a plan is named by
         ``(term, plan_id)``; a receiver ignores a lower term than the
         highest it has seen (0: a node older than terms).
+    moved
+        The activities planned and not yet dispatched when the replan
+        started that this plan starts elsewhere (``task``, ``from``,
+        ``to``, and ``why`` where known); empty when nothing moved.
+        Present on a node with a commit window or a stability term
+        (absent otherwise, so that such a node's plans are those of a
+        node without these settings).
     """
 
     plan_id: int
@@ -125,6 +133,7 @@ class PlanMessage(msgspec.Struct, frozen=True):
     goals: tuple[str, ...] = ()
     stats: SolverStats | None = None
     term: int = 0
+    moved: tuple[Moved, ...] | msgspec.UnsetType = msgspec.UNSET
 
 
 class Dispatch(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -187,7 +196,11 @@ class InputSource(msgspec.Struct, frozen=True, omit_defaults=True):
 
 
 class SolveSummary(msgspec.Struct, frozen=True, omit_defaults=True):
-    """The last solve, as reported in status."""
+    """The last solve, as reported in status.
+
+    ``moved`` counts the activities its plan moved (see
+    ``PlanMessage.moved``; present when plans report it).
+    """
 
     solve_id: int
     trigger: str
@@ -196,6 +209,7 @@ class SolveSummary(msgspec.Struct, frozen=True, omit_defaults=True):
     wall_s: float = 0.0
     adopted: bool = False
     reason: str = ""
+    moved: int | msgspec.UnsetType = msgspec.UNSET
 
 
 class Counters(msgspec.Struct, frozen=True, omit_defaults=True):
