@@ -557,6 +557,8 @@ class Engine:
             )
             return
         self._state.count(reports=self._state.counters.reports + 1)
+        # Read before the report settles the dispatch (which forgets it).
+        sent = self._state.dispatches.sent.get(report.task)
         self._state.dispatches.report(report.task, report.state)
         at = min(report.at, self._state.clock())
         self._state.schedule = schedule.with_report(
@@ -570,6 +572,34 @@ class Engine:
         )
         if report.state == "failed":
             self._queue.add(QueuedChange("failure", task=report.task, at=at))
+        elif report.state == "completed" and sent is not None:
+            self._early_completion(report, sent[1], out)
+
+    def _early_completion(
+        self, report: ActivityReport, end: int, out: list[Command]
+    ) -> None:
+        """Replan when ``report`` frees at least ``early_completion_gain``
+        units of its dispatch ``[.., end)``: what follows it or waits for
+        its resources may start earlier (Mars 2020's flexible execution).
+        A smaller gain replans nothing: the plan in force stays, and its
+        successors keep their starts."""
+        gain = self.config.early_completion_gain
+        freed = end - report.at
+        if gain <= 0 or freed < gain:
+            return
+        out.append(
+            Log(
+                "info",
+                f"{report.task} completed at {report.at}, {freed} units "
+                f"before the end of its dispatch ({end}): replanning",
+            )
+        )
+        if not self._queue.has_trigger(EARLY_COMPLETION):
+            self._queue.add(
+                QueuedChange(
+                    "levels", at=self._state.clock(), trigger=EARLY_COMPLETION
+                )
+            )
 
     def _report_issue(self, report: ActivityReport) -> FieldIssue | None:
         """Why ``report`` answers no dispatch of this spacecraft (None: it
@@ -683,3 +713,6 @@ class Engine:
 
 
 _STALLED = "bus clock stalled"
+
+#: The trigger of a replan caused by an early completion.
+EARLY_COMPLETION = "early_completion"

@@ -444,7 +444,7 @@ class Replanner:
                     levels.update(change.levels)
                     at = min(at, change.at)
                 trigger = "drift" if levels else "stale"
-                for named in ("horizon", "missed"):
+                for named in ("horizon", "missed", "early_completion"):
                     if not levels and any(
                         c.trigger == named for c in queue.changes
                     ):

@@ -98,8 +98,10 @@ class PlanMessage(msgspec.Struct, frozen=True):
         Tasks that left the pending list at this replan, with the rule.
     trigger
         What caused the plan: ``initial``, ``goal``, ``failure``,
-        ``drift``, ``stale`` (the plan came late) or ``horizon`` (the
-        rolling horizon reached a deferred task).
+        ``drift``, ``stale`` (the plan came late), ``horizon`` (the
+        rolling horizon reached a deferred task), ``missed`` or
+        ``early_completion`` (an activity completed early enough to
+        replan, see ``early-completion-gain``).
     goals
         Goal ids adopted by this plan.
     stats
