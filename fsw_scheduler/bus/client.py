@@ -153,6 +153,18 @@ class SchedulerClient:
         for suffix in (keys.STATUS, keys.PLAN):
             self._wait_queryable(self.topics.key(suffix), timeout)
 
+    def wait_what_if(self, timeout: float | None = None) -> None:
+        """Wait until the scheduler's what-if queryable is reachable.
+
+        Raises
+        ------
+        TimeoutError
+            If none shows up in time.
+        """
+        self._wait_queryable(
+            self.topics.key(keys.WHAT_IF), timeout or self.timeout
+        )
+
     # -- publishing ----------------------------------------------------------
 
     def put(self, key: str, message: object) -> None:
@@ -301,6 +313,31 @@ class SchedulerClient:
         if payload is None:
             return None
         return msgspec.json.decode(payload, type=messages.PlanMessage)
+
+    def what_if(
+        self,
+        goal: dict | bytes | str | msgspec.Struct,
+        timeout: float | None = None,
+    ) -> messages.WhatIfAnswer | None:
+        """Ask what sending ``goal`` now would do (``scheduler/what-if``).
+
+        Nothing changes on the node. The query says how long it waits
+        (``?timeout=``), so that a node busy with a solve answers
+        ``busy`` in time rather than never.
+
+        Returns
+        -------
+        WhatIfAnswer or None
+            None when no scheduler answered within ``timeout``.
+        """
+        timeout = timeout or self.timeout
+        key = f"{self.topics.key(keys.WHAT_IF)}?timeout={timeout:g}"
+        answer = query_payload(
+            self.client, key, timeout, payload=_payload(goal)
+        )
+        if answer is None:
+            return None
+        return msgspec.json.decode(answer, type=messages.WhatIfAnswer)
 
     def _query(self, suffix: str, timeout: float | None) -> bytes | None:
         return query_payload(
@@ -503,7 +540,11 @@ class SchedulerClient:
 
 
 def query_payload(
-    session: zenoh.Session, key: str, timeout: float
+    session: zenoh.Session,
+    key: str,
+    timeout: float,
+    *,
+    payload: bytes | None = None,
 ) -> bytes | None:
     """The payload of the first good reply to a query on ``key``.
 
@@ -515,6 +556,8 @@ def query_payload(
         The full key of a queryable, e.g. ``fsw/sat1/scheduler/plan``.
     timeout
         Seconds to wait for the replies.
+    payload
+        What the query carries (a what-if's goal), if anything.
 
     Returns
     -------
@@ -533,7 +576,9 @@ def query_payload(
     while True:
         answered, found = False, None
         for reply in session.get(
-            key, timeout=max(deadline - time.monotonic(), REASK_S)
+            key,
+            timeout=max(deadline - time.monotonic(), REASK_S),
+            payload=payload,
         ):
             answered = True
             if reply.ok is not None and found is None:

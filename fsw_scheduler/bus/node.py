@@ -57,6 +57,7 @@ from ..wire import messages, topics
 from .inbox import Inbox, Worker, direct
 from .outputs import FATAL, NodeOutputs
 from .provenance import Origin, Provenance, capture
+from .whatif import WhatIfs
 
 if TYPE_CHECKING:
     import concurrent.futures
@@ -207,6 +208,17 @@ class SchedulerNode:
         self._decoder = InputDecoder(
             self.topics, config.clock, config.max_clock_step
         )
+        # What-if queries, answered from a copy of the state, aside.
+        self._what_ifs = WhatIfs(
+            self.engine,
+            config,
+            self._inbox,
+            self._journal.write,
+            self.topics.key(topics.WHAT_IF),
+            solve_fn,
+            seconds,
+            self._cancel,
+        )
         self._last_clock_s = seconds()
         self._stall_reported = False
         self._last_tick: int | None = None
@@ -244,7 +256,12 @@ class SchedulerNode:
             )
         # Profiles too: a monitor that starts after a plan shows its
         # predicted levels at once (``fsw-scheduler view``).
-        queryables = [topics.PLAN, topics.STATUS, topics.PROFILES]
+        queryables = [
+            topics.PLAN,
+            topics.STATUS,
+            topics.PROFILES,
+            topics.WHAT_IF,
+        ]
         if self._sharing:
             # A standby that joins later asks for the state at once.
             queryables.append(topics.SNAPSHOT)
@@ -315,6 +332,7 @@ class SchedulerNode:
             self._thread.join(timeout)
         self._workers.shutdown()
         self._explainer.shutdown()
+        self._what_ifs.close()
         if self.lease is not None:
             self.lease.stop()
         self._withdraw_token()
@@ -469,13 +487,26 @@ class SchedulerNode:
         self._outputs.watch()  # retries a failed journal without steps
         if timeout is None:
             timeout = self._clock.seconds_to_next() if self._clock else 0.5
+        held = self._what_ifs.seconds_to_next()
+        if held is not None:
+            timeout = min(timeout, held)
         item = self._inbox.get(timeout=max(timeout, 0.001))
+        try:
+            self._handle(item)
+        finally:
+            # A solve that ended, or a hold that ran out, lets a what-if go.
+            self._what_ifs.poll()
+
+    def _handle(self, item: list[Any] | None) -> None:
+        """Handle one inbox item (see :meth:`spin_once`)."""
         if item is None:
             return
         kind, key, payload, arrived, origin = item
         if kind == "wake":
             return
-        if kind == "resume":
+        if kind == "what_if":
+            self._what_ifs.finish(*payload)
+        elif kind == "resume":
             self._resume()
         elif kind == "query":
             self._answer(*payload)
@@ -682,6 +713,9 @@ class SchedulerNode:
 
     def _answer(self, suffix: str, query: zenoh.Query) -> None:
         self._sync_counters()
+        if suffix == topics.WHAT_IF:
+            self._what_ifs.ask(query)  # it replies, now or later
+            return
         message: msgspec.Struct | None
         if suffix == topics.PLAN:
             message = self.engine.plan_message

@@ -138,6 +138,55 @@ class PlanMessage(msgspec.Struct, frozen=True):
     moved: tuple[Moved, ...] | msgspec.UnsetType = msgspec.UNSET
 
 
+class WhatIfPlan(PlanMessage, frozen=True, kw_only=True):
+    """The plan a what-if foresees: a plan message that is not a plan
+    yet, so its ``plan_id`` is null."""
+
+    # A narrower type than the plan message's, on purpose: no plan yet.
+    plan_id: None = None  # type: ignore[assignment]
+
+
+class Reason(msgspec.Struct, frozen=True):
+    """Why a task is out of a plan, or moved in it: the ``cause`` (as in
+    ``why``) and plain words."""
+
+    cause: str
+    detail: str
+
+
+class WhatIfAnswer(msgspec.Struct, frozen=True):
+    """The answer of ``scheduler/what-if``: what sending a goal now would do.
+
+    Attributes
+    ----------
+    verdict
+        ``goal_accepted`` or ``goal_rejected``, the verdict the goal would
+        get; ``busy`` when a solve in flight did not end within the
+        query's timeout (``reasons`` says so; ask again).
+    reasons
+        Why it would be rejected (``path`` + ``reason``), or busy.
+    plan
+        The plan it would produce (the shape of ``scheduler/plan``, with
+        ``plan_id`` null), or null when rejected.
+    moved
+        The activities planned now that this plan would start elsewhere.
+    unscheduled
+        The tasks it would leave out.
+    why
+        Task id to why it is out (or moved).
+    goal_id
+        The goal asked about (null when the document had none).
+    """
+
+    verdict: Literal["goal_accepted", "goal_rejected", "busy"]
+    reasons: tuple[FieldIssue, ...] = ()
+    plan: WhatIfPlan | None = None
+    moved: tuple[Moved, ...] = ()
+    unscheduled: tuple[str, ...] = ()
+    why: dict[str, Reason] = {}
+    goal_id: str | None = None
+
+
 class Dispatch(msgspec.Struct, frozen=True, omit_defaults=True):
     """``scheduler/dispatch/<task>``: start this activity now.
 
@@ -226,6 +275,8 @@ class Counters(msgspec.Struct, frozen=True, omit_defaults=True):
     ``goals_busy`` (goals refused because too many were waiting; each got
     a ``goal_rejected``), ``queries_dropped``, ``publish_failures`` and
     ``loop_faults`` (inputs whose handling raised; the loop went on).
+    ``what_ifs`` counts the what-if queries answered (they change
+    nothing else).
     """
 
     goals_accepted: int = 0
@@ -244,6 +295,7 @@ class Counters(msgspec.Struct, frozen=True, omit_defaults=True):
     queries_dropped: int = 0
     publish_failures: int = 0
     loop_faults: int = 0
+    what_ifs: int = 0
 
 
 class Status(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -362,6 +414,22 @@ class SolveRecord(msgspec.Struct, frozen=True, omit_defaults=True):
     result: Plan | None = None
 
 
+class WhatIfRecord(msgspec.Struct, frozen=True, omit_defaults=True):
+    """``scheduler/what-if`` (journal only): one what-if and its answer.
+
+    ``document`` is the goal as received, ``inputs_seen`` and ``now`` the
+    engine state it was answered from (after that many inputs), ``solves``
+    the solves it made (as solve records, results included), so that
+    ``replay --verify`` answers it again from the same state and compares.
+    """
+
+    document: str
+    answer: WhatIfAnswer
+    inputs_seen: int = 0
+    now: int | None = None
+    solves: tuple[SolveRecord, ...] = ()
+
+
 class SecurityInfo(msgspec.Struct, frozen=True, omit_defaults=True):
     """How the node's bus was protected when it started.
 
@@ -446,6 +514,7 @@ SCHEMA_TYPES: dict[str, Any] = {
     "explanation": Explanation,
     "profiles": Profiles,
     "level_check": LevelCheck,
+    "what_if": WhatIfRecord,
 }
 
 _encoder = msgspec.json.Encoder()

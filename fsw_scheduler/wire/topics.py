@@ -53,6 +53,10 @@ LOG = "scheduler/log"
 #: so that receivers raise their fence): see ``messages.Term``.
 TERM = "scheduler/term"
 
+#: A queryable: the payload is a goal, the answer what sending it now
+#: would do (``messages.WhatIfAnswer``); journaled with its answer.
+WHAT_IF = "scheduler/what-if"
+
 #: Output suffixes, compared by ``replay --verify``.
 OUTPUTS = (PLAN, DISPATCH, STATUS)
 
@@ -124,6 +128,7 @@ KINDS = {
     LEVELS: "level_check",
     LOG: "log",
     TERM: "term",
+    WHAT_IF: "what_if",
 }
 #: Suffixes followed by one name chunk (a task or a resource).
 NAMED_KINDS = {
