@@ -19,6 +19,7 @@ import msgspec
 from ..errors import FieldIssue, InputError
 from ..model.goal import Goal
 from ..model.plan import Blocker, Moved, Plan, SolverStats, SolveStatus
+from ..model.stability import Stability, rescored
 from ..replan.commit import (
     commit_pins,
     moved_activities,
@@ -165,6 +166,9 @@ class Replanner:
         if adopted and pending.replan is not None:
             kept, reason = self.keep_commanded(pending, plan, out)
             adopted = kept is not None
+            if kept is not None and kept is not plan:
+                # Put back where commanded: scored again, moves included.
+                kept = rescored(pending.problem, kept, self.stability(pending))
             plan = kept or plan
         if not adopted:
             self.solve_without_plan(pending, reason, out)
@@ -239,6 +243,15 @@ class Replanner:
                 state.last_solve, moved=len(moved)
             )
         return moved
+
+    def stability(self, pending: PendingSolve) -> Stability:
+        """The move term ``pending``'s solve had (mode off: none)."""
+        config = self._state.config
+        return Stability(
+            previous=dict(pending.previous),
+            mode=config.stability,  # type: ignore[arg-type]
+            move_cost=config.move_cost,
+        )
 
     def release_pins(
         self, pending: PendingSolve, infeasible: Plan, out: list[Command]
@@ -689,5 +702,8 @@ class Replanner:
             wall_s=stats.wall_s,
             inputs_seen=state.inputs,
             result=plan,
+            previous=pending.previous
+            if state.config.stability != "off"
+            else {},
         )
         return Publish(topics.SOLVES, record)

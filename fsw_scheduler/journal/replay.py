@@ -693,7 +693,11 @@ def replay_solve(
         return solve(config, command)
     limit = recorded.stats.time_limit_s if recorded.stats else None
     if recorded.status not in _PROVEN:
-        issues = [] if not recorded.activities else _check(command, recorded)
+        issues = (
+            []
+            if not recorded.activities
+            else _check(command, recorded, config)
+        )
         if not issues:
             report.notes.append(
                 f"solve {command.solve_id} ({command.trigger}) stopped at "
@@ -762,8 +766,10 @@ def _verify_what_if(
     return False
 
 
-def _check(command: StartSolve, plan: Plan) -> list[str]:
+def _check(command: StartSolve, plan: Plan, config: NodeConfig) -> list[str]:
     from ..analysis.check import check_plan
+    from ..runtime.policy import stability_of
 
-    result = check_plan(command.problem, plan)
+    stability = stability_of(config, command)
+    result = check_plan(command.problem, plan, stability)
     return [str(v) for v in result.violations] if not result.ok else []

@@ -47,12 +47,18 @@ class Objective(msgspec.Struct, frozen=True):
     """The lexicographic objective, reported as its two parts.
 
     ``total = W * unscheduled_cost + delay_cost`` with
-    ``W = 1 + sum(delay_cost_i) * horizon``.
+    ``W = 1 + sum(delay_cost_i) * horizon``. A replan that prices moves
+    (:mod:`fsw_scheduler.model.stability`) also reports ``moves``, the
+    previously planned activities it starts elsewhere, and, under
+    ``moves``, ``move_cost``, their price; its ``total`` then counts them
+    (absent otherwise, so that other plans are as they always were).
     """
 
     unscheduled_cost: int
     delay_cost: int
     total: int
+    moves: int | msgspec.UnsetType = msgspec.UNSET
+    move_cost: int | msgspec.UnsetType = msgspec.UNSET
 
 
 class Blocker(msgspec.Struct, frozen=True):

@@ -26,6 +26,7 @@ if TYPE_CHECKING:
     )
     from ..model.plan import Blocker, Plan
     from ..model.problem import Problem
+    from ..model.stability import Stability
     from .config import NodeConfig
 
 
@@ -167,6 +168,18 @@ def deadline_config(
     return config.replace(time_limit=limit)
 
 
+def stability_of(config: NodeConfig, command: StartSolve) -> Stability:
+    """The move term of ``command``'s solve under the node's settings
+    (mode ``off``: none)."""
+    from ..model.stability import Stability
+
+    return Stability(
+        previous=dict(command.previous),
+        mode=config.stability,
+        move_cost=config.move_cost,
+    )
+
+
 def run_solve(config: NodeConfig, command: StartSolve) -> Plan:
     """Solve as the node does (shared with deterministic replay).
 
@@ -187,6 +200,7 @@ def run_solve(config: NodeConfig, command: StartSolve) -> Plan:
         explain=(config.explain and not later) or command.explain,
         warm=command.warm,
         explain_budget=config.explain_budget,
+        stability=stability_of(config, command),
     )
     if config.explain and later and not plan.status.has_plan:
         plan = plan.replace(why=run_explain(config, command.problem, plan))

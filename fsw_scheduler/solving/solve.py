@@ -22,6 +22,7 @@ from ..model.plan import (
     SolveStatus,
     objective_weight,
 )
+from ..model.stability import Stability, rescored
 from .budget import BUDGET
 from .improve import improve
 from .incumbent import checked, narrow, probed
@@ -46,6 +47,7 @@ def solve(
     explain: bool = False,
     warm: Plan | None = None,
     explain_budget: float | None = None,
+    stability: Stability | None = None,
 ) -> Plan:
     """Solve ``problem`` and return its plan with an honest status.
 
@@ -73,6 +75,14 @@ def solve(
         Seconds all explanation solves may take together (default: the
         time limit, else
         :attr:`~fsw_scheduler.solving.budget.SolveBudget.explain_budget_s`).
+    stability
+        The previous starts and the price of moving them
+        (:mod:`fsw_scheduler.model.stability`; default none, the paper's
+        objective). With a move part, the start plans are scored with
+        it (the previous plan, ``warm``, first) and the shortcuts that
+        bound only the unscheduled and delay parts (the at-lower-bound
+        and kept-set proofs, cost caps and probes, the neighbourhood
+        search) are off: the solver proves the whole objective.
 
     Returns
     -------
@@ -90,6 +100,10 @@ def solve(
         threads=threads,
         seed=seed,
     )
+    if stability is not None and stability.active:
+        run = functools.partial(run, stability=stability)
+    else:
+        stability = None
     began = time.perf_counter()
     domains = start_domains(problem)
     proof = infeasibility(problem, domains)
@@ -110,10 +124,12 @@ def solve(
     parts = components(problem)
     if len(parts) > 1:
         plan = _solve_parts(
-            problem, parts, run, began, time_limit, warm, domains
+            problem, parts, run, began, time_limit, warm, domains, stability
         )
     else:
-        plan = _solve_whole(problem, run, began, time_limit, warm, domains)
+        plan = _solve_whole(
+            problem, run, began, time_limit, warm, domains, stability
+        )
     if explain and (plan.unscheduled or not plan.status.has_plan):
         budget = explain_budget
         if budget is None:
@@ -124,8 +140,11 @@ def solve(
                 if time_limit is None
                 else time_limit - (time.perf_counter() - began)
             )
+        # Why a task is out does not depend on what moved: explained
+        # with the paper's objective.
+        plain = functools.partial(run, stability=None)
         plan = plan.replace(
-            why=explain_plan(problem, plan, BUDGET.budgeted(run, budget))
+            why=explain_plan(problem, plan, BUDGET.budgeted(plain, budget))
         )
     return plan
 
@@ -172,6 +191,7 @@ def _solve_parts(
     time_limit: float | None,
     warm: Plan | None,
     domains: dict[str, Domain],
+    stability: Stability | None = None,
 ) -> Plan:
     """Solve each independent part alone and join the plans.
 
@@ -224,9 +244,10 @@ def _solve_parts(
                 limit,
                 sub_warm,
                 {n: domains[n] for n in part},
+                stability,
             )
         )
-    return _joined(problem, plans, began, time_limit)
+    return _joined(problem, plans, began, time_limit, stability)
 
 
 def _joined(
@@ -234,9 +255,12 @@ def _joined(
     plans: list[Plan],
     began: float,
     time_limit: float | None,
+    stability: Stability | None = None,
 ) -> Plan:
     """One plan of ``problem`` from the plans of its parts (smallest
-    first: the status line ends with the largest part's)."""
+    first: the status line ends with the largest part's). The move part
+    is a sum over tasks too, so the parts' optima join into the whole's
+    (with the weights of the whole)."""
     statuses = {plan.status for plan in plans}
     stats = [plan.stats for plan in plans if plan.stats is not None]
     summary = SolverStats(
@@ -275,10 +299,15 @@ def _joined(
         [t.delay_cost for t in problem.tasks], problem.horizon
     )
     optimal = statuses == {SolveStatus.OPTIMAL}
-    total = weight * missed + delay
+    objective = Objective(missed, delay, weight * missed + delay)
+    if stability is not None:
+        objective = stability.objective(
+            problem, missed, delay, {a.task: a.start for a in activities}
+        )
+    total = objective.total
     return Plan(
         status=SolveStatus.OPTIMAL if optimal else SolveStatus.FEASIBLE,
-        objective=Objective(missed, delay, total),
+        objective=objective,
         activities=activities,
         unscheduled=tuple(n for n in everything if n in left_out),
         stats=msgspec.structs.replace(
@@ -299,8 +328,18 @@ def _solve_whole(
     time_limit: float | None,
     warm: Plan | None,
     domains: dict[str, Domain],
+    stability: Stability | None = None,
 ) -> Plan:
-    """Start plan, then the solver or the neighbourhood search; no ``why``."""
+    """Start plan, then the solver or the neighbourhood search; no ``why``.
+
+    With a move part (``stability``) the shortcuts are off, each for the
+    same reason: the at-lower-bound and kept-set proofs, the cost caps
+    of :func:`narrow` and the probe bound the unscheduled and delay parts
+    only, and a plan they call optimal may move what a stable one keeps;
+    the neighbourhood search compares parts of a plan whose move weights
+    are the whole's. The solver, with the start plan as its MIP start,
+    proves the whole objective instead.
+    """
     stop = None
     if time_limit is not None:
         # The heuristic gets a share of the limit; its trivial plan (the
@@ -319,7 +358,9 @@ def _solve_whole(
             problem.start,
             problem.end,
         )
-    start = best_start(problem, warm, stop=stop, domains=domains)
+    start = best_start(
+        problem, warm, stop=stop, domains=domains, stability=stability
+    )
     if loud:
         log.info(
             "start plan: %s after %.1f s",
@@ -330,6 +371,23 @@ def _solve_whole(
         )
     proof = None
     relaxed: KeptSetProof | None = None
+    if stability is not None:
+        plan = _keep_better(
+            checked(
+                problem,
+                run(
+                    problem,
+                    warm=start.starts() if start else None,
+                    domains=domains,
+                    time_limit=None
+                    if time_limit is None
+                    else time_limit - (time.perf_counter() - began),
+                ),
+                stability,
+            ),
+            start,
+        )
+        return _with_call_stats(plan, began, time_limit)
     if start is not None:
         if at_lower_bound(problem, start, domains):
             proof = "every task at its earliest start: no solve"
@@ -404,26 +462,34 @@ def _solve_whole(
                     "plan must hold",
                 )
             )
-        if plan.stats is not None:
-            # Report the limit the caller set, and the whole call's time.
-            bound = plan.stats.bound
-            if (
-                bound is not None
-                and plan.objective is not None
-                and bound > plan.objective.total + 0.5
-            ):
-                # A stopped CBC can report the value of an LP that is not
-                # the root's; above a valid plan, it bounds nothing.
-                bound = None
-            plan = plan.replace(
-                stats=msgspec.structs.replace(
-                    plan.stats,
-                    time_limit_s=time_limit,
-                    wall_s=time.perf_counter() - began,
-                    bound=bound,
-                )
-            )
+        plan = _with_call_stats(plan, began, time_limit)
     return plan
+
+
+def _with_call_stats(
+    plan: Plan, began: float, time_limit: float | None
+) -> Plan:
+    """``plan`` reporting the limit the caller set and the whole call's
+    time, its bound dropped where it bounds nothing."""
+    if plan.stats is None:
+        return plan
+    bound = plan.stats.bound
+    if (
+        bound is not None
+        and plan.objective is not None
+        and bound > plan.objective.total + 0.5
+    ):
+        # A stopped CBC can report the value of an LP that is not the
+        # root's; above a valid plan, it bounds nothing.
+        bound = None
+    return plan.replace(
+        stats=msgspec.structs.replace(
+            plan.stats,
+            time_limit_s=time_limit,
+            wall_s=time.perf_counter() - began,
+            bound=bound,
+        )
+    )
 
 
 def _improved(
@@ -488,6 +554,7 @@ def best_start(
     *,
     stop: Callable[[], bool] | None = None,
     domains: dict[str, Domain] | None = None,
+    stability: Stability | None = None,
 ) -> Plan | None:
     """The better valid plan of ``warm`` and the greedy heuristic's.
 
@@ -495,11 +562,16 @@ def best_start(
     only plans the checker accepts); ``warm`` is used only if the checker
     accepts it on ``problem``, with its objective recomputed there. None
     when neither is valid. ``stop`` and ``domains`` are passed on to
-    :func:`greedy_plan`.
+    :func:`greedy_plan`. With ``stability`` both are scored with the
+    move part: the previous plan (``warm``, which keeps the old
+    positions) comes first and wins ties.
     """
     candidates = []
     if warm is not None:
-        report = check_plan(problem, warm)
+        if stability is not None:
+            # Its objective, if any, has no move part: recomputed.
+            warm = warm.replace(objective=None)
+        report = check_plan(problem, warm, stability)
         if report.ok:
             candidates.append(
                 warm.replace(
@@ -508,7 +580,8 @@ def best_start(
             )
     greedy = greedy_plan(problem, stop=stop, domains=domains)
     if greedy is not None:
-        candidates.append(greedy)  # on a tie, the previous plan is kept
+        # On a tie, the previous plan is kept.
+        candidates.append(rescored(problem, greedy, stability or Stability()))
     if not candidates:
         return None
     return min(

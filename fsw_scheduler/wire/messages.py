@@ -394,7 +394,9 @@ class SolveRecord(msgspec.Struct, frozen=True, omit_defaults=True):
     compact JSON), ``inputs_seen`` how many inputs the scheduler had
     processed when the result came back (used by deterministic replay).
     ``result`` is the solve's whole answer, so that a node resuming from
-    its journal rebuilds its state without solving again.
+    its journal rebuilds its state without solving again. ``previous``
+    holds the starts a move term priced (with the node's ``stability``
+    and ``move-cost`` settings), when there were any.
     """
 
     solve_id: int
@@ -412,6 +414,7 @@ class SolveRecord(msgspec.Struct, frozen=True, omit_defaults=True):
     inputs_seen: int = 0
     error: str = ""
     result: Plan | None = None
+    previous: dict[str, int] = {}
 
 
 class WhatIfRecord(msgspec.Struct, frozen=True, omit_defaults=True):

@@ -239,3 +239,104 @@ def test_inside_the_window_nothing_moves_but_when_degraded(
         msgspec.json.decode(messages.encode(driver.plan))["moved"] is not None
     )
     assert published(driver.history, messages.PlanMessage)
+
+
+# -- stability --------------------------------------------------------------
+
+
+def test_lexicographic_keeps_the_paper_plan_where_it_can() -> None:
+    """Tests the Table 2 replan under ``lexicographic``: SetPositionY and
+    the downlink stay at 38 and 39 (nothing moves, the unscheduled cost
+    is the paper's), the objective reports ``moves`` 0; under ``moves``
+    at 5 each, pulling both forward by 5 units saves more delay than it
+    costs, so they move and the objective says so."""
+    lex = _paper_at_15(EngineConfig(stability="lexicographic"))
+    starts = {a.task: a.start for a in lex.plan.activities}
+    assert (starts["SetPositionY"], starts["DownlinkSat2Ground"]) == (38, 39)
+    assert lex.plan.moved == ()
+    assert lex.plan.objective is not None
+    assert lex.plan.objective.moves == 0
+    paper = _paper_at_15(EngineConfig())
+    assert paper.plan.objective is not None
+    assert (
+        lex.plan.objective.unscheduled_cost
+        == paper.plan.objective.unscheduled_cost
+    )
+    moves = _paper_at_15(EngineConfig(stability="moves", move_cost=5))
+    assert moves.plan.objective is not None
+    assert moves.plan.objective.move_cost == 5
+    assert moves.plan.objective.moves == len(moves.plan.moved) == 2
+
+
+def _restricted_unscheduled(command: StartSolve, previous: dict) -> int:
+    """The least unscheduled cost of ``command``'s problem when each
+    previously planned task may only keep its start or be left out."""
+    from fsw_scheduler.runtime.policy import run_solve
+
+    from .driver import SOLVE_CONFIG
+
+    problem = command.problem
+    tasks = []
+    for task in problem.tasks:
+        was = previous.get(task.id)
+        if was is not None and task.fixed_start is None:
+            task = msgspec.structs.replace(
+                task,
+                feasible_interval=(was, was),
+                feasible_interval_applies_to="start",
+            )
+        tasks.append(task)
+    plan = run_solve(
+        SOLVE_CONFIG,
+        StartSolve(0, "check", problem.replace(tasks=tuple(tasks))),
+    )
+    assert plan.objective is not None  # left-out tasks keep it feasible
+    return plan.objective.unscheduled_cost
+
+
+@settings(
+    max_examples=20,
+    derandomize=True,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+@given(_goal_specs)
+def test_lexicographic_moves_only_when_the_unscheduled_cost_needs_it(
+    specs: list[tuple[int, int, int, bool]],
+) -> None:
+    """Tests on generated sessions under ``lexicographic``: a replan that
+    moves a previously planned activity does so only because keeping
+    every one at its start (or leaving it out) would cost more
+    unscheduled cost; otherwise nothing moves."""
+    doc = make_doc(
+        [
+            make_task(f"t{i}", 2 + i % 2, uses={"antenna": 1} if i % 2 else {})
+            for i in range(4)
+        ],
+        horizon=30,
+        resources={"binary": ["antenna"]},
+    )
+    config = EngineConfig(stability="lexicographic")
+    driver = Driver(problem_from(doc), config=config)
+    now = 0
+    driver.tick(now)
+    for serial, (wait, length, cost, antenna) in enumerate(specs):
+        now += wait
+        driver.tick(now)
+        before = driver.plan.plan_id
+        goal = small_goal(f"g{serial}", f"n{serial}")
+        task = goal["tasks"][0]
+        task.update(length=length, schedule_cost=cost)
+        task["uses"] = {"antenna": 1} if antenna else {}
+        out = driver.goal(goal)
+        if driver.plan.plan_id == before:
+            continue
+        (command,) = [c for c in out if isinstance(c, StartSolve)]
+        plan = driver.plan
+        assert plan.objective is not None
+        assert plan.objective.moves == len(plan.moved)
+        needed = _restricted_unscheduled(command, command.previous)
+        if plan.moved:
+            assert needed > plan.objective.unscheduled_cost, plan.moved
+        else:
+            assert needed >= plan.objective.unscheduled_cost

@@ -6,6 +6,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from ...model.plan import Activity, Objective, Plan
+from ...model.stability import Stability, rescored
+from .moves import add_move_terms
 from .objective import weight
 from .program import Program
 
@@ -29,6 +31,9 @@ class Formulation:
     variables, constraints, objective
         The formulation's Variables and Constraints classes and objective
         function (one documented method per constraint family each).
+    stability
+        The previous starts and the price of moving them (default: none,
+        the paper's objective); see :mod:`.moves`.
     """
 
     def __init__(
@@ -38,14 +43,19 @@ class Formulation:
         variables: Any,
         constraints: Any,
         objective: Callable[..., Any],
+        stability: Stability | None = None,
     ) -> None:
         self.problem = problem
         self.domains = domains
+        self.stability = stability or Stability()
         self.program = Program()
         self.vars = variables(self.program, problem, domains)
         self.constraints = constraints(self.program, problem, self.vars)
         self.constraints.add_all()
-        self.program.set_objective(*objective(problem, self.vars))
+        big, _ = self.stability.weights(problem)
+        terms, constant = objective(problem, self.vars, big)
+        add_move_terms(terms, problem, self.vars, self.stability)
+        self.program.set_objective(terms, constant)
 
     @property
     def num_variables(self) -> int:
@@ -59,7 +69,8 @@ class Formulation:
 
     def decode(self, status: SolveStatus, values: Sequence[float]) -> Plan:
         """Read solution ``values`` into a Plan, objective recomputed."""
-        return decode_plan(self.problem, self.vars.start_of, status, values)
+        plan = decode_plan(self.problem, self.vars.start_of, status, values)
+        return rescored(self.problem, plan, self.stability)
 
 
 def decode_plan(

@@ -27,9 +27,13 @@ def weight(problem: Problem) -> int:
     )
 
 
-def objective(problem: Problem, variables: Variables) -> tuple[Terms, float]:
-    """The objective's terms and its constant part."""
-    big = weight(problem)
+def objective(
+    problem: Problem, variables: Variables, big: int | None = None
+) -> tuple[Terms, float]:
+    """The objective's terms and its constant part (``big``: the weight of
+    the unscheduled cost, default :func:`weight`; a move part makes it
+    larger)."""
+    big = weight(problem) if big is None else big
     terms: Terms = {}
     constant = 0.0
     for task in problem.tasks:
