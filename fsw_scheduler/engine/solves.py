@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Literal
 
 import msgspec
 
+from ..analysis.moved import why_moved
 from ..errors import FieldIssue, InputError
 from ..model.goal import Goal
 from ..model.plan import Blocker, Moved, Plan, SolverStats, SolveStatus
@@ -236,7 +237,8 @@ class Replanner:
         state = self._state
         if not state.config.reports_moves:
             return msgspec.UNSET
-        reasons = {b.task: b.detail for b in broken}
+        reasons = why_moved(pending.problem, plan, pending.previous)
+        reasons.update({b.task: b.detail for b in broken})
         moved = moved_activities(pending.previous, plan, reasons)
         if state.last_solve is not None:
             state.last_solve = msgspec.structs.replace(
