@@ -13,7 +13,7 @@ from fsw_scheduler.model.stability import Stability
 from fsw_scheduler.solving.ilp.model import solve_ilp
 from fsw_scheduler.solving.solve import solve
 
-from ..factories import make_doc, make_task, problem_from
+from ..factories import bench_lib, make_doc, make_task, problem_from
 from ..problems import COMMON, brute_force, decode_doc, problem_docs, show
 
 MODES = ("moves", "lexicographic")
@@ -53,16 +53,21 @@ def stable_cases(draw: st.DrawFn) -> tuple[dict, Stability]:
 def test_both_formulations_find_the_stable_optimum(
     case: tuple[dict, Stability],
 ) -> None:
-    """Tests that with a move term both formulations and ``solve`` find
-    the exhaustive search's optimum, report its moves, and pass the
-    checker, which recomputes the objective with the move part."""
+    """Tests that with a move term both formulations, ``solve`` and the
+    CP-SAT baseline find the exhaustive search's optimum, report its
+    moves, and pass the checker, which recomputes the objective with the
+    move part."""
     doc, stability = case
     problem = decode_doc(doc)
     best = brute_force(problem, stability)
+    cpsat = bench_lib("cpsat").solve_cpsat(
+        problem, time_limit=20, stability=stability
+    )
     for plan in (
         solve_ilp(problem, formulation="time-indexed", stability=stability),
         solve_ilp(problem, formulation="disjunctive", stability=stability),
         solve(problem, stability=stability),
+        cpsat,
     ):
         if best is None:
             assert plan.status is SolveStatus.INFEASIBLE, show(doc, plan)
