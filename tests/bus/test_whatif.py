@@ -139,3 +139,46 @@ def test_a_bad_what_if_is_rejected_with_reasons() -> None:
         assert answer.goal_id == "x"
         assert any("taskz" in r.path for r in answer.reasons)
         assert h.query_status().plan_id == 1
+
+
+def test_a_predictable_session_replays_identical(tmp_path: Path) -> None:
+    """Tests a recorded session with every predictable-replan setting on
+    (commit window, lexicographic stability, early completions, a
+    what-if): the settings come back from the journal's metadata and
+    replay --verify reproduces every plan, move and answer."""
+    from fsw_scheduler.testing import paper_problem
+
+    journal = tmp_path / "predictable.mcap"
+    config = harness_config(
+        commit_window=25,
+        stability="lexicographic",
+        early_completion_gain=2,
+    )
+    recorder = Recorder(journal, schemas=schema_lookup("sat1"))
+    with SchedulerHarness(
+        paper_problem(), config, node_options={"journal": recorder}
+    ) as h:
+        running: dict[str, int] = {}
+        for now in range(16):
+            h.tick(now)
+            for task, end in sorted(running.items()):
+                if now >= end - 3:  # each activity ends 3 units early
+                    h.report(task, "completed", now)
+                    del running[task]
+            for d in h.dispatches:
+                if d.task not in running and d.end > now >= d.start:
+                    h.report(d.task, "running", now)
+                    running[d.task] = d.end
+            h.settle(now)
+        answer = h.what_if(paper_goal(), timeout=30)
+        assert answer is not None and answer.verdict == "goal_accepted"
+        verdicts = h.send_goals([paper_goal()])
+        assert verdicts["monitor-target-lf"] == {"goal_accepted"}
+        plan = h.wait_plan(lambda p: "monitor-target-lf" in p.goals)
+        assert plan.activities == answer.plan.activities  # type: ignore[union-attr]
+        assert plan.moved == answer.moved
+        triggers = {p.trigger for p in h.plans}
+        assert "early_completion" in triggers
+    report = verify(journal)
+    assert report.identical, report.summary()
+    assert report.what_ifs == 1
