@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 
 import msgspec
 
+from ..analysis.moved import why_moved
 from ..errors import FieldIssue
 from ..model.plan import Plan
 from ..replan.commit import moved_activities
@@ -139,7 +140,9 @@ def what_if(
     asked = [c for c in commands if isinstance(c, StartExplain)]
     if explain is not None and asked and not why:
         why = explain(asked[-1].problem, asked[-1].plan)
-    moved = _moved(snapshot, goal, message)
+    adopted = engine.schedule
+    assert adopted is not None  # a plan was adopted
+    moved = _moved(snapshot, goal, message, adopted.problem)
     reasons = {b.task: Reason(b.cause, b.detail) for b in why}
     reasons.update({m.task: Reason("moved", m.why) for m in moved if m.why})
     fields = {
@@ -185,10 +188,14 @@ def _last_plan(commands: list[Command]) -> PlanMessage | None:
 
 
 def _moved(
-    snapshot: EngineSnapshot, goal: Goal, message: PlanMessage
+    snapshot: EngineSnapshot,
+    goal: Goal,
+    message: PlanMessage,
+    problem: Problem,
 ) -> tuple[Moved, ...]:
     """What the plan moves: its own ``moved`` where plans report it, else
-    the same comparison, made here (an operator asking wants to know)."""
+    the same comparison, made here (an operator asking wants to know),
+    with why each moved (:func:`why_moved` on ``problem``)."""
     if message.moved is not msgspec.UNSET:
         assert isinstance(message.moved, tuple)
         return message.moved
@@ -204,4 +211,5 @@ def _moved(
         and a.task not in gone
     }
     shown = Plan(message.status, message.objective, message.activities)
-    return moved_activities(previous, shown)
+    reasons = why_moved(problem, shown, previous)
+    return moved_activities(previous, shown, reasons)

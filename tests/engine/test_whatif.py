@@ -57,6 +57,9 @@ def test_what_if_equals_the_plan_the_goal_then_produces() -> None:
         ("SetPositionY", 38, 33),
         ("DownlinkSat2Ground", 39, 34),
     ]
+    # Each says why it moved, in the answer's ``why`` too.
+    assert answer.why["SetPositionY"].cause == "moved"
+    assert "still free" in answer.why["SetPositionY"].detail
 
 
 def test_what_if_of_a_rejected_goal_gives_the_reasons() -> None:
