@@ -23,6 +23,7 @@ from fsw_scheduler.model.problem import decode_problem
 
 if TYPE_CHECKING:
     from fsw_scheduler.model.problem import Problem, Task
+    from fsw_scheduler.model.stability import Stability
 
 TOLERANCE = 1e-9
 Assignment = dict[str, int | None]
@@ -484,13 +485,18 @@ def objective_of(problem: Problem, starts: Assignment) -> Objective:
     return Objective(left_out, delay, weight * left_out + delay)
 
 
-def brute_force(problem: Problem) -> tuple[Objective, Assignment] | None:
+def brute_force(
+    problem: Problem, stability: Stability | None = None
+) -> tuple[Objective, Assignment] | None:
     """Enumerate every selection and start; return the best, if any.
 
     Parameters
     ----------
     problem
         A small problem (the enumeration is exponential in its tasks).
+    stability
+        Price moves from these previous starts (the objective of
+        :mod:`fsw_scheduler.model.stability`); default: the paper's.
 
     Returns
     -------
@@ -516,6 +522,14 @@ def brute_force(problem: Problem) -> tuple[Objective, Assignment] | None:
     for combo in itertools.product(*options):
         starts_of = dict(zip(ids, combo, strict=True))
         objective = objective_of(problem, starts_of)
+        if stability is not None:
+            placed = {k: v for k, v in starts_of.items() if v is not None}
+            objective = stability.objective(
+                problem,
+                objective.unscheduled_cost,
+                objective.delay_cost,
+                placed,
+            )
         if best is not None and objective.total >= best[0].total:
             continue  # cheap bound before the costly feasibility walk
         if joint_ok(problem, starts_of):

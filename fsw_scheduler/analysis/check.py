@@ -90,6 +90,7 @@ if TYPE_CHECKING:
 
     from ..model.plan import Activity, Plan
     from ..model.problem import Consumable, Precedence, Problem, Task
+    from ..model.stability import Stability
 
 RULES = (
     "coverage",
@@ -164,7 +165,9 @@ class CheckReport(msgspec.Struct, frozen=True):
         return tuple(v for v in self.violations if v.rule == rule)
 
 
-def check_plan(problem: Problem, plan: Plan) -> CheckReport:
+def check_plan(
+    problem: Problem, plan: Plan, stability: Stability | None = None
+) -> CheckReport:
     """Check ``plan`` against every constraint of ``problem``.
 
     Parameters
@@ -174,6 +177,10 @@ def check_plan(problem: Problem, plan: Plan) -> CheckReport:
     plan
         The plan to check; it may be malformed in any way (unknown or
         duplicated tasks, wrong ends, times outside the horizon).
+    stability
+        The previous starts and the price of moving them, for a replan
+        that prices moves: the objective is recomputed with its move
+        part (:mod:`fsw_scheduler.model.stability`). Default: none.
 
     Returns
     -------
@@ -187,6 +194,13 @@ def check_plan(problem: Problem, plan: Plan) -> CheckReport:
     for activity in known:
         first.setdefault(activity.task, activity)
     objective = _objective(problem, first)
+    if stability is not None and stability.active:
+        objective = stability.objective(
+            problem,
+            objective.unscheduled_cost,
+            objective.delay_cost,
+            {name: a.start for name, a in first.items()},
+        )
 
     violations = list(_coverage(problem, plan))
     if plan.status.has_plan:
@@ -278,9 +292,14 @@ def _objective(problem: Problem, first: dict[str, Activity]) -> Objective:
 
 
 def _show(objective: Objective) -> str:
+    moves = (
+        ""
+        if objective.moves is msgspec.UNSET
+        else f", moves={objective.moves}"
+    )
     return (
         f"(unscheduled_cost={objective.unscheduled_cost}, "
-        f"delay_cost={objective.delay_cost}, total={objective.total})"
+        f"delay_cost={objective.delay_cost}{moves}, total={objective.total})"
     )
 
 

@@ -203,6 +203,18 @@ class SchedulerClient:
                 ) from None
         self.wait_scheduler(max(timeout - (time.monotonic() - start), 0.1))
 
+    def wait_what_if(self, timeout: float | None = None) -> None:
+        """Wait until the scheduler's what-if queryable is reachable.
+
+        Raises
+        ------
+        TimeoutError
+            If none shows up in time.
+        """
+        self._wait_queryable(
+            self.topics.key(keys.WHAT_IF), timeout or self.timeout
+        )
+
     # -- publishing ----------------------------------------------------------
 
     def put(self, key: str, message: object) -> None:
@@ -380,6 +392,31 @@ class SchedulerClient:
             return msgspec.json.decode(payload, type=messages.NodeInfo)
         except msgspec.DecodeError:  # a newer node's settings: not needed
             return None
+
+    def what_if(
+        self,
+        goal: dict | bytes | str | msgspec.Struct,
+        timeout: float | None = None,
+    ) -> messages.WhatIfAnswer | None:
+        """Ask what sending ``goal`` now would do (``scheduler/what-if``).
+
+        Nothing changes on the node. The query says how long it waits
+        (``?timeout=``), so that a node busy with a solve answers
+        ``busy`` in time rather than never.
+
+        Returns
+        -------
+        WhatIfAnswer or None
+            None when no scheduler answered within ``timeout``.
+        """
+        timeout = timeout or self.timeout
+        key = f"{self.topics.key(keys.WHAT_IF)}?timeout={timeout:g}"
+        answer = query_payload(
+            self.client, key, timeout, payload=_payload(goal)
+        )
+        if answer is None:
+            return None
+        return msgspec.json.decode(answer, type=messages.WhatIfAnswer)
 
     def _query(self, suffix: str, timeout: float | None) -> bytes | None:
         return query_payload(
@@ -630,7 +667,11 @@ def spacecraft_on_bus(
 
 
 def query_payload(
-    session: zenoh.Session, key: str, timeout: float
+    session: zenoh.Session,
+    key: str,
+    timeout: float,
+    *,
+    payload: bytes | None = None,
 ) -> bytes | None:
     """The payload of the first good reply to a query on ``key``.
 
@@ -642,6 +683,8 @@ def query_payload(
         The full key of a queryable, e.g. ``fsw/sat1/scheduler/plan``.
     timeout
         Seconds to wait for the replies.
+    payload
+        What the query carries (a what-if's goal), if anything.
 
     Returns
     -------
@@ -660,7 +703,9 @@ def query_payload(
     while True:
         answered, found = False, None
         for reply in session.get(
-            key, timeout=max(deadline - time.monotonic(), REASK_S)
+            key,
+            timeout=max(deadline - time.monotonic(), REASK_S),
+            payload=payload,
         ):
             answered = True
             if reply.ok is not None and found is None:

@@ -58,6 +58,7 @@ from ..wire.terms import MAX_TERM
 from .inbox import Inbox, Worker, direct
 from .outputs import FATAL, NodeOutputs
 from .provenance import Origin, Provenance, capture
+from .whatif import WhatIfs
 
 if TYPE_CHECKING:
     import concurrent.futures
@@ -219,6 +220,17 @@ class SchedulerNode:
             config.max_clock_step,
             self.engine.initial.resources,
         )
+        # What-if queries, answered from a copy of the state, aside.
+        self._what_ifs = WhatIfs(
+            self.engine,
+            config,
+            self._inbox,
+            self._journal.write,
+            self.topics.key(topics.WHAT_IF),
+            solve_fn,
+            seconds,
+            self._cancel,
+        )
         self._last_clock_s = seconds()
         self._stall_reported = False
         self._last_tick: int | None = None
@@ -273,6 +285,7 @@ class SchedulerNode:
             topics.STATUS,
             topics.PROFILES,
             topics.NODE_INFO,
+            topics.WHAT_IF,
         ]
         if self._sharing:
             # A standby that joins later asks for the state at once.
@@ -356,6 +369,7 @@ class SchedulerNode:
             self._thread.join(timeout)
         self._workers.shutdown()
         self._explainer.shutdown()
+        self._what_ifs.close()
         if self.lease is not None:
             self.lease.stop()
         self._withdraw_token()
@@ -522,7 +536,18 @@ class SchedulerNode:
         self._outputs.watch()  # retries a failed journal without steps
         if timeout is None:
             timeout = self._clock.seconds_to_next() if self._clock else 0.5
+        held = self._what_ifs.seconds_to_next()
+        if held is not None:
+            timeout = min(timeout, held)
         item = self._inbox.get(timeout=max(timeout, 0.001))
+        try:
+            self._handle(item)
+        finally:
+            # A solve that ended, or a hold that ran out, lets a what-if go.
+            self._what_ifs.poll()
+
+    def _handle(self, item: list[Any] | None) -> None:
+        """Handle one inbox item (see :meth:`spin_once`)."""
         if item is None:
             return
         # The process may have been stopped while it waited: what came
@@ -533,7 +558,9 @@ class SchedulerNode:
         kind, key, payload, arrived, origin = item
         if kind == "wake":
             return
-        if kind == "resume":
+        if kind == "what_if":
+            self._what_ifs.finish(*payload)
+        elif kind == "resume":
             self._resume()
         elif kind == "query":
             self._answer(*payload)
@@ -756,6 +783,9 @@ class SchedulerNode:
 
     def _answer(self, suffix: str, query: zenoh.Query) -> None:
         self._sync_counters()
+        if suffix == topics.WHAT_IF:
+            self._what_ifs.ask(query)  # it replies, now or later
+            return
         message: msgspec.Struct | None
         tag: bytes | None = None
         if suffix == topics.PLAN:

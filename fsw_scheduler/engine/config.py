@@ -68,6 +68,15 @@ class EngineConfig(msgspec.Struct, frozen=True):
         having run, and never commanded again. None: a commanded activity
         a replan moves is planned again without a cancel (journals
         recorded before cancels existed).
+    commit_window
+        Units from a replan's time in which every planned activity keeps
+        its start (0: none); see :mod:`fsw_scheduler.replan.commit`.
+    stability, move_cost
+        How a replan weighs moving a previously planned activity (``off``,
+        ``moves`` at ``move_cost`` each, ``lexicographic``).
+    early_completion_gain
+        Units a ``completed`` report must come before the end of its
+        dispatch to replan at once (0: never).
     """
 
     report_timeout: int | None = None
@@ -85,3 +94,15 @@ class EngineConfig(msgspec.Struct, frozen=True):
     reports_need_dispatch: bool = False
     report_ahead: int = 0
     cancel_timeout: int | None = None
+    commit_window: int = 0
+    stability: str = "off"
+    move_cost: int = 5
+    early_completion_gain: int = 0
+
+    @property
+    def reports_moves(self) -> bool:
+        """Whether plans say what they moved (``moved``, ``last_solve.
+        moved``): with a commit window or a stability term. Off, plans
+        and statuses are exactly those of a node without these settings,
+        so that recordings of one replay identical on the other."""
+        return self.commit_window > 0 or self.stability != "off"

@@ -185,6 +185,11 @@ class Engine:
         """
         return self._queue.pending_solve()
 
+    def note_what_if(self) -> None:
+        """Count a what-if answered (``counters.what_ifs``): the only
+        trace it leaves in the state, at the place it is journaled."""
+        self._state.count(what_ifs=self._state.counters.what_ifs + 1)
+
     def count_shell(self, **totals: int) -> None:
         """Record the shell's running totals (see ``Counters``)."""
         current = self._state.counters

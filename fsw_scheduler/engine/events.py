@@ -150,7 +150,9 @@ class StartSolve(msgspec.Struct, frozen=True):
     """Solve ``problem`` (warm-started from ``warm``); reply with SolveDone.
 
     ``explain`` asks for the reasons of left-out tasks whatever the node's
-    settings (the shedding solve: an alarm must say why).
+    settings (the shedding solve: an alarm must say why). ``previous``
+    holds the starts of the activities planned before this replan (what a
+    move term prices, see the ``stability`` setting).
     """
 
     solve_id: int
@@ -158,6 +160,7 @@ class StartSolve(msgspec.Struct, frozen=True):
     problem: Problem
     warm: Plan | None = None
     explain: bool = False
+    previous: dict[str, int] = {}
 
 
 class StartExplain(msgspec.Struct, frozen=True):

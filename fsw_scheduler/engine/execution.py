@@ -17,6 +17,7 @@ import msgspec
 
 from ..model.change import ExecutionReport
 from ..model.plan import Plan, SolveStatus
+from ..replan.commit import PIN_CAUSE
 from ..wire import topics
 from ..wire.messages import Dispatch, PlanMessage
 from .dispatch import dispatch_message
@@ -25,6 +26,7 @@ from .snapshot import QueuedChange
 
 if TYPE_CHECKING:
     from ..model.change import Removal
+    from ..model.plan import Moved
     from .queue import SolveQueue
     from .state import EngineState
     from .verdicts import Verdicts
@@ -65,12 +67,15 @@ class Execution:
         removed: tuple[Removal, ...],
         out: list[Command],
         readded: tuple[str, ...] = (),
+        *,
+        moved: tuple[Moved, ...] | msgspec.UnsetType = msgspec.UNSET,
     ) -> None:
         """Make ``plan`` (already in ``state.schedule``) the plan flown.
 
-        Gives it the next ``plan_id``, publishes it, and accepts the
-        goals it carries. ``readded``: completed tasks the rules brought
-        back to run again (a tight chain).
+        Gives it the next ``plan_id``, publishes it (with what it
+        ``moved``, where plans report it), and accepts the goals it
+        carries. ``readded``: completed tasks the rules brought back to
+        run again (a tight chain).
         """
         state = self._state
         schedule = state.schedule
@@ -104,6 +109,7 @@ class Execution:
             stats=plan.stats,
             term=state.term,
             chosen=plan.chosen,
+            moved=moved,
         )
         if plan.status is SolveStatus.DEGRADED:
             state.set_health("degraded", degraded_detail(state.plan_id, plan))
@@ -335,7 +341,13 @@ class Execution:
 
 
 def degraded_detail(plan_id: int | None, plan: Plan) -> str:
-    """The alarm text of a degraded plan: each shed task and why."""
+    """The alarm text of a degraded plan: each shed task and each pin of
+    the commit window it broke, and why."""
     return f"plan {plan_id} is degraded: " + "; ".join(
-        f"{b.task} shed ({b.detail})" for b in plan.why if b.cause == "shed"
+        [f"{b.task} shed ({b.detail})" for b in plan.why if b.cause == "shed"]
+        + [
+            f"{b.task} pin broken ({b.detail})"
+            for b in plan.why
+            if b.cause == PIN_CAUSE
+        ]
     )

@@ -141,4 +141,5 @@ class SolveQueue:
             pending.problem,
             pending.warm,
             explain=pending.explain,
+            previous=pending.previous,
         )

@@ -24,6 +24,9 @@ from .dispatch import dispatch_id
 from .events import Command, Log
 from .snapshot import QueuedChange
 
+#: The trigger of a replan caused by an early completion.
+EARLY_COMPLETION = "early_completion"
+
 if TYPE_CHECKING:
     from ..wire.messages import ActivityReport
     from .queue import SolveQueue
@@ -164,6 +167,8 @@ class Reports:
             out.append(self._verdicts.publish("activity", detail=detail))
             return
         cancelled = report.task in dispatches.cancelling
+        # Read before the report settles the dispatch (which forgets it).
+        sent = dispatches.sent.get(report.task)
         dispatches.report(report.task, report.state)
         out.append(self._verdicts.publish("activity", detail=detail))
         if cancelled and report.state == "running":
@@ -187,6 +192,36 @@ class Reports:
             self._queue.add(QueuedChange("levels", at=at, trigger="cancelled"))
         if report.state == "failed":
             self._queue.add(QueuedChange("failure", task=report.task, at=at))
+        elif (
+            report.state == "completed" and sent is not None and not cancelled
+        ):
+            self._early_completion(report, sent[1], out)
+
+    def _early_completion(
+        self, report: ActivityReport, end: int, out: list[Command]
+    ) -> None:
+        """Replan when ``report`` frees at least ``early_completion_gain``
+        units of its dispatch ``[.., end)``: what follows it or waits for
+        its resources may start earlier (Mars 2020's flexible execution).
+        A smaller gain replans nothing: the plan in force stays, and its
+        successors keep their starts."""
+        gain = self._state.config.early_completion_gain
+        freed = end - report.at
+        if gain <= 0 or freed < gain:
+            return
+        out.append(
+            Log(
+                "info",
+                f"{report.task} completed at {report.at}, {freed} units "
+                f"before the end of its dispatch ({end}): replanning",
+            )
+        )
+        if not self._queue.has_trigger(EARLY_COMPLETION):
+            self._queue.add(
+                QueuedChange(
+                    "levels", at=self._state.clock(), trigger=EARLY_COMPLETION
+                )
+            )
 
     def _earlier_command(
         self, report: ActivityReport, out: list[Command]

@@ -51,7 +51,11 @@ class PendingSolve(msgspec.Struct, frozen=True):
     forced (not a goal) is infeasible, ``shed`` finds which mandatory
     tasks to keep, then ``degraded`` solves without the others (see
     :mod:`fsw_scheduler.shed`); ``infeasible`` keeps the plan that
-    started it.
+    started it. ``previous`` holds the starts of the activities planned
+    and not dispatched when the replan started (what the new plan may
+    move), ``pins`` the starts the commit window fixed in ``problem``,
+    and ``released`` the pins a solve without them gave up because they
+    left no plan (see :mod:`fsw_scheduler.replan.commit`).
     """
 
     solve_id: int
@@ -65,6 +69,9 @@ class PendingSolve(msgspec.Struct, frozen=True):
     infeasible: Plan | None = None
     warm: Plan | None = None
     explain: bool = False
+    previous: dict[str, int] = {}
+    pins: dict[str, int] = {}
+    released: dict[str, int] = {}
 
 
 class QueuedChange(msgspec.Struct, frozen=True):

@@ -16,9 +16,17 @@ from typing import TYPE_CHECKING, Literal
 
 import msgspec
 
+from ..analysis.moved import why_moved
 from ..errors import FieldIssue, InputError
 from ..model.goal import Goal
-from ..model.plan import Plan, SolverStats, SolveStatus
+from ..model.plan import Blocker, Moved, Plan, SolverStats, SolveStatus
+from ..model.stability import Stability, rescored
+from ..replan.commit import (
+    commit_pins,
+    moved_activities,
+    pin_blockers,
+    pinned_problem,
+)
 from ..replan.schedule import Replan, Schedule, empty_plan
 from ..replan.shed import (
     shed_blockers,
@@ -139,6 +147,14 @@ class Replanner:
         if (
             plan.status is SolveStatus.INFEASIBLE
             and pending.stage == "plan"
+            and pending.pins
+        ):
+            # The commit window left no plan: solve without it.
+            self.release_pins(pending, plan, out)
+            return
+        if (
+            plan.status is SolveStatus.INFEASIBLE
+            and pending.stage == "plan"
             and pending.replan is not None
             and not pending.goals
         ):
@@ -152,6 +168,9 @@ class Replanner:
         if adopted and pending.replan is not None:
             kept, reason = self.keep_commanded(pending, plan, out)
             adopted = kept is not None
+            if kept is not None and kept is not plan:
+                # Put back where commanded: scored again, moves included.
+                kept = rescored(pending.problem, kept, self.stability(pending))
             plan = kept or plan
         if not adopted:
             self.solve_without_plan(pending, reason, out)
@@ -163,11 +182,22 @@ class Replanner:
             plan = plan.replace(
                 status=SolveStatus.DEGRADED, why=(*shed, *plan.why)
             )
+        broken = pin_blockers(
+            pending.released,
+            plan,
+            pending.problem.start,
+            state.config.commit_window,
+        )
+        if broken:
+            plan = plan.replace(
+                status=SolveStatus.DEGRADED, why=(*broken, *plan.why)
+            )
+        moved = self.count_moved(pending, plan, broken)
         if pending.replan is None:
             assert state.plan_message is None
             state.schedule = Schedule.begin(pending.problem, plan)
             self._execution.adopt(
-                plan, pending.trigger, pending.goals, (), out
+                plan, pending.trigger, pending.goals, (), out, moved=moved
             )
         else:
             state.schedule = pending.replan.adopt(plan)
@@ -178,10 +208,11 @@ class Replanner:
                 pending.replan.removed,
                 out,
                 readded=pending.replan.readded,
+                moved=moved,
             )
         # Forecasts that came during the solve apply to what it gave.
         forecasts.after_adoption(state, self._queue, out)
-        if pending.stage == "degraded":
+        if pending.stage == "degraded" or broken:
             self.raise_alarm(plan, out)
         if (
             state.config.explain_after_plan
@@ -200,6 +231,79 @@ class Replanner:
             # The old plan dispatched while this one was being computed for
             # an earlier time: replan from what really happened.
             self._queue.add(QueuedChange("levels", at=state.clock()))
+
+    def count_moved(
+        self, pending: PendingSolve, plan: Plan, broken: tuple[Blocker, ...]
+    ) -> tuple[Moved, ...] | msgspec.UnsetType:
+        """What ``plan`` moved of the plan it replaces, also counted in
+        ``last_solve.moved`` (UNSET on a node that does not report moves:
+        its plans and statuses stay those of a node without them)."""
+        state = self._state
+        if not state.config.reports_moves:
+            return msgspec.UNSET
+        reasons = why_moved(pending.problem, plan, pending.previous)
+        reasons.update({b.task: b.detail for b in broken})
+        moved = moved_activities(pending.previous, plan, reasons)
+        if state.last_solve is not None:
+            state.last_solve = msgspec.structs.replace(
+                state.last_solve, moved=len(moved)
+            )
+        return moved
+
+    def stability(self, pending: PendingSolve) -> Stability:
+        """The move term ``pending``'s solve had (mode off: none)."""
+        config = self._state.config
+        return Stability(
+            previous=dict(pending.previous),
+            mode=config.stability,  # type: ignore[arg-type]
+            move_cost=config.move_cost,
+        )
+
+    def release_pins(
+        self, pending: PendingSolve, infeasible: Plan, out: list[Command]
+    ) -> None:
+        """Solve the replan again without its commit-window pins: keeping
+        them left no plan (the degraded path; the plan names each pin it
+        breaks)."""
+        assert pending.replan is not None
+        out.append(
+            Log(
+                "warning",
+                f"solve {pending.solve_id} ({pending.trigger}) is "
+                f"{_no_plan_reason(infeasible)} with the commit window's "
+                f"pins ({', '.join(pending.pins)}); solving without them",
+            )
+        )
+        self.start_solve(
+            pending.trigger,
+            pending.replan.problem,
+            pending.replan,
+            pending.warm,
+            pending.goals,
+            out,
+            previous=pending.previous,
+            released=pending.pins,
+        )
+
+    def planned_starts(self, replan: Replan) -> dict[str, int]:
+        """Starts of the activities planned and not yet dispatched in the
+        plan in force that ``replan`` keeps: what it may move. A task the
+        rules removed is gone, whatever a goal now names with its id.
+        Empty on a node that neither pins nor reports moves."""
+        state = self._state
+        schedule = state.schedule
+        if schedule is None or not state.config.reports_moves:
+            return {}
+        lifecycle = state.dispatches.lifecycle
+        gone = {r.task for r in replan.removed} | set(schedule.continuing)
+        live = {t.id for t in replan.problem.tasks}
+        return {
+            a.task: a.start
+            for a in schedule.plan.activities
+            if lifecycle.get(a.task, "planned") == "planned"
+            and a.task not in gone
+            and a.task in live
+        }
 
     def keep_commanded(
         self, pending: PendingSolve, plan: Plan, out: list[Command]
@@ -382,6 +486,7 @@ class Replanner:
                     "cancelled",
                     "merged",
                     "forecast",
+                    "early_completion",
                 ):
                     if not levels and any(
                         c.trigger == named for c in queue.changes
@@ -498,6 +603,8 @@ class Replanner:
             out,
             stage="shed",
             infeasible=infeasible,
+            previous=pending.previous,
+            released=pending.released,
         )
 
     def start_degraded(
@@ -525,6 +632,8 @@ class Replanner:
             infeasible=pending.infeasible.replace(
                 why=(*pending.infeasible.why, *shedding.why)
             ),
+            previous=pending.previous,
+            released=pending.released,
         )
 
     def raise_alarm(self, plan: Plan, out: list[Command]) -> None:
@@ -543,17 +652,37 @@ class Replanner:
         *,
         stage: Literal["plan", "shed", "degraded"] = "plan",
         infeasible: Plan | None = None,
+        previous: dict[str, int] | None = None,
+        released: dict[str, int] | None = None,
     ) -> None:
         """Ask for a solve of ``problem`` (or adopt the empty plan at
-        once when a replan leaves nothing to schedule)."""
+        once when a replan leaves nothing to schedule).
+
+        ``previous``: the starts the replan may move (default: those of
+        the plan in force, :meth:`planned_starts`). An ordinary replan
+        keeps those inside the commit window (``pins``), unless
+        ``released`` says they were given up already.
+        """
         state = self._state
+        if previous is None:
+            previous = self.planned_starts(replan) if replan else {}
         if replan is not None and not problem.tasks:
             # Nothing left to schedule: adopt the empty plan without solving.
             state.schedule = replan.adopt(empty_plan())
             self._execution.adopt(
-                empty_plan(), trigger, goals, replan.removed, out
+                empty_plan(),
+                trigger,
+                goals,
+                replan.removed,
+                out,
+                # An empty plan moves nothing.
+                moved=() if state.config.reports_moves else msgspec.UNSET,
             )
             return
+        pins: dict[str, int] = {}
+        if stage == "plan" and replan is not None and released is None:
+            pins = commit_pins(problem, previous, state.config.commit_window)
+            problem = pinned_problem(problem, pins)
         solve_id = self._queue.next_id()
         self._queue.begin(
             PendingSolve(
@@ -568,6 +697,9 @@ class Replanner:
                 infeasible=infeasible,
                 warm=warm,
                 explain=stage == "shed",
+                previous=previous,
+                pins=pins,
+                released=released or {},
             )
         )
         out.append(
@@ -628,5 +760,8 @@ class Replanner:
             wall_s=stats.wall_s,
             inputs_seen=state.inputs,
             result=plan,
+            previous=pending.previous
+            if state.config.stability != "off"
+            else {},
         )
         return Publish(topics.SOLVES, record)

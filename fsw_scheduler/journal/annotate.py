@@ -311,8 +311,12 @@ class Annotator:
                 f"{a.task} [{a.start}, {a.end})" for a in plan.activities
             )
         ]
+        scheduled = {a.task for a in plan.activities}
+        # A broken pin of the commit window may be scheduled elsewhere.
         lines += [
-            f"unscheduled {b.task}: {b.cause} ({b.detail})" for b in plan.why
+            f"{'moved' if b.task in scheduled else 'unscheduled'} "
+            f"{b.task}: {b.cause} ({b.detail})"
+            for b in plan.why
         ]
         lines += [
             f"removed {r.task} ({r.rule})"

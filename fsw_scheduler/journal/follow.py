@@ -107,6 +107,9 @@ class Follower:
         if kind in ("snapshot", "node_info"):
             return
         self.records += 1
+        if kind == "what_if":
+            self.engine.note_what_if()  # the only trace a what-if leaves
+            return
         if kind == "solve_record":
             record = msgspec.json.decode(payload, type=messages.SolveRecord)
             command = self._requested.pop(record.solve_id, None)

@@ -8,6 +8,8 @@ description records.
 
 from __future__ import annotations
 
+import logging
+import struct
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
@@ -23,6 +25,8 @@ from mcap.records import (
 from mcap.well_known import MessageEncoding
 
 from .recover import is_finished, iter_complete_records, scan_messages
+
+log = logging.getLogger("fsw_scheduler.journal")
 
 if TYPE_CHECKING:
     from collections.abc import Mapping, Sequence
@@ -239,10 +243,17 @@ def read_metadata(path: PathLike) -> list[tuple[str, dict[str, str]]]:
     list
         ``(name, {key: value})`` pairs.
     """
+    found = None
     if is_finished(path):
-        with open(path, "rb") as f:
-            found = list(make_reader(f).iter_metadata())
-    else:
+        try:
+            with open(path, "rb") as f:
+                found = list(make_reader(f).iter_metadata())
+        except (ValueError, LookupError, struct.error, EOFError) as error:
+            # The summary's index is not covered by a CRC the writer
+            # fills: a damaged offset in it points into another record.
+            # The records themselves are what the integrity walk checks.
+            log.warning("%s: metadata index unreadable (%s)", path, error)
+    if found is None:
         found = _records_of(path, Metadata)
     return [(m.name, dict(m.metadata)) for m in found]
 

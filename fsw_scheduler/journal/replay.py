@@ -59,6 +59,7 @@ from ..wire import topics as keys
 from .annotate import DERIVED, Annotator, engine_problem
 from .info import read_metadata
 from .reader import iter_messages
+from .whatifs import answer_again, comparable, what_if_states
 
 if TYPE_CHECKING:
     from .writer import PathLike, RecordedMessage
@@ -131,6 +132,7 @@ class VerifyReport:
     plans: int = 0
     dispatches: int = 0
     derived: int = 0
+    what_ifs: int = 0
     divergence: Divergence | None = None
     notes: list[str] = field(default_factory=list)
     lifecycle: dict[str, str] = field(default_factory=dict, repr=False)
@@ -153,6 +155,7 @@ class VerifyReport:
             f"(plans {self.plans}, dispatches {self.dispatches}, "
             f"solves {self.solves}"
             + (f", derived {self.derived}" if self.derived else "")
+            + (f", what-ifs {self.what_ifs}" if self.what_ifs else "")
             + ")",
             *[f"  note: {n}" for n in self.notes],
         ]
@@ -306,8 +309,19 @@ def verify(
             results[pending.solve_id] = replay_solve(
                 solve, config, pending, records, report
             )
+    asked = what_if_states(recorded, topics)
+    states: dict[int, EngineSnapshot] = {}
     for message in inputs:
+        if engine.inputs_seen in asked and engine.inputs_seen not in states:
+            # The state a journaled what-if was answered from.
+            states[engine.inputs_seen] = engine.snapshot()
         kind = topics.schema_kind(message.topic)
+        if kind == "what_if":
+            if not _verify_what_if(
+                message, states, engine, config, solve, report
+            ):
+                return report
+            continue
         if kind == "solve_record":
             record = msgspec.json.decode(message.payload)
             solve_id = int(record["solve_id"])
@@ -658,7 +672,11 @@ def replay_solve(
         return solve(config, command)
     limit = recorded.stats.time_limit_s if recorded.stats else None
     if recorded.status not in _PROVEN:
-        issues = [] if not recorded.activities else _check(command, recorded)
+        issues = (
+            []
+            if not recorded.activities
+            else _check(command, recorded, config)
+        )
         if not issues:
             report.notes.append(
                 f"solve {command.solve_id} ({command.trigger}) stopped at "
@@ -690,8 +708,47 @@ def replay_solve(
     return plan
 
 
-def _check(command: StartSolve, plan: Plan) -> list[str]:
-    from ..analysis.check import check_plan
+def _verify_what_if(
+    message: RecordedMessage,
+    states: dict[int, EngineSnapshot],
+    engine: Engine,
+    config: NodeConfig,
+    solve: SolveFn,
+    report: VerifyReport,
+) -> bool:
+    """Answer a journaled what-if again and compare (False: a divergence,
+    in ``report``); see :mod:`.whatifs`. Its solves are checked like any
+    solve (:func:`replay_solve`, with the what-if's own records)."""
+    record = msgspec.json.decode(message.payload, type=messages.WhatIfRecord)
+    engine.note_what_if()
+    report.what_ifs += 1
+    own = {r.solve_id: r for r in record.solves}
 
-    result = check_plan(command.problem, plan)
+    def run(command: StartSolve) -> Plan:
+        return replay_solve(solve, config, command, own, report)
+
+    got = answer_again(record, states, engine.config, run)
+    if isinstance(got, str):
+        report.notes.append(got)
+        return True
+    expected, replayed = comparable(record.answer), comparable(got)
+    if expected == replayed:
+        return True
+    report.divergence = Divergence(
+        report.outputs,
+        message.topic,
+        message.topic,
+        expected,
+        replayed,
+        "what-if answer: " + _first_difference(expected, replayed),
+    )
+    return False
+
+
+def _check(command: StartSolve, plan: Plan, config: NodeConfig) -> list[str]:
+    from ..analysis.check import check_plan
+    from ..runtime.policy import stability_of
+
+    stability = stability_of(config, command)
+    result = check_plan(command.problem, plan, stability)
     return [str(v) for v in result.violations] if not result.ok else []

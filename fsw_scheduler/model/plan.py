@@ -47,12 +47,18 @@ class Objective(msgspec.Struct, frozen=True):
     """The lexicographic objective, reported as its two parts.
 
     ``total = W * unscheduled_cost + delay_cost`` with
-    ``W = 1 + sum(delay_cost_i) * horizon``.
+    ``W = 1 + sum(delay_cost_i) * horizon``. A replan that prices moves
+    (:mod:`fsw_scheduler.model.stability`) also reports ``moves``, the
+    previously planned activities it starts elsewhere, and, under
+    ``moves``, ``move_cost``, their price; its ``total`` then counts them
+    (absent otherwise, so that other plans are as they always were).
     """
 
     unscheduled_cost: int
     delay_cost: int
     total: int
+    moves: int | msgspec.UnsetType = msgspec.UNSET
+    move_cost: int | msgspec.UnsetType = msgspec.UNSET
 
 
 class Blocker(msgspec.Struct, frozen=True):
@@ -66,6 +72,26 @@ class Blocker(msgspec.Struct, frozen=True):
     task: str
     cause: str
     detail: str
+
+
+class Moved(msgspec.Struct, frozen=True, omit_defaults=True):
+    """A previously planned activity that a new plan starts elsewhere.
+
+    Attributes
+    ----------
+    task
+        The task id.
+    from_, to
+        Its start in the plan replaced and in the new plan (``from`` and
+        ``to`` on the wire).
+    why
+        Plain words: why it moved, when that is known.
+    """
+
+    task: str
+    from_: int = msgspec.field(name="from")
+    to: int = msgspec.field(name="to")
+    why: str = ""
 
 
 class SolverStats(msgspec.Struct, frozen=True, omit_defaults=True):

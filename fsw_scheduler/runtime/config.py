@@ -15,6 +15,10 @@ Example ``scheduler.toml``::
     report-timeout = 5      # units after a dispatch without a report
     drift-absolute = 0.5    # level departure that triggers a replan
     replan-lead = 1         # units a solve may take before its plan starts
+    commit-window = 5       # a replan keeps what starts within 5 units
+    stability = "moves"     # or "off", "lexicographic"
+    move-cost = 5           # the price of one moved activity ("moves")
+    early-completion-gain = 2  # replan when a report frees >= 2 units
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ from typing import Annotated, Literal
 import msgspec
 
 from ..errors import ConfigError, FieldIssue
-from ..model.limits import id_issue
+from ..model.limits import MAX_TIME, id_issue
 from ..model.problem import Id, Units
 from ..model.strict import shape_issues
 from ..replan.triggers import Tolerance
@@ -40,6 +44,17 @@ AtLeastOne = Annotated[int, msgspec.Meta(ge=1)]
 Seconds = Annotated[float, msgspec.Meta(gt=0)]
 #: A budget or a tolerance that may be zero.
 NonNegative = Annotated[float, msgspec.Meta(ge=0)]
+
+#: The most one moved activity may cost under ``stability = "moves"``:
+#: above it the move part would dwarf the delays it is weighed against.
+MAX_MOVE_COST = 1000
+
+#: Units of the mission clock, zero allowed (a window, a gain: 0 is off).
+Span = Annotated[int, msgspec.Meta(ge=0, le=MAX_TIME)]
+#: The price of one moved activity.
+MoveCost = Annotated[int, msgspec.Meta(ge=1, le=MAX_MOVE_COST)]
+#: How a replan weighs moving what was already planned.
+Stability = Literal["off", "moves", "lexicographic"]
 
 
 class NodeConfig(
@@ -142,6 +157,24 @@ class NodeConfig(
         Units a cancel (a dispatch with ``action: cancel``) waits for its
         answer before the activity turns ``unknown``: taken as having run
         where commanded, never commanded again.
+    commit_window
+        Units from a replan's ``now``: every planned (not yet dispatched)
+        activity that starts in ``[now, now + commit_window)`` keeps its
+        start, unless keeping them leaves no plan (then the degraded path
+        releases them, and says which it moved). 0: no window.
+    stability
+        ``off``: a replan may move any planned activity for the least
+        cost (the paper). ``moves``: each previously planned activity
+        whose start changes costs ``move_cost``, added to the delay part.
+        ``lexicographic``: compare plans by unscheduled cost, then the
+        number of moved activities, then delay.
+    move_cost
+        The price of one moved activity under ``stability = "moves"``.
+    early_completion_gain
+        A ``completed`` report at least this many units before the end of
+        its dispatch replans at once (trigger ``early_completion``), so
+        that what waits for its resources or follows it may start
+        earlier; a smaller gain replans nothing. 0: never.
     """
 
     spacecraft: Id = "sat1"
@@ -180,6 +213,10 @@ class NodeConfig(
     reports_need_dispatch: bool = False
     report_ahead: Count = 1
     cancel_timeout: AtLeastOne | None = 3
+    commit_window: Span = 0
+    stability: Stability = "off"
+    move_cost: MoveCost = 5
+    early_completion_gain: Span = 0
 
     def __post_init__(self) -> None:
         # The ranges are declared once, in the field types (Meta): the

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+import msgspec
+
 from ..engine.config import EngineConfig
 from ..solving.budget import BUDGET
 from ..wire import messages
@@ -24,6 +26,7 @@ if TYPE_CHECKING:
     )
     from ..model.plan import Blocker, Plan
     from ..model.problem import Problem
+    from ..model.stability import Stability
     from .config import NodeConfig
 
 
@@ -44,6 +47,10 @@ def engine_config(config: NodeConfig) -> EngineConfig:
         reports_need_dispatch=config.reports_need_dispatch,
         report_ahead=config.report_ahead,
         cancel_timeout=config.cancel_timeout,
+        commit_window=config.commit_window,
+        stability=config.stability,
+        move_cost=config.move_cost,
+        early_completion_gain=config.early_completion_gain,
     )
 
 
@@ -56,7 +63,13 @@ _RENAMED = {"time_limit_s": "time_limit"}
 #: Settings that change decisions but are not NodeInfo fields (its schema
 #: is a recorded format): the journal keeps them in its
 #: ``fsw_scheduler.settings`` metadata, which replay reads back.
-IN_METADATA = ("threads",)
+IN_METADATA = (
+    "threads",
+    "commit_window",
+    "stability",
+    "move_cost",
+    "early_completion_gain",
+)
 
 
 def _setting_fields() -> list[tuple[str, str]]:
@@ -114,8 +127,23 @@ def config_from_info(
         name: getattr(info, field) for field, name in _setting_fields()
     }
     recorded = settings or {}
+    # Metadata values are text, under the settings' kebab-case names.
+    kebab = {
+        name.replace("_", "-"): recorded[name.replace("_", "-")]
+        for name in IN_METADATA
+        if recorded.get(name.replace("_", "-"))
+    }
     if recorded.get("threads"):
-        values["threads"] = int(recorded["threads"])
+        kebab["threads"] = recorded["threads"]
+    if kebab:
+        read = msgspec.convert(kebab, NodeConfig, strict=False)
+        values.update(
+            {
+                name: getattr(read, name)
+                for name in IN_METADATA
+                if name.replace("_", "-") in kebab
+            }
+        )
     return NodeConfig(**values)
 
 
@@ -142,6 +170,18 @@ def deadline_config(
     return config.replace(time_limit=limit)
 
 
+def stability_of(config: NodeConfig, command: StartSolve) -> Stability:
+    """The move term of ``command``'s solve under the node's settings
+    (mode ``off``: none)."""
+    from ..model.stability import Stability
+
+    return Stability(
+        previous=dict(command.previous),
+        mode=config.stability,
+        move_cost=config.move_cost,
+    )
+
+
 def run_solve(config: NodeConfig, command: StartSolve) -> Plan:
     """Solve as the node does (shared with deterministic replay).
 
@@ -162,6 +202,7 @@ def run_solve(config: NodeConfig, command: StartSolve) -> Plan:
         explain=(config.explain and not later) or command.explain,
         warm=command.warm,
         explain_budget=config.explain_budget,
+        stability=stability_of(config, command),
     )
     if config.explain and later and not plan.status.has_plan:
         plan = plan.replace(why=run_explain(config, command.problem, plan))

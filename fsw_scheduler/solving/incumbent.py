@@ -27,9 +27,12 @@ if TYPE_CHECKING:
 
     from ..analysis.domains import Domain
     from ..model.problem import Problem
+    from ..model.stability import Stability
 
 
-def checked(problem: Problem, plan: Plan) -> Plan:
+def checked(
+    problem: Problem, plan: Plan, stability: Stability | None = None
+) -> Plan:
     """The solver's plan if the independent checker accepts it.
 
     CBC stopped by its time limit before any integer solution can hand back
@@ -38,7 +41,7 @@ def checked(problem: Problem, plan: Plan) -> Plan:
     """
     if not plan.status.has_plan:
         return plan
-    report = check_plan(problem, plan)
+    report = check_plan(problem, plan, stability)
     if report.ok:
         return plan
     rules = ", ".join(sorted(report.rules))

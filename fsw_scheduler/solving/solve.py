@@ -17,12 +17,14 @@ from ..analysis.greedy import greedy_plan
 from ..analysis.proofs import infeasibility
 from ..model import groups
 from ..model.plan import (
+    Activity,
     Objective,
     Plan,
     SolverStats,
     SolveStatus,
     objective_weight,
 )
+from ..model.stability import Stability, rescored
 from . import large
 from .budget import BUDGET
 from .incumbent import checked, narrow, probed
@@ -47,6 +49,7 @@ def solve(
     explain: bool = False,
     warm: Plan | None = None,
     explain_budget: float | None = None,
+    stability: Stability | None = None,
 ) -> Plan:
     """Solve ``problem`` and return its plan with an honest status.
 
@@ -78,6 +81,15 @@ def solve(
         Seconds all explanation solves may take together (default: the
         time limit, else
         :attr:`~fsw_scheduler.solving.budget.SolveBudget.explain_budget_s`).
+    stability
+        The previous starts and the price of moving them
+        (:mod:`fsw_scheduler.model.stability`; default none, the paper's
+        objective). With a move part, the start plans are scored with
+        it (the previous plan, ``warm``, first) and the shortcuts that
+        bound only the unscheduled and delay parts (the at-lower-bound
+        and kept-set proofs, cost caps and probes, the neighbourhood
+        search and the replan's repair) are off: the solver proves the
+        whole objective.
 
     Returns
     -------
@@ -95,6 +107,10 @@ def solve(
         threads=threads,
         seed=seed,
     )
+    if stability is not None and stability.active:
+        run = functools.partial(run, stability=stability)
+    else:
+        stability = None
     began = time.perf_counter()
     limit = time_limit
     if warm is not None and time_limit is not None:
@@ -118,9 +134,13 @@ def solve(
         )
     parts = components(problem)
     if len(parts) > 1:
-        plan = _solve_parts(problem, parts, run, began, limit, warm, domains)
+        plan = _solve_parts(
+            problem, parts, run, began, limit, warm, domains, stability
+        )
     else:
-        plan = _solve_whole(problem, run, began, limit, warm, domains)
+        plan = _solve_whole(
+            problem, run, began, limit, warm, domains, stability
+        )
     plan = _with_gap(plan)
     if explain and (
         plan.unscheduled or not plan.status.has_plan or plan.picks
@@ -134,8 +154,11 @@ def solve(
                 if time_limit is None
                 else time_limit - (time.perf_counter() - began)
             )
+        # Why a task is out does not depend on what moved: explained
+        # with the paper's objective.
+        plain = functools.partial(run, stability=None)
         plan = plan.replace(
-            why=explain_plan(problem, plan, BUDGET.budgeted(run, budget))
+            why=explain_plan(problem, plan, BUDGET.budgeted(plain, budget))
         )
     return plan
 
@@ -199,6 +222,7 @@ def _solve_parts(
     time_limit: float | None,
     warm: Plan | None,
     domains: dict[str, Domain],
+    stability: Stability | None = None,
 ) -> Plan:
     """Solve each independent part alone and join the plans.
 
@@ -235,11 +259,21 @@ def _solve_parts(
                 limit,
                 sub_warm,
                 {t.id: domains[t.id] for t in sub.tasks},
+                stability,
             )
         )
     if time_limit is not None:
-        _reopen(plans, subs, weights, run, began, time_limit, domains)
-    return _joined(problem, plans, [sub for sub, _ in subs], began, time_limit)
+        _reopen(
+            plans, subs, weights, run, began, time_limit, domains, stability
+        )
+    return _joined(
+        problem,
+        plans,
+        [sub for sub, _ in subs],
+        began,
+        time_limit,
+        stability,
+    )
 
 
 def _part(
@@ -272,6 +306,7 @@ def _reopen(
     began: float,
     time_limit: float,
     domains: dict[str, Domain],
+    stability: Stability | None = None,
 ) -> None:
     """Solve the unproved parts again with what the others left unused.
 
@@ -301,6 +336,7 @@ def _reopen(
             limit,
             before if before.status.has_plan else None,
             {t.id: domains[t.id] for t in sub.tasks},
+            stability,
         )
         gained = again.status is SolveStatus.OPTIMAL or (
             again.objective is not None
@@ -319,9 +355,12 @@ def _joined(
     subs: list[Problem],
     began: float,
     time_limit: float | None,
+    stability: Stability | None = None,
 ) -> Plan:
     """One plan of ``problem`` from the plans of its parts (smallest
-    first: the status line ends with the largest part's)."""
+    first: the status line ends with the largest part's). The move part
+    is a sum over tasks too, so the parts' optima join into the whole's
+    (with the weights of the whole)."""
     statuses = {plan.status for plan in plans}
     stats = [plan.stats for plan in plans if plan.stats is not None]
     summary = SolverStats(
@@ -361,11 +400,24 @@ def _joined(
         [t.delay_cost for t in problem.tasks], problem.horizon
     )
     optimal = statuses == {SolveStatus.OPTIMAL}
-    total = weight * missed + delay
-    bound = float(total) if optimal else _joined_bound(problem, plans, subs)
+    objective = Objective(missed, delay, weight * missed + delay)
+    if stability is not None:
+        objective = stability.objective(
+            problem, missed, delay, {a.task: a.start for a in activities}
+        )
+    total = objective.total
+    bound: float | None = float(total)
+    if not optimal:
+        # The parts' bounds join in the paper's weights only: with a move
+        # part the whole's weight is another.
+        bound = (
+            None
+            if stability is not None
+            else _joined_bound(problem, plans, subs)
+        )
     return Plan(
         status=SolveStatus.OPTIMAL if optimal else SolveStatus.FEASIBLE,
-        objective=Objective(missed, delay, total),
+        objective=objective,
         activities=activities,
         unscheduled=groups.left_out(problem, scheduled),
         chosen=groups.chosen(problem, scheduled),
@@ -431,10 +483,21 @@ def _solve_whole(
     time_limit: float | None,
     warm: Plan | None,
     domains: dict[str, Domain],
+    stability: Stability | None = None,
 ) -> Plan:
-    """Start plan, then the solver or the neighbourhood search; no ``why``."""
+    """Start plan, then the solver or the neighbourhood search; no ``why``.
+
+    With a move part (``stability``) the shortcuts are off, each for the
+    same reason: the replan's repair, the at-lower-bound and kept-set
+    proofs, the cost caps of :func:`narrow` and the probe bound the
+    unscheduled and delay parts only, and a plan they call optimal may
+    move what a stable one keeps; the neighbourhood search compares parts
+    of a plan whose move weights are the whole's. The solver, with the
+    start plan as its MIP start, proves the whole objective instead.
+    """
     if (
-        warm is not None
+        stability is None
+        and warm is not None
         and time_limit is not None
         and problem.num_tasks >= BUDGET.lns_min_tasks
     ):
@@ -461,7 +524,9 @@ def _solve_whole(
             problem.start,
             problem.end,
         )
-    start = best_start(problem, warm, stop=stop, domains=domains)
+    start = best_start(
+        problem, warm, stop=stop, domains=domains, stability=stability
+    )
     if loud:
         log.info(
             "start plan: %s after %.1f s",
@@ -472,6 +537,28 @@ def _solve_whole(
         )
     proof = None
     relaxed: KeptSetProof | None = None
+    if stability is not None and problem.num_tasks == 1:
+        # One task alone (most parts of a problem without resources): a
+        # share of the limit too small for CBC is common; trying every
+        # start proves the best, moves included, without it.
+        return _one_task(problem, domains, stability, began, time_limit)
+    if stability is not None:
+        plan = _keep_better(
+            checked(
+                problem,
+                run(
+                    problem,
+                    warm=start.starts() if start else None,
+                    domains=domains,
+                    time_limit=None
+                    if time_limit is None
+                    else time_limit - (time.perf_counter() - began),
+                ),
+                stability,
+            ),
+            start,
+        )
+        return _with_call_stats(plan, began, time_limit)
     if start is not None:
         if at_lower_bound(problem, start, domains):
             proof = "every task at its earliest start: no solve"
@@ -546,35 +633,106 @@ def _solve_whole(
                     "plan must hold",
                 )
             )
-        if plan.stats is not None:
-            # Report the limit the caller set, and the whole call's time.
-            bound = plan.stats.bound
-            if (
-                bound is not None
-                and plan.objective is not None
-                and bound > plan.objective.total + 0.5
-            ):
-                # A stopped CBC can report the value of an LP that is not
-                # the root's; above a valid plan, it bounds nothing.
-                bound = None
-            if (
-                relaxed is not None
-                and relaxed.bound is not None
-                and plan.objective is not None
-                and relaxed.bound <= plan.objective.total
-            ):
-                # The kept-set relaxation bounds every plan at least as
-                # good as the start plan, so the optimum too.
-                bound = large.higher(bound, relaxed.bound)
-            plan = plan.replace(
-                stats=msgspec.structs.replace(
-                    plan.stats,
-                    time_limit_s=time_limit,
-                    wall_s=time.perf_counter() - began,
-                    bound=bound,
-                )
-            )
+        plan = _with_call_stats(plan, began, time_limit, relaxed)
     return plan
+
+
+def _one_task(
+    problem: Problem,
+    domains: dict[str, Domain],
+    stability: Stability,
+    began: float,
+    time_limit: float | None,
+) -> Plan:
+    """The best plan of a one-task problem, by trying every start and,
+    if it may be, leaving it out: optimal (or infeasible) by exhaustion,
+    each candidate judged by the checker, move part included."""
+    (task,) = problem.tasks
+    domain = domains[task.id]
+    candidates = []
+    if not problem.required(task):
+        candidates.append(
+            Plan(
+                SolveStatus.OPTIMAL,
+                None,
+                unscheduled=groups.left_out(problem, ()),
+                chosen=groups.chosen(problem, ()),
+            )
+        )
+    for start in range(domain.earliest, domain.latest + 1):
+        activity = Activity(task.id, start, start + task.length)
+        candidates.append(
+            Plan(
+                SolveStatus.OPTIMAL,
+                None,
+                activities=(activity,),
+                unscheduled=groups.left_out(problem, (task.id,)),
+                chosen=groups.chosen(problem, (task.id,)),
+            )
+        )
+    best: Plan | None = None
+    for plan in candidates:
+        report = check_plan(problem, plan, stability)
+        if report.ok and (
+            best is None
+            or best.objective is None
+            or report.objective.total < best.objective.total
+        ):
+            best = plan.replace(objective=report.objective)
+    stats = SolverStats(
+        solver="enumeration",
+        wall_s=time.perf_counter() - began,
+        bound=best.objective.total if best and best.objective else None,
+        solver_status="one task: every start tried, no solve",
+        time_limit_s=time_limit,
+    )
+    if best is None:
+        return Plan(
+            SolveStatus.INFEASIBLE,
+            None,
+            unscheduled=(task.id,),
+            stats=stats,
+        )
+    return best.replace(stats=stats)
+
+
+def _with_call_stats(
+    plan: Plan,
+    began: float,
+    time_limit: float | None,
+    relaxed: KeptSetProof | None = None,
+) -> Plan:
+    """``plan`` reporting the limit the caller set and the whole call's
+    time, its bound dropped where it bounds nothing and raised to the
+    kept-set relaxation's where that is higher."""
+    if plan.stats is None:
+        return plan
+    bound = plan.stats.bound
+    if (
+        bound is not None
+        and plan.objective is not None
+        and bound > plan.objective.total + 0.5
+    ):
+        # A stopped CBC can report the value of an LP that is not the
+        # root's; above a valid plan, it bounds nothing.
+        bound = None
+    if (
+        relaxed is not None
+        and relaxed.bound is not None
+        and plan.objective is not None
+        and relaxed.bound <= plan.objective.total
+    ):
+        # The kept-set relaxation bounds every plan at least as good as
+        # the start plan, so the optimum too.
+        bound = large.higher(bound, relaxed.bound)
+    return plan.replace(
+        stats=msgspec.structs.replace(
+            plan.stats,
+            time_limit_s=time_limit,
+            wall_s=time.perf_counter() - began,
+            bound=bound,
+        )
+    )
 
 
 def at_lower_bound(
@@ -608,6 +766,7 @@ def best_start(
     *,
     stop: Callable[[], bool] | None = None,
     domains: dict[str, Domain] | None = None,
+    stability: Stability | None = None,
 ) -> Plan | None:
     """The better valid plan of ``warm`` and the greedy heuristic's.
 
@@ -615,11 +774,16 @@ def best_start(
     only plans the checker accepts); ``warm`` is used only if the checker
     accepts it on ``problem``, with its objective recomputed there. None
     when neither is valid. ``stop`` and ``domains`` are passed on to
-    :func:`greedy_plan`.
+    :func:`greedy_plan`. With ``stability`` both are scored with the
+    move part: the previous plan (``warm``, which keeps the old
+    positions) comes first and wins ties.
     """
     candidates = []
     if warm is not None:
-        report = check_plan(problem, warm)
+        if stability is not None:
+            # Its objective, if any, has no move part: recomputed.
+            warm = warm.replace(objective=None)
+        report = check_plan(problem, warm, stability)
         if report.ok:
             candidates.append(
                 warm.replace(
@@ -628,7 +792,8 @@ def best_start(
             )
     greedy = greedy_plan(problem, stop=stop, domains=domains)
     if greedy is not None:
-        candidates.append(greedy)  # on a tie, the previous plan is kept
+        # On a tie, the previous plan is kept.
+        candidates.append(rescored(problem, greedy, stability or Stability()))
     if not candidates:
         return None
     return min(

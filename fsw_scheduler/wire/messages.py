@@ -24,6 +24,7 @@ from ..model.goal import Goal, decode_goal
 from ..model.plan import (
     Activity,
     Blocker,
+    Moved,
     Objective,
     Plan,
     SolverStats,
@@ -143,7 +144,9 @@ class PlanMessage(msgspec.Struct, frozen=True):
         known), ``horizon`` (the rolling horizon reached a deferred task),
         ``missed`` (an activity was not commanded in its time),
         ``cancelled`` (a cancel was answered with what ran, or not at
-        all) or ``merged`` (facts handed over at a heal).
+        all), ``merged`` (facts handed over at a heal) or
+        ``early_completion`` (an activity completed early enough to
+        replan, see ``early-completion-gain``).
     goals
         Goal ids adopted by this plan.
     stats
@@ -155,6 +158,13 @@ class PlanMessage(msgspec.Struct, frozen=True):
     chosen
         The option index of each group of alternatives that has one
         scheduled (only written when the problem has groups).
+    moved
+        The activities planned and not yet dispatched when the replan
+        started that this plan starts elsewhere (``task``, ``from``,
+        ``to``, and ``why`` where known); empty when nothing moved.
+        Present on a node with a commit window or a stability term
+        (absent otherwise, so that such a node's plans are those of a
+        node without these settings).
     """
 
     plan_id: int
@@ -174,6 +184,56 @@ class PlanMessage(msgspec.Struct, frozen=True):
     stats: SolverStats | None = None
     term: int = 0
     chosen: dict[str, int] | msgspec.UnsetType = msgspec.UNSET
+    moved: tuple[Moved, ...] | msgspec.UnsetType = msgspec.UNSET
+
+
+class WhatIfPlan(PlanMessage, frozen=True, kw_only=True):
+    """The plan a what-if foresees: a plan message that is not a plan
+    yet, so its ``plan_id`` is null."""
+
+    # A narrower type than the plan message's, on purpose: no plan yet.
+    plan_id: None = None  # type: ignore[assignment]
+
+
+class Reason(msgspec.Struct, frozen=True):
+    """Why a task is out of a plan, or moved in it: the ``cause`` (as in
+    ``why``) and plain words."""
+
+    cause: str
+    detail: str
+
+
+class WhatIfAnswer(msgspec.Struct, frozen=True):
+    """The answer of ``scheduler/what-if``: what sending a goal now would do.
+
+    Attributes
+    ----------
+    verdict
+        ``goal_accepted`` or ``goal_rejected``, the verdict the goal would
+        get; ``busy`` when a solve in flight did not end within the
+        query's timeout (``reasons`` says so; ask again).
+    reasons
+        Why it would be rejected (``path`` + ``reason``), or busy.
+    plan
+        The plan it would produce (the shape of ``scheduler/plan``, with
+        ``plan_id`` null), or null when rejected.
+    moved
+        The activities planned now that this plan would start elsewhere.
+    unscheduled
+        The tasks it would leave out.
+    why
+        Task id to why it is out (or moved).
+    goal_id
+        The goal asked about (null when the document had none).
+    """
+
+    verdict: Literal["goal_accepted", "goal_rejected", "busy"]
+    reasons: tuple[FieldIssue, ...] = ()
+    plan: WhatIfPlan | None = None
+    moved: tuple[Moved, ...] = ()
+    unscheduled: tuple[str, ...] = ()
+    why: dict[str, Reason] = {}
+    goal_id: str | None = None
 
 
 class Dispatch(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -244,7 +304,11 @@ class InputSource(msgspec.Struct, frozen=True, omit_defaults=True):
 
 
 class SolveSummary(msgspec.Struct, frozen=True, omit_defaults=True):
-    """The last solve, as reported in status."""
+    """The last solve, as reported in status.
+
+    ``moved`` counts the activities its plan moved (see
+    ``PlanMessage.moved``; present when plans report it).
+    """
 
     solve_id: int
     trigger: str
@@ -253,6 +317,7 @@ class SolveSummary(msgspec.Struct, frozen=True, omit_defaults=True):
     wall_s: float = 0.0
     adopted: bool = False
     reason: str = ""
+    moved: int | msgspec.UnsetType = msgspec.UNSET
 
 
 class Counters(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -267,6 +332,8 @@ class Counters(msgspec.Struct, frozen=True, omit_defaults=True):
     ``goals_busy`` (goals refused because too many were waiting; each got
     a ``goal_rejected``), ``queries_dropped``, ``publish_failures`` and
     ``loop_faults`` (inputs whose handling raised; the loop went on).
+    ``what_ifs`` counts the what-if queries answered (they change
+    nothing else).
     """
 
     goals_accepted: int = 0
@@ -285,6 +352,7 @@ class Counters(msgspec.Struct, frozen=True, omit_defaults=True):
     queries_dropped: int = 0
     publish_failures: int = 0
     loop_faults: int = 0
+    what_ifs: int = 0
 
 
 class Status(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -414,7 +482,9 @@ class SolveRecord(msgspec.Struct, frozen=True, omit_defaults=True):
     compact JSON), ``inputs_seen`` how many inputs the scheduler had
     processed when the result came back (used by deterministic replay).
     ``result`` is the solve's whole answer, so that a node resuming from
-    its journal rebuilds its state without solving again.
+    its journal rebuilds its state without solving again. ``previous``
+    holds the starts a move term priced (with the node's ``stability``
+    and ``move-cost`` settings), when there were any.
     """
 
     solve_id: int
@@ -432,6 +502,23 @@ class SolveRecord(msgspec.Struct, frozen=True, omit_defaults=True):
     inputs_seen: int = 0
     error: str = ""
     result: Plan | None = None
+    previous: dict[str, int] = {}
+
+
+class WhatIfRecord(msgspec.Struct, frozen=True, omit_defaults=True):
+    """``scheduler/what-if`` (journal only): one what-if and its answer.
+
+    ``document`` is the goal as received, ``inputs_seen`` and ``now`` the
+    engine state it was answered from (after that many inputs), ``solves``
+    the solves it made (as solve records, results included), so that
+    ``replay --verify`` answers it again from the same state and compares.
+    """
+
+    document: str
+    answer: WhatIfAnswer
+    inputs_seen: int = 0
+    now: int | None = None
+    solves: tuple[SolveRecord, ...] = ()
 
 
 class SecurityInfo(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -582,6 +669,7 @@ SCHEMA_TYPES: dict[str, Any] = {
     "explanation": Explanation,
     "profiles": Profiles,
     "level_check": LevelCheck,
+    "what_if": WhatIfRecord,
 }
 
 _encoder = msgspec.json.Encoder()

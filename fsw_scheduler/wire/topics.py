@@ -72,6 +72,10 @@ TERM = "scheduler/term"
 #: merges facts): an input of the winner, see ``messages.Facts``.
 FACTS = "scheduler/facts"
 
+#: A queryable: the payload is a goal, the answer what sending it now
+#: would do (``messages.WhatIfAnswer``); journaled with its answer.
+WHAT_IF = "scheduler/what-if"
+
 #: Output suffixes, compared by ``replay --verify``.
 OUTPUTS = (PLAN, DISPATCH, STATUS)
 
@@ -151,6 +155,7 @@ KINDS = {
     FACTS: "facts",
     # Every dispatch's journal and view channel (see journal_key).
     DISPATCH: "dispatch",
+    WHAT_IF: "what_if",
 }
 #: Suffixes followed by one name chunk (a task or a resource).
 NAMED_KINDS = {

@@ -499,3 +499,54 @@ def test_the_sdist_is_the_whole_project(tmp_path: Path) -> None:
         "fsw_scheduler/data/foxglove-layout.json",
     }
     assert not wanted - names, sorted(wanted - names)[:10]
+
+
+def test_predictable_replan_flags_override_the_settings_file(
+    tmp_path: Path,
+) -> None:
+    """Tests that run's --commit-window, --stability, --move-cost and
+    --early-completion-gain override the TOML file, and that a flag left
+    out keeps the file's value."""
+    from fsw_scheduler.app.cli.run import node_settings
+
+    settings = tmp_path / "scheduler.toml"
+    settings.write_text("commit-window = 3\nmove-cost = 8\n")
+    args = build_parser().parse_args(
+        [
+            "run",
+            "--settings",
+            str(settings),
+            "--stability",
+            "moves",
+            "--early-completion-gain",
+            "2",
+            "--commit-window",
+            "6",
+        ]
+    )
+    config = node_settings(args)
+    assert config.commit_window == 6
+    assert config.stability == "moves"
+    assert config.move_cost == 8
+    assert config.early_completion_gain == 2
+
+
+@pytest.mark.parametrize(
+    "flags",
+    [
+        ("--commit-window", "-1"),
+        ("--move-cost", "0"),
+        ("--move-cost", "1001"),
+        ("--stability", "on"),
+        ("--early-completion-gain", "x"),
+    ],
+)
+def test_predictable_replan_flags_out_of_range_exit_2(
+    flags: tuple[str, str],
+) -> None:
+    """Tests that a predictable-replan flag out of its range is bad input
+    (exit 2), named, before anything starts."""
+    result = run("run", "--horizon", "10", *flags)
+    assert result.returncode == 2, result.stderr
+    assert flags[0] in result.stderr
+    assert "Traceback" not in result.stderr

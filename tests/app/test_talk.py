@@ -365,3 +365,39 @@ def test_status_of_a_live_node_costs_under_half_a_second_of_cpu(
         )
         best = min(best, spent)
     assert best < 0.5, f"{best:.3f} s of process time"
+
+
+def test_what_if_from_the_command_line(node: int) -> None:
+    """Tests ``fsw-scheduler what-if``: one JSON line with the verdict and
+    the plan it would produce (exit 0); a goal the node would reject exits
+    1 with the reasons; a malformed one exits 2, nothing asked; the node's
+    plan stays plan 1 throughout."""
+    port = node
+    done = _cli(port, "send", "clock", '{"now": 0}', "--wait")
+    assert done.returncode == 0, done.stderr
+    goal = str(DATA / "paper_table2_goal.json")
+    asked = _cli(port, "what-if", goal, "--timeout", "60")
+    assert asked.returncode == 0, asked.stderr
+    (line,) = asked.stdout.splitlines()
+    answer = json.loads(line)
+    assert answer["verdict"] == "goal_accepted"
+    assert answer["plan"]["plan_id"] is None
+    assert {"moved", "unscheduled", "why", "reasons"} <= set(answer)
+    unknown = json.dumps(
+        {
+            "goal_id": "g2",
+            "tasks": [],
+            "precedences": [{"before": "A", "after": "B", "kind": "lax"}],
+        }
+    )
+    refused = _cli(port, "what-if", unknown)
+    assert refused.returncode == 1, refused.stderr
+    rejected = json.loads(refused.stdout)
+    assert rejected["verdict"] == "goal_rejected"
+    assert rejected["plan"] is None and rejected["reasons"]
+    bad = _cli(port, "what-if", '{"goal_id": "g3", "taskz": []}')
+    assert bad.returncode == 2
+    assert "taskz" in bad.stderr and not bad.stdout
+    status = json.loads(_cli(port, "status").stdout)
+    assert status["plan_id"] == 1
+    assert status["counters"]["what_ifs"] == 2

@@ -63,12 +63,26 @@ M = TypeVar("M", bound=msgspec.Struct)
 _SOLVED: dict[bytes, Plan] = {}
 
 
-def solve(command: StartSolve, *, cache: bool = True) -> Plan:
-    """Run the node's real solve for ``command``."""
-    key = msgspec.json.encode((command.problem, command.warm))
+def solve(
+    command: StartSolve,
+    *,
+    cache: bool = True,
+    config: NodeConfig = SOLVE_CONFIG,
+) -> Plan:
+    """Run the node's real solve for ``command`` (with ``config``: the
+    node's settings, whose stability decides the move term)."""
+    key = msgspec.json.encode(
+        (
+            command.problem,
+            command.warm,
+            command.previous,
+            config.stability,
+            config.move_cost,
+        )
+    )
     if cache and key in _SOLVED:
         return _SOLVED[key]
-    plan = run_solve(SOLVE_CONFIG, command)
+    plan = run_solve(config, command)
     _SOLVED[key] = plan
     return plan
 
@@ -114,7 +128,11 @@ class Driver:
         """Solve ``command`` (default: the oldest held one), feed back."""
         if command is None:
             command = self.held.pop(0)
-        plan = solve(command, cache=self.cache)
+        engine = self.engine.config
+        config = SOLVE_CONFIG.replace(
+            stability=engine.stability, move_cost=engine.move_cost
+        )
+        plan = solve(command, cache=self.cache, config=config)
         return self.step(SolveDone(command.solve_id, plan))
 
     def tick(self, now: int) -> list[Command]:

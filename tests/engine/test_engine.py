@@ -836,3 +836,92 @@ def test_a_plan_adopted_while_the_clock_is_stalled_keeps_it_said() -> None:
     out = driver.tick(1)
     (resumed,) = statuses(out, "clock_resumed")
     assert resumed.state == "ok"
+
+
+# -- early completion ----------------------------------------------------
+
+
+def _observe_then_downlink() -> Problem:
+    """Observe [0, 6) on the camera and battery, Downlink lax after it,
+    and Calibrate waiting for the camera."""
+    return decode_problem(
+        json.dumps(
+            {
+                "horizon": 30,
+                "resources": {
+                    "binary": ["camera"],
+                    "consumable": {"battery": 20},
+                },
+                "tasks": [
+                    {
+                        "id": "Observe",
+                        "length": 6,
+                        "delay_cost": 5,
+                        "schedule_cost": 0,
+                        "uses": {"camera": 1, "battery": 2},
+                    },
+                    {
+                        "id": "Downlink",
+                        "length": 2,
+                        "delay_cost": 1,
+                        "schedule_cost": 1,
+                    },
+                    {
+                        "id": "Calibrate",
+                        "length": 2,
+                        "delay_cost": 1,
+                        "schedule_cost": 1,
+                        "uses": {"camera": 1},
+                    },
+                ],
+                "precedences": [
+                    {"before": "Observe", "after": "Downlink", "kind": "lax"}
+                ],
+            }
+        )
+    )
+
+
+def _completed_at_2(gain: int) -> tuple[Driver, list[Command]]:
+    driver = Driver(
+        _observe_then_downlink(),
+        EngineConfig(early_completion_gain=gain),
+    )
+    driver.tick(0)
+    starts = {a.task: a.start for a in driver.plan.activities}
+    assert starts == {"Observe": 0, "Downlink": 6, "Calibrate": 6}
+    driver.report("Observe", "running", 0)
+    driver.tick(1)
+    driver.tick(2)
+    return driver, driver.report("Observe", "completed", 2)
+
+
+def test_early_completion_pulls_successors_and_waiters_forward() -> None:
+    """Tests that a completion 4 units before the end of its dispatch,
+    with a gain of 3, replans at once (trigger ``early_completion``):
+    the lax successor and the task waiting for the camera start at 2, and
+    the battery counts only the 2 units Observe ran."""
+    driver, out = _completed_at_2(3)
+    (solve,) = [c for c in out if isinstance(c, StartSolve)]
+    assert solve.trigger == "early_completion"
+    assert solve.problem.start == 2
+    assert solve.problem.resources.initial("battery") == 20 - 2 * 2
+    (plan,) = published(out, messages.PlanMessage)
+    assert plan.trigger == "early_completion"
+    starts = {a.task: a.start for a in plan.activities}
+    assert starts == {"Downlink": 2, "Calibrate": 2}
+    status = driver.engine.status()
+    assert status.last_solve is not None
+    assert status.last_solve.trigger == "early_completion"
+
+
+def test_a_smaller_gain_replans_nothing() -> None:
+    """Tests that a completion 4 units early with a gain of 5 (or with
+    the default, 0: off) replans nothing: the plan stays, successors keep
+    their starts."""
+    for gain in (5, 0):
+        driver, out = _completed_at_2(gain)
+        assert not [c for c in out if isinstance(c, StartSolve)]
+        assert driver.plan.plan_id == 1
+        starts = {a.task: a.start for a in driver.plan.activities}
+        assert starts["Downlink"] == 6

@@ -50,6 +50,12 @@ def test_kebab_case_keys_are_read(tmp_path: Path) -> None:
         ("clock-stall = -1\n", "clock-stall"),
         ("response-deadline = 0\n", "response-deadline"),
         ("inbox-bytes = 10\n", "inbox-bytes"),
+        ("commit-window = -1\n", "commit-window"),
+        ('stability = "strict"\n', "stability"),
+        ("move-cost = 0\n", "move-cost"),
+        ("move-cost = 1001\n", "move-cost"),
+        ("early-completion-gain = -2\n", "early-completion-gain"),
+        ("commit-window = 2.5\n", "commit-window"),
         ("this is not toml", "scheduler.toml"),
     ],
 )
@@ -122,3 +128,33 @@ def test_a_setting_changed_in_code_keeps_its_range() -> None:
     with pytest.raises(ValueError, match="heartbeat: must be >= 0") as info:
         NodeConfig().replace(heartbeat=-1, rank=-1)
     assert "rank: must be >= 0" in str(info.value)
+
+
+def test_predictable_replan_settings_are_read(tmp_path: Path) -> None:
+    """Tests the kebab-case keys of the predictable-replan settings and
+    their defaults (the paper's behaviour: no window, no move term)."""
+    assert (
+        NodeConfig().commit_window,
+        NodeConfig().stability,
+        NodeConfig().move_cost,
+        NodeConfig().early_completion_gain,
+    ) == (0, "off", 5, 0)
+    path = tmp_path / "scheduler.toml"
+    path.write_text(
+        'commit-window = 4\nstability = "lexicographic"\n'
+        "move-cost = 7\nearly-completion-gain = 2\n"
+    )
+    config = load_config(path)
+    assert config.commit_window == 4
+    assert config.stability == "lexicographic"
+    assert config.move_cost == 7
+    assert config.early_completion_gain == 2
+
+
+def test_predictable_replan_ranges_hold_in_code() -> None:
+    """Tests that the ranges declared in the types also hold for settings
+    built in code or changed by replace()."""
+    with pytest.raises(ValueError, match="commit-window"):
+        NodeConfig(commit_window=-1)
+    with pytest.raises(ValueError, match="move-cost"):
+        NodeConfig().replace(move_cost=0)

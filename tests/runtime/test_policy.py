@@ -49,6 +49,10 @@ UNUSUAL = NodeConfig(
     node_id="b",
     explain_after_plan=True,
     response_deadline=1.5,
+    commit_window=6,
+    stability="lexicographic",
+    move_cost=9,
+    early_completion_gain=3,
 )
 
 
@@ -89,3 +93,27 @@ def test_a_journal_without_settings_metadata_replays_with_one_thread() -> None:
     problem = problem_from({"horizon": 10, "tasks": [make_task()]})
     info = node_info(msgspec.structs.replace(UNUSUAL, threads=4), problem)
     assert config_from_info(info).threads == 1
+
+
+def test_predictable_replan_settings_reach_the_engine() -> None:
+    """Tests that the commit window, stability, move cost and early
+    completion gain are the engine's, and that a journal without them
+    (an older node) replays with the paper's behaviour."""
+    from fsw_scheduler.runtime.policy import engine_config
+
+    engine = engine_config(UNUSUAL)
+    assert (
+        engine.commit_window,
+        engine.stability,
+        engine.move_cost,
+        engine.early_completion_gain,
+    ) == (6, "lexicographic", 9, 3)
+    assert engine.reports_moves
+    assert not engine_config(NodeConfig()).reports_moves
+    problem = problem_from({"horizon": 10, "tasks": [make_task()]})
+    old = config_from_info(node_info(UNUSUAL, problem), {"threads": "1"})
+    assert (old.commit_window, old.stability, old.early_completion_gain) == (
+        0,
+        "off",
+        0,
+    )

@@ -596,3 +596,26 @@ def test_mission_suite_has_its_shape() -> None:
             assert not problem.alternatives
     # A problem whose optional tasks are all in precedences has no pair.
     assert grouped >= 14
+
+
+def test_stability_suite_prices_moves_on_the_quick_replans() -> None:
+    """Tests the cost-of-stability suite on the quick set: every plan
+    passes the checker with its move part, the unscheduled cost is the
+    same in every mode (it comes first), and lexicographic never moves
+    more than off or moves on a replan all three solved to optimality."""
+    stability = bench_lib("stability")
+    problems = generator.suite("quick", 0, "broad")
+    runs = stability.run_stability(problems, 20.0)
+    assert all(r.ok for r in runs)
+    by_problem: dict[str, dict[str, object]] = {}
+    for run in runs:
+        by_problem.setdefault(run.problem, {})[run.mode] = run
+    for modes in by_problem.values():
+        assert set(modes) == {"off", "moves", "lexicographic"}
+        if all(m.status == "optimal" for m in modes.values()):  # type: ignore[attr-defined]
+            costs = {m.unscheduled_cost for m in modes.values()}  # type: ignore[attr-defined]
+            assert len(costs) == 1
+            lex = modes["lexicographic"].moves  # type: ignore[attr-defined]
+            assert lex <= modes["off"].moves  # type: ignore[attr-defined]
+            assert lex <= modes["moves"].moves  # type: ignore[attr-defined]
+    assert "| lexicographic |" in stability.format_stability(runs)

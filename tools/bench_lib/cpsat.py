@@ -22,7 +22,12 @@ The same semantics as the problem format, written independently of the ILP:
   ``>=``, enforced when both tasks are present; scope ``both`` ties the two
   presence literals, ``at_least_first`` makes ``after`` imply ``before``;
 * objective ``W x unscheduled + delay`` with
-  ``W = 1 + sum(delay_cost) x horizon`` (lexicographic by construction).
+  ``W = 1 + sum(delay_cost) x horizon`` (lexicographic by construction);
+  with a stability term (``stability``, the replan's previous starts and
+  mode), ``W_unscheduled x unscheduled + W_move x moves + delay``, the
+  weights of :class:`fsw_scheduler.model.stability.Stability`, a move
+  being a present task whose start differs from its previous one: one
+  reified literal ``start == previous`` per such task.
 
 The mission model, written with CP-SAT's own means rather than per-unit
 rows:
@@ -59,6 +64,7 @@ from fsw_scheduler.model.plan import (
 
 if TYPE_CHECKING:
     from fsw_scheduler.model.problem import Problem
+    from fsw_scheduler.model.stability import Stability
 
 MAX_SCALE_DIGITS = 6
 
@@ -93,6 +99,7 @@ def solve_cpsat(
     workers: int = 1,
     seed: int = 0,
     expand_reservoir: bool = False,
+    stability: Stability | None = None,
 ) -> Plan:
     """Solve ``problem`` with CP-SAT and return a plan.
 
@@ -110,6 +117,9 @@ def solve_cpsat(
         CP-SAT ``expand_reservoir_constraints``. Off by default: expanding
         the per-unit reservoir events into pairwise order literals made the
         15-task consumable problems 100-600 times slower.
+    stability
+        Price moves from previous starts (the replan objective of
+        :mod:`fsw_scheduler.model.stability`); default: none.
 
     Returns
     -------
@@ -132,6 +142,10 @@ def solve_cpsat(
     weight = objective_weight(
         [task.delay_cost for task in problem.tasks], problem.horizon
     )
+    if stability is not None and stability.active:
+        weight, _ = stability.weights(problem)
+    else:
+        stability = None
     terms: list[Any] = []
     members = _members(problem)
     constant = 0
@@ -142,6 +156,8 @@ def solve_cpsat(
         else:
             model.add(sum(picks) <= 1)
             terms.append(weight * group.schedule_cost * (1 - sum(picks)))
+    if stability is not None:
+        terms += _move_terms(model, problem, present, starts, stability)
     for task in problem.tasks:
         lit = present[task.id]
         if task.id in members:
@@ -200,6 +216,13 @@ def solve_cpsat(
             if group.id not in chosen:
                 unscheduled.append(group.id)
         objective = _objective(problem, activities, unscheduled, weight)
+        if stability is not None:
+            objective = stability.objective(
+                problem,
+                objective.unscheduled_cost,
+                objective.delay_cost,
+                {a.task: a.start for a in activities},
+            )
     else:
         unscheduled = [task.id for task in problem.tasks]
     wall_s = time.perf_counter() - began
@@ -247,6 +270,30 @@ def _options(model: Any, group: Any, present: dict[str, Any]) -> list[Any]:
                 model.add(lit == pick)
         picks.append(pick)
     return picks
+
+
+def _move_terms(
+    model: Any,
+    problem: Problem,
+    present: dict[str, Any],
+    starts: dict[str, Any],
+    stability: Stability,
+) -> list[Any]:
+    """``W_move x moved`` per previously planned task: ``moved`` is
+    implied by "present and not at its previous start"."""
+    _, per_move = stability.weights(problem)
+    terms: list[Any] = []
+    for name, was in stability.kept(problem).items():
+        lit = present[name]
+        if lit is None:
+            continue
+        moved = model.new_bool_var(f"m_{name}")
+        stays = model.new_bool_var(f"k_{name}")
+        model.add(starts[name] == was).only_enforce_if(stays)
+        # Present and not where it was: moved (minimised, so never more).
+        model.add_bool_or([~lit, stays, moved])
+        terms.append(per_move * moved)
+    return terms
 
 
 def _objective(

@@ -36,9 +36,14 @@ EXIT_OK, EXIT_NO_PLAN, EXIT_BAD_INPUT = 0, 1, 2
 
 
 def number_type(
-    kind: type[float] | type[int], *, minimum: float, strict: bool
+    kind: type[float] | type[int],
+    *,
+    minimum: float,
+    strict: bool,
+    maximum: float | None = None,
 ) -> Callable[[str], float]:
-    """An argparse type: a number above (or at) ``minimum``, else exit 2."""
+    """An argparse type: a number above (or at) ``minimum``, and at most
+    ``maximum`` when given, else exit 2."""
 
     def parse(text: str) -> float:
         try:
@@ -53,6 +58,8 @@ def number_type(
             raise argparse.ArgumentTypeError(
                 f"{text} must be {'>' if strict else '>='} {minimum:g}"
             )
+        if maximum is not None and value > maximum:
+            raise argparse.ArgumentTypeError(f"{text} must be <= {maximum:g}")
         return value
 
     parse.__name__ = kind.__name__

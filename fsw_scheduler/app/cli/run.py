@@ -18,6 +18,8 @@ from ...model.problem import Problem, decode_problem
 if TYPE_CHECKING:
     import argparse
 
+    from ...runtime.config import NodeConfig
+
     pass
 from .commands import (
     EXIT_BAD_INPUT,
@@ -37,16 +39,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     import time
 
     from ...bus.node import SchedulerNode
-    from ...bus.session import settings_file, zenoh_config
+    from ...bus.session import zenoh_config
     from ...journal.annotate import schema_lookup
     from ...journal.writer import Recorder
-    from ...runtime.config import load_config
 
-    try:
-        config = load_config(settings_file(args)).replace(**run_settings(args))
-    except ValueError as error:  # a bad value given as a flag
-        issues = getattr(error, "issues", None) or [FieldIssue("", str(error))]
-        raise InputError(issues, "arguments") from None
+    config = node_settings(args)
     if config.node_id is None:
         from ...bus.members import default_node_id
 
@@ -360,3 +357,24 @@ def _open_state(
     else:
         log.info("new state folder %s", args.state)
     return journal, resume
+
+
+def node_settings(args: argparse.Namespace) -> NodeConfig:
+    """The node's settings: the ``--settings`` file, then the flags of
+    ``run`` given on the command line over it (:data:`.run_flags.RUN_FLAGS`).
+
+    Raises
+    ------
+    ConfigError
+        The settings file is unreadable or wrong (exit 2).
+    InputError
+        A flag's value breaks a rule of the settings (exit 2).
+    """
+    from ...bus.session import settings_file
+    from ...runtime.config import load_config
+
+    try:
+        return load_config(settings_file(args)).replace(**run_settings(args))
+    except ValueError as error:  # a bad value given as a flag
+        issues = getattr(error, "issues", None) or [FieldIssue("", str(error))]
+        raise InputError(issues, "arguments") from None

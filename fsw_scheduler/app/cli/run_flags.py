@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from ...runtime.config import MAX_MOVE_COST
 from .commands import (
     non_negative_float,
     number_type,
@@ -27,6 +28,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "LIMITS",
+    "REPLANS",
     "RUN_FLAGS",
     "SAFETY",
     "SECTIONS",
@@ -42,12 +44,19 @@ SAFETY = "safety"
 #: Help section of the flags that bound what senders may ask.
 LIMITS = "limits"
 
+#: Help section of the flags of predictable replans.
+REPLANS = "predictable replans"
 #: The title and description of each help section.
 SECTIONS = {
     LIMITS: (
         "limits",
         "What a sender gets beyond each limit is in docs/robustness.md; "
         "the same settings exist in the TOML file.",
+    ),
+    REPLANS: (
+        "predictable replans",
+        "What a replan may move (docs/rescheduling.md, 'Predictable "
+        "replans'); the same settings exist in the TOML file.",
     ),
 }
 
@@ -342,6 +351,52 @@ RUN_FLAGS: tuple[RunFlag, ...] = (
         },
         setting="clock_stall",
         group=LIMITS,
+    ),
+    RunFlag(
+        "--commit-window",
+        {
+            "type": number_type(int, minimum=0, strict=False),
+            "metavar": "UNITS",
+            "help": "a replan keeps every planned activity starting within "
+            "this many units of it where it was (default 0: none)",
+        },
+        setting="commit_window",
+        group=REPLANS,
+    ),
+    RunFlag(
+        "--stability",
+        {
+            "choices": ("off", "moves", "lexicographic"),
+            "help": "off: move anything for the least cost; moves: each "
+            "moved activity costs --move-cost; lexicographic: fewest moves "
+            "before least delay (default off)",
+        },
+        setting="stability",
+        group=REPLANS,
+    ),
+    RunFlag(
+        "--move-cost",
+        {
+            "type": number_type(
+                int, minimum=1, strict=False, maximum=MAX_MOVE_COST
+            ),
+            "metavar": "N",
+            "help": f"price of one moved activity under --stability moves "
+            f"(1 to {MAX_MOVE_COST}, default 5)",
+        },
+        setting="move_cost",
+        group=REPLANS,
+    ),
+    RunFlag(
+        "--early-completion-gain",
+        {
+            "type": number_type(int, minimum=0, strict=False),
+            "metavar": "UNITS",
+            "help": "replan when an activity completes at least this many "
+            "units before the end of its dispatch (default 0: never)",
+        },
+        setting="early_completion_gain",
+        group=REPLANS,
     ),
 )
 

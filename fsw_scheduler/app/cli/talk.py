@@ -1,4 +1,4 @@
-"""Commands that talk to a running scheduler: send, status, plan.
+"""Commands that talk to a running scheduler: send, what-if, status, plan.
 
 The habit of ``ros2 topic pub`` / ``ros2 topic echo``: ``send`` checks a
 goal, report or level as strictly as the node will (nothing malformed
@@ -52,7 +52,8 @@ KINDS = {
 
 
 def add_talk_commands(add: Add) -> None:
-    """The ``send``, ``status`` and ``plan`` commands and their flags."""
+    """The ``send``, ``what-if``, ``status`` and ``plan`` commands and
+    their flags."""
     send = add(
         "send",
         _cmd_send,
@@ -93,6 +94,31 @@ def add_talk_commands(add: Add) -> None:
         help="wait for the scheduler's verdict and print it",
     )
     _common(send)
+    what_if = add(
+        "what-if",
+        _cmd_what_if,
+        "ask what a goal would do, without sending it (changes nothing)",
+        """\
+        Check a goal as the scheduler will (every mistake is named, exit
+        2, nothing is asked), then ask the running scheduler what sending
+        it now would do: the verdict, the plan it would produce (plan_id
+        null), what it would move and leave out, and why. Printed as one
+        JSON line; exit 0 if the goal would be accepted, 1 if it would be
+        rejected, if the scheduler is busy with a solve (verdict busy),
+        or if no scheduler answered. The scheduler's plan, plan_id and
+        goal ledger stay as they were.
+
+        examples:
+          fsw-scheduler what-if goal.json
+          fsw-scheduler what-if goal.json --timeout 60 -e tcp/10.0.0.1:7447
+        """,
+    )
+    what_if.add_argument(
+        "file",
+        metavar="FILE",
+        help="the goal: a path, - for stdin, or the JSON itself",
+    )
+    _common(what_if, default_timeout=30.0)
     for name, what in (("status", "status"), ("plan", "current plan")):
         query = add(
             name,
@@ -118,12 +144,14 @@ def add_talk_commands(add: Add) -> None:
         _common(query)
 
 
-def _common(parser: argparse.ArgumentParser) -> None:
+def _common(
+    parser: argparse.ArgumentParser, default_timeout: float = 10.0
+) -> None:
     add_spacecraft_flag(parser)
     parser.add_argument(
         "--timeout",
         type=positive_float,
-        default=10.0,
+        default=default_timeout,
         metavar="S",
         help="seconds to wait for the scheduler (default: %(default)s)",
     )
@@ -338,6 +366,34 @@ def _published(
         f"published {what} on {where}; --wait for the scheduler's verdict",
         flush=True,
     )
+
+
+def _cmd_what_if(args: argparse.Namespace) -> int:
+    from ...wire import messages
+
+    check_spacecraft(args.spacecraft)
+    payload = _document(args.file)
+    _checked("goal", payload)
+    with _client(args) as client:
+        try:
+            client.wait_scheduler(args.timeout)
+            client.wait_what_if(args.timeout)
+        except TimeoutError:
+            print(
+                f"fsw-scheduler: no scheduler of {args.spacecraft} reachable "
+                f"within {args.timeout:g} s: nothing asked",
+                file=sys.stderr,
+            )
+            return EXIT_NO_PLAN
+        answer = client.what_if(payload, args.timeout)
+    if answer is None:
+        print(
+            f"fsw-scheduler: no what-if answer within {args.timeout:g} s",
+            file=sys.stderr,
+        )
+        return EXIT_NO_PLAN
+    print(messages.encode(answer).decode(), flush=True)
+    return EXIT_OK if answer.verdict == "goal_accepted" else EXIT_NO_PLAN
 
 
 def _cmd_query(args: argparse.Namespace) -> int:

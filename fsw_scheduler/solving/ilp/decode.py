@@ -7,6 +7,8 @@ from typing import TYPE_CHECKING, Any
 
 from ...model import groups
 from ...model.plan import Activity, Objective, Plan
+from ...model.stability import Stability, rescored
+from .moves import add_move_terms
 from .objective import weight
 from .program import Program
 
@@ -30,6 +32,9 @@ class Formulation:
     variables, constraints, objective
         The formulation's Variables and Constraints classes and objective
         function (one documented method per constraint family each).
+    stability
+        The previous starts and the price of moving them (default: none,
+        the paper's objective); see :mod:`.moves`.
     """
 
     def __init__(
@@ -39,14 +44,19 @@ class Formulation:
         variables: Any,
         constraints: Any,
         objective: Callable[..., Any],
+        stability: Stability | None = None,
     ) -> None:
         self.problem = problem
         self.domains = domains
+        self.stability = stability or Stability()
         self.program = Program()
         self.vars = variables(self.program, problem, domains)
         self.constraints = constraints(self.program, problem, self.vars)
         self.constraints.add_all()
-        self.program.set_objective(*objective(problem, self.vars))
+        big, _ = self.stability.weights(problem)
+        terms, constant = objective(problem, self.vars, big)
+        add_move_terms(terms, problem, self.vars, self.stability)
+        self.program.set_objective(terms, constant)
 
     @property
     def num_variables(self) -> int:
@@ -60,7 +70,8 @@ class Formulation:
 
     def decode(self, status: SolveStatus, values: Sequence[float]) -> Plan:
         """Read solution ``values`` into a Plan, objective recomputed."""
-        return decode_plan(self.problem, self.vars.start_of, status, values)
+        plan = decode_plan(self.problem, self.vars.start_of, status, values)
+        return rescored(self.problem, plan, self.stability)
 
 
 def decode_plan(

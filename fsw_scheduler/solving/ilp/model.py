@@ -41,6 +41,7 @@ if TYPE_CHECKING:
 
     from ...analysis.domains import Domain
     from ...model.problem import Problem
+    from ...model.stability import Stability
     from .program import Program
 
 SOLVERS = ("cbc", "highs")
@@ -108,7 +109,10 @@ class BuiltModel(Formulation):
     constraints: Constraints
 
     def __init__(
-        self, problem: Problem, domains: dict[str, Domain] | None = None
+        self,
+        problem: Problem,
+        domains: dict[str, Domain] | None = None,
+        stability: Stability | None = None,
     ) -> None:
         super().__init__(
             problem,
@@ -116,6 +120,7 @@ class BuiltModel(Formulation):
             Variables,
             Constraints,
             objective,
+            stability,
         )
 
 
@@ -308,6 +313,7 @@ def solve_ilp(
     formulation: str = "auto",
     max_nodes: int | None = None,
     heuristics: bool = False,
+    stability: Stability | None = None,
 ) -> Plan:
     """Build and solve the ILP of ``problem``.
 
@@ -347,6 +353,11 @@ def solve_ilp(
         Keep CBC's primal heuristics on even with a MIP start (they are
         off then by default, :data:`~.progress.WITH_START`): for a short
         search whose point is a better plan.
+    stability
+        The previous starts and the price of moving them
+        (:mod:`fsw_scheduler.model.stability`): the move term
+        (:mod:`.moves`) joins the objective of either formulation, and
+        the plan's objective reports ``moves``. Default: none.
 
     Returns
     -------
@@ -394,9 +405,9 @@ def solve_ilp(
                 began,
             )
     built: BuiltModel | DisjunctiveModel = (
-        BuiltModel(problem, domains)
+        BuiltModel(problem, domains, stability)
         if formulation == "time-indexed"
-        else DisjunctiveModel(problem, domains)
+        else DisjunctiveModel(problem, domains, stability)
     )
     built_at = time.perf_counter()
     impossible = [

@@ -34,7 +34,7 @@ def weight(problem: Problem) -> int:
 
 
 def unscheduled_terms(
-    problem: Problem, columns: Columns
+    problem: Problem, columns: Columns, big: int | None = None
 ) -> tuple[Terms, float]:
     """``W * unscheduled_cost`` on the "scheduled" columns, and its constant.
 
@@ -42,8 +42,10 @@ def unscheduled_terms(
     costs ``W c_g (1 - sum of its viable options' heads)``
     (:mod:`.alternatives`), its members' own costs unused. A group none
     of whose tasks is in ``problem`` (another part's) costs nothing.
+    ``big`` is ``W`` (default :func:`weight`; a move part makes it
+    larger).
     """
-    big = weight(problem)
+    big = weight(problem) if big is None else big
     member = problem.groups.member
     present = {task.id for task in problem.tasks}
     terms: Terms = {}
@@ -66,9 +68,13 @@ def unscheduled_terms(
     return terms, constant
 
 
-def objective(problem: Problem, variables: Variables) -> tuple[Terms, float]:
-    """The objective's terms and its constant part."""
-    terms, constant = unscheduled_terms(problem, variables)
+def objective(
+    problem: Problem, variables: Variables, big: int | None = None
+) -> tuple[Terms, float]:
+    """The objective's terms and its constant part (``big``: the weight of
+    the unscheduled cost, default :func:`weight`; a move part makes it
+    larger)."""
+    terms, constant = unscheduled_terms(problem, variables, big)
     for task in problem.tasks:
         if not variables.placeable(task.id):
             continue

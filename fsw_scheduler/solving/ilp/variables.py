@@ -145,6 +145,14 @@ class Variables:
         if var is not None:
             terms[var] = terms.get(var, 0.0) + coef
 
+    def starts_at(self, task_id: str, time: int) -> Terms:
+        """ "Scheduled and starts at ``time``" as terms of the steps:
+        ``z[i, time] - z[i, time - 1]`` (empty where it cannot start)."""
+        terms: Terms = {}
+        self.add_step(terms, task_id, time, 1.0)
+        self.add_step(terms, task_id, time - 1, -1.0)
+        return {col: coef for col, coef in terms.items() if coef}
+
     def add_running(
         self, rows: list[Terms], task: Task, amount: float, origin: int
     ) -> range:

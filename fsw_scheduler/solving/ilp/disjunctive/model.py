@@ -12,6 +12,7 @@ from .variables import Variables
 if TYPE_CHECKING:
     from ....analysis.domains import Domain
     from ....model.problem import Problem
+    from ....model.stability import Stability
 
 
 class DisjunctiveModel(Formulation):
@@ -33,5 +34,12 @@ class DisjunctiveModel(Formulation):
     vars: Variables
     constraints: Constraints
 
-    def __init__(self, problem: Problem, domains: dict[str, Domain]) -> None:
-        super().__init__(problem, domains, Variables, Constraints, objective)
+    def __init__(
+        self,
+        problem: Problem,
+        domains: dict[str, Domain],
+        stability: Stability | None = None,
+    ) -> None:
+        super().__init__(
+            problem, domains, Variables, Constraints, objective, stability
+        )

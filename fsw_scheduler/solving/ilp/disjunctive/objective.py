@@ -22,9 +22,13 @@ if TYPE_CHECKING:
     from .variables import Variables
 
 
-def objective(problem: Problem, variables: Variables) -> tuple[Terms, float]:
-    """The objective's terms and its constant part."""
-    terms, constant = unscheduled_terms(problem, variables)
+def objective(
+    problem: Problem, variables: Variables, big: int | None = None
+) -> tuple[Terms, float]:
+    """The objective's terms and its constant part (``big``: the weight of
+    the unscheduled cost, default :func:`weight`; a move part makes it
+    larger)."""
+    terms, constant = unscheduled_terms(problem, variables, big)
     for task in problem.tasks:
         if not variables.placeable(task.id):
             continue

@@ -12,12 +12,14 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from ..program import GE, LE
+
 if TYPE_CHECKING:
     from collections.abc import Sequence
 
     from ....analysis.domains import Domain
     from ....model.problem import Problem, Task
-    from ..program import Program
+    from ..program import Program, Terms
 
 
 class Variables:
@@ -76,6 +78,25 @@ class Variables:
     def scheduled(self, task_id: str) -> int:
         """The column that is 1 iff the task is scheduled."""
         return self.chosen[task_id]
+
+    def starts_at(self, task_id: str, time: int) -> Terms:
+        """ "Scheduled and starts at ``time``", as one new binary ``k``.
+
+        ``k <= y`` and ``e + (time - e) k <= s <= l - (l - time) k``: with
+        ``k = 1`` the start is ``time``, with ``k = 0`` anywhere in its
+        domain ``[e, l]``. Empty where the task cannot start at ``time``.
+        """
+        domain = self.domains[task_id]
+        if not self.placeable(task_id) or not (
+            domain.earliest <= time <= domain.latest
+        ):
+            return {}
+        (kept,) = self.program.add_binaries(1)
+        start, low, high = self.start(task_id), domain.earliest, domain.latest
+        self.program.add_row({kept: 1.0, self.scheduled(task_id): -1.0}, LE, 0)
+        self.program.add_row({start: 1.0, kept: -(time - low)}, GE, low)
+        self.program.add_row({start: 1.0, kept: high - time}, LE, high)
+        return {kept: 1.0}
 
     def order(self, first: str, second: str) -> int:
         """The column "``first`` ends before ``second`` starts" (made once).
