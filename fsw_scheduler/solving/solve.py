@@ -17,7 +17,6 @@ from ..analysis.greedy import greedy_plan
 from ..analysis.proofs import infeasibility
 from ..model import groups
 from ..model.plan import (
-    Activity,
     Objective,
     Plan,
     SolverStats,
@@ -28,6 +27,7 @@ from ..model.stability import Stability, rescored
 from . import large
 from .budget import BUDGET
 from .incumbent import checked, narrow, probed
+from .single import one_task
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -541,7 +541,7 @@ def _solve_whole(
         # One task alone (most parts of a problem without resources): a
         # share of the limit too small for CBC is common; trying every
         # start proves the best, moves included, without it.
-        return _one_task(problem, domains, stability, began, time_limit)
+        return one_task(problem, domains, stability, began, time_limit)
     if stability is not None:
         plan = _keep_better(
             checked(
@@ -635,65 +635,6 @@ def _solve_whole(
             )
         plan = _with_call_stats(plan, began, time_limit, relaxed)
     return plan
-
-
-def _one_task(
-    problem: Problem,
-    domains: dict[str, Domain],
-    stability: Stability,
-    began: float,
-    time_limit: float | None,
-) -> Plan:
-    """The best plan of a one-task problem, by trying every start and,
-    if it may be, leaving it out: optimal (or infeasible) by exhaustion,
-    each candidate judged by the checker, move part included."""
-    (task,) = problem.tasks
-    domain = domains[task.id]
-    candidates = []
-    if not problem.required(task):
-        candidates.append(
-            Plan(
-                SolveStatus.OPTIMAL,
-                None,
-                unscheduled=groups.left_out(problem, ()),
-                chosen=groups.chosen(problem, ()),
-            )
-        )
-    for start in range(domain.earliest, domain.latest + 1):
-        activity = Activity(task.id, start, start + task.length)
-        candidates.append(
-            Plan(
-                SolveStatus.OPTIMAL,
-                None,
-                activities=(activity,),
-                unscheduled=groups.left_out(problem, (task.id,)),
-                chosen=groups.chosen(problem, (task.id,)),
-            )
-        )
-    best: Plan | None = None
-    for plan in candidates:
-        report = check_plan(problem, plan, stability)
-        if report.ok and (
-            best is None
-            or best.objective is None
-            or report.objective.total < best.objective.total
-        ):
-            best = plan.replace(objective=report.objective)
-    stats = SolverStats(
-        solver="enumeration",
-        wall_s=time.perf_counter() - began,
-        bound=best.objective.total if best and best.objective else None,
-        solver_status="one task: every start tried, no solve",
-        time_limit_s=time_limit,
-    )
-    if best is None:
-        return Plan(
-            SolveStatus.INFEASIBLE,
-            None,
-            unscheduled=(task.id,),
-            stats=stats,
-        )
-    return best.replace(stats=stats)
 
 
 def _with_call_stats(
