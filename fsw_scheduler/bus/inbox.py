@@ -44,6 +44,19 @@ MAX_PENDING_KEYS = 4096
 MAX_BUSY_NOTICES = 65536
 
 
+#: Inbox kinds that are samples from the bus (the others are the node's
+#: own notices: busy, stalled, explained...): only these have a source.
+BUS_INPUTS = frozenset(
+    {
+        "goal",
+        "clock",
+        "activity_report",
+        "resource_level",
+        "resource_forecast",
+    }
+)
+
+
 class Worker:
     """One daemon thread running jobs in order (the solves).
 
@@ -108,6 +121,16 @@ class Inbox:
     ``origin`` what a bus sample says of its sender, see
     :mod:`~fsw_scheduler.bus.provenance`).
     """
+
+    def counters(self) -> dict[str, int]:
+        """What the inbox refused or superseded, by status counter name."""
+        return {
+            "inputs_dropped": self.lost,
+            "telemetry_superseded": self.superseded,
+            "clock_superseded": self.clock_superseded,
+            "goals_busy": self.busy,
+            "queries_dropped": self.queries_dropped,
+        }
 
     def __init__(self, max_goals: int, max_bytes: int) -> None:
         self.max_goals = max_goals

@@ -55,8 +55,8 @@ from ..runtime.policy import (
 from ..solving.ilp.cbc import Cancel, cancel_scope, sweep_stale_dirs
 from ..wire import messages, topics
 from ..wire.terms import MAX_TERM
-from .inbox import Inbox, Worker, direct
-from .outputs import FATAL, NodeOutputs
+from .inbox import BUS_INPUTS, Inbox, Worker, direct
+from .outputs import FATAL, NodeOutputs, reply
 from .provenance import Origin, Provenance, capture
 from .whatif import WhatIfs
 
@@ -73,30 +73,10 @@ if TYPE_CHECKING:
 log = logging.getLogger("fsw_scheduler.node")
 
 
-JSON = zenoh.Encoding.APPLICATION_JSON
-
-
 #: Inputs failing in a row (or publishes failing in a row) after which
 #: the loop counts as unable to go on: it stops, says ``state: error``
 #: and withdraws its token.
 MAX_CONSECUTIVE_FAULTS = 20
-
-
-#: Inbox kinds that are samples from the bus (the others are the node's
-#: own notices: busy, stalled, explained...): only these have a source.
-_BUS_INPUTS = frozenset(
-    {
-        "goal",
-        "clock",
-        "activity_report",
-        "resource_level",
-        "resource_forecast",
-    }
-)
-
-
-# Faults that end the loop at once instead of being survived.
-_FATAL = FATAL
 
 
 class SchedulerNode:
@@ -457,7 +437,7 @@ class SchedulerNode:
                 try:
                     self.spin_once()
                     in_a_row = 0
-                except _FATAL:
+                except FATAL:
                     raise
                 except BaseException:
                     # Native code (zenoh's Rust panics) raises
@@ -614,15 +594,10 @@ class SchedulerNode:
 
     def _check_stall(self) -> None:
         """With the bus clock, say when it has not ticked for a while."""
-        limit = self.config.clock_stall
-        if self.config.clock != "bus" or limit is None:
-            return
-        if self._decoder.bus_now is None:
-            # No clock yet: the node waits for time to start (its status
-            # says now null), it has not lost a clock it had.
-            return
         quiet = self._seconds() - self._last_clock_s
-        if quiet < limit or self._stall_reported:
+        if self._stall_reported or not stalled(
+            self.config, self._decoder.bus_now, quiet
+        ):
             return
         self._stall_reported = True
         self._on_sample(
@@ -649,7 +624,7 @@ class SchedulerNode:
     ) -> None:
         self._journal.write(key, payload)
         source = None
-        if kind in _BUS_INPUTS:  # not the node's own notices
+        if kind in BUS_INPUTS:  # not the node's own notices
             source = self._provenance.resolve(key, origin)
             self._journal.write(
                 self.topics.key(topics.SOURCES),
@@ -690,13 +665,8 @@ class SchedulerNode:
         self._run(commands)
 
     def _sync_counters(self) -> None:
-        inbox = self._inbox
         self.engine.count_shell(
-            inputs_dropped=inbox.lost,
-            telemetry_superseded=inbox.superseded,
-            clock_superseded=inbox.clock_superseded,
-            goals_busy=inbox.busy,
-            queries_dropped=inbox.queries_dropped,
+            **self._inbox.counters(),
             publish_failures=self._outputs.publish_failures,
             loop_faults=self._faults,
         )
@@ -800,19 +770,22 @@ class SchedulerNode:
             message = self._outputs.info()
         else:
             message = self.engine.status("query")
-        try:
-            if message is None:
-                query.reply_err(b'{"error": "no plan yet"}', encoding=JSON)
-            else:
-                query.reply(
-                    self.topics.key(suffix),
-                    messages.encode(message),
-                    encoding=JSON,
-                    attachment=tag,
-                )
-        except _FATAL:
-            raise
-        except BaseException as error:  # ZError, or a panic in zenoh
-            log.warning("query reply failed: %s", error)
-        finally:
-            query.drop()
+        reply(
+            query,
+            self.topics.key(suffix),
+            None if message is None else messages.encode(message),
+            tag,
+        )
+
+
+def stalled(config: NodeConfig, bus_now: int | None, quiet: float) -> bool:
+    """Whether the bus clock counts as stalled after ``quiet`` seconds
+    without a clock message (``clock-stall``; never with the wall clock).
+
+    Before a first clock the node waits for time to start (its status
+    says now null): it has not lost a clock it had.
+    """
+    limit = config.clock_stall
+    if config.clock != "bus" or limit is None or bus_now is None:
+        return False
+    return quiet >= limit

@@ -518,3 +518,25 @@ class NodeOutputs:
                 )
         except OSError as error:
             self._journal.fail(error)
+
+
+def reply(
+    query: zenoh.Query, key: str, payload: bytes | None, tag: bytes | None
+) -> None:
+    """Answer ``query`` with ``payload`` on ``key`` (an error reply when
+    there is nothing yet: no plan), then release it.
+
+    A reply that fails (the querier left, a zenoh fault) is logged: the
+    loop keeps serving.
+    """
+    try:
+        if payload is None:
+            query.reply_err(b'{"error": "no plan yet"}', encoding=JSON)
+        else:
+            query.reply(key, payload, encoding=JSON, attachment=tag)
+    except FATAL:
+        raise
+    except BaseException as error:  # ZError, or a panic in zenoh
+        log.warning("query reply failed: %s", error)
+    finally:
+        query.drop()

@@ -377,7 +377,6 @@ def _cmd_what_if(args: argparse.Namespace) -> int:
     with _client(args) as client:
         try:
             client.wait_scheduler(args.timeout)
-            client.wait_what_if(args.timeout)
         except TimeoutError:
             print(
                 f"fsw-scheduler: no scheduler of {args.spacecraft} reachable "
