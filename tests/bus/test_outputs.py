@@ -55,7 +55,8 @@ def journaled_dispatches(data: bytes, tmp: Path) -> list[messages.Dispatch]:
     return [
         msgspec.json.decode(m.data, type=messages.Dispatch)
         for m in found
-        if "/dispatch/" in channels[m.channel_id].topic
+        # One channel for every dispatch (older journals: one per task).
+        if "/scheduler/dispatch" in channels[m.channel_id].topic
     ]
 
 
