@@ -474,6 +474,8 @@ def _unproved(plan: Plan) -> str:
 #: Parts at least this large say when their start plan begins and ends
 #: (150 tasks took 15 s there, without a word).
 LOUD_TASKS = 50
+#: Seconds between two progress lines of a long start plan.
+PROGRESS_S = 5.0
 
 
 def _solve_whole(
@@ -524,6 +526,7 @@ def _solve_whole(
             problem.start,
             problem.end,
         )
+        stop = _saying_progress(stop, began)
     start = best_start(
         problem, warm, stop=stop, domains=domains, stability=stability
     )
@@ -674,6 +677,23 @@ def _with_call_stats(
             bound=bound,
         )
     )
+
+
+def _saying_progress(
+    stop: Callable[[], bool] | None, began: float
+) -> Callable[[], bool]:
+    """``stop`` (the heuristic asks it often) that also logs a line every
+    :data:`PROGRESS_S` seconds, so a long start plan is never silent."""
+    said = [began]
+
+    def asked() -> bool:
+        now = time.perf_counter()
+        if now - said[0] >= PROGRESS_S:
+            said[0] = now
+            log.info("start plan: still list scheduling (%.0f s)", now - began)
+        return stop is not None and stop()
+
+    return asked
 
 
 def at_lower_bound(

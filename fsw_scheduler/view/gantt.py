@@ -16,6 +16,7 @@ to time unit ``problem.start + i``.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -48,6 +49,8 @@ DPI = 110
 
 #: Height of one task row, in inches.
 ROW_HEIGHT = 0.34
+
+log = logging.getLogger("fsw_scheduler.view")
 
 
 @dataclass(frozen=True)
@@ -197,10 +200,13 @@ def gantt(
     slots = max(len(page.rows) for page in pages)
     written: list[Path] = []
     for page in pages:
+        target = page_path(path, page)
+        if len(pages) > 1:
+            # A long plan takes seconds a page: say where the drawing is.
+            log.info("drawing %s: %s", target.name, page.heading)
         fig = Figure(layout="constrained")
         FigureCanvasAgg(fig)
         _draw_page(fig, chart, page, slots, Patch)
-        target = page_path(path, page)
         fig.savefig(target, format="png", dpi=DPI)
         written.append(target)
     return written

@@ -470,3 +470,21 @@ def test_neighbourhood_search_logs_progress(
     solve(problem, time_limit=1.5)
     lines = [r.getMessage() for r in caplog.records]
     assert any("neighbourhood search" in m and "left-out" in m for m in lines)
+
+
+def test_a_long_start_plan_says_it_is_still_working(
+    caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Tests that a large part's start plan logs a progress line while it
+    works (every PROGRESS_S seconds; here at each step), not only when it
+    begins and ends."""
+    from fsw_scheduler.solving import solve as solve_module
+
+    monkeypatch.setattr(solve_module, "PROGRESS_S", 0.0)
+    problem = generator.scaling(0, style="broad")[3].problem()  # 60 tasks
+    caplog.set_level("INFO", logger="fsw_scheduler.solver")
+    best = solve_module.best_start(problem, None)
+    solve(problem, time_limit=1.5)
+    lines = [r.getMessage() for r in caplog.records]
+    assert any("still list scheduling" in m for m in lines), lines[:5]
+    assert best is not None

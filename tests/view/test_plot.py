@@ -549,3 +549,20 @@ def test_gantt_draws_windows_steps_and_external_charge(
     assert {CHARGE_COLOUR, DRAIN_COLOUR} <= colours
     assert any("external +8 -3" in t for t in texts)
     _check_png(tmp_path / "orbit.png")
+
+
+def test_a_gantt_of_several_pages_says_each_page(
+    table1: Problem,
+    table1_plan: Plan,
+    tmp_path: Path,
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """Tests that drawing a plan over several pages logs a line per page
+    (a long plan took tens of seconds there without a word)."""
+    caplog.set_level("INFO", logger="fsw_scheduler.view")
+    written = gantt(
+        table1, table1_plan, tmp_path / "plan.png", rows_per_page=4
+    )
+    lines = [r.getMessage() for r in caplog.records]
+    assert len(written) > 1
+    assert len([m for m in lines if m.startswith("drawing ")]) == len(written)
