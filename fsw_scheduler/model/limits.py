@@ -66,3 +66,8 @@ def key_path(path: str, key: str) -> str:
     if id_issue(key) is None:
         return f"{path}.{key}"
     return f"{path}[{shown(key, 20)}]"
+
+
+#: The most one moved activity may cost under ``stability = "moves"``:
+#: above it the move part would dwarf the delays it is weighed against.
+MAX_MOVE_COST = 1000

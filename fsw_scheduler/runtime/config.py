@@ -31,7 +31,7 @@ from typing import Annotated, Literal
 import msgspec
 
 from ..errors import ConfigError, FieldIssue
-from ..model.limits import MAX_TIME, id_issue
+from ..model.limits import MAX_MOVE_COST, MAX_TIME, id_issue
 from ..model.problem import Id, Units
 from ..model.strict import shape_issues
 from ..replan.triggers import Tolerance
@@ -45,9 +45,6 @@ Seconds = Annotated[float, msgspec.Meta(gt=0)]
 #: A budget or a tolerance that may be zero.
 NonNegative = Annotated[float, msgspec.Meta(ge=0)]
 
-#: The most one moved activity may cost under ``stability = "moves"``:
-#: above it the move part would dwarf the delays it is weighed against.
-MAX_MOVE_COST = 1000
 
 #: Units of the mission clock, zero allowed (a window, a gain: 0 is off).
 Span = Annotated[int, msgspec.Meta(ge=0, le=MAX_TIME)]

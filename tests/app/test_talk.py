@@ -383,11 +383,15 @@ def test_what_if_from_the_command_line(node: int) -> None:
     assert answer["verdict"] == "goal_accepted"
     assert answer["plan"]["plan_id"] is None
     assert {"moved", "unscheduled", "why", "reasons"} <= set(answer)
+    # Well formed, so sent; a precedence on a task the node does not
+    # have: the node's verdict is a rejection.
     unknown = json.dumps(
         {
             "goal_id": "g2",
-            "tasks": [],
-            "precedences": [{"before": "A", "after": "B", "kind": "lax"}],
+            "tasks": [
+                {"id": "T2", "length": 1, "delay_cost": 1, "schedule_cost": 1}
+            ],
+            "precedences": [{"before": "A", "after": "T2", "kind": "lax"}],
         }
     )
     refused = _cli(port, "what-if", unknown)

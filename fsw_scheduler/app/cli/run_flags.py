@@ -14,7 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from ...runtime.config import MAX_MOVE_COST
+from ...model.limits import MAX_MOVE_COST
 from .commands import (
     non_negative_float,
     number_type,
