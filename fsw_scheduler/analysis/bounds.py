@@ -141,6 +141,8 @@ def kept_set_plan(
     plan: Plan,
     domains: Mapping[str, Domain],
     max_nodes: int = MAX_NODES,
+    *,
+    list_scheduled: bool = True,
 ) -> KeptSetProof:
     """An optimal plan proved by the kept-set relaxation, if there is one.
 
@@ -160,6 +162,10 @@ def kept_set_plan(
         The problem's :func:`~fsw_scheduler.analysis.domains.start_domains`.
     max_nodes
         Search nodes before giving up.
+    list_scheduled
+        Whether to list-schedule the relaxed optimum's set into a better
+        start (``better``) when nothing is proved (see
+        :func:`kept_set_bound`).
 
     Returns
     -------
@@ -179,7 +185,7 @@ def kept_set_plan(
             plan.replace(status=SolveStatus.OPTIMAL), search.best_cost
         )
     proved = _at_earliest(problem, domains, search.best, search.best_cost)
-    if proved is not None:
+    if proved is not None or not list_scheduled:
         return KeptSetProof(proved, search.best_cost)
     if not search.limits:
         # No consumable row: the relaxed set is every task the scopes let
@@ -561,16 +567,6 @@ def kept_set_bound(
     part's neighbourhood search, which improves its own incumbent) asks
     for this: ``better`` is always None.
     """
-    if plan.objective is None or problem.has_mission_model:
-        # As kept_set_plan: the relaxation knows neither alternatives
-        # nor capacities that change.
-        return KeptSetProof(None, None)
-    search = _KeptSetSearch(problem, domains, plan.objective.total)
-    if not search.run(max_nodes):
-        return KeptSetProof(None, None)
-    if search.best is None:
-        return KeptSetProof(
-            plan.replace(status=SolveStatus.OPTIMAL), search.best_cost
-        )
-    proved = _at_earliest(problem, domains, search.best, search.best_cost)
-    return KeptSetProof(proved, search.best_cost)
+    return kept_set_plan(
+        problem, plan, domains, max_nodes, list_scheduled=False
+    )
