@@ -36,6 +36,10 @@ if TYPE_CHECKING:
 #: Tasks set free in one neighbourhood: at first, at most, and the step
 #: by which a sweep that found nothing grows it.
 MIN_FREE, MAX_FREE, STEP_FREE = 6, 18, 4
+#: Tasks set free at most once the time left is the search's alone
+#: (``hand_over_s``): the sweeps go on, shifted by a quarter window and
+#: larger, up to this size, instead of ending with the gap open.
+LAST_FREE = 34
 #: Time units a free task may move beyond the window, either way.
 MARGIN = 15
 #: Seconds one sub-model may take.
@@ -56,6 +60,7 @@ def improve(
     deadline: float,
     bound: float | None = None,
     around: Collection[str] | None = None,
+    hand_over_s: float = 0.0,
 ) -> tuple[Plan, int]:
     """Improve ``incumbent`` by solving sub-models until ``deadline``.
 
@@ -82,6 +87,13 @@ def improve(
         are those about where each runs or could run, not a sweep of the
         whole horizon, and the search ends when they have all been tried
         at the largest size without a gain.
+    hand_over_s
+        Time left below which the caller has no better use for it: a
+        sweep over the whole horizon that found nothing at the largest
+        size then goes on (windows shifted by a quarter of their width,
+        and larger, up to :data:`LAST_FREE` tasks) instead of ending
+        with the gap open. With more left the search ends there, and the
+        caller spends the rest.
 
     Returns
     -------
@@ -93,10 +105,11 @@ def improve(
     improved = 0
     began = last_log = time.perf_counter()
     size = MIN_FREE
+    shift = 0.0
 
     def sweep() -> list[tuple[int, int]]:
         if around is None:
-            return _windows(problem, size)
+            return _windows(problem, size, shift)
         return _windows_around(problem, best, domains, around, size)
 
     windows = sweep()
@@ -122,9 +135,19 @@ def improve(
             )
         if stale >= len(windows):
             # A whole sweep found nothing: larger neighbourhoods.
-            if size >= MAX_FREE:
+            if size >= MAX_FREE and (
+                around is not None
+                or size >= LAST_FREE
+                or deadline - time.perf_counter() >= hand_over_s
+            ):
                 break
-            size = min(MAX_FREE, size + STEP_FREE)
+            if size >= MAX_FREE:
+                # The time is the search's alone: shifted windows cut
+                # the plan where no sweep cut it yet.
+                shift = 0.25 - shift
+                size = min(LAST_FREE, size + STEP_FREE)
+            else:
+                size = min(MAX_FREE, size + STEP_FREE)
             windows = sweep()
             stale = index = 0
         if not windows:
@@ -167,8 +190,11 @@ def _meets(plan: Plan, bound: float | None) -> bool:
     )
 
 
-def _windows(problem: Problem, size: int) -> list[tuple[int, int]]:
-    """Windows over the horizon, overlapping by half.
+def _windows(
+    problem: Problem, size: int, shift: float = 0.0
+) -> list[tuple[int, int]]:
+    """Windows over the horizon, overlapping by half, the first starting
+    ``shift`` of a width after the horizon's start.
 
     A window of width ``w`` meets about ``n (mean length + w) / H`` tasks;
     ``w`` is chosen for about ``size`` of them.
@@ -177,9 +203,10 @@ def _windows(problem: Problem, size: int) -> list[tuple[int, int]]:
     mean = sum(t.length for t in problem.tasks) / count
     width = int(min(span, max(8, size * span / count - mean)))
     step = max(1, width // 2)
+    first = int(shift * width) if width < span else 0
     return [
         (problem.start + low, problem.start + min(span, low + width))
-        for low in range(0, max(1, span - step), step)
+        for low in range(first, max(first + 1, span - step), step)
     ]
 
 

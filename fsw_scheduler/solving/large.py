@@ -165,7 +165,17 @@ def improved(
     lns_end = deadline
     if (1 - BUDGET.lns_share) * (deadline - now) >= FULL_MIN_S:
         lns_end = now + BUDGET.lns_share * (deadline - now)
-    best, improved = improve(problem, start, domains, run, lns_end, bound)
+    best, improved = improve(
+        problem,
+        start,
+        domains,
+        run,
+        lns_end,
+        bound,
+        # With less than this left the whole model is not run: the
+        # search keeps the time rather than end with the gap open.
+        hand_over_s=FULL_MIN_S if lns_end == deadline else 0.0,
+    )
     said = f"neighbourhood search: {improved} improvements of the start plan"
     solver = (
         f"{run.keywords.get('solver', 'cbc')}-lns"
