@@ -43,6 +43,7 @@ unfinished file has no summary or footer, so
 from __future__ import annotations
 
 import contextlib
+import errno
 import logging
 import os
 import struct
@@ -514,6 +515,28 @@ class Recorder:
             os.fsync(self._file.fileno())
         self.sync_count += 1
 
+    def check_linked(self) -> None:
+        """Raise if the open part was deleted (or its whole folder).
+
+        Writes then land in an unlinked file that no restart finds: a
+        disk error like any other, so the journal goes down and is
+        reopened in a new part with a snapshot.
+
+        Raises
+        ------
+        FileNotFoundError
+            If the open part has no name left on the disk.
+        """
+        if self._closed or self._file is None:
+            return
+        if os.fstat(self._file.fileno()).st_nlink == 0:
+            raise FileNotFoundError(
+                errno.ENOENT,
+                "journal part deleted while open (its folder removed?); "
+                "what it held since the last rotation is gone",
+                str(self.paths[-1]),
+            )
+
     def close(self) -> None:
         """Finish the current file (summary, footer) and close it."""
         if self._closed:
@@ -697,6 +720,7 @@ class OrderedWriter:
         if self.recorder is not None and self.fault is None:
             try:
                 self.recorder.flush()
+                self.recorder.check_linked()
             except OSError as error:
                 self.fail(error)
 
@@ -706,6 +730,7 @@ class OrderedWriter:
         if self.recorder is not None and self.fault is None:
             try:
                 self.recorder.sync()
+                self.recorder.check_linked()
             except OSError as error:
                 self.fail(error)
 

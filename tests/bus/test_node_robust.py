@@ -1001,6 +1001,53 @@ def test_a_full_disk_degrades_and_durability_returns(
     assert len(recorder.paths) == 2
 
 
+def test_a_state_folder_deleted_under_the_node_is_said_and_rebuilt(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Tests a state folder removed while the node runs: the next step
+    says ``journal_failed`` naming the deleted part (it used to write on
+    into an unlinked file, durable in name only), goals are still
+    answered, and the journal comes back in a new part of a recreated
+    folder that holds the settings and a snapshot and verifies."""
+    import shutil
+
+    from fsw_scheduler.bus import outputs
+    from fsw_scheduler.journal.annotate import schema_lookup
+    from fsw_scheduler.journal.integrity import check_file
+    from fsw_scheduler.journal.reader import iter_messages
+    from fsw_scheduler.journal.writer import Recorder
+
+    monkeypatch.setattr(outputs, "JOURNAL_RETRY_S", 0.2)
+    folder = tmp_path / "state"
+    recorder = Recorder(
+        folder / "journal-0001.mcap", schemas=schema_lookup("sat1")
+    )
+    options = {"journal": recorder, "durable": True}
+    from fsw_scheduler.testing import SchedulerHarness as Harness
+
+    with Harness(node_options=options) as h:
+        h.tick(0)
+        h.wait_plan(lambda p: p.plan_id == 1)
+        shutil.rmtree(folder)
+        h.tick(1)
+        failed = h.wait_status(lambda s: s.event == "journal_failed")
+        assert failed.state == "degraded" and not failed.durable
+        assert "deleted while open" in failed.detail, failed.detail
+        h.publish_goal(ping_goal("while-gone", "Gone"))
+        h.wait_status(
+            lambda s: s.goal_id == "while-gone" and s.event == "goal_accepted"
+        )
+        back = h.wait_status(lambda s: s.event == "journal_resumed", 10)
+        assert back.durable
+        h.tick(2)
+    assert not recorder.paths[0].exists()
+    rebuilt = recorder.paths[-1]
+    assert rebuilt.parent == folder and rebuilt.exists()
+    assert check_file(rebuilt).ok, check_file(rebuilt).describe()
+    keys = {message.topic for message in iter_messages(rebuilt)}
+    assert any(key.endswith("scheduler/snapshot") for key in keys), keys
+
+
 def test_a_start_on_a_full_disk_commands_and_says_so(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
