@@ -105,12 +105,16 @@ class Role:
         Key expressions (relative to ``fsw/<sc>/``) it may publish on.
     reads
         Key expressions it may subscribe to.
+    answers
+        Key expressions it answers the scheduler's queries on (declares
+        a queryable and replies; the hub sends it the queries).
     """
 
     name: str
     summary: str
     puts: tuple[str, ...] = ()
     reads: tuple[str, ...] = (SCHEDULER_OUTPUTS,)
+    answers: tuple[str, ...] = ()
 
 
 ROLES: dict[str, Role] = {
@@ -132,8 +136,15 @@ ROLES: dict[str, Role] = {
         Role(
             "executor",
             "The activity executor: reads dispatches, publishes execution "
-            "reports on telemetry/activities/<task>.",
+            "reports on telemetry/activities/<task>, answers a starting "
+            "scheduler's scheduler/fences/<id> with the highest term it "
+            "has seen.",
             puts=(topics.ACTIVITY_REPORTS + "/**",),
+            # A scheduler with a restored or lost folder learns from the
+            # receivers the term already in use, and never reuses it. A
+            # forged answer can only raise the next term, by at most
+            # wire.terms.MAX_TERM_JUMP.
+            answers=(topics.FENCES + "/**",),
         ),
         Role(
             "clock",
@@ -238,6 +249,17 @@ def _grants(role: Role, hub: str = "scheduler") -> list[_Grant]:
             "inputs",
         ),
     ]
+    if role.answers:
+        out += [
+            _Grant(
+                role.name,
+                hub,
+                ("declare_queryable", "reply"),
+                role.answers,
+                "answers",
+            ),
+            _Grant(hub, role.name, ("query",), role.answers, "asked"),
+        ]
     return out
 
 

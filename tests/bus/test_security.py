@@ -14,6 +14,7 @@ processed.
 
 from __future__ import annotations
 
+import contextlib
 import datetime
 import ipaddress
 import json
@@ -587,6 +588,36 @@ def test_authorised_roles_drive_the_scheduler(bus: SecureBus) -> None:
     )
     assert changes.get(timeout=WAIT_S) == zenoh.SampleKind.PUT
     watch.undeclare()
+
+
+@pytest.mark.parametrize("topology", ["star", "router"])
+def test_the_executor_answers_a_starting_scheduler_its_fence(
+    pki: dict[str, Path], topology: str
+) -> None:
+    """Tests that on the secure profile the executor role answers
+    ``scheduler/fences/<id>`` with the term it follows (a scheduler with a
+    lost folder learns the term in use from it), and that a role without
+    that grant (the monitor, whose fence follows the same term) cannot
+    answer there."""
+
+    with contextlib.closing(
+        start(SecureBus(pki["good"], topology=topology))
+    ) as bus:
+        _fence_answered(bus)
+
+
+def _fence_answered(bus: SecureBus) -> None:
+    from fsw_scheduler.bus.standby import fence_terms
+
+    executor = bus.client("executor")
+    executor.wait_scheduler()
+    wait_matching(bus.session, SC.dispatch("DownlinkSat2Sat"), WAIT_S)
+    bus.clock.clock(1)
+    executor.wait_dispatch("DownlinkSat2Sat")
+    assert executor.fence.term == 1 and bus.monitor.fence.term == 1
+    zid = str(executor.client.info.zid())
+    answers = fence_terms(bus.session, SC, WAIT_S)
+    assert answers == [(SC.key(f"{keys.FENCES}/{zid}"), 1)], answers
 
 
 FORGERIES = {
