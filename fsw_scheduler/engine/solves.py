@@ -44,7 +44,7 @@ from ..wire.messages import (
     SolveRecord,
     SolveSummary,
 )
-from . import forecasts
+from . import forecasts, overrun
 from .events import (
     Command,
     Log,
@@ -487,6 +487,8 @@ class Replanner:
                     "merged",
                     "forecast",
                     "early_completion",
+                    overrun.OVERRUN,
+                    overrun.LATE_COMPLETION,
                 ):
                     if not levels and any(
                         c.trigger == named for c in queue.changes
@@ -679,6 +681,15 @@ class Replanner:
                 moved=() if state.config.reports_moves else msgspec.UNSET,
             )
             return
+        if (
+            stage == "plan"
+            and replan is not None
+            and problem is replan.problem
+        ):
+            # Overrunning activities run on as long again (see .overrun).
+            longer = overrun.extended(state, replan)
+            if longer is not replan:
+                replan, problem, warm = longer, longer.problem, longer.warm
         pins: dict[str, int] = {}
         if stage == "plan" and replan is not None and released is None:
             pins = commit_pins(problem, previous, state.config.commit_window)

@@ -1,0 +1,285 @@
+"""Tests of late completions: what waits for an activity past its end."""
+
+from __future__ import annotations
+
+import json
+import random
+from dataclasses import dataclass, field
+
+import pytest
+
+from fsw_scheduler.engine.config import EngineConfig
+from fsw_scheduler.engine.events import (
+    Command,
+    Log,
+    ReportArrived,
+    StartSolve,
+)
+from fsw_scheduler.model.problem import Problem, decode_problem
+from fsw_scheduler.wire import messages
+
+from .driver import Driver, encoded, published, statuses
+
+
+@dataclass
+class Flight:
+    """What an executor saw and did: when it started and ended each
+    activity, the solves asked for, and every command."""
+
+    started: dict[str, int] = field(default_factory=dict)
+    ended: dict[str, int] = field(default_factory=dict)
+    commands: list[Command] = field(default_factory=list)
+
+    def solves(self, trigger: str) -> list[StartSolve]:
+        """The solves asked for with ``trigger``."""
+        return [
+            c
+            for c in self.commands
+            if isinstance(c, StartSolve) and c.trigger == trigger
+        ]
+
+
+def fly(
+    driver: Driver,
+    until: int,
+    ends: dict[str, int],
+    *,
+    ahead: dict[str, int] | None = None,
+) -> Flight:
+    """Tick ``driver`` from 0 to ``until`` with an executor that starts
+    each dispatch when it arrives and reports ``completed`` at the end of
+    its dispatch, or at ``ends[task]`` (an overrun), after the clock
+    message of that unit (the report races the clock and loses).
+    ``ahead``: tasks whose completion is sent one unit early, held by
+    the node until the clock reaches it."""
+    flight = Flight()
+    planned: dict[str, int] = {}
+    for now in range(until + 1):
+        out = driver.tick(now)
+        seen = 0
+        while True:
+            for message in published(out[seen:], messages.Dispatch):
+                if message.action == "cancel":
+                    planned.pop(message.task, None)
+                    continue
+                flight.started.setdefault(message.task, now)
+                planned[message.task] = ends.get(
+                    message.task, now + message.end - message.start
+                )
+            seen = len(out)
+            more: list[Command] = []
+            for task, end in sorted(planned.items()):
+                early = (ahead or {}).get(task)
+                if end == now or (early is not None and end == now + early):
+                    del planned[task]
+                    flight.ended[task] = end
+                    report = messages.ActivityReport(task, "completed", end)
+                    more += driver.step(ReportArrived(report))
+            if not more:
+                break
+            out += more
+        flight.commands += out
+    return flight
+
+
+def _paper(mode: str, **config: object) -> Driver:
+    return Driver(config=EngineConfig(late_completion=mode, **config))  # type: ignore[arg-type]
+
+
+def test_today_a_tight_successor_runs_while_its_predecessor_overruns() -> None:
+    """Tests that with ``late-completion`` off (the paper's clock-driven
+    flight) an overrun of SetPositionK [6, 7) until 9 does not stop its
+    tight successor BatteryCharge: commanded at 7 while SetPositionK
+    still runs, on the position both use, and no replan follows."""
+    flight = fly(_paper("off"), 10, {"SetPositionK": 9})
+    assert flight.started["BatteryCharge"] == 7 < flight.ended["SetPositionK"]
+    assert not flight.solves("overrun")
+    assert not flight.solves("late_completion")
+
+
+def test_an_overrun_holds_the_tight_successor_and_moves_it() -> None:
+    """Tests that with ``push`` the tight successor of SetPositionK,
+    which runs until 9 instead of 7, is not commanded while it runs: held
+    at 7 (its start), one ``overrun`` replan at 8 (its start passed)
+    takes SetPositionK as running on and moves BatteryCharge to 9, where
+    it is commanded right after the completion; the status says it was
+    held, and the tight chain after it moved by 2."""
+    driver = _paper("push")
+    flight = fly(driver, 12, {"SetPositionK": 9})
+    assert flight.started["BatteryCharge"] == 9 == flight.ended["SetPositionK"]
+    (solve,) = flight.solves("overrun")
+    assert solve.problem.start == 8
+    held = statuses(flight.commands, "activity_held")
+    assert [s.detail.split(" ")[0] for s in held] == ["BatteryCharge"]
+    assert "follows SetPositionK (tight)" in held[0].detail
+    plans = published(flight.commands, messages.PlanMessage)
+    assert [p.trigger for p in plans] == ["initial", "overrun"]
+    starts = {a.task: a.start for a in plans[-1].activities}
+    assert starts["BatteryCharge"] == 9
+    assert starts["SetPositionZ"] == 19  # was 17: the chain moved by 2
+    # The late completion lands where the overrun plan put the end.
+    assert not flight.solves("late_completion")
+    last = driver.engine.status().last_solve
+    assert last is not None and last.trigger == "overrun"
+
+
+def test_a_completion_racing_the_clock_replans_nothing() -> None:
+    """Tests that a completion at the planned end that reaches the node
+    after that unit's clock message (or one unit early, held until the
+    clock reaches it) releases the successor in the same unit: it is
+    commanded on time, not late, and nothing is replanned."""
+    for ahead in (None, {"SetPositionK": 1}):
+        driver = _paper("push", report_ahead=1)
+        flight = fly(driver, 9, {}, ahead=ahead)
+        assert flight.started["BatteryCharge"] == 7
+        dispatch = next(
+            m
+            for m in published(flight.commands, messages.Dispatch)
+            if m.task == "BatteryCharge"
+        )
+        assert not dispatch.late
+        assert not [c for c in flight.commands if isinstance(c, StartSolve)][
+            1:
+        ]
+        assert not statuses(flight.commands, "activity_held")
+
+
+def _arm_problem() -> Problem:
+    """Scan [0, 4) on the arm; Store lax after it; Stow waits for the
+    arm; Beacon on its own at 6."""
+    task = {"delay_cost": 1, "schedule_cost": 2}
+    return decode_problem(
+        json.dumps(
+            {
+                "horizon": 40,
+                "resources": {"binary": ["arm", "radio"]},
+                "tasks": [
+                    {
+                        "id": "Scan",
+                        "length": 4,
+                        "delay_cost": 5,
+                        "schedule_cost": 0,
+                        "uses": {"arm": 1},
+                    },
+                    {"id": "Store", "length": 2, **task},
+                    {"id": "Stow", "length": 2, **task, "uses": {"arm": 1}},
+                    {
+                        "id": "Beacon",
+                        "length": 1,
+                        **task,
+                        "feasible_interval": [6, 6],
+                        "uses": {"radio": 1},
+                    },
+                ],
+                "precedences": [
+                    {"before": "Scan", "after": "Store", "kind": "lax"}
+                ],
+                "feasible_interval_applies_to": "start",
+            }
+        )
+    )
+
+
+def test_a_slow_executor_costs_a_few_replans_not_one_per_unit() -> None:
+    """Tests that an activity running 10 units past its end holds its
+    lax successor and the task waiting for its binary resource until it
+    completes, that the overrun replans grow apart (3 of them, not 10),
+    that the completion, earlier than the last overrun plan assumed,
+    replans at once (``late_completion``) and starts both at 14, and
+    that an independent activity keeps its time."""
+    driver = Driver(_arm_problem(), EngineConfig(late_completion="push"))
+    flight = fly(driver, 20, {"Scan": 14})
+    assert flight.started["Store"] == 14
+    assert flight.started["Stow"] in (14, 16)
+    assert flight.started["Beacon"] == 6
+    assert [s.problem.start for s in flight.solves("overrun")] == [5, 7, 11]
+    (late,) = flight.solves("late_completion")
+    assert late.problem.start == 14
+    logs = [c.text for c in flight.commands if isinstance(c, Log)]
+    assert any("Scan completed at 14, 10 units after" in t for t in logs)
+
+
+def test_the_same_overrun_gives_the_same_commands() -> None:
+    """Tests that an overrun flown twice gives the same commands (the
+    rules are deterministic; replay relies on it)."""
+    runs = [
+        encoded(fly(_paper("push"), 11, {"SetPositionK": 9}).commands)
+        for _ in range(2)
+    ]
+    assert runs[0] == runs[1]
+
+
+def _generated(seed: int) -> Problem:
+    """A chain-and-resource problem drawn from ``seed``: 8 tasks on two
+    binary resources and a multiple one, with precedences of every kind
+    between consecutive tasks of a chain."""
+    rng = random.Random(seed)
+    tasks = []
+    for idx in range(8):
+        uses: dict[str, float] = {"power": rng.choice([2, 3, 5])}
+        uses[rng.choice(["arm", "radio"])] = 1
+        tasks.append(
+            {
+                "id": f"T{idx}",
+                "length": rng.randint(1, 4),
+                "delay_cost": rng.randint(1, 5),
+                "schedule_cost": rng.randint(1, 5),
+                "uses": uses,
+            }
+        )
+    precedences = [
+        {
+            "before": f"T{idx}",
+            "after": f"T{idx + 1}",
+            "kind": rng.choice(["tight", "lax"]),
+            "scope": rng.choice(["both", "at_least_first"]),
+            "offset": rng.randint(0, 1),
+        }
+        for idx in range(0, 7, 2)
+    ]
+    return decode_problem(
+        json.dumps(
+            {
+                "horizon": 60,
+                "resources": {
+                    "binary": ["arm", "radio"],
+                    "multiple": {"power": 6},
+                },
+                "tasks": tasks,
+                "precedences": precedences,
+            }
+        )
+    )
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_generated_overruns_never_break_precedence_or_resource(
+    seed: int,
+) -> None:
+    """Tests on generated problems that, whichever planned activity runs
+    3 units past its end, nothing is started before a predecessor has
+    ended (+ offset), no binary resource has two activities at once and
+    the multiple one is never overfilled, as flown by the executor."""
+    problem = _generated(seed)
+    first = Driver(problem, EngineConfig(late_completion="push"))
+    first.tick(0)
+    victim = first.plan.activities[0]
+    driver = Driver(problem, EngineConfig(late_completion="push"))
+    flight = fly(driver, 70, {victim.task: victim.end + 3})
+    assert flight.ended[victim.task] == victim.end + 3
+    spans = {
+        task: (start, flight.ended[task])
+        for task, start in flight.started.items()
+        if task in flight.ended
+    }
+    for prec in problem.precedences:
+        if prec.before in spans and prec.after in spans:
+            assert spans[prec.after][0] >= spans[prec.before][1] + (
+                prec.offset
+            ), (prec, spans)
+    uses = {t.id: t.uses for t in problem.tasks}
+    for unit in range(70):
+        active = [t for t, (s, e) in spans.items() if s <= unit < e]
+        for name in ("arm", "radio"):
+            assert sum(uses[t].get(name, 0) for t in active) <= 1, unit
+        assert sum(uses[t].get("power", 0) for t in active) <= 6, unit
