@@ -200,7 +200,7 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 def cmd_replan(args: argparse.Namespace) -> int:
     """``fsw-scheduler replan``: apply a goal or an event, solve again."""
-    from ...api import replan_typed
+    from ...api import ReplanSettings, replan_typed
     from ...model.change import decode_change
     from ...replan.diff import format_diff
 
@@ -216,6 +216,9 @@ def cmd_replan(args: argparse.Namespace) -> int:
         args.now,
         solver=args.solver,
         time_limit=args.time_limit,
+        settings=ReplanSettings(
+            args.commit_window, args.stability, args.move_cost
+        ),
     )
     if args.problem_out:
         _write_json(new_problem, args.problem_out)
