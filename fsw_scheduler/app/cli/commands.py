@@ -226,6 +226,7 @@ def cmd_replan(args: argparse.Namespace) -> int:
     log.info("%s", _summary(new_plan))
     print(format_diff(diff, new_plan), file=sys.stderr)
     if args.gantt and new_plan.status.has_plan:
+        from ...model.plan import Moved, SolveStatus
         from ...view.gantt import gantt
 
         removed = {
@@ -233,6 +234,15 @@ def cmd_replan(args: argparse.Namespace) -> int:
             for r in diff.removed
             if r.rule not in ("finished", "unscheduled")
         }
+        # Kept where the window holds them (unless the pins were broken:
+        # a degraded plan).
+        window = range(args.now, args.now + args.commit_window)
+        starts = plan.starts()
+        pinned = (
+            ()
+            if new_plan.status is SolveStatus.DEGRADED
+            else [t for t in diff.kept if starts[t] in window]
+        )
         for page in gantt(
             new_problem,
             new_plan,
@@ -240,6 +250,11 @@ def cmd_replan(args: argparse.Namespace) -> int:
             now=args.now,
             removed=removed or None,
             previous=plan.activities,
+            moved=[
+                Moved(m.task, m.old_start, m.new_start, m.why)
+                for m in diff.moved
+            ],
+            pinned=pinned,
         ):
             log.info("wrote %s", page)
     return EXIT_OK if new_plan.status.has_plan else EXIT_NO_PLAN
