@@ -321,8 +321,8 @@ class Execution:
             detail = f"{task} [{placed.start}, {placed.end}) held: {why}"
             if before is None or before < placed.start:
                 # A completion racing the clock releases it in this
-                # unit: a log line, no status yet.
-                out.append(Log("info", detail))
+                # unit, as it does at most activity ends: a debug line.
+                out.append(Log("debug", detail))
             if placed.start < now:
                 passed.append(task)
                 if before is None or before <= placed.start:
