@@ -280,23 +280,25 @@ def _generated(seed: int) -> Problem:
     )
 
 
+@pytest.mark.parametrize("lead", [0, 1])
 @pytest.mark.parametrize("seed", range(1, 9))
 def test_generated_overruns_never_break_precedence_or_resource(
-    seed: int,
+    seed: int, lead: int
 ) -> None:
     """Tests on generated problems that, whichever planned activity runs
     1 to 6 units past its end, nothing is started before a predecessor
     has ended (+ offset), no binary resource has two activities at once
     and the multiple one is never overfilled, as flown by the executor,
-    and the late activity's successors still run."""
+    and the late activity's successors still run; with a replan lead of
+    0 (the bus clock) and 1 (the wall clock's default)."""
     problem = _generated(seed)
-    first = Driver(problem, EngineConfig(late_completion="push"))
+    config = EngineConfig(late_completion="push", replan_lead=lead)
+    first = Driver(problem, config)
     first.tick(0)
     rng = random.Random(seed)
     victim = rng.choice(first.plan.activities)
     late = victim.end + rng.randint(1, 6)
-    driver = Driver(problem, EngineConfig(late_completion="push"))
-    flight = fly(driver, 70, {victim.task: late})
+    flight = fly(Driver(problem, config), 70, {victim.task: late})
     assert flight.ended[victim.task] == late
     uses = {t.id: t.uses for t in problem.tasks}
     for task, start, _ in flight.runs:
