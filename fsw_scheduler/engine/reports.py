@@ -244,8 +244,9 @@ class Reports:
         out.append(
             Log(
                 "info",
-                f"{task} completed at {at}, {at - end} units after the end "
-                f"of its dispatch ({end}); {why}: replanning",
+                f"{task} completed at {at}, {at - end} "
+                f"unit{'s' if at - end > 1 else ''} after the end of its "
+                f"dispatch ({end}); {why}: replanning",
             )
         )
         if not self._queue.has_trigger(overrun.LATE_COMPLETION):

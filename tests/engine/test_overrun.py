@@ -151,6 +151,31 @@ def test_an_overrun_holds_the_tight_successor_and_moves_it() -> None:
     assert last is not None and last.trigger == "overrun"
 
 
+def test_a_late_completion_before_the_assumed_end_pulls_back() -> None:
+    """Tests on the paper that SetPositionK, completing at 8 (1 unit late)
+    just after the ``overrun`` replan of that unit took it to run until
+    9, replans at once (``late_completion``): BatteryCharge, pushed to 9,
+    comes back to 8 and is commanded there, and the tight chain after it
+    keeps its new places from there."""
+    driver = _paper("push")
+    flight = fly(driver, 10, {"SetPositionK": 8})
+    plans = published(flight.commands, messages.PlanMessage)
+    assert [p.trigger for p in plans] == [
+        "initial",
+        "overrun",
+        "late_completion",
+    ]
+    assert {a.task: a.start for a in plans[1].activities}["BatteryCharge"] == 9
+    assert {a.task: a.start for a in plans[2].activities}["BatteryCharge"] == 8
+    assert flight.started["BatteryCharge"] == 8
+    logs = [c.text for c in flight.commands if isinstance(c, Log)]
+    assert any(
+        "SetPositionK completed at 8, 1 unit after the end of its dispatch "
+        "(7); the plan took it to run until 9" in text
+        for text in logs
+    )
+
+
 def test_a_completion_racing_the_clock_replans_nothing() -> None:
     """Tests that a completion at the planned end that reaches the node
     after that unit's clock message (or one unit early, held until the
