@@ -337,6 +337,35 @@ def _waiting(
     return False
 
 
+def carried(
+    state: EngineState, before: Schedule | None, after: Schedule
+) -> Schedule:
+    """``after`` (the schedule of a plan just solved) with the completions
+    that arrived while it was solved, for the activities it keeps running.
+
+    A replan reads the reports in the schedule it starts from; one that
+    arrives during the solve is in the lifecycle but not in the adopted
+    schedule, and the next replan (the ``late_completion`` it queued)
+    would take the activity as still running. Only with these rules on:
+    recordings made without them replay as they were.
+    """
+    if not pushing(state) or before is None:
+        return after
+    lifecycle = state.dispatches.lifecycle
+    for task in after.continuing:
+        if lifecycle.get(task) != "completed":
+            continue
+        done = [
+            r
+            for r in before.reports
+            if r.task == task and r.state == "completed"
+        ]
+        if done:
+            at = max(done[-1].at, after.problem.start)
+            after = after.with_report(ExecutionReport(task, "completed", at))
+    return after
+
+
 def extended(state: EngineState, replan: Replan) -> Replan:
     """``replan`` with each overrunning activity it keeps running taken as
     running on for as long as it has overrun so far (at least one unit).

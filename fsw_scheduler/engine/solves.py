@@ -200,7 +200,9 @@ class Replanner:
                 plan, pending.trigger, pending.goals, (), out, moved=moved
             )
         else:
-            state.schedule = pending.replan.adopt(plan)
+            state.schedule = overrun.carried(
+                state, state.schedule, pending.replan.adopt(plan)
+            )
             self._execution.adopt(
                 plan,
                 pending.trigger,

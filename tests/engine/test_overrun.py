@@ -344,3 +344,39 @@ def test_generated_overruns_never_break_precedence_or_resource(
         for task, start, _ in flight.runs:
             if prec.before == victim.task and task == prec.after:
                 assert start >= late + prec.offset, (prec, flight.runs)
+
+
+def test_a_held_activity_waits_for_the_replan_under_way() -> None:
+    """Tests with a slow solver that when SetPositionK completes at 8 (1
+    unit late) while the ``overrun`` replan of that unit is still
+    solving, its tight successor BatteryCharge, due since 7, is not
+    commanded late under the old plan: it waits for the replans (the
+    overrun's, then the ``late_completion`` the report queued) and is
+    commanded at 8, where the last one puts it."""
+    driver = Driver(config=EngineConfig(late_completion="push"), hold=True)
+    driver.tick(0)
+    driver.finish()
+    ends = {"SetHFOption": 1, "SetPositionX": 1, "DownlinkSat2Sat": 6}
+    for now in range(1, 8):
+        driver.tick(now)
+        for task, end in ends.items():
+            if end == now:
+                driver.report(task, "completed", now)
+    assert driver.engine.plan_id == 1
+    driver.tick(8)
+    (overrun,) = driver.held
+    assert overrun.trigger == "overrun"
+    out = driver.report("SetPositionK", "completed", 8)
+    assert not published(out, messages.Dispatch)
+    out = driver.finish()
+    assert driver.plan.trigger == "overrun"
+    assert not published(out, messages.Dispatch)
+    (late,) = driver.held
+    assert late.trigger == "late_completion"
+    out = driver.finish()
+    (dispatch,) = published(out, messages.Dispatch)
+    assert (dispatch.task, dispatch.start, dispatch.late) == (
+        "BatteryCharge",
+        8,
+        False,
+    )
