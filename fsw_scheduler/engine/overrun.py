@@ -345,11 +345,13 @@ def carried(
 
     A replan reads the reports in the schedule it starts from; one that
     arrives during the solve is in the lifecycle but not in the adopted
-    schedule, and the next replan (the ``late_completion`` it queued)
-    would take the activity as still running. Only with these rules on:
-    recordings made without them replay as they were.
+    schedule, and the next replan (the ``late_completion`` or
+    ``early_completion`` it queued) would take the activity as still
+    running. Only with these rules or early completions on: recordings
+    made without them replay as they were.
     """
-    if not pushing(state) or before is None:
+    used = pushing(state) or state.config.early_completion_gain > 0
+    if not used or before is None:
         return after
     lifecycle = state.dispatches.lifecycle
     for task in after.continuing:

@@ -380,3 +380,32 @@ def test_a_held_activity_waits_for_the_replan_under_way() -> None:
         8,
         False,
     )
+
+
+def test_an_early_completion_during_a_solve_still_pulls_forward() -> None:
+    """Tests with a slow solver that DownlinkSat2Sat completing at 3 (3
+    units early, gain 2) while a goal's solve is in flight is carried
+    into that solve's plan: the early_completion replan queued behind it
+    takes it as finished and pulls SetPositionK from 6 to 3."""
+    from .driver import small_goal
+
+    driver = Driver(config=EngineConfig(early_completion_gain=2), hold=True)
+    driver.tick(0)
+    driver.finish()
+    driver.tick(1)
+    for task in ("SetHFOption", "SetPositionX"):
+        driver.report(task, "completed", 1)
+    driver.tick(2)
+    driver.goal(small_goal("g1", "Ping"), 2)
+    driver.tick(3)
+    driver.report("DownlinkSat2Sat", "completed", 3)
+    driver.finish()
+    assert driver.plan.trigger == "goal"
+    assert [c.trigger for c in driver.held] == ["early_completion"]
+    out = driver.finish()
+    starts = {a.task: a.start for a in driver.plan.activities}
+    assert driver.plan.trigger == "early_completion"
+    assert starts["SetPositionK"] == 3
+    assert "DownlinkSat2Sat" not in starts
+    (dispatch,) = published(out, messages.Dispatch)
+    assert (dispatch.task, dispatch.start) == ("SetPositionK", 3)
