@@ -34,13 +34,17 @@ import msgspec
 
 from .analysis.check import CheckReport
 from .analysis.check import check_plan as check_typed
+from .analysis.moved import why_moved
 from .errors import FieldIssue, InputError
 from .model.change import ActivityFailed, Change, LevelsMeasured, decode_change
 from .model.codec import decode_strict
 from .model.goal import Goal
-from .model.plan import Plan
+from .model.limits import MAX_MOVE_COST, MAX_TIME
+from .model.plan import Plan, SolveStatus
 from .model.problem import Problem, decode_problem
+from .model.stability import Stability
 from .model.validation import validate_problem
+from .replan.commit import commit_pins, pin_blockers, pinned_problem
 from .replan.diff import PlanDiff, diff_plans
 from .replan.schedule import Schedule, empty_plan
 from .replan.triggers import apply_change
@@ -50,6 +54,7 @@ __all__ = [
     "ChangeLike",
     "PlanLike",
     "ProblemLike",
+    "ReplanSettings",
     "as_change",
     "as_plan",
     "as_problem",
@@ -233,12 +238,17 @@ def replan(
     *,
     solver: str = "cbc",
     time_limit: float | None = None,
+    commit_window: int = 0,
+    stability: str = "off",
+    move_cost: int = 5,
 ) -> tuple[Problem, Plan, PlanDiff]:
     """Apply a goal or an event to a running plan at time ``now``.
 
     The paper's online rescheduling rules build the new problem over
     ``[now, now + horizon)``, which is then solved; as ``fsw-scheduler
-    replan``.
+    replan``. The predictable-replan settings mean what they mean to
+    ``run`` (docs/rescheduling.md, "Predictable replans"); their
+    defaults are the paper's replan.
 
     Parameters
     ----------
@@ -252,17 +262,29 @@ def replan(
         Time unit of the replan.
     solver, time_limit
         Passed to the solver.
+    commit_window
+        Units from ``now``: each activity of ``plan`` that starts in
+        ``[now, now + commit_window)`` keeps its start, unless keeping
+        them leaves no plan (then the plan is ``degraded`` and its
+        ``why`` names each pin it broke, cause ``commit_window``).
+    stability
+        ``off``, ``moves`` (each moved activity costs ``move_cost``) or
+        ``lexicographic`` (fewest moves before least delay).
+    move_cost
+        The price of one moved activity under ``moves``, 1 to 1000.
 
     Returns
     -------
     tuple
         The new problem, its plan, and the difference from ``plan`` (kept,
-        moved, added, removed with the rule that removed each task).
+        moved, each move with why when known, added, removed with the rule
+        that removed each task).
 
     Raises
     ------
     InputError
-        A malformed input, or a change the rules reject (nothing solved).
+        A malformed input, a setting out of its range, or a change the
+        rules reject (nothing solved).
     """
     return replan_typed(
         as_problem(problem),
@@ -271,6 +293,7 @@ def replan(
         now,
         solver=solver,
         time_limit=time_limit,
+        settings=ReplanSettings(commit_window, stability, move_cost),
     )
 
 
@@ -286,6 +309,7 @@ def replan_typed(
     solver: str = "cbc",
     time_limit: float | None = None,
     solve_fn: SolveFn | None = None,
+    settings: ReplanSettings | None = None,
 ) -> tuple[Problem, Plan, PlanDiff]:
     """One replan on typed objects: :func:`replan` once its inputs are read.
 
@@ -302,6 +326,8 @@ def replan_typed(
     solve_fn
         The solve function (default
         :func:`fsw_scheduler.solving.solve.solve`).
+    settings
+        The commit window and the move term (default: the paper's).
 
     Returns
     -------
@@ -315,14 +341,105 @@ def replan_typed(
     """
     if solve_fn is None:
         solve_fn = solve_problem
+    settings = (settings or ReplanSettings()).checked()
     replan = apply_change(Schedule.begin(problem, plan), change, now)
-    if replan.problem.tasks:
-        new_plan = solve_fn(
-            replan.problem, solver, time_limit=time_limit, warm=replan.warm
-        )
-    else:
+    # What the replan may move: planned, not started by ``now``, and kept
+    # by the rules (as the node counts those not yet dispatched).
+    gone = {r.task for r in replan.removed} | set(replan.continuing)
+    live = {t.id for t in replan.problem.tasks}
+    previous = {
+        a.task: a.start
+        for a in plan.activities
+        if a.start >= now and a.task in live and a.task not in gone
+    }
+    stability = Stability(
+        previous=previous,
+        mode=settings.stability,  # type: ignore[arg-type]
+        move_cost=settings.move_cost,
+    )
+    pins = commit_pins(replan.problem, previous, settings.commit_window)
+    if not replan.problem.tasks:
         new_plan = empty_plan()
+    else:
+        new_plan = solve_fn(
+            pinned_problem(replan.problem, pins),
+            solver,
+            time_limit=time_limit,
+            warm=replan.warm,
+            stability=stability,
+        )
+        if pins and new_plan.status is SolveStatus.INFEASIBLE:
+            # The window left no plan: the degraded path, as the node's.
+            new_plan = solve_fn(
+                replan.problem,
+                solver,
+                time_limit=time_limit,
+                warm=replan.warm,
+                stability=stability,
+            )
+            broken = pin_blockers(pins, new_plan, now, settings.commit_window)
+            if new_plan.status.has_plan and broken:
+                new_plan = new_plan.replace(
+                    status=SolveStatus.DEGRADED, why=(*broken, *new_plan.why)
+                )
+    reasons = (
+        why_moved(replan.problem, new_plan, previous)
+        if new_plan.status.has_plan
+        else {}
+    )
     diff = diff_plans(
-        plan, new_plan, replan.removed, continuing=replan.continuing
+        plan,
+        new_plan,
+        replan.removed,
+        continuing=replan.continuing,
+        reasons=reasons,
     )
     return replan.problem, new_plan, diff
+
+
+class ReplanSettings(msgspec.Struct, frozen=True):
+    """The predictable-replan settings of an offline replan, with the
+    names, ranges and meaning of ``run``'s (default: the paper's).
+
+    Attributes
+    ----------
+    commit_window
+        Units from ``now`` in which planned starts are kept.
+    stability
+        ``off``, ``moves`` or ``lexicographic``.
+    move_cost
+        The price of one moved activity under ``moves``.
+    """
+
+    commit_window: int = 0
+    stability: str = "off"
+    move_cost: int = 5
+
+    def checked(self) -> ReplanSettings:
+        """These settings, or InputError naming each one out of range."""
+        issues = []
+        if not 0 <= self.commit_window <= MAX_TIME:
+            issues.append(
+                FieldIssue(
+                    "commit_window",
+                    f"must be in [0, {MAX_TIME}], got {self.commit_window}",
+                )
+            )
+        if self.stability not in ("off", "moves", "lexicographic"):
+            issues.append(
+                FieldIssue(
+                    "stability",
+                    "must be off, moves or lexicographic, got "
+                    f"{self.stability!r}",
+                )
+            )
+        if not 1 <= self.move_cost <= MAX_MOVE_COST:
+            issues.append(
+                FieldIssue(
+                    "move_cost",
+                    f"must be in [1, {MAX_MOVE_COST}], got {self.move_cost}",
+                )
+            )
+        if issues:
+            raise InputError(issues, "settings")
+        return self

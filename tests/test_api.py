@@ -129,3 +129,113 @@ def test_package_top_exports_the_entry_points() -> None:
     assert fs.check_plan.__module__ == "fsw_scheduler.api"
     for name in ("replan", "decode_goal", "decode_change", "Goal"):
         assert name in dir(fs)
+
+
+def _paper_at_15() -> tuple[str, object, bytes]:
+    """Table 1, its plan and the Table 2 goal, for a replan at t=15."""
+    problem = (DATA / "paper_table1.json").read_text()
+    return problem, fs.solve(problem), (DATA / "paper_table2_goal.json")
+
+
+@pytest.mark.parametrize(
+    "settings",
+    [
+        {"stability": "lexicographic"},
+        {"stability": "moves", "move_cost": 1000},
+        {"commit_window": 30},
+    ],
+)
+def test_replan_takes_the_stability_settings(settings: dict) -> None:
+    """Tests that the Table 2 replan at t=15, which moves SetPositionY and
+    DownlinkSat2Ground 5 units earlier by default, moves nothing planned
+    under lexicographic stability, under a high move cost or inside a
+    30-unit commit window, and that each setting shows in the plan (its
+    objective's moves) or the diff."""
+    problem, plan, goal = _paper_at_15()
+    _, free, free_diff = fs.replan(problem, plan, goal.read_bytes(), 15)
+    assert {m.task for m in free_diff.moved} == {
+        "SetPositionY",
+        "DownlinkSat2Ground",
+    }
+    assert all("costs less" in m.why for m in free_diff.moved)
+    _, kept, diff = fs.replan(problem, plan, goal.read_bytes(), 15, **settings)
+    assert not diff.moved
+    starts = kept.starts()
+    assert (starts["SetPositionY"], starts["DownlinkSat2Ground"]) == (38, 39)
+    assert kept.objective is not None and free.objective is not None
+    assert kept.objective.delay_cost > free.objective.delay_cost
+    if "stability" in settings:
+        assert kept.objective.moves == 0
+
+
+def test_replan_stability_matches_the_node() -> None:
+    """Tests that an offline replan with lexicographic stability and a
+    commit window gives the plan the node gives the same goal at the same
+    time with the same settings (the engine, driven by the clock)."""
+    from fsw_scheduler.engine.config import EngineConfig
+
+    from .engine.driver import Driver, paper_goal
+
+    settings = {"commit_window": 5, "stability": "lexicographic"}
+    driver = Driver(config=EngineConfig(**settings))  # type: ignore[arg-type]
+    for now in range(16):
+        driver.tick(now)
+    driver.goal(paper_goal(), 15)
+    problem, plan, goal = _paper_at_15()
+    _, offline, _ = fs.replan(problem, plan, goal.read_bytes(), 15, **settings)
+    assert offline.activities == driver.plan.activities
+    assert offline.objective == driver.plan.objective
+
+
+def test_replan_pins_that_leave_no_plan_degrade() -> None:
+    """Tests that a commit window whose pins leave no plan (a mandatory
+    goal task needs the position at 37, which the planned AcquisitionHF
+    and SetPositionY hold) is released: the plan is degraded and its why
+    names each broken pin, as the node's degraded path does; without the
+    window the same goal just fits."""
+    problem, plan, _ = _paper_at_15()
+    goal = {
+        "goal_id": "slew",
+        "tasks": [
+            {
+                "id": "Slew",
+                "length": 2,
+                "delay_cost": 1,
+                "schedule_cost": 0,
+                "feasible_interval": [37, 37],
+                "uses": {"position": 1},
+            }
+        ],
+    }
+    _, free, _ = fs.replan(problem, plan, goal, 15)
+    assert free.status.value == "optimal"
+    _, pinned, diff = fs.replan(problem, plan, goal, 15, commit_window=30)
+    assert pinned.status.value == "degraded"
+    broken = {
+        b.task: b.detail for b in pinned.why if b.cause == "commit_window"
+    }
+    assert broken
+    assert all("commit window [15, 45)" in d for d in broken.values())
+    assert pinned.starts()["Slew"] == 37
+    moved = {m.task for m in diff.moved}
+    assert set(broken) <= moved | set(pinned.unscheduled)
+
+
+@pytest.mark.parametrize(
+    ("settings", "field"),
+    [
+        ({"commit_window": -1}, "commit_window"),
+        ({"stability": "strict"}, "stability"),
+        ({"move_cost": 0}, "move_cost"),
+        ({"move_cost": 1001}, "move_cost"),
+    ],
+)
+def test_replan_settings_out_of_range_are_named(
+    settings: dict, field: str
+) -> None:
+    """Tests that a stability setting out of its range raises InputError
+    naming it, before anything is solved."""
+    problem, plan, goal = _paper_at_15()
+    with pytest.raises(fs.InputError) as caught:
+        fs.replan(problem, plan, goal.read_bytes(), 15, **settings)
+    assert caught.value.issues[0].path == field

@@ -552,6 +552,7 @@ def _draw(
     pictures drawn.
     """
     from ..journal.reader import iter_messages
+    from ..view.session import moves_of, pins_of
     from ..view.timeline import timeline_text
 
     problems: dict[int, Problem] = {}
@@ -563,6 +564,7 @@ def _draw(
             if record.plan_id is not None:
                 problems[record.plan_id] = record.problem
     drawn: list[Path] = []
+    before: tuple[Activity, ...] = ()
     for plan_message in plans:
         problem = problems.get(plan_message.plan_id)
         if problem is None:
@@ -574,7 +576,13 @@ def _draw(
             unscheduled=plan_message.unscheduled,
             why=plan_message.why,
         )
-        text = timeline_text(problem, plan)
+        text = timeline_text(
+            problem,
+            plan,
+            moved=moves_of(plan_message),
+            pinned=pins_of(problem, plan_message, before),
+        )
+        before = plan_message.activities
         (out_dir / f"plan-{plan_message.plan_id}.txt").write_text(text + "\n")
     if pictures:
         # The same pictures as `fsw-scheduler plot session.mcap`: what

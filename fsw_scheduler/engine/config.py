@@ -77,6 +77,10 @@ class EngineConfig(msgspec.Struct, frozen=True):
     early_completion_gain
         Units a ``completed`` report must come before the end of its
         dispatch to replan at once (0: never).
+    late_completion
+        ``off``: the plan is flown by the clock. ``push``: what depends on
+        an activity waits for it, and an overrun or a late completion
+        replans (:mod:`fsw_scheduler.engine.overrun`).
     """
 
     report_timeout: int | None = None
@@ -98,6 +102,7 @@ class EngineConfig(msgspec.Struct, frozen=True):
     stability: str = "off"
     move_cost: int = 5
     early_completion_gain: int = 0
+    late_completion: str = "off"
 
     @property
     def reports_moves(self) -> bool:

@@ -31,7 +31,7 @@ import msgspec
 from ..errors import FieldIssue, InputError
 from ..replan.triggers import drift
 from ..wire import topics
-from . import forecasts
+from . import forecasts, overrun
 from .dispatch import dispatch_message
 from .events import (
     ClockStalled,
@@ -327,6 +327,10 @@ class Engine:
             state.now = now
         out: list[Command] = []
         self._reports.release_held(out)
+        if overrun.pushing(state):
+            # Before any replan of this step: an activity past its end
+            # with no report is running on, not finished on time.
+            overrun.note_running(state)
         if isinstance(event, Tick):
             self._on_tick(out)
         elif isinstance(event, GoalArrived):

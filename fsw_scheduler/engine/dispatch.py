@@ -27,7 +27,7 @@ from ..wire.messages import Dispatch
 from .events import Publish
 
 if TYPE_CHECKING:
-    from collections.abc import Iterable
+    from collections.abc import Collection, Iterable
 
     from ..model.change import Removal
     from ..model.plan import Activity, Plan
@@ -156,6 +156,7 @@ class Dispatches:
         continuing: Iterable[str],
         now: int,
         before: int | None = None,
+        held: Collection[str] = (),
     ) -> tuple[list[Activity], list[Activity]]:
         """Mark dispatched, and return, each planned activity due by now.
 
@@ -164,7 +165,8 @@ class Dispatches:
         not dispatched: flown now, it would run out of its time. It is
         marked ``missed`` and returned apart, ``(due, missed)``. A late
         plan's activities are dispatched late (their time passed during
-        the solve, not in a jump).
+        the solve, not in a jump). ``held`` activities wait: neither
+        dispatched nor missed (:mod:`.overrun`).
         """
         keep = set(continuing)
         due = []
@@ -175,6 +177,7 @@ class Dispatches:
             if (
                 activity.task in keep
                 or self.lifecycle.get(activity.task) != "planned"
+                or activity.task in held
             ):
                 continue
             if before is not None and before < activity.start < now:

@@ -20,6 +20,7 @@ from ..model.plan import Plan, SolveStatus
 from ..replan.commit import PIN_CAUSE
 from ..wire import topics
 from ..wire.messages import Dispatch, PlanMessage
+from . import overrun
 from .dispatch import dispatch_message
 from .events import Command, Log, Publish
 from .snapshot import QueuedChange
@@ -27,6 +28,7 @@ from .snapshot import QueuedChange
 if TYPE_CHECKING:
     from ..model.change import Removal
     from ..model.plan import Moved
+    from ..replan.schedule import Schedule
     from .queue import SolveQueue
     from .state import EngineState
     from .verdicts import Verdicts
@@ -235,9 +237,13 @@ class Execution:
         schedule = state.schedule
         if schedule is None or state.now is None or state.plan_id is None:
             return
+        held = overrun.held(state, self._queue)
         due, missed = state.dispatches.due(
-            schedule.plan, schedule.continuing, state.now, before
+            schedule.plan, schedule.continuing, state.now, before, held
         )
+        if held:
+            # It recorded what was held: carry on from its schedule.
+            schedule = self._hold(held, before, out)
         for activity in missed:
             schedule = schedule.with_report(
                 ExecutionReport(activity.task, "missed", state.now)
@@ -289,6 +295,53 @@ class Execution:
                 ),
             )
         state.schedule = schedule
+
+    def _hold(
+        self, held: dict[str, str], before: int | None, out: list[Command]
+    ) -> Schedule:
+        """Say, at its start, why each held activity waits; replan once
+        (trigger ``overrun``) when a held activity's start has passed.
+
+        A held activity has not started: a ``missed`` record tells a
+        replan meanwhile so (the rules take a planned activity whose
+        start came as running); it goes when the activity is commanded.
+        """
+        state = self._state
+        schedule, now = state.schedule, state.now
+        assert schedule is not None and now is not None
+        passed = []
+        noted = {r.task for r in schedule.reports if r.state == "missed"}
+        for task, why in held.items():
+            placed = schedule.plan.activity(task)
+            assert placed is not None
+            if task not in noted:
+                schedule = schedule.with_report(
+                    ExecutionReport(task, "missed", now)
+                )
+            detail = f"{task} [{placed.start}, {placed.end}) held: {why}"
+            if before is None or before < placed.start:
+                # A completion racing the clock releases it in this
+                # unit, as it does at most activity ends: a debug line.
+                out.append(Log("debug", detail))
+            if placed.start < now:
+                passed.append(task)
+                if before is None or before <= placed.start:
+                    out.append(
+                        self._verdicts.publish("activity_held", detail=detail)
+                    )
+        state.schedule = schedule
+        if passed and not overrun.replan_under_way(self._queue):
+            out.append(
+                Log(
+                    "warning",
+                    f"{', '.join(passed)}: held past the start; replanning "
+                    "what waits on a late activity",
+                )
+            )
+            self._queue.add(
+                QueuedChange("levels", at=now, trigger=overrun.OVERRUN)
+            )
+        return schedule
 
     def check_report_timeouts(self, out: list[Command]) -> None:
         """Count as failed each dispatch with no report in

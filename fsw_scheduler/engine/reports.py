@@ -19,6 +19,7 @@ import msgspec
 
 from ..errors import FieldIssue
 from ..model.change import ExecutionReport
+from . import overrun
 from .config import HELD_REPORTS
 from .dispatch import dispatch_id
 from .events import Command, Log
@@ -196,6 +197,7 @@ class Reports:
             report.state == "completed" and sent is not None and not cancelled
         ):
             self._early_completion(report, sent[1], out)
+            self._late_completion(report.task, at, sent[1], out)
 
     def _early_completion(
         self, report: ActivityReport, end: int, out: list[Command]
@@ -220,6 +222,37 @@ class Reports:
             self._queue.add(
                 QueuedChange(
                     "levels", at=self._state.clock(), trigger=EARLY_COMPLETION
+                )
+            )
+
+    def _late_completion(
+        self, task: str, at: int, end: int, out: list[Command]
+    ) -> None:
+        """Replan when ``task``, completed at ``at`` after the end of its
+        dispatch (``end``), broke or stretched the plan in force
+        (:func:`~.overrun.depends_on`): what depends on it moves."""
+        state = self._state
+        if not overrun.pushing(state) or at <= end:
+            return
+        schedule = state.schedule
+        assert schedule is not None
+        why = overrun.depends_on(
+            schedule, state.dispatches.lifecycle, task, at
+        )
+        if why is None:
+            return
+        out.append(
+            Log(
+                "info",
+                f"{task} completed at {at}, {at - end} "
+                f"unit{'s' if at - end > 1 else ''} after the end of its "
+                f"dispatch ({end}); {why}: replanning",
+            )
+        )
+        if not self._queue.has_trigger(overrun.LATE_COMPLETION):
+            self._queue.add(
+                QueuedChange(
+                    "levels", at=state.clock(), trigger=overrun.LATE_COMPLETION
                 )
             )
 

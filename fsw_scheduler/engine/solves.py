@@ -44,7 +44,7 @@ from ..wire.messages import (
     SolveRecord,
     SolveSummary,
 )
-from . import forecasts
+from . import forecasts, overrun
 from .events import (
     Command,
     Log,
@@ -200,7 +200,9 @@ class Replanner:
                 plan, pending.trigger, pending.goals, (), out, moved=moved
             )
         else:
-            state.schedule = pending.replan.adopt(plan)
+            state.schedule = overrun.carried(
+                state, state.schedule, pending.replan.adopt(plan)
+            )
             self._execution.adopt(
                 plan,
                 pending.trigger,
@@ -487,6 +489,8 @@ class Replanner:
                     "merged",
                     "forecast",
                     "early_completion",
+                    overrun.OVERRUN,
+                    overrun.LATE_COMPLETION,
                 ):
                     if not levels and any(
                         c.trigger == named for c in queue.changes
@@ -679,6 +683,15 @@ class Replanner:
                 moved=() if state.config.reports_moves else msgspec.UNSET,
             )
             return
+        if (
+            stage == "plan"
+            and replan is not None
+            and problem is replan.problem
+        ):
+            # Overrunning activities run on as long again (see .overrun).
+            longer = overrun.extended(state, replan)
+            if longer is not replan:
+                replan, problem, warm = longer, longer.problem, longer.warm
         pins: dict[str, int] = {}
         if stage == "plan" and replan is not None and released is None:
             pins = commit_pins(problem, previous, state.config.commit_window)

@@ -9,7 +9,7 @@ import msgspec
 from ..model.change import Removal
 
 if TYPE_CHECKING:
-    from collections.abc import Iterable
+    from collections.abc import Iterable, Mapping
 
     from ..model.plan import Plan
 
@@ -29,6 +29,7 @@ class Move(msgspec.Struct, frozen=True):
     new_start: int
     old_end: int
     new_end: int
+    why: str = ""
 
 
 class PlanDiff(msgspec.Struct, frozen=True):
@@ -62,6 +63,7 @@ def diff_plans(
     removed: Iterable[Removal] = (),
     *,
     continuing: Iterable[str] = (),
+    reasons: Mapping[str, str] | None = None,
 ) -> PlanDiff:
     """Compare two plans of a session.
 
@@ -73,6 +75,8 @@ def diff_plans(
         The replan's removals (:attr:`Replan.removed`).
     continuing
         The replan's continuing tasks.
+    reasons
+        Task id to why it moved, where known (a move's ``why``).
 
     Returns
     -------
@@ -95,7 +99,14 @@ def diff_plans(
             kept.append(act.task)
         else:
             moved.append(
-                Move(act.task, prev.start, act.start, prev.end, act.end)
+                Move(
+                    act.task,
+                    prev.start,
+                    act.start,
+                    prev.end,
+                    act.end,
+                    (reasons or {}).get(act.task, ""),
+                )
             )
     now_in = {a.task for a in new.activities}
     for act in old.activities:
@@ -131,7 +142,7 @@ def format_diff(diff: PlanDiff, new: Plan | None = None) -> str:
     lines += [f"continued  {t}{spans.get(t, '')}" for t in diff.continued]
     lines += [
         f"moved      {m.task} [{m.old_start}, {m.old_end}) -> "
-        f"[{m.new_start}, {m.new_end})"
+        f"[{m.new_start}, {m.new_end})" + (f": {m.why}" if m.why else "")
         for m in diff.moved
     ]
     lines += [f"added      {t}{spans.get(t, '')}" for t in diff.added]

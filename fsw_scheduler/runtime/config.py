@@ -19,6 +19,7 @@ Example ``scheduler.toml``::
     stability = "moves"     # or "off", "lexicographic"
     move-cost = 5           # the price of one moved activity ("moves")
     early-completion-gain = 2  # replan when a report frees >= 2 units
+    late-completion = "push"   # what depends on a late activity waits
 """
 
 from __future__ import annotations
@@ -52,6 +53,8 @@ Span = Annotated[int, msgspec.Meta(ge=0, le=MAX_TIME)]
 MoveCost = Annotated[int, msgspec.Meta(ge=1, le=MAX_MOVE_COST)]
 #: How a replan weighs moving what was already planned.
 Stability = Literal["off", "moves", "lexicographic"]
+#: What a late activity does to what depends on it.
+LateCompletion = Literal["off", "push"]
 
 
 class NodeConfig(
@@ -172,6 +175,14 @@ class NodeConfig(
         its dispatch replans at once (trigger ``early_completion``), so
         that what waits for its resources or follows it may start
         earlier; a smaller gain replans nothing. 0: never.
+    late_completion
+        ``off``: the plan is flown by the clock, as in the paper.
+        ``push``: an activity is not commanded while something it
+        depends on runs past its end (a predecessor, or a holder of its
+        binary or multiple resources); a held activity whose start passes
+        replans (trigger ``overrun``) and a completion after the end of
+        its dispatch replans (``late_completion``) when it breaks or
+        stretched the plan, so that what depends on it moves later.
     """
 
     spacecraft: Id = "sat1"
@@ -214,6 +225,7 @@ class NodeConfig(
     stability: Stability = "off"
     move_cost: MoveCost = 5
     early_completion_gain: Span = 0
+    late_completion: LateCompletion = "off"
 
     def __post_init__(self) -> None:
         # The ranges are declared once, in the field types (Meta): the

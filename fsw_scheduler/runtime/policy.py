@@ -51,6 +51,7 @@ def engine_config(config: NodeConfig) -> EngineConfig:
         stability=config.stability,
         move_cost=config.move_cost,
         early_completion_gain=config.early_completion_gain,
+        late_completion=config.late_completion,
     )
 
 
@@ -69,6 +70,7 @@ IN_METADATA = (
     "stability",
     "move_cost",
     "early_completion_gain",
+    "late_completion",
 )
 
 

@@ -27,7 +27,13 @@ from .gantt_panels import (
     draw_measured,
     draw_multiple,
 )
-from .gantt_rows import draw_legend, draw_removed, draw_tasks, row_ids
+from .gantt_rows import (
+    draw_legend,
+    draw_moves,
+    draw_removed,
+    draw_tasks,
+    row_ids,
+)
 from .pages import ROWS_PER_PAGE, Page, page_path, split_rows
 from .style import NOW_COLOUR, load_matplotlib
 from .timeline import objective_line
@@ -36,7 +42,7 @@ if TYPE_CHECKING:
     from collections.abc import Collection, Mapping, Sequence
     from pathlib import Path
 
-    from ..model.plan import Activity, Plan
+    from ..model.plan import Activity, Moved, Plan
     from ..model.problem import Problem, Task
 
 __all__ = [
@@ -64,6 +70,8 @@ class _Chart:
     now: int | None
     removed: dict[str, str]
     previous: list[Activity]
+    moved: dict[str, int]
+    pinned: frozenset[str]
     measured: dict[str, list[tuple[int, float]]]
     past: dict[str, Task]
     failed: Collection[tuple[str, int]] | None
@@ -87,6 +95,8 @@ def gantt(
     past_tasks: Sequence[Task] | None = None,
     failed: Collection[tuple[str, int]] | None = None,
     rows_per_page: int = ROWS_PER_PAGE,
+    moved: Sequence[Moved] | None = None,
+    pinned: Collection[str] | None = None,
 ) -> list[Path]:
     """Draw a plan as a Gantt chart with resource profiles, as PNG pages.
 
@@ -156,6 +166,13 @@ def gantt(
     rows_per_page
         Most task rows on one page
         (:data:`~fsw_scheduler.view.pages.ROWS_PER_PAGE`).
+    moved
+        What the replan that made ``plan`` moved (a plan's ``moved``):
+        each old place is ghosted on its row, a faint fill with a dashed
+        outline and an arrow to the new one.
+    pinned
+        Tasks the replan's commit window kept at their start: drawn with
+        a thick outline and a mark above the start.
 
     Returns
     -------
@@ -188,6 +205,8 @@ def gantt(
         now=now,
         removed=removed,
         previous=[a for a in previous or () if a.task in removed],
+        moved={m.task: m.from_ for m in moved or ()},
+        pinned=frozenset(pinned or ()),
         measured={k: list(v) for k, v in (measured or {}).items()},
         past={t.id: t for t in past_tasks or ()},
         failed=failed,
@@ -256,6 +275,8 @@ def _draw_page(
         draw_removed(
             task_ax, rows, chart.removed, chart.previous, now, chart.plan
         )
+    if chart.moved or chart.pinned:
+        draw_moves(task_ax, rows, chart.plan, chart.moved, chart.pinned)
     draw_legend(
         task_ax,
         problem,
@@ -264,6 +285,8 @@ def _draw_page(
         chart.history,
         chart.past,
         Patch,
+        moved=bool(chart.moved),
+        pinned=bool(chart.pinned),
     )
     panels = list(axes[1:])
     x_lo, x_hi = chart.x_range

@@ -12,8 +12,11 @@ from typing import TYPE_CHECKING, Any
 from ..model.levels import tasks_by_id
 from .style import (
     FAILED_COLOUR,
+    GHOST_COLOUR,
+    GHOST_FILL,
     NO_BINARY_COLOUR,
     PALETTE,
+    PIN_COLOUR,
     REMOVED_COLOUR,
     UNSCHEDULED_COLOUR,
     colour_of,
@@ -26,7 +29,13 @@ if TYPE_CHECKING:
     from ..model.plan import Activity, Plan
     from ..model.problem import Problem, Task
 
-__all__ = ["draw_legend", "draw_removed", "draw_tasks", "row_ids"]
+__all__ = [
+    "draw_legend",
+    "draw_moves",
+    "draw_removed",
+    "draw_tasks",
+    "row_ids",
+]
 
 #: Background of every other task row, and the guide line through each.
 _BAND = "#f2f4f7"
@@ -228,11 +237,15 @@ def draw_legend(
     history: Sequence[Activity],
     past: Mapping[str, Task],
     Patch: Any,
+    *,
+    moved: bool = False,
+    pinned: bool = False,
 ) -> None:
     """The legend of the task colours and styles, right of the panel.
 
     ``rows`` are all the rows of the chart, not only a page's: every page
-    of a chart then has the same legend.
+    of a chart then has the same legend. ``moved`` and ``pinned`` add the
+    entries of the old places and the pins (:func:`draw_moves`).
     """
     tasks = {**past, **tasks_by_id(problem)}
     scheduled = {a.task for a in plan.activities}
@@ -273,6 +286,24 @@ def draw_legend(
                 label="unscheduled",
             )
         )
+    if moved:
+        handles.append(
+            Patch(
+                facecolor=GHOST_FILL,
+                edgecolor=GHOST_COLOUR,
+                linestyle="--",
+                label="moved: old place",
+            )
+        )
+    if pinned:
+        handles.append(
+            Patch(
+                facecolor="none",
+                edgecolor=PIN_COLOUR,
+                linewidth=2.0,
+                label="pinned (commit window)",
+            )
+        )
     if handles:
         ax.legend(
             handles=handles,
@@ -283,6 +314,77 @@ def draw_legend(
             bbox_to_anchor=(1.01, 1.0),
             frameon=False,
         )
+
+
+def draw_moves(
+    ax: Any,
+    rows: list[str],
+    plan: Plan,
+    moved: Mapping[str, int],
+    pinned: Collection[str],
+) -> None:
+    """What a replan moved and what its commit window kept.
+
+    A moved activity (task to its old start in ``moved``) gets its old
+    place ghosted on its row: a faint fill with a dashed outline, and an
+    arrow to where it is now. A pinned activity gets a thick outline and
+    a mark above its start: the executor and the ground can count on it.
+    """
+    y_of = {name: idx for idx, name in enumerate(rows)}
+    bar_h = 0.62
+    for activity in plan.activities:
+        y = y_of.get(activity.task)
+        if y is None:
+            continue
+        length = activity.end - activity.start
+        old = moved.get(activity.task)
+        if old is not None and old != activity.start:
+            ax.barh(
+                y,
+                length,
+                left=old,
+                height=bar_h,
+                color=GHOST_FILL,
+                edgecolor=GHOST_COLOUR,
+                linestyle="--",
+                linewidth=1.2,
+                zorder=2,
+                gid=f"ghost:{activity.task}",
+            )
+            ax.annotate(
+                "",
+                # Under the centre line: clear of the bar's time label.
+                xy=(
+                    activity.start if old < activity.start else activity.end,
+                    y + 0.2,
+                ),
+                xytext=(
+                    old + length if old < activity.start else old,
+                    y + 0.2,
+                ),
+                arrowprops={"arrowstyle": "->", "color": GHOST_COLOUR},
+                zorder=2,
+            )
+        if activity.task in pinned:
+            ax.barh(
+                y,
+                length,
+                left=activity.start,
+                height=bar_h,
+                color="none",
+                edgecolor=PIN_COLOUR,
+                linewidth=2.2,
+                zorder=4,
+                gid=f"pin:{activity.task}",
+            )
+            ax.plot(
+                [activity.start],
+                [y - bar_h / 2 - 0.08],
+                marker="v",
+                markersize=5,
+                color=PIN_COLOUR,
+                zorder=5,
+            )
 
 
 def draw_removed(

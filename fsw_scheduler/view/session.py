@@ -29,7 +29,7 @@ import msgspec
 
 from ..journal.reader import iter_messages
 from ..model.levels import resource_profiles
-from ..model.plan import Activity, Plan
+from ..model.plan import Activity, Moved, Plan
 from ..model.problem import Problem, Resources, Task
 from ..wire import topics as keys
 from ..wire.messages import (
@@ -49,7 +49,14 @@ if TYPE_CHECKING:
 
     from ..journal.writer import PathLike
 
-__all__ = ["Session", "attach_pictures", "plot_session", "read_session"]
+__all__ = [
+    "Session",
+    "attach_pictures",
+    "moves_of",
+    "pins_of",
+    "plot_session",
+    "read_session",
+]
 
 
 @dataclass
@@ -207,6 +214,42 @@ def _stand_in(
     )
 
 
+def moves_of(message: PlanMessage) -> tuple[Moved, ...]:
+    """What the replan that made ``message`` moved (none when its node
+    did not report moves)."""
+    moved = message.moved
+    return () if isinstance(moved, msgspec.UnsetType) else tuple(moved)
+
+
+def pins_of(
+    problem: Problem,
+    message: PlanMessage,
+    previous: Sequence[Activity],
+    initial: Problem | None = None,
+) -> frozenset[str]:
+    """The activities the replan's commit window pinned.
+
+    A pin is a ``fixed_start`` the solved ``problem`` (from the solve
+    record) gave a task that was planned there before and is not running
+    on (``continuing``): only on a node that reports moves (a window or a
+    stability term), and never a start its own definition (the initial
+    problem) fixed.
+    """
+    if isinstance(message.moved, msgspec.UnsetType):
+        return frozenset()
+    before = {a.task: a.start for a in previous}
+    own = {t.id: t.fixed_start for t in (initial.tasks if initial else ())}
+    starts = {a.task: a.start for a in message.activities}
+    return frozenset(
+        t.id
+        for t in problem.tasks
+        if t.fixed_start is not None
+        and t.id not in message.continuing
+        and before.get(t.id) == t.fixed_start == starts.get(t.id)
+        and own.get(t.id) != t.fixed_start
+    )
+
+
 def _as_plan(message: PlanMessage) -> Plan:
     return Plan(
         status=message.status,
@@ -284,6 +327,8 @@ def plot_session(path: PathLike, out_dir: PathLike) -> list[Path]:
             measured=measured,
             past_tasks=past,
             failed=session.failed,
+            moved=moves_of(plan),
+            pinned=pins_of(problem, plan, previous, session.initial),
         )
         drawn += pages
         previous = plan.activities

@@ -17,11 +17,14 @@ __all__ = [
     "CLOSED_COLOUR",
     "DRAIN_COLOUR",
     "FAILED_COLOUR",
+    "GHOST_COLOUR",
+    "GHOST_FILL",
     "LOST_COLOUR",
     "MEASURED_COLOUR",
     "NOW_COLOUR",
     "NO_BINARY_COLOUR",
     "PALETTE",
+    "PIN_COLOUR",
     "PLOT_INSTALL_HINT",
     "REMOVED_COLOUR",
     "UNSCHEDULED_COLOUR",
@@ -126,6 +129,11 @@ CLOSED_COLOUR = "#e3e3e3"
 
 #: A task a replan removed: its outline and the rule's note.
 REMOVED_COLOUR = "#9a9a9a"
+#: The old place of a moved activity: a faint fill, a dashed outline.
+GHOST_COLOUR = "#7b52ae"
+GHOST_FILL = "#f1ecf7"
+#: The outline and mark of an activity a commit window pinned.
+PIN_COLOUR = "#1a1a80"
 
 
 #: A measured level.

@@ -14,7 +14,9 @@ from typing import TYPE_CHECKING
 from ..model.levels import lost_charge, resource_profiles, tasks_by_id
 
 if TYPE_CHECKING:
-    from ..model.plan import Blocker, Plan
+    from collections.abc import Collection, Sequence
+
+    from ..model.plan import Blocker, Moved, Plan
     from ..model.problem import Problem
 
 __all__ = [
@@ -126,6 +128,8 @@ def timeline_text(
     *,
     width: int | None = None,
     color: bool = False,
+    moved: Sequence[Moved] | None = None,
+    pinned: Collection[str] | None = None,
 ) -> str:
     """A fixed-width text timeline of a plan, for terminals and logs.
 
@@ -142,6 +146,13 @@ def timeline_text(
     color
         Add ANSI colours (bars green, levels below zero red). Off by
         default so the text is plain ASCII.
+    moved
+        What the replan that made ``plan`` moved (a plan's ``moved``):
+        each old place is ghosted in its bar with ``:`` (dim with
+        colours) and the line ends ``moved from <start>``.
+    pinned
+        Tasks the replan's commit window kept at their start: their line
+        ends ``pinned``.
 
     Returns
     -------
@@ -172,15 +183,28 @@ def timeline_text(
     left, right = str(origin), str(problem.end)
     ruler = left + " " * max(1, cells - len(left) - len(right)) + right
     lines.append(f"{'task':<{id_w}}  {'time':<{span_w}}  |{ruler}|")
+    was = {m.task: m.from_ for m in moved or ()}
+    kept = set(pinned or ())
     for act in activities:
         bar = _bar(act.start, act.end, origin, horizon, cells)
-        bar = (
-            bar.replace("#", f"{paint['green']}#{paint['off']}")
-            if (color)
-            else bar
-        )
+        note = ""
+        old = was.get(act.task)
+        if old is not None and old != act.start:
+            ghost = _bar(
+                old, old + act.end - act.start, origin, horizon, cells
+            )
+            bar = "".join(
+                ":" if g == "#" and b == "." else b
+                for b, g in zip(bar, ghost, strict=True)
+            )
+            note = f" moved from {old}"
+        if act.task in kept:
+            note += " pinned"
+        if color:
+            bar = bar.replace("#", f"{paint['green']}#{paint['off']}")
+            bar = bar.replace(":", f"{paint['dim']}:{paint['off']}")
         span = f"{act.start}-{act.end}"
-        lines.append(f"{act.task:<{id_w}}  {span:<{span_w}}  |{bar}|")
+        lines.append(f"{act.task:<{id_w}}  {span:<{span_w}}  |{bar}|{note}")
 
     lines += chosen_lines(problem, plan)
     missing = left_out(plan)

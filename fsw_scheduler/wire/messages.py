@@ -144,9 +144,12 @@ class PlanMessage(msgspec.Struct, frozen=True):
         known), ``horizon`` (the rolling horizon reached a deferred task),
         ``missed`` (an activity was not commanded in its time),
         ``cancelled`` (a cancel was answered with what ran, or not at
-        all), ``merged`` (facts handed over at a heal) or
+        all), ``merged`` (facts handed over at a heal),
         ``early_completion`` (an activity completed early enough to
-        replan, see ``early-completion-gain``).
+        replan, see ``early-completion-gain``), ``overrun`` (an activity
+        running past its end held what depends on it beyond its start)
+        or ``late_completion`` (a completion after the end of its
+        dispatch broke or stretched the plan; see ``late-completion``).
     goals
         Goal ids adopted by this plan.
     stats
@@ -363,8 +366,9 @@ class Status(msgspec.Struct, frozen=True, omit_defaults=True):
     ``solve_failed``, ``input_rejected``, ``activity``, ``drift``,
     ``clock_stalled``, ``clock_resumed``, ``heartbeat``,
     ``loop_stopped``, ``alarm``, ``resumed``, ``took_over``,
-    ``paused``); with ``goal_id`` and ``errors`` (``path`` + ``reason``)
-    for rejections.
+    ``paused``, ``activity_held``: an activity not commanded at its start
+    because something it depends on runs late); with ``goal_id`` and
+    ``errors`` (``path`` + ``reason``) for rejections.
     ``resumed`` and ``took_over`` carry ``from_plan_id`` and ``at`` (the
     plan and time the state was rebuilt at). ``state`` is ``standby`` on a
     node that follows another one; ``active`` then names the commanding

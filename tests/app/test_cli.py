@@ -208,6 +208,36 @@ def test_replan_paper_table2(tmp_path: Path) -> None:
     assert cli("check", str(problem2), str(plan2)).returncode == 0
 
 
+def test_replan_takes_run_stability_flags(tmp_path: Path) -> None:
+    """Tests that replan takes run's --stability, --commit-window and
+    --move-cost: the Table 2 replan moves SetPositionY and
+    DownlinkSat2Ground by default (each move said with why on stderr)
+    and nothing planned with --stability lexicographic; a flag out of
+    range is bad input (exit 2)."""
+    plan1 = tmp_path / "plan1.json"
+    assert cli("solve", TABLE1, "--out", str(plan1)).returncode == 0
+    base = ["replan", TABLE1, str(plan1), TABLE2, "--now", "15"]
+    free = cli(*base)
+    assert free.returncode == 0, free.stderr
+    assert "moved      SetPositionY [38, 39) -> [33, 34): " in free.stderr
+    for flags in (
+        ["--stability", "lexicographic"],
+        ["--commit-window", "30", "--move-cost", "7"],
+    ):
+        plan2 = tmp_path / "plan2.json"
+        kept = cli(*base, *flags, "--out", str(plan2))
+        assert kept.returncode == 0, kept.stderr
+        assert "\nmoved " not in kept.stderr
+        starts = {
+            a["task"]: a["start"]
+            for a in json.loads(plan2.read_text())["activities"]
+        }
+        assert starts["SetPositionY"] == 38
+    bad = cli(*base, "--move-cost", "0")
+    assert bad.returncode == 2
+    assert "--move-cost" in bad.stderr
+
+
 def test_replan_rejects_colliding_goal(tmp_path: Path) -> None:
     """Tests that a goal reusing a live id is rejected with exit 2."""
     plan1 = tmp_path / "plan1.json"

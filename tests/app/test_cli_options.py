@@ -522,6 +522,8 @@ def test_predictable_replan_flags_override_the_settings_file(
             "2",
             "--commit-window",
             "6",
+            "--late-completion",
+            "push",
         ]
     )
     config = node_settings(args)
@@ -529,6 +531,7 @@ def test_predictable_replan_flags_override_the_settings_file(
     assert config.stability == "moves"
     assert config.move_cost == 8
     assert config.early_completion_gain == 2
+    assert config.late_completion == "push"
 
 
 @pytest.mark.parametrize(
@@ -539,6 +542,7 @@ def test_predictable_replan_flags_override_the_settings_file(
         ("--move-cost", "1001"),
         ("--stability", "on"),
         ("--early-completion-gain", "x"),
+        ("--late-completion", "wait"),
     ],
 )
 def test_predictable_replan_flags_out_of_range_exit_2(

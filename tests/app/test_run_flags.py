@@ -73,7 +73,7 @@ def test_every_setting_with_a_flag_is_mapped_by_the_table() -> None:
                 named[name] = setting
     mapped = {f.name: f.setting for f in RUN_FLAGS if f.setting is not None}
     assert mapped == named
-    assert len(mapped) == 20
+    assert len(mapped) == 21
 
 
 def sample(flag: RunFlag) -> list[str]:

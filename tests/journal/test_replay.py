@@ -495,3 +495,51 @@ def _journal_without_config(tmp_path: Path) -> Path:
         writer.add_message(channel, 1, b'{"now": 1}', 1)
         writer.finish()
     return path
+
+
+def test_an_overrun_session_replays_identical(tmp_path: Path) -> None:
+    """Tests a recorded session on a real node with ``late-completion``
+    ``push`` in which SetPositionK runs until 9 instead of 7: its tight
+    successor is commanded only after it (at 9), the ``overrun`` replan
+    is in the journal, the setting comes back from its metadata and
+    replay --verify reproduces every plan and dispatch."""
+    from fsw_scheduler.journal.annotate import schema_lookup
+    from fsw_scheduler.journal.writer import Recorder
+    from fsw_scheduler.testing import (
+        SchedulerHarness,
+        harness_config,
+        paper_problem,
+    )
+
+    journal = tmp_path / "overrun.mcap"
+    recorder = Recorder(journal, schemas=schema_lookup("sat1"))
+    config = harness_config(late_completion="push")
+    ends = {"SetPositionK": 9}
+    with SchedulerHarness(
+        paper_problem(), config, node_options={"journal": recorder}
+    ) as h:
+        running: dict[str, int] = {}
+        for now in range(12):
+            h.tick(now)
+            h.settle(now)
+            # The executor answers after the clock message: completions
+            # race it, as on a real bus.
+            while True:
+                for d in h.dispatches:
+                    if d.task not in running and d.action == "run":
+                        running[d.task] = ends.get(
+                            d.task, now + d.end - d.start
+                        )
+                done = [t for t, end in sorted(running.items()) if end == now]
+                if not done:
+                    break
+                for task in done:
+                    h.report(task, "completed", now)
+                    running[task] = -1
+                h.settle(now)
+        starts = {d.task: d.dispatched_at for d in h.dispatches}
+        triggers = [p.trigger for p in h.plans]
+    assert starts["BatteryCharge"] == 9
+    assert "overrun" in triggers
+    report = verify(journal)
+    assert report.identical, report.summary()

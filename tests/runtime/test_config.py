@@ -55,6 +55,7 @@ def test_kebab_case_keys_are_read(tmp_path: Path) -> None:
         ("move-cost = 0\n", "move-cost"),
         ("move-cost = 1001\n", "move-cost"),
         ("early-completion-gain = -2\n", "early-completion-gain"),
+        ('late-completion = "wait"\n', "late-completion"),
         ("commit-window = 2.5\n", "commit-window"),
         ("this is not toml", "scheduler.toml"),
     ],
@@ -138,17 +139,20 @@ def test_predictable_replan_settings_are_read(tmp_path: Path) -> None:
         NodeConfig().stability,
         NodeConfig().move_cost,
         NodeConfig().early_completion_gain,
-    ) == (0, "off", 5, 0)
+        NodeConfig().late_completion,
+    ) == (0, "off", 5, 0, "off")
     path = tmp_path / "scheduler.toml"
     path.write_text(
         'commit-window = 4\nstability = "lexicographic"\n'
         "move-cost = 7\nearly-completion-gain = 2\n"
+        'late-completion = "push"\n'
     )
     config = load_config(path)
     assert config.commit_window == 4
     assert config.stability == "lexicographic"
     assert config.move_cost == 7
     assert config.early_completion_gain == 2
+    assert config.late_completion == "push"
 
 
 def test_predictable_replan_ranges_hold_in_code() -> None:

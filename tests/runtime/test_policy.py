@@ -53,6 +53,7 @@ UNUSUAL = NodeConfig(
     stability="lexicographic",
     move_cost=9,
     early_completion_gain=3,
+    late_completion="push",
 )
 
 
@@ -107,13 +108,15 @@ def test_predictable_replan_settings_reach_the_engine() -> None:
         engine.stability,
         engine.move_cost,
         engine.early_completion_gain,
-    ) == (6, "lexicographic", 9, 3)
+        engine.late_completion,
+    ) == (6, "lexicographic", 9, 3, "push")
     assert engine.reports_moves
     assert not engine_config(NodeConfig()).reports_moves
     problem = problem_from({"horizon": 10, "tasks": [make_task()]})
     old = config_from_info(node_info(UNUSUAL, problem), {"threads": "1"})
-    assert (old.commit_window, old.stability, old.early_completion_gain) == (
-        0,
-        "off",
-        0,
-    )
+    assert (
+        old.commit_window,
+        old.stability,
+        old.early_completion_gain,
+        old.late_completion,
+    ) == (0, "off", 0, "off")

@@ -29,8 +29,10 @@ import shlex
 import shutil
 import subprocess
 import sys
+import time
 import tomllib
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import msgspec
 import pytest
@@ -43,6 +45,9 @@ from fsw_scheduler.solving.solve import solve
 from fsw_scheduler.testing import SchedulerProcess
 
 from ..factories import ROOT, free_port, tool_script
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
 
 DOCS = [
     ROOT / "README.md",
@@ -250,10 +255,16 @@ def test_the_session_on_the_bus_runs(
             answers.setdefault(" ".join(argv[1:3]), []).append(
                 json.loads(result.stdout)
             )
+        # "A moment later": the early completion's replan, asked for as
+        # the README does until it is in (a solve, then the plan).
+        last = _plan_when(
+            [str(script), "plan", "-m", "client", "-e", endpoint],
+            lambda p: p["trigger"] == "early_completion",
+        )
     finally:
         assert node.stop() == 0, "".join(node.log)
     goal = json.loads((ROOT / "examples" / "goal.json").read_text())
-    [verdict] = answers[next(k for k in answers if k == "send goal")]
+    verdict = answers[next(k for k in answers if k == "send goal")][0]
     assert (verdict["event"], verdict["goal_id"]) == (
         "goal_accepted",
         goal["goal_id"],
@@ -263,6 +274,31 @@ def test_the_session_on_the_bus_runs(
     # What the README says of plan 2.
     starts = {a["task"]: a["start"] for a in plan["activities"]}
     assert starts == {"Point": 0, "Acquire": 1, "Downlink": 10}
+    # The what-if, the goal it foretold, and the early completion.
+    [answer] = answers["what-if examples/calibrate.json"]
+    assert answer["verdict"] == "goal_accepted"
+    assert answer["plan"]["plan_id"] is None
+    foretold = {a["task"]: a["start"] for a in answer["plan"]["activities"]}
+    assert foretold["Calibrate"] == 6
+    assert [v["event"] for v in answers["send goal"]] == ["goal_accepted"] * 2
+    assert (last["plan_id"], last["trigger"]) == (5, "early_completion")
+    pulled = {a["task"]: a["start"] for a in last["activities"]}
+    assert (pulled["Calibrate"], pulled["Downlink"]) == (3, 10)
+
+
+def _plan_when(
+    argv: list[str], done: Callable[[dict], bool], timeout: float = 60.0
+) -> dict:
+    """The node's plan, asked for again until ``done`` says it is in."""
+    deadline = time.monotonic() + timeout
+    while True:
+        result = subprocess.run(
+            argv, capture_output=True, text=True, timeout=120
+        )
+        assert result.returncode == 0, result.stderr
+        plan = json.loads(result.stdout)
+        if done(plan) or time.monotonic() > deadline:
+            return plan
 
 
 @pytest.mark.parametrize(

@@ -265,3 +265,85 @@ def test_page_size_is_a_parameter(tmp_path: Path) -> None:
         ["t4"],
     ]
     assert {_task_axis(f).get_ylim() for f in figures} == {(1.6, -0.6)}
+
+
+def _colour_pixels(path: Path, colour: str) -> int:
+    """How many pixels of the PNG at ``path`` are exactly ``colour``."""
+    import numpy as np
+    from PIL import Image
+
+    rgb = [int(colour[i : i + 2], 16) for i in (1, 3, 5)]
+    with Image.open(path) as image:
+        pixels = np.asarray(image.convert("RGB"))
+    return int((pixels == rgb).all(axis=2).sum())
+
+
+def _paper_replans() -> dict[str, tuple[Problem, Plan, Any]]:
+    """The Table 2 replan at t=15, free and with a 30-unit window."""
+    import fsw_scheduler as fs
+
+    from ..factories import DATA
+
+    problem = (DATA / "paper_table1.json").read_text()
+    plan = fs.solve(problem)
+    goal = (DATA / "paper_table2_goal.json").read_bytes()
+    return {
+        "free": fs.replan(problem, plan, goal, 15),
+        "window": fs.replan(problem, plan, goal, 15, commit_window=30),
+    }
+
+
+def test_a_moved_activity_has_its_old_place_ghosted(tmp_path: Path) -> None:
+    """Tests on the Table 2 replan, which moves SetPositionY and
+    DownlinkSat2Ground 5 units earlier, that the Gantt PNG draws each old
+    place ghosted (the ghost's dashed outline colour is in the picture,
+    one patch per moved task at its old start and length), and that the
+    same chart without moves has no ghost at all."""
+    from fsw_scheduler.model.plan import Moved
+    from fsw_scheduler.view.style import GHOST_COLOUR
+
+    problem, plan, diff = _paper_replans()["free"]
+    moved = [Moved(m.task, m.old_start, m.new_start) for m in diff.moved]
+    assert {m.task for m in moved} == {"SetPositionY", "DownlinkSat2Ground"}
+    (with_moves,), figures = _draw(
+        problem, plan, tmp_path / "moved.png", moved=moved, now=15
+    )
+    ghosts = {
+        patch.get_gid(): (patch.get_x(), patch.get_width())
+        for patch in figures[0].axes[0].patches
+        if (patch.get_gid() or "").startswith("ghost:")
+    }
+    assert ghosts == {
+        "ghost:SetPositionY": (38, 1),
+        "ghost:DownlinkSat2Ground": (39, 10),
+    }
+    (plain,) = gantt(problem, plan, tmp_path / "plain.png", now=15)
+    assert _colour_pixels(with_moves, GHOST_COLOUR) > 20
+    assert _colour_pixels(plain, GHOST_COLOUR) == 0
+
+
+def test_pinned_activities_are_marked(tmp_path: Path) -> None:
+    """Tests on the Table 2 replan with a 30-unit commit window that the
+    activities the window kept (SetPositionY and DownlinkSat2Ground
+    stay at 38 and 39) are drawn with the pin outline, none is ghosted,
+    and a chart without pins has no pin outline."""
+    from fsw_scheduler.view.style import GHOST_COLOUR, PIN_COLOUR
+
+    problem, plan, diff = _paper_replans()["window"]
+    assert not diff.moved
+    starts = plan.starts()
+    pinned = [t for t in diff.kept if 15 <= starts[t] < 45]
+    assert {"SetPositionY", "DownlinkSat2Ground"} <= set(pinned)
+    (marked,), figures = _draw(
+        problem, plan, tmp_path / "pinned.png", pinned=pinned, moved=[]
+    )
+    pins = {
+        patch.get_gid()
+        for patch in figures[0].axes[0].patches
+        if (patch.get_gid() or "").startswith("pin:")
+    }
+    assert pins == {f"pin:{t}" for t in pinned}
+    (plain,) = gantt(problem, plan, tmp_path / "plain.png")
+    assert _colour_pixels(marked, PIN_COLOUR) > 50
+    assert _colour_pixels(marked, GHOST_COLOUR) == 0
+    assert _colour_pixels(plain, PIN_COLOUR) == 0

@@ -130,3 +130,38 @@ def test_a_failed_run_is_drawn_as_failed(tmp_path: Path) -> None:
         **kwargs,
     )
     assert plain.read_bytes() != marked.read_bytes()
+
+
+def test_a_plan_says_its_moves_and_pins_to_the_pictures() -> None:
+    """Tests on the engine's Table 2 replan at t=15 with a 30-unit commit
+    window that a plan's pins are read back from the problem its solve
+    record holds (SetPositionY and DownlinkSat2Ground, planned at 38 and
+    39, are kept there; the running BatteryCharge is not a pin) and its
+    moves from the plan (none); without the window nothing is pinned
+    and the plan's moves are those the pictures ghost."""
+    from fsw_scheduler.engine.config import EngineConfig
+    from fsw_scheduler.engine.events import StartSolve
+    from fsw_scheduler.view.session import moves_of, pins_of
+
+    from ..engine.driver import Driver, paper_goal
+
+    seen = {}
+    for window in (30, 0):
+        driver = Driver(
+            config=EngineConfig(commit_window=window, stability="moves")
+        )
+        for now in range(16):
+            driver.tick(now)
+        before = driver.plan.activities
+        out = driver.goal(paper_goal(), 15)
+        (solve,) = [c for c in out if isinstance(c, StartSolve)]
+        plan = driver.plan
+        seen[window] = (
+            pins_of(solve.problem, plan, before),
+            {m.task for m in moves_of(plan)},
+        )
+    pins, moves = seen[30]
+    assert {"SetPositionY", "DownlinkSat2Ground"} <= pins
+    assert "BatteryCharge" not in pins
+    assert not moves
+    assert seen[0][0] == frozenset()

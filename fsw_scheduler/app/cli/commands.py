@@ -200,7 +200,7 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 def cmd_replan(args: argparse.Namespace) -> int:
     """``fsw-scheduler replan``: apply a goal or an event, solve again."""
-    from ...api import replan_typed
+    from ...api import ReplanSettings, replan_typed
     from ...model.change import decode_change
     from ...replan.diff import format_diff
 
@@ -216,6 +216,9 @@ def cmd_replan(args: argparse.Namespace) -> int:
         args.now,
         solver=args.solver,
         time_limit=args.time_limit,
+        settings=ReplanSettings(
+            args.commit_window, args.stability, args.move_cost
+        ),
     )
     if args.problem_out:
         _write_json(new_problem, args.problem_out)
@@ -223,6 +226,7 @@ def cmd_replan(args: argparse.Namespace) -> int:
     log.info("%s", _summary(new_plan))
     print(format_diff(diff, new_plan), file=sys.stderr)
     if args.gantt and new_plan.status.has_plan:
+        from ...model.plan import Moved, SolveStatus
         from ...view.gantt import gantt
 
         removed = {
@@ -230,6 +234,15 @@ def cmd_replan(args: argparse.Namespace) -> int:
             for r in diff.removed
             if r.rule not in ("finished", "unscheduled")
         }
+        # Kept where the window holds them (unless the pins were broken:
+        # a degraded plan).
+        window = range(args.now, args.now + args.commit_window)
+        starts = plan.starts()
+        pinned = (
+            ()
+            if new_plan.status is SolveStatus.DEGRADED
+            else [t for t in diff.kept if starts[t] in window]
+        )
         for page in gantt(
             new_problem,
             new_plan,
@@ -237,6 +250,11 @@ def cmd_replan(args: argparse.Namespace) -> int:
             now=args.now,
             removed=removed or None,
             previous=plan.activities,
+            moved=[
+                Moved(m.task, m.old_start, m.new_start, m.why)
+                for m in diff.moved
+            ],
+            pinned=pinned,
         ):
             log.info("wrote %s", page)
     return EXIT_OK if new_plan.status.has_plan else EXIT_NO_PLAN

@@ -24,6 +24,7 @@ from .commands import (
     non_negative_float,
     positive_float,
 )
+from .run_flags import RUN_FLAGS
 
 
 def _add_solver_arguments(parser: argparse.ArgumentParser) -> None:
@@ -122,6 +123,10 @@ def add_replan_command(add: Add) -> None:
         An event is {"event": "activity_failed", "task": ..., "at": T} or
         {"event": "levels", "levels": {"battery": 5.0}, "at": T}.
 
+        --commit-window, --stability and --move-cost are run's settings,
+        with the same meaning: what starts within the window keeps its
+        start, and moving a planned activity is priced.
+
         example:
           fsw-scheduler replan table1.json plan.json goal.json --now 15
         """,
@@ -148,6 +153,14 @@ def add_replan_command(add: Add) -> None:
         help="draw the new plan with a 'now' line" + _PAGES,
     )
     _add_solver_arguments(replan)
+    # The flags of ``run``, with its defaults (the paper's replan).
+    defaults = {"commit_window": 0, "stability": "off", "move_cost": 5}
+    for flag in RUN_FLAGS:
+        if flag.setting in defaults:
+            replan.add_argument(
+                flag.name,
+                **{**flag.options, "default": defaults[flag.setting]},
+            )
 
 
 def add_demo_command(add: Add) -> None:

@@ -398,6 +398,17 @@ RUN_FLAGS: tuple[RunFlag, ...] = (
         setting="early_completion_gain",
         group=REPLANS,
     ),
+    RunFlag(
+        "--late-completion",
+        {
+            "choices": ("off", "push"),
+            "help": "off: fly the plan by the clock; push: what depends on "
+            "an activity waits for it, and an overrun or a late completion "
+            "replans so that it moves later (default off)",
+        },
+        setting="late_completion",
+        group=REPLANS,
+    ),
 )
 
 
