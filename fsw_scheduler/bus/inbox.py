@@ -4,8 +4,10 @@ Zenoh callbacks only put raw samples and queries into the :class:`Inbox`
 and never block: telemetry and clock samples are coalesced (the latest
 per key wins; the others are counted as superseded), goals wait up to a
 count and byte limit and beyond it are refused by name, never dropped
-silently. An execution report that ends an activity (completed, failed)
-is never replaced by a later one on the same key: the next waits behind
+silently; telemetry that finds the bytes spent is dropped unread and
+answered too, one counted answer per key and :data:`DROP_NOTICE_S`. An
+execution report that ends an activity (completed, failed) is never
+replaced by a later one on the same key: the next waits behind
 it. :class:`Worker` runs solves on a thread of their own, so that
 dispatches keep their timing; results come back through the same inbox.
 """
@@ -13,12 +15,17 @@ dispatches keep their timing; results come back through the same inbox.
 from __future__ import annotations
 
 import concurrent.futures
+import heapq
 import queue
 import threading
+import time
 from collections import deque
 from typing import TYPE_CHECKING, Any
 
 import zenoh
+
+from ..wire import topics
+from ..wire.messages import Busy, Dropped
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -42,6 +49,38 @@ MAX_PENDING_KEYS = 4096
 #: it, a refused goal is only counted in :attr:`Inbox.busy` (never seen in
 #: practice: publishing one takes far less time than receiving one).
 MAX_BUSY_NOTICES = 65536
+
+
+#: Seconds between two answers to telemetry dropped on one key. The first
+#: drop on a key is answered at once; the drops within this interval after
+#: an answer are answered together, with their count, when it ends. A
+#: flood of dropped samples (each of which would otherwise be answered by
+#: a status message as large as itself or larger) thus costs at most one
+#: ``input_rejected`` per key and second, and the sender still learns of
+#: every sample it lost, and how many.
+DROP_NOTICE_S = 1.0
+
+#: Keys whose drops wait for their answer; drops on one more key are
+#: counted into a single answer for all keys (see ``Inbox(others=)``), so
+#: a flood of made-up keys cannot grow the tallies without bound.
+MAX_DROP_KEYS = 1024
+
+
+#: The node's notices of inputs refused unread, journaled on these keys
+#: (items ``[kind, key, message, 0.0, origin]``).
+NOTICES = {"busy": topics.BUSY, "dropped": topics.DROPPED}
+
+
+#: Inbox kinds of :meth:`Inbox.put_latest`: one waits per key.
+COALESCED = frozenset(
+    {
+        "clock",
+        "activity_report",
+        "resource_level",
+        "resource_forecast",
+        "facts",
+    }
+)
 
 
 #: Inbox kinds that are samples from the bus (the others are the node's
@@ -114,6 +153,11 @@ class Inbox:
         Undecoded goals that may wait.
     max_bytes
         Payload bytes that may wait (goals and telemetry together).
+    seconds
+        The shell's monotonic clock, in seconds (paces drop answers).
+    others
+        The key that names "any key" in the answer to drops beyond
+        :data:`MAX_DROP_KEYS` keys (the node gives ``<root>/**``).
 
     Every method is safe from any thread and returns at once; the loop
     takes items with :meth:`get`. Items are lists ``[kind, key, payload,
@@ -132,12 +176,27 @@ class Inbox:
             "queries_dropped": self.queries_dropped,
         }
 
-    def __init__(self, max_goals: int, max_bytes: int) -> None:
+    def __init__(
+        self,
+        max_goals: int,
+        max_bytes: int,
+        seconds: Callable[[], float] = time.monotonic,
+        others: str = "**",
+    ) -> None:
         self.max_goals = max_goals
         self.max_bytes = max_bytes
+        self._seconds = seconds
+        self._others = others
         self._cond = threading.Condition(threading.Lock())
         self._items: deque[list[Any]] = deque()
         self._latest: dict[str, list[Any]] = {}
+        # Drops not answered yet: key -> [kind, count, size, origin]; the
+        # keys whose answer is due, and (due time, key) of those held back
+        # by DROP_NOTICE_S; key -> when its last answer was handed out.
+        self._drops: dict[str, list[Any]] = {}
+        self._due: deque[str] = deque()
+        self._held: list[tuple[float, str]] = []
+        self._answered: dict[str, float] = {}
         self.goals = 0
         self.bytes = 0
         self.queries = 0
@@ -178,7 +237,8 @@ class Inbox:
             if self.busy_notices >= MAX_BUSY_NOTICES:
                 return
             self.busy_notices += 1
-            self._items.append(["busy", goal_id, waiting, 0.0, None])
+            notice = Busy(goal_id, waiting)
+            self._items.append(["busy", goal_id, notice, 0.0, None])
             self._cond.notify()
 
     def put_latest(
@@ -202,8 +262,17 @@ class Inbox:
             if pending is not None and _ends_activity(kind, pending[2]):
                 pending = None
                 del self._latest[key]
+            grown = len(payload) - (0 if pending is None else len(pending[2]))
+            if self.bytes + grown > self.max_bytes or (
+                pending is None and len(self._latest) >= MAX_PENDING_KEYS
+            ):
+                # Also a replacement: a huge sample must not pass the
+                # bytes bound by taking a waiting one's place.
+                self.lost += 1
+                self._drop(kind, key, len(payload), origin)
+                return
             if pending is not None:
-                self.bytes += len(payload) - len(pending[2])
+                self.bytes += grown
                 pending[2] = payload
                 pending[4] = origin
                 if kind == "clock":
@@ -211,17 +280,60 @@ class Inbox:
                 else:
                     self.superseded += 1
                 return
-            if (
-                self.bytes + len(payload) > self.max_bytes
-                or len(self._latest) >= MAX_PENDING_KEYS
-            ):
-                self.lost += 1
-                return
             self.bytes += len(payload)
             item = [kind, key, payload, 0.0, origin]
             self._latest[key] = item
             self._items.append(item)
             self._cond.notify()
+
+    def _drop(
+        self, kind: str, key: str, size: int, origin: Origin | None
+    ) -> None:
+        """Count a dropped sample into the answer its key will get."""
+        tally = self._drops.get(key)
+        if tally is None and len(self._drops) >= MAX_DROP_KEYS:
+            key, kind = self._others, "telemetry"
+            tally = self._drops.get(key)
+        if tally is not None:
+            tally[1] += 1
+            tally[2] = max(tally[2], size)
+            tally[3] = origin  # the latest sender is named
+            return
+        self._drops[key] = [kind, 1, size, origin]
+        last = self._answered.get(key)
+        if last is not None and self._seconds() < last + DROP_NOTICE_S:
+            heapq.heappush(self._held, (last + DROP_NOTICE_S, key))
+        else:
+            self._due.append(key)
+            self._cond.notify()
+
+    def _ready(self) -> bool:
+        """Whether :meth:`get` has an item (under the lock)."""
+        return bool(self._items or self._due) or bool(
+            self._held and self._held[0][0] <= self._seconds()
+        )
+
+    def _answer_drops(self) -> list[Any] | None:
+        """The answer to the drops on one key, if one is due (under the
+        lock): ``["dropped", key, Dropped, 0.0, origin]``."""
+        now = self._seconds()
+        while self._held and self._held[0][0] <= now:
+            self._due.append(heapq.heappop(self._held)[1])
+        if not self._due:
+            return None
+        key = self._due.popleft()
+        kind, count, size, origin = self._drops.pop(key)
+        # Keys answered longer ago than the interval need no memory (the
+        # dict is in answer order: the oldest first).
+        while self._answered:
+            oldest = next(iter(self._answered))
+            if self._answered[oldest] + DROP_NOTICE_S > now:
+                break
+            del self._answered[oldest]
+        self._answered.pop(key, None)
+        self._answered[key] = now
+        message = Dropped(key, kind, count, size, self.max_bytes)
+        return ["dropped", key, message, 0.0, origin]
 
     def put_query(self, item: Any) -> bool:
         """Queue a query; False when too many wait (caller drops it)."""
@@ -243,11 +355,16 @@ class Inbox:
     def get(self, timeout: float) -> list[Any] | None:
         """The oldest item, waiting up to ``timeout`` s (None: nothing)."""
         with self._cond:
-            if not self._items and not self._cond.wait_for(
-                lambda: bool(self._items), timeout
+            if self._held:  # wait no longer than until they are due
+                due = self._held[0][0] - self._seconds()
+                timeout = max(min(timeout, due), 0.0)
+            if not self._ready() and not self._cond.wait_for(
+                self._ready, timeout
             ):
                 return None
-            item = self._items.popleft()
+            # Answers to drops first: they are few (one per key and
+            # DROP_NOTICE_S) and must not wait behind the flood itself.
+            item = self._answer_drops() or self._items.popleft()
             kind = item[0]
             if kind == "goal":
                 self.goals -= 1
@@ -256,9 +373,12 @@ class Inbox:
                 self.busy_notices -= 1
             elif kind == "query":
                 self.queries -= 1
-            elif self._latest.get(item[1]) is item:
-                del self._latest[item[1]]
+            elif kind in COALESCED:
+                # Its bytes even when it left _latest for a newer sample
+                # behind it (a report that ends an activity).
                 self.bytes -= len(item[2])
+                if self._latest.get(item[1]) is item:
+                    del self._latest[item[1]]
             return item
 
 

@@ -55,7 +55,7 @@ from ..runtime.policy import (
 from ..solving.ilp.cbc import Cancel, cancel_scope, sweep_stale_dirs
 from ..wire import messages, topics
 from ..wire.terms import MAX_TERM
-from .inbox import BUS_INPUTS, Inbox, Worker, direct
+from .inbox import BUS_INPUTS, NOTICES, Inbox, Worker, direct
 from .outputs import FATAL, NodeOutputs, reply
 from .provenance import Origin, Provenance, capture
 from .whatif import WhatIfs
@@ -178,7 +178,12 @@ class SchedulerNode:
         )
         self._seconds = seconds
         self._solve_fn = solve_fn
-        self._inbox = Inbox(config.inbox_capacity, config.inbox_bytes)
+        self._inbox = Inbox(
+            config.inbox_capacity,
+            config.inbox_bytes,
+            seconds,
+            self.topics.key("**"),
+        )
         self._stop = threading.Event()
         self._token: Any = None
         self.failed: str | None = None
@@ -373,11 +378,6 @@ class SchedulerNode:
         return self._stop.wait(timeout)
 
     @property
-    def dropped(self) -> int:
-        """Telemetry samples lost because the inbox's bytes were spent."""
-        return self._inbox.lost
-
-    @property
     def inbox(self) -> Inbox:
         """The queue between the Zenoh callbacks and the loop."""
         return self._inbox
@@ -558,12 +558,11 @@ class SchedulerNode:
             )
         elif kind == "goal":
             self._on_sample(kind, key, payload, origin, arrived)
-        elif kind == "busy":
-            self._on_sample(
-                kind,
-                self.topics.key(topics.BUSY),
-                messages.encode(messages.Busy(key, payload)),
-            )
+        elif kind in NOTICES:  # payload: messages.Busy or Dropped
+            about = getattr(payload, "key", None)  # the dropped samples'
+            notice = messages.encode(payload)
+            key = self.topics.key(NOTICES[kind])
+            self._on_sample(kind, key, notice, origin, about=about)
         else:
             self._on_sample(kind, key, payload, origin=origin)
 
@@ -621,11 +620,12 @@ class SchedulerNode:
         payload: bytes,
         origin: Origin | None = None,
         arrived: float = 0.0,
+        about: str | None = None,
     ) -> None:
         self._journal.write(key, payload)
         source = None
-        if kind in BUS_INPUTS:  # not the node's own notices
-            source = self._provenance.resolve(key, origin)
+        if kind in BUS_INPUTS or about is not None:  # not own notices
+            source = self._provenance.resolve(about or key, origin)
             self._journal.write(
                 self.topics.key(topics.SOURCES),
                 messages.encode(messages.InputSource(key, source)),

@@ -104,8 +104,10 @@ class NodeConfig(
         gets ``goal_rejected`` with ``busy: N goals waiting``.
     inbox_bytes
         Payload bytes waiting for the loop (goals and telemetry). A goal
-        beyond it is rejected as busy; a telemetry sample on a key with
-        nothing waiting is dropped and counted (``inputs_dropped``).
+        beyond it is rejected as busy; a telemetry sample beyond it is
+        dropped unread, counted (``inputs_dropped``) and answered
+        ``input_rejected`` ("dropped: N samples unread", at most once per
+        key and second).
         Telemetry and clock samples never queue up: the latest per key
         replaces the one waiting (``telemetry_superseded``).
     tasks_per_goal, live_tasks

@@ -125,6 +125,12 @@ class InputDecoder:
                 (FieldIssue("", f"busy: {message.waiting} goals waiting"),),
                 message.goal_id,
             )
+        if kind == "dropped":
+            return InputRejected(
+                message.key,
+                message.kind,
+                (FieldIssue("", dropped_reason(message)),),
+            )
         # The name chunk: the last, or the one before ``/forecast``.
         name = key.rsplit("/", 2)[-2 if kind == "resource_forecast" else -1]
         field = "task" if kind == "activity_report" else "resource"
@@ -167,6 +173,25 @@ class InputDecoder:
                 ],
                 "clock",
             )
+
+
+def dropped_reason(message: messages.Dropped) -> str:
+    """The reason of the ``input_rejected`` answering dropped telemetry:
+    the limit, its value, and what the sender can do about it."""
+    samples = f"{message.count} sample{'s' if message.count > 1 else ''}"
+    if message.size > message.limit:
+        why = (
+            f"one of {message.size} bytes is larger than the whole inbox "
+            f"({message.limit} bytes, inbox-bytes); send smaller samples "
+            "or raise inbox-bytes"
+        )
+    else:
+        why = (
+            f"the inbox held its limit of {message.limit} bytes "
+            "(inbox-bytes); send less often (the latest per key is kept "
+            "while one waits), or raise inbox-bytes"
+        )
+    return f"dropped: {samples} unread, {why}"
 
 
 class _GoalHead(msgspec.Struct):

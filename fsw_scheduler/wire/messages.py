@@ -424,6 +424,25 @@ class Busy(msgspec.Struct, frozen=True):
     waiting: int
 
 
+class Dropped(msgspec.Struct, frozen=True):
+    """``scheduler/dropped`` (journal only): telemetry refused unread.
+
+    ``count`` samples of ``kind`` on ``key`` found the node's inbox
+    holding ``limit`` bytes already (``inbox-bytes``) and were dropped
+    unread; ``size`` is the largest of them, in bytes. The node answers
+    them with one ``input_rejected`` (at most one per key and second) and
+    journals this record so that replay reproduces the answer where it
+    happened. ``key`` is the spacecraft's ``<root>/**`` when too many keys
+    had drops waiting for their answer at once.
+    """
+
+    key: str
+    kind: str
+    count: int
+    size: int
+    limit: int
+
+
 class Stalled(msgspec.Struct, frozen=True):
     """``scheduler/stalled`` (journal only): the bus clock stopped.
 
@@ -668,6 +687,7 @@ SCHEMA_TYPES: dict[str, Any] = {
     "input_source": InputSource,
     "problem": Problem,
     "busy": Busy,
+    "dropped": Dropped,
     "stalled": Stalled,
     "paused": Paused,
     "explanation": Explanation,

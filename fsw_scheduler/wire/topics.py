@@ -52,6 +52,8 @@ STORED = "scheduler/stored"
 FENCES = "scheduler/fences"
 #: Recorded only: goals refused unread because the inbox was full.
 BUSY = "scheduler/busy"
+#: Recorded only: telemetry dropped unread because the inbox was full.
+DROPPED = "scheduler/dropped"
 #: Recorded only: the bus clock stopped ticking (wall-clock detection).
 STALLED = "scheduler/stalled"
 #: Recorded only: this node's process did not run for a while (a stall
@@ -145,6 +147,7 @@ KINDS = {
     SOURCES: "input_source",
     SNAPSHOT: "snapshot",
     BUSY: "busy",
+    DROPPED: "dropped",
     STALLED: "stalled",
     PAUSED: "paused",
     EXPLAINED: "explanation",
@@ -176,6 +179,7 @@ SUBSCRIPTIONS = (
 _INPUTS = {
     "goal",
     "busy",
+    "dropped",
     "explanation",
     "activity_report",
     "resource_level",
@@ -244,7 +248,8 @@ def input_kind(topics: Topics, key: str, clock: str) -> str | None:
 
     Returns ``goal``, ``clock`` (bus clock only), ``tick`` (the journal's
     record of the node's own clock, wall clock only), ``busy`` (the
-    journal's record of a goal refused unread), ``activity_report``,
+    journal's record of a goal refused unread), ``dropped`` (of telemetry
+    dropped unread), ``activity_report``,
     ``resource_level``, ``resource_forecast``, or None for keys that are
     not scheduler inputs.
     """

@@ -20,9 +20,11 @@ from ..journal.test_resume import soak_resume
 if TYPE_CHECKING:
     from pathlib import Path
 
+    from ..conftest import Uninterrupted
+
 
 def test_standby_takes_over_and_nothing_is_dispatched_twice(
-    tmp_path: Path,
+    tmp_path: Path, uninterrupted: Uninterrupted
 ) -> None:
     """Tests failover: A commands, B stands by; A is killed (during a
     tick, while the goal is solved, after a report) and each time the
@@ -31,7 +33,7 @@ def test_standby_takes_over_and_nothing_is_dispatched_twice(
     every journal replaying identically."""
     soak = soak_resume()
     rng = random.Random(11)
-    reference = soak.run_session(tmp_path, set(), rng)
+    reference = uninterrupted.outcome
     kills = {(4, "tick"), (15, "goal"), (27, "report")}
     outcome = soak.run_failover(tmp_path, kills, rng)
     assert soak.compare(reference, outcome) == []

@@ -20,6 +20,7 @@ import zenoh
 
 from fsw_scheduler.model.problem import MAX_ID_LENGTH
 from fsw_scheduler.testing import harness_config
+from fsw_scheduler.wire import messages
 from fsw_scheduler.wire import topics as keys
 
 from ..factories import CLI, DATA, bench_lib, ping_goal
@@ -485,6 +486,139 @@ def test_telemetry_is_coalesced_never_lost(
     assert after.plan_id == before.plan_id
 
 
+def test_telemetry_dropped_for_spent_bytes_is_answered(
+    tmp_path: Path,
+) -> None:
+    """Tests that a telemetry flood that spends inbox-bytes has every
+    dropped sample answered (input_rejected, counted, at most one per key
+    and second), while the node answers queries, the plan runs on and the
+    journal replays identically."""
+    import itertools
+    import re
+
+    from fsw_scheduler.bus.inbox import DROP_NOTICE_S
+    from fsw_scheduler.journal.annotate import schema_lookup
+    from fsw_scheduler.journal.reader import iter_messages
+    from fsw_scheduler.journal.replay import verify
+    from fsw_scheduler.journal.writer import Recorder
+    from fsw_scheduler.testing import SchedulerHarness
+
+    path = tmp_path / "journal.mcap"
+    limit = 1 << 20  # the smallest inbox-bytes: two samples do not fit
+    harness = SchedulerHarness(
+        config=harness_config(inbox_bytes=limit),
+        node_options={
+            "journal": Recorder(path, schemas=schema_lookup("sat1"))
+        },
+    )
+    with harness as h:
+        h.tick(0)
+        h.publish_goal(goal_of("g", task("Work", feasible_interval=[3, 40])))
+        plan = h.wait_plan(lambda p: "g" in p.goals)
+        start = next(a.start for a in plan.activities if a.task == "Work")
+        consumable = h.problem.resources.consumable
+        before = h.settle(0)
+        publishers = {
+            name: h.client.declare_publisher(
+                h.topics.resource_level(name),
+                congestion_control=zenoh.CongestionControl.BLOCK,
+            )
+            for name in consumable
+        }
+        pad = b" " * (limit * 6 // 10)
+        sent = 0
+        seen = len(h.statuses)
+        try:
+            for n in range(40):
+                name = sorted(consumable)[n % 2]
+                level = {"resource": name, "level": consumable[name], "at": 0}
+                publishers[name].put(json.dumps(level).encode() + pad)
+                sent += 1
+            # One larger than the whole inbox: dropped whatever the timing.
+            publishers["battery"].put(b"{}" + pad + pad)
+            sent += 1
+            answered = h.query_status(5.0)  # responsive amid the flood
+            assert answered.plan_id == plan.plan_id
+        finally:
+            for publisher in publishers.values():
+                publisher.undeclare()
+        after = h.settle(0)
+        dropped = after.counters.inputs_dropped
+        assert dropped > 0
+        counted = re.compile(r"dropped: (\d+) samples? unread, ")
+
+        def answers() -> list[messages.Status]:
+            return [
+                s
+                for s in h.statuses[seen:]
+                if s.event == "input_rejected"
+                and s.errors
+                and counted.match(s.errors[0].reason)
+            ]
+
+        def all_answered() -> bool:
+            return (
+                sum(
+                    int(counted.match(s.errors[0].reason)[1])  # type: ignore[index]
+                    for s in answers()
+                )
+                >= dropped
+            )
+
+        with h._cond:  # the held answers come within DROP_NOTICE_S
+            assert h._cond.wait_for(all_answered, 10 + DROP_NOTICE_S)
+        rejections = answers()
+        assert (
+            sum(
+                int(counted.match(s.errors[0].reason)[1])  # type: ignore[index]
+                for s in rejections
+            )
+            == dropped
+        )  # every dropped sample once, none twice
+        keys = {s.detail for s in rejections}
+        assert keys <= {
+            f"resource_level on {h.topics.resource_level(n)} ignored"
+            for n in consumable
+        }
+        assert all(
+            f"{limit} bytes" in s.errors[0].reason
+            and "inbox-bytes" in s.errors[0].reason
+            for s in rejections
+        )
+        assert any(
+            "larger than the whole inbox" in s.errors[0].reason
+            for s in rejections
+        )
+        superseded = (
+            after.counters.telemetry_superseded
+            - before.counters.telemetry_superseded
+        )
+        # The plan runs on: the flood made no replan, and the activity
+        # is dispatched when its time comes.
+        assert after.plan_id == plan.plan_id
+        h.tick(start)
+        h.wait_dispatch("Work")
+    levels = {h.topics.resource_level(n) for n in consumable}
+    processed = sum(1 for m in iter_messages(path) if m.topic in levels)
+    assert processed + superseded + dropped == sent
+    report = verify(path)
+    assert report.identical, report.summary()
+    records = [
+        m
+        for m in iter_messages(path)
+        if m.topic.endswith("/scheduler/dropped")
+    ]
+    assert len(records) == len(rejections)
+    # Bounded: the answers on one key are DROP_NOTICE_S apart at least.
+    answered: dict[str, list[int]] = {}
+    for record in records:
+        key = json.loads(record.payload)["key"]
+        answered.setdefault(key, []).append(record.log_time_ns)
+    for times in answered.values():
+        gaps = [b - a for a, b in itertools.pairwise(times)]
+        assert all(gap >= 0.9e9 * DROP_NOTICE_S for gap in gaps), gaps
+
+
 # -- finding 5: goals waiting behind a solve, limits -------------------------
 
 
@@ -930,14 +1064,15 @@ def test_inbox_bounds_without_blocking() -> None:
     assert (inbox.superseded, inbox.bytes) == (1, 95)
     inbox.put_latest("resource_level", "k2", b"c" * 10)  # bytes spent
     assert inbox.lost == 1
-    kinds = [inbox.get(0.01) for _ in range(4)]
+    kinds = [inbox.get(0.01) for _ in range(5)]
     assert [k[0] if k else None for k in kinds] == [
+        "dropped",  # its answer goes first
         "goal",
         "goal",
         "resource_level",
         None,
     ]
-    assert kinds[2] is not None and kinds[2][2] == b"b" * 15
+    assert kinds[3] is not None and kinds[3][2] == b"b" * 15
     assert (inbox.goals, inbox.bytes, len(inbox)) == (0, 0, 0)
     big = Inbox(max_goals=1, max_bytes=1 << 30)
     for n in range(inbox_module.MAX_PENDING_KEYS + 5):

@@ -16,18 +16,18 @@ from fsw_scheduler.journal.integrity import MAX_RECORD_BYTES, check_file
 from fsw_scheduler.journal.state import StateDamaged, journal_files, open_state
 
 from ..factories import DATA, cli_command
-from .test_resume import soak_resume
 
 if TYPE_CHECKING:
     from pathlib import Path
 
+    from ..conftest import Uninterrupted
 
-@pytest.fixture(scope="module")
-def state_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A real node's state folder after the scripted session."""
-    work = tmp_path_factory.mktemp("session")
-    soak_resume().run_session(work, set(), random.Random(0))
-    return work / "state"
+
+@pytest.fixture
+def state_folder(uninterrupted: Uninterrupted) -> Path:
+    """A real node's state folder after the scripted session (shared:
+    the tests copy it before they change anything)."""
+    return uninterrupted.state
 
 
 def _state(folder: Path) -> bytes:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import contextlib
 import random
+import shutil
 from typing import TYPE_CHECKING
 
 import pytest
@@ -18,6 +19,8 @@ if TYPE_CHECKING:
     from pathlib import Path
     from types import ModuleType
 
+    from ..conftest import Uninterrupted
+
 
 def soak_resume() -> ModuleType:
     """``tools/soak_resume``: a node session with SIGKILLs at given steps."""
@@ -25,7 +28,7 @@ def soak_resume() -> ModuleType:
 
 
 def test_random_sigkills_resume_to_the_uninterrupted_plan(
-    tmp_path: Path,
+    tmp_path: Path, uninterrupted: Uninterrupted
 ) -> None:
     """Tests the real node (separate process, --state) killed by SIGKILL
     at random points: after each restart it resumes, and the session ends
@@ -33,7 +36,7 @@ def test_random_sigkills_resume_to_the_uninterrupted_plan(
     exactly as often, and every journal file replaying identically."""
     soak = soak_resume()
     rng = random.Random(7)
-    reference = soak.run_session(tmp_path, set(), rng)
+    reference = uninterrupted.outcome
     kills = soak.random_kills(rng, 4) | {(15, "goal"), (0, "tick")}
     outcome = soak.run_session(tmp_path, kills, rng)
     assert soak.compare(reference, outcome) == []
@@ -44,13 +47,13 @@ def test_random_sigkills_resume_to_the_uninterrupted_plan(
 
 
 def test_rotated_journal_resumes_from_the_newest_snapshot(
-    tmp_path: Path,
+    tmp_path: Path, uninterrupted: Uninterrupted
 ) -> None:
     """Tests journals that rotate by size: each file opens with a snapshot,
     a node killed after rotations resumes, all files replay identically."""
     soak = soak_resume()
     rng = random.Random(3)
-    reference = soak.run_session(tmp_path, set(), rng)
+    reference = uninterrupted.outcome
     outcome = soak.run_session(
         tmp_path,
         {(20, "tick"), (30, "report")},
@@ -62,12 +65,13 @@ def test_rotated_journal_resumes_from_the_newest_snapshot(
     assert parts, outcome.journal_files
 
 
-def test_state_folder_finishes_a_truncated_journal(tmp_path: Path) -> None:
+def test_state_folder_finishes_a_truncated_journal(
+    tmp_path: Path, uninterrupted: Uninterrupted
+) -> None:
     """Tests that a journal cut short (killed writer) is recovered and the
     state rebuilt from what it holds."""
-    soak = soak_resume()
-    soak.run_session(tmp_path, set(), random.Random(0))
     state = tmp_path / "state"
+    shutil.copytree(uninterrupted.state, state)
     (path,) = journal_files(state)
     data = path.read_bytes()
     path.write_bytes(data[: len(data) * 2 // 3])
@@ -78,14 +82,16 @@ def test_state_folder_finishes_a_truncated_journal(tmp_path: Path) -> None:
     assert start.next_journal.name == "journal-0002.mcap"
 
 
-def test_the_state_folder_keeps_its_byte_budget(tmp_path: Path) -> None:
+def test_the_state_folder_keeps_its_byte_budget(
+    tmp_path: Path, uninterrupted: Uninterrupted
+) -> None:
     """Tests ``--state-max-bytes``: with small parts the oldest files go
     once a newer part opens with the state; the folder stays within its
     budget (plus the part being written) and still resumes to the plan
     of an uninterrupted run."""
     soak = soak_resume()
     rng = random.Random(3)
-    reference = soak.run_session(tmp_path, set(), rng)
+    reference = uninterrupted.outcome
     budget = 30_000
     outcome = soak.run_session(
         tmp_path,

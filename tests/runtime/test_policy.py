@@ -21,7 +21,8 @@ NOT_REPLAYED = {
     "time_unit": "a wall-clock node journals its ticks; replay reads them",
     "clock_stall": "a detected stall is journaled as an input",
     "inbox_capacity": "a goal refused unread is journaled (scheduler/busy)",
-    "inbox_bytes": "a goal refused unread is journaled (scheduler/busy)",
+    "inbox_bytes": "goals and telemetry refused unread are journaled "
+    "(scheduler/busy, scheduler/dropped, which carries the limit)",
     "discovery": "how the node finds its bus, not what it decides",
     "rank": "redundancy: which node commands, not what it decides",
     "standby": "redundancy: which node commands, not what it decides",
