@@ -24,6 +24,7 @@ from mcap.records import (
 )
 from mcap.well_known import MessageEncoding
 
+from .metadata import METADATA_CRC_KEY
 from .recover import is_finished, iter_complete_records, scan_messages
 
 log = logging.getLogger("fsw_scheduler.journal")
@@ -255,7 +256,15 @@ def read_metadata(path: PathLike) -> list[tuple[str, dict[str, str]]]:
             log.warning("%s: metadata index unreadable (%s)", path, error)
     if found is None:
         found = _records_of(path, Metadata)
-    return [(m.name, dict(m.metadata)) for m in found]
+    # The record's own CRC is the integrity walk's (check_file), not a
+    # setting: readers never see it.
+    return [
+        (
+            m.name,
+            {k: v for k, v in m.metadata.items() if k != METADATA_CRC_KEY},
+        )
+        for m in found
+    ]
 
 
 def read_attachments(path: PathLike) -> dict[str, bytes]:

@@ -3,7 +3,9 @@
 Every read that feeds a decision (resume, takeover from a state folder)
 first walks each file record by record: record sizes are bounded before
 anything is allocated, every chunk is decompressed and its CRC checked,
-and a finished file's summary is checked against the CRC in its footer.
+and a finished file's summary is checked against the CRC in its footer;
+a metadata record (which MCAP leaves without a CRC: the settings a
+resume reads) against its own (``_crc32``, from the writer).
 A file cut short by a crash (its last record incomplete, nothing after
 it) is *truncated*: :func:`~fsw_scheduler.journal.recover.recover`
 finishes it. Anything else is *damage* (a bit flip, a torn write inside
@@ -23,9 +25,10 @@ from pathlib import Path
 
 from mcap.opcode import Opcode
 from mcap.reader import make_reader
-from mcap.records import Chunk, Message
+from mcap.records import Chunk, Message, Metadata
 from mcap.stream_reader import StreamReader, breakup_chunk
 
+from .metadata import metadata_intact
 from .writer import MCAP_MAGIC, RECORD_HEAD, PathLike
 
 #: The largest record a journal holds (a chunk of messages, or one large
@@ -185,6 +188,10 @@ def _record_issue(
             result.messages += sum(isinstance(r, Message) for r in inner)
         elif isinstance(record, Message):
             result.messages += 1
+        elif isinstance(record, Metadata) and not metadata_intact(
+            record.name, record.metadata
+        ):
+            return f"metadata {record.name!r} does not match its CRC"
     except Exception as error:  # any parse failure is damage here
         return f"{type(error).__name__}: {error}"[:300]
     return None

@@ -56,6 +56,7 @@ from mcap.writer import CompressionType, Writer
 
 from ..wire.topics import journal_key
 from .channels import schema_data, schema_name
+from .metadata import METADATA_CRC_KEY, metadata_crc
 
 log = logging.getLogger("fsw_scheduler.journal")
 
@@ -402,7 +403,10 @@ class Recorder:
         """
         if self._closed:
             raise ValueError("add_metadata to a closed Recorder")
-        pairs = {str(k): str(v) for k, v in data.items()}
+        pairs = {
+            str(k): str(v) for k, v in data.items() if k != METADATA_CRC_KEY
+        }
+        pairs[METADATA_CRC_KEY] = metadata_crc(name, pairs)
         self._metadata.append((name, pairs))
         if self._writer is None:
             return  # no part open (a disk error): written at the next one

@@ -270,3 +270,47 @@ def test_a_length_flipped_past_its_record_is_damage(tmp_path: Path) -> None:
     check = check_file(path)
     assert check.damage is not None and "past its record" in check.damage
     assert check.offset is not None and check.offset < value
+
+
+def test_a_flipped_setting_in_the_metadata_is_damage(
+    state_folder: Path, tmp_path: Path
+) -> None:
+    """Tests the settings a resume reads from the journal's metadata (MCAP
+    gives metadata records no CRC): one bit turning ``commit-window`` 0
+    into 2 is damage at the record's offset, and the folder is refused,
+    not resumed with other settings; readers never see the CRC key."""
+    import io
+
+    from mcap.writer import Writer
+
+    from fsw_scheduler.journal.info import read_metadata
+    from fsw_scheduler.journal.metadata import METADATA_CRC_KEY
+
+    (journal,) = journal_files(state_folder)
+    original = journal.read_bytes()
+    metadata = read_metadata(journal)
+    assert metadata and all(METADATA_CRC_KEY not in p for _, p in metadata)
+    settings = dict(metadata)["fsw_scheduler.settings"]
+    assert settings["commit-window"] == "0", settings
+    key = original.index(b"commit-window")
+    value = key + len(b"commit-window") + 4  # past the value's length
+    assert original[value : value + 1] == b"0"
+    damaged = bytearray(original)
+    damaged[value] ^= 0b10  # "0" -> "2"
+    folder = tmp_path / "flipped"
+    folder.mkdir()
+    (folder / journal.name).write_bytes(bytes(damaged))
+    check = check_file(folder / journal.name)
+    assert check.damage is not None and "CRC" in check.damage, check.describe()
+    assert check.offset is not None and check.offset < key
+    with pytest.raises(StateDamaged):
+        open_state(folder)
+    # A recording made before the CRC (none in its metadata) is intact.
+    stream = io.BytesIO()
+    writer = Writer(stream)
+    writer.start()
+    writer.add_metadata("settings", {"commit-window": "0"})
+    writer.finish()
+    old = tmp_path / "old.mcap"
+    old.write_bytes(stream.getvalue())
+    assert check_file(old).ok
