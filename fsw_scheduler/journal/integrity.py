@@ -25,7 +25,7 @@ from pathlib import Path
 
 from mcap.opcode import Opcode
 from mcap.reader import make_reader
-from mcap.records import Chunk, Message, Metadata
+from mcap.records import Attachment, Chunk, Message, Metadata
 from mcap.stream_reader import StreamReader, breakup_chunk
 
 from .metadata import metadata_intact
@@ -188,6 +188,15 @@ def _record_issue(
             result.messages += sum(isinstance(r, Message) for r in inner)
         elif isinstance(record, Message):
             result.messages += 1
+        elif isinstance(record, Attachment):
+            # The writer fills its CRC (over the record after its head);
+            # the reader skips it.
+            (crc,) = struct.unpack_from("<I", data, end - 4)
+            if (
+                crc != 0
+                and zlib.crc32(data[at + RECORD_HEAD.size : end - 4]) != crc
+            ):
+                return f"attachment {record.name!r} does not match its CRC"
         elif isinstance(record, Metadata) and not metadata_intact(
             record.name, record.metadata
         ):

@@ -314,3 +314,22 @@ def test_a_flipped_setting_in_the_metadata_is_damage(
     old = tmp_path / "old.mcap"
     old.write_bytes(stream.getvalue())
     assert check_file(old).ok
+
+
+def test_a_flipped_attachment_is_damage(
+    state_folder: Path, tmp_path: Path
+) -> None:
+    """Tests a bit flipped inside an attachment (the session's problem):
+    its CRC, which MCAP's reader skips, is checked, and it is damage."""
+    (journal,) = journal_files(state_folder)
+    original = journal.read_bytes()
+    from fsw_scheduler.journal.info import read_attachments
+
+    name, data = next(iter(read_attachments(journal).items()))
+    inside = original.index(data) + len(data) // 2
+    damaged = bytearray(original)
+    damaged[inside] ^= 0b100
+    path = tmp_path / journal.name
+    path.write_bytes(bytes(damaged))
+    check = check_file(path)
+    assert check.damage is not None and name in check.damage, check.describe()
