@@ -35,29 +35,18 @@ if TYPE_CHECKING:
     from ..model.problem import Problem
 
 
-#: A part of fewer tasks than :attr:`~fsw_scheduler.solving.budget.
-#: SolveBudget.lns_min_tasks`, but at least :data:`SEARCH_MIN_TASKS`,
-#: goes to the neighbourhood search too when its model has more columns
-#: (start times) than this: CBC did not get through the root LP of such
-#: models in 20 s (29 tasks over H = 1440, 22,000 columns: the root took
-#: 24 s, and the start plan was returned unchanged), while the search
-#: improves the plan in steps and keeps a bound.
-SEARCH_COLUMNS = 15_000
-SEARCH_MIN_TASKS = 20
-
-
-def searched(problem: Problem, domains: dict[str, Domain]) -> bool:
+def searched(problem: Problem) -> bool:
     """True if a part under a time limit goes to the neighbourhood search
     (:func:`improved`, :func:`replanned`) rather than whole to CBC: from
-    :attr:`~fsw_scheduler.solving.budget.SolveBudget.lns_min_tasks` tasks,
-    or from :data:`SEARCH_MIN_TASKS` with over :data:`SEARCH_COLUMNS`
-    columns."""
-    if problem.num_tasks >= BUDGET.lns_min_tasks:
-        return True
-    return (
-        problem.num_tasks >= SEARCH_MIN_TASKS
-        and columns(domains) > SEARCH_COLUMNS
-    )
+    :attr:`~fsw_scheduler.solving.budget.SolveBudget.lns_min_tasks` tasks.
+
+    Parts of 20-29 tasks whose model had over 15,000 columns were sent
+    here too for a while: on the large suite's seed 47 (not tuned on) a
+    29-task part over H = 1440 that CBC proves in 7 s went unproved, and
+    on the fresh campaign's f25-h1440-0 (seed 5) the search's plan and
+    bound were both worse than CBC's.
+    """
+    return problem.num_tasks >= BUDGET.lns_min_tasks
 
 
 #: Share of a replan's time its repair (the start heuristic) may take.
@@ -162,6 +151,11 @@ FULL_MIN_S = 2.0
 SMALL_COLUMNS = 5_000
 SMALL_SHARE = 0.5
 
+#: A sweep of the search that finds nothing hands the rest of the time
+#: over to the whole model when, narrowed around the incumbent, it has at
+#: most this many columns (CBC proved a 12,126-column one in 5 s).
+HAND_OVER_COLUMNS = 15_000
+
 
 def improved(
     problem: Problem,
@@ -176,7 +170,11 @@ def improved(
 
     For large problems under a limit: the whole model does not get
     through CBC's root LP in seconds (on the scaling set CBC never
-    improved the start plan), small neighbourhood models do. The
+    improved the start plan), small neighbourhood models do. Where the
+    whole model narrowed around the start plan is small
+    (:data:`SMALL_COLUMNS`), CBC gets it first, for :data:`SMALL_SHARE`
+    of the time; a stalled sweep hands the rest over to it as soon as
+    the incumbent makes it small (:data:`HAND_OVER_COLUMNS`). The
     kept-set relaxation (:func:`~fsw_scheduler.analysis.bounds.
     kept_set_plan`) bounds every plan from the start, and the search
     stops when its incumbent meets the bound. Otherwise, once a sweep of
@@ -229,8 +227,7 @@ def improved(
 
     def small(plan: Plan) -> bool:
         # The whole model narrowed around a better incumbent can be
-        # small enough for CBC to prove: a model it gets through, as for
-        # the parts it is given whole (f45-h2880 of the large suite,
+        # small enough for CBC to prove (f45-h2880 of the large suite,
         # seed 31: the search held the optimum and swept on until the
         # limit; 12,126 columns around it, proved by CBC in 5 s).
         again = kept_set_bound(problem, plan, domains)
@@ -238,7 +235,7 @@ def improved(
         if narrowed is None:
             return False
         around[:] = [(plan, again, narrowed)]
-        return columns(narrowed) <= SEARCH_COLUMNS
+        return columns(narrowed) <= HAND_OVER_COLUMNS
 
     best, improved = improve(
         problem,
