@@ -117,19 +117,10 @@ def improve(
     size = MIN_FREE
     shift = 0.0
 
-    def sweep() -> list[tuple[int, int, str | None]]:
-        if around is not None:
-            return [
-                (low, high, None)
-                for low, high in _windows_around(
-                    problem, best, domains, around, size
-                )
-            ]
-        spread = _windows(problem, size, shift)
-        return [
-            *_windows_delayed(problem, best, domains, size),
-            *((low, high, None) for low, high in spread),
-        ]
+    def sweep() -> list[tuple[int, int]]:
+        if around is None:
+            return _windows(problem, size, shift)
+        return _windows_around(problem, best, domains, around, size)
 
     windows = sweep()
     stale = index = 0
@@ -180,11 +171,9 @@ def improve(
             stale = index = 0
         if not windows:
             break
-        low, high, late = windows[index % len(windows)]
+        low, high = windows[index % len(windows)]
         index += 1
-        narrowed = _neighbourhood(
-            problem, best, domains, low, high, size, late
-        )
+        narrowed = _neighbourhood(problem, best, domains, low, high, size)
         if narrowed is None:
             stale += 1
             continue
@@ -240,46 +229,6 @@ def _windows(
     ]
 
 
-#: Windows of a sweep (:func:`_windows_delayed`) about the tasks that
-#: cost the most delay, before the sweep over the horizon.
-DELAYED_WINDOWS = 6
-
-
-def _windows_delayed(
-    problem: Problem, plan: Plan, domains: dict[str, Domain], size: int
-) -> list[tuple[int, int, str]]:
-    """Windows ending where each of the :data:`DELAYED_WINDOWS` tasks of
-    ``plan`` that cost the most delay (beyond their earliest start) ends,
-    the task itself set free in each.
-
-    The sweep's windows cut the horizon in fixed places: a task held
-    late by the tasks before it moves only as far as the window that
-    frees them both allows, and on 30-task fresh problems the search
-    stalled some 1,700 delay units above the optimum that way. Such a
-    window frees the late task with the tasks just before it, so each
-    round moves it towards its earliest start.
-    """
-    span, count = problem.horizon, problem.num_tasks
-    mean = sum(t.length for t in problem.tasks) / count
-    width = int(min(span, max(8, size * span / count - mean)))
-    tasks = {t.id: t for t in problem.tasks}
-    late = sorted(
-        (
-            -tasks[name].delay_cost * (start - domains[name].earliest),
-            name,
-            start,
-        )
-        for name, start in plan.starts().items()
-        if start > domains[name].earliest and tasks[name].delay_cost > 0
-    )
-    found = []
-    for _, name, start in late[:DELAYED_WINDOWS]:
-        high = start + tasks[name].length
-        low = max(problem.start, domains[name].earliest, high - width)
-        found.append((low, high, name))
-    return found
-
-
 def _windows_around(
     problem: Problem,
     plan: Plan,
@@ -318,10 +267,9 @@ def _neighbourhood(
     low: int,
     high: int,
     size: int,
-    late: str | None = None,
 ) -> dict[str, Domain] | None:
     """Domains freeing up to ``size`` tasks around ``[low, high)``,
-    pinning the rest; ``late`` (a task to move earlier) is always free.
+    pinning the rest.
 
     None when nothing there can change.
     """
@@ -345,10 +293,6 @@ def _neighbourhood(
     # the objective's first criterion; then the tasks in their way.
     waiting.sort(key=lambda name: -tasks[name].schedule_cost)
     free = set(waiting[: size // 2])
-    if late is not None:
-        free.add(late)
-        # The tasks just before the late one first: they hold it back.
-        placed.sort(key=lambda name: -starts[name])
     for name in placed:
         if len(free) >= size:
             break

@@ -1,23 +1,27 @@
-"""Tests of the neighbourhood search's windows (improve.py)."""
+"""Tests of the neighbourhood search (improve.py)."""
 
 from __future__ import annotations
+
+import functools
+import time
 
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.solving import improve
+from fsw_scheduler.solving.ilp import solve_ilp
 
 from ..factories import make_doc, make_task, problem_from
 from ..problems import plan_of
 
 
 def _queue() -> tuple:
-    """Three camera tasks of 5 back to back from 0, each able to start at
-    0: ``b`` waits 5 units at delay cost 3, ``c`` 10 at delay cost 1."""
+    """Three camera tasks of 5 back to back from 0: an optimal plan, which
+    no neighbourhood can improve."""
     problem = problem_from(
         make_doc(
             [
-                make_task("a", 5, uses={"cam": 1}, delay_cost=1),
-                make_task("b", 5, uses={"cam": 1}, delay_cost=3),
+                make_task("a", 5, uses={"cam": 1}, delay_cost=3),
+                make_task("b", 5, uses={"cam": 1}, delay_cost=2),
                 make_task("c", 5, uses={"cam": 1}, delay_cost=1),
             ],
             horizon=40,
@@ -29,32 +33,51 @@ def _queue() -> tuple:
     return problem, plan, start_domains(problem)
 
 
-def test_delayed_windows_end_where_the_costliest_late_tasks_end() -> None:
-    """Tests that the search's windows about late tasks come first for
-    the task whose wait costs most, end where it ends, start no sooner
-    than its earliest start, and name it."""
+def test_a_stalled_sweep_hands_the_time_over_when_asked_to() -> None:
+    """Tests that the search asks ``hand_over`` of its incumbent when a
+    sweep finds nothing, once per incumbent, and ends at once when it
+    says so, long before its deadline."""
     problem, plan, domains = _queue()
-    windows = improve._windows_delayed(problem, plan, domains, size=6)
-    # b waits 5 x 3 = 15, c waits 10 x 1 = 10; a does not wait.
-    assert [name for _, _, name in windows] == ["b", "c"]
-    low, high, _ = windows[0]
-    assert high == 10
-    assert domains["b"].earliest <= low < high
+    run = functools.partial(solve_ilp, solver="cbc", threads=1)
+    asked = []
 
+    def hand_over(incumbent: object) -> bool:
+        asked.append(incumbent)
+        return True
 
-def test_a_late_task_is_free_in_its_window_with_the_tasks_before_it() -> None:
-    """Tests that the neighbourhood of a late task's window frees that
-    task, even when the window is full, and the task just before it
-    first; the task after the window stays pinned."""
-    problem, plan, domains = _queue()
-    narrowed = improve._neighbourhood(
-        problem, plan, domains, 0, 10, size=2, late="b"
+    began = time.perf_counter()
+    best, improved = improve.improve(
+        problem,
+        plan,
+        domains,
+        run,
+        began + 60.0,
+        hand_over=hand_over,
     )
-    assert narrowed is not None
-    free = {
-        name
-        for name, domain in narrowed.items()
-        if domain.latest > domain.earliest
-    }
-    assert free == {"a", "b"}
-    assert narrowed["c"].earliest == narrowed["c"].latest == 10
+    assert time.perf_counter() - began < 30.0
+    assert improved == 0 and best.starts() == plan.starts()
+    assert asked == [plan]
+
+
+def test_a_stalled_sweep_goes_on_when_not_handed_over() -> None:
+    """Tests that a ``hand_over`` saying no lets the search grow its
+    neighbourhoods and end by itself, having asked once for the one
+    incumbent."""
+    problem, plan, domains = _queue()
+    run = functools.partial(solve_ilp, solver="cbc", threads=1)
+    asked = []
+
+    def hand_over(incumbent: object) -> bool:
+        asked.append(incumbent)
+        return False
+
+    best, improved = improve.improve(
+        problem,
+        plan,
+        domains,
+        run,
+        time.perf_counter() + 60.0,
+        hand_over=hand_over,
+    )
+    assert improved == 0 and best.starts() == plan.starts()
+    assert asked == [plan]
