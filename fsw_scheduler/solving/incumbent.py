@@ -74,14 +74,14 @@ PROBE_SHARE = 0.3
 ROOT_PROBE_COLUMNS = 5_000
 
 
-def _columns(domains: dict[str, Domain]) -> int:
+def columns(domains: dict[str, Domain]) -> int:
     """Start times in ``domains``: the time-indexed model's columns."""
     return sum(
         d.latest - d.earliest + 1 for d in domains.values() if not d.empty
     )
 
 
-def _worth_a_probe(
+def worth_a_probe(
     problem: Problem, start: Plan | None, relaxed: KeptSetProof | None
 ) -> bool:
     """True if the kept-set bound leaves out less cost than ``start``.
@@ -128,7 +128,7 @@ def probed(
     for the full run (a paper-shaped consumable problem CBC had not
     proved in 20 s: proved in 3 s after it).
 
-    Which probe: a node-limited search when :func:`_worth_a_probe`; else,
+    Which probe: a node-limited search when :func:`worth_a_probe`; else,
     on models of :data:`ROOT_PROBE_COLUMNS` or more, CBC's root alone
     with its heuristics on; else none (``start`` and ``narrowed`` are
     returned as they are).
@@ -142,10 +142,10 @@ def probed(
     if start is None or relaxed is None:
         return None, start, narrowed
     heuristics = False
-    if _worth_a_probe(problem, start, relaxed):
+    if worth_a_probe(problem, start, relaxed):
         low, high = PROBE_NODES
-        nodes = max(low, min(high, PROBE_WORK // max(1, _columns(narrowed))))
-    elif _columns(narrowed) >= ROOT_PROBE_COLUMNS:
+        nodes = max(low, min(high, PROBE_WORK // max(1, columns(narrowed))))
+    elif columns(narrowed) >= ROOT_PROBE_COLUMNS:
         nodes, heuristics = 0, True
     else:
         return None, start, narrowed

@@ -20,11 +20,11 @@ import functools
 import time
 from typing import TYPE_CHECKING
 
-from ..analysis.bounds import kept_set_bound
+from ..analysis.bounds import KeptSetProof, kept_set_bound, kept_set_plan
 from ..model.plan import SolverStats, SolveStatus
 from .budget import BUDGET
-from .improve import improve
-from .incumbent import checked, narrow
+from .improve import MIN_ROUND_S, improve
+from .incumbent import checked, columns, narrow, worth_a_probe
 from .repair import changed_tasks, repair
 
 if TYPE_CHECKING:
@@ -33,6 +33,20 @@ if TYPE_CHECKING:
     from ..analysis.domains import Domain
     from ..model.plan import Plan
     from ..model.problem import Problem
+
+
+def searched(problem: Problem) -> bool:
+    """True if a part under a time limit goes to the neighbourhood search
+    (:func:`improved`, :func:`replanned`) rather than whole to CBC: from
+    :attr:`~fsw_scheduler.solving.budget.SolveBudget.lns_min_tasks` tasks.
+
+    Parts of 20-29 tasks whose model had over 15,000 columns were sent
+    here too for a while: on the large suite's seed 47 (not tuned on) a
+    29-task part over H = 1440 that CBC proves in 7 s went unproved, and
+    on the fresh campaign's f25-h1440-0 (seed 5) the search's plan and
+    bound were both worse than CBC's.
+    """
+    return problem.num_tasks >= BUDGET.lns_min_tasks
 
 
 #: Share of a replan's time its repair (the start heuristic) may take.
@@ -93,14 +107,17 @@ def replanned(
         best, improved = improve(
             problem, repaired, domains, run, end, bound, around=changed
         )
+    swept = 0
+    if not meets(best, bound) and end - time.perf_counter() >= MIN_ROUND_S:
+        # The neighbourhoods around the change gave all they could and
+        # time is left: the sweep over the whole horizon goes on from
+        # there, as a fresh solve's search would (a fresh solve of the
+        # new day often found a better arrangement away from the change).
+        best, swept = improve(problem, best, domains, run, end, bound)
     status = SolveStatus.FEASIBLE
     if meets(best, bound) and best.objective is not None:
         status, bound = SolveStatus.OPTIMAL, float(best.objective.total)
-    solver = (
-        f"{run.keywords.get('solver', 'cbc')}-repair"
-        if isinstance(run, functools.partial)
-        else "repair"
-    )
+    solver = _label(run, "repair")
     return best.replace(
         status=status,
         why=(),
@@ -110,7 +127,8 @@ def replanned(
             bound=bound,
             solver_status=f"replan from the plan in force: {len(changed)} "
             f"tasks changed by its repair; neighbourhood search around "
-            f"them: {improved} improvements",
+            f"them: {improved} improvements, then over the horizon: "
+            f"{swept}",
             time_limit_s=time_limit,
         ),
     )
@@ -124,6 +142,19 @@ FULL_MARGIN_S = 1.0
 #: least this long left: a 60-task model's building and CBC's start took
 #: all of 1.7 s, and the search had lost that time for nothing.
 FULL_MIN_S = 2.0
+
+#: A large part whose whole model, narrowed around its start plan, has at
+#: most this many columns (start times) is given to CBC first, for
+#: :data:`SMALL_SHARE` of the time left; the search gets the rest. The
+#: root probe's threshold (:data:`~fsw_scheduler.solving.incumbent.
+#: ROOT_PROBE_COLUMNS`): below it CBC's root takes well under a second.
+SMALL_COLUMNS = 5_000
+SMALL_SHARE = 0.5
+
+#: A sweep of the search that finds nothing hands the rest of the time
+#: over to the whole model when, narrowed around the incumbent, it has at
+#: most this many columns (CBC proved a 12,126-column one in 5 s).
+HAND_OVER_COLUMNS = 15_000
 
 
 def improved(
@@ -139,7 +170,11 @@ def improved(
 
     For large problems under a limit: the whole model does not get
     through CBC's root LP in seconds (on the scaling set CBC never
-    improved the start plan), small neighbourhood models do. The
+    improved the start plan), small neighbourhood models do. Where the
+    whole model narrowed around the start plan is small
+    (:data:`SMALL_COLUMNS`), CBC gets it first, for :data:`SMALL_SHARE`
+    of the time; a stalled sweep hands the rest over to it as soon as
+    the incumbent makes it small (:data:`HAND_OVER_COLUMNS`). The
     kept-set relaxation (:func:`~fsw_scheduler.analysis.bounds.
     kept_set_plan`) bounds every plan from the start, and the search
     stops when its incumbent meets the bound. Otherwise, once a sweep of
@@ -152,6 +187,15 @@ def improved(
     """
     deadline = began + time_limit - BUDGET.lns_margin_s
     relaxed = kept_set_bound(problem, start, domains)
+    if relaxed.plan is None and worth_a_probe(problem, start, relaxed):
+        # The start plan leaves out more than the bound: the relaxed
+        # optimum's tasks, list-scheduled alone, often leave out much
+        # less (b45-h1440 of the large suite, seed 31: 5.4 M instead of
+        # 7.1 M, which the search had not found in 20 s). It takes as
+        # long as the start plan did, so only here.
+        relaxed = kept_set_plan(problem, start, domains)
+        if relaxed.better is not None:
+            start = relaxed.better
     if relaxed.plan is not None:
         return _proved_start(
             relaxed.plan,
@@ -161,10 +205,38 @@ def improved(
             "of tasks to keep costs less: no solve",
         )
     bound = None if relaxed.bound is None else float(relaxed.bound)
+    said = ""
+    narrowed = _narrowed(problem, start, domains, relaxed)
+    if narrowed is not None and columns(narrowed) <= SMALL_COLUMNS:
+        # Around a good start plan the whole model can be as small as a
+        # 15-task part's, which CBC proves at once where the search has
+        # no bound to stop at (b30-h1440 of the large suite, seed 31:
+        # 2,637 columns, proved in 4 s; 11 s by the search first).
+        left = deadline - time.perf_counter()
+        start, bound, answered = _whole_model(
+            problem, start, bound, run, narrowed, SMALL_SHARE * left
+        )
+        said = f"the whole model, narrowed: {answered}; "
+        if meets(start, bound):
+            return _proved(start, bound, said, run, began, time_limit)
     now = time.perf_counter()
     lns_end = deadline
     if (1 - BUDGET.lns_share) * (deadline - now) >= FULL_MIN_S:
         lns_end = now + BUDGET.lns_share * (deadline - now)
+    around: list[tuple[Plan, KeptSetProof, dict[str, Domain]]] = []
+
+    def small(plan: Plan) -> bool:
+        # The whole model narrowed around a better incumbent can be
+        # small enough for CBC to prove (f45-h2880 of the large suite,
+        # seed 31: the search held the optimum and swept on until the
+        # limit; 12,126 columns around it, proved by CBC in 5 s).
+        again = kept_set_bound(problem, plan, domains)
+        narrowed = _narrowed(problem, plan, domains, again)
+        if narrowed is None:
+            return False
+        around[:] = [(plan, again, narrowed)]
+        return columns(narrowed) <= HAND_OVER_COLUMNS
+
     best, improved = improve(
         problem,
         start,
@@ -175,63 +247,41 @@ def improved(
         # With less than this left the whole model is not run: the
         # search keeps the time rather than end with the gap open.
         hand_over_s=FULL_MIN_S if lns_end == deadline else 0.0,
+        # Without a bound at the start (the kept-set search ran out of
+        # nodes) it would run out again at each stalled sweep, for
+        # nothing: b45-h1440 of the large suite, seed 47, left out more
+        # (10.4 M against 9.0 M without those searches).
+        hand_over=None if bound is None else small,
     )
-    said = f"neighbourhood search: {improved} improvements of the start plan"
-    solver = (
-        f"{run.keywords.get('solver', 'cbc')}-lns"
-        if isinstance(run, functools.partial)
-        else "lns"
-    )
+    said += f"neighbourhood search: {improved} improvements of the start plan"
+    solver = _label(run, "lns")
     status = SolveStatus.FEASIBLE
     left = deadline - time.perf_counter()
     if meets(best, bound):
         status = SolveStatus.OPTIMAL
         said += "; it meets the kept-set bound"
     elif left >= FULL_MIN_S:
-        again = relaxed
-        if improved:
+        if around and around[0][0] is best:
+            _, again, narrowed = around[0]
+        else:
             # The search costs up to a second here: only when it can say
             # more than it did of the start plan.
-            again = kept_set_bound(problem, best, domains)
-            bound = higher(bound, again.bound)
-        answer = checked(
+            again = (
+                kept_set_bound(problem, best, domains) if improved else relaxed
+            )
+            narrowed = narrow(problem, best, domains, again)
+        bound = higher(bound, again.bound)
+        best, bound, answered = _whole_model(
             problem,
-            run(
-                problem,
-                warm=best.starts(),
-                domains=narrow(problem, best, domains, again),
-                # A large model's CBC, killed at its deadline, and its
-                # answer read back, ran up to 1.6 s past a 20 s limit.
-                time_limit=left - min(FULL_MARGIN_S, 0.1 * left),
-            ),
+            best,
+            bound,
+            run,
+            narrowed,
+            # A large model's CBC, killed at its deadline, and its
+            # answer read back, ran up to 1.6 s past a 20 s limit.
+            left - min(FULL_MARGIN_S, 0.1 * left),
         )
-        found = answer.stats.bound if answer.stats is not None else None
-        if answer.status is SolveStatus.OPTIMAL and (
-            answer.objective is not None
-            and best.objective is not None
-            and answer.objective.total <= best.objective.total
-        ):
-            best, status = answer, SolveStatus.OPTIMAL
-            found = float(answer.objective.total)
-        elif (
-            answer.status.has_plan
-            and answer.objective is not None
-            and best.objective is not None
-            and answer.objective.total < best.objective.total
-        ):
-            best = answer
-        if (
-            found is not None
-            and best.objective is not None
-            and found <= best.objective.total + 0.5
-        ):
-            # A bound of the narrowed model bounds the whole problem: the
-            # optimum fits in it. Above the incumbent it bounds nothing
-            # (a stopped CBC's last LP, not its root's).
-            bound = higher(bound, found)
-        said += "; then the whole model, narrowed: " + (
-            answer.stats.solver_status if answer.stats else "no answer"
-        )
+        said += "; then the whole model, narrowed: " + answered
         if meets(best, bound):
             status = SolveStatus.OPTIMAL
     if status is SolveStatus.OPTIMAL and best.objective is not None:
@@ -249,6 +299,69 @@ def improved(
     )
 
 
+def _narrowed(
+    problem: Problem,
+    plan: Plan,
+    domains: dict[str, Domain],
+    relaxed: KeptSetProof,
+) -> dict[str, Domain] | None:
+    """:func:`~fsw_scheduler.solving.incumbent.narrow` around ``plan``,
+    or None when ``plan`` leaves out more than the bound allows
+    (:func:`~fsw_scheduler.solving.incumbent.worth_a_probe`): its caps
+    then cut nothing (the slack is worth a whole horizon of delay), and
+    its fixings, a search per left-out task, took the whole second of a
+    60-task part's 1.5 s limit."""
+    if relaxed.bound is None or worth_a_probe(problem, plan, relaxed):
+        return None
+    return narrow(problem, plan, domains, relaxed)
+
+
+def _whole_model(
+    problem: Problem,
+    best: Plan,
+    bound: float | None,
+    run: Callable[..., Plan],
+    narrowed: dict[str, Domain],
+    limit: float,
+) -> tuple[Plan, float | None, str]:
+    """The whole model, narrowed around ``best``, run with ``limit``.
+
+    Returns the better plan (CBC's answer when it is no worse and
+    proved, or strictly better), the bound raised by CBC's where that
+    bounds the whole problem, and what CBC said.
+    """
+    answer = checked(
+        problem,
+        run(problem, warm=best.starts(), domains=narrowed, time_limit=limit),
+    )
+    found = answer.stats.bound if answer.stats is not None else None
+    if answer.status is SolveStatus.OPTIMAL and (
+        answer.objective is not None
+        and best.objective is not None
+        and answer.objective.total <= best.objective.total
+    ):
+        best = answer
+        found = float(answer.objective.total)
+    elif (
+        answer.status.has_plan
+        and answer.objective is not None
+        and best.objective is not None
+        and answer.objective.total < best.objective.total
+    ):
+        best = answer
+    if (
+        found is not None
+        and best.objective is not None
+        and found <= best.objective.total + 0.5
+    ):
+        # A bound of the narrowed model bounds the whole problem: the
+        # optimum fits in it. Above the incumbent it bounds nothing
+        # (a stopped CBC's last LP, not its root's).
+        bound = higher(bound, found)
+    said = answer.stats.solver_status if answer.stats else "no answer"
+    return best.replace(status=SolveStatus.FEASIBLE, why=()), bound, said
+
+
 def higher(bound: float | None, other: float | None) -> float | None:
     """The higher of two lower bounds, either of which may be unknown."""
     if bound is None or other is None:
@@ -263,6 +376,35 @@ def meets(plan: Plan, bound: float | None) -> bool:
         bound is not None
         and plan.objective is not None
         and plan.objective.total <= bound + 0.5
+    )
+
+
+def _label(run: Callable[..., Plan], method: str) -> str:
+    """The solver's name and the method, as ``stats.solver`` says it."""
+    if isinstance(run, functools.partial):
+        return f"{run.keywords.get('solver', 'cbc')}-{method}"
+    return method
+
+
+def _proved(
+    plan: Plan,
+    bound: float | None,
+    said: str,
+    run: Callable[..., Plan],
+    began: float,
+    time_limit: float,
+) -> Plan:
+    """``plan``, proved optimal by CBC on the narrowed whole model."""
+    return plan.replace(
+        status=SolveStatus.OPTIMAL,
+        why=(),
+        stats=SolverStats(
+            solver=_label(run, "lns"),
+            wall_s=time.perf_counter() - began,
+            bound=bound,
+            solver_status=said.rstrip("; "),
+            time_limit_s=time_limit,
+        ),
     )
 
 

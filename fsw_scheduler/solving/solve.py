@@ -501,7 +501,7 @@ def _solve_whole(
         stability is None
         and warm is not None
         and time_limit is not None
-        and problem.num_tasks >= BUDGET.lns_min_tasks
+        and large.searched(problem)
     ):
         replanned = large.replanned(
             problem, warm, domains, run, began, time_limit
@@ -565,7 +565,7 @@ def _solve_whole(
     if start is not None:
         if at_lower_bound(problem, start, domains):
             proof = "every task at its earliest start: no solve"
-        elif problem.num_tasks < BUDGET.lns_min_tasks:
+        elif not large.searched(problem):
             relaxed = kept_set_plan(problem, start, domains)
             proved, _, better = relaxed
             if better is not None:
@@ -604,7 +604,7 @@ def _solve_whole(
     elif (
         start is not None
         and time_limit is not None
-        and problem.num_tasks >= BUDGET.lns_min_tasks
+        and large.searched(problem)
     ):
         plan = large.improved(problem, start, domains, run, began, time_limit)
     else:

@@ -14,6 +14,7 @@ from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.api import replan_typed
 from fsw_scheduler.model.change import decode_change
 from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.solving import large
 from fsw_scheduler.solving import solve as solve_module
 from fsw_scheduler.solving.budget import BUDGET
 from fsw_scheduler.solving.repair import changed_tasks, repair
@@ -148,7 +149,8 @@ def test_repair_gives_a_valid_plan_or_none(doc: dict, keep: set[int]) -> None:
 def test_a_large_replan_pays_for_what_changed() -> None:
     """Tests that a goal on a 45-task plan is replanned from the plan in
     force within the replan's share of the limit, with a valid plan, a
-    bound and a gap, where a fresh solve takes the whole limit."""
+    bound and a gap, where a fresh solve takes the whole limit, and says
+    what its searches around the change and over the horizon found."""
     fresh = bench_lib("fresh")
     replans = bench_lib("replans")
     problem = problem_from(fresh.generate_problem(45, 1440, 11))
@@ -167,6 +169,8 @@ def test_a_large_replan_pays_for_what_changed() -> None:
     assert "repair" in plan.stats.solver, plan.stats
     assert wall < BUDGET.replan_limit(limit) + 0.5, plan.stats
     assert plan.stats.bound is not None and plan.stats.gap is not None
+    # The search around the change, then over the horizon, is reported.
+    assert "then over the horizon" in plan.stats.solver_status
 
 
 @settings(COMMON, max_examples=40)
@@ -191,11 +195,10 @@ def test_a_replan_claims_no_more_than_brute_force(
     }
     in_force = plan_of(problem, {**dict.fromkeys(best[1]), **starts})
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(
-            solve_module,
-            "BUDGET",
-            dataclasses.replace(BUDGET, lns_min_tasks=2),
-        )
+        small = dataclasses.replace(BUDGET, lns_min_tasks=2)
+        # The budget of the solve and of the search's routing (large.py).
+        patch.setattr(solve_module, "BUDGET", small)
+        patch.setattr(large, "BUDGET", small)
         plan = solve(problem, time_limit=3, warm=in_force)
     assert plan.status.has_plan and plan.objective is not None, plan
     assert check_plan(problem, plan).ok

@@ -13,6 +13,7 @@ from hypothesis import given, settings
 
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.model.plan import Activity, SolveStatus
+from fsw_scheduler.solving import large
 from fsw_scheduler.solving import solve as solve_module
 from fsw_scheduler.solving.budget import BUDGET
 from fsw_scheduler.solving.solve import solve
@@ -734,11 +735,10 @@ def test_neighbourhood_search_bound_and_gap_hold(doc: dict) -> None:
     brute force's optimum allows, and that optimal means that optimum."""
     problem = decode_doc(doc)
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(
-            solve_module,
-            "BUDGET",
-            dataclasses.replace(BUDGET, lns_min_tasks=2),
-        )
+        small = dataclasses.replace(BUDGET, lns_min_tasks=2)
+        # The budget of the solve and of the search's routing (large.py).
+        patch.setattr(solve_module, "BUDGET", small)
+        patch.setattr(large, "BUDGET", small)
         plan = solve(problem, time_limit=4)
     best = brute_force(problem)
     if best is None:

@@ -619,3 +619,23 @@ def test_stability_suite_prices_moves_on_the_quick_replans() -> None:
             assert lex <= modes["off"].moves  # type: ignore[attr-defined]
             assert lex <= modes["moves"].moves  # type: ignore[attr-defined]
     assert "| lexicographic |" in stability.format_stability(runs)
+
+
+def test_large_suite_has_its_shape() -> None:
+    """Tests the large suite (``tools/bench --suite large``): 30, 45 and
+    60 tasks at H = 1440 and 2880, one fresh and one broad problem each,
+    valid, the same from the same seed and different from another."""
+    problems = generator.suite("large", 47)
+    assert [b.name for b in problems[:2]] == ["f30-h1440", "b30-h1440"]
+    assert len(problems) == 12
+    assert {(b.num_tasks, b.horizon) for b in problems} == {
+        (n, h) for n in (30, 45, 60) for h in (1440, 2880)
+    }
+    again = generator.suite("large", 47)
+    assert [b.to_json() for b in again] == [b.to_json() for b in problems]
+    other = generator.suite("large", 48)
+    assert other[0].to_json() != problems[0].to_json()
+    for bench in problems:
+        problem = decode_problem(bench.to_json())
+        assert problem.num_tasks == bench.num_tasks
+        assert problem.horizon == bench.horizon

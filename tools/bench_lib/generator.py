@@ -45,6 +45,10 @@ CAMPAIGN_HORIZON = 336
 SCALING_SIZES: tuple[int, ...] = (30, 60, 100, 200)
 SCALING_HORIZONS: tuple[int, ...] = (336, 1440)
 SCALING_PER_POINT = 3
+#: The large suite: parts past the neighbourhood search's threshold, in
+#: the fresh (``f``) and broad (``b``, class ``mixed``) shapes.
+LARGE_SIZES: tuple[int, ...] = (30, 45, 60)
+LARGE_HORIZONS: tuple[int, ...] = (1440, 2880)
 
 MAX_LENGTH = 20
 MANDATORY_SHARE = 0.2
@@ -173,6 +177,37 @@ def scaling(
     return problems
 
 
+def large_suite(seed: int = 0) -> list[BenchProblem]:
+    """Return the large suite: :data:`LARGE_SIZES` tasks x
+    :data:`LARGE_HORIZONS`, one fresh-shaped (``f30-h1440``) and one
+    broad mixed problem (``b30-h1440``) each, ordered by horizon, then
+    size, fresh first: 12 problems, most of them one part of 30 tasks or
+    more (the neighbourhood search's and its bounds' ground)."""
+    problems = []
+    for horizon in LARGE_HORIZONS:
+        for size in LARGE_SIZES:
+            name = f"f{size}-h{horizon}"
+            own_seed = problem_seed(seed, name)
+            doc = fresh.generate_problem(size, horizon, own_seed)
+            problems.append(
+                BenchProblem(
+                    name, "large", size, "mixed", horizon, own_seed, doc
+                )
+            )
+            problems.append(
+                _make(
+                    f"b{size}-h{horizon}",
+                    "large",
+                    size,
+                    "mixed",
+                    horizon,
+                    seed,
+                    "broad",
+                )
+            )
+    return problems
+
+
 def quick(seed: int = 0, style: str = "paper") -> list[BenchProblem]:
     """Return a small smoke subset: one 5-task problem per class."""
     prefix = "bq" if style == "broad" else "q"
@@ -276,6 +311,8 @@ def suite(
         return quick(seed, style)
     if name == "mission":
         return mission_suite(seed)
+    if name == "large":
+        return large_suite(seed)
     raise ValueError(f"unknown suite {name!r}")
 
 

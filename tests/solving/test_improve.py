@@ -1,0 +1,83 @@
+"""Tests of the neighbourhood search (improve.py)."""
+
+from __future__ import annotations
+
+import functools
+import time
+
+from fsw_scheduler.analysis.check import check_plan
+from fsw_scheduler.analysis.domains import start_domains
+from fsw_scheduler.solving import improve
+from fsw_scheduler.solving.ilp import solve_ilp
+
+from ..factories import make_doc, make_task, problem_from
+from ..problems import plan_of
+
+
+def _queue() -> tuple:
+    """Three camera tasks of 5 back to back from 0: an optimal plan, which
+    no neighbourhood can improve."""
+    problem = problem_from(
+        make_doc(
+            [
+                make_task("a", 5, uses={"cam": 1}, delay_cost=3),
+                make_task("b", 5, uses={"cam": 1}, delay_cost=2),
+                make_task("c", 5, uses={"cam": 1}, delay_cost=1),
+            ],
+            horizon=40,
+            resources={"binary": ["cam"]},
+        )
+    )
+    plan = plan_of(problem, {"a": 0, "b": 5, "c": 10})
+    assert check_plan(problem, plan).ok
+    return problem, plan, start_domains(problem)
+
+
+def test_a_stalled_sweep_hands_the_time_over_when_asked_to() -> None:
+    """Tests that the search asks ``hand_over`` of its incumbent when a
+    sweep finds nothing, once per incumbent, and ends at once when it
+    says so, long before its deadline."""
+    problem, plan, domains = _queue()
+    run = functools.partial(solve_ilp, solver="cbc", threads=1)
+    asked = []
+
+    def hand_over(incumbent: object) -> bool:
+        asked.append(incumbent)
+        return True
+
+    began = time.perf_counter()
+    best, improved = improve.improve(
+        problem,
+        plan,
+        domains,
+        run,
+        began + 60.0,
+        hand_over=hand_over,
+    )
+    assert time.perf_counter() - began < 30.0
+    assert improved == 0 and best.starts() == plan.starts()
+    assert asked == [plan]
+
+
+def test_a_stalled_sweep_goes_on_when_not_handed_over() -> None:
+    """Tests that a ``hand_over`` saying no lets the search grow its
+    neighbourhoods and end by itself, having asked once for the one
+    incumbent."""
+    problem, plan, domains = _queue()
+    run = functools.partial(solve_ilp, solver="cbc", threads=1)
+    asked = []
+
+    def hand_over(incumbent: object) -> bool:
+        asked.append(incumbent)
+        return False
+
+    best, improved = improve.improve(
+        problem,
+        plan,
+        domains,
+        run,
+        time.perf_counter() + 60.0,
+        hand_over=hand_over,
+    )
+    assert improved == 0 and best.starts() == plan.starts()
+    assert asked == [plan]
