@@ -228,30 +228,12 @@ class SchedulerClient:
         """Publish ``{"now": now}`` on the clock key, without waiting."""
         self.put(keys.CLOCK, {"now": now})
 
-    def tick(
-        self,
-        now: int,
-        timeout: float | None = None,
-        resend_s: float | None = None,
-    ) -> messages.Status:
+    def tick(self, now: int, timeout: float | None = None) -> messages.Status:
         """Move the bus clock to ``now`` and wait until the node is idle.
 
         A clock going back is rejected by the scheduler, so ``tick`` would
         time out; send such a tick with :meth:`clock` and call
         :meth:`settle` without ``now``.
-
-        Parameters
-        ----------
-        now
-            The time to publish.
-        timeout
-            Deadline in seconds (default: the client's).
-        resend_s
-            Publish the same time again every ``resend_s`` seconds until
-            the node has it, as a periodic bus clock does: a put sent
-            while routers are still exchanging a new link's declarations
-            can be lost (a query that follows it may still get through).
-            The same time twice is no clock going back.
 
         Returns
         -------
@@ -259,18 +241,8 @@ class SchedulerClient:
             The node's status once it has processed the tick, no solve is
             running, and every plan and dispatch it reports has arrived.
         """
-        if resend_s is None:
-            self.clock(now)
-            return self.settle(now, timeout)
-        deadline = time.monotonic() + (timeout or self.timeout)
-        while True:
-            self.clock(now)
-            left = deadline - time.monotonic()
-            try:
-                return self.settle(now, max(0.1, min(resend_s, left)))
-            except TimeoutError:
-                if time.monotonic() + 0.1 >= deadline:
-                    raise
+        self.clock(now)
+        return self.settle(now, timeout)
 
     def publish_goal(self, goal: dict | bytes | str | msgspec.Struct) -> None:
         """Publish a goal document on ``scheduler/goals``."""
