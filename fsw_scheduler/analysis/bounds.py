@@ -129,11 +129,16 @@ class KeptSetProof(NamedTuple):
     better
         When no plan is proved: a valid plan better than the start plan,
         list-scheduled on the relaxed optimum's kept set, if there is one.
+    kept
+        When no plan is proved and the relaxation has consumable rows:
+        the relaxed optimum's kept set, which :func:`better_start`
+        list-schedules without searching again (None otherwise).
     """
 
     plan: Plan | None
     bound: int | None
     better: Plan | None = None
+    kept: frozenset[str] | None = None
 
 
 def kept_set_plan(
@@ -185,21 +190,35 @@ def kept_set_plan(
             plan.replace(status=SolveStatus.OPTIMAL), search.best_cost
         )
     proved = _at_earliest(problem, domains, search.best, search.best_cost)
-    if proved is not None or not list_scheduled:
+    if proved is not None:
         return KeptSetProof(proved, search.best_cost)
-    if not search.limits:
-        # No consumable row: the relaxed set is every task the scopes let
-        # keep, which the start heuristic has already tried to place (on
-        # the paper's multiple class this cost 9 ms a solve, for nothing).
-        return KeptSetProof(None, search.best_cost)
-    better = _scheduled(problem, search.best)
+    # No consumable row: the relaxed set is every task the scopes let
+    # keep, which the start heuristic has already tried to place (on the
+    # paper's multiple class this cost 9 ms a solve, for nothing).
+    kept = frozenset(search.best) if search.limits else None
+    found = KeptSetProof(None, search.best_cost, kept=kept)
+    if not list_scheduled:
+        return found
+    return found._replace(better=better_start(problem, plan, found))
+
+
+def better_start(
+    problem: Problem, plan: Plan, proof: KeptSetProof
+) -> Plan | None:
+    """A valid plan better than ``plan``, list-scheduled on the relaxed
+    optimum's kept set of ``proof`` (:attr:`KeptSetProof.kept`), if
+    there is one: what :func:`kept_set_plan` gives as ``better``, for a
+    caller that asked :func:`kept_set_bound` first (no second search)."""
+    if proof.kept is None or plan.objective is None:
+        return None
+    better = _scheduled(problem, proof.kept)
     if (
         better is None
         or better.objective is None
         or better.objective.total >= plan.objective.total
     ):
-        better = None
-    return KeptSetProof(None, search.best_cost, better)
+        return None
+    return better
 
 
 def kept_only(problem: Problem, kept: Set[str]) -> Problem:
@@ -247,7 +266,7 @@ def widened(problem: Problem, plan: Plan) -> Plan | None:
     return plan.replace(objective=report.objective)
 
 
-def _scheduled(problem: Problem, kept: set[str]) -> Plan | None:
+def _scheduled(problem: Problem, kept: Set[str]) -> Plan | None:
     """The start plan heuristic on ``kept`` alone, the rest left out."""
     plan = greedy_plan(kept_only(problem, kept))
     if plan is None:
@@ -565,7 +584,8 @@ def kept_set_bound(
     plan did: seconds on parts of 50 tasks (3.6 of the 3.9 s it took on
     one). A caller that needs the proof and the bound alone (a large
     part's neighbourhood search, which improves its own incumbent) asks
-    for this: ``better`` is always None.
+    for this: ``better`` is always None (:func:`better_start` gives it
+    from this proof, without a second search).
     """
     return kept_set_plan(
         problem, plan, domains, max_nodes, list_scheduled=False

@@ -20,7 +20,7 @@ import functools
 import time
 from typing import TYPE_CHECKING
 
-from ..analysis.bounds import KeptSetProof, kept_set_bound, kept_set_plan
+from ..analysis.bounds import KeptSetProof, better_start, kept_set_bound
 from ..model.plan import SolverStats, SolveStatus
 from .budget import BUDGET
 from .improve import MIN_ROUND_S, improve
@@ -193,9 +193,7 @@ def improved(
         # less (b45-h1440 of the large suite, seed 31: 5.4 M instead of
         # 7.1 M, which the search had not found in 20 s). It takes as
         # long as the start plan did, so only here.
-        relaxed = kept_set_plan(problem, start, domains)
-        if relaxed.better is not None:
-            start = relaxed.better
+        start = better_start(problem, start, relaxed) or start
     if relaxed.plan is not None:
         return _proved_start(
             relaxed.plan,

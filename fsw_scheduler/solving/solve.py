@@ -567,7 +567,7 @@ def _solve_whole(
             proof = "every task at its earliest start: no solve"
         elif not large.searched(problem):
             relaxed = kept_set_plan(problem, start, domains)
-            proved, _, better = relaxed
+            proved, better = relaxed.plan, relaxed.better
             if better is not None:
                 start = better
             if proved is not None:

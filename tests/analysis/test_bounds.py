@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 
 from fsw_scheduler.analysis.bounds import (
     KeptSetProof,
+    better_start,
     delay_caps,
     fixings,
     kept_set_bound,
@@ -254,6 +255,8 @@ def test_the_bound_alone_agrees_with_the_full_search(doc: dict) -> None:
     assert alone.bound == full.bound
     assert alone.better is None
     assert (alone.plan is None) == (full.plan is None)
+    # What kept_set_plan list-schedules, from the bound's proof alone.
+    assert better_start(problem, start, alone) == full.better
     if alone.bound is not None:
         best = brute_force(problem)
         assert best is not None
