@@ -274,21 +274,12 @@ def depends_on(
         and _waiting(schedule, lifecycle, task, known)
     ):
         return f"the plan took it to run until {placed.end}"
-    uses = known[task].uses if task in known else {}
-    shared = {
-        n
-        for n, amount in uses.items()
-        if amount > 0
-        and (
-            n in schedule.problem.resources.binary
-            or n in schedule.problem.resources.multiple
-        )
-    }
+    shared = _contended(schedule, known, task)
+    follow = [p for p in _precedences(schedule) if p.before == task]
     for activity in _planned(schedule, lifecycle):
-        for prec in _precedences(schedule):
+        for prec in follow:
             if (
-                prec.before == task
-                and prec.after == activity.task
+                prec.after == activity.task
                 and activity.start < at + prec.offset
             ):
                 return f"{activity.task} follows it from {activity.start}"
@@ -298,6 +289,20 @@ def depends_on(
                 f"{activity.task} shares its resources from {activity.start}"
             )
     return None
+
+
+def _contended(
+    schedule: Schedule, known: dict[str, Task], task: str
+) -> set[str]:
+    """The binary and multiple resources ``task`` uses: those an activity
+    running on holds against what waits for them."""
+    resources = schedule.problem.resources
+    uses = known[task].uses if task in known else {}
+    return {
+        n
+        for n, amount in uses.items()
+        if amount > 0 and (n in resources.binary or n in resources.multiple)
+    }
 
 
 def _planned(
@@ -321,12 +326,7 @@ def _waiting(
 ) -> bool:
     """Whether a planned activity follows ``task`` or shares one of its
     binary or multiple resources."""
-    resources = schedule.problem.resources
-    mine = {
-        n
-        for n, amount in (known[task].uses if task in known else {}).items()
-        if amount > 0 and (n in resources.binary or n in resources.multiple)
-    }
+    mine = _contended(schedule, known, task)
     successors = {p.after for p in _precedences(schedule) if p.before == task}
     for activity in _planned(schedule, lifecycle):
         if activity.task in successors:
