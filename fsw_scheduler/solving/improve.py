@@ -128,7 +128,7 @@ def improve(
     while True:
         now = time.perf_counter()
         left = deadline - now
-        if left < MIN_ROUND_S or _meets(best, bound):
+        if left < MIN_ROUND_S or meets(best, bound):
             break
         if now - last_log >= PROGRESS_S and best.objective is not None:
             last_log = now
@@ -199,7 +199,7 @@ def improve(
     return best, improved
 
 
-def _meets(plan: Plan, bound: float | None) -> bool:
+def meets(plan: Plan, bound: float | None) -> bool:
     """True if ``plan``'s objective is within half a unit of ``bound``
     (every objective is an integer): nothing can be better."""
     return (

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 from ..analysis.bounds import KeptSetProof, better_start, kept_set_bound
 from ..model.plan import SolverStats, SolveStatus
 from .budget import BUDGET
-from .improve import MIN_ROUND_S, improve
+from .improve import MIN_ROUND_S, improve, meets
 from .incumbent import checked, columns, narrow, worth_a_probe
 from .repair import changed_tasks, repair
 
@@ -365,16 +365,6 @@ def higher(bound: float | None, other: float | None) -> float | None:
     if bound is None or other is None:
         return other if bound is None else bound
     return max(bound, other)
-
-
-def meets(plan: Plan, bound: float | None) -> bool:
-    """True if ``plan``'s objective (an integer) is within half a unit of
-    ``bound``: no plan is better."""
-    return (
-        bound is not None
-        and plan.objective is not None
-        and plan.objective.total <= bound + 0.5
-    )
 
 
 def _label(run: Callable[..., Plan], method: str) -> str:
