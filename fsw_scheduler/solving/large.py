@@ -114,23 +114,15 @@ def replanned(
         # there, as a fresh solve's search would (a fresh solve of the
         # new day often found a better arrangement away from the change).
         best, swept = improve(problem, best, domains, run, end, bound)
-    status = SolveStatus.FEASIBLE
-    if meets(best, bound) and best.objective is not None:
-        status, bound = SolveStatus.OPTIMAL, float(best.objective.total)
-    solver = _label(run, "repair")
-    return best.replace(
-        status=status,
-        why=(),
-        stats=SolverStats(
-            solver=solver,
-            wall_s=time.perf_counter() - began,
-            bound=bound,
-            solver_status=f"replan from the plan in force: {len(changed)} "
-            f"tasks changed by its repair; neighbourhood search around "
-            f"them: {improved} improvements, then over the horizon: "
-            f"{swept}",
-            time_limit_s=time_limit,
-        ),
+    return _answer(
+        best,
+        bound,
+        _label(run, "repair"),
+        f"replan from the plan in force: {len(changed)} tasks changed by "
+        f"its repair; neighbourhood search around them: {improved} "
+        f"improvements, then over the horizon: {swept}",
+        began,
+        time_limit,
     )
 
 
@@ -216,7 +208,14 @@ def improved(
         )
         said = f"the whole model, narrowed: {answered}; "
         if meets(start, bound):
-            return _proved(start, bound, said, run, began, time_limit)
+            return _answer(
+                start,
+                bound,
+                _label(run, "lns"),
+                said.rstrip("; "),
+                began,
+                time_limit,
+            )
     now = time.perf_counter()
     lns_end = deadline
     if (1 - BUDGET.lns_share) * (deadline - now) >= FULL_MIN_S:
@@ -252,11 +251,8 @@ def improved(
         hand_over=None if bound is None else small,
     )
     said += f"neighbourhood search: {improved} improvements of the start plan"
-    solver = _label(run, "lns")
-    status = SolveStatus.FEASIBLE
     left = deadline - time.perf_counter()
     if meets(best, bound):
-        status = SolveStatus.OPTIMAL
         said += "; it meets the kept-set bound"
     elif left >= FULL_MIN_S:
         if around and around[0][0] is best:
@@ -280,21 +276,7 @@ def improved(
             left - min(FULL_MARGIN_S, 0.1 * left),
         )
         said += "; then the whole model, narrowed: " + answered
-        if meets(best, bound):
-            status = SolveStatus.OPTIMAL
-    if status is SolveStatus.OPTIMAL and best.objective is not None:
-        bound = float(best.objective.total)
-    return best.replace(
-        status=status,
-        why=(),
-        stats=SolverStats(
-            solver=solver,
-            wall_s=time.perf_counter() - began,
-            bound=bound,
-            solver_status=said,
-            time_limit_s=time_limit,
-        ),
-    )
+    return _answer(best, bound, _label(run, "lns"), said, began, time_limit)
 
 
 def _narrowed(
@@ -374,23 +356,27 @@ def _label(run: Callable[..., Plan], method: str) -> str:
     return method
 
 
-def _proved(
+def _answer(
     plan: Plan,
     bound: float | None,
+    solver: str,
     said: str,
-    run: Callable[..., Plan],
     began: float,
     time_limit: float,
 ) -> Plan:
-    """``plan``, proved optimal by CBC on the narrowed whole model."""
+    """``plan`` as a large part's answer: ``optimal`` when it meets
+    ``bound`` (which is then its own objective), else ``feasible``."""
+    status = SolveStatus.FEASIBLE
+    if meets(plan, bound) and plan.objective is not None:
+        status, bound = SolveStatus.OPTIMAL, float(plan.objective.total)
     return plan.replace(
-        status=SolveStatus.OPTIMAL,
+        status=status,
         why=(),
         stats=SolverStats(
-            solver=_label(run, "lns"),
+            solver=solver,
             wall_s=time.perf_counter() - began,
             bound=bound,
-            solver_status=said.rstrip("; "),
+            solver_status=said,
             time_limit_s=time_limit,
         ),
     )
