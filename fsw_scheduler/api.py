@@ -39,10 +39,10 @@ from .errors import FieldIssue, InputError
 from .model.change import ActivityFailed, Change, LevelsMeasured, decode_change
 from .model.codec import decode_strict
 from .model.goal import Goal
-from .model.limits import MAX_MOVE_COST, MAX_TIME
+from .model.limits import MoveCost, Span
 from .model.plan import Plan, SolveStatus
 from .model.problem import Problem, decode_problem
-from .model.stability import Stability
+from .model.stability import Mode, Stability
 from .model.validation import validate_problem
 from .replan.commit import commit_pins, pin_blockers, pinned_problem
 from .replan.diff import PlanDiff, diff_plans
@@ -239,7 +239,7 @@ def replan(
     solver: str = "cbc",
     time_limit: float | None = None,
     commit_window: int = 0,
-    stability: str = "off",
+    stability: Mode = "off",
     move_cost: int = 5,
 ) -> tuple[Problem, Plan, PlanDiff]:
     """Apply a goal or an event to a running plan at time ``now``.
@@ -354,7 +354,7 @@ def replan_typed(
     }
     stability = Stability(
         previous=previous,
-        mode=settings.stability,  # type: ignore[arg-type]
+        mode=settings.stability,
         move_cost=settings.move_cost,
     )
     pins = commit_pins(replan.problem, previous, settings.commit_window)
@@ -411,35 +411,14 @@ class ReplanSettings(msgspec.Struct, frozen=True):
         The price of one moved activity under ``moves``.
     """
 
-    commit_window: int = 0
-    stability: str = "off"
-    move_cost: int = 5
+    commit_window: Span = 0
+    stability: Mode = "off"
+    move_cost: MoveCost = 5
 
     def checked(self) -> ReplanSettings:
-        """These settings, or InputError naming each one out of range."""
-        issues = []
-        if not 0 <= self.commit_window <= MAX_TIME:
-            issues.append(
-                FieldIssue(
-                    "commit_window",
-                    f"must be in [0, {MAX_TIME}], got {self.commit_window}",
-                )
-            )
-        if self.stability not in ("off", "moves", "lexicographic"):
-            issues.append(
-                FieldIssue(
-                    "stability",
-                    "must be off, moves or lexicographic, got "
-                    f"{self.stability!r}",
-                )
-            )
-        if not 1 <= self.move_cost <= MAX_MOVE_COST:
-            issues.append(
-                FieldIssue(
-                    "move_cost",
-                    f"must be in [1, {MAX_MOVE_COST}], got {self.move_cost}",
-                )
-            )
-        if issues:
-            raise InputError(issues, "settings")
-        return self
+        """These settings, or InputError naming each one out of its
+        range (the ranges of ``run``'s settings, declared once in
+        :mod:`fsw_scheduler.model.limits`)."""
+        return decode_strict(
+            msgspec.json.encode(self), ReplanSettings, "settings"
+        )

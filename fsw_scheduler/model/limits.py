@@ -10,6 +10,9 @@ the standard library only.
 from __future__ import annotations
 
 import re
+from typing import Annotated
+
+import msgspec
 
 #: Range of a task's schedule cost (the cost of leaving it out; 0 means
 #: mandatory).
@@ -71,3 +74,8 @@ def key_path(path: str, key: str) -> str:
 #: The most one moved activity may cost under ``stability = "moves"``:
 #: above it the move part would dwarf the delays it is weighed against.
 MAX_MOVE_COST = 1000
+
+#: Units of the mission clock, zero allowed (a window, a gain: 0 is off).
+Span = Annotated[int, msgspec.Meta(ge=0, le=MAX_TIME)]
+#: The price of one moved activity.
+MoveCost = Annotated[int, msgspec.Meta(ge=1, le=MAX_MOVE_COST)]

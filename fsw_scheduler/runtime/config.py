@@ -32,8 +32,9 @@ from typing import Annotated, Literal
 import msgspec
 
 from ..errors import ConfigError, FieldIssue
-from ..model.limits import MAX_MOVE_COST, MAX_TIME, id_issue
+from ..model.limits import MoveCost, Span, id_issue
 from ..model.problem import Id, Units
+from ..model.stability import Mode
 from ..model.strict import shape_issues
 from ..replan.triggers import Tolerance
 
@@ -47,12 +48,8 @@ Seconds = Annotated[float, msgspec.Meta(gt=0)]
 NonNegative = Annotated[float, msgspec.Meta(ge=0)]
 
 
-#: Units of the mission clock, zero allowed (a window, a gain: 0 is off).
-Span = Annotated[int, msgspec.Meta(ge=0, le=MAX_TIME)]
-#: The price of one moved activity.
-MoveCost = Annotated[int, msgspec.Meta(ge=1, le=MAX_MOVE_COST)]
 #: How a replan weighs moving what was already planned.
-Stability = Literal["off", "moves", "lexicographic"]
+Stability = Mode
 #: What a late activity does to what depends on it.
 LateCompletion = Literal["off", "push"]
 
