@@ -160,5 +160,6 @@ def judge(
     out.append(
         Log("info", f"forecast breaks the plan: [{first.rule}] {first.detail}")
     )
-    if not queue.has_trigger("forecast"):
-        queue.add(QueuedChange("levels", at=state.clock(), trigger="forecast"))
+    queue.add_once(
+        QueuedChange("levels", at=state.clock(), trigger="forecast")
+    )

@@ -91,6 +91,13 @@ class SolveQueue:
         """Queue ``change`` behind the others."""
         self.changes.append(change)
 
+    def add_once(self, change: QueuedChange) -> None:
+        """Queue ``change`` unless a queued change names its trigger
+        already (one replan for an early completion, a forecast...: the
+        second would solve the same state again)."""
+        if not self.has_trigger(change.trigger):
+            self.add(change)
+
     def remove(self, change: QueuedChange) -> None:
         """Take ``change`` out of the queue (it is being solved)."""
         self.changes.remove(change)

@@ -218,12 +218,11 @@ class Reports:
                 f"before the end of its dispatch ({end}): replanning",
             )
         )
-        if not self._queue.has_trigger(EARLY_COMPLETION):
-            self._queue.add(
-                QueuedChange(
-                    "levels", at=self._state.clock(), trigger=EARLY_COMPLETION
-                )
+        self._queue.add_once(
+            QueuedChange(
+                "levels", at=self._state.clock(), trigger=EARLY_COMPLETION
             )
+        )
 
     def _late_completion(
         self, task: str, at: int, end: int, out: list[Command]
@@ -249,12 +248,11 @@ class Reports:
                 f"dispatch ({end}); {why}: replanning",
             )
         )
-        if not self._queue.has_trigger(overrun.LATE_COMPLETION):
-            self._queue.add(
-                QueuedChange(
-                    "levels", at=state.clock(), trigger=overrun.LATE_COMPLETION
-                )
+        self._queue.add_once(
+            QueuedChange(
+                "levels", at=state.clock(), trigger=overrun.LATE_COMPLETION
             )
+        )
 
     def _earlier_command(
         self, report: ActivityReport, out: list[Command]
