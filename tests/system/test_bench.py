@@ -395,7 +395,7 @@ def test_broad_generator_has_the_issue_shape() -> None:
         p.to_json() for p in generator.suite("all", 0, "broad")
     ]
     camp = [p for p in first if p.suite == "campaign"]
-    assert len(camp) == 84 and all(p.name.startswith("b") for p in camp)
+    assert len(camp) == 105 and all(p.name.startswith("b") for p in camp)
     tasks = [t for p in camp for t in p.doc["tasks"]]
     windows = sum(t.get("feasible_interval") is not None for t in tasks)
     assert 0.25 < windows / len(tasks) < 0.45

@@ -38,7 +38,9 @@ from fsw_scheduler.model.problem import Problem, decode_problem
 
 from . import broad, fresh, mission
 
-CLASSES: tuple[str, ...] = ("none", "binary", "multiple", "consumable")
+#: The campaign's resource classes: the paper's four, and ``all`` (every
+#: kind at once, each generator's ``mixed`` shape).
+CLASSES: tuple[str, ...] = ("none", "binary", "multiple", "consumable", "all")
 CAMPAIGN_SIZES: tuple[int, ...] = (5, 10, 15)
 CAMPAIGN_PER_CELL = 7
 CAMPAIGN_HORIZON = 336
@@ -123,7 +125,7 @@ def campaign(seed: int = 0, style: str = "paper") -> list[BenchProblem]:
     Returns
     -------
     list of BenchProblem
-        84 problems, ordered by size, then class, then index.
+        105 problems, ordered by size, then class, then index.
     """
     prefix = "b" if style == "broad" else "c"
     problems = []
@@ -326,10 +328,11 @@ def _make(
     style: str = "paper",
 ) -> BenchProblem:
     own_seed = problem_seed(seed, name)
+    shape = "mixed" if cls == "all" else cls
     if style == "broad":
-        doc = broad.generate_problem(size, cls, horizon, own_seed)
+        doc = broad.generate_problem(size, shape, horizon, own_seed)
     else:
-        doc = generate_problem(size, cls, horizon, own_seed)
+        doc = generate_problem(size, shape, horizon, own_seed)
     return BenchProblem(name, suite_name, size, cls, horizon, own_seed, doc)
 
 
