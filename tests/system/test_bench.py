@@ -78,9 +78,9 @@ def test_problem_seed_regenerates_one_problem() -> None:
 
 
 def test_suites_have_the_paper_shape() -> None:
-    """Tests that the campaign is 3 sizes x 4 classes x 7 at H=336."""
+    """Tests that the campaign is 3 sizes x 5 classes x 7 at H=336."""
     camp = generator.campaign(0)
-    assert len(camp) == 84
+    assert len(camp) == 105
     assert {p.horizon for p in camp} == {336}
     cells = {(p.num_tasks, p.resource_class) for p in camp}
     assert cells == set(itertools.product((5, 10, 15), generator.CLASSES))
@@ -102,7 +102,9 @@ def test_every_generated_problem_decodes() -> None:
             for name in task.uses
             if (kind := problem.resources.kind_of(name))
         }
-        if bench.resource_class in generator.CLASSES[1:]:
+        if bench.resource_class == "all":
+            assert kinds == {"binary", "multiple", "consumable"}
+        elif bench.resource_class in generator.CLASSES[1:]:
             assert kinds <= {bench.resource_class}
 
 
@@ -290,7 +292,7 @@ def test_cpsat_reports_infeasible() -> None:
     assert set(plan.unscheduled) == {"a", "b"}
 
 
-@pytest.mark.parametrize("index", [0, 14, 21])
+@pytest.mark.parametrize("index", [0, 14, 21, 28])
 def test_cpsat_agrees_with_cbc(index: int) -> None:
     """Tests that CP-SAT and CBC prove the same optimum on 5-task problems."""
     pytest.importorskip("ortools")
@@ -332,9 +334,9 @@ def test_quick_bench_runs_end_to_end(tmp_path: Path) -> None:
     assert "solver disagreements: 0" in result.stdout
     assert result.stderr.count("q05-") >= 4  # one progress line per problem
     rows = (tmp_path / "runs.csv").read_text().splitlines()
-    assert len(rows) == 1 + 4 * len(solvers.split(","))
+    assert len(rows) == 1 + len(generator.CLASSES) * len(solvers.split(","))
     assert (tmp_path / "fig3_by_tasks.png").exists()
-    assert len(list((tmp_path / "problems").glob("*.json"))) == 4
+    assert len(list((tmp_path / "problems").glob("*.json"))) == len(generator.CLASSES)
 
 
 def test_bench_capacity_option(tmp_path: Path) -> None:

@@ -49,7 +49,8 @@ def generate_problem(
     num_tasks
         Number of tasks (>= 3).
     resource_class
-        ``none``, ``binary``, ``multiple``, ``consumable`` or ``mixed``.
+        ``none``, ``binary``, ``multiple``, ``consumable`` or ``mixed``
+        (``all`` is the same as ``mixed``).
     horizon
         Horizon length in time units.
     seed
@@ -82,7 +83,7 @@ def generate_problem(
     for idx in mandatory:
         tasks[idx]["schedule_cost"] = 0
     resources: dict[str, Any] = {}
-    mixed = resource_class == "mixed"
+    mixed = resource_class in ("mixed", "all")
     if mixed or resource_class == "binary":
         names = BINARY_NAMES[: rng.randint(1, 2) if not mixed else 3]
         resources["binary"] = list(names)

@@ -3,9 +3,9 @@
 Two suites:
 
 ``campaign``
-    The paper's test campaign: 5, 10 and 15 tasks x four resource classes
-    (``none``, ``binary``, ``multiple``, ``consumable``) x 7 problems, with a
-    horizon of 336 time units.
+    The paper's test campaign: 5, 10 and 15 tasks x five resource classes
+    (``none``, ``binary``, ``multiple``, ``consumable``, and ``all``: every
+    kind at once) x 7 problems, with a horizon of 336 time units.
 ``scaling``
     30, 60, 100 and 200 tasks at H = 336 and H = 1440 with every resource
     kind present (class ``mixed``).
@@ -328,11 +328,10 @@ def _make(
     style: str = "paper",
 ) -> BenchProblem:
     own_seed = problem_seed(seed, name)
-    shape = "mixed" if cls == "all" else cls
     if style == "broad":
-        doc = broad.generate_problem(size, shape, horizon, own_seed)
+        doc = broad.generate_problem(size, cls, horizon, own_seed)
     else:
-        doc = generate_problem(size, shape, horizon, own_seed)
+        doc = generate_problem(size, cls, horizon, own_seed)
     return BenchProblem(name, suite_name, size, cls, horizon, own_seed, doc)
 
 
@@ -381,7 +380,8 @@ def generate_problem(
     num_tasks
         Number of tasks (>= 1).
     resource_class
-        ``none``, ``binary``, ``multiple``, ``consumable`` or ``mixed``.
+        ``none``, ``binary``, ``multiple``, ``consumable`` or ``mixed``
+        (``all`` is the same as ``mixed``).
     horizon
         Horizon length; task lengths are 1..20.
     seed
@@ -394,6 +394,8 @@ def generate_problem(
     """
     if resource_class not in (*CLASSES, "mixed"):
         raise ValueError(f"unknown resource class {resource_class!r}")
+    if resource_class == "all":
+        resource_class = "mixed"
     rng = random.Random(seed)
     reading = rng.choice(("task", "start"))
     tasks = _make_tasks(rng, num_tasks, horizon)
