@@ -537,9 +537,9 @@ def test_versus_flags_unknown_where_cpsat_planned() -> None:
         for line in text.splitlines()
         if line.startswith("cbc ")
     }
-    assert {"20", "25", "mixed", "H=336", "H=1440", "all"} <= set(rows)
+    assert {"20", "25", "mixed", "H=336", "H=1440", "overall"} <= set(rows)
     # n, medians, ratio, median and worst ratio, mean, proofs, unknowns
-    assert rows["all"][2:] == [
+    assert rows["overall"][2:] == [
         "2",
         "10.200",
         "1.050",

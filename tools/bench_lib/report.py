@@ -360,7 +360,7 @@ def format_versus(runs: Sequence[Run], reference: str = "cpsat") -> str:
         ]
     if len(horizons) > 1:
         groups += [(f"H={h}", lambda r, k=h: r.horizon == k) for h in horizons]
-    groups.append(("all", lambda r: True))
+    groups.append(("overall", lambda r: True))
     lost = [
         r
         for r in camp
