@@ -166,16 +166,6 @@ class Inbox:
     :mod:`~fsw_scheduler.bus.provenance`).
     """
 
-    def counters(self) -> dict[str, int]:
-        """What the inbox refused or superseded, by status counter name."""
-        return {
-            "inputs_dropped": self.lost,
-            "telemetry_superseded": self.superseded,
-            "clock_superseded": self.clock_superseded,
-            "goals_busy": self.busy,
-            "queries_dropped": self.queries_dropped,
-        }
-
     def __init__(
         self,
         max_goals: int,
@@ -206,6 +196,16 @@ class Inbox:
         self.lost = 0
         self.busy = 0
         self.queries_dropped = 0
+
+    def counters(self) -> dict[str, int]:
+        """What the inbox refused or superseded, by status counter name."""
+        return {
+            "inputs_dropped": self.lost,
+            "telemetry_superseded": self.superseded,
+            "clock_superseded": self.clock_superseded,
+            "goals_busy": self.busy,
+            "queries_dropped": self.queries_dropped,
+        }
 
     def __len__(self) -> int:
         return len(self._items)
