@@ -147,6 +147,24 @@ def tight_conflicts(
     return conflicts
 
 
+def conflict_seeds(problem: Problem, forced: Set[str]) -> set[str]:
+    """Tasks to leave out so that no tight precedences contradict.
+
+    Tight precedences fixing the same start difference in two ways cannot
+    all hold; of each such precedence the ``after`` task is left out (the
+    ``before`` when ``after`` must be scheduled). The list scheduler of
+    :mod:`~fsw_scheduler.analysis.greedy` leaves these out and groups
+    tasks ignoring the same precedences.
+    """
+    seeds = set()
+    for conflict in tight_conflicts(problem):
+        prec = conflict.prec
+        if prec.before in seeds or prec.after in seeds:
+            continue
+        seeds.add(prec.before if prec.after in forced else prec.after)
+    return seeds
+
+
 def block_conflicts(problem: Problem) -> dict[str, tuple[str, str]]:
     """Tasks that can never be scheduled, with the cause and why.
 

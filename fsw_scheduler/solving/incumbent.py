@@ -5,8 +5,10 @@ A known valid plan (the start plan, a probe's answer) bounds what the
 solver needs to look at: every plan at least as good keeps within the
 caps and fixings of :mod:`fsw_scheduler.analysis.bounds`, so the model
 shrinks and keeps its optimum (:func:`narrow`). When the start plan is
-far from the kept-set bound, CBC run with a node limit finds a better
-one to narrow around (:func:`probed`). Whatever the solver returns goes
+far from the kept-set bound, left-out tasks are readmitted first where
+that gives a better plan (:mod:`fsw_scheduler.analysis.readmit`), then
+CBC run with a node limit finds a better one to narrow around
+(:func:`probed`). Whatever the solver returns goes
 through the independent checker first (:func:`checked`).
 """
 
@@ -20,6 +22,7 @@ import msgspec
 from ..analysis.bounds import KeptSetProof, fixings, kept_set_plan
 from ..analysis.check import check_plan
 from ..analysis.domains import cost_caps, start_domains
+from ..analysis.readmit import readmitted
 from ..model.plan import Plan, SolveStatus, objective_weight
 
 if TYPE_CHECKING:
@@ -128,6 +131,12 @@ def probed(
     for the full run (a paper-shaped consumable problem CBC had not
     proved in 20 s: proved in 3 s after it).
 
+    First, when :func:`worth_a_probe`, left-out tasks are readmitted to
+    the start plan where that is better (:func:`_readmitting`: a few
+    list schedules, each with one left-out task first); the probe then
+    starts from that plan, and runs only if it is still far from the
+    bound.
+
     Which probe: a node-limited search when :func:`worth_a_probe`; else,
     on models of :data:`ROOT_PROBE_COLUMNS` or more, CBC's root alone
     with its heuristics on; else none (``start`` and ``narrowed`` are
@@ -141,6 +150,10 @@ def probed(
     """
     if start is None or relaxed is None:
         return None, start, narrowed
+    if worth_a_probe(problem, start, relaxed):
+        start, relaxed, narrowed = _readmitting(
+            problem, start, domains, relaxed, narrowed, began, time_limit
+        )
     heuristics = False
     if worth_a_probe(problem, start, relaxed):
         low, high = PROBE_NODES
@@ -179,6 +192,39 @@ def probed(
     better = probe.replace(status=SolveStatus.FEASIBLE, why=())
     relaxed = kept_set_plan(problem, better, domains)
     return None, better, narrow(problem, better, domains, relaxed)
+
+
+#: Share of what is left of the limit that :func:`_readmitting` may take
+#: (its own bound is in list schedules; this only guards the deadline).
+READMIT_SHARE = 0.1
+
+
+def _readmitting(
+    problem: Problem,
+    start: Plan,
+    domains: dict[str, Domain],
+    relaxed: KeptSetProof,
+    narrowed: dict[str, Domain],
+    began: float,
+    time_limit: float | None,
+) -> tuple[Plan, KeptSetProof, dict[str, Domain]]:
+    """The start plan with left-out tasks readmitted where that is better
+    (:func:`~fsw_scheduler.analysis.readmit.readmitted`), with the
+    kept-set result and the model narrowed around it."""
+    stop = None
+    if time_limit is not None:
+        end = time.perf_counter() + READMIT_SHARE * (
+            time_limit - (time.perf_counter() - began)
+        )
+
+        def stop() -> bool:
+            return time.perf_counter() > end
+
+    better = readmitted(problem, start, domains, stop=stop)
+    if better is start:
+        return start, relaxed, narrowed
+    relaxed = kept_set_plan(problem, better, domains)
+    return better, relaxed, narrow(problem, better, domains, relaxed)
 
 
 def narrow(
