@@ -101,6 +101,13 @@ def replanned(
             "replan: the plan in force, repaired, meets the kept-set bound",
         )
     bound = None if relaxed.bound is None else float(relaxed.bound)
+    if worth_a_probe(problem, repaired, relaxed):
+        # The repaired plan leaves out more than the bound: the plan in
+        # force was poor on the new day (its start heuristic stopped
+        # early, or its tasks no longer hold there). The relaxed
+        # optimum's tasks list-scheduled alone, as a fresh solve does
+        # (seed 11's r45-h1440-0: 28 left out instead of 43).
+        repaired = better_start(problem, repaired, relaxed) or repaired
     changed = changed_tasks(problem, in_force, repaired)
     best, improved = repaired, 0
     if changed and not meets(best, bound):
