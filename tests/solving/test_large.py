@@ -2,15 +2,24 @@
 
 from __future__ import annotations
 
+import functools
+import time
+from typing import TYPE_CHECKING
+
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
+from fsw_scheduler.analysis.greedy import greedy_plan
 from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.solving import large
 from fsw_scheduler.solving.budget import BUDGET
+from fsw_scheduler.solving.ilp import solve_ilp
 from fsw_scheduler.solving.incumbent import columns
 from fsw_scheduler.solving.solve import solve
 
 from ..factories import bench_lib, problem_from
+
+if TYPE_CHECKING:
+    import pytest
 
 
 def test_the_search_takes_parts_from_lns_min_tasks() -> None:
@@ -42,3 +51,25 @@ def test_a_large_part_with_a_small_model_is_proved_by_cbc_first() -> None:
     assert plan.stats.solver_status.startswith("the whole model, narrowed")
     assert plan.stats.gap == 0.0
     assert check_plan(problem, plan).ok
+
+
+def test_a_replan_whose_bound_runs_out_of_nodes_searches_it_again(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Tests that a replan whose kept-set search runs out of its own few
+    nodes searches again with a fresh solve's, so its plan still carries
+    a bound that holds."""
+    fresh = bench_lib("fresh")
+    problem = problem_from(fresh.generate_problem(30, 336, 2))
+    domains = start_domains(problem)
+    in_force = greedy_plan(problem, domains=domains)
+    assert in_force is not None
+    monkeypatch.setattr(large, "REPLAN_BOUND_NODES", 1)
+    run = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
+    plan = large.replanned(
+        problem, in_force, domains, run, time.perf_counter(), 3.0
+    )
+    assert plan is not None and check_plan(problem, plan).ok
+    assert plan.objective is not None
+    assert plan.stats is not None and plan.stats.bound is not None
+    assert plan.stats.bound <= plan.objective.total + 0.5
