@@ -109,9 +109,10 @@ def replanned(
     if worth_a_probe(problem, repaired, relaxed):
         # The repaired plan leaves out more than the bound: the plan in
         # force was poor on the new day (its start heuristic stopped
-        # early, or its tasks no longer hold there). The relaxed
-        # optimum's tasks list-scheduled alone, as a fresh solve does
-        # (seed 11's r45-h1440-0: 28 left out instead of 43).
+        # early). The relaxed optimum's tasks list-scheduled alone, as a
+        # fresh solve does (replan suite, seed 15's r60-h1440-0: 82 left
+        # out instead of 88, as the fresh solve; seed 13's r45-h1440-1:
+        # 44 instead of 45).
         repaired = better_start(problem, repaired, relaxed) or repaired
     changed = changed_tasks(problem, in_force, repaired)
     best, improved = repaired, 0

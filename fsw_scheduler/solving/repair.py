@@ -82,23 +82,6 @@ def repair(
     # stopped early, it keeps every pinned task.
     if _pinned_greedy(problem, starts, _at_once) is not None:
         return _pinned_greedy(problem, starts, stop)
-    fitted = _fitting(problem, starts)
-    if len(fitted) < len(starts):
-        # The plan in force does not hold on the new problem by itself
-        # (a task restarted at the replan drains the battery again: the
-        # old plan overdrew it by 53 units from t = 917, and the replan
-        # was solved afresh in its fifth of the limit). The fewest old
-        # tasks where it breaks are set free and placed again.
-        starts = fitted
-        if _pinned_greedy(problem, starts, _at_once) is not None:
-            return _pinned_greedy(problem, starts, stop)
-    kept_alone = _checked(problem, starts)
-    if kept_alone is not None:
-        # The kept tasks hold by themselves, but the heuristic could not
-        # book them (its battery test is stricter than the checker's: a
-        # consumer booked before the charger it relies on, or a full
-        # store): the search around the change places the others.
-        return kept_alone
     # They do not: the old tasks where they could run are set free and
     # placed again with them.
     lengths = {t.id: t.length for t in problem.tasks}
@@ -120,59 +103,6 @@ def repair(
     if len(kept) == len(starts):
         return None
     return _pinned_greedy(problem, kept, stop)
-
-
-#: The checker's rules of resources, which a kept task alone can break.
-RESOURCE_RULES = frozenset({"binary", "multiple", "consumable"})
-
-
-def _fitting(problem: Problem, starts: dict[str, int]) -> dict[str, int]:
-    """``starts`` less the tasks that break a resource rule among them.
-
-    At each first violation the checker reports, the kept task that
-    uses a resource of its kind and starts last at or before it is
-    dropped (the one nearest the fault: every level after it rises by
-    what it took, and the earlier plan stays as it was), with the kept
-    tasks that follow it by a precedence, until the kept tasks hold by
-    themselves. Deterministic: the checker's report
-    and the starts decide.
-    """
-    kept = dict(starts)
-    tasks = {task.id: task for task in problem.tasks}
-    kinds = {
-        "binary": set(problem.resources.binary),
-        "multiple": set(problem.resources.multiple),
-        "consumable": set(problem.resources.consumable),
-    }
-    after: dict[str, list[str]] = {}
-    for prec in problem.precedences:
-        after.setdefault(prec.before, []).append(prec.after)
-    while kept:
-        report = check_plan(problem, _plan(problem, kept))
-        fault = next(
-            (v for v in report.violations if v.rule in RESOURCE_RULES), None
-        )
-        if fault is None or fault.time is None:
-            return kept
-        names = kinds[fault.rule]
-        culprits = [
-            name
-            for name, start in kept.items()
-            if start <= fault.time
-            and any(
-                amount > 0 and use in names
-                for use, amount in tasks[name].uses.items()
-            )
-        ]
-        if not culprits:
-            return kept
-        dropped = [max(culprits, key=lambda n: (kept[n], n))]
-        while dropped:
-            # What follows it by a precedence may need it: set free too.
-            name = dropped.pop()
-            if kept.pop(name, None) is not None:
-                dropped += after.get(name, [])
-    return kept
 
 
 def _at_once() -> bool:
@@ -204,17 +134,8 @@ def _pinned_greedy(
 def _checked(problem: Problem, starts: dict[str, int]) -> Plan | None:
     """The plan of ``starts`` (every other task left out) if the checker
     accepts it on ``problem``, with its objective."""
-    plan = _plan(problem, starts)
-    report = check_plan(problem, plan)
-    if not report.ok:
-        return None
-    return plan.replace(objective=report.objective)
-
-
-def _plan(problem: Problem, starts: dict[str, int]) -> Plan:
-    """The plan of ``starts``, every other task left out; no objective."""
     lengths = {t.id: t.length for t in problem.tasks}
-    return Plan(
+    plan = Plan(
         status=SolveStatus.FEASIBLE,
         objective=None,
         activities=tuple(
@@ -229,6 +150,10 @@ def _plan(problem: Problem, starts: dict[str, int]) -> Plan:
         unscheduled=groups.left_out(problem, starts),
         chosen=groups.chosen(problem, starts),
     )
+    report = check_plan(problem, plan)
+    if not report.ok:
+        return None
+    return plan.replace(objective=report.objective)
 
 
 def changed_tasks(problem: Problem, in_force: Plan, plan: Plan) -> list[str]:

@@ -117,66 +117,6 @@ def test_a_mandatory_new_task_moves_the_tasks_in_its_way() -> None:
     assert "urgent" in moved and len(moved) >= 2, moved
 
 
-def _drained(initial: int) -> dict:
-    """Three battery users back to back from 0, the last one followed by
-    a lax successor that uses nothing, over a battery of ``initial``."""
-    tasks = [
-        make_task("a", 4, uses={"battery": 1}),
-        make_task("b", 4, uses={"battery": 1}),
-        make_task("c", 2, uses={"battery": 1}),
-        make_task("d", 2),
-    ]
-    return make_doc(
-        tasks,
-        horizon=20,
-        resources={"consumable": {"battery": initial}},
-        precedences=[
-            {"before": "c", "after": "d", "kind": "lax", "scope": "both"}
-        ],
-    )
-
-
-def test_a_plan_in_force_that_overdraws_keeps_the_tasks_before_the_fault():
-    """Tests that when the plan in force overdraws a consumable on the new
-    problem (less charge than it was planned with), repair sets free the
-    last consumer before the fault and what follows it by a precedence,
-    and keeps every other task where it was instead of giving up."""
-    in_force = plan_of(
-        problem_from(_drained(10)), {"a": 0, "b": 4, "c": 8, "d": 10}
-    )
-    assert check_plan(problem_from(_drained(10)), in_force).ok
-    new = problem_from(_drained(8))
-    assert not check_plan(new, in_force).ok
-    repaired = repair(new, in_force, start_domains(new))
-    assert repaired is not None and check_plan(new, repaired).ok
-    assert repaired.starts() == {"a": 0, "b": 4}
-    assert set(repaired.unscheduled) == {"c", "d"}
-
-
-def test_kept_tasks_the_heuristic_cannot_book_are_kept_as_they_are():
-    """Tests that a plan in force the checker accepts on the new problem
-    but the start heuristic cannot book (a consumer that relies on a
-    charger that starts after it) comes back as it is from repair, with
-    the new task left out for the search to place."""
-    tasks = [
-        make_task("use", 8, uses={"battery": 1}),
-        make_task("charge", 4, uses={"battery": -3}),
-    ]
-    doc = make_doc(tasks, horizon=20, resources={"consumable": {"battery": 2}})
-    old = problem_from(doc)
-    in_force = plan_of(old, {"use": 0, "charge": 1})
-    assert check_plan(old, in_force).ok
-    new = problem_from(
-        {**doc, "tasks": [*tasks, make_task("new", 2, uses={"battery": 1})]}
-    )
-    repaired = repair(new, in_force, start_domains(new))
-    assert repaired is not None and check_plan(new, repaired).ok
-    assert {n: repaired.starts()[n] for n in ("charge", "use")} == {
-        "charge": 1,
-        "use": 0,
-    }
-
-
 @settings(COMMON, max_examples=120)
 @given(
     doc=problem_docs(max_tasks=5, max_horizon=10),
