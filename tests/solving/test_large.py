@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import time
 from typing import TYPE_CHECKING
@@ -16,7 +17,8 @@ from fsw_scheduler.solving.ilp import solve_ilp
 from fsw_scheduler.solving.incumbent import columns
 from fsw_scheduler.solving.solve import solve
 
-from ..factories import bench_lib, problem_from
+from ..factories import bench_lib, make_doc, make_task, problem_from
+from ..problems import plan_of
 
 if TYPE_CHECKING:
     import pytest
@@ -73,3 +75,33 @@ def test_a_replan_whose_bound_runs_out_of_nodes_searches_it_again(
     assert plan.objective is not None
     assert plan.stats is not None and plan.stats.bound is not None
     assert plan.stats.bound <= plan.objective.total + 0.5
+
+
+def test_a_replan_the_repair_cannot_start_keeps_what_holds(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Tests that a replan whose plan in force overdraws the battery on the
+    new problem (the repair gives up) is solved afresh from what of the
+    plan in force still holds when that beats the start heuristic's plan
+    (stopped at once here, as under load: the tasks every plan must hold
+    alone, none)."""
+    doc = make_doc(
+        [make_task(name, 4, uses={"battery": 1}) for name in "abc"],
+        horizon=20,
+        resources={"consumable": {"battery": 8}},
+    )
+    problem = problem_from(doc)
+    domains = start_domains(problem)
+    in_force = plan_of(problem, {"a": 0, "b": 4, "c": 8})
+    assert not check_plan(problem, in_force).ok
+    monkeypatch.setattr(
+        large, "BUDGET", dataclasses.replace(BUDGET, greedy_share=0.0)
+    )
+    run = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
+    plan = large.replanned(
+        problem, in_force, domains, run, time.perf_counter(), 0.3
+    )
+    assert plan is not None and check_plan(problem, plan).ok
+    assert plan.objective is not None
+    # Two of the three kept: one left out, as the best plan.
+    assert plan.objective.unscheduled_cost == 1, plan
