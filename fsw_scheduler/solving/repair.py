@@ -113,13 +113,14 @@ def holding(
     For a plan in force that :func:`repair` cannot start from (a task
     restarted at the replan drains the battery a second time, and the
     old plan overdraws it): a kept task that follows a task no longer
-    kept is dropped, and at each first resource violation the checker
+    kept is dropped; then, for each resource violation the checker
     reports, the kept task of that resource's kind that starts last at
     or before it (an optional one before one every plan must hold),
-    with what follows it by a precedence, until the rest holds. Every
-    other task is left out. None when what is left is not a valid plan
-    (a task every plan must hold was dropped). Deterministic: the
-    checker's report and the starts decide.
+    with what follows it by a precedence; and the checker is asked
+    again until the rest holds (a few rounds: one per report, not one
+    per task). Every other task is left out. None when what is left is
+    not a valid plan (a task every plan must hold was dropped).
+    Deterministic: the checker's report and the starts decide.
     """
     kept = {
         name: start
@@ -146,12 +147,15 @@ def holding(
             for follower in after.get(v.task, [])
             if follower in kept
         ]
-        fault = next((v for v in report.violations if v.rule in kinds), None)
-        if not dropped and fault is not None and fault.time is not None:
+        faults = [] if dropped else report.violations
+        for fault in faults:
+            if fault.rule not in kinds or fault.time is None:
+                continue
             culprits = [
                 name
                 for name, start in kept.items()
                 if start <= fault.time
+                and name not in dropped
                 and any(
                     amount > 0 and use in kinds[fault.rule]
                     for use, amount in tasks[name].uses.items()
@@ -159,7 +163,7 @@ def holding(
             ]
             pool = [n for n in culprits if n not in forced] or culprits
             if pool:
-                dropped = [max(pool, key=lambda n: (kept[n], n))]
+                dropped.append(max(pool, key=lambda n: (kept[n], n)))
         if not dropped:
             break
         while dropped:
