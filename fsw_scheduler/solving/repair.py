@@ -105,6 +105,75 @@ def repair(
     return _pinned_greedy(problem, kept, stop)
 
 
+def holding(
+    problem: Problem, in_force: Plan, domains: dict[str, Domain]
+) -> Plan | None:
+    """What of ``in_force`` holds on ``problem`` by itself, as a plan.
+
+    For a plan in force that :func:`repair` cannot start from (a task
+    restarted at the replan drains the battery a second time, and the
+    old plan overdraws it): a kept task that follows a task no longer
+    kept is dropped; then, for each resource violation the checker
+    reports, the kept task of that resource's kind that starts last at
+    or before it (an optional one before one every plan must hold),
+    with what follows it by a precedence; and the checker is asked
+    again until the rest holds (a few rounds: one per report, not one
+    per task). Every other task is left out. None when what is left is
+    not a valid plan (a task every plan must hold was dropped).
+    Deterministic: the checker's report and the starts decide.
+    """
+    kept = {
+        name: start
+        for name, start in in_force.starts().items()
+        if name in domains
+        and domains[name].earliest <= start <= domains[name].latest
+    }
+    tasks = {task.id: task for task in problem.tasks}
+    forced = forced_tasks(problem)
+    kinds = {
+        "binary": set(problem.resources.binary),
+        "multiple": set(problem.resources.multiple),
+        "consumable": set(problem.resources.consumable),
+    }
+    after: dict[str, list[str]] = {}
+    for prec in problem.precedences:
+        after.setdefault(prec.before, []).append(prec.after)
+    while kept:
+        report = check_plan(problem, _plan(problem, kept))
+        dropped = [
+            follower
+            for v in report.of_rule("scope")
+            if v.task is not None and v.task not in kept
+            for follower in after.get(v.task, [])
+            if follower in kept
+        ]
+        faults = [] if dropped else report.violations
+        for fault in faults:
+            if fault.rule not in kinds or fault.time is None:
+                continue
+            culprits = [
+                name
+                for name, start in kept.items()
+                if start <= fault.time
+                and name not in dropped
+                and any(
+                    amount > 0 and use in kinds[fault.rule]
+                    for use, amount in tasks[name].uses.items()
+                )
+            ]
+            pool = [n for n in culprits if n not in forced] or culprits
+            if pool:
+                dropped.append(max(pool, key=lambda n: (kept[n], n)))
+        if not dropped:
+            break
+        while dropped:
+            # What follows it by a precedence may need it: set free too.
+            name = dropped.pop()
+            if kept.pop(name, None) is not None:
+                dropped += after.get(name, [])
+    return _checked(problem, kept)
+
+
 def _at_once() -> bool:
     """A stop that is always due: the heuristic's trivial plan alone."""
     return True
@@ -134,8 +203,17 @@ def _pinned_greedy(
 def _checked(problem: Problem, starts: dict[str, int]) -> Plan | None:
     """The plan of ``starts`` (every other task left out) if the checker
     accepts it on ``problem``, with its objective."""
+    plan = _plan(problem, starts)
+    report = check_plan(problem, plan)
+    if not report.ok:
+        return None
+    return plan.replace(objective=report.objective)
+
+
+def _plan(problem: Problem, starts: dict[str, int]) -> Plan:
+    """The plan of ``starts``, every other task left out; no objective."""
     lengths = {t.id: t.length for t in problem.tasks}
-    plan = Plan(
+    return Plan(
         status=SolveStatus.FEASIBLE,
         objective=None,
         activities=tuple(
@@ -150,10 +228,6 @@ def _checked(problem: Problem, starts: dict[str, int]) -> Plan | None:
         unscheduled=groups.left_out(problem, starts),
         chosen=groups.chosen(problem, starts),
     )
-    report = check_plan(problem, plan)
-    if not report.ok:
-        return None
-    return plan.replace(objective=report.objective)
 
 
 def changed_tasks(problem: Problem, in_force: Plan, plan: Plan) -> list[str]:

@@ -27,6 +27,7 @@ from ..model.stability import Stability, rescored
 from . import large
 from .budget import BUDGET
 from .incumbent import checked, narrow, probed
+from .repair import holding
 from .single import one_task
 
 if TYPE_CHECKING:
@@ -733,11 +734,12 @@ def best_start(
 
     The greedy plan is valid by construction (:func:`greedy_plan` returns
     only plans the checker accepts); ``warm`` is used only if the checker
-    accepts it on ``problem``, with its objective recomputed there. None
-    when neither is valid. ``stop`` and ``domains`` are passed on to
-    :func:`greedy_plan`. With ``stability`` both are scored with the
-    move part: the previous plan (``warm``, which keeps the old
-    positions) comes first and wins ties.
+    accepts it on ``problem``, with its objective recomputed there, else
+    what of it holds (:func:`~fsw_scheduler.solving.repair.holding`, not
+    with a move part). None when neither is valid. ``stop`` and
+    ``domains`` are passed on to :func:`greedy_plan`. With ``stability``
+    both are scored with the move part: the previous plan (``warm``,
+    which keeps the old positions) comes first and wins ties.
     """
     candidates = []
     if warm is not None:
@@ -751,6 +753,9 @@ def best_start(
                     status=SolveStatus.FEASIBLE, objective=report.objective
                 )
             )
+        elif stability is None and domains is not None:
+            # A plan in force the new problem breaks: what of it holds.
+            candidates += [p for p in [holding(problem, warm, domains)] if p]
     greedy = greedy_plan(problem, stop=stop, domains=domains)
     if greedy is not None:
         # On a tie, the previous plan is kept.

@@ -2,15 +2,26 @@
 
 from __future__ import annotations
 
+import dataclasses
+import functools
+import time
+from typing import TYPE_CHECKING
+
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
+from fsw_scheduler.analysis.greedy import greedy_plan
 from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.solving import large
 from fsw_scheduler.solving.budget import BUDGET
+from fsw_scheduler.solving.ilp import solve_ilp
 from fsw_scheduler.solving.incumbent import columns
 from fsw_scheduler.solving.solve import solve
 
-from ..factories import bench_lib, problem_from
+from ..factories import bench_lib, make_doc, make_task, problem_from
+from ..problems import plan_of
+
+if TYPE_CHECKING:
+    import pytest
 
 
 def test_the_search_takes_parts_from_lns_min_tasks() -> None:
@@ -42,3 +53,55 @@ def test_a_large_part_with_a_small_model_is_proved_by_cbc_first() -> None:
     assert plan.stats.solver_status.startswith("the whole model, narrowed")
     assert plan.stats.gap == 0.0
     assert check_plan(problem, plan).ok
+
+
+def test_a_replan_whose_bound_runs_out_of_nodes_searches_it_again(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Tests that a replan whose kept-set search runs out of its own few
+    nodes searches again with a fresh solve's, so its plan still carries
+    a bound that holds."""
+    fresh = bench_lib("fresh")
+    problem = problem_from(fresh.generate_problem(30, 336, 2))
+    domains = start_domains(problem)
+    in_force = greedy_plan(problem, domains=domains)
+    assert in_force is not None
+    monkeypatch.setattr(large, "REPLAN_BOUND_NODES", 1)
+    run = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
+    plan = large.replanned(
+        problem, in_force, domains, run, time.perf_counter(), 3.0
+    )
+    assert plan is not None and check_plan(problem, plan).ok
+    assert plan.objective is not None
+    assert plan.stats is not None and plan.stats.bound is not None
+    assert plan.stats.bound <= plan.objective.total + 0.5
+
+
+def test_a_replan_the_repair_cannot_start_keeps_what_holds(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Tests that a replan whose plan in force overdraws the battery on the
+    new problem (the repair gives up) is solved afresh from what of the
+    plan in force still holds when that beats the start heuristic's plan
+    (stopped at once here, as under load: the tasks every plan must hold
+    alone, none)."""
+    doc = make_doc(
+        [make_task(name, 4, uses={"battery": 1}) for name in "abc"],
+        horizon=20,
+        resources={"consumable": {"battery": 8}},
+    )
+    problem = problem_from(doc)
+    domains = start_domains(problem)
+    in_force = plan_of(problem, {"a": 0, "b": 4, "c": 8})
+    assert not check_plan(problem, in_force).ok
+    monkeypatch.setattr(
+        large, "BUDGET", dataclasses.replace(BUDGET, greedy_share=0.0)
+    )
+    run = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
+    plan = large.replanned(
+        problem, in_force, domains, run, time.perf_counter(), 0.3
+    )
+    assert plan is not None and check_plan(problem, plan).ok
+    assert plan.objective is not None
+    # Two of the three kept: one left out, as the best plan.
+    assert plan.objective.unscheduled_cost == 1, plan

@@ -17,7 +17,7 @@ from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.solving import large
 from fsw_scheduler.solving import solve as solve_module
 from fsw_scheduler.solving.budget import BUDGET
-from fsw_scheduler.solving.repair import changed_tasks, repair
+from fsw_scheduler.solving.repair import changed_tasks, holding, repair
 from fsw_scheduler.solving.solve import solve
 
 from ..factories import bench_lib, make_doc, make_task, problem_from
@@ -115,6 +115,54 @@ def test_a_mandatory_new_task_moves_the_tasks_in_its_way() -> None:
     assert repaired.starts()["urgent"] <= 2
     moved = changed_tasks(new, in_force, repaired)
     assert "urgent" in moved and len(moved) >= 2, moved
+
+
+def _drained(initial: int) -> dict:
+    """Three battery users back to back from 0, the last one followed by
+    a lax successor that uses nothing, over a battery of ``initial``."""
+    tasks = [
+        make_task("a", 4, uses={"battery": 1}),
+        make_task("b", 4, uses={"battery": 1}),
+        make_task("c", 2, uses={"battery": 1}),
+        make_task("d", 2),
+    ]
+    return make_doc(
+        tasks,
+        horizon=20,
+        resources={"consumable": {"battery": initial}},
+        precedences=[
+            {"before": "c", "after": "d", "kind": "lax", "scope": "both"}
+        ],
+    )
+
+
+def test_what_holds_of_a_plan_in_force_that_overdraws() -> None:
+    """Tests that when the plan in force overdraws a consumable on the new
+    problem (less charge than it was planned with), holding drops the
+    last consumer before the fault and what follows it by a precedence,
+    and keeps every other task where it was, in a valid plan."""
+    in_force = plan_of(
+        problem_from(_drained(10)), {"a": 0, "b": 4, "c": 8, "d": 10}
+    )
+    assert check_plan(problem_from(_drained(10)), in_force).ok
+    new = problem_from(_drained(8))
+    assert not check_plan(new, in_force).ok
+    held = holding(new, in_force, start_domains(new))
+    assert held is not None and check_plan(new, held).ok
+    assert held.starts() == {"a": 0, "b": 4}
+    assert set(held.unscheduled) == {"c", "d"}
+
+
+def test_holding_drops_an_optional_consumer_before_a_mandatory_one() -> None:
+    """Tests that holding sets free an optional battery user rather than a
+    mandatory one that starts later before the fault."""
+    doc = _drained(8)
+    doc["tasks"][2]["schedule_cost"] = 0  # c is mandatory
+    problem = problem_from(doc)
+    in_force = plan_of(problem, {"a": 0, "b": 2, "c": 8, "d": 10})
+    held = holding(problem, in_force, start_domains(problem))
+    assert held is not None and check_plan(problem, held).ok
+    assert held.starts() == {"a": 0, "c": 8, "d": 10}
 
 
 @settings(COMMON, max_examples=120)

@@ -12,6 +12,7 @@ import pytest
 from hypothesis import given, settings
 
 from fsw_scheduler.analysis.check import check_plan
+from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.model.plan import Activity, SolveStatus
 from fsw_scheduler.solving import large
 from fsw_scheduler.solving import solve as solve_module
@@ -19,7 +20,13 @@ from fsw_scheduler.solving.budget import BUDGET
 from fsw_scheduler.solving.solve import solve
 
 from ..factories import bench_lib, make_doc, make_task, problem_from
-from ..problems import COMMON, brute_force, decode_doc, problem_docs
+from ..problems import (
+    COMMON,
+    brute_force,
+    decode_doc,
+    plan_of,
+    problem_docs,
+)
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -997,3 +1004,25 @@ def test_an_external_drain_alone_is_a_proof() -> None:
     assert plan.stats is not None and plan.stats.solver == "proof"
     assert plan.why[0].task == "battery"
     assert "t=5" in plan.why[0].detail  # 3, then 2, 1, 0, -1
+
+
+def test_a_start_plan_keeps_what_holds_of_a_broken_plan_in_force() -> None:
+    """Tests that a plan in force that overdraws the battery on the new
+    problem still gives the start plan what of it holds, where the start
+    heuristic stopped at once (as under load) places nothing, and that
+    a replan from it returns a valid plan."""
+    doc = make_doc(
+        [make_task(name, 4, uses={"battery": 1}) for name in "abc"],
+        horizon=20,
+        resources={"consumable": {"battery": 8}},
+    )
+    problem = problem_from(doc)
+    in_force = plan_of(problem, {"a": 0, "b": 4, "c": 8})
+    assert not check_plan(problem, in_force).ok
+    domains = start_domains(problem)
+    start = solve_module.best_start(
+        problem, in_force, stop=lambda: True, domains=domains
+    )
+    assert start is not None and start.starts() == {"a": 0, "b": 4}
+    plan = solve(problem, time_limit=5, warm=in_force)
+    assert plan.status is SolveStatus.OPTIMAL and check_plan(problem, plan).ok
