@@ -25,6 +25,8 @@ from ..model.plan import SolverStats, SolveStatus
 from .budget import BUDGET
 from .improve import MIN_ROUND_S, improve, meets
 from .incumbent import checked, columns, narrow, worth_a_probe
+from .relaxed import SHARE, RelaxedAnswer, raised, relaxable
+from .relaxed import around as relaxed_around
 from .repair import changed_tasks, repair
 
 if TYPE_CHECKING:
@@ -196,6 +198,28 @@ def improved(
         )
     bound = None if relaxed.bound is None else float(relaxed.bound)
     said = ""
+    if relaxable(run, problem, domains):
+        caught = _relaxation(
+            problem,
+            start,
+            domains,
+            relaxed,
+            run,
+            SHARE * (deadline - time.perf_counter()),
+        )
+        if caught.plan is not None and caught.plan.objective is not None:
+            return _answer(
+                caught.plan,
+                float(caught.plan.objective.total),
+                _label(run, "relaxed"),
+                caught.said,
+                began,
+                time_limit,
+            )
+        start = caught.better or start
+        bound = higher(bound, caught.bound)
+        relaxed = raised(relaxed, bound)
+        said = f"the disjunctive relaxation: {caught.said}; "
     narrowed = _narrowed(problem, start, domains, relaxed)
     if narrowed is not None and columns(narrowed) <= SMALL_COLUMNS:
         # Around a good start plan the whole model can be as small as a
@@ -227,7 +251,7 @@ def improved(
         # small enough for CBC to prove (f45-h2880 of the large suite,
         # seed 31: the search held the optimum and swept on until the
         # limit; 12,126 columns around it, proved by CBC in 5 s).
-        again = kept_set_bound(problem, plan, domains)
+        again = raised(kept_set_bound(problem, plan, domains), bound)
         narrowed = _narrowed(problem, plan, domains, again)
         if narrowed is None:
             return False
@@ -261,10 +285,32 @@ def improved(
             # The search costs up to a second here: only when it can say
             # more than it did of the start plan.
             again = (
-                kept_set_bound(problem, best, domains) if improved else relaxed
+                raised(kept_set_bound(problem, best, domains), bound)
+                if improved
+                else relaxed
             )
             narrowed = narrow(problem, best, domains, again)
         bound = higher(bound, again.bound)
+        if relaxable(run, problem, domains):
+            # Around a better incumbent, with a higher bound, the
+            # relaxation's domains are narrower and its LP tighter.
+            caught = relaxed_around(
+                problem, best, narrowed, run, END_SHARE * left
+            )
+            said += "; then the disjunctive relaxation: " + caught.said
+            if caught.plan is not None and caught.plan.objective is not None:
+                return _answer(
+                    caught.plan,
+                    float(caught.plan.objective.total),
+                    _label(run, "relaxed"),
+                    said,
+                    began,
+                    time_limit,
+                )
+            best = caught.better or best
+            bound = higher(bound, caught.bound)
+            narrowed = narrow(problem, best, domains, raised(again, bound))
+            left = deadline - time.perf_counter()
         best, bound, answered = _whole_model(
             problem,
             best,
@@ -277,6 +323,27 @@ def improved(
         )
         said += "; then the whole model, narrowed: " + answered
     return _answer(best, bound, _label(run, "lns"), said, began, time_limit)
+
+
+#: Share of the time left after the search that the relaxation gets
+#: before the whole model (:func:`improved`).
+END_SHARE = 0.5
+
+
+def _relaxation(
+    problem: Problem,
+    start: Plan,
+    domains: dict[str, Domain],
+    relaxed: KeptSetProof,
+    run: Callable[..., Plan],
+    limit: float,
+) -> RelaxedAnswer:
+    """:func:`~fsw_scheduler.solving.relaxed.around` ``start``, over the
+    domains every plan at least as good keeps."""
+    narrowed = _narrowed(problem, start, domains, relaxed)
+    if narrowed is None:
+        narrowed = narrow(problem, start, domains)
+    return relaxed_around(problem, start, narrowed, run, limit)
 
 
 def _narrowed(
