@@ -21,7 +21,7 @@ from ..analysis.bounds import KeptSetProof, fixings, kept_set_plan
 from ..analysis.check import check_plan
 from ..analysis.domains import cost_caps, start_domains
 from ..model.plan import Plan, SolveStatus, objective_weight
-from .relaxed import SHARE, around, raised, relaxable
+from .relaxed import SHARE, around, relaxable
 
 if TYPE_CHECKING:
     import functools
@@ -77,7 +77,7 @@ ROOT_PROBE_COLUMNS = 5_000
 #: From this many columns on, a part with a consumable and a binary or
 #: multiple resource is first given to the disjunctive relaxation
 #: (:mod:`fsw_scheduler.solving.relaxed`), which proves it when its
-#: optimum is valid and otherwise raises the bound its caps read: the
+#: optimum is valid and otherwise may give a better start plan: the
 #: root probe's threshold (on the large suite's f30-h1440 of seed 53 a
 #: part of 28 tasks, 5,079 columns, took 5.6 s in the root probe and
 #: 10 s more in CBC).
@@ -167,9 +167,10 @@ def probed(
         )
         if caught.plan is not None:
             return caught.plan, start, narrowed
-        if caught.better is not None or caught.bound is not None:
-            start = caught.better or start
-            relaxed = raised(relaxed, caught.bound)
+        if caught.better is not None:
+            # The caps read the kept-set bound only: the relaxation's
+            # bound counts delays the caps would count again.
+            start = caught.better
             narrowed = narrow(problem, start, domains, relaxed)
     heuristics = False
     if worth_a_probe(problem, start, relaxed):

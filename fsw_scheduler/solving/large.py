@@ -25,7 +25,7 @@ from ..model.plan import SolverStats, SolveStatus
 from .budget import BUDGET
 from .improve import MIN_ROUND_S, improve, meets
 from .incumbent import checked, columns, narrow, worth_a_probe
-from .relaxed import SHARE, RelaxedAnswer, raised, relaxable
+from .relaxed import SHARE, RelaxedAnswer, relaxable
 from .relaxed import around as relaxed_around
 from .repair import changed_tasks, repair
 
@@ -217,8 +217,10 @@ def improved(
                 time_limit,
             )
         start = caught.better or start
+        # Not a bound for the caps (they add each task's delay to the
+        # kept-set bound, and this one counts delays already): only for
+        # the search's stop and the gap.
         bound = higher(bound, caught.bound)
-        relaxed = raised(relaxed, bound)
         said = f"the disjunctive relaxation: {caught.said}; "
     narrowed = _narrowed(problem, start, domains, relaxed)
     if narrowed is not None and columns(narrowed) <= SMALL_COLUMNS:
@@ -251,7 +253,7 @@ def improved(
         # small enough for CBC to prove (f45-h2880 of the large suite,
         # seed 31: the search held the optimum and swept on until the
         # limit; 12,126 columns around it, proved by CBC in 5 s).
-        again = raised(kept_set_bound(problem, plan, domains), bound)
+        again = kept_set_bound(problem, plan, domains)
         narrowed = _narrowed(problem, plan, domains, again)
         if narrowed is None:
             return False
@@ -285,9 +287,7 @@ def improved(
             # The search costs up to a second here: only when it can say
             # more than it did of the start plan.
             again = (
-                raised(kept_set_bound(problem, best, domains), bound)
-                if improved
-                else relaxed
+                kept_set_bound(problem, best, domains) if improved else relaxed
             )
             narrowed = narrow(problem, best, domains, again)
         bound = higher(bound, again.bound)
@@ -307,9 +307,10 @@ def improved(
                     began,
                     time_limit,
                 )
-            best = caught.better or best
+            if caught.better is not None:
+                best = caught.better
+                narrowed = narrow(problem, best, domains, again)
             bound = higher(bound, caught.bound)
-            narrowed = narrow(problem, best, domains, raised(again, bound))
             left = deadline - time.perf_counter()
         best, bound, answered = _whole_model(
             problem,

@@ -26,7 +26,6 @@ on the real part (its consumables included), it is optimal there too.
 from __future__ import annotations
 
 import functools
-import math
 import time
 from typing import TYPE_CHECKING, NamedTuple
 
@@ -332,11 +331,3 @@ def around(
     ):
         answer = answer._replace(bound=None)
     return answer
-
-
-def raised(proof: KeptSetProof, bound: float | None) -> KeptSetProof:
-    """``proof`` with its bound raised to ``bound`` (every objective is an
-    integer, so a bound rounds up), which its caps then read."""
-    if bound is None or proof.bound is None:
-        return proof
-    return proof._replace(bound=max(proof.bound, math.ceil(bound - 0.5)))

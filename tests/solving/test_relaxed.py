@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from fsw_scheduler.analysis.bounds import KeptSetProof, kept_set_bound
+from fsw_scheduler.analysis.bounds import kept_set_bound
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.model.plan import SolveStatus
@@ -10,7 +10,6 @@ from fsw_scheduler.solving.ilp import solve_ilp
 from fsw_scheduler.solving.relaxed import (
     RelaxedModel,
     applies,
-    raised,
     relaxed_bound,
 )
 from fsw_scheduler.solving.solve import best_start, solve
@@ -118,16 +117,6 @@ def test_the_relaxation_applies_to_mixed_parts_only() -> None:
     )
     assert not applies_to(make_task("a", uses={"battery": 1}))
     assert not applies_to(make_task("a", uses={"cam": 1}))
-
-
-def test_raised_rounds_a_bound_up_to_the_next_objective() -> None:
-    """Tests that a kept-set proof's bound is raised to a higher bound,
-    rounded up to an integer objective, and never lowered."""
-    proof = KeptSetProof(None, 10)
-    assert raised(proof, 12.3).bound == 12
-    assert raised(proof, 12.6).bound == 13
-    assert raised(proof, 4.0).bound == 10
-    assert raised(proof, None).bound == 10
 
 
 def test_a_large_fresh_part_is_proved_by_the_relaxation() -> None:
