@@ -84,7 +84,7 @@ def _checkpoints(
     return sorted(p for p in points if problem.start <= p < problem.end)
 
 
-def _level_rows(
+def level_rows(
     problem: Problem, domains: Mapping[str, Domain], kept: list[Task]
 ) -> tuple[dict[str, list[float]], list[float]]:
     """Relaxed level rows: each task's use by each checkpoint, and limits.
@@ -447,7 +447,7 @@ class _KeptSetSearch:
             for t in placeable
         }
         self.need = self.total - cutoff + 1  # value of a better kept set
-        uses, self.limits = _level_rows(problem, domains, placeable)
+        uses, self.limits = level_rows(problem, domains, placeable)
         # Mandatory tasks are decided first (kept), then by value: leaving
         # out a valuable task drops the bound at once.
         self.order = sorted(

@@ -26,6 +26,8 @@ from ..model.plan import SolverStats, SolveStatus
 from .budget import BUDGET
 from .improve import MIN_ROUND_S, improve, meets
 from .incumbent import checked, columns, narrow, worth_a_probe
+from .relaxed import SHARE, RelaxedAnswer, relaxable
+from .relaxed import around as relaxed_around
 from .repair import changed_tasks, holding, repair
 
 if TYPE_CHECKING:
@@ -245,6 +247,30 @@ def improved(
         )
     bound = None if relaxed.bound is None else float(relaxed.bound)
     said = ""
+    if relaxable(run, problem, domains):
+        caught = _relaxation(
+            problem,
+            start,
+            domains,
+            relaxed,
+            run,
+            SHARE * (deadline - time.perf_counter()),
+        )
+        if caught.plan is not None and caught.plan.objective is not None:
+            return _answer(
+                caught.plan,
+                float(caught.plan.objective.total),
+                _label(run, "relaxed"),
+                caught.said,
+                began,
+                time_limit,
+            )
+        start = caught.better or start
+        # Not a bound for the caps (they add each task's delay to the
+        # kept-set bound, and this one counts delays already): only for
+        # the search's stop and the gap.
+        bound = higher(bound, caught.bound)
+        said = f"the disjunctive relaxation: {caught.said}; "
     narrowed = _narrowed(problem, start, domains, relaxed)
     if narrowed is not None and columns(narrowed) <= SMALL_COLUMNS:
         # Around a good start plan the whole model can be as small as a
@@ -314,6 +340,27 @@ def improved(
             )
             narrowed = narrow(problem, best, domains, again)
         bound = higher(bound, again.bound)
+        if relaxable(run, problem, domains):
+            # Around a better incumbent, with a higher bound, the
+            # relaxation's domains are narrower and its LP tighter.
+            caught = relaxed_around(
+                problem, best, narrowed, run, END_SHARE * left
+            )
+            said += "; then the disjunctive relaxation: " + caught.said
+            if caught.plan is not None and caught.plan.objective is not None:
+                return _answer(
+                    caught.plan,
+                    float(caught.plan.objective.total),
+                    _label(run, "relaxed"),
+                    said,
+                    began,
+                    time_limit,
+                )
+            if caught.better is not None:
+                best = caught.better
+                narrowed = narrow(problem, best, domains, again)
+            bound = higher(bound, caught.bound)
+            left = deadline - time.perf_counter()
         best, bound, answered = _whole_model(
             problem,
             best,
@@ -326,6 +373,27 @@ def improved(
         )
         said += "; then the whole model, narrowed: " + answered
     return _answer(best, bound, _label(run, "lns"), said, began, time_limit)
+
+
+#: Share of the time left after the search that the relaxation gets
+#: before the whole model (:func:`improved`).
+END_SHARE = 0.5
+
+
+def _relaxation(
+    problem: Problem,
+    start: Plan,
+    domains: dict[str, Domain],
+    relaxed: KeptSetProof,
+    run: Callable[..., Plan],
+    limit: float,
+) -> RelaxedAnswer:
+    """:func:`~fsw_scheduler.solving.relaxed.around` ``start``, over the
+    domains every plan at least as good keeps."""
+    narrowed = _narrowed(problem, start, domains, relaxed)
+    if narrowed is None:
+        narrowed = narrow(problem, start, domains)
+    return relaxed_around(problem, start, narrowed, run, limit)
 
 
 def _narrowed(

@@ -184,7 +184,7 @@ class _Outcome:
     solver_status: str
 
 
-def _run_cbc(
+def run_cbc(
     built: BuiltModel | DisjunctiveModel,
     time_limit: float | None,
     threads: int,
@@ -193,6 +193,8 @@ def _run_cbc(
     max_nodes: int | None = None,
     heuristics: bool = False,
 ) -> _Outcome:
+    """Run CBC on ``built`` from the MIP start ``warm``, with the
+    options its formulation and size call for, and read its answer."""
     start = None
     extra = None
     if warm:
@@ -449,7 +451,7 @@ def solve_ilp(
             "time limit spent before the solver started",
         )
     elif solver == "cbc":
-        outcome = _run_cbc(
+        outcome = run_cbc(
             built, solver_limit, threads, seed, warm, max_nodes, heuristics
         )
     else:
