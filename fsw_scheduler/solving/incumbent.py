@@ -151,8 +151,13 @@ def probed(
     """
     if start is None or relaxed is None:
         return None, start, narrowed
+    left = (
+        None
+        if time_limit is None
+        else time_limit - (time.perf_counter() - began)
+    )
     if columns(narrowed) >= RELAXED_COLUMNS and relaxable(
-        run, problem, domains
+        run, problem, domains, left
     ):
         # A large time-indexed model with a consumable: its root LP can
         # take the whole limit, the relaxation's milliseconds.
@@ -161,9 +166,7 @@ def probed(
             start,
             narrowed,
             run,
-            None
-            if time_limit is None
-            else SHARE * (time_limit - (time.perf_counter() - began)),
+            None if left is None else SHARE * left,
         )
         if caught.plan is not None:
             return caught.plan, start, narrowed
