@@ -164,8 +164,13 @@ def probed(
         start, relaxed, narrowed = _readmitting(
             problem, start, domains, relaxed, narrowed, began, time_limit
         )
+    left = (
+        None
+        if time_limit is None
+        else time_limit - (time.perf_counter() - began)
+    )
     if columns(narrowed) >= RELAXED_COLUMNS and relaxable(
-        run, problem, domains
+        run, problem, domains, left
     ):
         # A large time-indexed model with a consumable: its root LP can
         # take the whole limit, the relaxation's milliseconds.
@@ -174,9 +179,7 @@ def probed(
             start,
             narrowed,
             run,
-            None
-            if time_limit is None
-            else SHARE * (time_limit - (time.perf_counter() - began)),
+            None if left is None else SHARE * left,
         )
         if caught.plan is not None:
             return caught.plan, start, narrowed

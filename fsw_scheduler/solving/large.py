@@ -247,7 +247,7 @@ def improved(
         )
     bound = None if relaxed.bound is None else float(relaxed.bound)
     said = ""
-    if relaxable(run, problem, domains):
+    if relaxable(run, problem, domains, deadline - time.perf_counter()):
         caught = _relaxation(
             problem,
             start,
@@ -340,9 +340,9 @@ def improved(
             )
             narrowed = narrow(problem, best, domains, again)
         bound = higher(bound, again.bound)
-        if relaxable(run, problem, domains):
-            # Around a better incumbent, with a higher bound, the
-            # relaxation's domains are narrower and its LP tighter.
+        if relaxable(run, problem, domains, left):
+            # Around a better incumbent the relaxation's domains are
+            # narrower and its big-M rows tighter.
             caught = relaxed_around(
                 problem, best, narrowed, run, END_SHARE * left
             )

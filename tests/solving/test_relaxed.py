@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from hypothesis import assume, given, settings
+
 from fsw_scheduler.analysis.bounds import kept_set_bound
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
@@ -15,6 +17,7 @@ from fsw_scheduler.solving.relaxed import (
 from fsw_scheduler.solving.solve import best_start, solve
 
 from ..factories import bench_lib, make_doc, make_task, problem_from
+from ..problems import COMMON, decode_doc, problem_docs, show
 
 CAM_AND_BATTERY = {"binary": ["cam"], "consumable": {"battery": 5}}
 
@@ -100,6 +103,31 @@ def test_tasks_told_apart_only_by_a_consumable_are_not_twins() -> None:
     assert answer.plan is not None
     assert answer.plan.unscheduled == ("heavy",)
     assert answer.bound == _optimum(doc)
+
+
+@settings(COMMON, max_examples=80)
+@given(doc=problem_docs(capacities=True))
+def test_the_relaxation_never_bounds_above_the_optimum(doc: dict) -> None:
+    """Tests that on small drawn problems with a consumable and a binary
+    or multiple resource the relaxation's bound is at most the optimum,
+    and a plan it proves is valid and optimal."""
+    problem = decode_doc(doc)
+    domains = start_domains(problem)
+    assume(applies(problem, domains))
+    exact = solve_ilp(problem, formulation="time-indexed")
+    assume(exact.status is SolveStatus.OPTIMAL)
+    assert exact.objective is not None
+    start = best_start(problem, None, domains=domains)
+    assume(start is not None)
+    assert start is not None
+    answer = relaxed_bound(problem, start, domains, time_limit=None)
+    assert answer.bound is not None
+    assert answer.bound <= exact.objective.total + 1e-6, show(doc, exact)
+    if answer.plan is not None:
+        assert answer.plan.objective == exact.objective, show(doc, exact)
+        assert check_plan(problem, answer.plan).ok
+    if answer.better is not None:
+        assert check_plan(problem, answer.better).ok
 
 
 def test_the_relaxation_applies_to_mixed_parts_only() -> None:
