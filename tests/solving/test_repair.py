@@ -203,7 +203,13 @@ def test_a_large_replan_pays_for_what_changed() -> None:
     replans = bench_lib("replans")
     problem = problem_from(fresh.generate_problem(45, 1440, 11))
     limit = 8.0
-    first = solve(problem, time_limit=limit)
+    with pytest.MonkeyPatch.context() as patch:
+        # The plan in force from the search alone: the relaxation, cut by
+        # its share of an 8 s limit under load, can leave a plan in force
+        # that leaves out more than the kept-set bound, and such a plan is
+        # rightly solved afresh, not repaired (test_large.py).
+        patch.setattr(large, "relaxable", lambda *_: False)
+        first = solve(problem, time_limit=limit)
     assert first.status.has_plan
     dump_json = bench_lib("generator").dump_json
     goal = decode_change(dump_json(replans.goal_doc(11)))

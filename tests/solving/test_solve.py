@@ -804,6 +804,9 @@ def test_the_whole_model_gets_what_the_search_leaves() -> None:
         patch.setattr(
             large, "BUDGET", dataclasses.replace(BUDGET, lns_share=0.5)
         )
+        # The disjunctive relaxation proves this part before the search
+        # (test_relaxed.py): without it, the path under test is reached.
+        patch.setattr(large, "relaxable", lambda *_: False)
         began = time.perf_counter()
         plan = solve(problem, time_limit=10)
         wall = time.perf_counter() - began
