@@ -203,3 +203,47 @@ def test_watched_cbc_log_is_line_buffered(tmp_path: Path) -> None:
     finally:
         process.kill()
         process.wait()
+
+
+LOGS = Path(__file__).parent / "logs"
+
+
+def test_a_bound_above_a_held_plan_is_not_trusted() -> None:
+    """Tests that a CBC log whose root cuts raised the bound above the plan
+    CBC held (numerical trouble, from a real 24-task replan) yields the
+    root LP before cuts, less one, not CBC's clipped "Lower bound", which
+    equalled the plan although a better one exists."""
+    said = cbc._read_log(str(LOGS / "cuts_overshoot.log"))
+    assert said.overshot
+    assert said.bound == -3697423  # what CBC claims: the plan itself
+    assert said.root == -3697587
+    # A log whose cuts close the gap to the plan, and no further, is kept.
+    close = cbc._read_log(str(LOGS / "cuts_close.log"))
+    assert not close.overshot
+    assert close.root == -284500
+
+
+def test_a_run_whose_cuts_overshoot_reports_the_root_bound(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Tests that CbcRun reports the root LP bound and no proof when its
+    log shows cuts above the plan it holds (the real log of that run,
+    written where CBC's own goes)."""
+    program = Program()
+    cols = [program.add_column(0, 1, integer=True) for _ in range(3)]
+    program.add_row(dict.fromkeys(cols, 1), EQ, 2)
+    program.set_objective({c: k + 1 for k, c in enumerate(cols)})
+    real = cbc.CbcRun._run
+
+    def run_then_replay(
+        self: CbcRun, args: list[str], log: str, deadline: float | None
+    ) -> int:
+        code = real(self, args, log, deadline)
+        Path(log).write_text((LOGS / "cuts_overshoot.log").read_text())
+        return code
+
+    monkeypatch.setattr(cbc.CbcRun, "_run", run_then_replay)
+    result = CbcRun().solve(program)
+    assert result.bound == -3697587 - 1 + program.constant
+    assert result.status is not cbc.SolveStatus.OPTIMAL
+    assert "cuts cut off valid plans" in result.solver_status

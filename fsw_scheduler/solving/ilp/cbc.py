@@ -54,7 +54,7 @@ import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 from ...errors import SolverError
 from ...model.plan import SolveStatus
@@ -97,6 +97,15 @@ log = logging.getLogger("fsw_scheduler.solver")
 
 _SECONDS = re.compile(r"Time \(Wallclock seconds\):\s+([0-9.eE+-]+)")
 _BOUND = re.compile(r"Lower bound:\s+([0-9.eE+-]+)")
+_NUMBER = r"([0-9.eE+-]+)"
+_ROOT_CUTS = re.compile(
+    r"At root node, \d+ cuts changed objective from "
+    + _NUMBER
+    + " to "
+    + _NUMBER
+)
+_BEST_POSSIBLE = re.compile(r"best possible " + _NUMBER)
+_INCUMBENT = re.compile(r"Objective value:\s+" + _NUMBER)
 
 
 class Cancel:
@@ -357,18 +366,51 @@ def _read_solution(path: str, columns: int) -> tuple[str, list[float]]:
     return first, values
 
 
-def _read_log(path: str) -> tuple[float | None, float | None]:
-    """(solve seconds, lower bound) from a CBC log, when it states them."""
+class _Log(NamedTuple):
+    """What a CBC log states: solve seconds, its lower bound, and whether
+    its bound went above a plan it held (:func:`_overshot`)."""
+
+    seconds: float | None
+    bound: float | None
+    overshot: bool
+    #: The root LP's value before cuts, a valid lower bound.
+    root: float | None
+
+
+def _read_log(path: str) -> _Log:
+    """Seconds, lower bound and their trust from a CBC log."""
     try:
         text = Path(path).read_text(errors="replace")
     except OSError:
-        return None, None
+        return _Log(None, None, False, None)
     seconds = _SECONDS.findall(text)
     bound = _BOUND.findall(text)
-    return (
+    cuts = _ROOT_CUTS.findall(text)
+    return _Log(
         float(seconds[-1]) if seconds else None,
         float(bound[-1]) if bound else None,
+        _overshot(text, cuts),
+        float(cuts[-1][0]) if cuts else None,
     )
+
+
+def _overshot(text: str, cuts: list[tuple[str, str]]) -> bool:
+    """True if CBC's bound went above a plan it held.
+
+    In a minimisation no valid bound exceeds a feasible plan's value. Seen
+    on a 24-task part over H = 1440: root cuts "changed objective from
+    -3697587 to 1.0826268e+09" with the MIP start at -3697420 in hand;
+    CBC then prints "Lower bound: -3697423, Gap: 0.00" (the bound clipped
+    to the incumbent) though a plan 154 lower exists. Such cuts cut off
+    valid plans, so nothing CBC concludes after them is a proof.
+    """
+    incumbent = _INCUMBENT.findall(text)
+    if not incumbent:
+        return False
+    best = float(incumbent[-1])
+    claims = [float(after) for _, after in cuts]
+    claims += [float(v) for v in _BEST_POSSIBLE.findall(text)]
+    return any(claim > best + ABS_GAP for claim in claims)
 
 
 class CbcRun:
@@ -489,7 +531,12 @@ class CbcRun:
                 code = self._run(
                     head + _flags(options) + tail, files["log"], deadline
                 )
-            seconds, bound = _read_log(files["log"])
+            seconds, bound, overshot, root = _read_log(files["log"])
+            if overshot:
+                # Numerical trouble cut off valid plans: only the root LP
+                # before cuts bounds the optimum (less one unit: the log
+                # rounds it).
+                bound = None if root is None else root - 1
             if bound is not None:
                 bound += program.constant
             if self._failed(code, files["sol"]):
@@ -507,6 +554,15 @@ class CbcRun:
             first, values = _read_solution(files["sol"], program.num_columns)
         status, has_values = read_status(first)
         line, _, value = first.strip().partition(" - objective value ")
+        if overshot:
+            line += "; cuts cut off valid plans: no proof, root LP bound"
+            if status in (SolveStatus.OPTIMAL, SolveStatus.INFEASIBLE):
+                # Its plan may be flown; its claim is not kept.
+                status = (
+                    SolveStatus.FEASIBLE
+                    if status is SolveStatus.OPTIMAL
+                    else SolveStatus.UNKNOWN
+                )
         if bound is None and "continuous used" in line and value:
             # Stopped before any integer solution: the value is that of
             # the LP relaxation, still a valid lower bound.
