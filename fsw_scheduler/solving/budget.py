@@ -182,3 +182,9 @@ class SolveBudget:
 
 #: The budgets every solve uses.
 BUDGET = SolveBudget()
+
+
+def stop_at(end: float) -> Callable[[], bool]:
+    """A ``stop`` callback for the pure heuristics (they read no clock):
+    true once :func:`time.perf_counter` passes ``end``."""
+    return lambda: time.perf_counter() > end

@@ -24,6 +24,7 @@ from ..analysis.check import check_plan
 from ..analysis.domains import cost_caps, start_domains
 from ..analysis.readmit import readmitted
 from ..model.plan import Plan, SolveStatus, objective_weight
+from .budget import stop_at
 from .relaxed import SHARE, around, relaxable
 
 if TYPE_CHECKING:
@@ -247,13 +248,10 @@ def _readmitting(
     kept-set result and the model narrowed around it."""
     stop = None
     if time_limit is not None:
-        end = time.perf_counter() + READMIT_SHARE * (
-            time_limit - (time.perf_counter() - began)
+        stop = stop_at(
+            time.perf_counter()
+            + READMIT_SHARE * (time_limit - (time.perf_counter() - began))
         )
-
-        def stop() -> bool:
-            return time.perf_counter() > end
-
     better = readmitted(problem, start, domains, stop=stop)
     if better is start:
         return start, relaxed, narrowed

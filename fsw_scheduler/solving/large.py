@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 from ..analysis.bounds import KeptSetProof, better_start, kept_set_bound
 from ..analysis.greedy import greedy_plan
 from ..model.plan import SolverStats, SolveStatus
-from .budget import BUDGET
+from .budget import BUDGET, stop_at
 from .improve import MIN_ROUND_S, improve, meets
 from .incumbent import checked, columns, narrow, worth_a_probe
 from .relaxed import SHARE, RelaxedAnswer, relaxable
@@ -86,11 +86,7 @@ def replanned(
     # tasks (1.9 of 2 s), and the bound after it ran past the limit: it
     # stops at REPAIR_SHARE of the time, keeping the rest for the bound
     # and the search around the change.
-    repair_end = began + REPAIR_SHARE * (end - began)
-
-    def stop() -> bool:
-        return time.perf_counter() > repair_end
-
+    stop = stop_at(began + REPAIR_SHARE * (end - began))
     repaired = repair(problem, in_force, domains, stop=stop)
     if repaired is None:
         return _afresh(problem, in_force, domains, run, began, time_limit)

@@ -25,7 +25,7 @@ from ..model.plan import (
 )
 from ..model.stability import Stability, rescored
 from . import large
-from .budget import BUDGET
+from .budget import BUDGET, stop_at
 from .incumbent import checked, narrow, probed
 from .repair import holding
 from .single import one_task
@@ -513,10 +513,7 @@ def _solve_whole(
     if time_limit is not None:
         # The heuristic gets a share of the limit; its trivial plan (the
         # forced tasks alone) is always completed.
-        greedy_end = began + BUDGET.greedy_share * time_limit
-
-        def stop() -> bool:
-            return time.perf_counter() > greedy_end
+        stop = stop_at(began + BUDGET.greedy_share * time_limit)
 
     # A large part spends seconds here before CBC says anything: say so.
     loud = problem.num_tasks >= LOUD_TASKS
