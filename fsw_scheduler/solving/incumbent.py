@@ -29,6 +29,7 @@ from .relaxed import SHARE, around, relaxable
 
 if TYPE_CHECKING:
     import functools
+    from collections.abc import Callable
 
     from ..analysis.domains import Domain
     from ..model.problem import Problem
@@ -264,6 +265,7 @@ def narrow(
     start: Plan | None,
     domains: dict[str, Domain],
     relaxed: KeptSetProof | None = None,
+    stop: Callable[[], bool] | None = None,
 ) -> dict[str, Domain]:
     """``domains`` cut by what ``start`` already achieves, if it can.
 
@@ -271,7 +273,8 @@ def narrow(
     and, given the kept-set search's result ``relaxed``,
     :func:`~fsw_scheduler.analysis.bounds.fixings`: tasks no such plan
     keeps get an empty domain), so the model gets smaller and keeps its
-    optimum.
+    optimum. ``stop`` (a deadline) ends the fixings' searches early: the
+    domains are then wider, never wrong.
     """
     if start is None or start.objective is None:
         return domains
@@ -279,7 +282,9 @@ def narrow(
     fixed = (
         None
         if relaxed is None
-        else fixings(problem, domains, start.objective.total, relaxed)
+        else fixings(
+            problem, domains, start.objective.total, relaxed, stop=stop
+        )
     )
     if fixed is not None:
         for name, latest in fixed.caps.items():

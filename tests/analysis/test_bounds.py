@@ -239,6 +239,33 @@ def test_fixings_leave_out_a_task_no_good_plan_keeps() -> None:
     assert fixed.caps["a"] == 0 and fixed.caps["b"] == 0
 
 
+def test_fixings_asked_to_stop_keep_what_they_found() -> None:
+    """Tests that the fixings' searches end when their stop says so,
+    before the first task's search here, and that what they return then
+    still holds: the cost caps, and no task left out."""
+    problem = _battery_problem()
+    domains = start_domains(problem)
+    plan = _at_earliest(problem, {"a", "b"})
+    proof = kept_set_plan(problem, plan, domains)
+    assert plan.objective is not None
+    asked = 0
+
+    def stop() -> bool:
+        nonlocal asked
+        asked += 1
+        return True
+
+    fixed = fixings(problem, domains, plan.objective.total, proof, stop=stop)
+    assert fixed is not None
+    assert asked >= 1
+    # The search that would leave c out was not run: c stays in the model.
+    assert fixed.dropped == frozenset()
+    full = fixings(problem, domains, plan.objective.total, proof)
+    assert full is not None and full.dropped == {"c"}
+    for name, latest in fixed.caps.items():
+        assert latest >= full.caps[name]
+
+
 @settings(COMMON, max_examples=200)
 @given(doc=problem_docs(max_tasks=5, max_horizon=10, capacities=True))
 def test_the_bound_alone_agrees_with_the_full_search(doc: dict) -> None:
