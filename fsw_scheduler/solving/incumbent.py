@@ -25,7 +25,7 @@ from ..analysis.domains import cost_caps, start_domains
 from ..analysis.readmit import readmitted
 from ..model.plan import Plan, SolveStatus, objective_weight
 from .budget import stop_at
-from .relaxed import SHARE, around, relaxable
+from .relaxed import MIN_LEFT_S, SHARE, around, relaxable
 
 if TYPE_CHECKING:
     import functools
@@ -87,6 +87,15 @@ ROOT_PROBE_COLUMNS = 5_000
 #: part of 28 tasks, 5,079 columns, took 5.6 s in the root probe and
 #: 10 s more in CBC).
 RELAXED_COLUMNS = ROOT_PROBE_COLUMNS
+
+#: Under :data:`~fsw_scheduler.solving.relaxed.MIN_LEFT_S` left (a
+#: replan's 2 s), such a part still gets the relaxation from this much
+#: left on, for this share of it: CBC does not get through the root of a
+#: model this large in that time (the replan suite's seed 22
+#: r30-h1440-0, 16,251 columns: "time limit spent before CBC started"),
+#: while the relaxation finds better plans or proves the part.
+SHORT_MIN_S = 0.8
+SHORT_SHARE = 0.6
 
 
 def columns(domains: dict[str, Domain]) -> int:
@@ -172,16 +181,17 @@ def probed(
         else time_limit - (time.perf_counter() - began)
     )
     if columns(narrowed) >= RELAXED_COLUMNS and relaxable(
-        run, problem, domains, left
+        run, problem, domains, left, SHORT_MIN_S
     ):
         # A large time-indexed model with a consumable: its root LP can
         # take the whole limit, the relaxation's milliseconds.
+        share = SHARE if left is None or left >= MIN_LEFT_S else SHORT_SHARE
         caught = around(
             problem,
             start,
             narrowed,
             run,
-            None if left is None else SHARE * left,
+            None if left is None else share * left,
         )
         if caught.plan is not None:
             return caught.plan, start, narrowed

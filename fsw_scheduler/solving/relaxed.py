@@ -303,16 +303,17 @@ def relaxable(
     problem: Problem,
     domains: dict[str, Domain],
     left: float | None,
+    min_left: float = MIN_LEFT_S,
 ) -> bool:
     """True if the relaxation is run for ``problem`` with ``left`` seconds
     left (None: no limit): CBC is the solver (``run``'s), at least
-    :data:`MIN_LEFT_S` are left, and :func:`applies`."""
+    ``min_left`` (:data:`MIN_LEFT_S`) are left, and :func:`applies`."""
     solver = "cbc"
     if isinstance(run, functools.partial):
         solver = run.keywords.get("solver", "cbc")
     return (
         solver == "cbc"
-        and (left is None or left >= MIN_LEFT_S)
+        and (left is None or left >= min_left)
         and applies(problem, domains)
     )
 

@@ -159,3 +159,20 @@ def test_a_large_fresh_part_is_proved_by_the_relaxation() -> None:
     assert plan.stats is not None
     assert "relaxation's optimum is a valid plan" in plan.stats.solver_status
     assert check_plan(problem, plan).ok
+
+
+def test_a_large_part_under_a_short_limit_is_proved_by_the_relaxation() -> (
+    None
+):
+    """Tests that a part of under 30 tasks with over 5,000 columns, under
+    a limit too short for the relaxation's usual 5 s minimum (4 s, as a
+    replan's 2 s), still goes to the relaxation first and is proved by
+    it (the replan suite's seed 17 r30-h1440-1)."""
+    generator = bench_lib("generator")
+    own = generator.problem_seed(17, "r30-h1440-1")
+    problem = problem_from(bench_lib("fresh").generate_problem(30, 1440, own))
+    plan = solve(problem, time_limit=4.0)
+    assert plan.status is SolveStatus.OPTIMAL, plan.stats
+    assert plan.stats is not None
+    assert "relaxation's optimum is a valid plan" in plan.stats.solver_status
+    assert check_plan(problem, plan).ok
