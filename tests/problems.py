@@ -372,7 +372,9 @@ def joint_ok(problem: Problem, starts: Assignment) -> bool:
     if not groups_ok(problem, starts):
         return False
     resources = problem.resources
-    levels, tops, outside = {}, {}, {}
+    levels: dict[str, float] = {}
+    tops: dict[str, float] = {}
+    outside: dict[str, tuple[tuple[int, float], ...]] = {}
     for name, spec in resources.consumable.items():
         # The raw field: a number, or an object with initial, max and
         # external steps.
@@ -424,9 +426,12 @@ def step_at(steps: object, t: int) -> float:
 def open_at(problem: Problem, name: str, t: int) -> bool:
     """Whether binary ``name`` is available in unit ``t``."""
     binary = problem.resources.binary
-    if not isinstance(binary, dict) or binary[name].available is None:
+    if not isinstance(binary, dict):
         return True
-    return any(a <= t < b for a, b in binary[name].available)
+    available = binary[name].available
+    if available is None:
+        return True
+    return any(a <= t < b for a, b in available)
 
 
 def members_of(problem: Problem) -> set[str]:
@@ -477,11 +482,11 @@ def objective_of(problem: Problem, starts: Assignment) -> Objective:
         for g in problem.alternatives
         if all(starts[n] is None for o in g.options for n in o)
     )
-    delay = sum(
-        t.delay_cost * (starts[t.id] - problem.start)  # type: ignore[operator]
-        for t in problem.tasks
-        if starts[t.id] is not None
-    )
+    delay = 0
+    for t in problem.tasks:
+        at = starts[t.id]
+        if at is not None:
+            delay += t.delay_cost * (at - problem.start)
     return Objective(left_out, delay, weight * left_out + delay)
 
 
