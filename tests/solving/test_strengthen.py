@@ -1,4 +1,4 @@
-"""Tests of the cardinality and clique rows of multiple resources."""
+"""Tests of the clique rows of multiple resources."""
 
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ from hypothesis import given, settings
 from fsw_scheduler.solving.ilp import constraints
 from fsw_scheduler.solving.ilp.model import BuiltModel
 from fsw_scheduler.solving.ilp.strengthen import (
-    cardinality_sets,
     clique_sets,
+    pairwise_prefix,
     strengthening_rows,
 )
 
@@ -65,16 +65,17 @@ def _lp_bound(problem: Problem) -> float:
     return float(pulp.value(lp.objective))
 
 
-def test_cardinality_sets_of_a_knapsack() -> None:
-    """Tests that each cardinality row is the largest prefix of its count,
-    and that rows the knapsack implies or that cannot bind are left out."""
-    # 6 alone; 6 + 5 > 10; 5 + 4 fit, 6 + 5 + 4 not; 4 + 3 + 2 fit;
-    # 1 + 2 + 3 + 4 = 10 exactly: the knapsack row itself caps that count.
-    assert cardinality_sets([6, 5, 4, 3, 2, 1], 10) == [(2, 1), (4, 2), (5, 3)]
-    assert cardinality_sets([4, 4, 4], 10) == [(3, 2)]
-    assert cardinality_sets([5, 5, 5], 10) == []  # 5 + 5 = 10: implied
-    assert cardinality_sets([11, 12], 10) == []  # each alone too large
-    assert cardinality_sets([3, 2], 10) == []  # all fit
+def test_pairwise_prefix_of_a_knapsack() -> None:
+    """Tests that the pairwise prefix is the largest set of the largest
+    users whose two smallest conflict, and that it is left out where the
+    knapsack row implies it or no two conflict."""
+    assert pairwise_prefix([6, 5, 4, 3], 10) == 2  # 6 + 5 > 10, 5 + 4 not
+    assert pairwise_prefix([8, 7, 5, 4], 10) == 3  # 7 + 5 > 10
+    assert pairwise_prefix([6, 6, 6], 10) == 3
+    assert pairwise_prefix([12, 3], 10) == 2  # 12 never runs: still valid
+    assert pairwise_prefix([10, 10], 10) == 0  # the knapsack says it
+    assert pairwise_prefix([5, 5, 5], 10) == 0  # no two conflict
+    assert pairwise_prefix([7], 10) == 0
 
 
 def test_clique_sets_of_a_threshold_graph() -> None:
@@ -86,10 +87,10 @@ def test_clique_sets_of_a_threshold_graph() -> None:
 
 
 def test_clique_inside_the_pairwise_row_is_left_out() -> None:
-    """Tests that a clique the ``k = 1`` cardinality row holds is not
-    written twice, and one it does not hold is."""
-    # 8 + 5 > 10 and 8 + 3 > 10, 5 + 3 fit: rows {8, 5} <= 1 (k = 1),
-    # {8, 5, 3} <= 2, and the clique {8, 3} <= 1.
+    """Tests that a clique the pairwise prefix holds is not written twice,
+    and one it does not hold is."""
+    # 8 + 5 > 10 and 8 + 3 > 10, 5 + 3 fit: the prefix {8, 5} <= 1 (the
+    # clique of 5) and the clique {8, 3} <= 1.
     doc = make_doc(
         [
             make_task(name, 1, schedule_cost=5, uses={"m": amount})
@@ -110,14 +111,13 @@ def test_clique_inside_the_pairwise_row_is_left_out() -> None:
     assert found == sorted(
         [
             (sorted([steps["a"], steps["b"]]), 1.0),
-            (sorted([steps["a"], steps["b"], steps["c"]]), 2.0),
             (sorted([steps["a"], steps["c"]]), 1.0),
         ]
     )
 
 
 @pytest.mark.parametrize(
-    ("amounts", "share"), [((4, 4, 4), 0.5), ((8, 5, 3), 0.75)]
+    ("amounts", "share"), [((6, 6, 6), 2 / 3), ((8, 5, 3), 0.75)]
 )
 def test_rows_raise_the_lp_bound(
     amounts: tuple[int, ...], share: float, monkeypatch: pytest.MonkeyPatch
@@ -137,8 +137,8 @@ def test_rows_raise_the_lp_bound(
     monkeypatch.setattr(constraints, "strengthening_rows", lambda *_: iter(()))
     weaker = _lp_bound(problem)
     # Every start is at 0 (no delay): the bound is the cost of the tasks
-    # left out. (4, 4, 4): the knapsack lets 2.5 of the 3 run, the count
-    # row 2 (half a task left out against one). (8, 5, 3): 5 and 3 run
+    # left out. (6, 6, 6): the knapsack lets 5/3 of the 3 run, the row
+    # one (4/3 left out against 2). (8, 5, 3): 5 and 3 run
     # with a quarter of 8 under the knapsack; the rows {8, 5} <= 1 and
     # {8, 3} <= 1 leave one whole task out.
     assert stronger > 0
@@ -146,8 +146,8 @@ def test_rows_raise_the_lp_bound(
 
 
 def test_rows_read_the_capacity_of_each_unit() -> None:
-    """Tests that a capacity step changes the rows: at most two users of
-    four each where the capacity is 10, one where it is 6."""
+    """Tests that a capacity step changes the rows: users of four each
+    conflict where the capacity is 6, not where it is 10."""
     doc = make_doc(
         [make_task(name, 1, schedule_cost=5, uses={"m": 4}) for name in "abc"],
         horizon=4,
@@ -165,7 +165,7 @@ def test_rows_read_the_capacity_of_each_unit() -> None:
             if step is not None and terms.get(step) == 1.0
         }
         bounds[time] = bound
-    assert bounds == {0: 2.0, 1: 2.0, 2: 1.0, 3: 1.0}
+    assert bounds == {2: 1.0, 3: 1.0}
 
 
 def _feasible(problem: Problem) -> list[dict[str, int | None]]:

@@ -147,8 +147,8 @@ class Constraints:
 
     def _multiple_resources(self) -> None:
         """Paper eq. (2): running users' amounts within the capacity of
-        each unit, with the cardinality and clique rows those knapsacks
-        imply (:mod:`.strengthen`: the knapsack's LP alone is weak)."""
+        each unit, with the clique rows of those knapsacks
+        (:mod:`.strengthen`: the knapsack's LP alone is weak)."""
         problem = self.problem
         for resource in problem.resources.multiple:
             self._capacity_rows(resource)
