@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 
 from .alternatives import alternative_rows
 from .program import EQ, LE
+from .strengthen import strengthening_rows
 
 if TYPE_CHECKING:
     from collections.abc import Mapping
@@ -146,9 +147,18 @@ class Constraints:
 
     def _multiple_resources(self) -> None:
         """Paper eq. (2): running users' amounts within the capacity of
-        each unit."""
-        for resource in self.problem.resources.multiple:
+        each unit, with the clique rows of those knapsacks
+        (:mod:`.strengthen`: the knapsack's LP alone is weak)."""
+        problem = self.problem
+        for resource in problem.resources.multiple:
             self._capacity_rows(resource)
+            capacity = problem.resources.capacity_profile(
+                resource, problem.start, problem.horizon
+            )
+            for terms, bound in strengthening_rows(
+                self.vars, self._users(resource), capacity, problem.start
+            ):
+                self._row(terms, LE, bound)
 
     def _alternatives(self) -> None:
         """All or none of an option, at most one option per group

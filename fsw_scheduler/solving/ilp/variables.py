@@ -153,6 +153,17 @@ class Variables:
         self.add_step(terms, task_id, time - 1, -1.0)
         return {col: coef for col, coef in terms.items() if coef}
 
+    def running_units(self, task: Task, origin: int, count: int) -> range:
+        """The units of ``[origin, origin + count)`` at which some allowed
+        start makes ``task`` run (empty if it has none)."""
+        span = self._spans.get(task.id)
+        if span is None:
+            return range(0)
+        first, _, last = span
+        return range(
+            max(first, origin), min(last + task.length, origin + count)
+        )
+
     def add_running(
         self, rows: list[Terms], task: Task, amount: float, origin: int
     ) -> range:
