@@ -13,12 +13,15 @@ from pathlib import Path
 
 import pytest
 
+from fsw_scheduler.analysis.check import check_plan
+from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.solving.ilp import cbc
 from fsw_scheduler.solving.ilp.cbc import CbcRun, sweep_stale_dirs
 from fsw_scheduler.solving.ilp.program import EQ, Program
 from fsw_scheduler.solving.ilp.progress import WatchedCbcRun, line_buffered
+from fsw_scheduler.solving.solve import solve
 
-from ..factories import ROOT
+from ..factories import ROOT, bench_lib
 
 linux = pytest.mark.skipif(
     not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)"
@@ -247,3 +250,22 @@ def test_a_run_whose_cuts_overshoot_reports_the_root_bound(
     assert result.bound == -3697587 - 1 + program.constant
     assert result.status is not cbc.SolveStatus.OPTIMAL
     assert "cuts cut off valid plans" in result.solver_status
+
+
+def test_a_run_whose_cuts_cut_off_plans_is_run_again_without_cuts() -> None:
+    """Tests that a problem whose first CBC run refuses its own bound
+    (root cuts cut off a plan CBC held: the campaign's paper
+    c15-multiple-4 of seed 7, ``feasible`` after 0.2 s of 20 s) is run
+    again with cuts off and proved, the status saying both runs, and the
+    plan the checker's."""
+    generator = bench_lib("generator")
+    bench = next(
+        b for b in generator.campaign(7, "paper") if b.name == "c15-multiple-4"
+    )
+    problem = bench.problem()
+    plan = solve(problem, time_limit=20)
+    assert plan.status is SolveStatus.OPTIMAL, plan.stats
+    assert plan.stats is not None
+    assert "cuts cut off valid plans" in plan.stats.solver_status
+    assert "again with cuts off" in plan.stats.solver_status
+    assert check_plan(problem, plan).ok
