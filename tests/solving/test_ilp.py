@@ -449,8 +449,10 @@ def test_large_problems_improve_by_neighbourhood_search() -> None:
     start = best_start(problem, None)
     assert start is not None and start.objective is not None
     began = time.perf_counter()
-    plan = solve(problem, time_limit=3.0)
-    assert time.perf_counter() - began < 3.0 + 0.5
+    # 6 s: at 3 s, with the suite's other worker on the same core, the
+    # search once found nothing better before its limit.
+    plan = solve(problem, time_limit=6.0)
+    assert time.perf_counter() - began < 6.0 + 0.5
     assert plan.stats is not None and plan.stats.solver == "cbc-lns"
     assert plan.status is SolveStatus.FEASIBLE
     assert check_plan(problem, plan).ok
