@@ -22,6 +22,8 @@ from fsw_scheduler.model.plan import Activity, Objective, Plan, SolveStatus
 from fsw_scheduler.model.problem import decode_problem
 
 if TYPE_CHECKING:
+    from collections.abc import Iterator
+
     from fsw_scheduler.model.problem import Problem, Task
     from fsw_scheduler.model.stability import Stability
 
@@ -490,6 +492,29 @@ def objective_of(problem: Problem, starts: Assignment) -> Objective:
     return Objective(left_out, delay, weight * left_out + delay)
 
 
+def candidates(problem: Problem) -> Iterator[Assignment]:
+    """Every assignment of a start (or None: left out) to each task whose
+    start alone is valid (:func:`start_ok`), in a fixed order; the joint
+    constraints (:func:`joint_ok`) are not checked. Exponential in the
+    tasks: small problems only."""
+    options = []
+    members = members_of(problem)
+    for task in problem.tasks:
+        starts: list[int | None] = [
+            s
+            for s in range(problem.start, problem.start + problem.horizon)
+            if start_ok(problem, task, s)
+        ]
+        if task.fixed_start is None and (
+            task.schedule_cost != 0 or task.id in members
+        ):
+            starts.append(None)
+        options.append(starts)
+    ids = [task.id for task in problem.tasks]
+    for combo in itertools.product(*options):
+        yield dict(zip(ids, combo, strict=True))
+
+
 def brute_force(
     problem: Problem, stability: Stability | None = None
 ) -> tuple[Objective, Assignment] | None:
@@ -509,23 +534,8 @@ def brute_force(
         The optimal objective and one optimal assignment (task id to start,
         None for left out), or None when no assignment is feasible.
     """
-    options = []
-    members = members_of(problem)
-    for task in problem.tasks:
-        starts: list[int | None] = [
-            s
-            for s in range(problem.start, problem.start + problem.horizon)
-            if start_ok(problem, task, s)
-        ]
-        if task.fixed_start is None and (
-            task.schedule_cost != 0 or task.id in members
-        ):
-            starts.append(None)
-        options.append(starts)
-    ids = [task.id for task in problem.tasks]
     best: tuple[Objective, Assignment] | None = None
-    for combo in itertools.product(*options):
-        starts_of = dict(zip(ids, combo, strict=True))
+    for starts_of in candidates(problem):
         objective = objective_of(problem, starts_of)
         if stability is not None:
             placed = {k: v for k, v in starts_of.items() if v is not None}
