@@ -80,7 +80,7 @@ def _tight_groups(problem: Problem) -> list[dict[str, int]]:
     return result
 
 
-class _Board:
+class Board:
     """Resource usage and consumable levels of the plan being built."""
 
     def __init__(self, problem: Problem) -> None:
@@ -431,7 +431,7 @@ def _list_schedule(
         a, b = group_of[prec.before], group_of[prec.after]
         if a != b:
             predecessors[b].add(a)
-    board = _Board(problem)
+    board = Board(problem)
     starts: dict[str, int] = {}
     placed: set[int] = set()
     for keep in (None,) if first is None else (first, None):
@@ -464,7 +464,7 @@ def _place(
     members: dict[str, int],
     tasks: dict[str, Task],
     domains: dict[str, Domain],
-    board: _Board,
+    board: Board,
     starts: dict[str, int],
 ) -> None:
     """Book a group at its earliest fitting start, shedding if it must."""
@@ -698,7 +698,7 @@ def _earliest(
     group: dict[str, int],
     tasks: dict[str, Task],
     domains: dict[str, Domain],
-    board: _Board,
+    board: Board,
     starts: dict[str, int],
 ) -> int | None:
     """Earliest anchor at which every member of ``group`` fits."""

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING
 
 from ..analysis.bounds import KeptSetProof, better_start, kept_set_bound
 from ..analysis.greedy import greedy_plan
+from ..analysis.insert import inserted
 from ..model.plan import SolverStats, SolveStatus
 from .budget import BUDGET, stop_at
 from .improve import MIN_ROUND_S, improve, meets
@@ -241,6 +242,7 @@ def improved(
             "every kept task at its earliest start, and no other choice "
             "of tasks to keep costs less: no solve",
         )
+    start = _inserting(problem, start, domains, deadline)
     bound = None if relaxed.bound is None else float(relaxed.bound)
     said = ""
     if relaxable(run, problem, domains, deadline - time.perf_counter()):
@@ -261,7 +263,8 @@ def improved(
                 began,
                 time_limit,
             )
-        start = caught.better or start
+        if caught.better is not None:
+            start = _inserting(problem, caught.better, domains, deadline)
         # Not a bound for the caps (they add each task's delay to the
         # kept-set bound, and this one counts delays already): only for
         # the search's stop and the gap.
@@ -369,6 +372,32 @@ def improved(
         )
         said += "; then the whole model, narrowed: " + answered
     return _answer(best, bound, _label(run, "lns"), said, began, time_limit)
+
+
+#: Share of the time left that inserting left-out tasks may take (its
+#: own bound is in moves tried; this only guards the deadline).
+INSERT_SHARE = 0.2
+
+
+def _inserting(
+    problem: Problem, plan: Plan, domains: dict[str, Domain], deadline: float
+) -> Plan:
+    """``plan`` with left-out tasks inserted where that is better
+    (:func:`~fsw_scheduler.analysis.insert.inserted`).
+
+    List scheduling leaves out a task that finds no room when its turn
+    comes; moving one to three tasks placed before it often makes room
+    (the large suite's b60-h1440 of seed 47: 20 left out instead of 27,
+    CP-SAT 17), in well under a second, where the neighbourhood search
+    had found one improvement in 20 s.
+    """
+    now = time.perf_counter()
+    return inserted(
+        problem,
+        plan,
+        domains,
+        stop=stop_at(now + INSERT_SHARE * max(0.0, deadline - now)),
+    )
 
 
 #: Share of the time left after the search that the relaxation gets
