@@ -385,17 +385,40 @@ class _Inserting:
 
     def _first_fit(self, task: Task, low: int, high: int) -> int | None:
         """The earliest start in ``[low, high]`` where ``task`` fits on
-        the board: past an overrun unit at once, else one by one."""
+        the board: past an overrun unit at once, past the starts after
+        which a consumable's lowest later level is below what the task
+        takes in all (:meth:`_enough_after`), else one by one."""
         start = low
         while start <= high:
             clash = self._clash(task, start)
             if clash is not None:
                 start = clash[0] + 1
                 continue
+            enough = self._enough_after(task, start)
+            if enough > start:
+                start = enough
+                continue
             if self.board.fits_one(task, start):
                 return start
             start += 1
         return None
+
+    def _enough_after(self, task: Task, start: int) -> int:
+        """The first start from ``start`` on at which every consumable
+        ``task`` takes from still holds, at its end and ever after, all it
+        takes (a test of :meth:`Board.fits_one` that cannot pass before:
+        the lowest later level only rises with the unit it starts at)."""
+        base = self.problem.start
+        for name, amount in task.uses.items():
+            lowest = self.board.lowest.get(name)
+            if lowest is None or amount <= 0:
+                continue
+            need = amount * task.length - _EPS
+            end = start - base + task.length
+            while end < len(lowest) and lowest[end] < need:
+                end += 1
+            start = max(start, end - task.length + base)
+        return start
 
     def _levels_ok(self) -> bool:
         """True if no consumable level on the board is below zero."""

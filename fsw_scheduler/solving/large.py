@@ -242,9 +242,15 @@ def improved(
             "every kept task at its earliest start, and no other choice "
             "of tasks to keep costs less: no solve",
         )
+    before = len(start.unscheduled)
     start = _inserting(problem, start, domains, deadline)
     bound = None if relaxed.bound is None else float(relaxed.bound)
     said = ""
+    if len(start.unscheduled) < before:
+        said = (
+            f"{before - len(start.unscheduled)} left-out tasks inserted "
+            "into the start plan; "
+        )
     if relaxable(run, problem, domains, deadline - time.perf_counter()):
         caught = _relaxation(
             problem,
@@ -269,7 +275,7 @@ def improved(
         # kept-set bound, and this one counts delays already): only for
         # the search's stop and the gap.
         bound = higher(bound, caught.bound)
-        said = f"the disjunctive relaxation: {caught.said}; "
+        said += f"the disjunctive relaxation: {caught.said}; "
     narrowed = _narrowed(problem, start, domains, relaxed)
     if narrowed is not None and columns(narrowed) <= SMALL_COLUMNS:
         # Around a good start plan the whole model can be as small as a
@@ -280,7 +286,7 @@ def improved(
         start, bound, answered = _whole_model(
             problem, start, bound, run, narrowed, SMALL_SHARE * left
         )
-        said = f"the whole model, narrowed: {answered}; "
+        said += f"the whole model, narrowed: {answered}; "
         if meets(start, bound):
             return _answer(
                 start,
@@ -325,6 +331,9 @@ def improved(
         hand_over=None if bound is None else small,
     )
     said += f"neighbourhood search: {improved} improvements of the start plan"
+    if improved and not meets(best, bound):
+        # The search's moves may have opened room for a left-out task.
+        best = _inserting(problem, best, domains, deadline)
     left = deadline - time.perf_counter()
     if meets(best, bound):
         said += "; it meets the kept-set bound"
