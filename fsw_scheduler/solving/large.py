@@ -214,7 +214,10 @@ def improved(
     whole model narrowed around the start plan is small
     (:data:`SMALL_COLUMNS`), CBC gets it first, for :data:`SMALL_SHARE`
     of the time; a stalled sweep hands the rest over to it as soon as
-    the incumbent makes it small (:data:`HAND_OVER_COLUMNS`). The
+    the incumbent makes it small (:data:`HAND_OVER_COLUMNS`). Left-out
+    tasks are first inserted into the start plan where moving what is in
+    their way pays (:func:`_inserting`), and again into a plan the
+    relaxation or the search improved. The
     kept-set relaxation (:func:`~fsw_scheduler.analysis.bounds.
     kept_set_plan`) bounds every plan from the start, and the search
     stops when its incumbent meets the bound. Otherwise, once a sweep of
