@@ -30,8 +30,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from ..model.plan import Activity, Plan, SolveStatus, objective_weight
+from .board import Board
 from .check import check_plan
-from .greedy import Board
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -369,57 +369,6 @@ class _Inserting:
         )
         return [start for count, _, start in ranked if count <= MAX_EJECTED]
 
-    def _clash(self, task: Task, start: int) -> tuple[int, str] | None:
-        """The last unit (absolute) at which ``task`` at ``start`` overruns
-        a binary or multiple resource, with its name; None if none."""
-        base = start - self.problem.start
-        for name, amount in task.uses.items():
-            used = self.board.used.get(name)
-            if used is None or amount <= 0:
-                continue
-            cap = self.board.capacity[name]
-            for t in range(base + task.length - 1, base - 1, -1):
-                if used[t] + amount > cap[t] + _EPS:
-                    return t + self.problem.start, name
-        return None
-
-    def _first_fit(self, task: Task, low: int, high: int) -> int | None:
-        """The earliest start in ``[low, high]`` where ``task`` fits on
-        the board: past an overrun unit at once, past the starts after
-        which a consumable's lowest later level is below what the task
-        takes in all (:meth:`_enough_after`), else one by one."""
-        start = low
-        while start <= high:
-            clash = self._clash(task, start)
-            if clash is not None:
-                start = clash[0] + 1
-                continue
-            enough = self._enough_after(task, start)
-            if enough > start:
-                start = enough
-                continue
-            if self.board.fits_one(task, start):
-                return start
-            start += 1
-        return None
-
-    def _enough_after(self, task: Task, start: int) -> int:
-        """The first start from ``start`` on at which every consumable
-        ``task`` takes from still holds, at its end and ever after, all it
-        takes (a test of :meth:`Board.fits_one` that cannot pass before:
-        the lowest later level only rises with the unit it starts at)."""
-        base = self.problem.start
-        for name, amount in task.uses.items():
-            lowest = self.board.lowest.get(name)
-            if lowest is None or amount <= 0:
-                continue
-            need = amount * task.length - _EPS
-            end = start - base + task.length
-            while end < len(lowest) and lowest[end] < need:
-                end += 1
-            start = max(start, end - task.length + base)
-        return start
-
     def _levels_ok(self) -> bool:
         """True if no consumable level on the board is below zero."""
         return all(lowest[0] >= -_EPS for lowest in self.board.lowest.values())
@@ -437,7 +386,7 @@ class _Inserting:
         must stay finds no room, or a precedence breaks)."""
         tasks = self.tasks
         out: list[str] = []
-        while (clash := self._clash(task, start)) is not None:
+        while (clash := self.board.overrun(task, start)) is not None:
             unit, resource = clash
             users = [
                 n
@@ -467,7 +416,7 @@ class _Inserting:
             window = self._window(name, starts)
             at = None
             if window is not None:
-                at = self._first_fit(tasks[name], *window)
+                at = self.board.first_fit(tasks[name], *window)
             if at is None:
                 if not self._droppable(name, starts):
                     return None
