@@ -136,3 +136,40 @@ def test_a_replan_the_relaxation_proves_is_proved_within_its_share() -> None:
     assert plan.status is SolveStatus.OPTIMAL, plan.stats
     assert plan.stats is not None and plan.stats.solver == "cbc-relaxed"
     assert wall < BUDGET.replan_limit(limit) + 0.5, plan.stats
+
+
+def test_a_left_out_task_is_inserted_before_the_search() -> None:
+    """Tests that a large part's start plan gets a left-out task back by
+    moving the one in its way before any search, and says so: ``b``
+    (worth 5) can only run first, where the start plan put ``a00``."""
+    tasks = [
+        make_task("b", 10, schedule_cost=5, uses={"camera": 1}),
+        *(make_task(f"a{k:02d}", 10, uses={"camera": 1}) for k in range(29)),
+    ]
+    tasks[0]["feasible_interval"] = [0, 10]
+    problem = problem_from(
+        make_doc(tasks, horizon=600, resources={"binary": ["camera"]})
+    )
+    assert large.searched(problem)
+    start = plan_of(
+        problem,
+        {"b": None} | {f"a{k:02d}": 10 * k for k in range(29)},
+    )
+    run = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
+    plan = large.improved(
+        problem,
+        start,
+        start_domains(problem),
+        run,
+        time.perf_counter(),
+        1.0,
+    )
+    assert plan.stats is not None
+    assert plan.stats.solver_status.startswith(
+        "1 left-out tasks inserted into the start plan"
+    )
+    assert plan.unscheduled == ()
+    assert plan.starts()["b"] == 0
+    assert check_plan(problem, plan).ok
+    assert plan.objective is not None and start.objective is not None
+    assert plan.objective.total < start.objective.total

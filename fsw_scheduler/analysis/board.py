@@ -1,0 +1,254 @@
+"""The list scheduler's resource board: uses, levels, first fits (pure).
+
+What a plan being built uses of each binary and multiple resource, and
+its consumable levels, unit by unit.
+
+:mod:`.greedy` books each task as it places it; :mod:`.insert` takes
+tasks off and books them elsewhere. :meth:`Board.first_fit` finds a
+task's earliest fitting start without trying every start one by one.
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from ..model.problem import Problem, Task
+
+
+class Board:
+    """Resource usage and consumable levels of the plan being built."""
+
+    def __init__(self, problem: Problem) -> None:
+        self.problem = problem
+        span = problem.horizon
+        res = problem.resources
+        self.used = {n: [0.0] * span for n in (*res.binary, *res.multiple)}
+        # The capacity of each unit: windows and steps included.
+        self.capacity = {
+            name: res.capacity_profile(name, problem.start, span)
+            for name in (*res.binary, *res.multiple)
+        }
+        self.external = ext = {
+            n: res.external_profile(n, problem.start, span)
+            for n in res.consumable
+        }
+        # level[t]: level at the end of unit start + t, external rate in
+        self.level = {
+            name: list(itertools.accumulate(ext[name], initial=initial))[1:]
+            for name, initial in res.initial_levels.items()
+        }
+        self.lowest = {name: list(v) for name, v in self.level.items()}
+        self._capped_init(problem)
+
+    def demand(
+        self, items: list[tuple[Task, int]]
+    ) -> dict[str, tuple[int, list[float]]]:
+        """What tasks ``(task, start)`` need together, per resource: the
+        first unit they touch and the amounts from there (consumables:
+        consumption only). A list, not a table per unit: the amounts add
+        up in the order of ``items``."""
+        base = self.problem.start
+        demand: dict[str, tuple[int, list[float]]] = {}
+        for task, start in items:
+            first = start - base
+            for name, amount in task.uses.items():
+                if amount == 0 or (name in self.level and amount < 0):
+                    continue
+                if name not in self.used and name not in self.level:
+                    continue
+                low, units = demand.get(name, (first, []))
+                if first < low:
+                    units[:0] = [0.0] * (low - first)
+                    low = first
+                end = first - low + task.length
+                if end > len(units):
+                    units.extend([0.0] * (end - len(units)))
+                for k in range(first - low, end):
+                    units[k] += amount
+                demand[name] = (low, units)
+        return demand
+
+    def fits_demand(
+        self, demand: dict[str, tuple[int, list[float]]], shift: int
+    ) -> bool:
+        """True if a :meth:`demand` moved ``shift`` units later can be
+        added: a group's shape is the same at every anchor, so it is built
+        once and moved.
+
+        Nothing is changed; only the units the demand touches are read,
+        plus one look-up of the lowest later level per consumable (the
+        drop is constant after the last of its units).
+        """
+        for name, (first, units) in demand.items():
+            low = first + shift
+            if name in self.used:
+                used, cap = self.used[name], self.capacity[name]
+                if any(
+                    used[low + k] + a > cap[low + k] + 1e-9
+                    for k, a in enumerate(units)
+                    if a
+                ):
+                    return False
+                continue
+            level = self.level[name]
+            drop = 0.0
+            for k, a in enumerate(units):
+                drop += a
+                if level[low + k] - drop < -1e-9:
+                    return False
+            last = low + len(units) - 1
+            if last + 1 < len(level) and (
+                self.lowest[name][last + 1] - drop < -1e-9
+            ):
+                return False
+        return True
+
+    def fits_one(self, task: Task, start: int) -> bool:
+        """:meth:`fits_demand` for one task at ``start``, without building
+        its demand (the common case and the heuristic's hot loop, 1.5x
+        faster: the same tests, in the same floating-point order)."""
+        first = start - self.problem.start
+        end = first + task.length
+        for name, amount in task.uses.items():
+            if amount == 0:
+                continue
+            used = self.used.get(name)
+            if used is not None:
+                cap = self.capacity[name]
+                for t in range(first, end):
+                    if used[t] + amount > cap[t] + 1e-9:
+                        return False
+                continue
+            level = self.level.get(name)
+            if level is None or amount < 0:
+                continue
+            drop = 0.0
+            for t in range(first, end):
+                drop += amount
+                if level[t] - drop < -1e-9:
+                    return False
+            if end < len(level) and self.lowest[name][end] - drop < -1e-9:
+                return False
+        return True
+
+    def overrun(self, task: Task, start: int) -> tuple[int, str] | None:
+        """The last unit (absolute) at which ``task`` at ``start`` overruns
+        a binary or multiple resource, with its name; None if none (the
+        first test of :meth:`fits_one`)."""
+        base = start - self.problem.start
+        for name, amount in task.uses.items():
+            used = self.used.get(name)
+            if used is None or amount == 0:
+                continue
+            cap = self.capacity[name]
+            for t in range(base + task.length - 1, base - 1, -1):
+                if used[t] + amount > cap[t] + 1e-9:
+                    return t + self.problem.start, name
+        return None
+
+    def first_fit(self, task: Task, low: int, high: int) -> int | None:
+        """The earliest start in ``[low, high]`` at which :meth:`fits_one`
+        holds, or None.
+
+        The same start as trying each in turn, without trying them all:
+        past the last unit a resource is overrun at once (every start up
+        to it overlaps it), and past the starts at which a consumable's
+        lowest level from the task's end on is below what it takes in all
+        (that level only rises with the unit it is read from). On 60
+        tasks over H = 2880 the list schedule spent most of its seconds
+        trying starts one by one.
+        """
+        start = low
+        while start <= high:
+            clash = self.overrun(task, start)
+            if clash is not None:
+                start = clash[0] + 1
+                continue
+            enough = self._enough_from(task, start)
+            if enough > start:
+                start = enough
+                continue
+            if self.fits_one(task, start):
+                return start
+            start += 1
+        return None
+
+    def _enough_from(self, task: Task, start: int) -> int:
+        """The first start from ``start`` on at which every consumable
+        ``task`` draws on holds, from its end on, what it takes in all
+        (the last test of :meth:`fits_one`, with the same sum)."""
+        base = self.problem.start
+        for name, amount in task.uses.items():
+            lowest = self.lowest.get(name)
+            if lowest is None or amount <= 0:
+                continue
+            drop = 0.0
+            for _ in range(task.length):
+                drop += amount
+            end = start - base + task.length
+            while end < len(lowest) and lowest[end] - drop < -1e-9:
+                end += 1
+            start = max(start, end - task.length + base)
+        return start
+
+    def add(self, task: Task, start: int, sign: float = 1.0) -> None:
+        """Book ``task`` at ``start`` (``sign=-1`` takes it back)."""
+        base = start - self.problem.start
+        for name, use in task.uses.items():
+            amount = sign * use
+            if name in self.used:
+                for t in range(base, base + task.length):
+                    self.used[name][t] += amount
+            elif name in self.ceiling:
+                self._add_capped(name, base, task.length, amount)
+            elif name in self.level:
+                level = self.level[name]
+                # amount * min(t - base + 1, length), in two runs.
+                length = task.length
+                for k in range(min(length, len(level) - base)):
+                    level[base + k] -= amount * (k + 1)
+                whole = amount * length
+                for t in range(base + length, len(level)):
+                    level[t] -= whole
+                self._refresh(name)
+
+    def _capped_init(self, problem: Problem) -> None:
+        """Consumables with a capacity: net use per unit, walked again.
+
+        Their level is ``min(max, level - net use)`` unit by unit, which
+        adding a task cannot shift by a constant, so :meth:`add` walks the
+        whole profile again. :meth:`fits` keeps its test: a consumer lowers
+        each later level by at most what it has taken by then (a full store
+        can only absorb a drop), so a placement it accepts is valid.
+        """
+        self.ceiling = problem.resources.ceilings
+        self.initial = problem.resources.initial_levels
+        # Net use per unit: the external rate counts as negative use.
+        self.net = {
+            name: [-rate for rate in self.external[name]]
+            for name in self.ceiling
+        }
+        for name in self.ceiling:
+            self._add_capped(name, 0, 0, 0.0)
+
+    def _add_capped(
+        self, name: str, base: int, length: int, amount: float
+    ) -> None:
+        """Book ``amount`` per unit over ``[base, base + length)``."""
+        net, level = self.net[name], self.level[name]
+        for t in range(max(base, 0), min(base + length, len(net))):
+            net[t] += amount
+        value, top = self.initial[name], self.ceiling[name]
+        for t, used in enumerate(net):
+            value = min(top, value - used)
+            level[t] = value
+        self._refresh(name)
+
+    def _refresh(self, name: str) -> None:
+        """lowest[t] = min(level[t:]), for the constant-drop test."""
+        # A running minimum from the end (exact: min only picks values).
+        lowest = list(itertools.accumulate(reversed(self.level[name]), min))
+        lowest.reverse()
+        self.lowest[name] = lowest

@@ -1,0 +1,426 @@
+"""Left-out tasks inserted into a plan by moving what blocks them (pure).
+
+List scheduling places each task at its earliest fitting start when its
+turn comes; a task that finds no room then is left out for good, even
+where moving one or two tasks already placed would make room for it. On
+the large suite's broad problems (45-60 tasks, three binary resources,
+shared power and a battery) the start plan left out 6-10 tasks more than
+CP-SAT's plans, nearly all of them ones CP-SAT keeps, and neither the
+neighbourhood search (windows of 6-18 tasks, about a second of CBC each)
+nor the relaxation recovered them within 20 s.
+
+:func:`inserted` works on the plan itself, as an insertion heuristic
+with ejection (in the manner of iterative repair): for each left-out
+task, the most valuable first, at a few starts in its window (its
+domain, narrowed by its placed precedence partners), it takes out the
+placed tasks that block it there (the users of the binary or multiple
+resource it would overrun, at most :data:`MAX_EJECTED`), places it, and
+puts each task taken out back at its earliest fitting start within its
+own window. A task that finds no room again is left out if that keeps
+the precedences; a required one undoes the move. A move is kept when the
+objective falls (leaving out less counts first); the consumable levels
+are checked after it, and the plan found is returned only if the
+checker accepts it. The work is bounded in moves tried
+(:data:`MAX_TRIES`), not in seconds, so the answer is the same on every
+machine.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from ..model.plan import Activity, Plan, SolveStatus, objective_weight
+from .board import Board
+from .check import check_plan
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from ..model.problem import Precedence, Problem, Task
+    from .domains import Domain
+
+#: Placed tasks taken out at most to make room for one left-out task.
+MAX_EJECTED = 3
+#: Starts tried per left-out task and sweep, the fewest blockers first.
+MAX_STARTS = 8
+#: Moves tried in all (each costs a few board updates: milliseconds on
+#: 60 tasks over H = 2880 with a battery).
+MAX_TRIES = 400
+#: Left-out tasks inserted together at most (one and the ones its
+#: precedences need).
+MAX_CHAIN = 3
+#: Sweeps over the left-out tasks (a sweep follows only a kept move).
+MAX_PASSES = 3
+
+_EPS = 1e-9
+
+
+def inserted(
+    problem: Problem,
+    plan: Plan,
+    domains: dict[str, Domain],
+    *,
+    stop: Callable[[], bool] | None = None,
+) -> Plan:
+    """``plan``, or a better one with left-out tasks inserted.
+
+    Parameters
+    ----------
+    problem
+        A validated problem without a mission model (alternatives and
+        changing resources are left to the solver: ``plan`` is returned).
+    plan
+        A valid plan of ``problem`` with its objective.
+    domains
+        The problem's start domains.
+    stop
+        True when time is up (the caller's deadline; this module reads
+        no clock): the moves kept so far are returned.
+
+    Returns
+    -------
+    Plan
+        ``plan`` itself when no move was kept; else a plan of status
+        ``feasible`` that the checker accepts, with a lower objective.
+    """
+    if (
+        plan.objective is None
+        or not plan.unscheduled
+        or problem.has_mission_model
+    ):
+        return plan
+    state = _Inserting(problem, plan, domains)
+    tries = 0
+    for _ in range(MAX_PASSES):
+        kept = False
+        for name in state.left_out():
+            if tries >= MAX_TRIES or (stop is not None and stop()):
+                return state.plan(plan)
+            used, gained = state.insert(name, MAX_TRIES - tries)
+            tries += used
+            kept |= gained
+        if not kept:
+            break
+    return state.plan(plan)
+
+
+class _Inserting:
+    """The plan being improved: its starts and its resource board."""
+
+    def __init__(
+        self, problem: Problem, plan: Plan, domains: dict[str, Domain]
+    ) -> None:
+        self.problem = problem
+        self.domains = domains
+        self.tasks = {t.id: t for t in problem.tasks}
+        self.starts = plan.starts()
+        self.board = Board(problem)
+        for name, start in self.starts.items():
+            self.board.add(self.tasks[name], start)
+        self.weight = objective_weight(
+            [t.delay_cost for t in problem.tasks], problem.horizon
+        )
+        self.precedences: dict[str, list[Precedence]] = {
+            t.id: [] for t in problem.tasks
+        }
+        for prec in problem.precedences:
+            self.precedences[prec.before].append(prec)
+            self.precedences[prec.after].append(prec)
+        self.cost = self._total(self.starts)
+        # Tasks of the chain being inserted not yet placed: a ``both``
+        # precedence waiting for one of them still holds.
+        self.pending: set[str] = set()
+
+    def left_out(self) -> list[str]:
+        """Left-out tasks that could be placed, the most valuable first."""
+        names = [
+            t.id
+            for t in self.problem.tasks
+            if t.id not in self.starts and not self.domains[t.id].empty
+        ]
+        return sorted(
+            names,
+            key=lambda n: (
+                -self.tasks[n].schedule_cost,
+                -self.tasks[n].delay_cost,
+                n,
+            ),
+        )
+
+    def insert(self, name: str, budget: int) -> tuple[int, bool]:
+        """Try ``name``, with the left-out tasks its precedences need
+        (:meth:`_needed`), at up to :data:`MAX_STARTS` starts each (at
+        most ``budget`` moves); keep the first move that lowers the
+        objective. Returns the moves tried and whether one was kept."""
+        chain = self._needed(name)
+        if chain is None:
+            return 0, False
+        tried = [0]
+        done: list[tuple[Task, int, float]] = []
+
+        def book(other: Task, at: int, sign: float) -> None:
+            self.board.add(other, at, sign)
+            done.append((other, at, sign))
+
+        def undo(mark: int) -> None:
+            while len(done) > mark:
+                other, at, sign = done.pop()
+                self.board.add(other, at, -sign)
+
+        def place(k: int, starts: dict[str, int]) -> bool:
+            # Depth first: the chain's k-th task at each of its starts.
+            if k == len(chain):
+                self.pending = set()
+                total = self._total(starts)
+                if total < self.cost and self._levels_ok():
+                    self.starts, self.cost = starts, total
+                    return True
+                return False
+            task = self.tasks[chain[k]]
+            self.pending = set(chain[k + 1 :])
+            window = self._window(task.id, starts)
+            if window is None:
+                return False
+            for start in self._candidates(task, starts, *window)[
+                : MAX_STARTS if k == 0 else MAX_STARTS // 2
+            ]:
+                if tried[0] >= budget:
+                    return False
+                tried[0] += 1
+                mark = len(done)
+                moved = self._move(task, start, dict(starts), book)
+                if moved is not None and place(k + 1, moved):
+                    return True
+                undo(mark)
+            return False
+
+        kept = place(0, dict(self.starts))
+        self.pending = set()
+        return tried[0], kept
+
+    def _needed(self, name: str) -> list[str] | None:
+        """``name`` and the left-out tasks it cannot be placed without
+        (the first task of a precedence it follows, the second of a
+        ``both`` one it leads), first tasks first; None when more than
+        :data:`MAX_CHAIN` or one that cannot be placed."""
+        needed = [name]
+        for current in needed:
+            for prec in self.precedences[current]:
+                other = None
+                if prec.after == current:
+                    other = prec.before
+                elif prec.scope == "both":
+                    other = prec.after
+                if (
+                    other is not None
+                    and other not in self.starts
+                    and other not in needed
+                ):
+                    needed.append(other)
+        if len(needed) > MAX_CHAIN or any(
+            self.domains[n].empty for n in needed
+        ):
+            return None
+        rank = {n: k for k, n in enumerate(needed)}
+        # First tasks first: a precedence order among the needed ones
+        # (a cycle, which the problem's validation refuses, would stop).
+        ordered: list[str] = []
+        while len(ordered) < len(needed):
+            ready = [
+                n
+                for n in needed
+                if n not in ordered
+                and all(
+                    p.before not in rank or p.before in ordered
+                    for p in self.precedences[n]
+                    if p.after == n
+                )
+            ]
+            if not ready:
+                return None
+            ordered.append(min(ready, key=rank.__getitem__))
+        return ordered
+
+    def plan(self, original: Plan) -> Plan:
+        """The plan of the current starts, if better and checked, else
+        ``original``."""
+        if original.objective is None or self.cost >= original.objective.total:
+            return original
+        found = Plan(
+            status=SolveStatus.FEASIBLE,
+            objective=None,
+            activities=tuple(
+                sorted(
+                    (
+                        Activity(n, s, s + self.tasks[n].length)
+                        for n, s in self.starts.items()
+                    ),
+                    key=lambda a: (a.start, a.task),
+                )
+            ),
+            unscheduled=tuple(
+                t.id for t in self.problem.tasks if t.id not in self.starts
+            ),
+        )
+        report = check_plan(self.problem, found)
+        if not report.ok or report.objective is None:
+            return original
+        return found.replace(objective=report.objective)
+
+    def _total(self, starts: dict[str, int]) -> int:
+        """The objective of a plan with ``starts`` (no mission model)."""
+        missed = sum(
+            t.schedule_cost for t in self.problem.tasks if t.id not in starts
+        )
+        delay = sum(
+            self.tasks[n].delay_cost * (s - self.problem.start)
+            for n, s in starts.items()
+        )
+        return self.weight * missed + delay
+
+    def _window(
+        self, name: str, starts: dict[str, int]
+    ) -> tuple[int, int] | None:
+        """Starts of ``name`` its domain and its placed precedence
+        partners in ``starts`` allow; None when it cannot be placed (a
+        partner it needs is out, or nothing is left)."""
+        task = self.tasks[name]
+        domain = self.domains[name]
+        if domain.empty:
+            return None
+        low, high = domain.earliest, domain.latest
+        for prec in self.precedences[name]:
+            if prec.after == name:
+                before = starts.get(prec.before)
+                if before is None:
+                    return None  # both scopes need the first task
+                at = before + self.tasks[prec.before].length + prec.offset
+                low = max(low, at)
+                if prec.kind == "tight":
+                    high = min(high, at)
+            else:
+                after = starts.get(prec.after)
+                if after is None:
+                    if prec.scope == "both" and prec.after not in self.pending:
+                        return None
+                    continue
+                at = after - task.length - prec.offset
+                high = min(high, at)
+                if prec.kind == "tight":
+                    low = max(low, at)
+        return (low, high) if low <= high else None
+
+    def _precedences_hold(self, starts: dict[str, int]) -> bool:
+        """True if every task in ``starts`` is within its window."""
+        for name, start in starts.items():
+            window = self._window(name, starts)
+            if window is None or not window[0] <= start <= window[1]:
+                return False
+        return True
+
+    def _droppable(self, name: str, starts: dict[str, int]) -> bool:
+        """True if leaving ``name`` out keeps every precedence scope of
+        the tasks in ``starts``."""
+        for prec in self.precedences[name]:
+            if prec.before == name and prec.after in starts:
+                return False
+            if (
+                prec.after == name
+                and prec.scope == "both"
+                and prec.before in starts
+            ):
+                return False
+        return not self.problem.required(self.tasks[name])
+
+    def _candidates(
+        self, task: Task, starts: dict[str, int], low: int, high: int
+    ) -> list[int]:
+        """Starts to try: the window's first, and those that end or begin
+        ``task`` at the edge of a placed task sharing a resource with it,
+        ordered by what the tasks in the way are worth."""
+        shared = {
+            n for n, a in task.uses.items() if a and n in self.board.used
+        }
+        users = [
+            n
+            for n in starts
+            if any(self.tasks[n].uses.get(r, 0) > 0 for r in shared)
+        ]
+        points = {low}
+        for n in users:
+            s, length = starts[n], self.tasks[n].length
+            points |= {s, s + length, s - task.length}
+        binary = [r for r in shared if r in self.problem.resources.binary]
+
+        def in_way(start: int) -> tuple[int, int, int]:
+            end = start + task.length
+            way = [
+                n
+                for n in users
+                if starts[n] < end
+                and starts[n] + self.tasks[n].length > start
+                and any(self.tasks[n].uses.get(r, 0) > 0 for r in binary)
+            ]
+            worth = sum(self.tasks[n].schedule_cost for n in way)
+            return len(way), worth, start
+
+        ranked = sorted(
+            (in_way(p) for p in points if low <= p <= high),
+        )
+        return [start for count, _, start in ranked if count <= MAX_EJECTED]
+
+    def _levels_ok(self) -> bool:
+        """True if no consumable level on the board is below zero."""
+        return all(lowest[0] >= -_EPS for lowest in self.board.lowest.values())
+
+    def _move(
+        self,
+        task: Task,
+        start: int,
+        starts: dict[str, int],
+        book: Callable[[Task, int, float], None],
+    ) -> dict[str, int] | None:
+        """``starts`` with ``task`` inserted at ``start``, what blocks it
+        taken out and put back (each board change through ``book``, for
+        the caller to undo); None when that fails (a task taken out that
+        must stay finds no room, or a precedence breaks)."""
+        tasks = self.tasks
+        out: list[str] = []
+        while (clash := self.board.overrun(task, start)) is not None:
+            unit, resource = clash
+            users = [
+                n
+                for n, s in starts.items()
+                if tasks[n].uses.get(resource, 0) > 0
+                and s <= unit < s + tasks[n].length
+            ]
+            if not users or len(out) >= MAX_EJECTED:
+                return None
+            # The heaviest user first, then the least valuable.
+            pick = max(
+                users,
+                key=lambda n: (
+                    tasks[n].uses[resource],
+                    -tasks[n].schedule_cost,
+                    n,
+                ),
+            )
+            book(tasks[pick], starts.pop(pick), -1.0)
+            out.append(pick)
+        if not self.board.fits_one(task, start):
+            return None
+        book(task, start, 1.0)
+        starts[task.id] = start
+        out.sort(key=lambda n: (-tasks[n].schedule_cost, n))
+        for name in out:
+            window = self._window(name, starts)
+            at = None
+            if window is not None:
+                at = self.board.first_fit(tasks[name], *window)
+            if at is None:
+                if not self._droppable(name, starts):
+                    return None
+                continue
+            book(tasks[name], at, 1.0)
+            starts[name] = at
+        return starts if self._precedences_hold(starts) else None

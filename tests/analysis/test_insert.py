@@ -1,0 +1,196 @@
+"""Tests of inserting left-out tasks by moving what blocks them."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from fsw_scheduler.analysis import insert
+from fsw_scheduler.analysis.check import check_plan
+from fsw_scheduler.analysis.domains import start_domains
+from fsw_scheduler.analysis.greedy import greedy_plan
+from fsw_scheduler.analysis.insert import inserted
+from fsw_scheduler.model.plan import Activity, SolveStatus
+
+from ..factories import bench_lib, make_task, problem_from
+from ..problems import plan_of
+
+if TYPE_CHECKING:
+    from fsw_scheduler.model.problem import Problem
+
+
+def _blocked(**late: object) -> Problem:
+    """One camera over 10 units: ``a`` (4 units, any start) and ``b``
+    (4 units, worth 3, only at 0); ``late`` overrides ``a``'s fields."""
+    return problem_from(
+        {
+            "horizon": 10,
+            "resources": {"binary": ["camera"]},
+            "tasks": [
+                make_task("a", 4, uses={"camera": 1}, **late),
+                make_task(
+                    "b",
+                    4,
+                    schedule_cost=3,
+                    uses={"camera": 1},
+                    feasible_interval=[0, 4],
+                ),
+            ],
+        }
+    )
+
+
+def test_a_task_in_the_way_moves_to_make_room() -> None:
+    """Tests that a left-out task takes the place of a placed one, which
+    goes to its next free start, and that the checker accepts it."""
+    problem = _blocked()
+    start = plan_of(problem, {"a": 0, "b": None})
+    assert start.unscheduled == ("b",)
+    better = inserted(problem, start, start_domains(problem))
+    assert better.activities == (Activity("b", 0, 4), Activity("a", 4, 8))
+    assert better.unscheduled == ()
+    assert better.status is SolveStatus.FEASIBLE
+    assert check_plan(problem, better).ok
+    assert better.objective is not None and start.objective is not None
+    assert better.objective.total < start.objective.total
+
+
+def test_a_required_task_with_nowhere_to_go_stays() -> None:
+    """Tests that a move is undone when a mandatory task taken out finds
+    no room again: the plan itself comes back."""
+    problem = _blocked(schedule_cost=0, feasible_interval=[0, 4])
+    start = plan_of(problem, {"a": 0, "b": None})
+    assert inserted(problem, start, start_domains(problem)) is start
+
+
+def test_a_cheaper_task_is_left_out_for_a_dearer_one() -> None:
+    """Tests that a blocker with no room left is dropped when that leaves
+    out less: ``a`` (worth 1) gives way to ``b`` (worth 3)."""
+    problem = _blocked(feasible_interval=[0, 4])
+    start = plan_of(problem, {"a": 0, "b": None})
+    better = inserted(problem, start, start_domains(problem))
+    assert better.activities == (Activity("b", 0, 4),)
+    assert better.unscheduled == ("a",)
+    assert check_plan(problem, better).ok
+
+
+def test_a_task_comes_in_with_the_one_its_precedence_needs() -> None:
+    """Tests that a left-out task that must follow another left-out one
+    is inserted with it, both in order, in one move."""
+    problem = problem_from(
+        {
+            "horizon": 12,
+            "resources": {"binary": ["camera"]},
+            "tasks": [
+                make_task("a", 4, uses={"camera": 1}),
+                make_task("first", 2, schedule_cost=2),
+                make_task(
+                    "then",
+                    4,
+                    schedule_cost=3,
+                    uses={"camera": 1},
+                    feasible_interval=[2, 6],
+                ),
+            ],
+            "precedences": [
+                {
+                    "before": "first",
+                    "after": "then",
+                    "kind": "lax",
+                    "scope": "both",
+                }
+            ],
+        }
+    )
+    start = plan_of(problem, {"a": 2, "first": None, "then": None})
+    assert set(start.unscheduled) == {"first", "then"}
+    better = inserted(problem, start, start_domains(problem))
+    assert better.unscheduled == ()
+    assert better.starts() == {"first": 0, "then": 2, "a": 6}
+    assert check_plan(problem, better).ok
+
+
+def test_a_generator_taken_out_cannot_starve_a_consumer() -> None:
+    """Tests that a move which would leave a consumer without the charge
+    of the generator it moved is undone (the levels are checked)."""
+    problem = problem_from(
+        {
+            "horizon": 10,
+            "resources": {
+                "binary": ["camera"],
+                "consumable": {"battery": 0},
+            },
+            "tasks": [
+                make_task(
+                    "charge",
+                    4,
+                    uses={"camera": 1, "battery": -1},
+                    feasible_interval=[0, 4],
+                ),
+                make_task(
+                    "use",
+                    4,
+                    schedule_cost=2,
+                    uses={"battery": 1},
+                    feasible_interval=[4, 8],
+                ),
+                make_task(
+                    "b",
+                    4,
+                    schedule_cost=2,
+                    uses={"camera": 1},
+                    feasible_interval=[0, 4],
+                ),
+            ],
+        }
+    )
+    start = plan_of(problem, {"charge": 0, "use": 4, "b": None})
+    assert start.unscheduled == ("b",)
+    assert inserted(problem, start, start_domains(problem)) is start
+
+
+def test_a_stop_and_the_budget_bound_the_work() -> None:
+    """Tests that the caller's deadline returns the plan at once, and
+    that at most MAX_TRIES moves are tried however many are left out."""
+    problem = _blocked()
+    start = plan_of(problem, {"a": 0, "b": None})
+    domains = start_domains(problem)
+    assert inserted(problem, start, domains, stop=lambda: True) is start
+    tasks = [make_task("long", 10, schedule_cost=5, uses={"camera": 1})]
+    tasks += [
+        make_task(f"t{k:03d}", 10, schedule_cost=1, uses={"camera": 1})
+        for k in range(500)
+    ]
+    crowded = problem_from(
+        {"horizon": 10, "resources": {"binary": ["camera"]}, "tasks": tasks}
+    )
+    plan = plan_of(
+        crowded, {t.id: 0 if t.id == "long" else None for t in crowded.tasks}
+    )
+    asked = []
+
+    def stop() -> bool:
+        asked.append(1)
+        return False
+
+    assert inserted(crowded, plan, start_domains(crowded), stop=stop) is plan
+    assert len(asked) <= insert.MAX_TRIES
+
+
+def test_a_broad_start_plan_leaves_out_less() -> None:
+    """Tests that on a large broad problem (60 tasks, binary and multiple
+    resources, a battery) the start plan gets left-out tasks back: seed
+    47's b60-h1440 of the large suite, 27 left out before, CP-SAT 17."""
+    generator = bench_lib("generator")
+    bench = next(p for p in generator.large_suite(47) if p.name == "b60-h1440")
+    problem = bench.problem()
+    domains = start_domains(problem)
+    start = greedy_plan(problem, domains=domains)
+    assert start is not None and start.objective is not None
+    assert len(start.unscheduled) == 27
+    better = inserted(problem, start, domains)
+    assert check_plan(problem, better).ok
+    assert better.objective is not None
+    assert better.objective.total < start.objective.total
+    assert len(better.unscheduled) <= 21
+    # The same plan again: no clock in the decisions.
+    assert inserted(problem, start, domains) == better
