@@ -173,3 +173,36 @@ def test_a_left_out_task_is_inserted_before_the_search() -> None:
     assert check_plan(problem, plan).ok
     assert plan.objective is not None and start.objective is not None
     assert plan.objective.total < start.objective.total
+
+
+def test_a_replan_inserts_a_new_task_the_repair_left_out() -> None:
+    """Tests that a replan whose repair leaves the new task out (no gap
+    in its window: ``b``, worth 5, can only run first, where the plan in
+    force has ``a00``) gets it back by moving the task in its way, and
+    says so."""
+    tasks = [
+        make_task("b", 10, schedule_cost=5, uses={"camera": 1}),
+        *(make_task(f"a{k:02d}", 10, uses={"camera": 1}) for k in range(29)),
+    ]
+    tasks[0]["feasible_interval"] = [0, 10]
+    problem = problem_from(
+        make_doc(tasks, horizon=600, resources={"binary": ["camera"]})
+    )
+    assert large.searched(problem)
+    in_force = plan_of(
+        problem, {"b": None} | {f"a{k:02d}": 10 * k for k in range(29)}
+    )
+    run = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
+    plan = large.replanned(
+        problem,
+        in_force,
+        start_domains(problem),
+        run,
+        time.perf_counter(),
+        2.0,
+    )
+    assert plan is not None and plan.stats is not None
+    assert "1 left-out tasks inserted" in plan.stats.solver_status, plan.stats
+    assert plan.unscheduled == ()
+    assert plan.starts()["b"] == 0
+    assert check_plan(problem, plan).ok
