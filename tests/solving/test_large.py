@@ -25,6 +25,9 @@ from ..problems import plan_of
 if TYPE_CHECKING:
     import pytest
 
+    from fsw_scheduler.model.plan import Plan
+    from fsw_scheduler.model.problem import Problem
+
 
 def test_the_search_takes_parts_from_lns_min_tasks() -> None:
     """Tests that a part goes to the neighbourhood search from
@@ -138,10 +141,9 @@ def test_a_replan_the_relaxation_proves_is_proved_within_its_share() -> None:
     assert wall < BUDGET.replan_limit(limit) + 0.5, plan.stats
 
 
-def test_a_left_out_task_is_inserted_before_the_search() -> None:
-    """Tests that a large part's start plan gets a left-out task back by
-    moving the one in its way before any search, and says so: ``b``
-    (worth 5) can only run first, where the start plan put ``a00``."""
+def _first_place_taken() -> tuple[Problem, Plan]:
+    """A 30-task part on one camera, and a plan of it that leaves ``b``
+    (worth 5, which can only run first) out, ``a00`` in its place."""
     tasks = [
         make_task("b", 10, schedule_cost=5, uses={"camera": 1}),
         *(make_task(f"a{k:02d}", 10, uses={"camera": 1}) for k in range(29)),
@@ -151,10 +153,17 @@ def test_a_left_out_task_is_inserted_before_the_search() -> None:
         make_doc(tasks, horizon=600, resources={"binary": ["camera"]})
     )
     assert large.searched(problem)
-    start = plan_of(
-        problem,
-        {"b": None} | {f"a{k:02d}": 10 * k for k in range(29)},
+    plan = plan_of(
+        problem, {"b": None} | {f"a{k:02d}": 10 * k for k in range(29)}
     )
+    return problem, plan
+
+
+def test_a_left_out_task_is_inserted_before_the_search() -> None:
+    """Tests that a large part's start plan gets a left-out task back by
+    moving the one in its way before any search, and says so: ``b``
+    (worth 5) can only run first, where the start plan put ``a00``."""
+    problem, start = _first_place_taken()
     run = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
     plan = large.improved(
         problem,
@@ -180,18 +189,7 @@ def test_a_replan_inserts_a_new_task_the_repair_left_out() -> None:
     in its window: ``b``, worth 5, can only run first, where the plan in
     force has ``a00``) gets it back by moving the task in its way, and
     says so."""
-    tasks = [
-        make_task("b", 10, schedule_cost=5, uses={"camera": 1}),
-        *(make_task(f"a{k:02d}", 10, uses={"camera": 1}) for k in range(29)),
-    ]
-    tasks[0]["feasible_interval"] = [0, 10]
-    problem = problem_from(
-        make_doc(tasks, horizon=600, resources={"binary": ["camera"]})
-    )
-    assert large.searched(problem)
-    in_force = plan_of(
-        problem, {"b": None} | {f"a{k:02d}": 10 * k for k in range(29)}
-    )
+    problem, in_force = _first_place_taken()
     run = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
     plan = large.replanned(
         problem,
