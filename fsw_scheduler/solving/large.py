@@ -134,7 +134,7 @@ def replanned(
     inserting -= len(repaired.unscheduled)
     said = f"; {inserting} left-out tasks inserted" if inserting else ""
     left = end - time.perf_counter()
-    if left >= REPLAN_RELAX_MIN_S and relaxable(run, problem, domains, None):
+    if relaxable(run, problem, domains, left, REPLAN_RELAX_MIN_S):
         # The disjunctive relaxation proves some parts at once that the
         # search around the change cannot (replan suite, seed 20's
         # r45-h1440-1: the fresh solve proved it in 0.34 s this way, the
@@ -201,9 +201,10 @@ def _afresh(
     better start and nothing changes.
     """
     held = holding(problem, in_force, domains)
-    greedy_end = began + BUDGET.greedy_share * time_limit
     fresh = greedy_plan(
-        problem, stop=lambda: time.perf_counter() > greedy_end, domains=domains
+        problem,
+        stop=stop_at(began + BUDGET.greedy_share * time_limit),
+        domains=domains,
     )
     starts = [p for p in (held, fresh) if p and p.objective is not None]
     if not starts:
