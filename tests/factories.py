@@ -76,6 +76,19 @@ def make_task(name: str = "a", length: int = 2, **over: Any) -> dict:
     return task
 
 
+def crowded_camera(count: int) -> dict:
+    """A problem dict: one camera over 10 units, ``long`` (worth 5) and
+    ``count`` more tasks (worth 1, ids ``t00``... as wide as ``count``
+    needs), each 10 units long: only one task fits in all."""
+    width = len(str(count - 1))
+    tasks = [make_task("long", 10, schedule_cost=5, uses={"camera": 1})]
+    tasks += [
+        make_task(f"t{k:0{width}d}", 10, schedule_cost=1, uses={"camera": 1})
+        for k in range(count)
+    ]
+    return {"horizon": 10, "resources": {"binary": ["camera"]}, "tasks": tasks}
+
+
 def make_doc(
     tasks: list[dict],
     horizon: int = 10,

@@ -11,7 +11,7 @@ from fsw_scheduler.analysis.greedy import greedy_plan
 from fsw_scheduler.analysis.insert import inserted
 from fsw_scheduler.model.plan import Activity, SolveStatus
 
-from ..factories import bench_lib, make_task, problem_from
+from ..factories import bench_lib, crowded_camera, make_task, problem_from
 from ..problems import plan_of
 
 if TYPE_CHECKING:
@@ -155,14 +155,7 @@ def test_a_stop_and_the_budget_bound_the_work() -> None:
     start = plan_of(problem, {"a": 0, "b": None})
     domains = start_domains(problem)
     assert inserted(problem, start, domains, stop=lambda: True) is start
-    tasks = [make_task("long", 10, schedule_cost=5, uses={"camera": 1})]
-    tasks += [
-        make_task(f"t{k:03d}", 10, schedule_cost=1, uses={"camera": 1})
-        for k in range(500)
-    ]
-    crowded = problem_from(
-        {"horizon": 10, "resources": {"binary": ["camera"]}, "tasks": tasks}
-    )
+    crowded = problem_from(crowded_camera(500))
     plan = plan_of(
         crowded, {t.id: 0 if t.id == "long" else None for t in crowded.tasks}
     )

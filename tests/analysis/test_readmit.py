@@ -15,7 +15,7 @@ from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.solving.incumbent import _readmitting, worth_a_probe
 from fsw_scheduler.solving.solve import solve
 
-from ..factories import bench_lib, make_task, problem_from
+from ..factories import bench_lib, crowded_camera, make_task, problem_from
 
 if TYPE_CHECKING:
     from fsw_scheduler.model.problem import Problem
@@ -83,14 +83,7 @@ def test_a_stop_returns_the_plan_found_so_far() -> None:
 def test_the_search_is_bounded_in_list_schedules() -> None:
     """Tests that at most MAX_TRIES list schedules are made, however many
     tasks are left out (here 40, none of which can be readmitted)."""
-    tasks = [make_task("long", 10, schedule_cost=5, uses={"camera": 1})]
-    tasks += [
-        make_task(f"t{k:02d}", 10, schedule_cost=1, uses={"camera": 1})
-        for k in range(40)
-    ]
-    problem = problem_from(
-        {"horizon": 10, "resources": {"binary": ["camera"]}, "tasks": tasks}
-    )
+    problem = problem_from(crowded_camera(40))
     start = plan_in_order(
         problem, [t.id for t in problem.tasks], start_domains(problem)
     )
