@@ -126,10 +126,21 @@ def start_domains(
             following.setdefault(prec.before, []).append(
                 (prec.after, prec.offset, length[prec.before] + prec.offset)
             )
+        # Charge from outside over the whole horizon, once per resource
+        # (per task it cost a walk of the horizon each).
+        charges = {
+            resource: sum(
+                max(0.0, rate)
+                for rate in problem.resources.external_profile(
+                    resource, problem.start, problem.horizon
+                )
+            )
+            for resource in problem.resources.initial_levels
+        }
         for task in problem.tasks:
             if not empty(task.id):
                 why = _over_budget(
-                    problem, task, high[task.id], following
+                    problem, task, high[task.id], following, charges
                 ) or _over_capacity(problem, task, low[task.id], high[task.id])
                 if why:
                     kill(task.id, why, "consumable")
@@ -240,6 +251,7 @@ def _over_budget(
     task: Task,
     latest: int,
     following: Mapping[str, list[tuple[str, int, int]]],
+    charges: Mapping[str, float],
 ) -> str:
     """Why ``task`` alone exhausts a consumable, or "" if it does not.
 
@@ -249,7 +261,9 @@ def _over_budget(
     it took. Tasks that
     follow it through precedences starting no earlier than its end (the
     first link with offset >= 0, later links with gap >= 0) cannot help;
-    ``following`` maps a task to its ``(successor, offset, gap)`` links.
+    ``following`` maps a task to its ``(successor, offset, gap)`` links;
+    ``charges`` maps a consumable to all its external charge over the
+    horizon (a bound: every positive rate summed).
     """
     after: set[str] | None = None
     for resource, initial in problem.resources.initial_levels.items():
@@ -259,16 +273,9 @@ def _over_budget(
         if after is None:
             after = _after_end(task.id, following)
         need = amount * max(0, min(task.length, problem.end - latest))
-        # Charge from outside over the whole horizon: a bound.
-        charge = sum(
-            max(0.0, rate)
-            for rate in problem.resources.external_profile(
-                resource, problem.start, problem.horizon
-            )
-        )
         supply = (
             initial
-            + charge
+            + charges[resource]
             + sum(
                 -other.uses.get(resource, 0) * other.length
                 for other in problem.tasks

@@ -551,10 +551,10 @@ def _earliest(
     shape = board.demand(
         [(tasks[name], problem.start + shift) for name, shift in group.items()]
     )
-    for anchor in range(low, high + 1):
-        if board.fits_demand(shape, anchor - problem.start):
-            return anchor
-    return None
+    found = board.first_fit_demand(
+        shape, low - problem.start, high - problem.start
+    )
+    return None if found is None else found + problem.start
 
 
 def _drop_unsupported(problem: Problem, starts: dict[str, int]) -> set[str]:

@@ -188,3 +188,21 @@ def stop_at(end: float) -> Callable[[], bool]:
     """A ``stop`` callback for the pure heuristics (they read no clock):
     true once :func:`time.perf_counter` passes ``end``."""
     return lambda: time.perf_counter() > end
+
+
+#: Share of the time left that a kept-set search
+#: (:func:`~fsw_scheduler.analysis.bounds.kept_set_plan`) may take: its
+#: nodes are bounded in count, not in seconds (a second on 150 tasks over
+#: H = 10,000, which a 1 s limit does not have).
+BOUND_SHARE = 0.5
+
+
+def stop_within(
+    began: float, time_limit: float | None, share: float = BOUND_SHARE
+) -> Callable[[], bool] | None:
+    """A ``stop`` at ``share`` of what is left now of ``time_limit``
+    counted from ``began``; None without a limit."""
+    if time_limit is None:
+        return None
+    now = time.perf_counter()
+    return stop_at(now + share * (began + time_limit - now))

@@ -24,7 +24,7 @@ from ..analysis.check import check_plan
 from ..analysis.domains import cost_caps, start_domains
 from ..analysis.readmit import readmitted
 from ..model.plan import Plan, SolveStatus, objective_weight
-from .budget import stop_at
+from .budget import stop_at, stop_within
 from .relaxed import MIN_LEFT_S, SHARE, around, relaxable
 
 if TYPE_CHECKING:
@@ -236,7 +236,9 @@ def probed(
     ):
         return None, start, narrowed
     better = probe.replace(status=SolveStatus.FEASIBLE, why=())
-    relaxed = kept_set_plan(problem, better, domains)
+    relaxed = kept_set_plan(
+        problem, better, domains, stop=stop_within(began, time_limit)
+    )
     return None, better, narrow(problem, better, domains, relaxed)
 
 
@@ -266,7 +268,9 @@ def _readmitting(
     better = readmitted(problem, start, domains, stop=stop)
     if better is start:
         return start, relaxed, narrowed
-    relaxed = kept_set_plan(problem, better, domains)
+    relaxed = kept_set_plan(
+        problem, better, domains, stop=stop_within(began, time_limit)
+    )
     return better, relaxed, narrow(problem, better, domains, relaxed)
 
 

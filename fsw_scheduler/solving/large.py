@@ -24,7 +24,7 @@ from ..analysis.bounds import KeptSetProof, better_start, kept_set_bound
 from ..analysis.greedy import greedy_plan
 from ..analysis.insert import inserted
 from ..model.plan import SolverStats, SolveStatus
-from .budget import BUDGET, stop_at
+from .budget import BOUND_SHARE, BUDGET, stop_at
 from .improve import MIN_ROUND_S, improve, meets
 from .incumbent import checked, columns, narrow, worth_a_probe
 from .relaxed import SHARE, RelaxedAnswer, relaxable
@@ -103,13 +103,19 @@ def replanned(
     if repaired is None:
         return _afresh(problem, in_force, domains, run, began, time_limit)
     relaxed = kept_set_bound(
-        problem, repaired, domains, max_nodes=REPLAN_BOUND_NODES
+        problem,
+        repaired,
+        domains,
+        max_nodes=REPLAN_BOUND_NODES,
+        stop=_until(end, BOUND_SHARE),
     )
     if relaxed.bound is None:
         # Out of nodes: once more with a fresh solve's (seed 12's
         # r45-h1440-1 of the replan suite: a bound in 0.13 s, and from
         # its kept set a plan leaving out 53 instead of 56).
-        relaxed = kept_set_bound(problem, repaired, domains)
+        relaxed = kept_set_bound(
+            problem, repaired, domains, stop=_until(end, BOUND_SHARE)
+        )
     if relaxed.plan is not None:
         return _proved_start(
             relaxed.plan,
@@ -125,7 +131,12 @@ def replanned(
         # fresh solve does (replan suite, seed 15's r60-h1440-0: 82 left
         # out instead of 88, as the fresh solve; seed 13's r45-h1440-1:
         # 44 instead of 45).
-        repaired = better_start(problem, repaired, relaxed) or repaired
+        repaired = (
+            better_start(
+                problem, repaired, relaxed, stop=_until(end, BOUND_SHARE)
+            )
+            or repaired
+        )
     # The repair puts the new tasks into gaps only: a task that needs a
     # placed one moved is left out (replan suite, seed 20's r60-h1440-0:
     # a task the fresh solve keeps, 725,323 above it).
@@ -269,14 +280,21 @@ def improved(
     carries the best bound found (``stats.bound``) and its ``gap``.
     """
     deadline = began + time_limit - BUDGET.lns_margin_s
-    relaxed = kept_set_bound(problem, start, domains)
+    relaxed = kept_set_bound(
+        problem, start, domains, stop=_until(deadline, BOUND_SHARE)
+    )
     if relaxed.plan is None and worth_a_probe(problem, start, relaxed):
         # The start plan leaves out more than the bound: the relaxed
         # optimum's tasks, list-scheduled alone, often leave out much
         # less (b45-h1440 of the large suite, seed 31: 5.4 M instead of
         # 7.1 M, which the search had not found in 20 s). It takes as
         # long as the start plan did, so only here.
-        start = better_start(problem, start, relaxed) or start
+        start = (
+            better_start(
+                problem, start, relaxed, stop=_until(deadline, BOUND_SHARE)
+            )
+            or start
+        )
     if relaxed.plan is not None:
         return _proved_start(
             relaxed.plan,
@@ -350,7 +368,9 @@ def improved(
         # small enough for CBC to prove (f45-h2880 of the large suite,
         # seed 31: the search held the optimum and swept on until the
         # limit; 12,126 columns around it, proved by CBC in 5 s).
-        again = kept_set_bound(problem, plan, domains)
+        again = kept_set_bound(
+            problem, plan, domains, stop=_until(deadline, BOUND_SHARE)
+        )
         narrowed = _narrowed(problem, plan, domains, again, _until(deadline))
         if narrowed is None:
             return False
@@ -387,7 +407,11 @@ def improved(
             # The search costs up to a second here: only when it can say
             # more than it did of the start plan.
             again = (
-                kept_set_bound(problem, best, domains) if improved else relaxed
+                kept_set_bound(
+                    problem, best, domains, stop=_until(deadline, BOUND_SHARE)
+                )
+                if improved
+                else relaxed
             )
             narrowed = narrow(problem, best, domains, again, _until(deadline))
         bound = higher(bound, again.bound)
@@ -500,11 +524,11 @@ def _narrowed(
 NARROW_SHARE = 0.25
 
 
-def _until(deadline: float) -> Callable[[], bool]:
-    """A stop for narrowing: :data:`NARROW_SHARE` of the time left
-    before ``deadline``."""
+def _until(deadline: float, share: float = NARROW_SHARE) -> Callable[[], bool]:
+    """A stop at ``share`` (:data:`NARROW_SHARE` by default) of the time
+    left before ``deadline``."""
     now = time.perf_counter()
-    return stop_at(now + NARROW_SHARE * (deadline - now))
+    return stop_at(now + share * (deadline - now))
 
 
 def _whole_model(

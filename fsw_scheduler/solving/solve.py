@@ -25,7 +25,7 @@ from ..model.plan import (
 )
 from ..model.stability import Stability, rescored
 from . import large
-from .budget import BUDGET, stop_at
+from .budget import BUDGET, stop_at, stop_within
 from .incumbent import checked, narrow, probed
 from .repair import holding
 from .single import one_task
@@ -564,7 +564,8 @@ def _solve_whole(
         if at_lower_bound(problem, start, domains):
             proof = "every task at its earliest start: no solve"
         elif not large.searched(problem):
-            relaxed = kept_set_plan(problem, start, domains)
+            stop = stop_within(began, time_limit)
+            relaxed = kept_set_plan(problem, start, domains, stop=stop)
             proved, better = relaxed.plan, relaxed.better
             if better is not None:
                 start = better

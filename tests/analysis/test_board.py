@@ -42,3 +42,45 @@ def test_first_fit_is_the_first_start_that_fits() -> None:
         ), task.id
         skipped += every is None or every > domain.earliest
     assert skipped >= 5
+
+
+def test_first_fit_of_a_group_is_the_first_shift_that_fits() -> None:
+    """Tests that Board.first_fit_demand, which passes over shifts where a
+    resource is overrun or a battery cannot hold the shape's total, finds
+    the same shift as trying each in turn with fits_demand, for 100 group
+    shapes (two or three tasks at random offsets, gaps and overlaps
+    included) on the board of half a large broad problem's start plan."""
+    import random
+
+    generator = bench_lib("generator")
+    bench = next(p for p in generator.large_suite(47) if p.name == "b45-h1440")
+    problem = bench.problem()
+    plan = greedy_plan(problem)
+    assert plan is not None
+    board = Board(problem)
+    for activity in plan.activities[::2]:
+        board.add(
+            next(t for t in problem.tasks if t.id == activity.task),
+            activity.start,
+        )
+    rng = random.Random(7)
+    passed_over = 0
+    for _ in range(100):
+        members = rng.sample(problem.tasks, rng.choice((2, 3)))
+        offsets = [0] + [rng.randint(-30, 120) for _ in members[1:]]
+        least = min(offsets)
+        items = [
+            (task, problem.start + offset - least)
+            for task, offset in zip(members, offsets, strict=True)
+        ]
+        shape = board.demand(items)
+        span = max(start + task.length for task, start in items)
+        high = problem.horizon - (span - problem.start)
+        low = rng.randint(0, max(0, high))
+        every = next(
+            (s for s in range(low, high + 1) if board.fits_demand(shape, s)),
+            None,
+        )
+        assert board.first_fit_demand(shape, low, high) == every
+        passed_over += every is None or every > low + 1
+    assert passed_over >= 20

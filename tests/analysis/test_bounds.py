@@ -266,6 +266,28 @@ def test_fixings_asked_to_stop_keep_what_they_found() -> None:
         assert latest >= full.caps[name]
 
 
+def test_the_kept_set_search_asked_to_stop_says_nothing() -> None:
+    """Tests that the kept-set search ends when its stop says so and then
+    claims neither a proof nor a bound (as when out of nodes), while the
+    same search unasked proves the plan."""
+    problem = _battery_problem()
+    domains = start_domains(problem)
+    plan = _at_earliest(problem, {"a", "b"})
+    asked = 0
+
+    def stop() -> bool:
+        nonlocal asked
+        asked += 1
+        return True
+
+    stopped = kept_set_plan(problem, plan, domains, stop=stop)
+    assert asked >= 1
+    assert stopped.plan is None and stopped.bound is None
+    assert kept_set_bound(problem, plan, domains, stop=stop).bound is None
+    full = kept_set_plan(problem, plan, domains, stop=lambda: False)
+    assert full.plan is not None and full.bound is not None
+
+
 @settings(COMMON, max_examples=200)
 @given(doc=problem_docs(max_tasks=5, max_horizon=10, capacities=True))
 def test_the_bound_alone_agrees_with_the_full_search(doc: dict) -> None:

@@ -281,6 +281,46 @@ def test_multiple() -> None:
     assert "10.5" in violation.detail
 
 
+def test_a_horizon_of_two_billion_units_is_walked_span_by_span() -> None:
+    """Tests that the binary, window and capacity rules are judged span by
+    span, not unit by unit: on a horizon of 2^31 - 1 units (a walk unit by
+    unit would not end) an overlap, a use outside a window and an overrun
+    of a capacity step are each named with their exact span."""
+    end = 2**31 - 1
+    far = 2_000_000_000
+    problem = problem_from(
+        make_doc(
+            [
+                make_task("a", 10, uses={"cam": 1, "power": 3}),
+                make_task("b", 10, uses={"cam": 1, "power": 3}),
+                make_task("c", 4, uses={"cam": 1}),
+            ],
+            horizon=end,
+            resources={
+                "binary": {"cam": {"available": [[0, far + 100]]}},
+                "multiple": {"power": {"steps": [[0, 10], [far + 7, 4]]}},
+            },
+        )
+    )
+    report = check_plan(
+        problem,
+        _plan(
+            ("a", far, far + 10), ("b", far + 5, far + 15), ("c", end - 4, end)
+        ),
+    )
+    details = sorted(v.detail for v in report.of_rule("binary"))
+    assert details == [
+        f"'cam' at t={far + 5}..{far + 9}: 2 users at once (a, b), at most 1 "
+        "allowed",
+        f"'cam' at t={end - 4}..{end - 1}: used by c outside its available "
+        "windows",
+    ]
+    (over,) = report.of_rule("multiple")
+    assert over.detail == (
+        f"'power' at t={far + 7}..{far + 9}: use 6 exceeds capacity 4 (a, b)"
+    )
+
+
 def test_multiple_float_tolerance() -> None:
     """Tests that float rounding within 1e-9 is not a violation."""
     problem = _problem(

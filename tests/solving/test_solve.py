@@ -791,6 +791,24 @@ def test_a_large_part_spends_its_limit_and_says_its_gap() -> None:
     assert wall < 8 + 0.5
 
 
+def test_a_long_horizon_keeps_the_time_limit() -> None:
+    """Tests that 150 tasks over H = 10,000 are answered within a 1 s
+    limit (and 0.8 s of slack) with a valid plan: the start plan's scans,
+    its kept-set search and the checks walked the horizon unit by unit
+    and answered after 2.7-4.4 s."""
+    import time
+
+    problem = problem_from(
+        bench_lib("fresh").generate_problem(150, 10_000, 1150)
+    )
+    began = time.perf_counter()
+    plan = solve(problem, time_limit=1)
+    wall = time.perf_counter() - began
+    assert plan.status.has_plan, plan.stats
+    assert check_plan(problem, plan).ok
+    assert wall < 1 + 0.8, plan.stats
+
+
 def test_the_whole_model_gets_what_the_search_leaves() -> None:
     """Tests that when the neighbourhood search ends before the limit (its
     share here cut to half), the narrowed whole model gets the rest, and
