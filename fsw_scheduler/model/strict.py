@@ -68,15 +68,39 @@ def line_column(text: bytes | str, offset: int) -> tuple[int, int]:
 _BYTE_RE = re.compile(r"\(byte (\d+)\)")
 
 
+#: A JSON number with an exponent: the only kind that can exceed a float.
+_EXPONENT_RE = re.compile(rb"-?\d+(?:\.\d+)?[eE][+-]?\d+")
+
+
 def syntax_issue(error: msgspec.DecodeError, text: bytes | str) -> FieldIssue:
     """A JSON syntax error, placed by line and column."""
     message = str(error)
     match = _BYTE_RE.search(message)
+    if match is None and message.startswith("Number out of range"):
+        # The decoder names no place for a number past a float's range
+        # (1e999): find it, so the sender knows which one.
+        return _out_of_range(text) or FieldIssue("", message)
     if match is None:
         return FieldIssue("", message)
     line, column = line_column(text, int(match.group(1)))
     reason = _BYTE_RE.sub("", message).strip().rstrip(".")
     return FieldIssue("", f"{reason} at line {line}, column {column}")
+
+
+def _out_of_range(text: bytes | str) -> FieldIssue | None:
+    """The first number of ``text`` beyond a 64-bit float, placed by line
+    and column; None if there is none."""
+    data = text.encode() if isinstance(text, str) else text
+    for found in _EXPONENT_RE.finditer(data):
+        if math.isinf(float(found.group())):
+            line, column = line_column(data, found.start())
+            literal = found.group().decode()
+            return FieldIssue(
+                "",
+                f"number {literal[:_SHOWN]} is beyond the range of a "
+                f"64-bit float at line {line}, column {column}",
+            )
+    return None
 
 
 def _shown(value: object) -> str:

@@ -204,6 +204,23 @@ def test_a_syntax_error_says_line_and_column() -> None:
     assert "line 2, column 13" in info.value.issues[0].reason
 
 
+def test_a_number_beyond_a_float_is_placed_too() -> None:
+    """Tests that a number past a float's range (which the decoder reports
+    with no place) is named with its line and column, in a problem and in
+    a goal."""
+    with pytest.raises(InputError) as info:
+        decode_problem('{"horizon": 3,\n  "tasks": [1E+400]}')
+    (issue,) = info.value.issues
+    assert issue.reason == (
+        "number 1E+400 is beyond the range of a 64-bit float at line 2, "
+        "column 13"
+    )
+    with pytest.raises(InputError) as info:
+        decode_goal('{"goal_id": "g", "tasks": [{"length": -2e999}]}')
+    assert "-2e999" in info.value.issues[0].reason
+    assert "line 1, column 39" in info.value.issues[0].reason
+
+
 def test_goals_and_bus_inputs_are_strict_too() -> None:
     """Tests that a goal, a report and a level with an unknown field are
     rejected, named, and that the goal schema rejects the goal."""
