@@ -26,6 +26,8 @@ from fsw_scheduler.wire import topics as keys
 from ..factories import CLI, DATA, bench_lib, ping_goal
 
 if TYPE_CHECKING:
+    import msgspec
+
     from fsw_scheduler.engine.events import StartSolve
     from fsw_scheduler.model.plan import Plan
     from fsw_scheduler.runtime.config import NodeConfig
@@ -51,7 +53,11 @@ def task(task_id: str, **extra: object) -> dict:
     }
 
 
-def rejection(h: SchedulerHarness, goal: object, goal_id: str | None):
+def rejection(
+    h: SchedulerHarness,
+    goal: dict | bytes | str | msgspec.Struct,
+    goal_id: str | None,
+) -> messages.Status:
     """Publish ``goal`` and return the goal_rejected status naming it."""
     seen = len(h.statuses)
     h.publish_goal(goal)
@@ -556,25 +562,19 @@ def test_telemetry_dropped_for_spent_bytes_is_answered(
                 and counted.match(s.errors[0].reason)
             ]
 
+        def count(status: messages.Status) -> int:
+            found = counted.match(status.errors[0].reason)
+            assert found is not None  # answers() keeps only matches
+            return int(found[1])
+
         def all_answered() -> bool:
-            return (
-                sum(
-                    int(counted.match(s.errors[0].reason)[1])  # type: ignore[index]
-                    for s in answers()
-                )
-                >= dropped
-            )
+            return sum(count(s) for s in answers()) >= dropped
 
         with h._cond:  # the held answers come within DROP_NOTICE_S
             assert h._cond.wait_for(all_answered, 10 + DROP_NOTICE_S)
         rejections = answers()
-        assert (
-            sum(
-                int(counted.match(s.errors[0].reason)[1])  # type: ignore[index]
-                for s in rejections
-            )
-            == dropped
-        )  # every dropped sample once, none twice
+        # Every dropped sample once, none twice.
+        assert sum(count(s) for s in rejections) == dropped
         keys = {s.detail for s in rejections}
         assert keys <= {
             f"resource_level on {h.topics.resource_level(n)} ignored"
@@ -610,11 +610,11 @@ def test_telemetry_dropped_for_spent_bytes_is_answered(
     ]
     assert len(records) == len(rejections)
     # Bounded: the answers on one key are DROP_NOTICE_S apart at least.
-    answered: dict[str, list[int]] = {}
+    notice_times: dict[str, list[int]] = {}
     for record in records:
         key = json.loads(record.payload)["key"]
-        answered.setdefault(key, []).append(record.log_time_ns)
-    for times in answered.values():
+        notice_times.setdefault(key, []).append(record.log_time_ns)
+    for times in notice_times.values():
         gaps = [b - a for a, b in itertools.pairwise(times)]
         assert all(gap >= 0.9e9 * DROP_NOTICE_S for gap in gaps), gaps
 
@@ -656,9 +656,7 @@ def test_goals_behind_a_solve_are_queued_at_once(
         release.set()
         for goal_id in ("first", "second"):
             h.wait_status(
-                lambda s, g=goal_id: (
-                    s.event == "goal_accepted" and s.goal_id == g
-                )
+                lambda s: s.event == "goal_accepted" and s.goal_id == goal_id
             )
         # 9 tasks of Table 1, A and B: the limit of 11 live tasks is full.
         status = rejection(h, goal_of("third", task("F")), "third")
@@ -677,8 +675,9 @@ def test_verdicts_carry_changes_heartbeats_the_map(
     h = started
     for n in range(3):
         h.publish_goal(goal_of(f"v{n}", task(f"V{n}")))
+        goal_id = f"v{n}"
         h.wait_status(
-            lambda s, g=f"v{n}": s.event == "goal_accepted" and s.goal_id == g
+            lambda s: s.event == "goal_accepted" and s.goal_id == goal_id
         )
     h.settle(0)
     raw = [
@@ -712,7 +711,8 @@ def test_replans_do_not_dispatch_again(started: SchedulerHarness) -> None:
     first = h.wait_dispatch("SetPositionX")
     for n in range(6):
         h.publish_goal(goal_of(f"r{n}", task(f"R{n}")))
-        h.wait_plan(lambda p, g=f"r{n}": g in p.goals)
+        goal_id = f"r{n}"
+        h.wait_plan(lambda p: goal_id in p.goals)
     h.settle(0)
     again = [d for d in h.dispatches if d.task == "SetPositionX"]
     assert again == [first]
