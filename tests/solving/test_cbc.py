@@ -183,7 +183,7 @@ def test_watched_cbc_log_is_line_buffered(tmp_path: Path) -> None:
     rng = random.Random(7)
     cols = [program.add_column(0, 1, integer=True) for _ in range(40)]
     for _ in range(5):
-        weights = {c: rng.randint(0, 99) for c in cols}
+        weights: dict[int, float] = {c: rng.randint(0, 99) for c in cols}
         program.add_row(weights, EQ, sum(weights.values()) // 2)
     program.set_objective({c: 1 for c in cols})
     (tmp_path / "m.mps").write_text(program.mps())

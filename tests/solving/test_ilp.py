@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import pytest
 
@@ -302,7 +302,7 @@ def test_consumable_models_branch_on_scheduled_first(tmp_path: Path) -> None:
     from fsw_scheduler.solving.ilp.cbc import _write_priorities
     from fsw_scheduler.solving.ilp.model import BuiltModel
 
-    doc = {
+    doc: dict[str, Any] = {
         "horizon": 10,
         "resources": {"consumable": {"fuel": 6}},
         "tasks": [
