@@ -911,7 +911,7 @@ def test_cbc_dies_with_a_killed_node(tmp_path: Path) -> None:
             process.wait(10)
         if process.stderr is not None:
             process.stderr.close()
-        session.close()  # type: ignore[attr-defined]
+        session.close()
 
 
 def test_sigterm_interrupts_a_solve_and_exits_0(tmp_path: Path) -> None:
@@ -938,7 +938,7 @@ def test_sigterm_interrupts_a_solve_and_exits_0(tmp_path: Path) -> None:
             process.wait(10)
         if process.stderr is not None:
             process.stderr.close()
-        session.close()  # type: ignore[attr-defined]
+        session.close()
 
 
 # -- finding 5: a deadline over the whole goal -> plan path -------------------

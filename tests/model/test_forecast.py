@@ -3,13 +3,18 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from fsw_scheduler.model.forecast import with_forecast
 from fsw_scheduler.model.mission_rules import forecast_issues
 
 from ..factories import make_doc, make_task, problem_from
 
+if TYPE_CHECKING:
+    from fsw_scheduler.model.problem import Resources
 
-def _resources():  # type: ignore[no-untyped-def]
+
+def _resources() -> Resources:
     return problem_from(
         make_doc(
             [make_task("a")],
