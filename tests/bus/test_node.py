@@ -586,8 +586,8 @@ def test_a_forecast_on_the_bus_replans_and_replays(tmp_path: Path) -> None:
         status = h.wait_status(lambda s: s.event == "input_rejected")
         assert status.errors[0].path == "available[0]"
         h.tick(3)
-        assert h.query_status().last_solve is not None
-        assert h.query_status().last_solve.trigger == "forecast"  # type: ignore[union-attr]
+        last_solve = h.query_status().last_solve
+        assert last_solve is not None and last_solve.trigger == "forecast"
     report = verify(path)
     assert report.identical, report.summary()
     assert report.solves == 2

@@ -26,6 +26,8 @@ from fsw_scheduler.wire import topics as keys
 from ..factories import CLI, DATA, bench_lib, ping_goal
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     import msgspec
 
     from fsw_scheduler.engine.events import StartSolve
@@ -240,17 +242,19 @@ def _panic_type() -> type[BaseException]:
 class _FaultySession:
     """The node's session, with ``put`` panicking on some keys."""
 
-    def __init__(self, real: object, poison: str, panic: type) -> None:
+    def __init__(
+        self, real: zenoh.Session, poison: str, panic: type[BaseException]
+    ) -> None:
         self._real = real
         self._poison = poison
         self._panic = panic
         self.raised = 0
 
-    def put(self, key: str, *args: object, **kwargs: object) -> None:
+    def put(self, key: str, *args: Any, **kwargs: Any) -> None:
         if self._poison in key:
             self.raised += 1
             raise self._panic("called `Result::unwrap()` on an `Err` value")
-        self._real.put(key, *args, **kwargs)  # type: ignore[attr-defined]
+        self._real.put(key, *args, **kwargs)
 
     def __getattr__(self, name: str) -> object:
         return getattr(self._real, name)
@@ -264,7 +268,7 @@ def test_a_panic_in_a_publish_does_not_kill_the_loop(
     panic = _panic_type()
     outputs = h.node._outputs
     faulty = _FaultySession(outputs.session, "dispatch/SetPositionK", panic)
-    outputs.session = faulty  # type: ignore[assignment]
+    outputs.session = faulty  # type: ignore[assignment]  # a stand-in
     plan = h.wait_plan()
     k = next(a for a in plan.activities if a.task == "SetPositionK")
     # Not tick(): it waits for every counted dispatch, and one never goes.
@@ -304,6 +308,7 @@ def test_a_bus_refusing_every_publish_stops_the_node(
     panic = _panic_type()
     node = h.node
     outputs = node._outputs
+    # Stand-ins for the session and the publishers, raising as zenoh does.
     outputs.session = _FaultySession(outputs.session, "fsw/", panic)  # type: ignore[assignment]
     for suffix in list(outputs.publishers):
         outputs.publishers[suffix] = _PanickingPublisher(panic)  # type: ignore[assignment]
@@ -814,11 +819,13 @@ def _alive(pid: int) -> bool:
     return state != "Z"
 
 
-def _wait_for(predicate: object, timeout: float, what: str) -> None:
+def _wait_for(
+    predicate: Callable[[], bool], timeout: float, what: str
+) -> None:
     from fsw_scheduler.bus.session import wait_until
 
     wait_until(
-        predicate,  # type: ignore[arg-type]
+        predicate,
         timeout,
         interval_s=0.02,
         what=what,
@@ -866,10 +873,10 @@ def _long_solve_node(tmp_path: Path, *extra: str) -> tuple:
     return session, process
 
 
-def _start_cbc(session: object, process: subprocess.Popen) -> int:
+def _start_cbc(session: zenoh.Session, process: subprocess.Popen) -> int:
     from fsw_scheduler.testing import SchedulerClient
 
-    client = SchedulerClient(session)  # type: ignore[arg-type]
+    client = SchedulerClient(session)
     try:
         client.wait_scheduler(30)
         client.clock(0)  # the initial solve starts
