@@ -22,7 +22,7 @@ from fsw_scheduler.model.plan import Activity, Objective, Plan, SolveStatus
 from fsw_scheduler.model.problem import decode_problem
 
 if TYPE_CHECKING:
-    from collections.abc import Iterator
+    from collections.abc import Iterable, Iterator, Sequence
 
     from fsw_scheduler.model.problem import Problem, Task
     from fsw_scheduler.model.stability import Stability
@@ -415,11 +415,11 @@ def joint_ok(problem: Problem, starts: Assignment) -> bool:
     return True
 
 
-def step_at(steps: object, t: int) -> float:
+def step_at(steps: Iterable[Sequence[float]], t: int) -> float:
     """The value of the last step ``[t_k, v_k]`` at or before ``t``, 0
     before the first."""
     value = 0.0
-    for since, amount in steps:  # type: ignore[attr-defined]
+    for since, amount in steps:
         if since <= t:
             value = amount
     return value

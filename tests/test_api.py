@@ -4,11 +4,17 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import pytest
 
 import fsw_scheduler as fs
 from fsw_scheduler.model.problem import decode_problem
+
+if TYPE_CHECKING:
+    from fsw_scheduler.api import ProblemLike
+    from fsw_scheduler.model.plan import Plan
+    from fsw_scheduler.model.stability import Mode
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "fsw_scheduler" / "data"
@@ -41,14 +47,14 @@ def test_solve_accepts_every_form(form: str, tmp_path: Path) -> None:
     """Tests that solve takes a Problem, a dict, JSON text, bytes, a file."""
     text = json.dumps(TINY)
     (tmp_path / "p.json").write_text(text)
-    problem = {
+    problems: dict[str, ProblemLike] = {
         "typed": decode_problem(text),
         "dict": TINY,
         "text": text,
         "bytes": text.encode(),
         "path": tmp_path / "p.json",
-    }[form]
-    plan = fs.solve(problem)
+    }
+    plan = fs.solve(problems[form])
     assert plan.status is fs.SolveStatus.OPTIMAL
     assert plan.starts() == {"b": 0, "a": 3}
 
@@ -131,7 +137,15 @@ def test_package_top_exports_the_entry_points() -> None:
         assert name in dir(fs)
 
 
-def _paper_at_15() -> tuple[str, object, bytes]:
+class StabilitySettings(TypedDict, total=False):
+    """The stability keywords of ``fs.replan`` and of ``EngineConfig``."""
+
+    commit_window: int
+    stability: Mode
+    move_cost: int
+
+
+def _paper_at_15() -> tuple[str, Plan, Path]:
     """Table 1, its plan and the Table 2 goal, for a replan at t=15."""
     problem = (DATA / "paper_table1.json").read_text()
     return problem, fs.solve(problem), (DATA / "paper_table2_goal.json")
@@ -145,7 +159,9 @@ def _paper_at_15() -> tuple[str, object, bytes]:
         {"commit_window": 30},
     ],
 )
-def test_replan_takes_the_stability_settings(settings: dict) -> None:
+def test_replan_takes_the_stability_settings(
+    settings: StabilitySettings,
+) -> None:
     """Tests that the Table 2 replan at t=15, which moves SetPositionY and
     DownlinkSat2Ground 5 units earlier by default, moves nothing planned
     under lexicographic stability, under a high move cost or inside a
@@ -176,8 +192,11 @@ def test_replan_stability_matches_the_node() -> None:
 
     from .engine.driver import Driver, paper_goal
 
-    settings = {"commit_window": 5, "stability": "lexicographic"}
-    driver = Driver(config=EngineConfig(**settings))  # type: ignore[arg-type]
+    settings: StabilitySettings = {
+        "commit_window": 5,
+        "stability": "lexicographic",
+    }
+    driver = Driver(config=EngineConfig(**settings))
     for now in range(16):
         driver.tick(now)
     driver.goal(paper_goal(), 15)
@@ -231,10 +250,11 @@ def test_replan_pins_that_leave_no_plan_degrade() -> None:
     ],
 )
 def test_replan_settings_out_of_range_are_named(
-    settings: dict, field: str
+    settings: dict[str, Any], field: str
 ) -> None:
     """Tests that a stability setting out of its range raises InputError
     naming it, before anything is solved."""
+    # Any, not StabilitySettings: "strict" is outside Mode on purpose.
     problem, plan, goal = _paper_at_15()
     with pytest.raises(fs.InputError) as caught:
         fs.replan(problem, plan, goal.read_bytes(), 15, **settings)

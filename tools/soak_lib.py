@@ -14,7 +14,7 @@ import sys
 import threading
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 import msgspec
 import zenoh
@@ -176,11 +176,14 @@ class ReadmeExecutor:
             if kind == "stop":
                 return
             if kind == "mark":
-                value.set()  # type: ignore[attr-defined]
+                assert isinstance(value, threading.Event)
+                value.set()
             elif kind == "tick":
-                self._tick(int(value))  # type: ignore[call-overload]
+                assert isinstance(value, int)
+                self._tick(value)
             else:
-                self._sample(kind, value)  # type: ignore[arg-type]
+                assert isinstance(value, bytes)  # a sample's payload
+                self._sample(kind, value)
 
     def _tick(self, now: int) -> None:
         self.now = now
@@ -263,12 +266,15 @@ class ReadmeExecutor:
         self._report(dispatch, "cancelled", max(self.now, 0))
 
     def _report(
-        self, dispatch: messages.Dispatch, state: str, at: int
+        self,
+        dispatch: messages.Dispatch,
+        state: Literal["running", "completed", "cancelled"],
+        at: int,
     ) -> None:
         self.reports += 1
         report = messages.ActivityReport(
             dispatch.task,
-            state,  # type: ignore[arg-type]
+            state,
             at,
             dispatch_id=dispatch.dispatch_id,
             term=dispatch.term,

@@ -46,12 +46,11 @@ def _doc(
     )
 
 
-def _plan(*activities: tuple[str, int, int], **over: object) -> Plan:
+def _plan(*activities: tuple[str, int, int]) -> Plan:
     return Plan(
         SolveStatus.FEASIBLE,
         None,
         tuple(Activity(*a) for a in activities),
-        **over,  # type: ignore[arg-type]
     )
 
 

@@ -560,6 +560,7 @@ def test_planless_status_checks_coverage_only(status: SolveStatus) -> None:
 
 def test_checker_is_independent() -> None:
     """Tests that check.py uses no solver code and no start_bounds."""
+    assert check.__file__ is not None
     tree = ast.parse(Path(check.__file__).read_text())
     modules = set()
     for node in ast.walk(tree):

@@ -32,12 +32,18 @@ from ..problems import (
 
 
 def _tight(before: str, after: str, offset: int = 0, **over: object) -> dict:
-    prec = {"before": before, "after": after, "kind": "tight"}
+    prec: dict[str, object] = {
+        "before": before,
+        "after": after,
+        "kind": "tight",
+    }
     prec.update(offset=offset, **over)
     return prec
 
 
-def _two_paths(scope: str = "at_least_first", **over: object) -> dict:
+def _two_paths(
+    scope: str = "at_least_first", **over: dict[str, object]
+) -> dict:
     """a -> b -> c fixes s_c - s_a = 5; a -> c says 3: they contradict."""
     tasks = [
         make_task("a", 2),
@@ -46,7 +52,7 @@ def _two_paths(scope: str = "at_least_first", **over: object) -> dict:
         make_task("m", 2),
     ]
     for task in tasks:
-        task.update(over.get(task["id"], {}))  # type: ignore[call-overload]
+        task.update(over.get(task["id"], {}))
     return {
         "horizon": 20,
         "tasks": tasks,

@@ -26,6 +26,7 @@ from fsw_scheduler.bus.session import (
 )
 from fsw_scheduler.journal.info import format_info, info
 
+from ..bus.peers import matching
 from ..factories import ROOT, cli_command
 
 if TYPE_CHECKING:
@@ -143,7 +144,7 @@ def publish_matched(
 
     def matched() -> bool:
         assert rec.process.poll() is None, rec.log()
-        return all(p.matching_status.matching for p in publishers)
+        return all(matching(p) for p in publishers)
 
     wait_until(matched, TIMEOUT_S, what="the recorder's subscriber")
     return publishers

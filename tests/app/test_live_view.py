@@ -12,7 +12,7 @@ import subprocess
 import sys
 import threading
 import time
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import msgspec
 import pytest
@@ -48,6 +48,8 @@ if TYPE_CHECKING:
     from fsw_scheduler.testing import SchedulerHarness
 
 pytest_plugins = ["fsw_scheduler.testing"]
+
+T = TypeVar("T")
 
 WAIT_S = 20.0
 TOPICS = keys.Topics()
@@ -132,10 +134,12 @@ class FoxgloveClient:
     def received(self, topic: str) -> list[bytes]:
         return [p for t, p in self.messages if t == topic]
 
-    def wait_for(self, topic: str, kind: type, predicate: Any) -> Any:
+    def wait_for(
+        self, topic: str, kind: type[T], predicate: Callable[[T], bool]
+    ) -> T:
         """The first message on ``topic``, decoded as ``kind``, that
         ``predicate`` accepts."""
-        found: list[Any] = []
+        found: list[T] = []
 
         def seen() -> bool:
             found[:] = [

@@ -21,6 +21,7 @@ from ..factories import DATA, cli_command, free_port
 if TYPE_CHECKING:
     from collections.abc import Iterator
     from pathlib import Path
+    from typing import IO
 
 
 @pytest.fixture
@@ -170,11 +171,12 @@ def test_status_follow_prints_each_new_status(node: int) -> None:
     )
     lines: queue.Queue[str] = queue.Queue()
     assert follow.stdout is not None
-    reader = threading.Thread(
-        target=lambda out: [lines.put(line) for line in out],
-        args=(follow.stdout,),
-        daemon=True,
-    )
+
+    def read(out: IO[str]) -> None:
+        for line in out:
+            lines.put(line)
+
+    reader = threading.Thread(target=read, args=(follow.stdout,), daemon=True)
     reader.start()
     try:
         first = json.loads(lines.get(timeout=60))

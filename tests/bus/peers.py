@@ -1,9 +1,9 @@
-"""Bus-side test helpers: watching a node's liveliness token."""
+"""Bus-side test helpers: liveliness tokens and matching declarations."""
 
 from __future__ import annotations
 
 import queue
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 if TYPE_CHECKING:
     import zenoh
@@ -28,3 +28,12 @@ class Liveliness:
     def close(self) -> None:
         """Undeclare the subscriber."""
         self._sub.undeclare()
+
+
+def matching(entity: zenoh.Publisher | zenoh.Querier) -> bool:
+    """Whether a publisher (querier) meets a subscriber (queryable) yet.
+
+    The zenoh stub types ``matching_status`` as a bool; zenoh 1.x returns a
+    ``MatchingStatus``, whose ``matching`` says it.
+    """
+    return cast("zenoh.MatchingStatus", entity.matching_status).matching

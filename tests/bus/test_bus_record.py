@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import threading
 from typing import TYPE_CHECKING
@@ -24,6 +25,8 @@ from fsw_scheduler.errors import BusError, ConfigError
 from fsw_scheduler.journal.info import info
 from fsw_scheduler.journal.reader import iter_messages
 from fsw_scheduler.journal.writer import Recorder
+
+from .peers import matching
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -74,7 +77,7 @@ def _record_traffic(
             ]
             for pub in publishers:
                 wait_until(
-                    lambda p=pub: p.matching_status.matching,
+                    functools.partial(matching, pub),
                     TIMEOUT_S,
                     what="recorder subscription",
                 )

@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 from fsw_scheduler.testing import Fence
 from fsw_scheduler.wire import messages
 
 
 def _dispatch(
-    dispatch_id: str, term: int = 1, action: str = "run"
+    dispatch_id: str,
+    term: int = 1,
+    action: Literal["run", "cancel"] = "run",
 ) -> messages.Dispatch:
     task, span = dispatch_id.split(":")
     start, end = (int(x) for x in span.split("-"))
@@ -19,7 +23,7 @@ def _dispatch(
         uses={},
         dispatch_id=dispatch_id,
         term=term,
-        action=action,  # type: ignore[arg-type]
+        action=action,
     )
 
 

@@ -137,8 +137,8 @@ def test_liveliness_token_follows_the_node(
         watch.expect(zenoh.SampleKind.DELETE)
     finally:
         watch.close()
-    replies = [r.ok for r in h.client.liveliness().get(ALIVE, timeout=1.0)]
-    assert [s for s in replies if s is not None] == []
+    tokens = [r.ok for r in h.client.liveliness().get(ALIVE, timeout=1.0)]
+    assert [s for s in tokens if s is not None] == []
 
 
 def test_unknown_fields_are_rejected_and_named(
@@ -172,7 +172,9 @@ def test_unknown_fields_are_rejected_and_named(
     h.settle(1)
     counters = h.query_status().counters
     assert (counters.goals_rejected, counters.inputs_rejected) == (1, 2)
-    assert h.query_plan().plan_id == before.plan_id
+    after = h.query_plan()
+    assert after is not None and before is not None
+    assert after.plan_id == before.plan_id
 
 
 # -- bad input never crashes and never loses the plan -------------------------
@@ -584,8 +586,8 @@ def test_a_forecast_on_the_bus_replans_and_replays(tmp_path: Path) -> None:
         status = h.wait_status(lambda s: s.event == "input_rejected")
         assert status.errors[0].path == "available[0]"
         h.tick(3)
-        assert h.query_status().last_solve is not None
-        assert h.query_status().last_solve.trigger == "forecast"  # type: ignore[union-attr]
+        last_solve = h.query_status().last_solve
+        assert last_solve is not None and last_solve.trigger == "forecast"
     report = verify(path)
     assert report.identical, report.summary()
     assert report.solves == 2
@@ -619,7 +621,13 @@ def test_the_orbit_day_replans_out_of_a_new_eclipse(tmp_path: Path) -> None:
         assert starts["T3-HF"] == 121
         _fly(h, first, 100)
         # A longer eclipse in the second orbit: 60 of power in [118, 140).
-        eclipse = [[100, 100], [118, 60], [140, 100], [157, 60], [190, 100]]
+        eclipse: list[list[float]] = [
+            [100, 100],
+            [118, 60],
+            [140, 100],
+            [157, 60],
+            [190, 100],
+        ]
         h.forecast("power", 100, steps=[*eclipse, [252, 60]])
         h.tick(101)
         plan = h.wait_plan(lambda p: p.trigger == "forecast")

@@ -26,6 +26,10 @@ from fsw_scheduler.wire import topics as keys
 from ..factories import CLI, DATA, bench_lib, ping_goal
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    import msgspec
+
     from fsw_scheduler.engine.events import StartSolve
     from fsw_scheduler.model.plan import Plan
     from fsw_scheduler.runtime.config import NodeConfig
@@ -51,7 +55,11 @@ def task(task_id: str, **extra: object) -> dict:
     }
 
 
-def rejection(h: SchedulerHarness, goal: object, goal_id: str | None):
+def rejection(
+    h: SchedulerHarness,
+    goal: dict | bytes | str | msgspec.Struct,
+    goal_id: str | None,
+) -> messages.Status:
     """Publish ``goal`` and return the goal_rejected status naming it."""
     seen = len(h.statuses)
     h.publish_goal(goal)
@@ -234,17 +242,19 @@ def _panic_type() -> type[BaseException]:
 class _FaultySession:
     """The node's session, with ``put`` panicking on some keys."""
 
-    def __init__(self, real: object, poison: str, panic: type) -> None:
+    def __init__(
+        self, real: zenoh.Session, poison: str, panic: type[BaseException]
+    ) -> None:
         self._real = real
         self._poison = poison
         self._panic = panic
         self.raised = 0
 
-    def put(self, key: str, *args: object, **kwargs: object) -> None:
+    def put(self, key: str, *args: Any, **kwargs: Any) -> None:
         if self._poison in key:
             self.raised += 1
             raise self._panic("called `Result::unwrap()` on an `Err` value")
-        self._real.put(key, *args, **kwargs)  # type: ignore[attr-defined]
+        self._real.put(key, *args, **kwargs)
 
     def __getattr__(self, name: str) -> object:
         return getattr(self._real, name)
@@ -258,7 +268,7 @@ def test_a_panic_in_a_publish_does_not_kill_the_loop(
     panic = _panic_type()
     outputs = h.node._outputs
     faulty = _FaultySession(outputs.session, "dispatch/SetPositionK", panic)
-    outputs.session = faulty  # type: ignore[assignment]
+    outputs.session = faulty  # type: ignore[assignment]  # a stand-in
     plan = h.wait_plan()
     k = next(a for a in plan.activities if a.task == "SetPositionK")
     # Not tick(): it waits for every counted dispatch, and one never goes.
@@ -298,6 +308,7 @@ def test_a_bus_refusing_every_publish_stops_the_node(
     panic = _panic_type()
     node = h.node
     outputs = node._outputs
+    # Stand-ins for the session and the publishers, raising as zenoh does.
     outputs.session = _FaultySession(outputs.session, "fsw/", panic)  # type: ignore[assignment]
     for suffix in list(outputs.publishers):
         outputs.publishers[suffix] = _PanickingPublisher(panic)  # type: ignore[assignment]
@@ -556,25 +567,19 @@ def test_telemetry_dropped_for_spent_bytes_is_answered(
                 and counted.match(s.errors[0].reason)
             ]
 
+        def count(status: messages.Status) -> int:
+            found = counted.match(status.errors[0].reason)
+            assert found is not None  # answers() keeps only matches
+            return int(found[1])
+
         def all_answered() -> bool:
-            return (
-                sum(
-                    int(counted.match(s.errors[0].reason)[1])  # type: ignore[index]
-                    for s in answers()
-                )
-                >= dropped
-            )
+            return sum(count(s) for s in answers()) >= dropped
 
         with h._cond:  # the held answers come within DROP_NOTICE_S
             assert h._cond.wait_for(all_answered, 10 + DROP_NOTICE_S)
         rejections = answers()
-        assert (
-            sum(
-                int(counted.match(s.errors[0].reason)[1])  # type: ignore[index]
-                for s in rejections
-            )
-            == dropped
-        )  # every dropped sample once, none twice
+        # Every dropped sample once, none twice.
+        assert sum(count(s) for s in rejections) == dropped
         keys = {s.detail for s in rejections}
         assert keys <= {
             f"resource_level on {h.topics.resource_level(n)} ignored"
@@ -610,11 +615,11 @@ def test_telemetry_dropped_for_spent_bytes_is_answered(
     ]
     assert len(records) == len(rejections)
     # Bounded: the answers on one key are DROP_NOTICE_S apart at least.
-    answered: dict[str, list[int]] = {}
+    notice_times: dict[str, list[int]] = {}
     for record in records:
         key = json.loads(record.payload)["key"]
-        answered.setdefault(key, []).append(record.log_time_ns)
-    for times in answered.values():
+        notice_times.setdefault(key, []).append(record.log_time_ns)
+    for times in notice_times.values():
         gaps = [b - a for a, b in itertools.pairwise(times)]
         assert all(gap >= 0.9e9 * DROP_NOTICE_S for gap in gaps), gaps
 
@@ -656,9 +661,7 @@ def test_goals_behind_a_solve_are_queued_at_once(
         release.set()
         for goal_id in ("first", "second"):
             h.wait_status(
-                lambda s, g=goal_id: (
-                    s.event == "goal_accepted" and s.goal_id == g
-                )
+                lambda s: s.event == "goal_accepted" and s.goal_id == goal_id
             )
         # 9 tasks of Table 1, A and B: the limit of 11 live tasks is full.
         status = rejection(h, goal_of("third", task("F")), "third")
@@ -677,8 +680,9 @@ def test_verdicts_carry_changes_heartbeats_the_map(
     h = started
     for n in range(3):
         h.publish_goal(goal_of(f"v{n}", task(f"V{n}")))
+        goal_id = f"v{n}"
         h.wait_status(
-            lambda s, g=f"v{n}": s.event == "goal_accepted" and s.goal_id == g
+            lambda s: s.event == "goal_accepted" and s.goal_id == goal_id
         )
     h.settle(0)
     raw = [
@@ -712,7 +716,8 @@ def test_replans_do_not_dispatch_again(started: SchedulerHarness) -> None:
     first = h.wait_dispatch("SetPositionX")
     for n in range(6):
         h.publish_goal(goal_of(f"r{n}", task(f"R{n}")))
-        h.wait_plan(lambda p, g=f"r{n}": g in p.goals)
+        goal_id = f"r{n}"
+        h.wait_plan(lambda p: goal_id in p.goals)
     h.settle(0)
     again = [d for d in h.dispatches if d.task == "SetPositionX"]
     assert again == [first]
@@ -814,11 +819,13 @@ def _alive(pid: int) -> bool:
     return state != "Z"
 
 
-def _wait_for(predicate: object, timeout: float, what: str) -> None:
+def _wait_for(
+    predicate: Callable[[], bool], timeout: float, what: str
+) -> None:
     from fsw_scheduler.bus.session import wait_until
 
     wait_until(
-        predicate,  # type: ignore[arg-type]
+        predicate,
         timeout,
         interval_s=0.02,
         what=what,
@@ -866,10 +873,10 @@ def _long_solve_node(tmp_path: Path, *extra: str) -> tuple:
     return session, process
 
 
-def _start_cbc(session: object, process: subprocess.Popen) -> int:
+def _start_cbc(session: zenoh.Session, process: subprocess.Popen) -> int:
     from fsw_scheduler.testing import SchedulerClient
 
-    client = SchedulerClient(session)  # type: ignore[arg-type]
+    client = SchedulerClient(session)
     try:
         client.wait_scheduler(30)
         client.clock(0)  # the initial solve starts
@@ -911,7 +918,7 @@ def test_cbc_dies_with_a_killed_node(tmp_path: Path) -> None:
             process.wait(10)
         if process.stderr is not None:
             process.stderr.close()
-        session.close()  # type: ignore[attr-defined]
+        session.close()
 
 
 def test_sigterm_interrupts_a_solve_and_exits_0(tmp_path: Path) -> None:
@@ -938,7 +945,7 @@ def test_sigterm_interrupts_a_solve_and_exits_0(tmp_path: Path) -> None:
             process.wait(10)
         if process.stderr is not None:
             process.stderr.close()
-        session.close()  # type: ignore[attr-defined]
+        session.close()
 
 
 # -- finding 5: a deadline over the whole goal -> plan path -------------------

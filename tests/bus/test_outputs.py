@@ -172,7 +172,7 @@ def test_a_standby_kept_by_changes_holds_the_commanders_state() -> None:
             assert standby.ask_snapshot()
             for now in range(1, 6):
                 h.publish_goal(ping_goal(f"g{now}", f"T{now}"))
-                h.wait_status(lambda s, n=now: s.goal_id == f"g{n}")
+                h.wait_status(lambda s: s.goal_id == f"g{now}")
                 h.tick(now)
             h.settle()
             copy = standby.latest_snapshot()

@@ -75,6 +75,15 @@ def test_without_a_policy_only_links_name_senders() -> None:
     assert tracker.resolve(GOALS, None) == messages.Source()
 
 
+def _annotated(
+    tracker: Provenance, status: messages.Status
+) -> messages.Status:
+    """``tracker.annotate(status)``, which stays a status."""
+    annotated = tracker.annotate(status)
+    assert isinstance(annotated, messages.Status)
+    return annotated
+
+
 def test_verdicts_get_the_source_of_their_input() -> None:
     """Tests annotate: now, later for a goal, never for other statuses."""
     tracker = provenance({"aa": "ground"})
@@ -86,13 +95,13 @@ def test_verdicts_get_the_source_of_their_input() -> None:
     accepted = messages.Status(
         state="ok", plan_id=2, event="goal_accepted", goal_id="g1"
     )
-    assert tracker.annotate(accepted).source == source  # type: ignore[attr-defined]
-    assert tracker.annotate(accepted).source is None  # type: ignore[attr-defined]
+    assert _annotated(tracker, accepted).source == source
+    assert _annotated(tracker, accepted).source is None
     tracker.begin(InputRejected("k", "activity_report", ()), source)
     rejected = messages.Status(state="ok", plan_id=2, event="input_rejected")
-    assert tracker.annotate(rejected).source == source  # type: ignore[attr-defined]
+    assert _annotated(tracker, rejected).source == source
     tracker.end()
-    assert tracker.annotate(rejected).source is None  # type: ignore[attr-defined]
+    assert _annotated(tracker, rejected).source is None
 
 
 def test_pending_goals_are_bounded() -> None:

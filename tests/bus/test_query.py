@@ -13,6 +13,8 @@ import zenoh
 from fsw_scheduler.bus.client import query_payload
 from fsw_scheduler.bus.session import listening_endpoints, loopback_config
 
+from .peers import matching
+
 KEY = "fsw/sat1/scheduler/status"
 
 
@@ -32,8 +34,10 @@ class _Counted:
         self.session = session
         self.asked = threading.Event()
 
-    def get(self, key: str, **options: object) -> object:
-        replies = self.session.get(key, **options)  # type: ignore[arg-type]
+    def get(
+        self, key: str, *, timeout: float, payload: bytes | None
+    ) -> zenoh.Handler[zenoh.Reply]:
+        replies = self.session.get(key, timeout=timeout, payload=payload)
         self.asked.set()
         return replies
 
@@ -47,6 +51,7 @@ def test_a_queryable_that_comes_late_still_answers() -> None:
         answers: list[bytes | None] = []
         asking = threading.Thread(
             target=lambda: answers.append(
+                # A stand-in for the session: query_payload only calls get.
                 query_payload(counted, KEY, 30.0)  # type: ignore[arg-type]
             )
         )
@@ -90,7 +95,7 @@ def test_an_error_reply_ends_the_query_at_once() -> None:
         deadline = time.monotonic() + 10
         querier = client.declare_querier(KEY)
         while time.monotonic() < deadline and not reached:
-            reached = querier.matching_status.matching
+            reached = matching(querier)
         querier.undeclare()
         assert reached
         began = time.monotonic()

@@ -76,7 +76,10 @@ def _name(cn: str) -> x509.Name:
 
 
 def _write(
-    folder: Path, stem: str, key: object, cert: x509.Certificate
+    folder: Path,
+    stem: str,
+    key: ec.EllipticCurvePrivateKey | None,
+    cert: x509.Certificate,
 ) -> None:
     folder.mkdir(parents=True, exist_ok=True)
     (folder / f"{stem}.pem").write_bytes(
@@ -84,7 +87,7 @@ def _write(
     )
     if key is not None:
         (folder / f"{stem}.key").write_bytes(
-            key.private_bytes(  # type: ignore[attr-defined]
+            key.private_bytes(
                 serialization.Encoding.PEM,
                 serialization.PrivateFormat.PKCS8,
                 serialization.NoEncryption(),
@@ -126,7 +129,9 @@ class _CA:
             .sign(self.key, hashes.SHA256())
         )
 
-    def issue(self, cn: str) -> tuple[object, x509.Certificate]:
+    def issue(
+        self, cn: str
+    ) -> tuple[ec.EllipticCurvePrivateKey, x509.Certificate]:
         """A leaf certificate for ``cn``, valid for localhost."""
         now = datetime.datetime.now(datetime.timezone.utc)
         key = ec.generate_private_key(ec.SECP256R1())
@@ -264,23 +269,25 @@ class SecureBus:
         self.clock: SchedulerClient
         self.monitor: SchedulerClient
 
-    def open(self, role: str, **kwargs: object) -> zenoh.Session:
+    def open(self, role: str, *, own_acl: bool = True) -> zenoh.Session:
         """A session of ``role`` (closed with the bus)."""
         session = zenoh.open(
             role_config(
                 role,
                 self.certs,
                 self.endpoint,
+                own_acl=own_acl,
                 topology=self.topology,
-                **kwargs,  # type: ignore[arg-type]
             )
         )
         self._sessions.append(session)
         return session
 
-    def client(self, role: str, **kwargs: object) -> SchedulerClient:
+    def client(self, role: str, *, own_acl: bool = True) -> SchedulerClient:
         """A :class:`SchedulerClient` on a new session of ``role``."""
-        return SchedulerClient(self.open(role, **kwargs), timeout=WAIT_S)
+        return SchedulerClient(
+            self.open(role, own_acl=own_acl), timeout=WAIT_S
+        )
 
     def close(self) -> None:
         """Close every session and the node."""

@@ -27,6 +27,7 @@ if TYPE_CHECKING:
     from fsw_scheduler.engine.events import StartSolve
     from fsw_scheduler.model.plan import Plan
     from fsw_scheduler.runtime.config import NodeConfig
+    from fsw_scheduler.wire import messages
 
 
 def test_what_if_answers_and_changes_nothing(tmp_path: Path) -> None:
@@ -77,7 +78,7 @@ def test_a_what_if_waits_for_a_solve_then_answers_busy() -> None:
         answer = h.what_if(ping_goal("second", "Pong"), timeout=2)
         assert answer is not None and answer.verdict == "busy"
         assert "a solve is in flight" in answer.reasons[0].reason
-        answers: list[object] = []
+        answers: list[messages.WhatIfAnswer | None] = []
         asking = threading.Thread(
             target=lambda: answers.append(
                 h.what_if(ping_goal("second", "Pong"), timeout=40)
@@ -88,7 +89,7 @@ def test_a_what_if_waits_for_a_solve_then_answers_busy() -> None:
         asking.join(60)
         (late,) = answers
         assert late is not None
-        assert late.verdict == "goal_accepted"  # type: ignore[attr-defined]
+        assert late.verdict == "goal_accepted"
         h.wait_status(
             lambda s: s.goal_id == "first" and s.event == "goal_accepted"
         )
@@ -108,7 +109,7 @@ def test_a_what_if_never_delays_a_goal() -> None:
     with SchedulerHarness(config=harness_config(), solve_fn=held_aside) as h:
         h.tick(0)
         h.wait_plan(lambda p: p.plan_id == 1)
-        answers: list[object] = []
+        answers: list[messages.WhatIfAnswer | None] = []
         asking = threading.Thread(
             target=lambda: answers.append(
                 h.what_if(ping_goal("asked", "Ask"), timeout=60)
@@ -125,7 +126,7 @@ def test_a_what_if_never_delays_a_goal() -> None:
         (answer,) = answers
         assert answer is not None
         # Asked before "sent" was planned: its plan has no Sent.
-        assert answer.verdict == "goal_accepted"  # type: ignore[attr-defined]
+        assert answer.verdict == "goal_accepted"
 
 
 def test_a_bad_what_if_is_rejected_with_reasons() -> None:
@@ -175,7 +176,8 @@ def test_a_predictable_session_replays_identical(tmp_path: Path) -> None:
         verdicts = h.send_goals([paper_goal()])
         assert verdicts["monitor-target-lf"] == {"goal_accepted"}
         plan = h.wait_plan(lambda p: "monitor-target-lf" in p.goals)
-        assert plan.activities == answer.plan.activities  # type: ignore[union-attr]
+        assert answer.plan is not None
+        assert plan.activities == answer.plan.activities
         assert plan.moved == answer.moved
         triggers = {p.trigger for p in h.plans}
         assert "early_completion" in triggers

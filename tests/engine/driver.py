@@ -8,7 +8,7 @@ imports the bus.
 from __future__ import annotations
 
 import json
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, Any, Literal, TypeVar
 
 import msgspec
 
@@ -32,6 +32,9 @@ from fsw_scheduler.runtime.policy import run_solve
 from fsw_scheduler.wire import messages
 
 from ..factories import DATA, problem_from
+
+#: What an activity report may say (``ActivityReport.state``).
+ReportState = Literal["running", "completed", "failed", "cancelled"]
 
 if TYPE_CHECKING:
     from fsw_scheduler.model.plan import Plan
@@ -143,9 +146,9 @@ class Driver:
         """A decoded goal arrives."""
         return self.step(GoalArrived(decode_goal(json.dumps(doc))), now)
 
-    def report(self, task: str, state: str, at: int) -> list[Command]:
+    def report(self, task: str, state: ReportState, at: int) -> list[Command]:
         """An execution report arrives."""
-        report = messages.ActivityReport(task, state, at)  # type: ignore[arg-type]
+        report = messages.ActivityReport(task, state, at)
         return self.step(ReportArrived(report))
 
     def level(self, resource: str, level: float, at: int) -> list[Command]:

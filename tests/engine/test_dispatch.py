@@ -5,6 +5,7 @@ the cancel is answered."""
 from __future__ import annotations
 
 import json
+from typing import TYPE_CHECKING
 
 from fsw_scheduler.engine.config import EngineConfig
 from fsw_scheduler.engine.events import ReportArrived
@@ -13,6 +14,9 @@ from fsw_scheduler.wire import messages
 
 from ..factories import make_doc, make_task
 from .driver import Driver, published, statuses
+
+if TYPE_CHECKING:
+    from .driver import ReportState
 
 CAMERA = {"binary": ["camera"], "multiple": {"power": 100}}
 #: A node's problem: resources and horizon; goals bring the tasks.
@@ -40,13 +44,17 @@ def _runs(driver: Driver, task: str = "X") -> list[str]:
 
 
 def _report(
-    driver: Driver, task: str, state: str, at: int, dispatch_id: str
+    driver: Driver,
+    task: str,
+    state: ReportState,
+    at: int,
+    dispatch_id: str,
 ) -> None:
     driver.step(
         ReportArrived(
             messages.ActivityReport(
                 task,
-                state,  # type: ignore[arg-type]
+                state,
                 at,
                 dispatch_id=dispatch_id,
             )

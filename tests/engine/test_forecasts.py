@@ -66,7 +66,9 @@ def test_a_forecast_that_breaks_the_plan_replans() -> None:
     # The forecast is part of the problem from now on.
     schedule = driver.engine.snapshot().schedule
     assert schedule is not None
-    antenna = schedule.problem.resources.binary["antenna"]  # type: ignore[call-overload]
+    binary = schedule.problem.resources.binary
+    assert isinstance(binary, dict)  # the forecast wrote windows
+    antenna = binary["antenna"]
     assert antenna.available == ((0, 2), (12, 20))
 
 

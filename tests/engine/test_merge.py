@@ -5,6 +5,7 @@ partly executed is carried over, not sent again."""
 from __future__ import annotations
 
 import json
+from typing import TYPE_CHECKING
 
 from fsw_scheduler.engine.config import EngineConfig
 from fsw_scheduler.engine.core import Engine
@@ -16,6 +17,9 @@ from fsw_scheduler.wire import messages, topics
 
 from ..factories import make_doc, make_task
 from .driver import Driver, published, statuses
+
+if TYPE_CHECKING:
+    from .driver import ReportState
 
 CAMERA = {"binary": ["camera"], "multiple": {"power": 100}}
 EMPTY = decode_problem(json.dumps(make_doc([], 30, CAMERA)), allow_empty=True)
@@ -29,14 +33,14 @@ def _goal(goal_id: str, task: str, length: int, **over: object) -> dict:
     }
 
 
-def _report(driver: Driver, task: str, state: str, at: int) -> None:
+def _report(driver: Driver, task: str, state: ReportState, at: int) -> None:
     sent = driver.engine.snapshot().sent.get(task)
     dispatch_id = f"{task}:{sent[0]}-{sent[1]}" if sent else ""
     driver.step(
         ReportArrived(
             messages.ActivityReport(
                 task,
-                state,  # type: ignore[arg-type]
+                state,
                 at,
                 dispatch_id=dispatch_id,
             )

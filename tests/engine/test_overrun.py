@@ -110,8 +110,9 @@ def fly(
     return flight
 
 
-def _paper(mode: str, **config: object) -> Driver:
-    return Driver(config=EngineConfig(late_completion=mode, **config))  # type: ignore[arg-type]
+def _paper(mode: str, report_ahead: int = 0) -> Driver:
+    config = EngineConfig(late_completion=mode, report_ahead=report_ahead)
+    return Driver(config=config)
 
 
 def test_today_a_tight_successor_runs_while_its_predecessor_overruns() -> None:

@@ -4,6 +4,7 @@ of an activity that a replan re-based."""
 
 from __future__ import annotations
 
+import functools
 import json
 
 from fsw_scheduler.engine.events import ReportArrived
@@ -96,19 +97,18 @@ def test_reports_answer_the_dispatch_after_a_replan_rebases_it() -> None:
     driver.tick(0)
     driver.goal(_goal("g1", make_task("A", 3, uses={"power": 10})))
     assert _dispatched(driver) == ["A:0-3"]
-    sent = {"dispatch_id": "A:0-3", "term": driver.engine.term}
-    driver.step(
-        ReportArrived(messages.ActivityReport("A", "running", 0, **sent))
+    # Every report names the dispatch as it was sent: id and term.
+    report = functools.partial(
+        messages.ActivityReport, dispatch_id="A:0-3", term=driver.engine.term
     )
+    driver.step(ReportArrived(report("A", "running", 0)))
     driver.tick(1)
     driver.goal(_goal("g2", make_task("B", 1, uses={"power": 10})))
     assert ("A", 1, 3) in {
         (a.task, a.start, a.end) for a in driver.plan.activities
     }
     driver.tick(3)
-    out = driver.step(
-        ReportArrived(messages.ActivityReport("A", "completed", 3, **sent))
-    )
+    out = driver.step(ReportArrived(report("A", "completed", 3)))
     assert not statuses(out, "input_rejected")
     assert driver.engine.snapshot().lifecycle["A"] == "completed"
 

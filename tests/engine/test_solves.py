@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from fsw_scheduler.engine.config import EngineConfig
 from fsw_scheduler.engine.events import StartSolve
-from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.model.plan import Moved, SolveStatus
 from fsw_scheduler.wire import messages
 
 from ..factories import make_doc, make_task, problem_from
@@ -26,6 +26,12 @@ def _paper_at_15(config: EngineConfig) -> Driver:
         driver.tick(now)
     driver.goal(paper_goal())
     return driver
+
+
+def _moved(plan: messages.PlanMessage) -> tuple[Moved, ...]:
+    """The moves of a plan from a node that reports them."""
+    assert not isinstance(plan.moved, msgspec.UnsetType), "moves unreported"
+    return plan.moved
 
 
 def test_defaults_report_no_moves_and_plan_as_the_paper() -> None:
@@ -45,7 +51,7 @@ def test_moves_are_reported_with_a_commit_window() -> None:
     counts it, when the window does not reach the moved activities."""
     driver = _paper_at_15(EngineConfig(commit_window=10))
     plan = driver.plan
-    assert [(m.task, m.from_, m.to) for m in plan.moved] == [
+    assert [(m.task, m.from_, m.to) for m in _moved(plan)] == [
         ("SetPositionY", 38, 33),
         ("DownlinkSat2Ground", 39, 34),
     ]
@@ -83,7 +89,8 @@ def test_commit_window_keeps_planned_starts() -> None:
     assert starts["DownlinkSat2Ground"] == 39
     assert driver.plan.moved == ()
     assert driver.plan.status is SolveStatus.OPTIMAL
-    assert driver.engine.status().last_solve.moved == 0  # type: ignore[union-attr]
+    last_solve = driver.engine.status().last_solve
+    assert last_solve is not None and last_solve.moved == 0
 
 
 def _antenna_problem() -> dict:
@@ -236,7 +243,7 @@ def test_inside_the_window_nothing_moves_but_when_degraded(
                 f"{act.task} planned at {act.start} moved to "
                 f"{starts.get(act.task)} within [{now}, {now + window})"
             )
-        moved = {m.task: (m.from_, m.to) for m in after.moved}
+        moved = {m.task: (m.from_, m.to) for m in _moved(after)}
         for name, (old, new) in moved.items():
             assert starts[name] == new and old != new
     assert (
@@ -269,7 +276,7 @@ def test_lexicographic_keeps_the_paper_plan_where_it_can() -> None:
     moves = _paper_at_15(EngineConfig(stability="moves", move_cost=5))
     assert moves.plan.objective is not None
     assert moves.plan.objective.move_cost == 5
-    assert moves.plan.objective.moves == len(moves.plan.moved) == 2
+    assert moves.plan.objective.moves == len(_moved(moves.plan)) == 2
 
 
 def _restricted_unscheduled(command: StartSolve, previous: dict) -> int:
@@ -338,7 +345,7 @@ def test_lexicographic_moves_only_when_the_unscheduled_cost_needs_it(
         (command,) = [c for c in out if isinstance(c, StartSolve)]
         plan = driver.plan
         assert plan.objective is not None
-        assert plan.objective.moves == len(plan.moved)
+        assert plan.objective.moves == len(_moved(plan))
         needed = _restricted_unscheduled(command, command.previous)
         if plan.moved:
             assert needed > plan.objective.unscheduled_cost, plan.moved

@@ -18,7 +18,10 @@ from fsw_scheduler.journal.state import StateDamaged, journal_files, open_state
 from ..factories import DATA, cli_command
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
     from pathlib import Path
+
+    from fsw_scheduler.journal.state import FolderIdentity
 
     from ..conftest import Uninterrupted
 
@@ -130,7 +133,7 @@ def test_run_refuses_a_damaged_folder_before_the_bus(
     assert "Traceback" not in result.stderr
 
 
-def _edit_info(src: Path, dst: Path, change: object) -> None:
+def _edit_info(src: Path, dst: Path, change: Callable[[dict], None]) -> None:
     """Copy a journal with its ``scheduler/config`` changed."""
     import json
 
@@ -141,7 +144,7 @@ def _edit_info(src: Path, dst: Path, change: object) -> None:
         for row in rows:
             if row.topic.endswith("/scheduler/config"):
                 doc = json.loads(row.data)
-                change(doc)  # type: ignore[operator]
+                change(doc)
                 row = row._replace(data=json.dumps(doc).encode())
             out.append(row)
         return out
@@ -149,7 +152,7 @@ def _edit_info(src: Path, dst: Path, change: object) -> None:
     rewrite(src, dst, edit)
 
 
-def _identity(folder: Path) -> object:
+def _identity(folder: Path) -> FolderIdentity:
     from fsw_scheduler.journal.state import FolderIdentity, problem_digest
 
     (journal,) = journal_files(folder)
@@ -184,7 +187,7 @@ def test_another_sessions_journal_is_set_aside(
         doc["problem"]["horizon"] += 1
 
     _edit_info(own, folder / "journal-0099.mcap", other_problem)
-    start = open_state(folder, identity=identity)  # type: ignore[arg-type]
+    start = open_state(folder, identity=identity)
     assert [p.parent.name for p in start.set_aside] == ["foreign"]
     assert start.rebuilt is not None
     assert msgspec.json.encode(start.rebuilt.engine.snapshot()) == reference

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import time
+from typing import TYPE_CHECKING
 
 import msgspec
 import pytest
@@ -24,12 +25,15 @@ from fsw_scheduler.wire import messages
 
 from ..factories import make_doc, make_task
 
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
 TASK = '"id": "a", "delay_cost": 1, "schedule_cost": 1'
 
 
-def _issues(decode: object, text: str) -> dict[str, str]:
+def _issues(decode: Callable[[str], object], text: str) -> dict[str, str]:
     with pytest.raises(InputError) as info:
-        decode(text)  # type: ignore[operator]
+        decode(text)
     return {issue.path: issue.reason for issue in info.value.issues}
 
 
@@ -162,11 +166,11 @@ def test_the_check_costs_little_beside_strict_decoding() -> None:
     text = json.dumps(doc, indent=1).encode()
     raw = msgspec.json.decode(text)
 
-    def best(run: object, repeat: int = 5) -> float:
+    def best(run: Callable[[], object], repeat: int = 5) -> float:
         times = []
         for _ in range(repeat):
             start = time.perf_counter()
-            run()  # type: ignore[operator]
+            run()
             times.append(time.perf_counter() - start)
         return min(times)
 

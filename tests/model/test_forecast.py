@@ -3,13 +3,20 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from fsw_scheduler.model.forecast import with_forecast
 from fsw_scheduler.model.mission_rules import forecast_issues
 
 from ..factories import make_doc, make_task, problem_from
 
+if TYPE_CHECKING:
+    from collections.abc import Sequence
 
-def _resources():  # type: ignore[no-untyped-def]
+    from fsw_scheduler.model.problem import Resources
+
+
+def _resources() -> Resources:
     return problem_from(
         make_doc(
             [make_task("a")],
@@ -48,10 +55,16 @@ def test_forecast_rules() -> None:
     """Tests the rules of a forecast, each at its path."""
     resources = _resources()
 
-    def paths(name: str, at: int, **fields: object) -> list[str]:
-        given = {"available": None, "steps": None, "external": None}
-        given.update(fields)  # type: ignore[arg-type]
-        found = forecast_issues(resources, name, at, given)  # type: ignore[arg-type]
+    def paths(
+        name: str, at: int, **fields: Sequence[tuple[int, float]] | None
+    ) -> list[str]:
+        given: dict[str, Sequence[tuple[int, float]] | None] = {
+            "available": None,
+            "steps": None,
+            "external": None,
+        }
+        given.update(fields)
+        found = forecast_issues(resources, name, at, given)
         return [issue.path for issue in found]
 
     assert paths("cam", 3, available=[(3, 9)]) == []

@@ -65,7 +65,9 @@ def test_bad_task_field_is_named(task: dict, path: str) -> None:
 
 def test_wrong_type_is_named() -> None:
     """Tests that a type error names the field through decode_strict."""
-    doc = {"goal_id": "g", "tasks": [make_task(length="x")]}
+    task = make_task()
+    task["length"] = "x"
+    doc = {"goal_id": "g", "tasks": [task]}
     assert _paths(doc) == ["tasks[0].length"]
 
 

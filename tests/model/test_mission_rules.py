@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import copy
 import json
+from typing import Any
 
 import jsonschema
 import msgspec
@@ -249,7 +250,7 @@ def test_old_documents_mean_what_they_meant() -> None:
 def test_goal_groups_name_the_goals_own_tasks() -> None:
     """Tests that a goal's groups are checked against its tasks, and that
     a member of a goal group may leave its cost out."""
-    goal = {
+    goal: dict[str, Any] = {
         "goal_id": "g1",
         "tasks": [
             {"id": "HF", "length": 2, "delay_cost": 1},

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from fsw_scheduler.model.plan import Activity, Plan, SolveStatus
 from fsw_scheduler.replan.commit import (
     broken_pins,
@@ -13,8 +15,11 @@ from fsw_scheduler.replan.commit import (
 
 from ..factories import make_doc, make_task, problem_from
 
+if TYPE_CHECKING:
+    from fsw_scheduler.model.problem import Problem
 
-def _problem() -> object:
+
+def _problem() -> Problem:
     return problem_from(
         make_doc(
             [

@@ -68,6 +68,13 @@ def plan_of(problem: Problem, starts: dict[str, int]) -> Plan:
     return Plan(SolveStatus.FEASIBLE, None, acts, out)
 
 
+def placed(plan: Plan, task_id: str) -> Activity:
+    """The activity of ``task_id``, which the test expects scheduled."""
+    activity = plan.activity(task_id)
+    assert activity is not None, f"{task_id} is not scheduled"
+    return activity
+
+
 def task(
     name: str, length: int = 2, preemption: str = "none", **over: object
 ) -> dict:
@@ -336,7 +343,7 @@ def test_rule_tight_chain_readds_executed_tasks() -> None:
     assert replan.problem.precedences == (Precedence("point", "acq", "tight"),)
     plan = solve(replan.problem)
     assert check_plan(replan.problem, plan).violations == ()
-    assert plan.activity("point").end == plan.activity("acq").start
+    assert placed(plan, "point").end == placed(plan, "acq").start
 
 
 def test_rule_obsolete_and_catalog() -> None:
@@ -388,7 +395,7 @@ def test_rule_settled_precedences_anchor_successors() -> None:
     assert replan.problem.start_bounds(t) == (2, 2)
     assert replan.problem.start_bounds(s) == (8, 20)
     plan = solve(replan.problem)
-    assert plan.activity("t").start == 2
+    assert placed(plan, "t").start == 2
     assert check_plan(replan.problem, plan).violations == ()
 
 
@@ -402,7 +409,7 @@ def test_rule_settled_precedences_rerun_passed_precondition() -> None:
     assert replan.readded == ("a",)
     assert replan.problem.precedences == problem.precedences
     plan = solve(replan.problem)
-    assert plan.activity("a").end == plan.activity("t").start
+    assert placed(plan, "a").end == placed(plan, "t").start
 
 
 def test_rule_settled_precedences_without_start_left() -> None:
@@ -665,7 +672,9 @@ def test_replan_typed_with_injected_solver(
 
     def fake(problem: Problem, solver: str, **kwargs: object) -> Plan:
         seen.append((solver, kwargs["time_limit"]))
-        return kwargs["warm"].replace(
+        warm = kwargs["warm"]
+        assert isinstance(warm, Plan)
+        return warm.replace(
             status=SolveStatus.FEASIBLE, objective=Objective(0, 0, 0)
         )
 
@@ -814,10 +823,11 @@ def test_random_sessions(steps: list) -> None:
         assert not (live - set(replan.continuing)) & obsolete
         obsolete |= {r.task for r in replan.removed if r.rule == "obsolete"}
         for name in replan.continuing:
-            act = plan.activity(name)
+            act = placed(plan, name)
             assert act.start == replan.problem.start
-            if previous is not None and previous.activity(name) is not None:
-                assert act.end == previous.activity(name).end
+            before = None if previous is None else previous.activity(name)
+            if before is not None:
+                assert act.end == before.end
         previous = plan
     assert _outcome(session) == _outcome(_session(steps))
 

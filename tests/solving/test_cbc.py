@@ -10,6 +10,7 @@ import sys
 import textwrap
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pytest
 
@@ -22,6 +23,9 @@ from fsw_scheduler.solving.ilp.progress import WatchedCbcRun, line_buffered
 from fsw_scheduler.solving.solve import solve
 
 from ..factories import ROOT, bench_lib
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
 
 linux = pytest.mark.skipif(
     not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)"
@@ -77,7 +81,7 @@ def _children(pid: int) -> list[int]:
     return found
 
 
-def _until(condition, timeout: float) -> bool:  # type: ignore[no-untyped-def]
+def _until(condition: Callable[[], object], timeout: float) -> bool:
     """Poll ``condition`` every 10 ms for up to ``timeout`` seconds."""
     end = time.monotonic() + timeout
     while time.monotonic() < end:
@@ -183,7 +187,7 @@ def test_watched_cbc_log_is_line_buffered(tmp_path: Path) -> None:
     rng = random.Random(7)
     cols = [program.add_column(0, 1, integer=True) for _ in range(40)]
     for _ in range(5):
-        weights = {c: rng.randint(0, 99) for c in cols}
+        weights: dict[int, float] = {c: rng.randint(0, 99) for c in cols}
         program.add_row(weights, EQ, sum(weights.values()) // 2)
     program.set_objective({c: 1 for c in cols})
     (tmp_path / "m.mps").write_text(program.mps())

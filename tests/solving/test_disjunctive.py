@@ -153,8 +153,10 @@ def test_solve_picks_the_model_per_part() -> None:
     assert "2 independent parts" in status
     # Smallest part first, the status ends with the largest one's.
     whole = solve_ilp(problem.replace(tasks=problem.tasks[:2]))
+    assert whole.stats is not None
     assert "disjunctive model" in (whole.stats.solver_status or "")
     battery = solve_ilp(problem.replace(tasks=problem.tasks[2:]))
+    assert battery.stats is not None
     assert "disjunctive" not in (battery.stats.solver_status or "")
 
 

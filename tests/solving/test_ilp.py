@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import pytest
 
@@ -19,6 +19,8 @@ from ..problems import brute_force
 
 if TYPE_CHECKING:
     from pathlib import Path
+
+    from bench_lib.generator import BenchProblem
 
     from fsw_scheduler.model.problem import Problem
 
@@ -144,13 +146,13 @@ def test_capped_domains_propagate_through_precedences() -> None:
 @pytest.mark.parametrize(
     "problem", generator.suite("campaign")[:28], ids=lambda p: p.name
 )
-def test_cost_capped_model_keeps_the_optimum(problem: object) -> None:
+def test_cost_capped_model_keeps_the_optimum(problem: BenchProblem) -> None:
     """Tests that solve() (with caps) and the full model agree.
 
     Every 5-task problem of the campaign is solved both ways; where the
     start plan leaves nothing out, the capped model is smaller.
     """
-    prob = problem.problem()  # type: ignore[attr-defined]
+    prob = problem.problem()
     capped = solve(prob)
     full = solve_ilp(prob)
     assert capped.status is SolveStatus.OPTIMAL
@@ -302,7 +304,7 @@ def test_consumable_models_branch_on_scheduled_first(tmp_path: Path) -> None:
     from fsw_scheduler.solving.ilp.cbc import _write_priorities
     from fsw_scheduler.solving.ilp.model import BuiltModel
 
-    doc = {
+    doc: dict[str, Any] = {
         "horizon": 10,
         "resources": {"consumable": {"fuel": 6}},
         "tasks": [

@@ -3,6 +3,8 @@ solve entry point and the checker, against exhaustive search."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -15,6 +17,10 @@ from fsw_scheduler.solving.solve import solve
 
 from ..factories import bench_lib, make_doc, make_task, problem_from
 from ..problems import COMMON, brute_force, decode_doc, problem_docs, show
+
+if TYPE_CHECKING:
+    from fsw_scheduler.model.problem import Problem
+    from fsw_scheduler.model.stability import Mode
 
 MODES = ("moves", "lexicographic")
 
@@ -81,7 +87,7 @@ def test_both_formulations_find_the_stable_optimum(
         assert report.ok, f"{format_report(report)}\n{found}"
 
 
-def _three() -> object:
+def _three() -> Problem:
     return problem_from(
         make_doc(
             [
@@ -102,13 +108,14 @@ def test_the_three_modes_on_one_problem(formulation: str) -> None:
     moves, whatever the delay)."""
     problem = _three()
     previous = {"a": 4, "b": 0, "c": 5}
+    modes: tuple[Mode, ...] = ("off", "moves", "lexicographic")
     plans = {
         mode: solve_ilp(
             problem,
             formulation=formulation,
-            stability=Stability(previous, mode, 2),  # type: ignore[arg-type]
+            stability=Stability(previous, mode, 2),
         )
-        for mode in ("off", "moves", "lexicographic")
+        for mode in modes
     }
     off, moves, lex = plans["off"], plans["moves"], plans["lexicographic"]
     assert off.objective is not None and off.objective.total == 2
@@ -128,10 +135,9 @@ def test_checker_names_a_wrong_move_count() -> None:
     stability = Stability({"a": 4, "b": 0, "c": 5}, "lexicographic")
     plan = solve_ilp(problem, stability=stability)
     assert check_plan(problem, plan, stability).ok
+    assert plan.objective is not None
     lying = plan.replace(
-        objective=plan.objective.__class__(  # type: ignore[union-attr]
-            0, 22, 22, moves=1
-        )
+        objective=plan.objective.__class__(0, 22, 22, moves=1)
     )
     report = check_plan(problem, lying, stability)
     assert "objective" in report.rules

@@ -7,7 +7,7 @@ import itertools
 import json
 import subprocess
 import sys
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import pytest
 
@@ -19,6 +19,9 @@ from ..factories import ROOT, bench_lib
 
 if TYPE_CHECKING:
     from pathlib import Path
+
+    from bench_lib.runner import Run
+    from bench_lib.stability import StableRun
 
 
 generator = bench_lib("generator")
@@ -156,7 +159,7 @@ def test_percentile_interpolates() -> None:
     assert report.percentile([2.0], 90) == 2.0
 
 
-def _run(solver: str, status: str, total: int | None) -> object:
+def _run(solver: str, status: str, total: int | None) -> Run:
     return runner.Run(
         problem="p",
         suite="campaign",
@@ -444,9 +447,9 @@ def test_reports_set_each_solver_against_cpsat() -> None:
     and on scaling points left-out cost and gap to the best bound."""
     import dataclasses
 
-    def run(solver: str, wall: float, **over: object) -> object:
+    def run(solver: str, wall: float, **over: Any) -> Run:
         base = _run(solver, "optimal", 10)
-        return dataclasses.replace(base, wall_s=wall, **over)  # type: ignore[type-var]
+        return dataclasses.replace(base, wall_s=wall, **over)
 
     runs = [run("cbc", 0.4), run("cpsat", 0.1)]
     text = report.format_versus(runs)
@@ -504,9 +507,9 @@ def test_versus_flags_unknown_where_cpsat_planned() -> None:
     run, gives the mean and loudly lists unknowns CP-SAT could plan."""
     import dataclasses
 
-    def run(solver: str, name: str, wall: float, **over: object) -> object:
+    def run(solver: str, name: str, wall: float, **over: Any) -> Run:
         base = _run(solver, "optimal", 10)
-        return dataclasses.replace(  # type: ignore[type-var]
+        return dataclasses.replace(
             base, problem=name, wall_s=wall, resource_class="mixed", **over
         )
 
@@ -610,17 +613,17 @@ def test_stability_suite_prices_moves_on_the_quick_replans() -> None:
     problems = generator.suite("quick", 0, "broad")
     runs = stability.run_stability(problems, 20.0)
     assert all(r.ok for r in runs)
-    by_problem: dict[str, dict[str, object]] = {}
+    by_problem: dict[str, dict[str, StableRun]] = {}
     for run in runs:
         by_problem.setdefault(run.problem, {})[run.mode] = run
     for modes in by_problem.values():
         assert set(modes) == {"off", "moves", "lexicographic"}
-        if all(m.status == "optimal" for m in modes.values()):  # type: ignore[attr-defined]
-            costs = {m.unscheduled_cost for m in modes.values()}  # type: ignore[attr-defined]
+        if all(m.status == "optimal" for m in modes.values()):
+            costs = {m.unscheduled_cost for m in modes.values()}
             assert len(costs) == 1
-            lex = modes["lexicographic"].moves  # type: ignore[attr-defined]
-            assert lex <= modes["off"].moves  # type: ignore[attr-defined]
-            assert lex <= modes["moves"].moves  # type: ignore[attr-defined]
+            lex = modes["lexicographic"].moves
+            assert lex <= modes["off"].moves
+            assert lex <= modes["moves"].moves
     assert "| lexicographic |" in stability.format_stability(runs)
 
 

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import subprocess
+import tomllib
 
-from ..factories import ROOT, tool
+from ..factories import ROOT, TOOLS, tool
 
 
 def test_ruff_is_clean() -> None:
@@ -19,11 +20,36 @@ def test_ruff_is_clean() -> None:
 
 
 def test_mypy_is_clean() -> None:
-    """Tests that mypy finds no type error in the package."""
+    """Tests that mypy finds no type error in the package, the tests and
+    the tools (the ``files`` of ``[tool.mypy]``)."""
     result = subprocess.run(
-        [tool("mypy"), "fsw_scheduler"],
+        [tool("mypy")],
         cwd=ROOT,
         capture_output=True,
         text=True,
     )
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_mypy_checks_all_the_python() -> None:
+    """Tests that mypy's ``files`` hold the package, the tests and every
+    Python file and script of tools/, so a new one is checked at once,
+    and that unused ignores are errors in every one but the package."""
+    mypy = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["mypy"]
+    files = set(mypy["files"])
+    (strict,) = [o for o in mypy["overrides"] if o.get("warn_unused_ignores")]
+    python = {
+        f"tools/{path.name}"
+        for path in TOOLS.iterdir()
+        if path.is_file()
+        and (
+            path.suffix == ".py"
+            or path.read_bytes().startswith(b"#!/usr/bin/env python")
+        )
+    }
+    assert len(python) >= 10  # the scripts were found
+    assert python | {"fsw_scheduler", "tests", "tools/bench_lib"} <= files
+    modules = {
+        name.removeprefix("tools/").removesuffix(".py") for name in python
+    }
+    assert modules | {"tests.*", "bench_lib.*"} == set(strict["module"])

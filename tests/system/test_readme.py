@@ -399,6 +399,7 @@ def test_the_command_table_names_every_command() -> None:
         for a in parser._actions
         if a.__class__.__name__ == "_SubParsersAction"
     ]
+    assert sub.choices is not None  # the commands
     text = (ROOT / "README.md").read_text()
     rows = re.findall(r"^\| `([a-z0-9-]+)[ `|\\]", text, re.M)
     table = set(rows) - {"command"}

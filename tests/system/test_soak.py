@@ -13,7 +13,7 @@ if TYPE_CHECKING:
 def test_short_soak_loses_nothing() -> None:
     """Tests that every flooded goal gets a verdict and the node lives."""
     soak = tool_script("soak", "fsw_soak")
-    figures = soak.run_soak(  # type: ignore[attr-defined]
+    figures = soak.run_soak(
         goals=60,
         fuzz=40,
         telemetry=600,
@@ -32,7 +32,7 @@ def test_short_soak_loses_nothing() -> None:
     assert figures.loop_alive and figures.token_up
     # Every fuzzed payload was named in its rejection.
     assert figures.unnamed_rejections == 0
-    table = soak.table(figures)  # type: ignore[attr-defined]
+    table = soak.table(figures)
     assert "| lost (no verdict)" in table
 
 
@@ -44,7 +44,7 @@ def test_reports_racing_the_clock_execute_nothing_twice(
     README receiver executes nothing twice, no accepted goal is lost,
     every goal has one verdict and no report is rejected "after now"."""
     race = tool_script("soak_race", "fsw_soak_race")
-    figures = race.run_race(  # type: ignore[attr-defined]
+    figures = race.run_race(
         tmp_path,
         units=16,
         unit_s=0.2,

@@ -331,7 +331,7 @@ def _drawn_figure(monkeypatch: pytest.MonkeyPatch) -> list:
     figures: list = []
     save = Figure.savefig
 
-    def capture(self, *args, **kwargs):  # type: ignore[no-untyped-def]
+    def capture(self, *args, **kwargs):
         figures.append(self)
         return save(self, *args, **kwargs)
 
@@ -339,7 +339,7 @@ def _drawn_figure(monkeypatch: pytest.MonkeyPatch) -> list:
     return figures
 
 
-def _texts(figure) -> list[str]:  # type: ignore[no-untyped-def]
+def _texts(figure) -> list[str]:
     found = []
     for ax in figure.axes:
         found += [t.get_text() for t in ax.texts]

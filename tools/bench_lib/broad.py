@@ -248,7 +248,7 @@ def _precedences(
 
     optional = [i for i, t in enumerate(tasks) if t["schedule_cost"] > 0]
     if len(optional) >= 3 and rng.random() < CONTRADICTION_SHARE:
-        a, b, c = sorted(rng.sample(optional, 3), key=rank.get)
+        a, b, c = sorted(rng.sample(optional, 3), key=rank.__getitem__)
         ab = _offset(rng, tasks[a])
         bc = _offset(rng, tasks[b])
         ac = tasks[a]["length"] + ab + tasks[b]["length"] + bc

@@ -259,7 +259,7 @@ def _members(problem: Problem) -> set[str]:
 
 def _options(model: Any, group: Any, present: dict[str, Any]) -> list[Any]:
     """One literal per option of ``group``: its tasks' common presence."""
-    picks = []
+    picks: list[Any] = []
     for option in group.options:
         pick = model.new_bool_var(f"o_{group.id}_{len(picks)}")
         for name in option:

@@ -14,7 +14,7 @@ import dataclasses
 import math
 import statistics
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from .generator import CAMPAIGN_SIZES, CLASSES
 
@@ -38,6 +38,9 @@ PAPER_ORTOOLS_BY_CLASS: dict[str, float] = {
     "consumable": 11.0,
 }
 SLOWEST_SHOWN = 12
+
+#: What a table groups runs by (a size, a class, a point).
+K = TypeVar("K")
 
 
 def percentile(values: Sequence[float], q: float) -> float:
@@ -103,10 +106,10 @@ def _solvers(runs: Sequence[Run]) -> list[str]:
 
 def _grouped(
     runs: Sequence[Run],
-    keys: Sequence[object],
-    key_of: Callable[[Run], object],
-    label: Callable[[object], str],
-    paper: Callable[[str, object], float | None],
+    keys: Sequence[K],
+    key_of: Callable[[Run], K],
+    label: Callable[[K], str],
+    paper: Callable[[str, K], float | None],
 ) -> list[Row]:
     rows = []
     for solver in _solvers(runs):
@@ -173,7 +176,7 @@ def summarize(runs: Sequence[Run]) -> list[tuple[str, list[Row]]]:
                 scale,
                 points,
                 lambda r: (r.horizon, r.num_tasks),
-                lambda k: "H={} n={}".format(*k),  # type: ignore[misc]
+                lambda k: "H={} n={}".format(*k),
                 lambda s, k: None,
             ),
         )
@@ -342,25 +345,28 @@ def format_versus(runs: Sequence[Run], reference: str = "cpsat") -> str:
         key=lambda c: (*CLASSES, c).index(c),
     )
     horizons = sorted({r.horizon for r in camp})
-    groups: list[tuple[str, Callable[[Run], bool]]] = [
-        (f"{size} tasks", lambda r, k=size: r.num_tasks == k) for size in sizes
-    ]
-    groups += [
-        (cls, lambda r, k=cls: r.resource_class == k) for cls in classes
-    ]
+
+    def having(
+        size: int | None = None,
+        cls: str | None = None,
+        horizon: int | None = None,
+    ) -> Callable[[Run], bool]:
+        """Runs of this size, class and horizon (None: any)."""
+        return lambda r: (
+            (size is None or r.num_tasks == size)
+            and (cls is None or r.resource_class == cls)
+            and (horizon is None or r.horizon == horizon)
+        )
+
+    groups = [(f"{size} tasks", having(size=size)) for size in sizes]
+    groups += [(cls, having(cls=cls)) for cls in classes]
     if len(sizes) > 1 and len(classes) > 1:
         # The largest size by class: the figures the targets are set on.
         top = sizes[-1]
-        groups += [
-            (
-                f"{top} {cls}",
-                lambda r, k=cls: r.num_tasks == top and r.resource_class == k,
-            )
-            for cls in classes
-        ]
+        groups += [(f"{top} {cls}", having(top, cls)) for cls in classes]
     if len(horizons) > 1:
-        groups += [(f"H={h}", lambda r, k=h: r.horizon == k) for h in horizons]
-    groups.append(("overall", lambda r: True))
+        groups += [(f"H={h}", having(horizon=h)) for h in horizons]
+    groups.append(("overall", having()))
     lost = [
         r
         for r in camp
@@ -544,7 +550,16 @@ def plot(runs: Sequence[Run], out_dir: Path) -> list[Path]:
     except ImportError:
         return []
     camp = [r for r in runs if r.suite in ("campaign", "quick")]
-    figures = [
+    # File, title, runs, (key, label) per box group, the key of a run.
+    figures: list[
+        tuple[
+            str,
+            str,
+            list[Run],
+            list[tuple[object, str]],
+            Callable[[Run], object],
+        ]
+    ] = [
         (
             "fig3_by_tasks.png",
             "Execution time by number of tasks (H = 336)",

@@ -15,6 +15,7 @@ solvers wherever at least two of them prove optimality.
 
 from __future__ import annotations
 
+import functools
 import sys
 import time
 import traceback
@@ -164,16 +165,17 @@ def run_one(
     An exception is recorded in ``Run.error`` (status ``error``) rather
     than raised, so one broken solve does not stop the campaign.
     """
-    base = {
-        "problem": bench.name,
-        "suite": bench.suite,
-        "num_tasks": bench.num_tasks,
-        "resource_class": bench.resource_class,
-        "horizon": bench.horizon,
-        "seed": bench.seed,
-        "solver": solver,
-        "repeat": repeat,
-    }
+    base = functools.partial(
+        Run,
+        problem=bench.name,
+        suite=bench.suite,
+        num_tasks=bench.num_tasks,
+        resource_class=bench.resource_class,
+        horizon=bench.horizon,
+        seed=bench.seed,
+        solver=solver,
+        repeat=repeat,
+    )
     fn = solver_fn(solver)
     began = time.perf_counter()
     try:
@@ -181,8 +183,7 @@ def run_one(
     except Exception as error:  # recorded, reported as a check failure
         wall = time.perf_counter() - began
         detail = traceback.format_exception_only(error)[-1].strip()
-        return Run(
-            **base,
+        return base(
             status="error",
             timeout=False,
             build_s=0.0,
@@ -197,8 +198,7 @@ def run_one(
     solve = stats.solve_s if stats else 0.0
     report = check_plan(problem, plan)
     objective = plan.objective
-    return Run(
-        **base,
+    return base(
         status=plan.status.value,
         timeout=plan.status in (SolveStatus.FEASIBLE, SolveStatus.UNKNOWN),
         build_s=build,

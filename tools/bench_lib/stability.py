@@ -27,9 +27,12 @@ from fsw_scheduler.solving.solve import solve
 if TYPE_CHECKING:
     from collections.abc import Sequence
 
+    from fsw_scheduler.model.problem import Problem
+    from fsw_scheduler.model.stability import Mode
+
     from .generator import BenchProblem
 
-MODES = ("off", "moves", "lexicographic")
+MODES: tuple[Mode, ...] = ("off", "moves", "lexicographic")
 
 #: The price of a move under ``moves`` (the setting's default).
 MOVE_COST = 5
@@ -48,7 +51,9 @@ class StableRun:
     ok: bool
 
 
-def replan_of(bench: BenchProblem, time_limit: float) -> tuple[object, dict]:
+def replan_of(
+    bench: BenchProblem, time_limit: float
+) -> tuple[Problem, dict[str, int]]:
     """The replan problem of ``bench`` and its previous starts."""
     problem = decode_problem(msgspec.json.encode(bench.doc))
     plan = solve(problem, time_limit=time_limit)
@@ -75,16 +80,16 @@ def run_stability(
     for bench in problems:
         problem, previous = replan_of(bench, time_limit)
         for mode in MODES:
-            stability = Stability(previous, mode, MOVE_COST)  # type: ignore[arg-type]
+            stability = Stability(previous, mode, MOVE_COST)
             began = time.perf_counter()
             plan = solve(
-                problem,  # type: ignore[arg-type]
+                problem,
                 time_limit=time_limit,
                 stability=stability,
             )
             seconds = time.perf_counter() - began
-            moved = stability.moves(problem, plan.starts())  # type: ignore[arg-type]
-            report = check_plan(problem, plan, stability)  # type: ignore[arg-type]
+            moved = stability.moves(problem, plan.starts())
+            report = check_plan(problem, plan, stability)
             runs.append(
                 StableRun(
                     bench.name,
