@@ -131,7 +131,7 @@ class Follower:
         if event is None:
             return
         if hasattr(event, "now"):
-            self.now = max(self.now, event.now)  # type: ignore[attr-defined]
+            self.now = max(self.now, event.now)
             self.last_tick = self.now
         self._note(self.engine.step(event, self.now))
 

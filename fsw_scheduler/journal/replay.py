@@ -344,7 +344,7 @@ def verify(
             continue
         report.inputs += 1
         if hasattr(event, "now"):
-            now = max(now, event.now)  # type: ignore[attr-defined]
+            now = max(now, event.now)
         run(engine.step(event, now))
     if produced:
         key, payload = produced[0]

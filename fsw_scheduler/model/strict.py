@@ -52,7 +52,7 @@ def type_info(kind: object) -> mi.Type:
     """The msgspec description of ``kind``, built once per type."""
     info = _INFOS.get(kind)
     if info is None:
-        info = _INFOS[kind] = mi.type_info(kind)  # type: ignore[arg-type]
+        info = _INFOS[kind] = mi.type_info(kind)
     return info
 
 
