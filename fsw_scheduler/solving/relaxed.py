@@ -324,18 +324,20 @@ def around(
     narrowed: dict[str, Domain],
     run: Callable[..., Plan],
     limit: float | None,
+    nodes: int = NODES,
 ) -> RelaxedAnswer:
     """:func:`relaxed_bound` from ``start`` over ``narrowed`` (the domains
-    every plan at least as good keeps), with :data:`NODES` nodes and at
-    most ``limit`` seconds, with ``run``'s threads and seed. Its bound is
-    dropped when above ``start`` (it then bounds nothing)."""
+    every plan at least as good keeps), with ``nodes`` nodes
+    (:data:`NODES`) and at most ``limit`` seconds, with ``run``'s threads
+    and seed. Its bound is dropped when above ``start`` (it then bounds
+    nothing)."""
     settings = run.keywords if isinstance(run, functools.partial) else {}
     answer = relaxed_bound(
         problem,
         start,
         narrowed,
         time_limit=limit,
-        max_nodes=NODES,
+        max_nodes=nodes,
         threads=settings.get("threads", 1),
         seed=settings.get("seed", 0),
     )
