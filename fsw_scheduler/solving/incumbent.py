@@ -26,7 +26,7 @@ from ..analysis.readmit import readmitted
 from ..model.plan import Plan, SolveStatus, objective_weight
 from .budget import stop_at
 from .relaxed import MIN_LEFT_S, around, relaxable
-from .rounds import SHARE, rounds
+from .rounds import LONG_COLUMNS, LONG_SHARE, SHARE, rounds
 
 if TYPE_CHECKING:
     import functools
@@ -195,7 +195,8 @@ def probed(
                 start,
                 narrowed,
                 run,
-                SHARE * left,
+                (LONG_SHARE if columns(narrowed) >= LONG_COLUMNS else SHARE)
+                * left,
                 lambda plan: narrow(problem, plan, domains, relaxed),
             )
         else:
