@@ -17,7 +17,9 @@ plan they are narrower, and its search closes sooner.
 :func:`rounds` runs it again while it stops on its node limit, each
 round with :data:`GROWTH` times the nodes of the one before, from the
 best plan found so far and over the domains narrowed around it
-(``renarrow``). Every round but one cut by the time limit ends on nodes,
+(``renarrow``); the rounds after the first with CBC's probing on
+(:data:`~fsw_scheduler.solving.relaxed.PROBING`). Every round but one cut
+by the time limit ends on nodes,
 so the answer is the same on every machine unless the limit stops it,
 as for any CBC run under a limit.
 """
@@ -103,6 +105,10 @@ def rounds(
             run,
             end - time.perf_counter(),
             nodes,
+            # The first round as one round ran before: cheap nodes, a
+            # better plan to narrow around; the next ones with CBC's
+            # probing, which closes the search in far fewer nodes.
+            probing=nodes > NODES,
         )
         if answer.bound is not None:
             bound = answer.bound if bound is None else max(bound, answer.bound)

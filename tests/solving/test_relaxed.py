@@ -188,7 +188,7 @@ def test_probing_proves_a_broad_part_within_one_round() -> None:
     (CP-SAT's optimum 3,522,040 in 0.5 s; 20 s of search had left the
     product 71 delay units above it) proves the optimum within one
     round's node limit from the start plan, with CBC's probing on
-    (without it 4,291 nodes)."""
+    (without it, 4,291 nodes)."""
     generator = bench_lib("generator")
     bench = next(b for b in generator.large_suite(71) if b.name == "b30-h1440")
     problem = bench.problem()
@@ -197,7 +197,9 @@ def test_probing_proves_a_broad_part_within_one_round() -> None:
     assert start is not None
     start = inserted(problem, start, domains)
     run = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
-    answer = around(problem, start, narrow(problem, start, domains), run, 60)
+    answer = around(
+        problem, start, narrow(problem, start, domains), run, 60, probing=True
+    )
     assert answer.plan is not None, answer.said
     assert answer.plan.objective is not None
     assert answer.plan.objective.total == 3_522_040
