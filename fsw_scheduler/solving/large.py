@@ -482,7 +482,16 @@ def _relaxation(
         return narrow(problem, plan, domains) if narrowed is None else narrowed
 
     if more:
-        return rounds(problem, start, renarrow(start), run, limit, renarrow)
+        deadline = time.perf_counter() + limit
+        return rounds(
+            problem,
+            start,
+            renarrow(start),
+            run,
+            limit,
+            renarrow,
+            lambda plan: _inserting(problem, plan, domains, deadline),
+        )
     return relaxed_around(problem, start, renarrow(start), run, limit)
 
 
