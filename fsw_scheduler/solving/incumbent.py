@@ -198,6 +198,7 @@ def probed(
                 (LONG_SHARE if columns(narrowed) >= LONG_COLUMNS else SHARE)
                 * left,
                 lambda plan: narrow(problem, plan, domains, relaxed),
+                small=lambda narrowed: columns(narrowed) < RELAXED_COLUMNS,
             )
         else:
             caught = around(problem, start, narrowed, run, SHORT_SHARE * left)

@@ -491,6 +491,7 @@ def _relaxation(
             limit,
             renarrow,
             lambda plan: _inserting(problem, plan, domains, deadline),
+            lambda narrowed: columns(narrowed) <= SMALL_COLUMNS,
         )
     return relaxed_around(problem, start, renarrow(start), run, limit)
 
