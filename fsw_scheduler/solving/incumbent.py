@@ -25,7 +25,8 @@ from ..analysis.domains import cost_caps, start_domains
 from ..analysis.readmit import readmitted
 from ..model.plan import Plan, SolveStatus, objective_weight
 from .budget import stop_at, stop_within
-from .relaxed import MIN_LEFT_S, SHARE, around, relaxable
+from .relaxed import MIN_LEFT_S, around, relaxable
+from .rounds import LONG_COLUMNS, LONG_SHARE, SHARE, rounds
 
 if TYPE_CHECKING:
     import functools
@@ -185,14 +186,22 @@ def probed(
     ):
         # A large time-indexed model with a consumable: its root LP can
         # take the whole limit, the relaxation's milliseconds.
-        share = SHARE if left is None or left >= MIN_LEFT_S else SHORT_SHARE
-        caught = around(
-            problem,
-            start,
-            narrowed,
-            run,
-            None if left is None else share * left,
-        )
+        if left is None:
+            # Without a limit the time-indexed model proves the part.
+            caught = around(problem, start, narrowed, run, None)
+        elif left >= MIN_LEFT_S:
+            caught = rounds(
+                problem,
+                start,
+                narrowed,
+                run,
+                (LONG_SHARE if columns(narrowed) >= LONG_COLUMNS else SHARE)
+                * left,
+                lambda plan: narrow(problem, plan, domains, relaxed),
+                small=lambda narrowed: columns(narrowed) < RELAXED_COLUMNS,
+            )
+        else:
+            caught = around(problem, start, narrowed, run, SHORT_SHARE * left)
         if caught.plan is not None:
             return caught.plan, start, narrowed
         if caught.better is not None:

@@ -27,9 +27,10 @@ from ..model.plan import SolverStats, SolveStatus
 from .budget import BOUND_SHARE, BUDGET, stop_at
 from .improve import MIN_ROUND_S, improve, meets
 from .incumbent import checked, columns, narrow, worth_a_probe
-from .relaxed import SHARE, RelaxedAnswer, relaxable
+from .relaxed import RelaxedAnswer, relaxable
 from .relaxed import around as relaxed_around
 from .repair import changed_tasks, holding, repair
+from .rounds import SHARE, rounds
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -320,6 +321,7 @@ def improved(
             relaxed,
             run,
             SHARE * (deadline - time.perf_counter()),
+            more=True,
         )
         if caught.plan is not None and caught.plan.objective is not None:
             return _answer(
@@ -490,14 +492,32 @@ def _relaxation(
     relaxed: KeptSetProof,
     run: Callable[..., Plan],
     limit: float,
+    *,
+    more: bool = False,
 ) -> RelaxedAnswer:
     """:func:`~fsw_scheduler.solving.relaxed.around` ``start``, over the
-    domains every plan at least as good keeps."""
+    domains every plan at least as good keeps; with ``more``, in
+    :func:`~fsw_scheduler.solving.rounds.rounds` of growing node limits
+    for all of ``limit``."""
     stop = stop_at(time.perf_counter() + NARROW_SHARE * limit)
-    narrowed = _narrowed(problem, start, domains, relaxed, stop)
-    if narrowed is None:
-        narrowed = narrow(problem, start, domains)
-    return relaxed_around(problem, start, narrowed, run, limit)
+
+    def renarrow(plan: Plan) -> dict[str, Domain]:
+        narrowed = _narrowed(problem, plan, domains, relaxed, stop)
+        return narrow(problem, plan, domains) if narrowed is None else narrowed
+
+    if more:
+        deadline = time.perf_counter() + limit
+        return rounds(
+            problem,
+            start,
+            renarrow(start),
+            run,
+            limit,
+            renarrow,
+            lambda plan: _inserting(problem, plan, domains, deadline),
+            lambda narrowed: columns(narrowed) <= SMALL_COLUMNS,
+        )
+    return relaxed_around(problem, start, renarrow(start), run, limit)
 
 
 def _narrowed(

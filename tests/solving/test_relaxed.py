@@ -2,16 +2,21 @@
 
 from __future__ import annotations
 
+import functools
+
 from hypothesis import assume, given, settings
 
 from fsw_scheduler.analysis.bounds import kept_set_bound
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
+from fsw_scheduler.analysis.insert import inserted
 from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.solving.ilp import solve_ilp
+from fsw_scheduler.solving.incumbent import narrow
 from fsw_scheduler.solving.relaxed import (
     RelaxedModel,
     applies,
+    around,
     relaxed_bound,
 )
 from fsw_scheduler.solving.solve import best_start, solve
@@ -176,3 +181,26 @@ def test_a_large_part_under_a_short_limit_is_proved_by_the_relaxation() -> (
     assert plan.stats is not None
     assert "relaxation's optimum is a valid plan" in plan.stats.solver_status
     assert check_plan(problem, plan).ok
+
+
+def test_probing_proves_a_broad_part_within_one_round() -> None:
+    """Tests that the relaxation of the large suite's b30-h1440 of seed 71
+    (CP-SAT's optimum 3,522,040 in 0.5 s; 20 s of search had left the
+    product 71 delay units above it) proves the optimum within one
+    round's node limit from the start plan, with CBC's probing on
+    (without it, 4,291 nodes)."""
+    generator = bench_lib("generator")
+    bench = next(b for b in generator.large_suite(71) if b.name == "b30-h1440")
+    problem = bench.problem()
+    domains = start_domains(problem)
+    start = best_start(problem, None, domains=domains)
+    assert start is not None
+    start = inserted(problem, start, domains)
+    run = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
+    answer = around(
+        problem, start, narrow(problem, start, domains), run, 60, probing=True
+    )
+    assert answer.plan is not None, answer.said
+    assert answer.plan.objective is not None
+    assert answer.plan.objective.total == 3_522_040
+    assert check_plan(problem, answer.plan).ok

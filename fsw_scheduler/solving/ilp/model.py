@@ -212,6 +212,8 @@ def run_cbc(
         and program.num_rows >= LARGE_ROWS
     ):
         extra = [*(extra or ()), *LARGE]
+    if isinstance(built, DisjunctiveModel) and built.cbc_options:
+        extra = [*(extra or ()), *built.cbc_options]
     if max_nodes is not None:
         extra = [*(extra or ()), f"maxNodes {max_nodes}"]
     if heuristics and extra:

@@ -34,6 +34,10 @@ class DisjunctiveModel(Formulation):
     vars: Variables
     constraints: Constraints
 
+    #: CBC options added after those of its formulation
+    #: (:func:`~fsw_scheduler.solving.ilp.model.run_cbc`).
+    cbc_options: tuple[str, ...] = ()
+
     def __init__(
         self,
         problem: Problem,
