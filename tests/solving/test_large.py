@@ -141,6 +141,33 @@ def test_a_replan_the_relaxation_proves_is_proved_within_its_share() -> None:
     assert wall < BUDGET.replan_limit(limit) + 0.5, plan.stats
 
 
+def test_a_replan_solved_afresh_runs_the_relaxation_from_its_share() -> None:
+    """Tests that a replan the repair cannot start (its plan in force, all
+    at the earliest starts, breaks the resources) still runs the
+    disjunctive relaxation within a replan's limit, under a fresh solve's
+    5 s minimum, and is proved by it (replan suite, seed 23's
+    r45-h1440-1 ended 627,089 above the fresh solve's optimum without)."""
+    replans = bench_lib("replans")
+    own = bench_lib("generator").problem_seed(20, "r45-h1440-1")
+    problem = problem_from(
+        bench_lib("fresh").generate_problem(45, replans.HORIZON, own)
+    )
+    domains = start_domains(problem)
+    broken = plan_of(
+        problem, {t.id: domains[t.id].earliest for t in problem.tasks}
+    )
+    assert not check_plan(problem, broken).ok
+    run = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
+    # 4 s: twice a replan's usual share, for the suite's other worker;
+    # still under the 5 s a fresh solve needs to try the relaxation.
+    plan = large.replanned(
+        problem, broken, domains, run, time.perf_counter(), 4.0
+    )
+    assert plan is not None and check_plan(problem, plan).ok
+    assert plan.status is SolveStatus.OPTIMAL, plan.stats
+    assert plan.stats is not None and plan.stats.solver == "cbc-relaxed"
+
+
 def _first_place_taken() -> tuple[Problem, Plan]:
     """A 30-task part on one camera, and a plan of it that leaves ``b``
     (worth 5, which can only run first) out, ``a00`` in its place."""
