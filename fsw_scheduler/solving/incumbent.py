@@ -140,7 +140,7 @@ def probed(
     relaxed: KeptSetProof | None,
     began: float,
     time_limit: float | None,
-) -> tuple[Plan | None, Plan | None, dict[str, Domain]]:
+) -> tuple[Plan | None, Plan | None, dict[str, Domain], float | None]:
     """A short search for a better incumbent, and the smaller model it
     allows, where one is worth it.
 
@@ -168,10 +168,13 @@ def probed(
     -------
     tuple
         The proved answer (None when the full run must follow), the
-        incumbent and the domains for the full run.
+        incumbent, the domains for the full run, and the disjunctive
+        relaxation's bound when it ran (None otherwise): it bounds every
+        plan at least as good as the incumbent, not the caps.
     """
+    bound = None
     if start is None or relaxed is None:
-        return None, start, narrowed
+        return None, start, narrowed, bound
     if worth_a_probe(problem, start, relaxed):
         start, relaxed, narrowed = _readmitting(
             problem, start, domains, relaxed, narrowed, began, time_limit
@@ -203,7 +206,8 @@ def probed(
         else:
             caught = around(problem, start, narrowed, run, SHORT_SHARE * left)
         if caught.plan is not None:
-            return caught.plan, start, narrowed
+            return caught.plan, start, narrowed, bound
+        bound = caught.bound
         if caught.better is not None:
             # The caps read the kept-set bound only: the relaxation's
             # bound counts delays the caps would count again.
@@ -216,7 +220,7 @@ def probed(
     elif columns(narrowed) >= ROOT_PROBE_COLUMNS:
         nodes, heuristics = 0, True
     else:
-        return None, start, narrowed
+        return None, start, narrowed, bound
     limit = None
     if time_limit is not None:
         limit = PROBE_SHARE * (time_limit - (time.perf_counter() - began))
@@ -232,7 +236,7 @@ def probed(
         ),
     )
     if probe.status in (SolveStatus.OPTIMAL, SolveStatus.INFEASIBLE):
-        return probe, start, narrowed
+        return probe, start, narrowed, bound
     # CBC says "Stopped on iterations" at its node limit; a time limit
     # ("on time", or our interrupt) makes the answer machine-dependent.
     said = probe.stats.solver_status if probe.stats is not None else ""
@@ -243,12 +247,12 @@ def probed(
         or start.objective is None
         or probe.objective.total >= start.objective.total
     ):
-        return None, start, narrowed
+        return None, start, narrowed, bound
     better = probe.replace(status=SolveStatus.FEASIBLE, why=())
     relaxed = kept_set_plan(
         problem, better, domains, stop=stop_within(began, time_limit)
     )
-    return None, better, narrow(problem, better, domains, relaxed)
+    return None, better, narrow(problem, better, domains, relaxed), bound
 
 
 #: Share of what is left of the limit that :func:`_readmitting` may take

@@ -29,6 +29,7 @@ from .budget import BUDGET, stop_at, stop_within
 from .incumbent import checked, narrow, probed
 from .repair import holding
 from .single import one_task
+from .stats import with_call_stats, with_gap
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -142,7 +143,7 @@ def solve(
         plan = _solve_whole(
             problem, run, began, limit, warm, domains, stability
         )
-    plan = _with_gap(plan)
+    plan = with_gap(plan)
     if explain and (
         plan.unscheduled or not plan.status.has_plan or plan.picks
     ):
@@ -162,17 +163,6 @@ def solve(
             why=explain_plan(problem, plan, BUDGET.budgeted(plain, budget))
         )
     return plan
-
-
-def _with_gap(plan: Plan) -> Plan:
-    """``plan`` with ``stats.gap``: its objective less its proven bound."""
-    stats = plan.stats
-    if stats is None or stats.bound is None or plan.objective is None:
-        return plan
-    gap = max(0.0, plan.objective.total - stats.bound)
-    if plan.status is SolveStatus.OPTIMAL:
-        gap = 0.0
-    return plan.replace(stats=msgspec.structs.replace(stats, gap=gap))
 
 
 def components(problem: Problem) -> list[list[str]]:
@@ -559,7 +549,7 @@ def _solve_whole(
             ),
             start,
         )
-        return _with_call_stats(plan, began, time_limit)
+        return with_call_stats(plan, began, time_limit)
     if start is not None:
         if at_lower_bound(problem, start, domains):
             proof = "every task at its earliest start: no solve"
@@ -608,7 +598,7 @@ def _solve_whole(
         plan = large.improved(problem, start, domains, run, began, time_limit)
     else:
         narrowed = narrow(problem, start, domains, relaxed)
-        answer, start, narrowed = probed(
+        answer, start, narrowed, caught = probed(
             problem, run, start, domains, narrowed, relaxed, began, time_limit
         )
         if answer is None:
@@ -635,47 +625,14 @@ def _solve_whole(
                     "plan must hold",
                 )
             )
-        plan = _with_call_stats(plan, began, time_limit, relaxed)
-    return plan
-
-
-def _with_call_stats(
-    plan: Plan,
-    began: float,
-    time_limit: float | None,
-    relaxed: KeptSetProof | None = None,
-) -> Plan:
-    """``plan`` reporting the limit the caller set and the whole call's
-    time, its bound dropped where it bounds nothing and raised to the
-    kept-set relaxation's where that is higher."""
-    if plan.stats is None:
-        return plan
-    bound = plan.stats.bound
-    if (
-        bound is not None
-        and plan.objective is not None
-        and bound > plan.objective.total + 0.5
-    ):
-        # A stopped CBC can report the value of an LP that is not the
-        # root's; above a valid plan, it bounds nothing.
-        bound = None
-    if (
-        relaxed is not None
-        and relaxed.bound is not None
-        and plan.objective is not None
-        and relaxed.bound <= plan.objective.total
-    ):
-        # The kept-set relaxation bounds every plan at least as good as
-        # the start plan, so the optimum too.
-        bound = large.higher(bound, relaxed.bound)
-    return plan.replace(
-        stats=msgspec.structs.replace(
-            plan.stats,
-            time_limit_s=time_limit,
-            wall_s=time.perf_counter() - began,
-            bound=bound,
+        plan = with_call_stats(
+            plan,
+            began,
+            time_limit,
+            None if relaxed is None else relaxed.bound,
+            caught,
         )
-    )
+    return plan
 
 
 def _saying_progress(

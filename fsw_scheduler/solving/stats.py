@@ -1,0 +1,74 @@
+"""What a solve's answer says of itself: its time, its limit, its bound
+and its gap."""
+
+from __future__ import annotations
+
+import time
+from typing import TYPE_CHECKING
+
+import msgspec
+
+from ..model.plan import SolveStatus
+
+if TYPE_CHECKING:
+    from ..model.plan import Plan
+
+
+def with_gap(plan: Plan) -> Plan:
+    """``plan`` with ``stats.gap``: its objective less its proven bound."""
+    stats = plan.stats
+    if stats is None or stats.bound is None or plan.objective is None:
+        return plan
+    gap = max(0.0, plan.objective.total - stats.bound)
+    if plan.status is SolveStatus.OPTIMAL:
+        gap = 0.0
+    return plan.replace(stats=msgspec.structs.replace(stats, gap=gap))
+
+
+def with_call_stats(
+    plan: Plan,
+    began: float,
+    time_limit: float | None,
+    *bounds: float | None,
+) -> Plan:
+    """``plan`` reporting the limit the caller set and the whole call's
+    time, its bound dropped where it bounds nothing and raised to the
+    highest of ``bounds`` that is not above it.
+
+    Parameters
+    ----------
+    plan
+        The part's answer.
+    began
+        When the call began (:func:`time.perf_counter`).
+    time_limit
+        The limit the caller set (None: none).
+    bounds
+        Lower bounds on every plan at least as good as the start plan,
+        so on the optimum: the kept-set relaxation's, the disjunctive
+        relaxation's (None where one was not found).
+    """
+    if plan.stats is None:
+        return plan
+    bound = plan.stats.bound
+    if (
+        bound is not None
+        and plan.objective is not None
+        and bound > plan.objective.total + 0.5
+    ):
+        # A stopped CBC can report the value of an LP that is not the
+        # root's; above a valid plan, it bounds nothing.
+        bound = None
+    if plan.objective is not None:
+        total = plan.objective.total
+        for other in bounds:
+            if other is not None and other <= total:
+                bound = other if bound is None else max(bound, other)
+    return plan.replace(
+        stats=msgspec.structs.replace(
+            plan.stats,
+            time_limit_s=time_limit,
+            wall_s=time.perf_counter() - began,
+            bound=bound,
+        )
+    )
