@@ -35,7 +35,7 @@ from .progress import WITH_START, WITH_START_DISJUNCTIVE, WatchedCbcRun
 from .variables import Variables
 
 if TYPE_CHECKING:
-    from collections.abc import Iterator, Sequence
+    from collections.abc import Iterator, Mapping, Sequence
 
     import pulp
 
@@ -64,6 +64,25 @@ BUILD_S_PER_COLUMN = 2.5e-5
 #: 0.35 s. Paper consumable problems of seeds 0-9 (210): 29.0 -> 10.6 s in
 #: all, median 0.0094 -> 0.0102 s.
 CONSUMABLES_ONLY = ["cuts off"]
+
+#: CBC options added to :data:`~.progress.WITH_START` for a time-indexed
+#: part with a consumable in use beside a binary or multiple resource
+#: (the campaign's ``all`` class) whose MIP start leaves no placeable
+#: task out, so that only delay is left to optimise. There the root LP
+#: is close (seed 1's c15-all-4: -318,943, cuts -318,935 in 10 passes,
+#: optimum -318,876) and the dense Gomory and two-MIR rows (200+
+#: entries each) slow every node's LP and strong branching: CBC's CPU
+#: time summed over the 22 problems of seeds 1-6, 9-10 whose plans leave
+#: nothing out (both generators, 15 tasks, the all class), each solved
+#: with and without, went 22.4 -> 17.2 s (c15-all-0 of seed 2 4.3 ->
+#: 1.4 s). Where the start leaves
+#: tasks out the cuts close the choice of what to keep (seed 2's
+#: b15-all-0: root LP 162,422, after cuts 209,446, the optimum), and
+#: off they cost more: 57.6 -> 71.0 s on the other 79. Parts without a
+#: consumable keep the cuts too (off: seed 3's c15-multiple-6 2.5 ->
+#: 3.7 s). Large models (:data:`LARGE_ROWS`) keep their one round of
+#: root cuts: the models measured have 2,000-5,000 rows.
+CONSUMABLES_AND_SHARED = ["cuts off"]
 
 #: Rows from which a time-indexed model counts as large (:data:`LARGE`).
 LARGE_ROWS = 12_000
@@ -184,28 +203,47 @@ class _Outcome:
     solver_status: str
 
 
-def run_cbc(
+def cbc_options(
     built: BuiltModel | DisjunctiveModel,
-    time_limit: float | None,
-    threads: int,
-    seed: int,
-    warm: dict[str, int] | None,
+    warm: Mapping[str, int] | None,
     max_nodes: int | None = None,
     heuristics: bool = False,
-) -> _Outcome:
-    """Run CBC on ``built`` from the MIP start ``warm``, with the
-    options its formulation and size call for, and read its answer."""
-    start = None
+) -> list[str] | None:
+    """The CBC options added for ``built`` (None: CBC's defaults).
+
+    Parameters
+    ----------
+    built
+        The model; its formulation, the resource kinds its placeable
+        tasks use and its size choose the options.
+    warm
+        The MIP start, task id to start (the options for a start, such
+        as heuristics off, apply only with one; whether it leaves a
+        placeable task out chooses some).
+    max_nodes
+        A node limit, if any.
+    heuristics
+        Keep CBC's primal heuristics on even with a MIP start.
+    """
     extra = None
     if warm:
         if isinstance(built, DisjunctiveModel):
             extra = list(WITH_START_DISJUNCTIVE)
         else:
             extra = list(WITH_START)
-            if used_kinds(built.problem, built.domains) == {"consumable"}:
+            kinds = used_kinds(built.problem, built.domains)
+            if kinds == {"consumable"}:
                 extra += CONSUMABLES_ONLY
-        warm = in_symmetry_order(built.constraints.twins, warm)
-        start = built.vars.initial(warm, built.program.num_columns)
+            elif (
+                "consumable" in kinds
+                and built.program.num_rows < LARGE_ROWS
+                and all(
+                    task.id in warm
+                    for task in built.problem.tasks
+                    if built.vars.placeable(task.id)
+                )
+            ):
+                extra += CONSUMABLES_AND_SHARED
     program = built.program
     if (
         not isinstance(built, DisjunctiveModel)
@@ -216,6 +254,27 @@ def run_cbc(
         extra = [*(extra or ()), f"maxNodes {max_nodes}"]
     if heuristics and extra:
         extra = [option for option in extra if option not in WITH_START]
+    return extra
+
+
+def run_cbc(
+    built: BuiltModel | DisjunctiveModel,
+    time_limit: float | None,
+    threads: int,
+    seed: int,
+    warm: dict[str, int] | None,
+    max_nodes: int | None = None,
+    heuristics: bool = False,
+) -> _Outcome:
+    """Run CBC on ``built`` from the MIP start ``warm``, with the
+    options its formulation and size call for (:func:`cbc_options`),
+    and read its answer."""
+    start = None
+    extra = cbc_options(built, warm, max_nodes, heuristics)
+    if warm:
+        warm = in_symmetry_order(built.constraints.twins, warm)
+        start = built.vars.initial(warm, built.program.num_columns)
+    program = built.program
     run = WatchedCbcRun(
         constant=program.constant,
         incumbent=None
