@@ -561,3 +561,40 @@ def test_consumable_beside_a_shared_resource_runs_cbc_without_cuts(
     assert plan.objective is not None
     assert plan.objective.total == best[0].total
     assert check_plan(problem, plan).ok
+
+
+def test_time_indexed_multiple_resource_models_strong_branch_on_two() -> None:
+    """Tests that a time-indexed model of a multiple resource without a
+    consumable asks CBC for two strong-branching candidates, and a
+    disjunctive one of the same part does not."""
+    from fsw_scheduler.solving.ilp.disjunctive.model import DisjunctiveModel
+    from fsw_scheduler.solving.ilp.model import (
+        MULTIPLE_TIME_INDEXED,
+        BuiltModel,
+        cbc_options,
+    )
+
+    assert MULTIPLE_TIME_INDEXED == ["strong 2"]
+    doc = {
+        "horizon": 8,
+        "resources": {"multiple": {"power": 10}},
+        "tasks": [
+            make_task(f"t{idx}", length=2, uses={"power": amount})
+            for idx, amount in enumerate((6, 5, 4))
+        ],
+    }
+    problem = problem_from(doc)
+    everything = {task.id: 0 for task in problem.tasks}
+    indexed = cbc_options(BuiltModel(problem), everything) or []
+    assert "strong 2" in indexed
+    assert "cuts off" not in indexed
+    disjunctive = DisjunctiveModel(problem, start_domains(problem))
+    assert "strong 2" not in (cbc_options(disjunctive, everything) or [])
+    start = best_start(problem, None)
+    assert start is not None
+    plan = solve_ilp(problem, formulation="time-indexed", warm=start.starts())
+    best = brute_force(problem)
+    assert best is not None
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.objective is not None
+    assert plan.objective.total == best[0].total
