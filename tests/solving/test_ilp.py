@@ -530,6 +530,7 @@ def test_consumable_beside_a_shared_resource_runs_cbc_without_cuts(
     that CBC still proves the exhaustive search's optimum."""
     from fsw_scheduler.solving.ilp.model import (
         CONSUMABLES_AND_SHARED,
+        TUNED_MAX_TASKS,
         BuiltModel,
         cbc_options,
     )
@@ -547,6 +548,15 @@ def test_consumable_beside_a_shared_resource_runs_cbc_without_cuts(
     assert "cuts off" in (cbc_options(built, everything) or [])
     # Without a MIP start CBC keeps its defaults.
     assert cbc_options(built, None) is None
+    # Larger parts than those measured keep CBC's cuts.
+    doc = _camera_and_battery(initial)
+    doc["tasks"] += [
+        make_task(f"free{idx}", length=1) for idx in range(TUNED_MAX_TASKS)
+    ]
+    larger = problem_from(doc)
+    assert "cuts off" not in (
+        cbc_options(BuiltModel(larger), {t.id: 0 for t in larger.tasks}) or []
+    )
     # Without a consumable the camera keeps CBC's cuts.
     doc = _camera_and_battery(initial, generator=False)
     doc["resources"].pop("consumable")
