@@ -573,12 +573,13 @@ def test_consumable_beside_a_shared_resource_runs_cbc_without_cuts(
     assert check_plan(problem, plan).ok
 
 
-def test_time_indexed_multiple_resource_models_strong_branch_on_two() -> None:
+def test_multiple_resource_models_strong_branch_by_formulation() -> None:
     """Tests that a time-indexed model of a multiple resource without a
     consumable asks CBC for two strong-branching candidates, and a
-    disjunctive one of the same part does not."""
+    disjunctive one of the same part for ten."""
     from fsw_scheduler.solving.ilp.disjunctive.model import DisjunctiveModel
     from fsw_scheduler.solving.ilp.model import (
+        DISJUNCTIVE_STRONG,
         MULTIPLE_TIME_INDEXED,
         BuiltModel,
         cbc_options,
@@ -599,7 +600,11 @@ def test_time_indexed_multiple_resource_models_strong_branch_on_two() -> None:
     assert "strong 2" in indexed
     assert "cuts off" not in indexed
     disjunctive = DisjunctiveModel(problem, start_domains(problem))
-    assert "strong 2" not in (cbc_options(disjunctive, everything) or [])
+    options = cbc_options(disjunctive, everything) or []
+    assert "strong 2" not in options
+    # The disjunctive model branches on more candidates instead.
+    assert DISJUNCTIVE_STRONG == ["strong 10"]
+    assert "strong 10" in options
     start = best_start(problem, None)
     assert start is not None
     plan = solve_ilp(problem, formulation="time-indexed", warm=start.starts())

@@ -99,6 +99,10 @@ CONSUMABLES_AND_SHARED = ["cuts off"]
 #: no problem slower beyond a rerun's spread.
 MULTIPLE_TIME_INDEXED = ["strong 2"]
 
+#: CBC options added to :data:`~.progress.WITH_START_DISJUNCTIVE`
+#: (measured in docs/benchmarks.md).
+DISJUNCTIVE_STRONG = ["strong 10"]
+
 #: Parts of at most this many tasks get :data:`CONSUMABLES_AND_SHARED`
 #: and :data:`MULTIPLE_TIME_INDEXED`: they were measured on 15-task
 #: parts. The whole model of a 30-task part (seed 31's b30-h1440 of the
@@ -251,6 +255,10 @@ def cbc_options(
     if warm:
         if isinstance(built, DisjunctiveModel):
             extra = list(WITH_START_DISJUNCTIVE)
+            if built.problem.num_tasks <= TUNED_MAX_TASKS and (
+                "multiple" in used_kinds(built.problem, built.domains)
+            ):
+                extra += DISJUNCTIVE_STRONG
         else:
             extra = list(WITH_START)
             kinds = used_kinds(built.problem, built.domains)
