@@ -99,8 +99,19 @@ CONSUMABLES_AND_SHARED = ["cuts off"]
 #: no problem slower beyond a rerun's spread.
 MULTIPLE_TIME_INDEXED = ["strong 2"]
 
-#: CBC options added to :data:`~.progress.WITH_START_DISJUNCTIVE`
-#: (measured in docs/benchmarks.md).
+#: CBC options added to :data:`~.progress.WITH_START_DISJUNCTIVE` for
+#: a part with a multiple resource in use (of up to
+#: :data:`TUNED_MAX_TASKS` tasks): strong branching on 10 candidates
+#: instead of 5. Without cuts the disjunctive model's bound rises only
+#: by branching on the order binaries, and a better choice of branch
+#: closes it in fewer nodes: CBC alone on seed 4's b15-multiple-2 11.1 ->
+#: 4.5 s (with 2 candidates 12.0 s), seed 6's b15-multiple-6 7.6 ->
+#: 3.8 s. The product on the 112 multiple problems of seeds 1-6 and
+#: 9-10 (both generators, 15 tasks), side by side: CBC time 80.3 ->
+#: 78.8 s, unproved in 20 s 5 -> 3 (those two); on seeds 13-14 (not
+#: tuned on), 28 problems: 16.5 -> 15.3 s, none slower by more than
+#: 0.02 s (c15-multiple-5 of seed 14 1.76 -> 1.09 s). Binary-only parts
+#: keep CBC's default (their class met its target; not measured).
 DISJUNCTIVE_STRONG = ["strong 10"]
 
 #: Parts of at most this many tasks get :data:`CONSUMABLES_AND_SHARED`
