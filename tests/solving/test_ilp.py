@@ -495,3 +495,123 @@ def test_a_long_start_plan_says_it_is_still_working(
     lines = [r.getMessage() for r in caplog.records]
     assert any("still list scheduling" in m for m in lines), lines[:5]
     assert best is not None
+
+
+def _camera_and_battery(initial: int, generator: bool = True) -> dict:
+    """Three consumers of a battery and a generator sharing a camera;
+    the battery holds ``initial`` (``generator=False``: the last task
+    uses the camera alone)."""
+    uses = [{"camera": 1, "battery": 3}] * 3
+    uses.append({"camera": 1, "battery": -3} if generator else {"camera": 1})
+    return {
+        "horizon": 12,
+        "resources": {
+            "binary": ["camera"],
+            "consumable": {"battery": initial},
+        },
+        "tasks": [
+            make_task(
+                f"t{idx}",
+                length=2,
+                delay_cost=idx + 1,
+                schedule_cost=4 - idx,
+                uses=use,
+            )
+            for idx, use in enumerate(uses)
+        ],
+    }
+
+
+@pytest.mark.parametrize("initial", [13, 7])
+def test_consumable_beside_a_shared_resource_runs_cbc_without_cuts(
+    initial: int,
+) -> None:
+    """Tests that a time-indexed model with a consumable beside a binary
+    resource asks CBC for no cuts when its start plan leaves nothing out
+    (keeps them when it leaves a task out, or without a consumable), and
+    that CBC still proves the exhaustive search's optimum."""
+    from fsw_scheduler.solving.ilp.model import (
+        CONSUMABLES_AND_SHARED,
+        TUNED_MAX_TASKS,
+        BuiltModel,
+        cbc_options,
+    )
+
+    assert "cuts off" in CONSUMABLES_AND_SHARED
+    problem = problem_from(_camera_and_battery(initial))
+    built = BuiltModel(problem)
+    start = best_start(problem, None)
+    assert start is not None
+    options = cbc_options(built, start.starts()) or []
+    # 13 and the generator's 6 cover all three consumers; 7 only one.
+    assert ("cuts off" in options) is (not start.unscheduled)
+    assert bool(start.unscheduled) is (initial == 7)
+    everything = {task.id: 0 for task in problem.tasks}
+    assert "cuts off" in (cbc_options(built, everything) or [])
+    # Without a MIP start CBC keeps its defaults.
+    assert cbc_options(built, None) is None
+    # Larger parts than those measured keep CBC's cuts.
+    doc = _camera_and_battery(initial)
+    doc["tasks"] += [
+        make_task(f"free{idx}", length=1) for idx in range(TUNED_MAX_TASKS)
+    ]
+    larger = problem_from(doc)
+    assert "cuts off" not in (
+        cbc_options(BuiltModel(larger), {t.id: 0 for t in larger.tasks}) or []
+    )
+    # Without a consumable the camera keeps CBC's cuts.
+    doc = _camera_and_battery(initial, generator=False)
+    doc["resources"].pop("consumable")
+    for task in doc["tasks"]:
+        task["uses"].pop("battery", None)
+    camera_only = BuiltModel(problem_from(doc))
+    assert "cuts off" not in (cbc_options(camera_only, everything) or [])
+    plan = solve_ilp(problem, warm=start.starts(), formulation="time-indexed")
+    best = brute_force(problem)
+    assert best is not None
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.objective is not None
+    assert plan.objective.total == best[0].total
+    assert check_plan(problem, plan).ok
+
+
+def test_multiple_resource_models_strong_branch_by_formulation() -> None:
+    """Tests that a time-indexed model of a multiple resource without a
+    consumable asks CBC for two strong-branching candidates, and a
+    disjunctive one of the same part for ten."""
+    from fsw_scheduler.solving.ilp.disjunctive.model import DisjunctiveModel
+    from fsw_scheduler.solving.ilp.model import (
+        DISJUNCTIVE_STRONG,
+        MULTIPLE_TIME_INDEXED,
+        BuiltModel,
+        cbc_options,
+    )
+
+    assert MULTIPLE_TIME_INDEXED == ["strong 2"]
+    doc = {
+        "horizon": 8,
+        "resources": {"multiple": {"power": 10}},
+        "tasks": [
+            make_task(f"t{idx}", length=2, uses={"power": amount})
+            for idx, amount in enumerate((6, 5, 4))
+        ],
+    }
+    problem = problem_from(doc)
+    everything = {task.id: 0 for task in problem.tasks}
+    indexed = cbc_options(BuiltModel(problem), everything) or []
+    assert "strong 2" in indexed
+    assert "cuts off" not in indexed
+    disjunctive = DisjunctiveModel(problem, start_domains(problem))
+    options = cbc_options(disjunctive, everything) or []
+    assert "strong 2" not in options
+    # The disjunctive model branches on more candidates instead.
+    assert DISJUNCTIVE_STRONG == ["strong 10"]
+    assert "strong 10" in options
+    start = best_start(problem, None)
+    assert start is not None
+    plan = solve_ilp(problem, formulation="time-indexed", warm=start.starts())
+    best = brute_force(problem)
+    assert best is not None
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.objective is not None
+    assert plan.objective.total == best[0].total

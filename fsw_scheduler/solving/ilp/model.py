@@ -35,7 +35,7 @@ from .progress import WITH_START, WITH_START_DISJUNCTIVE, WatchedCbcRun
 from .variables import Variables
 
 if TYPE_CHECKING:
-    from collections.abc import Iterator, Sequence
+    from collections.abc import Iterator, Mapping, Sequence
 
     import pulp
 
@@ -64,6 +64,62 @@ BUILD_S_PER_COLUMN = 2.5e-5
 #: 0.35 s. Paper consumable problems of seeds 0-9 (210): 29.0 -> 10.6 s in
 #: all, median 0.0094 -> 0.0102 s.
 CONSUMABLES_ONLY = ["cuts off"]
+
+#: CBC options added to :data:`~.progress.WITH_START` for a time-indexed
+#: part with a consumable in use beside a binary or multiple resource
+#: (the campaign's ``all`` class) whose MIP start leaves no placeable
+#: task out, so that only delay is left to optimise. There the root LP
+#: is close (seed 1's c15-all-4: -318,943, cuts -318,935 in 10 passes,
+#: optimum -318,876) and the dense Gomory and two-MIR rows (200+
+#: entries each) slow every node's LP and strong branching: CBC's CPU
+#: time summed over the 22 problems of seeds 1-6, 9-10 whose plans leave
+#: nothing out (both generators, 15 tasks, the all class), each solved
+#: with and without, went 22.4 -> 17.2 s (c15-all-0 of seed 2 4.3 ->
+#: 1.4 s). Where the start leaves
+#: tasks out the cuts close the choice of what to keep (seed 2's
+#: b15-all-0: root LP 162,422, after cuts 209,446, the optimum), and
+#: off they cost more: 57.6 -> 71.0 s on the other 79. Parts without a
+#: consumable keep the cuts too (off: seed 3's c15-multiple-6 2.5 ->
+#: 3.7 s). Only parts of up to :data:`TUNED_MAX_TASKS` tasks and
+#: under :data:`LARGE_ROWS` rows: the models measured have 2,000-5,000
+#: rows and at most 15 tasks.
+CONSUMABLES_AND_SHARED = ["cuts off"]
+
+#: CBC options added to :data:`~.progress.WITH_START` for a time-indexed
+#: part with a multiple resource in use and no consumable: strong
+#: branching on 2 candidates instead of CBC's 5. In these models most of
+#: CBC's time is strong branching (seed 5's b15-multiple-3: 1,226 strong
+#: branches, 38,549 of 59,336 LP iterations), and its 5 candidates bring
+#: few more fathoms than 2. CBC's CPU time on the 15 time-indexed models
+#: of the slowest 15-task multiple problems of seeds 1-6 and 9 (CBC
+#: alone on the same model files): 48.2 -> 42.1 s (``trust 1``: 42.3 s,
+#: not kept beside it); the product on the 27 slowest multiple problems
+#: of seeds 1-6, 9-10 side by side: 79.9 -> 75.2 s, 5 -> 4 unproved;
+#: on seeds 13-14 (not tuned on), all 28: 15.9 -> 15.1 s. A small gain,
+#: no problem slower beyond a rerun's spread.
+MULTIPLE_TIME_INDEXED = ["strong 2"]
+
+#: CBC options added to :data:`~.progress.WITH_START_DISJUNCTIVE` for
+#: a part with a multiple resource in use (of up to
+#: :data:`TUNED_MAX_TASKS` tasks): strong branching on 10 candidates
+#: instead of 5. Without cuts the disjunctive model's bound rises only
+#: by branching on the order binaries, and a better choice of branch
+#: closes it in fewer nodes: CBC alone on seed 4's b15-multiple-2 11.1 ->
+#: 4.5 s (with 2 candidates 12.0 s), seed 6's b15-multiple-6 7.6 ->
+#: 3.8 s. The product on the 112 multiple problems of seeds 1-6 and
+#: 9-10 (both generators, 15 tasks), side by side: CBC time 80.3 ->
+#: 78.8 s, unproved in 20 s 5 -> 3 (those two); on seeds 13-14 (not
+#: tuned on), 28 problems: 16.5 -> 15.3 s, none slower by more than
+#: 0.02 s (c15-multiple-5 of seed 14 1.76 -> 1.09 s). Binary-only parts
+#: keep CBC's default (their class met its target; not measured).
+DISJUNCTIVE_STRONG = ["strong 10"]
+
+#: Parts of at most this many tasks get :data:`CONSUMABLES_AND_SHARED`
+#: and :data:`MULTIPLE_TIME_INDEXED`: they were measured on 15-task
+#: parts. The whole model of a 30-task part (seed 31's b30-h1440 of the
+#: large suite, narrowed around its start: 4,344 rows, nothing left out)
+#: took 3.8 s of CBC time with cuts off against 1.8 s with them.
+TUNED_MAX_TASKS = 15
 
 #: Rows from which a time-indexed model counts as large (:data:`LARGE`).
 LARGE_ROWS = 12_000
@@ -184,28 +240,57 @@ class _Outcome:
     solver_status: str
 
 
-def run_cbc(
+def cbc_options(
     built: BuiltModel | DisjunctiveModel,
-    time_limit: float | None,
-    threads: int,
-    seed: int,
-    warm: dict[str, int] | None,
+    warm: Mapping[str, int] | None,
     max_nodes: int | None = None,
     heuristics: bool = False,
-) -> _Outcome:
-    """Run CBC on ``built`` from the MIP start ``warm``, with the
-    options its formulation and size call for, and read its answer."""
-    start = None
+) -> list[str] | None:
+    """The CBC options added for ``built`` (None: CBC's defaults).
+
+    Parameters
+    ----------
+    built
+        The model; its formulation, the resource kinds its placeable
+        tasks use and its size choose the options.
+    warm
+        The MIP start, task id to start (the options for a start, such
+        as heuristics off, apply only with one; whether it leaves a
+        placeable task out chooses some).
+    max_nodes
+        A node limit, if any.
+    heuristics
+        Keep CBC's primal heuristics on even with a MIP start.
+    """
     extra = None
     if warm:
         if isinstance(built, DisjunctiveModel):
             extra = list(WITH_START_DISJUNCTIVE)
+            if built.problem.num_tasks <= TUNED_MAX_TASKS and (
+                "multiple" in used_kinds(built.problem, built.domains)
+            ):
+                extra += DISJUNCTIVE_STRONG
         else:
             extra = list(WITH_START)
-            if used_kinds(built.problem, built.domains) == {"consumable"}:
+            kinds = used_kinds(built.problem, built.domains)
+            tuned = (
+                built.problem.num_tasks <= TUNED_MAX_TASKS
+                and built.program.num_rows < LARGE_ROWS
+            )
+            if kinds == {"consumable"}:
                 extra += CONSUMABLES_ONLY
-        warm = in_symmetry_order(built.constraints.twins, warm)
-        start = built.vars.initial(warm, built.program.num_columns)
+            elif (
+                "consumable" in kinds
+                and tuned
+                and all(
+                    task.id in warm
+                    for task in built.problem.tasks
+                    if built.vars.placeable(task.id)
+                )
+            ):
+                extra += CONSUMABLES_AND_SHARED
+            elif "multiple" in kinds and "consumable" not in kinds and tuned:
+                extra += MULTIPLE_TIME_INDEXED
     program = built.program
     if (
         not isinstance(built, DisjunctiveModel)
@@ -218,6 +303,27 @@ def run_cbc(
         extra = [*(extra or ()), f"maxNodes {max_nodes}"]
     if heuristics and extra:
         extra = [option for option in extra if option not in WITH_START]
+    return extra
+
+
+def run_cbc(
+    built: BuiltModel | DisjunctiveModel,
+    time_limit: float | None,
+    threads: int,
+    seed: int,
+    warm: dict[str, int] | None,
+    max_nodes: int | None = None,
+    heuristics: bool = False,
+) -> _Outcome:
+    """Run CBC on ``built`` from the MIP start ``warm``, with the
+    options its formulation and size call for (:func:`cbc_options`),
+    and read its answer."""
+    start = None
+    extra = cbc_options(built, warm, max_nodes, heuristics)
+    if warm:
+        warm = in_symmetry_order(built.constraints.twins, warm)
+        start = built.vars.initial(warm, built.program.num_columns)
+    program = built.program
     run = WatchedCbcRun(
         constant=program.constant,
         incumbent=None
