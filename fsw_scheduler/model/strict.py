@@ -230,10 +230,12 @@ def _check_number(
     low, high = info.ge, info.le
     if low is not None and high is not None:
         if not low <= value <= high:
+            # A number of hundreds of digits is shown cut, not whole.
+            shown = _shown(value)
             reason = (
-                f"must be in {low}..{high}, got {value}"
+                f"must be in {low}..{high}, got {shown}"
                 if high - low < _WIDE
-                else f"{value} is outside [{low}, {high}]"
+                else f"{shown} is outside [{low}, {high}]"
             )
             out.append(FieldIssue(path, reason))
         return

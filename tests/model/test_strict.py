@@ -221,6 +221,21 @@ def test_a_number_beyond_a_float_is_placed_too() -> None:
     assert "line 1, column 39" in info.value.issues[0].reason
 
 
+def test_a_huge_number_is_shown_cut_in_its_reason() -> None:
+    """Tests that an integer of 400 digits out of its range is named with
+    its path and shown cut to a readable length, not echoed whole."""
+    huge = "1" + "0" * 400
+    with pytest.raises(InputError) as info:
+        decode_problem(
+            '{"horizon": ' + huge + ', "tasks": [{"id": "a", "length": 1,'
+            ' "delay_cost": 1, "schedule_cost": 1}]}'
+        )
+    (issue,) = info.value.issues
+    assert issue.path == "horizon"
+    assert issue.reason.endswith("... is outside [1, 2147483647]")
+    assert len(issue.reason) < 80
+
+
 def test_goals_and_bus_inputs_are_strict_too() -> None:
     """Tests that a goal, a report and a level with an unknown field are
     rejected, named, and that the goal schema rejects the goal."""
