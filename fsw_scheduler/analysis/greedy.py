@@ -28,6 +28,8 @@ from collections import defaultdict
 from collections.abc import Callable, Set
 from typing import TYPE_CHECKING, Any
 
+import msgspec
+
 from ..model import groups
 from ..model.plan import (
     Activity,
@@ -85,6 +87,7 @@ def greedy_plan(
     *,
     stop: Callable[[], bool] | None = None,
     domains: dict[str, Domain] | None = None,
+    apart: bool = True,
 ) -> Plan | None:
     """The best valid plan list scheduling finds, or None.
 
@@ -107,6 +110,9 @@ def greedy_plan(
         completed.
     domains
         The problem's :func:`start_domains`, if already known.
+    apart
+        When no rule places every task that must be held: plan those
+        alone, then the others around them (:func:`_forced_apart`).
 
     Returns
     -------
@@ -161,7 +167,59 @@ def greedy_plan(
     # The checker runs on the best candidate only, then the next ones if
     # it refuses (it never has: it is the heuristic's safety net).
     candidates.sort(key=lambda p: p.objective.total if p.objective else 0)
-    return next((p for p in candidates if check_plan(problem, p).ok), None)
+    found = next((p for p in candidates if check_plan(problem, p).ok), None)
+    if found is not None or not apart or (stop is not None and stop()):
+        return found
+    return _forced_apart(problem, forced, stop)
+
+
+def _forced_apart(
+    problem: Problem, forced: Set[str], stop: Callable[[], bool] | None
+) -> Plan | None:
+    """The tasks every plan must hold planned alone, then the others
+    around them where they stay; None if that fails too.
+
+    The fallback of :func:`greedy_plan` when no rule placed the forced
+    tasks among the others: in a replan, tasks running at its time are
+    pinned there and one of them may need a generator beside it, which
+    every rule booked after other tasks had taken its place (replan
+    suite, seed 24's r60-h1440-0: no plan from the heuristic, none from
+    CBC in 10 s; this way 17,788,561 in 0.3 s, CP-SAT's 17,784,616).
+    """
+    alone = problem.replace(
+        tasks=tuple(t for t in problem.tasks if t.id in forced),
+        precedences=tuple(
+            p
+            for p in problem.precedences
+            if p.before in forced and p.after in forced
+        ),
+    )
+    if len(forced) == problem.num_tasks:
+        return None  # nothing else to plan apart from them
+    core = _rules_only(alone, stop)
+    if core is None:
+        return None
+    pins = core.starts()
+    pinned = problem.replace(
+        tasks=tuple(
+            msgspec.structs.replace(t, fixed_start=pins[t.id])
+            if t.id in pins
+            else t
+            for t in problem.tasks
+        )
+    )
+    around = _rules_only(pinned, stop)
+    if around is None:
+        return None
+    plan = _as_plan(problem, around.starts())
+    return plan if check_plan(problem, plan).ok else None
+
+
+def _rules_only(
+    problem: Problem, stop: Callable[[], bool] | None
+) -> Plan | None:
+    """:func:`greedy_plan` without its fallback (no second level)."""
+    return greedy_plan(problem, stop=stop, apart=False)
 
 
 def plan_in_order(

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import pytest
@@ -340,3 +342,21 @@ def test_start_plans_of_fresh_problems_pass_the_checker() -> None:
             assert report.ok, (seed, report)
             assert plan.objective == report.objective
     assert found >= 12
+
+
+#: Ten tasks of the fresh shape, two of them pinned and mandatory (found
+#: by a search for problems the rules alone leave without a plan).
+PINNED_APART = Path(__file__).with_name("pinned_apart.json")
+
+
+def test_the_forced_tasks_are_planned_apart_when_no_rule_holds_them() -> None:
+    """Tests the heuristic's fallback: on a problem where no rule places
+    the tasks every plan must hold among the others, planning those alone
+    first and the others around them gives a plan the checker accepts."""
+    problem = problem_from(json.loads(PINNED_APART.read_text()))
+    assert greedy_plan(problem, apart=False) is None
+    plan = greedy_plan(problem)
+    assert plan is not None and plan.objective is not None
+    assert check_plan(problem, plan).ok
+    starts = plan.starts()
+    assert starts["T001"] == 9 and starts["T004"] == 2  # the pins
