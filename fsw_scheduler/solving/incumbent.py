@@ -27,6 +27,7 @@ from ..model.plan import Plan, SolveStatus, objective_weight
 from .budget import stop_at, stop_within
 from .relaxed import MIN_LEFT_S, around, relaxable
 from .rounds import LONG_COLUMNS, LONG_SHARE, SHARE, rounds
+from .stats import stopped_on_nodes
 
 if TYPE_CHECKING:
     import functools
@@ -237,12 +238,11 @@ def probed(
     )
     if probe.status in (SolveStatus.OPTIMAL, SolveStatus.INFEASIBLE):
         return probe, start, narrowed, bound
-    # CBC says "Stopped on iterations" at its node limit; a time limit
-    # ("on time", or our interrupt) makes the answer machine-dependent.
+    # A time limit ("on time", or our interrupt) makes the answer
+    # machine-dependent: only a probe stopped on its nodes is taken.
     said = probe.stats.solver_status if probe.stats is not None else ""
-    on_nodes = "on iterations" in said and "interrupted" not in said
     if (
-        not on_nodes
+        not stopped_on_nodes(said)
         or probe.objective is None
         or start.objective is None
         or probe.objective.total >= start.objective.total

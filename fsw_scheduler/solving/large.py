@@ -31,6 +31,7 @@ from .relaxed import MIN_LEFT_S, RelaxedAnswer, relaxable
 from .relaxed import around as relaxed_around
 from .repair import changed_tasks, holding, repair
 from .rounds import SHARE, rounds
+from .stats import higher
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -618,13 +619,6 @@ def _whole_model(
         bound = higher(bound, found)
     said = answer.stats.solver_status if answer.stats else "no answer"
     return best.replace(status=SolveStatus.FEASIBLE, why=()), bound, said
-
-
-def higher(bound: float | None, other: float | None) -> float | None:
-    """The higher of two lower bounds, either of which may be unknown."""
-    if bound is None or other is None:
-        return other if bound is None else bound
-    return max(bound, other)
 
 
 def _label(run: Callable[..., Plan], method: str) -> str:

@@ -30,6 +30,7 @@ import time
 from typing import TYPE_CHECKING
 
 from .relaxed import NODES, RelaxedAnswer, around
+from .stats import higher, stopped_on_nodes
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -122,8 +123,7 @@ def rounds(
             # probing, which closes the search in far fewer nodes.
             probing=nodes > NODES,
         )
-        if answer.bound is not None:
-            bound = answer.bound if bound is None else max(bound, answer.bound)
+        bound = higher(bound, answer.bound)
         said.append(f"{nodes} nodes: {answer.said}")
         if answer.plan is not None:
             return answer._replace(
@@ -138,14 +138,11 @@ def rounds(
                 answer.better if polish is None else polish(answer.better)
             )
             narrowed = renarrow(start)
-        # CBC says "Stopped on iterations" at its node limit; anything
-        # else (its optimum proved but not a valid plan, the time limit,
-        # no plan) means more nodes over these domains say nothing more.
-        on_nodes = (
-            "on iterations" in answer.said and "interrupted" not in answer.said
-        )
+        # Anything but the node limit (its optimum proved but not a valid
+        # plan, the time limit, no plan) means more nodes over these
+        # domains say nothing more.
         if (
-            not on_nodes
+            not stopped_on_nodes(answer.said)
             or (small is not None and small(narrowed))
             or end - time.perf_counter() < MIN_ROUND_S
             or (

@@ -14,6 +14,20 @@ if TYPE_CHECKING:
     from ..model.plan import Plan
 
 
+def higher(bound: float | None, other: float | None) -> float | None:
+    """The higher of two lower bounds, either of which may be unknown."""
+    if bound is None or other is None:
+        return other if bound is None else bound
+    return max(bound, other)
+
+
+def stopped_on_nodes(said: str) -> bool:
+    """True if a CBC run's status says it stopped on its node limit
+    ("Stopped on iterations") and not by time (our interrupt): the same
+    answer on every machine, and more nodes might say more."""
+    return "on iterations" in said and "interrupted" not in said
+
+
 def with_gap(plan: Plan) -> Plan:
     """``plan`` with ``stats.gap``: its objective less its proven bound."""
     stats = plan.stats
@@ -63,7 +77,7 @@ def with_call_stats(
         total = plan.objective.total
         for other in bounds:
             if other is not None and other <= total:
-                bound = other if bound is None else max(bound, other)
+                bound = higher(bound, other)
     return plan.replace(
         stats=msgspec.structs.replace(
             plan.stats,
