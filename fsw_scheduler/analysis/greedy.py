@@ -28,8 +28,6 @@ from collections import defaultdict
 from collections.abc import Callable, Set
 from typing import TYPE_CHECKING, Any
 
-import msgspec
-
 from ..model import groups
 from ..model.plan import (
     Activity,
@@ -186,6 +184,11 @@ def _forced_apart(
     suite, seed 24's r60-h1440-0: no plan from the heuristic, none from
     CBC in 10 s; this way 17,788,561 in 0.3 s, CP-SAT's 17,784,616).
     """
+    if len(forced) == problem.num_tasks:
+        return None  # nothing else to plan apart from them
+    # The forced tasks alone, their costs as they are (not
+    # :func:`~fsw_scheduler.analysis.bounds.kept_only`, which makes them
+    # mandatory and so changes the rules' order among them).
     alone = problem.replace(
         tasks=tuple(t for t in problem.tasks if t.id in forced),
         precedences=tuple(
@@ -194,21 +197,10 @@ def _forced_apart(
             if p.before in forced and p.after in forced
         ),
     )
-    if len(forced) == problem.num_tasks:
-        return None  # nothing else to plan apart from them
     core = _rules_only(alone, stop)
     if core is None:
         return None
-    pins = core.starts()
-    pinned = problem.replace(
-        tasks=tuple(
-            msgspec.structs.replace(t, fixed_start=pins[t.id])
-            if t.id in pins
-            else t
-            for t in problem.tasks
-        )
-    )
-    around = _rules_only(pinned, stop)
+    around = _rules_only(problem.pinned(core.starts()), stop)
     if around is None:
         return None
     plan = _as_plan(problem, around.starts())

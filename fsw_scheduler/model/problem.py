@@ -422,6 +422,20 @@ class Problem(msgspec.Struct, frozen=True, omit_defaults=True):
         """Return a copy with ``changes`` applied (fields by name)."""
         return msgspec.structs.replace(self, **changes)
 
+    def pinned(self, pins: Mapping[str, int]) -> Problem:
+        """Return a copy with each task of ``pins`` fixed to start there
+        (a fixed start also makes the task mandatory)."""
+        if not pins:
+            return self
+        return self.replace(
+            tasks=tuple(
+                task
+                if task.id not in pins
+                else msgspec.structs.replace(task, fixed_start=pins[task.id])
+                for task in self.tasks
+            )
+        )
+
 
 _EVERYWHERE = {"", "horizon", "start", "feasible_interval_applies_to"}
 

@@ -22,8 +22,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import msgspec
-
 from ..model.plan import Blocker, Moved
 
 if TYPE_CHECKING:
@@ -90,16 +88,7 @@ def pinned_problem(problem: Problem, pins: Mapping[str, int]) -> Problem:
     A fixed start makes the task mandatory: the window keeps it, in the
     plan, where it was announced.
     """
-    if not pins:
-        return problem
-    return problem.replace(
-        tasks=tuple(
-            task
-            if task.id not in pins
-            else msgspec.structs.replace(task, fixed_start=pins[task.id])
-            for task in problem.tasks
-        )
-    )
+    return problem.pinned(pins)
 
 
 def broken_pins(pins: Mapping[str, int], plan: Plan) -> dict[str, int | None]:

@@ -26,8 +26,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import msgspec
-
 from ..analysis.check import check_plan
 from ..analysis.greedy import greedy_plan
 from ..analysis.proofs import forced_tasks
@@ -186,15 +184,8 @@ def _pinned_greedy(
 ) -> Plan | None:
     """The start heuristic on ``problem`` with ``starts`` pinned, checked
     on ``problem`` itself (pinning makes a task mandatory there)."""
-    pinned = problem.replace(
-        tasks=tuple(
-            msgspec.structs.replace(task, fixed_start=starts[task.id])
-            if task.id in starts and task.fixed_start is None
-            else task
-            for task in problem.tasks
-        )
-    )
-    plan = greedy_plan(pinned, stop=stop)
+    # A task already fixed is in ``starts`` at its own pin (its domain).
+    plan = greedy_plan(problem.pinned(starts), stop=stop)
     if plan is None:
         return None
     return _checked(problem, plan.starts())
