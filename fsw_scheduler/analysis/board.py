@@ -138,9 +138,7 @@ class Board:
             drop = 0.0
             for a in units:
                 drop += a
-            after = first + shift + len(units)
-            while after < len(lowest) and lowest[after] - drop < -1e-9:
-                after += 1
+            after = _holding_from(lowest, first + shift + len(units), drop)
             shift = max(shift, after - len(units) - first)
         return shift
 
@@ -265,9 +263,7 @@ class Board:
             drop = 0.0
             for _ in range(task.length):
                 drop += amount
-            end = start - base + task.length
-            while end < len(lowest) and lowest[end] - drop < -1e-9:
-                end += 1
+            end = _holding_from(lowest, start - base + task.length, drop)
             start = max(start, end - task.length + base)
         return start
 
@@ -330,3 +326,12 @@ class Board:
         lowest = list(itertools.accumulate(reversed(self.level[name]), min))
         lowest.reverse()
         self.lowest[name] = lowest
+
+
+def _holding_from(lowest: list[float], index: int, drop: float) -> int:
+    """The first index from ``index`` on whose lowest later level holds
+    ``drop`` (``len(lowest)`` past the end): ``lowest`` only rises with
+    the index, so every one before it falls short."""
+    while index < len(lowest) and lowest[index] - drop < -1e-9:
+        index += 1
+    return index
