@@ -359,11 +359,66 @@ def _place(
         if not optional:
             break
         members = _without(problem, members, optional)
+        parts = _split(problem, members)
+        if len(parts) > 1:
+            # Shedding cut the group: a follower tied two chains that
+            # cannot run at those offsets (b15-all-6 of broad seed 15: a
+            # shared tight successor of a long task and of a chain whose
+            # short task the long one overlaps). Each chain alone may fit.
+            for part in parts:
+                _place(problem, part, tasks, domains, board, starts)
+            return
     if anchor is None:
         return
     for name, shift in members.items():
         starts[name] = anchor + shift
         board.add(tasks[name], anchor + shift)
+
+
+def _split(problem: Problem, members: dict[str, int]) -> list[dict[str, int]]:
+    """``members`` in their tight-connected parts (tight precedences
+    between members only), each with its shifts from its own first start,
+    in an order no precedence between parts goes against (the original
+    order of the shifts where none decides; one part when they form a
+    cycle)."""
+    root = {name: name for name in members}
+
+    def find(name: str) -> str:
+        while root[name] != name:
+            root[name] = root[root[name]]
+            name = root[name]
+        return name
+
+    inside = [
+        p
+        for p in problem.precedences
+        if p.before in members and p.after in members
+    ]
+    for prec in inside:
+        if prec.kind == "tight":
+            root[find(prec.after)] = find(prec.before)
+    by_root: dict[str, dict[str, int]] = defaultdict(dict)
+    for name, shift in sorted(members.items(), key=lambda m: (m[1], m[0])):
+        by_root[find(name)][name] = shift
+    if len(by_root) == 1:
+        return [members]
+    waiting = {
+        key: {find(p.before) for p in inside if find(p.after) == key} - {key}
+        for key in by_root
+    }
+    order: list[str] = []
+    while len(order) < len(by_root):
+        ready = [
+            k for k in by_root if k not in order and waiting[k] <= set(order)
+        ]
+        if not ready:
+            return [members]
+        order.append(ready[0])
+    parts = []
+    for key in order:
+        low = min(by_root[key].values())
+        parts.append({n: s - low for n, s in by_root[key].items()})
+    return parts
 
 
 def _without(

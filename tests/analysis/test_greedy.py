@@ -102,6 +102,61 @@ def test_optional_follower_is_shed_when_the_group_cannot_fit() -> None:
     assert check_plan(problem, plan).ok
 
 
+def test_a_group_cut_by_shedding_is_placed_in_its_parts() -> None:
+    """Tests that shedding a follower that tied two tasks frees them.
+
+    ``f`` follows ``long`` and ``short`` tightly, which puts ``short``
+    inside ``long`` on the antenna: ``f`` is impossible, and without it
+    ``long`` and ``short`` are no longer tied, so each is placed (the
+    start plan of broad seed 15's b15-all-6 left a whole chain out this
+    way, 4x its optimum).
+    """
+    doc = {
+        "horizon": 30,
+        "resources": {"binary": ["antenna"]},
+        "tasks": [
+            {
+                "id": "long",
+                "length": 10,
+                "delay_cost": 1,
+                "schedule_cost": 5,
+                "uses": {"antenna": 1},
+            },
+            {
+                "id": "short",
+                "length": 2,
+                "delay_cost": 1,
+                "schedule_cost": 5,
+                "uses": {"antenna": 1},
+            },
+            {"id": "f", "length": 3, "delay_cost": 1, "schedule_cost": 1},
+        ],
+        "precedences": [
+            {
+                "before": "long",
+                "after": "f",
+                "kind": "tight",
+                "scope": "at_least_first",
+            },
+            {
+                "before": "short",
+                "after": "f",
+                "kind": "tight",
+                "scope": "at_least_first",
+                "offset": 3,
+            },
+        ],
+    }
+    problem = problem_from(doc)
+    plan = greedy_plan(problem)
+    assert plan is not None
+    assert check_plan(problem, plan).ok
+    assert plan.unscheduled == ("f",)
+    best = solve(problem).objective
+    assert best is not None and plan.objective is not None
+    assert plan.objective.unscheduled_cost == best.unscheduled_cost
+
+
 def test_density_rule_spends_a_consumable_on_value() -> None:
     """Tests that the best of the priority rules is kept.
 
