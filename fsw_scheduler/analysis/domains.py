@@ -129,11 +129,8 @@ def start_domains(
         # Charge from outside over the whole horizon, once per resource
         # (per task it cost a walk of the horizon each).
         charges = {
-            resource: sum(
-                max(0.0, rate)
-                for rate in problem.resources.external_profile(
-                    resource, problem.start, problem.horizon
-                )
+            resource: problem.resources.external_charge(
+                resource, problem.start, problem.horizon
             )
             for resource in problem.resources.initial_levels
         }

@@ -25,6 +25,7 @@ from .codec import read_strict as read_strict
 from .limits import ID_CHARS as ID_CHARS
 from .limits import MAX_COST as MAX_COST
 from .limits import MAX_DELAY_COST as MAX_DELAY_COST
+from .limits import MAX_HORIZON as MAX_HORIZON
 from .limits import MAX_ID_LENGTH as MAX_ID_LENGTH
 from .limits import MAX_TIME as MAX_TIME
 from .limits import MIN_COST as MIN_COST
@@ -68,6 +69,8 @@ Time = Annotated[int, msgspec.Meta(ge=-MAX_TIME, le=MAX_TIME)]
 Instant = Annotated[int, msgspec.Meta(ge=0, le=MAX_TIME)]
 #: A number of time units, at least one.
 Units = Annotated[int, msgspec.Meta(ge=1, le=MAX_TIME)]
+#: A horizon's length: see :data:`~.limits.MAX_HORIZON` for the limit.
+Horizon = Annotated[int, msgspec.Meta(ge=1, le=MAX_HORIZON)]
 DelayCost = Annotated[int, msgspec.Meta(ge=MIN_DELAY_COST, le=MAX_DELAY_COST)]
 ScheduleCost = Annotated[
     int,
@@ -238,6 +241,12 @@ class Resources(msgspec.Struct, frozen=True, omit_defaults=True):
         """
         return profiles.external_profile(self, name, start, horizon)
 
+    def external_charge(self, name: str, start: int, horizon: int) -> float:
+        """The sum of a consumable's external charges (rates ``> 0``) over
+        ``[start, start + horizon)``, from its steps (no walk of the
+        units)."""
+        return profiles.external_charge(self, name, start, horizon)
+
     def peak_capacity(self, name: str) -> float:
         """The largest capacity a binary or multiple resource ever has.
 
@@ -349,7 +358,7 @@ class Alternative(msgspec.Struct, frozen=True, omit_defaults=True):
 class Problem(msgspec.Struct, frozen=True, omit_defaults=True):
     """A scheduling problem over ``[start, start + horizon)``."""
 
-    horizon: Units
+    horizon: Horizon
     tasks: tuple[Task, ...]
     start: Instant = 0
     feasible_interval_applies_to: WindowReading = "task"

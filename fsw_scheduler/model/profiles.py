@@ -100,6 +100,22 @@ def external_profile(
     return step_values(external, start, horizon)
 
 
+def external_charge(
+    resources: Resources, name: str, start: int, horizon: int
+) -> float:
+    """``sum(max(0, r) for r in external_profile(...))``, step by step."""
+    spec = resources.consumable[name]
+    external = getattr(spec, "external", ())
+    end = start + horizon
+    total = 0.0
+    for k, (since, value) in enumerate(external):
+        until = external[k + 1][0] if k + 1 < len(external) else end
+        units = min(until, end) - max(since, start)
+        if units > 0 and value > 0:
+            total += float(value) * units
+    return total
+
+
 def peak_capacity(resources: Resources, name: str) -> float:
     """The largest capacity binary or multiple ``name`` ever has."""
     if name in resources.binary:

@@ -31,6 +31,7 @@ import msgspec
 from msgspec import inspect as mi
 
 from ..errors import FieldIssue
+from .limits import HORIZON_WHY, MAX_HORIZON
 
 #: JSON names of Python values, as users write them.
 _JSON_NAMES = {
@@ -237,6 +238,11 @@ def _check_number(
                 if high - low < _WIDE
                 else f"{shown} is outside [{low}, {high}]"
             )
+            if (
+                value > high == MAX_HORIZON
+                and path.rsplit(".", 1)[-1] == "horizon"
+            ):
+                reason += f": the longest horizon; {HORIZON_WHY}"
             out.append(FieldIssue(path, reason))
         return
     for bound, test, words in (

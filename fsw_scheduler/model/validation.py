@@ -19,8 +19,10 @@ from typing import TYPE_CHECKING
 
 from ..errors import FieldIssue
 from .limits import (
+    HORIZON_WHY,
     MAX_COST,
     MAX_DELAY_COST,
+    MAX_HORIZON,
     MAX_TIME,
     MIN_COST,
     MIN_DELAY_COST,
@@ -65,6 +67,12 @@ def validate_problem(
 def _check_horizon(problem: Problem) -> Iterator[FieldIssue]:
     if problem.horizon <= 0:
         yield FieldIssue("horizon", f"must be > 0, got {problem.horizon}")
+    if problem.horizon > MAX_HORIZON:
+        yield FieldIssue(
+            "horizon",
+            f"{problem.horizon} units is longer than the longest horizon, "
+            f"{MAX_HORIZON}: {HORIZON_WHY}",
+        )
     if problem.start < 0:
         yield FieldIssue("start", f"must be >= 0, got {problem.start}")
     if problem.start + max(problem.horizon, 0) > MAX_TIME:

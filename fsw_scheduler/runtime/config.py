@@ -33,7 +33,7 @@ import msgspec
 
 from ..errors import ConfigError, FieldIssue
 from ..model.limits import MoveCost, Span, id_issue
-from ..model.problem import Id, Units
+from ..model.problem import Horizon, Id
 from ..model.stability import Mode
 from ..model.strict import shape_issues
 from ..replan.triggers import Tolerance
@@ -185,7 +185,7 @@ class NodeConfig(
     """
 
     spacecraft: Id = "sat1"
-    horizon: Units | None = None
+    horizon: Horizon | None = None
     solver: Literal["cbc", "highs"] = "cbc"
     time_limit: Seconds | None = 10.0
     seed: int = 0

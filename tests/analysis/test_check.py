@@ -4,11 +4,16 @@ from __future__ import annotations
 
 import ast
 import importlib
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import msgspec
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+from fsw_scheduler.analysis import spans
 from fsw_scheduler.analysis.check import CheckReport, check_plan, format_report
 from fsw_scheduler.model.plan import (
     Activity,
@@ -284,8 +289,10 @@ def test_multiple() -> None:
 def test_a_horizon_of_two_billion_units_is_walked_span_by_span() -> None:
     """Tests that the binary, window and capacity rules are judged span by
     span, not unit by unit: on a horizon of 2^31 - 1 units (a walk unit by
-    unit would not end) an overlap, a use outside a window and an overrun
-    of a capacity step are each named with their exact span."""
+    unit would not end; past the longest horizon a problem is refused, so
+    this one is stretched after validation, as a caller in Python could)
+    an overlap, a use outside a window and an overrun of a capacity step
+    are each named with their exact span."""
     end = 2**31 - 1
     far = 2_000_000_000
     problem = problem_from(
@@ -295,13 +302,13 @@ def test_a_horizon_of_two_billion_units_is_walked_span_by_span() -> None:
                 make_task("b", 10, uses={"cam": 1, "power": 3}),
                 make_task("c", 4, uses={"cam": 1}),
             ],
-            horizon=end,
             resources={
                 "binary": {"cam": {"available": [[0, far + 100]]}},
                 "multiple": {"power": {"steps": [[0, 10], [far + 7, 4]]}},
             },
         )
     )
+    problem = msgspec.structs.replace(problem, horizon=end)
     report = check_plan(
         problem,
         _plan(
@@ -711,3 +718,82 @@ def test_the_external_rate_charges_and_drains() -> None:
     report = check_plan(drain, _plan(("y", 0, 2), unscheduled=("x",)))
     _only(report, "consumable")
     assert report.violations[0].time == 5
+
+
+@settings(max_examples=400, deadline=None)
+@given(
+    level=st.sampled_from([-3.0, -0.5, 0.0, 0.1, 1.0, 2.5, 7.0]),
+    rate=st.sampled_from([-2.0, -0.3, -0.1, 0.0, 0.1, 0.7, 3.0]),
+    top=st.sampled_from([math.inf, 0.0, 2.0, 7.0]),
+    units=st.integers(min_value=1, max_value=40),
+)
+def test_a_span_is_judged_as_unit_by_unit(
+    level: float, rate: float, top: float, units: int
+) -> None:
+    """Tests that the closed-form span of a consumable gives the units
+    below zero, the first and lowest levels and the level after it that
+    the unit by unit sum gives."""
+    level = min(top, level)
+    t0 = 100
+    walked, below = level, []
+    for t in range(t0, t0 + units):
+        walked = min(top, walked + rate)
+        if walked < -spans.TOLERANCE:
+            below.append((t, walked))
+    hits = spans.below_zero(t0, t0 + units, level, rate, top)
+    runs = list(spans.runs(hits))
+    if not below:
+        assert hits == []
+    else:
+        assert len(runs) == 1
+        run = runs[0]
+        assert (run[0].t, run[-1].last) == (below[0][0], below[-1][0])
+        assert [u for u, _ in below] == list(
+            range(below[0][0], below[-1][0] + 1)
+        )
+        assert run[0].value == pytest.approx(below[0][1], abs=1e-9)
+        assert min(h.value for h in run) == pytest.approx(
+            min(v for _, v in below), abs=1e-9
+        )
+    assert spans.level_after(level, rate, units, top) == pytest.approx(
+        walked, abs=1e-9
+    )
+
+
+def test_a_long_horizon_is_checked_in_the_plan_s_size() -> None:
+    """Tests that a battery over the longest horizon is judged span by
+    span: a drain found with its span, first and lowest levels."""
+    doc = {
+        "horizon": 100_000,
+        "resources": {"consumable": {"battery": 10}},
+        "tasks": [
+            {
+                "id": "a",
+                "length": 75_000,
+                "delay_cost": 1,
+                "schedule_cost": 1,
+                "uses": {"battery": 0.0002},
+            },
+            {
+                "id": "b",
+                "length": 50_000,
+                "delay_cost": 1,
+                "schedule_cost": 1,
+                "uses": {"battery": 0.0002},
+            },
+        ],
+    }
+    problem = problem_from(doc)
+    plan = Plan(
+        status=SolveStatus.FEASIBLE,
+        objective=None,
+        activities=(Activity("a", 0, 75_000), Activity("b", 0, 50_000)),
+    )
+    report = check_plan(problem, plan)
+    # Both drain 4e-4 a unit: 10 is gone after 25,000 units and -10 at
+    # 50,000; a alone drains 2e-4 a unit to -15 at 75,000, where the
+    # level stays to the end.
+    consumable = [v for v in report.violations if v.rule == "consumable"]
+    assert len(consumable) == 1
+    assert "t=25000..99999" in consumable[0].detail
+    assert "lowest -15" in consumable[0].detail

@@ -74,7 +74,7 @@ def test_window_readings() -> None:
             "tasks[0].feasible_interval",
             "no start time",
         ),
-        ([make_task()], {"horizon": 0}, "horizon", "outside [1,"),
+        ([make_task()], {"horizon": 0}, "horizon", "1..100000, got 0"),
         (
             [make_task()],
             {"precedences": [{"before": "a", "after": "zz", "kind": "lax"}]},
@@ -145,3 +145,30 @@ def test_type_errors_name_the_field(text: bytes, path: str) -> None:
         decode_problem(text)
     assert info.value.issues[0].path == path
     assert info.value.issues[0].reason
+
+
+@pytest.mark.parametrize(
+    ("start", "horizon"), [(0, 40), (5, 12), (15, 3), (25, 100), (0, 2)]
+)
+def test_external_charge_is_the_sum_of_the_positive_rates(
+    start: int, horizon: int
+) -> None:
+    """Tests that the external charge read from the steps is the sum of
+    the positive rates of every unit, from before the first step to past
+    the last one."""
+    doc = make_doc([make_task("a", uses={"battery": 1})])
+    doc["start"] = start
+    doc["horizon"] = horizon
+    doc["resources"] = {
+        "consumable": {
+            "battery": {
+                "initial": 5,
+                "external": [[3, 1.5], [10, -2], [14, 0.25], [30, 0]],
+            }
+        }
+    }
+    resources = problem_from(doc).resources
+    units = resources.external_profile("battery", start, horizon)
+    assert resources.external_charge("battery", start, horizon) == (
+        pytest.approx(sum(max(0.0, rate) for rate in units))
+    )

@@ -227,12 +227,12 @@ def test_a_huge_number_is_shown_cut_in_its_reason() -> None:
     huge = "1" + "0" * 400
     with pytest.raises(InputError) as info:
         decode_problem(
-            '{"horizon": ' + huge + ', "tasks": [{"id": "a", "length": 1,'
-            ' "delay_cost": 1, "schedule_cost": 1}]}'
+            '{"horizon": 5, "start": ' + huge + ', "tasks": [{"id": "a",'
+            ' "length": 1, "delay_cost": 1, "schedule_cost": 1}]}'
         )
     (issue,) = info.value.issues
-    assert issue.path == "horizon"
-    assert issue.reason.endswith("... is outside [1, 2147483647]")
+    assert issue.path == "start"
+    assert issue.reason.endswith("... is outside [0, 2147483647]")
     assert len(issue.reason) < 80
 
 

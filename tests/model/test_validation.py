@@ -87,3 +87,24 @@ def test_check_task_gives_what_decoding_gives() -> None:
             ("tasks[1].length", "length 20 exceeds the horizon 10"),
         ]
     )
+
+
+def test_the_longest_horizon_is_enforced_with_its_reason() -> None:
+    """Tests that a horizon past MAX_HORIZON is rejected at the horizon's
+    path with why, decoded or built in Python, and that MAX_HORIZON
+    itself is accepted."""
+    doc = make_doc([make_task()])
+    doc["horizon"] = limits.MAX_HORIZON
+    assert problem_from(doc).horizon == limits.MAX_HORIZON
+    doc["horizon"] = limits.MAX_HORIZON + 1
+    with pytest.raises(InputError) as caught:
+        problem_from(doc)
+    (issue,) = [i for i in caught.value.issues if i.path == "horizon"]
+    assert "the longest horizon" in issue.reason
+    assert "time limit no longer bounds" in issue.reason
+    built = problem.Problem(
+        horizon=limits.MAX_HORIZON * 2, tasks=(Task("a", 2, 1, 1),)
+    )
+    (issue,) = validation.validate_problem(built)
+    assert issue.path == "horizon"
+    assert f"longest horizon, {limits.MAX_HORIZON}" in issue.reason
