@@ -15,6 +15,7 @@ from ..analysis.domains import start_domains
 from ..analysis.explain import explain as explain_plan
 from ..analysis.greedy import greedy_plan
 from ..analysis.proofs import infeasibility
+from ..errors import SolverError
 from ..model import groups
 from ..model.plan import (
     Objective,
@@ -100,8 +101,14 @@ def solve(
     """
     # The backend is imported here so that importing fsw_scheduler does not
     # import PuLP (the pure core must stay free of it).
-    from .ilp import solve_ilp
+    from .ilp import SOLVERS, solve_ilp
 
+    if solver not in SOLVERS:
+        # Said before any work: a problem the proofs or the start plan
+        # answer would otherwise take any name without a word.
+        raise SolverError(
+            f"unknown solver {solver!r} (choose from {', '.join(SOLVERS)})"
+        )
     run = functools.partial(
         solve_ilp,
         solver=solver,

@@ -1047,3 +1047,15 @@ def test_a_start_plan_keeps_what_holds_of_a_broken_plan_in_force() -> None:
     assert start is not None and start.starts() == {"a": 0, "b": 4}
     plan = solve(problem, time_limit=5, warm=in_force)
     assert plan.status is SolveStatus.OPTIMAL and check_plan(problem, plan).ok
+
+
+def test_an_unknown_solver_is_refused_before_any_work() -> None:
+    """Tests that a solver name outside cbc and highs is refused with the
+    choices even where the start plan alone would answer (one task, no
+    solver needed)."""
+    from fsw_scheduler.errors import SolverError
+
+    problem = problem_from(make_doc([make_task("a", 3)], horizon=10))
+    assert solve(problem).status is SolveStatus.OPTIMAL
+    with pytest.raises(SolverError, match=r"'cpsat' \(choose from cbc, highs"):
+        solve(problem, "cpsat")

@@ -6,4 +6,5 @@ per constraint family), :mod:`.objective` (the lexicographic objective) and
 :mod:`.model` (build, run CBC or HiGHS, map the solver's status).
 """
 
+from .model import SOLVERS as SOLVERS
 from .model import solve_ilp as solve_ilp
