@@ -144,11 +144,19 @@ def solve(
     parts = components(problem)
     if len(parts) > 1:
         plan = _solve_parts(
-            problem, parts, run, began, limit, warm, domains, stability
+            problem,
+            parts,
+            run,
+            began,
+            limit,
+            warm,
+            domains,
+            stability,
+            time_limit,
         )
     else:
         plan = _solve_whole(
-            problem, run, began, limit, warm, domains, stability
+            problem, run, began, limit, warm, domains, stability, time_limit
         )
     plan = with_gap(plan)
     if explain and (
@@ -221,6 +229,7 @@ def _solve_parts(
     warm: Plan | None,
     domains: dict[str, Domain],
     stability: Stability | None = None,
+    full_limit: float | None = None,
 ) -> Plan:
     """Solve each independent part alone and join the plans.
 
@@ -228,7 +237,9 @@ def _solve_parts(
     of one part no longer branches over the others'), and parts without
     a resource or a precedence need no solver at all. Each part gets a
     share of what is left of the limit, by its number of start times,
-    the smallest first.
+    the smallest first. A replan's part whose gap asks for a second look
+    (:func:`~.large.replanned`) gets the same share of what is left of
+    ``full_limit``.
     """
     weights = [
         1
@@ -244,11 +255,14 @@ def _solve_parts(
     subs = [_part(problem, parts[k], warm) for k in order]
     plans = []
     for idx, (sub, sub_warm) in enumerate(subs):
-        limit = None
+        limit = part_full = None
         now = time.perf_counter()
         if time_limit is not None:
             left = time_limit - (now - began)
             limit = BUDGET.part_share(left, weights[idx:])
+        if full_limit is not None:
+            left = full_limit - (now - began)
+            part_full = BUDGET.part_share(left, weights[idx:])
         plans.append(
             _solve_whole(
                 sub,
@@ -258,6 +272,7 @@ def _solve_parts(
                 sub_warm,
                 {t.id: domains[t.id] for t in sub.tasks},
                 stability,
+                part_full,
             )
         )
     if time_limit is not None:
@@ -484,8 +499,12 @@ def _solve_whole(
     warm: Plan | None,
     domains: dict[str, Domain],
     stability: Stability | None = None,
+    full_limit: float | None = None,
 ) -> Plan:
     """Start plan, then the solver or the neighbourhood search; no ``why``.
+
+    ``full_limit`` is the caller's limit where ``time_limit`` is a
+    replan's share of it (see :func:`~.large.replanned`).
 
     With a move part (``stability``) the shortcuts are off, each for the
     same reason: the replan's repair, the at-lower-bound and kept-set
@@ -502,7 +521,7 @@ def _solve_whole(
         and large.searched(problem)
     ):
         replanned = large.replanned(
-            problem, warm, domains, run, began, time_limit
+            problem, warm, domains, run, began, time_limit, full_limit
         )
         if replanned is not None:
             return replanned

@@ -12,7 +12,7 @@ from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.analysis.greedy import greedy_plan
 from fsw_scheduler.api import replan_typed
 from fsw_scheduler.model.change import decode_change
-from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.model.plan import SolverStats, SolveStatus
 from fsw_scheduler.solving import large
 from fsw_scheduler.solving.budget import BUDGET
 from fsw_scheduler.solving.ilp import solve_ilp
@@ -231,3 +231,47 @@ def test_a_replan_inserts_a_new_task_the_repair_left_out() -> None:
     assert plan.unscheduled == ()
     assert plan.starts()["b"] == 0
     assert check_plan(problem, plan).ok
+
+
+def _answered(plan: Plan, bound: float) -> Plan:
+    """``plan`` as a replan's answer with ``bound`` in its statistics."""
+    return plan.replace(
+        status=SolveStatus.FEASIBLE,
+        stats=SolverStats(solver="cbc-repair", bound=bound, solver_status="r"),
+    )
+
+
+def test_a_replan_that_may_leave_out_a_task_too_many_gets_a_second_look() -> (
+    None
+):
+    """Tests that a replan whose gap is at least the weight of a schedule
+    cost unit is solved afresh in what is left of the full limit, and the
+    better plan (here the fresh one, holding ``b``) is the answer, with
+    why; a gap of delay alone, or no full limit, answers as it was."""
+    problem, in_force = _first_place_taken()
+    best = solve(problem, time_limit=20)
+    assert best.status is SolveStatus.OPTIMAL and best.objective is not None
+    run = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
+    domains = start_domains(problem)
+    answer = _answered(in_force, best.objective.total)
+    began = time.perf_counter()
+    looked = large._second_look(problem, answer, domains, run, began, 8.0)
+    assert looked.stats is not None
+    assert (
+        "a whole task may be left out too many" in looked.stats.solver_status
+    )
+    assert "its plan kept" in looked.stats.solver_status
+    assert looked.unscheduled == ()
+    assert looked.objective is not None and answer.objective is not None
+    assert looked.objective.total < answer.objective.total
+    assert check_plan(problem, looked).ok
+    assert time.perf_counter() - began < 8.0
+    # Within one unit's weight of its bound: only delay left to gain.
+    assert answer.objective is not None
+    close = _answered(in_force, answer.objective.total - 1)
+    assert large._second_look(problem, close, domains, run, began, 8.0) is (
+        close
+    )
+    assert large._second_look(problem, answer, domains, run, began, None) is (
+        answer
+    )
