@@ -126,10 +126,17 @@ def worth_a_probe(
         or relaxed.bound is None
     ):
         return False
+    return a_task_above(problem, start.objective.total, relaxed.bound)
+
+
+def a_task_above(problem: Problem, total: float, bound: float) -> bool:
+    """True if an objective of ``total`` is at least the weight of one
+    schedule cost unit (the objective's ``W``) above ``bound``: a plan
+    as good as the bound may leave out a whole task less."""
     weight = objective_weight(
         [t.delay_cost for t in problem.tasks], problem.horizon
     )
-    return start.objective.total - relaxed.bound >= weight
+    return total - bound >= weight
 
 
 def probed(

@@ -23,10 +23,16 @@ from typing import TYPE_CHECKING
 from ..analysis.bounds import KeptSetProof, better_start, kept_set_bound
 from ..analysis.greedy import greedy_plan
 from ..analysis.insert import inserted
-from ..model.plan import SolverStats, SolveStatus, objective_weight
+from ..model.plan import SolverStats, SolveStatus
 from .budget import BOUND_SHARE, BUDGET, stop_at
 from .improve import MIN_ROUND_S, improve, meets
-from .incumbent import checked, columns, narrow, worth_a_probe
+from .incumbent import (
+    a_task_above,
+    checked,
+    columns,
+    narrow,
+    worth_a_probe,
+)
 from .relaxed import MIN_LEFT_S, RelaxedAnswer, relaxable
 from .relaxed import around as relaxed_around
 from .repair import changed_tasks, holding, repair
@@ -233,13 +239,11 @@ def _second_look(
         or stats.bound is None
     ):
         return answer
-    weight = objective_weight(
-        [t.delay_cost for t in problem.tasks], problem.horizon
-    )
     now = time.perf_counter()
     left = began + full_limit - now
-    if answer.objective.total - stats.bound < weight or left < (
-        SECOND_LOOK_MIN_S
+    if (
+        not a_task_above(problem, answer.objective.total, stats.bound)
+        or left < SECOND_LOOK_MIN_S
     ):
         return answer
     fresh = greedy_plan(
