@@ -314,9 +314,22 @@ class Board:
         net, level = self.net[name], self.level[name]
         for t in range(max(base, 0), min(base + length, len(net))):
             net[t] += amount
-        value, top = self.initial[name], self.ceiling[name]
-        for t, used in enumerate(net):
-            value = min(top, value - used)
+        # Levels before ``base`` do not change: the walk starts there, from
+        # the level before it (the same sums in the same order as a walk
+        # from the start: the same floats).
+        first = min(max(base, 0), len(net))
+        value = level[first - 1] if first > 0 else self.initial[name]
+        top = self.ceiling[name]
+        if not any(itertools.islice(net, first, None)):
+            # Nothing used from here on: min(top, value - 0) at every unit.
+            level[first:] = [min(top, value)] * (len(net) - first)
+            if first == 0:  # one level throughout: its own running minimum
+                self.lowest[name] = list(level)
+            else:
+                self._refresh(name)
+            return
+        for t in range(first, len(net)):
+            value = min(top, value - net[t])
             level[t] = value
         self._refresh(name)
 

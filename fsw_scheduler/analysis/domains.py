@@ -305,10 +305,9 @@ def _over_capacity(
         need = amount * task.length  # every task ends inside the horizon
         first, last = earliest, latest + task.length
         # Charge from outside in the units it may run in: a bound.
-        external = problem.resources.external_profile(
+        inflow = problem.resources.external_charge(
             resource, first, max(0, last - first)
         )
-        inflow = sum(max(0.0, rate) for rate in external)
         for other in problem.tasks:
             rate = -other.uses.get(resource, 0)
             if rate <= 0 or other.id == task.id:
