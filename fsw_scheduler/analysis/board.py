@@ -11,10 +11,11 @@ task's earliest fitting start without trying every start one by one.
 from __future__ import annotations
 
 import itertools
-from typing import TYPE_CHECKING
+import threading
+from typing import TYPE_CHECKING, NamedTuple
 
 if TYPE_CHECKING:
-    from ..model.problem import Problem, Task
+    from ..model.problem import Problem, Resources, Task
 
 
 class Board:
@@ -25,6 +26,17 @@ class Board:
         span = problem.horizon
         res = problem.resources
         self.used = {n: [0.0] * span for n in (*res.binary, *res.multiple)}
+        self.ceiling = res.ceilings
+        self.initial = res.initial_levels
+        empty = _empty_board(res, problem.start, span)
+        if empty is not None:
+            # Profiles are only read; levels are copied, as each board
+            # books its own tasks.
+            self.capacity, self.external = empty.capacity, empty.external
+            self.level = {n: list(v) for n, v in empty.level.items()}
+            self.lowest = {n: list(v) for n, v in empty.lowest.items()}
+            self.net = {n: list(v) for n, v in empty.net.items()}
+            return
         # The capacity of each unit: windows and steps included.
         self.capacity = {
             name: res.capacity_profile(name, problem.start, span)
@@ -41,6 +53,7 @@ class Board:
         }
         self.lowest = {name: list(v) for name, v in self.level.items()}
         self._capped_init(problem)
+        _keep_empty(res, problem.start, span, self)
 
     def demand(
         self, items: list[tuple[Task, int]]
@@ -297,8 +310,6 @@ class Board:
         each later level by at most what it has taken by then (a full store
         can only absorb a drop), so a placement it accepts is valid.
         """
-        self.ceiling = problem.resources.ceilings
-        self.initial = problem.resources.initial_levels
         # Net use per unit: the external rate counts as negative use.
         self.net = {
             name: [-rate for rate in self.external[name]]
@@ -339,6 +350,51 @@ class Board:
         lowest = list(itertools.accumulate(reversed(self.level[name]), min))
         lowest.reverse()
         self.lowest[name] = lowest
+
+
+class _Empty(NamedTuple):
+    """A board with nothing booked: what every board of the same
+    resources and horizon starts from."""
+
+    capacity: dict[str, list[float]]
+    external: dict[str, list[float]]
+    level: dict[str, list[float]]
+    lowest: dict[str, list[float]]
+    net: dict[str, list[float]]
+
+
+#: Empty boards kept, by resources (the object), start and horizon: the
+#: start heuristic builds a board per rule and per independent part, all
+#: over the same resources; over a long horizon with an external rate
+#: each took a walk of the horizon (150 tasks in 28 parts over 100,000
+#: units: 28 walks, most of a 1 s limit). A few only: each holds a few
+#: lists of the horizon's length.
+_EMPTY_KEPT = 2
+_empty: dict[tuple[int, int, int], tuple[Resources, _Empty]] = {}
+_empty_lock = threading.Lock()
+
+
+def _empty_board(res: Resources, start: int, span: int) -> _Empty | None:
+    """The kept empty board of ``res`` over ``[start, start + span)``."""
+    with _empty_lock:
+        found = _empty.get((id(res), start, span))
+    # The resources object itself is kept with it: its id is not reused.
+    return found[1] if found is not None and found[0] is res else None
+
+
+def _keep_empty(res: Resources, start: int, span: int, board: Board) -> None:
+    """Keep ``board`` (just built, nothing booked) as the empty board."""
+    empty = _Empty(
+        board.capacity,
+        board.external,
+        {n: list(v) for n, v in board.level.items()},
+        {n: list(v) for n, v in board.lowest.items()},
+        {n: list(v) for n, v in board.net.items()},
+    )
+    with _empty_lock:
+        _empty[(id(res), start, span)] = (res, empty)
+        while len(_empty) > _EMPTY_KEPT:
+            _empty.pop(next(iter(_empty)))
 
 
 def _holding_from(lowest: list[float], index: int, drop: float) -> int:

@@ -6,7 +6,7 @@ from fsw_scheduler.analysis.board import Board
 from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.analysis.greedy import greedy_plan
 
-from ..factories import bench_lib
+from ..factories import bench_lib, make_doc, make_task, problem_from
 
 
 def test_first_fit_is_the_first_start_that_fits() -> None:
@@ -84,3 +84,39 @@ def test_first_fit_of_a_group_is_the_first_shift_that_fits() -> None:
         assert board.first_fit_demand(shape, low, high) == every
         passed_over += every is None or every > low + 1
     assert passed_over >= 20
+
+
+def test_boards_of_the_same_resources_start_alike_and_apart() -> None:
+    """Tests that a board built from the kept empty board has the levels a
+    board built afresh has (a battery with a capacity and an external
+    rate), and that booking on one board leaves the others as they were:
+    the kept board is copied, not shared."""
+    from fsw_scheduler.analysis import board as board_module
+
+    doc = make_doc(
+        [make_task("a", 4, uses={"battery": 2})],
+        horizon=40,
+        resources={
+            "consumable": {
+                "battery": {
+                    "initial": 5,
+                    "max": 9,
+                    "external": [[0, 0.5], [20, -0.25]],
+                }
+            }
+        },
+    )
+    problem = problem_from(doc)
+    board_module._empty.clear()
+    fresh = Board(problem)
+    assert board_module._empty  # kept for the next board
+    first, second = Board(problem), Board(problem)
+    for built in (first, second):
+        assert built.level == fresh.level
+        assert built.lowest == fresh.lowest
+        assert built.net == fresh.net
+    first.add(problem.task("a"), 3)
+    assert second.level == fresh.level
+    assert first.level != fresh.level
+    third = Board(problem)
+    assert third.level == fresh.level and third.lowest == fresh.lowest
