@@ -17,6 +17,7 @@ tasks or more under a time limit are not handed whole to CBC at first
 from __future__ import annotations
 
 import functools
+import math
 import time
 from typing import TYPE_CHECKING
 
@@ -561,6 +562,16 @@ def improved(
             left - min(FULL_MARGIN_S, 0.1 * left),
         )
         said += "; then the whole model, narrowed: " + answered
+    elif left >= MIN_ROUND_S and lns_end == deadline:
+        # The search handed over with the whole model's time left, and
+        # the insertion after it took some: under that the whole model is
+        # not run, so the search goes on to the deadline rather than
+        # leave the time unused with the gap open (one run of a 30-task
+        # part at 8 s answered after 5.8 s this way).
+        best, more = improve(
+            problem, best, domains, run, deadline, bound, hand_over_s=math.inf
+        )
+        said += f"; then {more} more"
     return _answer(best, bound, _label(run, "lns"), said, began, time_limit)
 
 

@@ -275,3 +275,33 @@ def test_a_replan_that_may_leave_out_a_task_too_many_gets_a_second_look() -> (
     assert large._second_look(problem, answer, domains, run, began, None) is (
         answer
     )
+
+
+def test_a_search_left_with_too_little_for_the_whole_model_goes_on(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Tests that when the search stops with time left but under the
+    whole model's minimum, the search goes on to the deadline instead of
+    answering with the time unused: here the first search is cut to half
+    a second and the minimum raised past the limit."""
+    real = large.improve
+    calls: list[float] = []
+
+    def first_cut_short(*args: object, **kwargs: object) -> object:
+        calls.append(kwargs.get("hand_over_s", 0.0))  # type: ignore[arg-type]
+        if len(calls) == 1:
+            args = (*args[:4], time.perf_counter() + 0.5, *args[5:])
+        return real(*args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(large, "FULL_MIN_S", 100.0)
+    monkeypatch.setattr(large, "improve", first_cut_short)
+    problem = problem_from(bench_lib("fresh").generate_problem(30, 2880, 7003))
+    began = time.perf_counter()
+    plan = solve(problem, time_limit=5)
+    wall = time.perf_counter() - began
+    assert plan.stats is not None and plan.objective is not None
+    assert check_plan(problem, plan).ok
+    if plan.status is SolveStatus.FEASIBLE:
+        assert calls[-1] == float("inf"), calls
+        assert " more" in plan.stats.solver_status, plan.stats
+        assert wall >= 0.75 * 5, plan.stats
