@@ -359,7 +359,21 @@ def _reopen(
             )
         )
         if gained or not before.status.has_plan:
-            plans[idx] = again
+            plans[idx] = _after(before, again)
+
+
+def _after(before: Plan, again: Plan) -> Plan:
+    """``again``, its status line led by what the first pass of its part
+    did: the reader sees both searches, not only the second."""
+    if before.stats is None or again.stats is None:
+        return again
+    return again.replace(
+        stats=msgspec.structs.replace(
+            again.stats,
+            solver_status=f"{before.stats.solver_status}; then with the "
+            f"time the other parts left: {again.stats.solver_status}",
+        )
+    )
 
 
 def _joined(
