@@ -200,7 +200,11 @@ def problem_docs(
 
 
 @st.composite
-def apart_docs(draw: st.DrawFn, max_tasks: int = 5) -> dict:
+def apart_docs(
+    draw: st.DrawFn,
+    max_tasks: int = 5,
+    power: tuple[float, ...] = (6, 4, 5.5, 7, 3, 10),
+) -> dict:
     """Draw a problem of mostly mandatory tasks that crowd one window on a
     multiple resource (uses above and below half its capacity) and a
     binary one: the shapes the "no two at once" proofs look at.
@@ -211,6 +215,8 @@ def apart_docs(draw: st.DrawFn, max_tasks: int = 5) -> dict:
         Hypothesis' draw function.
     max_tasks
         At most this many tasks (at least two).
+    power
+        The uses of ``power`` (capacity 10) drawn from.
 
     Returns
     -------
@@ -224,7 +230,7 @@ def apart_docs(draw: st.DrawFn, max_tasks: int = 5) -> dict:
         length = draw(st.integers(1, 3))
         uses: dict[str, float] = {}
         if draw(st.integers(0, 3)):
-            uses["power"] = draw(st.sampled_from((6, 4, 5.5, 7, 3, 10)))
+            uses["power"] = draw(st.sampled_from(power))
         if draw(st.integers(0, 3)) == 0:
             uses["cam"] = 1
         task: dict = {

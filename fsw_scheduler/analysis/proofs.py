@@ -27,6 +27,11 @@ without a solver, in time polynomial in their number:
   relation (:func:`apart_cliques`), which catches what the per-resource
   test cannot (five tasks each needing 60 % of a capacity in a window
   shorter than their total length need only 3 lengths of energy);
+* the same for "at most m at once" on a multiple resource: the forced
+  users of which no m + 1 fit in its capacity together (five tasks each
+  needing 34 % of it run at most two at a time) need their least
+  overlaps with ``[a, b)`` to fit in m lanes of ``b - a`` units
+  (:func:`~fsw_scheduler.analysis.lanes.crowded`);
 * consumables: by the end of the latest possible end of some forced
   consumers, their consumption exceeding the initial level plus all the
   generation any task could have delivered by then.
@@ -48,9 +53,10 @@ import itertools
 from typing import TYPE_CHECKING, NamedTuple
 
 from ..model.plan import Blocker
+from .lanes import crowded, overloaded, room
 
 if TYPE_CHECKING:
-    from collections.abc import Collection, Mapping, Set
+    from collections.abc import Callable, Collection, Mapping, Set
 
     from ..model.problem import Precedence, Problem, Task
     from .domains import Domain
@@ -324,7 +330,9 @@ def _blocks(problem: Problem, among: Set[str]) -> list[dict[str, int]]:
 
 
 def infeasibility(
-    problem: Problem, domains: Mapping[str, Domain]
+    problem: Problem,
+    domains: Mapping[str, Domain],
+    stop: Callable[[], bool] | None = None,
 ) -> tuple[Blocker, ...]:
     """A proof that the forced tasks cannot all be placed, or ``()``.
 
@@ -334,13 +342,16 @@ def infeasibility(
         A validated problem.
     domains
         Its :func:`~fsw_scheduler.analysis.domains.start_domains`.
+    stop
+        True when time is up (the caller's deadline: this module reads no
+        clock): the interval sweeps end there without a proof.
 
     Returns
     -------
     tuple[Blocker, ...]
         The forced tasks concerned and the constraint that excludes them;
         empty when no cheap proof exists (the problem may still be
-        infeasible).
+        infeasible) or ``stop`` ended the search first.
     """
     drained = _drain(problem, domains)
     if drained:
@@ -371,12 +382,17 @@ def infeasibility(
     res = problem.resources
     for name in (*res.binary, *res.multiple):
         profile = res.capacity_profile(name, problem.start, problem.horizon)
-        found = _energy(problem, tasks, domains, name, profile)
+        found = _energy(problem, tasks, domains, name, profile, stop)
         if found:
             return found
-    found = _apart_overload(problem, tasks, domains)
+    found = _apart_overload(problem, tasks, domains, stop)
     if found:
         return found
+    for name in res.multiple:
+        profile = res.capacity_profile(name, problem.start, problem.horizon)
+        found = crowded(problem, tasks, domains, name, profile, stop)
+        if found:
+            return found
     for name, initial in res.initial_levels.items():
         found = _budget(problem, tasks, domains, name, initial)
         if found:
@@ -390,6 +406,7 @@ def _energy(
     domains: Mapping[str, Domain],
     resource: str,
     profile: list[float],
+    stop: Callable[[], bool] | None = None,
 ) -> tuple[Blocker, ...]:
     """Energetic test of one capacity resource over the forced users.
 
@@ -432,22 +449,28 @@ def _energy(
         {d.latest + t.length for t, _, d in users}
         | {d.earliest + t.length for t, _, d in users}
     )
+    # As in :func:`~.lanes.overloaded`: only tasks whose earliest end is
+    # past low and latest start before high overlap [low, high) surely.
+    ranges = [
+        (t.id, amount, t.length, d.earliest + t.length, d.latest)
+        for t, amount, d in users
+    ]
     for low in lows:
+        if stop is not None and stop():
+            return ()
+        after = [r for r in ranges if r[3] > low]
         for high in highs:
             if high <= low:
                 continue
+            width = high - low
             need, inside = 0.0, []
-            for task, amount, dom in users:
-                # Least overlap with [low, high) over the task's starts.
-                least = min(
-                    task.length,
-                    high - low,
-                    max(0, dom.earliest + task.length - low),
-                    max(0, high - dom.latest),
+            for name, amount, length, early_end, latest in after:
+                if latest >= high:
+                    continue
+                need += amount * min(
+                    length, width, early_end - low, high - latest
                 )
-                if least > 0:
-                    need += amount * least
-                    inside.append(task.id)
+                inside.append(name)
             if need > room(low, high) + _EPS:
                 detail = (
                     f"{resource}: tasks that must be scheduled need "
@@ -667,7 +690,10 @@ def _apart(problem: Problem, one: Task, other: Task) -> str | None:
 
 
 def _apart_overload(
-    problem: Problem, forced: list[Task], domains: Mapping[str, Domain]
+    problem: Problem,
+    forced: list[Task],
+    domains: Mapping[str, Domain],
+    stop: Callable[[], bool] | None = None,
 ) -> tuple[Blocker, ...]:
     """The energetic test of one task at a time over each clique of forced
     tasks that pairwise cannot overlap (:func:`apart_cliques`).
@@ -681,41 +707,20 @@ def _apart_overload(
         {task.id for task in forced if task.uses.get(name, 0) > 0}
         for name in problem.resources.binary
     ]
+    one_lane = list(range(problem.horizon + 1))  # one unit per unit
     for clique, kind in apart_cliques(problem, forced):
         ids = {task.id for task in clique}
         if any(ids <= users for users in binary_users):
             continue  # :func:`_energy` tested all of them on that resource
         members = [(task, domains[task.id]) for task in clique]
-        lows = sorted(
-            {d.earliest for _, d in members} | {d.latest for _, d in members}
-        )
-        highs = sorted(
-            {d.latest + t.length for t, d in members}
-            | {d.earliest + t.length for t, d in members}
-        )
-        for low in lows:
-            for high in highs:
-                if high <= low:
-                    continue
-                need, inside = 0, []
-                for task, dom in members:
-                    least = min(
-                        task.length,
-                        high - low,
-                        max(0, dom.earliest + task.length - low),
-                        max(0, high - dom.latest),
-                    )
-                    if least > 0:
-                        need += least
-                        inside.append(task.id)
-                if need > high - low:
-                    detail = (
-                        f"{', '.join(inside)} must be scheduled and no two "
-                        f"can run at once ({kind} resources), but need "
-                        f"{need} time units in [{low}, {high}), which has "
-                        f"{high - low}"
-                    )
-                    return tuple(
-                        Blocker(name, kind, detail) for name in inside
-                    )
+        found = overloaded(problem, members, one_lane, stop)
+        if found is not None:
+            inside, need, low, high = found
+            detail = (
+                f"{', '.join(inside)} must be scheduled and no two "
+                f"can run at once ({kind} resources), but need "
+                f"{need} time units in [{low}, {high}), which has "
+                f"{room(problem, one_lane, low, high)}"
+            )
+            return tuple(Blocker(name, kind, detail) for name in inside)
     return ()

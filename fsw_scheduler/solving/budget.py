@@ -72,6 +72,13 @@ class SolveBudget:
         fresh solve.
     replan_min_s
         The least limit of a replan (when the caller's allows it).
+    proof_share
+        Share of the limit the cheap infeasibility proofs
+        (:func:`~fsw_scheduler.analysis.proofs.infeasibility`) may take
+        before the solve goes on without them (the solver then decides):
+        their interval sweeps grow with the cube of the tasks every plan
+        must hold (0.6 s on 300 mandatory tasks over H = 2,880, 1.3 s
+        with the "at most m at once" test).
     min_part_s
         The least share of the limit an independent part of a problem
         gets when the limit has room for it (:meth:`part_share`): enough
@@ -89,6 +96,7 @@ class SolveBudget:
     min_solve_s: float = 0.05
     publish_margin_s: float = 1.0
     min_part_s: float = 1.0
+    proof_share: float = 0.2
     replan_share: float = 0.2
     replan_min_s: float = 1.5
 

@@ -126,7 +126,9 @@ def solve(
         # A replan pays for what changed (repair.py), not a fresh solve.
         limit = BUDGET.replan_limit(time_limit)
     domains = start_domains(problem)
-    proof = infeasibility(problem, domains)
+    proof = infeasibility(
+        problem, domains, stop=stop_within(began, limit, BUDGET.proof_share)
+    )
     if proof:
         # Tasks every plan must hold cannot all be placed: no solve.
         return Plan(

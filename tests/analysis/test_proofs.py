@@ -340,6 +340,56 @@ def test_a_clique_held_by_two_resources_proves_what_neither_does() -> None:
     assert brute_force(relaxed) is not None
 
 
+def test_tasks_over_a_third_of_a_capacity_run_two_at_a_time() -> None:
+    """Tests that five mandatory tasks each needing 34 % of a multiple
+    resource (so at most two run at once), in a window shorter than 2.5
+    lengths, are proved infeasible without a solve; that a capacity step
+    leaving one lane for a while is counted; and that the same tasks in
+    a window of three lengths are planned."""
+    # 5 x 34 x 7 = 1,190 of 1,700 units of energy in [10, 27): the
+    # energetic test lets it pass, and no two are apart.
+    doc = _crowded([{"power": 34}] * 5, window=(10, 27))
+    plan = solve(problem_from(doc), time_limit=30)
+    assert plan.status is SolveStatus.INFEASIBLE, plan
+    assert plan.stats is not None and plan.stats.solver == "proof"
+    detail = plan.why[0].detail
+    assert "at most 2 of them can run at once on power" in detail, detail
+    assert "need 35 time units in [10, 27), where 2 at a time have 34" in (
+        detail
+    ), detail
+    roomy = _crowded([{"power": 34}] * 5, window=(10, 31))
+    assert solve(problem_from(roomy), time_limit=30).status.has_plan
+    # 50 until 20 holds one of them: 10 + 2 x 11 = 32 lanes of 35.
+    stepped = _crowded([{"power": 34}] * 5, window=(10, 31))
+    stepped["resources"]["multiple"] = {
+        "power": {"steps": [[0, 100], [10, 50], [20, 100]]}
+    }
+    problem = problem_from(stepped)
+    proof = infeasibility(problem, start_domains(problem))
+    assert proof and "2 at a time have 32" in proof[0].detail, proof
+
+
+def test_the_proofs_stop_when_told() -> None:
+    """Tests that the interval sweeps give up without a proof once their
+    ``stop`` says time is up (the solver then decides)."""
+    problem = problem_from(_crowded([{"power": 34}] * 5, window=(10, 27)))
+    domains = start_domains(problem)
+    assert infeasibility(problem, domains)
+    assert not infeasibility(problem, domains, stop=lambda: True)
+
+
+@settings(COMMON, max_examples=150)
+@given(doc=apart_docs(max_tasks=6, power=(3, 3.5, 4, 4.5, 5)))
+def test_lanes_proof_never_rejects_a_feasible_problem(doc: dict) -> None:
+    """Tests that with uses of a third to a half of a capacity (two or
+    three at once) a proof of infeasibility is only ever given for a
+    problem brute force cannot solve."""
+    problem = decode_doc(doc)
+    proof = infeasibility(problem, start_domains(problem))
+    if proof:
+        assert brute_force(problem) is None, proof
+
+
 @settings(COMMON, max_examples=150)
 @given(doc=apart_docs())
 def test_apart_proof_never_rejects_a_feasible_problem(doc: dict) -> None:

@@ -1,0 +1,148 @@
+"""How many forced tasks a multiple resource can run at once (pure).
+
+Part of :func:`~fsw_scheduler.analysis.proofs.infeasibility`: forced
+users of a multiple resource of which no ``m + 1`` fit in its capacity
+together run at most ``m`` at a time, so over an interval ``[a, b)``
+their least overlaps with it must fit in ``m`` lanes of ``b - a`` units.
+The energetic test (work against capacity) misses this: five tasks each
+needing 34 % of the capacity need only 1.7 lengths of energy per
+length of time. :func:`overloaded` is the interval sweep both this test
+and the "no two at once" cliques use.
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import TYPE_CHECKING
+
+from ..model.plan import Blocker
+
+if TYPE_CHECKING:
+    from collections.abc import Callable, Mapping
+
+    from ..model.problem import Problem, Task
+    from .domains import Domain
+
+_EPS = 1e-9
+
+#: "At most m at once" (:func:`crowded`) is tried up to this m: above
+#: it the energetic test (work against capacity) is nearly as strong.
+MAX_LANES = 8
+
+
+def _lanes(amounts: list[float], capacity: float) -> int:
+    """How many of ``amounts`` (sorted, smallest first) fit together in
+    ``capacity``: the most that can run at once."""
+    total, count = 0.0, 0
+    for amount in amounts:
+        total += amount
+        if total > capacity + _EPS:
+            break
+        count += 1
+    return count
+
+
+def crowded(
+    problem: Problem,
+    forced: list[Task],
+    domains: Mapping[str, Domain],
+    resource: str,
+    profile: list[float],
+    stop: Callable[[], bool] | None = None,
+) -> tuple[Blocker, ...]:
+    """The "at most m at once" test of one multiple resource.
+
+    Of the forced users taken by decreasing use, the largest set of which
+    no ``m + 1`` fit together in the capacity, for each ``m`` from 2 to
+    :data:`MAX_LANES` (``m = 1`` is the "no two at once" cliques'): at each
+    unit at most ``m_t`` of them run (``m_t`` from the capacity at ``t``),
+    so over ``[low, high)`` their least overlaps with it cannot exceed the
+    sum of ``m_t``. Five tasks each needing 34 % of the capacity in a
+    window shorter than 2.5 lengths need 1.7 lengths of energy, which the
+    energetic test lets pass; two lanes cannot hold them. Interval ends
+    are those of the energetic test (:func:`overloaded`).
+    """
+    users = sorted(
+        (task for task in forced if task.uses.get(resource, 0) > 0),
+        key=lambda t: (-t.uses[resource], t.id),
+    )
+    peak = max(profile, default=0.0)
+    # The largest prefix for each number of lanes.
+    chosen: dict[int, list[Task]] = {}
+    for size in range(3, len(users) + 1):
+        amounts = sorted(t.uses[resource] for t in users[:size])
+        lanes = _lanes(amounts, peak)
+        if lanes > MAX_LANES:
+            break
+        if 2 <= lanes < size:
+            chosen[lanes] = users[:size]
+    for lanes, members in sorted(chosen.items()):
+        amounts = sorted(t.uses[resource] for t in members)
+        per_unit = {cap: _lanes(amounts, cap) for cap in set(profile)}
+        allowed = list(
+            itertools.accumulate((per_unit[c] for c in profile), initial=0)
+        )
+        spans = [(task, domains[task.id]) for task in members]
+        found = overloaded(problem, spans, allowed, stop)
+        if found is not None:
+            inside, need, low, high = found
+            space = room(problem, allowed, low, high)
+            detail = (
+                f"{', '.join(inside)} must be scheduled and at most {lanes} "
+                f"of them can run at once on {resource} (any {lanes + 1} "
+                f"need more than its capacity {peak:g}), but they need "
+                f"{need} time units in [{low}, {high}), where {lanes} at a "
+                f"time have {space}"
+            )
+            return tuple(Blocker(name, "multiple", detail) for name in inside)
+    return ()
+
+
+def room(problem: Problem, allowed: list[int], low: int, high: int) -> int:
+    """``allowed[high] - allowed[low]``, the ends clipped to the horizon
+    (``allowed``: a running sum from the problem's start)."""
+    last = len(allowed) - 1
+    first = min(max(low - problem.start, 0), last)
+    end = min(max(high - problem.start, 0), last)
+    return allowed[end] - allowed[first]
+
+
+def overloaded(
+    problem: Problem,
+    spans: list[tuple[Task, Domain]],
+    allowed: list[int],
+    stop: Callable[[], bool] | None = None,
+) -> tuple[list[str], int, int, int] | None:
+    """The first interval over which the tasks' least overlaps exceed the
+    room ``allowed`` gives it: (task ids, need, low, high), or None (also
+    once ``stop()`` is true)."""
+    lows = sorted(
+        {d.earliest for _, d in spans} | {d.latest for _, d in spans}
+    )
+    highs = sorted(
+        {d.latest + t.length for t, d in spans}
+        | {d.earliest + t.length for t, d in spans}
+    )
+    # (id, length, earliest end, latest start): a task overlaps
+    # [low, high) whatever its start only if its earliest end is past low
+    # and its latest start before high.
+    ranges = [
+        (t.id, t.length, d.earliest + t.length, d.latest) for t, d in spans
+    ]
+    for low in lows:
+        if stop is not None and stop():
+            return None
+        after = [r for r in ranges if r[2] > low]
+        for high in highs:
+            if high <= low:
+                continue
+            width = high - low
+            need, inside = 0, []
+            for name, length, early_end, latest in after:
+                if latest >= high:
+                    continue
+                need += min(length, width, early_end - low, high - latest)
+                inside.append(name)
+            if need > room(problem, allowed, low, high):
+                return inside, need, low, high
+    return None
