@@ -108,6 +108,8 @@ def start_domains(
 
     for name, (kind, why) in block_conflicts(problem).items():
         kill(name, why, kind)
+    for name, why in positive_cycles(problem).items():
+        kill(name, why)
 
     # Resources that change over time: a start whose run meets a unit
     # where the capacity is below the task's own amount (outside every
@@ -385,3 +387,98 @@ def _after_end(
             after for after, _, gap in following.get(name, ()) if gap >= 0
         ]
     return found
+
+
+def positive_cycles(problem: Problem) -> dict[str, str]:
+    """Tasks held by precedences in a cycle that needs more time than a
+    cycle has: task id to why.
+
+    Every precedence makes its ``after`` need its ``before`` (and the
+    reverse with scope ``both``), so the tasks of one strongly connected
+    set of that relation are scheduled all or none. If their start
+    differences (``s_j >= s_i + length_i + offset``, both ways when
+    tight) go round a cycle of positive length, they cannot all be:
+    none is. The propagation of :func:`start_domains` finds this too, but
+    a unit of length per pass at best (two tasks in a lax cycle over a
+    horizon of 2,880 held it past its cap, and CBC then spent the limit).
+    """
+    length = {task.id: task.length for task in problem.tasks}
+    needs: dict[str, list[str]] = {name: [] for name in length}
+    for prec in problem.precedences:
+        needs[prec.after].append(prec.before)
+        if prec.scope == "both":
+            needs[prec.before].append(prec.after)
+    found: dict[str, str] = {}
+    for members in _strongly_connected(needs):
+        if len(members) < 2:
+            continue
+        inside = set(members)
+        edges: list[tuple[str, str, int]] = []
+        for prec in problem.precedences:
+            if prec.before in inside and prec.after in inside:
+                gap = length[prec.before] + prec.offset
+                edges.append((prec.before, prec.after, gap))
+                if prec.kind == "tight":
+                    edges.append((prec.after, prec.before, -gap))
+        # Longest paths from every member at once: still growing after
+        # len(members) rounds means a positive cycle (Bellman-Ford).
+        dist = dict.fromkeys(members, 0)
+        growing = False
+        for _ in range(len(members)):
+            growing = False
+            for first, second, gap in edges:
+                if dist[first] + gap > dist[second]:
+                    dist[second] = dist[first] + gap
+                    growing = True
+            if not growing:
+                break
+        if growing:
+            names = ", ".join(sorted(members))
+            for name in members:
+                found[name] = (
+                    f"precedences among {names} (each needs the others) "
+                    "go round a cycle longer than zero: they cannot all "
+                    "be scheduled"
+                )
+    return found
+
+
+def _strongly_connected(graph: Mapping[str, list[str]]) -> list[list[str]]:
+    """The strongly connected sets of ``graph`` (Kosaraju, without
+    recursion: chains of hundreds of tasks)."""
+    order: list[str] = []
+    seen: set[str] = set()
+    for root in graph:
+        if root in seen:
+            continue
+        seen.add(root)
+        stack = [(root, iter(graph[root]))]
+        while stack:
+            node, rest = stack[-1]
+            nxt = next((n for n in rest if n not in seen), None)
+            if nxt is None:
+                stack.pop()
+                order.append(node)
+            else:
+                seen.add(nxt)
+                stack.append((nxt, iter(graph[nxt])))
+    reverse: dict[str, list[str]] = {node: [] for node in graph}
+    for node, targets in graph.items():
+        for target in targets:
+            reverse[target].append(node)
+    sets: list[list[str]] = []
+    placed: set[str] = set()
+    for root in reversed(order):
+        if root in placed:
+            continue
+        placed.add(root)
+        members, todo = [], [root]
+        while todo:
+            node = todo.pop()
+            members.append(node)
+            for other in reverse[node]:
+                if other not in placed:
+                    placed.add(other)
+                    todo.append(other)
+        sets.append(members)
+    return sets

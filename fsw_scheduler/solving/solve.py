@@ -277,17 +277,24 @@ def _solve_parts(
                 part_full,
             )
         )
-    if time_limit is not None:
+        if plans[-1].status is SolveStatus.INFEASIBLE:
+            # The whole is infeasible whatever the others hold: solving
+            # them would only spend the limit (a 2-task part proved so in
+            # 0.2 s, then 9 s on a 33-task part for nothing).
+            break
+    skipped = len(subs) - len(plans)
+    if time_limit is not None and not skipped:
         _reopen(
             plans, subs, weights, run, began, time_limit, domains, stability
         )
     return _joined(
         problem,
         plans,
-        [sub for sub, _ in subs],
+        [sub for sub, _ in subs[: len(plans)]],
         began,
         time_limit,
         stability,
+        skipped,
     )
 
 
@@ -385,11 +392,13 @@ def _joined(
     began: float,
     time_limit: float | None,
     stability: Stability | None = None,
+    skipped: int = 0,
 ) -> Plan:
     """One plan of ``problem`` from the plans of its parts (smallest
     first: the status line ends with the largest part's). The move part
     is a sum over tasks too, so the parts' optima join into the whole's
-    (with the weights of the whole)."""
+    (with the weights of the whole). ``skipped`` parts were not solved,
+    one before them being infeasible."""
     statuses = {plan.status for plan in plans}
     stats = [plan.stats for plan in plans if plan.stats is not None]
     summary = SolverStats(
@@ -399,14 +408,20 @@ def _joined(
         wall_s=time.perf_counter() - began,
         num_variables=sum(s.num_variables for s in stats),
         num_constraints=sum(s.num_constraints for s in stats),
-        solver_status=f"{len(plans)} independent parts: "
+        solver_status=f"{len(plans) + skipped} independent parts: "
         + ", ".join(
             f"{sum(p.status is status for p in plans)} {status.value}"
             for status in SolveStatus
             if status in statuses
         )
         + (f"; largest: {stats[-1].solver_status}" if stats else "")
-        + "".join(_unproved(plan) for plan in plans),
+        + "".join(_unproved(plan) for plan in plans)
+        + (
+            f"; {skipped} not solved: the problem is infeasible whatever "
+            "they hold"
+            if skipped
+            else ""
+        ),
         time_limit_s=time_limit,
     )
     everything = tuple(task.id for task in problem.tasks)

@@ -36,3 +36,58 @@ def test_windows_and_steps_bound_the_starts() -> None:
     assert never.cause == "binary"
     assert "never available for its whole length" in never.detail
     assert (domains["free"].earliest, domains["free"].latest) == (0, 28)
+
+
+def _prec(
+    before: str, after: str, kind: str, offset: int = 0, scope: str = "both"
+) -> dict:
+    return {
+        "before": before,
+        "after": after,
+        "kind": kind,
+        "offset": offset,
+        "scope": scope,
+    }
+
+
+def test_a_cycle_longer_than_zero_empties_its_tasks_at_once() -> None:
+    """Tests that tasks whose precedences go round a cycle of positive
+    length are given no start at once, however long the horizon (the
+    propagation alone gains one length per pass and stops at its cap),
+    with what they need; that a tight cycle of zero length keeps its
+    starts; and that a mandatory task on such a cycle makes the problem
+    infeasible without a solve."""
+    from fsw_scheduler.model.plan import SolveStatus
+    from fsw_scheduler.solving.solve import solve
+
+    tasks = [
+        make_task("a", 3),
+        make_task("b", 4),
+        make_task("c", 2),  # needs b
+        make_task("d", 2),
+        make_task("e", 3),
+        make_task("free", 1),
+    ]
+    precedences = [
+        _prec("a", "b", "lax", scope="at_least_first"),
+        _prec("b", "a", "lax", 1, scope="at_least_first"),
+        _prec("b", "c", "lax", scope="at_least_first"),
+        # d -> e and back: 2 - 2 = 0, a tight cycle that holds.
+        _prec("d", "e", "tight"),
+        _prec("e", "d", "tight", -5),
+    ]
+    doc = make_doc(tasks, horizon=2880, precedences=precedences)
+    domains = start_domains(problem_from(doc))
+    for name in ("a", "b", "c"):
+        assert domains[name].empty, (name, domains[name])
+        assert domains[name].cause == "precedence"
+    assert "cycle longer than zero" in domains["a"].detail
+    assert "needs b" in domains["c"].detail
+    for name in ("d", "e", "free"):
+        assert not domains[name].empty, (name, domains[name])
+    assert domains["e"].earliest == domains["d"].earliest + 2
+    tasks[0]["schedule_cost"] = 0
+    plan = solve(problem_from(doc), time_limit=10)
+    assert plan.status is SolveStatus.INFEASIBLE
+    assert plan.stats is not None and plan.stats.solver == "proof"
+    assert {b.task for b in plan.why} == {"a", "b"}  # a needs b

@@ -1059,3 +1059,39 @@ def test_an_unknown_solver_is_refused_before_any_work() -> None:
     assert solve(problem).status is SolveStatus.OPTIMAL
     with pytest.raises(SolverError, match=r"'cpsat' \(choose from cbc, highs"):
         solve(problem, "cpsat")
+
+
+def test_an_infeasible_part_ends_the_solve() -> None:
+    """Tests that once one independent part is proved infeasible the
+    others are not solved (the whole is infeasible whatever they hold),
+    and the status says so: a 45-task part would otherwise take the
+    limit."""
+    import time
+
+    doc = bench_lib("fresh").generate_problem(45, 1440, 7001)
+    doc["resources"].setdefault("multiple", {})["crowd"] = 100
+    # Five mandatory tasks at 34 % run two at a time: three lengths (21)
+    # do not fit in 18 units, which no cheap proof sees (35 of 36 lanes).
+    doc["tasks"] += [
+        make_task(
+            f"x{idx}",
+            7,
+            schedule_cost=0,
+            uses={"crowd": 34},
+            feasible_interval=[100, 118],
+            feasible_interval_applies_to="task",
+        )
+        for idx in range(5)
+    ]
+    problem = problem_from(doc)
+    began = time.perf_counter()
+    plan = solve(problem, time_limit=20)
+    wall = time.perf_counter() - began
+    assert plan.status is SolveStatus.INFEASIBLE, plan.stats
+    assert plan.stats is not None
+    said = plan.stats.solver_status
+    assert "not solved: the problem is infeasible whatever they hold" in (
+        said
+    ), said
+    assert "the part of 5 tasks from x0" in said, said
+    assert wall < 10, said
