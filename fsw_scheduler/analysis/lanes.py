@@ -83,16 +83,25 @@ def crowded(
             itertools.accumulate((per_unit[c] for c in profile), initial=0)
         )
         spans = [(task, domains[task.id]) for task in members]
-        found = overloaded(problem, spans, allowed, stop)
+        found = overloaded(problem, spans, allowed, stop, lanes)
         if found is not None:
-            inside, need, low, high = found
-            space = room(problem, allowed, low, high)
+            inside, need, low, high, rounds = found
+            if rounds:
+                why = (
+                    f"{rounds} of them must run one after the other: "
+                    f"{need} time units in [{low}, {high}), which has "
+                    f"{high - low}"
+                )
+            else:
+                why = (
+                    f"they need {need} time units in [{low}, {high}), "
+                    f"where {lanes} at a time have "
+                    f"{room(problem, allowed, low, high)}"
+                )
             detail = (
                 f"{', '.join(inside)} must be scheduled and at most {lanes} "
                 f"of them can run at once on {resource} (any {lanes + 1} "
-                f"need more than its capacity {peak:g}), but they need "
-                f"{need} time units in [{low}, {high}), where {lanes} at a "
-                f"time have {space}"
+                f"need more than its capacity {peak:g}), but {why}"
             )
             return tuple(Blocker(name, "multiple", detail) for name in inside)
     return ()
@@ -112,10 +121,20 @@ def overloaded(
     spans: list[tuple[Task, Domain]],
     allowed: list[int],
     stop: Callable[[], bool] | None = None,
-) -> tuple[list[str], int, int, int] | None:
-    """The first interval over which the tasks' least overlaps exceed the
-    room ``allowed`` gives it: (task ids, need, low, high), or None (also
-    once ``stop()`` is true)."""
+    lanes: int = 1,
+) -> tuple[list[str], int, int, int, int] | None:
+    """The first interval whose tasks cannot fit: (task ids, need, low,
+    high, rounds), or None (also once ``stop()`` is true).
+
+    Over ``[low, high)`` each task runs at least its least overlap with
+    it, whatever its start. They cannot fit when those overlaps exceed
+    the room ``allowed`` gives (``rounds`` 0), or, at most ``lanes`` of
+    them running at once (so the pieces are ``lanes`` machines' work, an
+    interval graph being coloured by its largest clique), when of the
+    ``k x lanes + 1`` longest pieces ``k + 1`` share a lane: the ``k + 1``
+    shortest of them, ``rounds = k + 1``, longer in all than the interval
+    (five pieces of 7 on two lanes need 21 units, not 17.5).
+    """
     lows = sorted(
         {d.earliest for _, d in spans} | {d.latest for _, d in spans}
     )
@@ -137,12 +156,36 @@ def overloaded(
             if high <= low:
                 continue
             width = high - low
-            need, inside = 0, []
+            pieces, inside = [], []
             for name, length, early_end, latest in after:
                 if latest >= high:
                     continue
-                need += min(length, width, early_end - low, high - latest)
+                pieces.append(
+                    min(length, width, early_end - low, high - latest)
+                )
                 inside.append(name)
+            need = sum(pieces)
             if need > room(problem, allowed, low, high):
-                return inside, need, low, high
+                return inside, need, low, high, 0
+            if lanes > 1 and len(pieces) > lanes and need > width:
+                found = _shared_lane(pieces, lanes, width)
+                if found is not None:
+                    return inside, found[1], low, high, found[0]
+    return None
+
+
+def _shared_lane(
+    pieces: list[int], lanes: int, width: int
+) -> tuple[int, int] | None:
+    """(k + 1, their sum) when the ``k + 1`` shortest of the ``k x lanes
+    + 1`` longest ``pieces`` exceed ``width``, for the first such ``k``;
+    else None."""
+    longest = sorted(pieces, reverse=True)
+    k = 1
+    while k * lanes + 1 <= len(longest):
+        top = k * lanes + 1
+        together = sum(longest[top - k - 1 : top])
+        if together > width:
+            return k + 1, together
+        k += 1
     return None

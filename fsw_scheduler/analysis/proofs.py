@@ -715,7 +715,7 @@ def _apart_overload(
         members = [(task, domains[task.id]) for task in clique]
         found = overloaded(problem, members, one_lane, stop)
         if found is not None:
-            inside, need, low, high = found
+            inside, need, low, high, _ = found
             detail = (
                 f"{', '.join(inside)} must be scheduled and no two "
                 f"can run at once ({kind} resources), but need "

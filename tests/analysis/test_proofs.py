@@ -357,6 +357,15 @@ def test_tasks_over_a_third_of_a_capacity_run_two_at_a_time() -> None:
     assert "need 35 time units in [10, 27), where 2 at a time have 34" in (
         detail
     ), detail
+    # 35 of 40 lanes in [10, 30), but one lane holds three of the five:
+    # 21 units.
+    rounds = _crowded([{"power": 34}] * 5, window=(10, 30))
+    problem = problem_from(rounds)
+    proof = infeasibility(problem, start_domains(problem))
+    assert proof, "three of five on two lanes"
+    assert "3 of them must run one after the other: 21 time units in " in (
+        proof[0].detail
+    ), proof[0].detail
     roomy = _crowded([{"power": 34}] * 5, window=(10, 31))
     assert solve(problem_from(roomy), time_limit=30).status.has_plan
     # 50 until 20 holds one of them: 10 + 2 x 11 = 32 lanes of 35.
