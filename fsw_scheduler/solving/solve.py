@@ -14,6 +14,7 @@ from ..analysis.check import check_plan
 from ..analysis.domains import start_domains
 from ..analysis.explain import explain as explain_plan
 from ..analysis.greedy import greedy_plan
+from ..analysis.options import impossible_group
 from ..analysis.proofs import infeasibility
 from ..errors import SolverError
 from ..model import groups
@@ -126,8 +127,9 @@ def solve(
         # A replan pays for what changed (repair.py), not a fresh solve.
         limit = BUDGET.replan_limit(time_limit)
     domains = start_domains(problem)
-    proof = infeasibility(
-        problem, domains, stop=stop_within(began, limit, BUDGET.proof_share)
+    proving = stop_within(began, limit, BUDGET.proof_share)
+    proof = infeasibility(problem, domains, stop=proving) or impossible_group(
+        problem, stop=proving
     )
     if proof:
         # Tasks every plan must hold cannot all be placed: no solve.
