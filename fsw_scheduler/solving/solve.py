@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import msgspec
 
-from ..analysis.bounds import KeptSetProof, kept_set_plan
+from ..analysis.bounds import KeptSetProof, at_lower_bound, kept_set_plan
 from ..analysis.check import check_plan
 from ..analysis.domains import start_domains
 from ..analysis.explain import explain as explain_plan
@@ -709,31 +709,6 @@ def _saying_progress(
         return stop is not None and stop()
 
     return asked
-
-
-def at_lower_bound(
-    problem: Problem,
-    plan: Plan,
-    domains: dict[str, Domain] | None = None,
-) -> bool:
-    """True if ``plan`` is optimal by a bound that needs no solver.
-
-    When every task is scheduled at the earliest start its domain allows
-    (windows, horizon and precedences: :func:`start_domains`, computed
-    unless given as ``domains``), or left out because its domain is empty
-    (no plan can hold it), no plan can leave less out or start anything
-    sooner, so the plan is optimal. (The second case spared the solver on
-    13 of the 69 parts of the broad campaign that needed one.)
-    """
-    if domains is None:
-        domains = start_domains(problem)
-    starts = plan.starts()
-    return all(
-        domains[task.id].empty
-        if task.id not in starts
-        else starts[task.id] == domains[task.id].earliest
-        for task in problem.tasks
-    )
 
 
 def best_start(

@@ -9,10 +9,11 @@ from typing import TYPE_CHECKING
 import pytest
 from hypothesis import given, settings
 
+from fsw_scheduler.analysis.bounds import at_lower_bound
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.greedy import greedy_plan
 from fsw_scheduler.model.plan import SolveStatus
-from fsw_scheduler.solving.solve import at_lower_bound, best_start, solve
+from fsw_scheduler.solving.solve import best_start, solve
 
 from ..factories import bench_lib, make_task, problem_from
 from ..problems import COMMON, brute_force, decode_doc, problem_docs
