@@ -672,3 +672,31 @@ def test_cbc_and_cpsat_agree_on_every_feature_at_once() -> None:
     # The draw reaches both answers: a test that only saw one would not
     # check the other.
     assert seen == {"optimal", "infeasible"}
+
+
+@pytest.mark.parametrize("seed", [0, 5])
+def test_infeasible_suite_is_answered_infeasible(seed: int) -> None:
+    """Tests the infeasible suite (``tools/bench --suite infeasible``):
+    22 valid problems of 30-60 tasks, two of each impossible core, the
+    same from their seeds, and every one answered ``infeasible`` by the
+    product (never ``unknown``) with a proof that names its core, and
+    by CP-SAT where it is installed."""
+    from fsw_scheduler.solving.solve import solve
+
+    problems = generator.suite("infeasible", seed)
+    assert len(problems) == 22
+    kinds = {bench.resource_class for bench in problems}
+    assert kinds == set(bench_lib("infeasible").KINDS)
+    again = generator.suite("infeasible", seed)
+    assert [b.to_json() for b in again] == [b.to_json() for b in problems]
+    for bench in problems:
+        problem = decode_problem(bench.to_json())
+        assert 30 <= problem.num_tasks <= 60
+        plan = solve(problem, time_limit=20)
+        assert plan.status is SolveStatus.INFEASIBLE, (bench.name, plan.stats)
+        core = {t.id for t in problem.tasks if not t.id.startswith("N")}
+        if plan.why:
+            assert {b.task for b in plan.why} <= core, (bench.name, plan.why)
+        if _has_ortools():
+            cpsat = bench_lib("cpsat").solve_cpsat(problem, time_limit=20)
+            assert cpsat.status is SolveStatus.INFEASIBLE, bench.name

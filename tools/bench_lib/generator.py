@@ -36,7 +36,7 @@ from typing import Any
 
 from fsw_scheduler.model.problem import Problem, decode_problem
 
-from . import broad, fresh, mission
+from . import broad, fresh, infeasible, mission
 
 #: The campaign's resource classes: the paper's four, and ``all`` (every
 #: kind at once, each generator's ``mixed`` shape).
@@ -210,6 +210,36 @@ def large_suite(seed: int = 0) -> list[BenchProblem]:
     return problems
 
 
+#: Problems per kind of the infeasible suite.
+INFEASIBLE_PER_KIND = 2
+
+
+def infeasible_suite(seed: int = 0) -> list[BenchProblem]:
+    """Return the infeasible suite: :data:`INFEASIBLE_PER_KIND` problems
+    of each kind of :mod:`bench_lib.infeasible` (30-60 tasks, H up to
+    2,880, an impossible core of mandatory tasks in optional noise), 22
+    in all. Every solver must answer ``infeasible``: ``unknown`` is a
+    miss."""
+    problems = []
+    for kind in infeasible.KINDS:
+        for idx in range(INFEASIBLE_PER_KIND):
+            name = f"x-{kind}-{idx}"
+            own_seed = problem_seed(seed, name)
+            doc = infeasible.generate_problem(kind, own_seed)
+            problems.append(
+                BenchProblem(
+                    name,
+                    "infeasible",
+                    len(doc["tasks"]),
+                    kind,
+                    doc["horizon"],
+                    own_seed,
+                    doc,
+                )
+            )
+    return problems
+
+
 def quick(seed: int = 0, style: str = "paper") -> list[BenchProblem]:
     """Return a small smoke subset: one 5-task problem per class."""
     prefix = "bq" if style == "broad" else "q"
@@ -315,6 +345,8 @@ def suite(
         return mission_suite(seed)
     if name == "large":
         return large_suite(seed)
+    if name == "infeasible":
+        return infeasible_suite(seed)
     raise ValueError(f"unknown suite {name!r}")
 
 
