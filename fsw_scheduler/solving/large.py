@@ -34,7 +34,7 @@ from .incumbent import (
     narrow,
     worth_a_probe,
 )
-from .relaxed import MIN_LEFT_S, RelaxedAnswer, relaxable
+from .relaxed import RelaxedAnswer, fresh_min_left, relaxable
 from .relaxed import around as relaxed_around
 from .repair import changed_tasks, holding, repair
 from .rounds import SHARE, rounds
@@ -74,11 +74,12 @@ REPLAN_BOUND_NODES = 5_000
 
 #: A replan runs the disjunctive relaxation (:mod:`.relaxed`) after its
 #: repair when at least this long is left, for this share of it. A
-#: fresh solve keeps its 5 s minimum (:data:`~fsw_scheduler.solving.
-#: relaxed.MIN_LEFT_S`); a replan has 2 s in all. At a share of 0.5 the
-#: relaxation was stopped by its time in 17 of the 26 replans of seeds
-#: 17-23 that ran it; at 0.75, 22 of 42 replans were no worse than the
-#: fresh solve against 20 (better on 7, worse on 2, same median 1.46 s).
+#: fresh solve has its own minimum (:func:`~fsw_scheduler.solving.
+#: relaxed.fresh_min_left`, 1-5 s by size); a replan has 2 s in all.
+#: At a share of 0.5 the relaxation was stopped by its time in 17 of
+#: the 26 replans of seeds 17-23 that ran it; at 0.75, 22 of 42 replans
+#: were no worse than the fresh solve against 20 (better on 7, worse on
+#: 2, same median 1.46 s).
 REPLAN_RELAX_MIN_S = 0.6
 REPLAN_RELAX_SHARE = 0.75
 
@@ -359,7 +360,7 @@ def improved(
     run: Callable[..., Plan],
     began: float,
     time_limit: float,
-    relax_min_s: float = MIN_LEFT_S,
+    relax_min_s: float | None = None,
     relax_share: float = SHARE,
 ) -> Plan:
     """The start plan improved by
@@ -386,10 +387,12 @@ def improved(
     carries the best bound found (``stats.bound``) and its ``gap``.
     The disjunctive relaxation's rounds run first when at least
     ``relax_min_s`` is left, for ``relax_share`` of it (a fresh solve's
-    :data:`~fsw_scheduler.solving.relaxed.MIN_LEFT_S` and
+    :func:`~fsw_scheduler.solving.relaxed.fresh_min_left` and
     :data:`~fsw_scheduler.solving.rounds.SHARE` by default).
     """
     deadline = began + time_limit - BUDGET.lns_margin_s
+    if relax_min_s is None:
+        relax_min_s = fresh_min_left(problem)
     relaxed = kept_set_bound(
         problem, start, domains, stop=_until(deadline, BOUND_SHARE)
     )

@@ -319,6 +319,27 @@ NODES = 500
 #: then lost the search's only improvement).
 MIN_LEFT_S = 5.0
 
+#: A fresh large part's own minimum (:func:`fresh_min_left`): this much
+#: per task, at least :data:`MIN_LEFT_FLOOR_S`, at most
+#: :data:`MIN_LEFT_S`. The relaxation's 500 nodes cost in proportion to
+#: the part. At a 5 s limit, on 16 fresh parts of 30-60 tasks (seeds
+#: 100-101, H = 336 and 1440), it now runs for up to 55 tasks: f40-h1440
+#: proved (10,731,604, where the search alone ended 1,184 above), 4
+#: plans better, 3 worse by a few hundred delay units. From 1 s left for
+#: every size, a 60-task part lost a whole task in some runs (3,882,555
+#: -> 4,010,555: the rounds take the time its search needs).
+MIN_LEFT_S_PER_TASK = 0.09
+MIN_LEFT_FLOOR_S = 1.0
+
+
+def fresh_min_left(problem: Problem) -> float:
+    """Seconds a fresh large part needs left to run the relaxation
+    (see :data:`MIN_LEFT_S_PER_TASK`)."""
+    return min(
+        MIN_LEFT_S,
+        max(MIN_LEFT_FLOOR_S, MIN_LEFT_S_PER_TASK * problem.num_tasks),
+    )
+
 
 def relaxable(
     run: Callable[..., Plan],

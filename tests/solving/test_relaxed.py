@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import functools
+from typing import TYPE_CHECKING
 
+import pytest
 from hypothesis import assume, given, settings
 
 from fsw_scheduler.analysis.bounds import kept_set_bound
@@ -23,6 +25,9 @@ from fsw_scheduler.solving.solve import best_start, solve
 
 from ..factories import bench_lib, make_doc, make_task, problem_from
 from ..problems import COMMON, decode_doc, problem_docs, show
+
+if TYPE_CHECKING:
+    from fsw_scheduler.model.problem import Problem
 
 CAM_AND_BATTERY = {"binary": ["cam"], "consumable": {"battery": 5}}
 
@@ -204,3 +209,22 @@ def test_probing_proves_a_broad_part_within_one_round() -> None:
     assert answer.plan.objective is not None
     assert answer.plan.objective.total == 3_522_040
     assert check_plan(problem, answer.plan).ok
+
+
+def test_a_fresh_part_needs_time_for_the_relaxation_by_its_size() -> None:
+    """Tests that a fresh large part runs the relaxation from a minimum
+    left that grows with its tasks (0.09 s each, 1 s to 5 s): a 30-task
+    part from 2.7 s left, a 40-task one from 3.6 s, 56 tasks and more
+    only from 5 s."""
+    from fsw_scheduler.solving.relaxed import fresh_min_left
+
+    def sized(count: int) -> Problem:
+        return problem_from(
+            make_doc([make_task(f"t{i}", 2) for i in range(count)], 200)
+        )
+
+    assert fresh_min_left(sized(5)) == 1.0
+    assert fresh_min_left(sized(30)) == pytest.approx(2.7)
+    assert fresh_min_left(sized(40)) == pytest.approx(3.6)
+    assert fresh_min_left(sized(56)) == 5.0
+    assert fresh_min_left(sized(200)) == 5.0
