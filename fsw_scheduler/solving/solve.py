@@ -416,7 +416,12 @@ def _joined(
             for status in SolveStatus
             if status in statuses
         )
-        + (f"; largest: {stats[-1].solver_status}" if stats else "")
+        + (
+            f"; {'infeasible' if skipped else 'largest'}: "
+            f"{stats[-1].solver_status}"
+            if stats
+            else ""
+        )
         + "".join(_unproved(plan) for plan in plans)
         + (
             f"; {skipped} not solved: the problem is infeasible whatever "
