@@ -72,6 +72,12 @@ class SolveBudget:
         fresh solve.
     replan_min_s
         The least limit of a replan (when the caller's allows it).
+    min_start_s
+        The least time a part that handed its share back unproved (CBC
+        not started in it) is given again from what the other parts left
+        (:func:`~fsw_scheduler.solving.solve.solve`'s second pass): CBC
+        starts on a small part's model with it (its stop margin and
+        minimum are 0.35 s) and proves most such parts in 0.01-0.1 s.
     proof_share
         Share of the limit the cheap infeasibility proofs
         (:func:`~fsw_scheduler.analysis.proofs.infeasibility`) may take
@@ -97,6 +103,7 @@ class SolveBudget:
     publish_margin_s: float = 1.0
     min_part_s: float = 1.0
     proof_share: float = 0.2
+    min_start_s: float = 0.5
     replan_share: float = 0.2
     replan_min_s: float = 1.5
 

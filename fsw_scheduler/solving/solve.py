@@ -19,16 +19,15 @@ from ..analysis.proofs import infeasibility
 from ..errors import SolverError
 from ..model import groups
 from ..model.plan import (
-    Objective,
     Plan,
     SolverStats,
     SolveStatus,
-    objective_weight,
 )
 from ..model.stability import Stability, rescored
 from . import large
 from .budget import BUDGET, stop_at, stop_within
 from .incumbent import checked, narrow, probed
+from .joined import after, joined, starved
 from .repair import holding
 from .single import one_task
 from .stats import with_call_stats, with_gap
@@ -245,8 +244,12 @@ def _solve_parts(
     (:func:`~.large.replanned`) gets the same share of what is left of
     ``full_limit``.
     """
+    # A part of one task needs no solver (its earliest start, or a check
+    # of each start with a move part): its share goes to the others.
     weights = [
         1
+        if len(part) == 1
+        else 1
         + sum(
             max(0, domains[n].latest - domains[n].earliest + 1) for n in part
         )
@@ -289,7 +292,7 @@ def _solve_parts(
         _reopen(
             plans, subs, weights, run, began, time_limit, domains, stability
         )
-    return _joined(
+    return joined(
         problem,
         plans,
         [sub for sub, _ in subs[: len(plans)]],
@@ -336,9 +339,11 @@ def _reopen(
 
     Parts proved at once (most are) leave most of their shares; a part
     that stopped at its own share, before the large parts were done,
-    gets that time now, warm-started from its plan. ``plans`` is
-    updated in place: a part's new plan replaces its plan when it is
-    proved or better.
+    gets that time now, warm-started from its plan. A part that handed
+    most of its share back unproved (too short for CBC to start: many
+    parts under a short limit) gets at least :attr:`~.budget.SolveBudget.
+    min_start_s` when that much is left. ``plans`` is updated in place:
+    a part's new plan replaces its plan when it is proved or better.
     """
     still = [
         idx
@@ -349,10 +354,14 @@ def _reopen(
         now = time.perf_counter()
         left = time_limit - (now - began)
         limit = BUDGET.part_share(left, [weights[k] for k in still[pos:]])
-        if limit < BUDGET.min_part_s:
-            return  # no more than the first pass had: nothing to gain
-        sub, _ = subs[idx]
         before = plans[idx]
+        least = BUDGET.min_part_s
+        if starved(before, BUDGET.min_start_s):
+            least = BUDGET.min_start_s
+            limit = max(limit, min(left, least))
+        if limit < least:
+            continue  # no more than the first pass had: nothing to gain
+        sub, _ = subs[idx]
         again = _solve_whole(
             sub,
             run,
@@ -370,156 +379,7 @@ def _reopen(
             )
         )
         if gained or not before.status.has_plan:
-            plans[idx] = _after(before, again)
-
-
-def _after(before: Plan, again: Plan) -> Plan:
-    """``again``, its status line led by what the first pass of its part
-    did: the reader sees both searches, not only the second."""
-    if before.stats is None or again.stats is None:
-        return again
-    return again.replace(
-        stats=msgspec.structs.replace(
-            again.stats,
-            solver_status=f"{before.stats.solver_status}; then with the "
-            f"time the other parts left: {again.stats.solver_status}",
-        )
-    )
-
-
-def _joined(
-    problem: Problem,
-    plans: list[Plan],
-    subs: list[Problem],
-    began: float,
-    time_limit: float | None,
-    stability: Stability | None = None,
-    skipped: int = 0,
-) -> Plan:
-    """One plan of ``problem`` from the plans of its parts (smallest
-    first: the status line ends with the largest part's). The move part
-    is a sum over tasks too, so the parts' optima join into the whole's
-    (with the weights of the whole). ``skipped`` parts were not solved,
-    one before them being infeasible."""
-    statuses = {plan.status for plan in plans}
-    stats = [plan.stats for plan in plans if plan.stats is not None]
-    summary = SolverStats(
-        solver="+".join(sorted({s.solver for s in stats})) or "none",
-        build_s=sum(s.build_s for s in stats),
-        solve_s=sum(s.solve_s for s in stats),
-        wall_s=time.perf_counter() - began,
-        num_variables=sum(s.num_variables for s in stats),
-        num_constraints=sum(s.num_constraints for s in stats),
-        solver_status=f"{len(plans) + skipped} independent parts: "
-        + ", ".join(
-            f"{sum(p.status is status for p in plans)} {status.value}"
-            for status in SolveStatus
-            if status in statuses
-        )
-        + (
-            f"; {'infeasible' if skipped else 'largest'}: "
-            f"{stats[-1].solver_status}"
-            if stats
-            else ""
-        )
-        + "".join(_unproved(plan) for plan in plans)
-        + (
-            f"; {skipped} not solved: the problem is infeasible whatever "
-            "they hold"
-            if skipped
-            else ""
-        ),
-        time_limit_s=time_limit,
-    )
-    everything = tuple(task.id for task in problem.tasks)
-    for status in (SolveStatus.INFEASIBLE, SolveStatus.UNKNOWN):
-        if status in statuses:
-            return Plan(status, None, unscheduled=everything, stats=summary)
-    activities = tuple(
-        sorted(
-            (a for plan in plans for a in plan.activities),
-            key=lambda a: (a.start, a.task),
-        )
-    )
-    scheduled = {a.task for a in activities}
-    missed = groups.unscheduled_cost(problem, scheduled)
-    delay = sum(
-        problem.task(a.task).delay_cost * (a.start - problem.start)
-        for a in activities
-    )
-    weight = objective_weight(
-        [t.delay_cost for t in problem.tasks], problem.horizon
-    )
-    optimal = statuses == {SolveStatus.OPTIMAL}
-    objective = Objective(missed, delay, weight * missed + delay)
-    if stability is not None:
-        objective = stability.objective(
-            problem, missed, delay, {a.task: a.start for a in activities}
-        )
-    total = objective.total
-    bound: float | None = float(total)
-    if not optimal:
-        # The parts' bounds join in the paper's weights only: with a move
-        # part the whole's weight is another.
-        bound = (
-            None
-            if stability is not None
-            else _joined_bound(problem, plans, subs)
-        )
-    return Plan(
-        status=SolveStatus.OPTIMAL if optimal else SolveStatus.FEASIBLE,
-        objective=objective,
-        activities=activities,
-        unscheduled=groups.left_out(problem, scheduled),
-        chosen=groups.chosen(problem, scheduled),
-        stats=msgspec.structs.replace(summary, bound=bound),
-    )
-
-
-def _joined_bound(
-    problem: Problem, plans: list[Plan], subs: list[Problem]
-) -> float | None:
-    """A bound on the whole objective from the parts' bounds, if each
-    part has one.
-
-    A part's objective weighs a left-out cost by its own ``W_p`` (its
-    tasks' delay costs), the whole's by ``W``: a part bound ``L`` says
-    that a plan leaving out ``m = L // W_p`` has a delay of at least
-    ``L - m W_p``, and one leaving out more costs more than any delay, so
-    ``W m + L - m W_p`` bounds the part in the whole's units; the parts'
-    bounds add up.
-    """
-    delay = {task.id: task.delay_cost for task in problem.tasks}
-    whole = objective_weight(list(delay.values()), problem.horizon)
-    total = 0.0
-    for plan, sub in zip(plans, subs, strict=True):
-        if plan.stats is None or plan.stats.bound is None:
-            return None
-        weight = objective_weight(
-            [delay[t.id] for t in sub.tasks], problem.horizon
-        )
-        missed = int(plan.stats.bound // weight)
-        total += whole * missed + plan.stats.bound - weight * missed
-    return total
-
-
-def _unproved(plan: Plan) -> str:
-    """What the joined status says of a part that is not proved: its
-    tasks, the limit it had, and its own solver status (why)."""
-    if plan.status is SolveStatus.OPTIMAL:
-        return ""
-    names = sorted([a.task for a in plan.activities] + list(plan.unscheduled))
-    stats = plan.stats
-    limit = (
-        ""
-        if stats is None or stats.time_limit_s is None
-        else f" after {stats.wall_s:.2f} s of {stats.time_limit_s:.2f} s"
-    )
-    why = stats.solver_status if stats is not None else "no statistics"
-    return (
-        f"; {plan.status.value}: the part of {len(names)} tasks from "
-        f"{names[0] if names else '-'}{limit}: {why}"
-    )
+            plans[idx] = after(before, again)
 
 
 #: Parts at least this large say when their start plan begins and ends

@@ -577,15 +577,17 @@ def test_a_small_part_that_needs_cbc_gets_time_to_start_it() -> None:
 
 
 def test_time_the_other_parts_leave_goes_to_the_unproved_one() -> None:
-    """Tests that a part whose first share was too small to start CBC
-    (31 parts, 6 s) is solved again with what the parts proved at once
-    left, and proved; and that with no time to give, the status names the
+    """Tests that a part that needs CBC beside 30 lone tasks (31 parts)
+    is proved at 6 s and at 1 s (lone tasks need no solver and weigh
+    nothing in the shares: at 1 s it once got 0.03 s, too little to start
+    CBC); and that with no time to give (0.3 s), the status names the
     unproved part, its share and why."""
     problem = _small_part_beside(30)
-    plan = solve(problem, time_limit=6)
-    assert plan.status is SolveStatus.OPTIMAL, plan.stats
-    assert plan.stats is not None and "cbc" in plan.stats.solver
-    short = solve(problem, time_limit=0.5)
+    for limit in (6, 1):
+        plan = solve(problem, time_limit=limit)
+        assert plan.status is SolveStatus.OPTIMAL, plan.stats
+        assert plan.stats is not None and "cbc" in plan.stats.solver
+    short = solve(problem, time_limit=0.3)
     assert short.status is SolveStatus.FEASIBLE
     assert short.stats is not None
     said = short.stats.solver_status
@@ -1099,3 +1101,21 @@ def test_an_infeasible_part_ends_the_solve() -> None:
     ), said
     assert "the part of 5 tasks from x0" in said, said
     assert wall < 10, said
+
+
+def test_a_part_starved_of_its_share_is_given_it_again() -> None:
+    """Tests which parts the second pass treats as starved: a share under
+    what CBC needs to start, or most of a share handed back unproved; a
+    part that used its share is not."""
+    from fsw_scheduler.model.plan import Plan, SolverStats
+    from fsw_scheduler.solving.joined import starved
+
+    def part(wall: float, limit: float | None) -> Plan:
+        stats = SolverStats("cbc", wall_s=wall, time_limit_s=limit)
+        return Plan(SolveStatus.FEASIBLE, None, stats=stats)
+
+    least = BUDGET.min_start_s
+    assert starved(part(0.0, 0.28), least)  # CBC could not start
+    assert starved(part(0.2, 3.0), least)  # handed most of it back
+    assert not starved(part(2.9, 3.0), least)
+    assert not starved(part(0.2, None), least)
