@@ -421,7 +421,9 @@ def positive_cycles(problem: Problem) -> dict[str, str]:
                 if prec.kind == "tight":
                     edges.append((prec.after, prec.before, -gap))
         # Longest paths from every member at once: still growing after
-        # len(members) rounds means a positive cycle (Bellman-Ford).
+        # len(members) rounds means a positive cycle (Bellman-Ford). A
+        # start difference past the horizon cannot be either: that ends
+        # it sooner (2,000 tasks in one cycle: 50 rounds, not 2,000).
         dist = dict.fromkeys(members, 0)
         growing = False
         for _ in range(len(members)):
@@ -430,7 +432,7 @@ def positive_cycles(problem: Problem) -> dict[str, str]:
                 if dist[first] + gap > dist[second]:
                     dist[second] = dist[first] + gap
                     growing = True
-            if not growing:
+            if not growing or max(dist.values()) >= problem.horizon:
                 break
         if growing:
             names = ", ".join(sorted(members))

@@ -91,3 +91,24 @@ def test_a_cycle_longer_than_zero_empties_its_tasks_at_once() -> None:
     assert plan.status is SolveStatus.INFEASIBLE
     assert plan.stats is not None and plan.stats.solver == "proof"
     assert {b.task for b in plan.why} == {"a", "b"}  # a needs b
+
+
+def test_a_long_cycle_is_found_from_the_horizon() -> None:
+    """Tests that 500 tasks in one lax cycle over a horizon of 100,000
+    (the search for the cycle stops once a start difference passes the
+    horizon, long before 500 rounds) all get no start, and that the same
+    chain without the edge that closes it keeps every start."""
+    count = 500
+    tasks = [make_task(f"t{i}", 1) for i in range(count)]
+    chain = [
+        _prec(f"t{i}", f"t{i + 1}", "lax", scope="at_least_first")
+        for i in range(count - 1)
+    ]
+    closing = _prec(f"t{count - 1}", "t0", "lax", scope="at_least_first")
+    doc = make_doc(tasks, horizon=100_000, precedences=[*chain, closing])
+    domains = start_domains(problem_from(doc))
+    assert all(domain.empty for domain in domains.values())
+    doc["precedences"] = chain
+    domains = start_domains(problem_from(doc))
+    assert not any(domain.empty for domain in domains.values())
+    assert domains[f"t{count - 1}"].earliest == count - 1
