@@ -40,10 +40,10 @@ import msgspec
 from .proofs import block_conflicts
 
 if TYPE_CHECKING:
-    from collections.abc import Mapping
+    from collections.abc import Callable, Mapping, Sequence
 
     from ..model.plan import Plan
-    from ..model.problem import Problem, Task
+    from ..model.problem import Precedence, Problem, Task
 
 
 class Domain(msgspec.Struct, frozen=True):
@@ -144,12 +144,62 @@ def start_domains(
                 if why:
                     kill(task.id, why, "consumable")
 
+    # Passes in topological order and back settle a chain in two, in
+    # whatever order the problem lists its precedences (2,000 tasks
+    # listed last to first took 2,000 passes, 3.6 s). Where that empties
+    # no domain, the bounds are the listed order's (the same fixpoint);
+    # where it does, the listed order runs instead, so the precedence
+    # named as the reason stays the one it always was.
+    forward = _in_order(problem)
+    trial = (dict(low), dict(high), dict(cause))
+    _settle(
+        problem,
+        length,
+        *trial,
+        lambda rank: forward if rank % 2 == 0 else forward[::-1],
+    )
+    if any(
+        trial[0][name] > trial[1][name] and not empty(name) for name in length
+    ):
+        _settle(
+            problem, length, low, high, cause, lambda _: problem.precedences
+        )
+    else:
+        low, high = trial[0], trial[1]
+    return {
+        name: Domain(low[name], high[name], *cause.get(name, ("", "")))
+        for name in length
+    }
+
+
+def _settle(
+    problem: Problem,
+    length: dict[str, int],
+    low: dict[str, int],
+    high: dict[str, int],
+    cause: dict[str, tuple[str, str]],
+    order: Callable[[int], Sequence[Precedence]],
+) -> None:
+    """Propagate the precedences into ``low`` and ``high`` (in place)
+    until nothing changes, pass ``rank`` going along ``order(rank)``; a
+    task left without a start gets its reason in ``cause``."""
+
+    def empty(name: str) -> bool:
+        return low[name] > high[name]
+
+    def kill(name: str, why: str) -> bool:
+        if empty(name):
+            return False
+        high[name] = low[name] - 1
+        cause[name] = ("precedence", why)
+        return True
+
     # Each pass only shrinks ranges, so this terminates; the cap bounds
     # the work on long positive lax cycles, where any intermediate state
     # is still a valid relaxation.
-    for _ in range(2 * len(length) + 4):
+    for rank in range(2 * len(length) + 4):
         changed = False
-        for prec in problem.precedences:
+        for prec in order(rank):
             i, j = prec.before, prec.after
             gap = length[i] + prec.offset
             if empty(i):
@@ -181,10 +231,6 @@ def start_domains(
                     )
         if not changed:
             break
-    return {
-        name: Domain(low[name], high[name], *cause.get(name, ("", "")))
-        for name in length
-    }
 
 
 def cost_caps(
@@ -389,6 +435,33 @@ def _after_end(
     return found
 
 
+def _in_order(problem: Problem) -> list[Precedence]:
+    """The precedences by the topological rank of their ``before`` task
+    (Kahn's order; tasks on cycles after the others, in problem order),
+    then of their ``after`` task, then as listed."""
+    following: dict[str, list[str]] = {t.id: [] for t in problem.tasks}
+    waiting = dict.fromkeys(following, 0)
+    for prec in problem.precedences:
+        following[prec.before].append(prec.after)
+        waiting[prec.after] += 1
+    ready = [name for name, count in waiting.items() if count == 0]
+    rank: dict[str, int] = {}
+    while ready:
+        name = ready.pop()
+        rank[name] = len(rank)
+        for other in following[name]:
+            waiting[other] -= 1
+            if waiting[other] == 0:
+                ready.append(other)
+    for task in problem.tasks:
+        rank.setdefault(task.id, len(rank))
+    listed = {id(prec): idx for idx, prec in enumerate(problem.precedences)}
+    return sorted(
+        problem.precedences,
+        key=lambda p: (rank[p.before], rank[p.after], listed[id(p)]),
+    )
+
+
 def positive_cycles(problem: Problem) -> dict[str, str]:
     """Tasks held by precedences in a cycle that needs more time than a
     cycle has: task id to why.
@@ -409,12 +482,13 @@ def positive_cycles(problem: Problem) -> dict[str, str]:
         if prec.scope == "both":
             needs[prec.before].append(prec.after)
     found: dict[str, str] = {}
+    ordered = _in_order(problem)  # a chain settles in one round
     for members in _strongly_connected(needs):
         if len(members) < 2:
             continue
         inside = set(members)
         edges: list[tuple[str, str, int]] = []
-        for prec in problem.precedences:
+        for prec in ordered:
             if prec.before in inside and prec.after in inside:
                 gap = length[prec.before] + prec.offset
                 edges.append((prec.before, prec.after, gap))

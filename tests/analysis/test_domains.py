@@ -3,9 +3,13 @@ that change over time."""
 
 from __future__ import annotations
 
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
 from fsw_scheduler.analysis.domains import start_domains
 
 from ..factories import make_doc, make_task, problem_from
+from ..problems import COMMON, decode_doc, problem_docs
 
 
 def test_windows_and_steps_bound_the_starts() -> None:
@@ -112,3 +116,26 @@ def test_a_long_cycle_is_found_from_the_horizon() -> None:
     domains = start_domains(problem_from(doc))
     assert not any(domain.empty for domain in domains.values())
     assert domains[f"t{count - 1}"].earliest == count - 1
+
+
+@settings(COMMON, max_examples=150)
+@given(doc=problem_docs(max_tasks=6, max_horizon=12), data=st.data())
+def test_the_order_of_the_precedences_changes_no_bound(
+    doc: dict, data: st.DataObject
+) -> None:
+    """Tests that the start domains are the same, bounds and emptiness,
+    whatever the order in which the problem lists its precedences (the
+    propagation goes along them in topological order and back)."""
+    problem = decode_doc(doc)
+    shuffled = problem.replace(
+        precedences=tuple(data.draw(st.permutations(problem.precedences)))
+    )
+    first, second = start_domains(problem), start_domains(shuffled)
+    for name, domain in first.items():
+        other = second[name]
+        assert domain.empty == other.empty, (name, domain, other)
+        if not domain.empty:
+            assert (domain.earliest, domain.latest) == (
+                other.earliest,
+                other.latest,
+            ), (name, domain, other)
