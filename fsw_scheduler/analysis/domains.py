@@ -108,7 +108,10 @@ def start_domains(
 
     for name, (kind, why) in block_conflicts(problem).items():
         kill(name, why, kind)
-    for name, why in positive_cycles(problem).items():
+    # Precedences in topological order: the cycle search and the
+    # propagation below both go along them.
+    forward = _in_order(problem)
+    for name, why in positive_cycles(problem, forward).items():
         kill(name, why)
 
     # Resources that change over time: a start whose run meets a unit
@@ -150,7 +153,6 @@ def start_domains(
     # no domain, the bounds are the listed order's (the same fixpoint);
     # where it does, the listed order runs instead, so the precedence
     # named as the reason stays the one it always was.
-    forward = _in_order(problem)
     trial = (dict(low), dict(high), dict(cause))
     _settle(
         problem,
@@ -462,9 +464,12 @@ def _in_order(problem: Problem) -> list[Precedence]:
     )
 
 
-def positive_cycles(problem: Problem) -> dict[str, str]:
+def positive_cycles(
+    problem: Problem, ordered: Sequence[Precedence] | None = None
+) -> dict[str, str]:
     """Tasks held by precedences in a cycle that needs more time than a
-    cycle has: task id to why.
+    cycle has: task id to why (``ordered``: the precedences in
+    topological order, if already known).
 
     Every precedence makes its ``after`` need its ``before`` (and the
     reverse with scope ``both``), so the tasks of one strongly connected
@@ -482,7 +487,8 @@ def positive_cycles(problem: Problem) -> dict[str, str]:
         if prec.scope == "both":
             needs[prec.before].append(prec.after)
     found: dict[str, str] = {}
-    ordered = _in_order(problem)  # a chain settles in one round
+    if ordered is None:
+        ordered = _in_order(problem)  # a chain settles in one round
     for members in _strongly_connected(needs):
         if len(members) < 2:
             continue

@@ -6,8 +6,8 @@ together run at most ``m`` at a time, so over an interval ``[a, b)``
 their least overlaps with it must fit in ``m`` lanes of ``b - a`` units.
 The energetic test (work against capacity) misses this: five tasks each
 needing 34 % of the capacity need only 1.7 lengths of energy per
-length of time. :func:`overloaded` is the interval sweep both this test
-and the "no two at once" cliques use.
+length of time. :func:`least_overlaps` is the interval sweep of this
+test, of the "no two at once" cliques and of the energetic test.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 from ..model.plan import Blocker
 
 if TYPE_CHECKING:
-    from collections.abc import Callable, Mapping
+    from collections.abc import Callable, Iterator, Mapping, Sequence
 
     from ..model.problem import Problem, Task
     from .domains import Domain
@@ -69,15 +69,16 @@ def crowded(
     peak = max(profile, default=0.0)
     # The largest prefix for each number of lanes.
     chosen: dict[int, list[Task]] = {}
+    # Smallest first: the users are by decreasing use.
+    ascending = [t.uses[resource] for t in reversed(users)]
     for size in range(3, len(users) + 1):
-        amounts = sorted(t.uses[resource] for t in users[:size])
-        lanes = _lanes(amounts, peak)
+        lanes = _lanes(ascending[len(users) - size :], peak)
         if lanes > MAX_LANES:
             break
         if 2 <= lanes < size:
             chosen[lanes] = users[:size]
     for lanes, members in sorted(chosen.items()):
-        amounts = sorted(t.uses[resource] for t in members)
+        amounts = ascending[len(users) - len(members) :]
         per_unit = {cap: _lanes(amounts, cap) for cap in set(profile)}
         allowed = list(
             itertools.accumulate((per_unit[c] for c in profile), initial=0)
@@ -107,9 +108,12 @@ def crowded(
     return ()
 
 
-def room(problem: Problem, allowed: list[int], low: int, high: int) -> int:
+def room(
+    problem: Problem, allowed: Sequence[float], low: int, high: int
+) -> float:
     """``allowed[high] - allowed[low]``, the ends clipped to the horizon
-    (``allowed``: a running sum from the problem's start)."""
+    (``allowed``: a running sum from the problem's start, of lanes or of
+    capacity)."""
     last = len(allowed) - 1
     first = min(max(low - problem.start, 0), last)
     end = min(max(high - problem.start, 0), last)
@@ -135,6 +139,27 @@ def overloaded(
     shortest of them, ``rounds = k + 1``, longer in all than the interval
     (five pieces of 7 on two lanes need 21 units, not 17.5).
     """
+    for low, high, inside, pieces in least_overlaps(spans, stop):
+        need = sum(pieces)
+        if need > room(problem, allowed, low, high):
+            return inside, need, low, high, 0
+        width = high - low
+        if lanes > 1 and len(pieces) > lanes and need > width:
+            found = _shared_lane(pieces, lanes, width)
+            if found is not None:
+                return inside, found[1], low, high, found[0]
+    return None
+
+
+def least_overlaps(
+    spans: Sequence[tuple[Task, Domain]],
+    stop: Callable[[], bool] | None = None,
+) -> Iterator[tuple[int, int, list[str], list[int]]]:
+    """Each interval ``[low, high)`` between the ends of the tasks'
+    ranges and of their compulsory parts, with the tasks that overlap it
+    whatever their starts and those least overlaps: (low, high, task ids,
+    overlaps), the tasks in ``spans`` order. Ends once ``stop()`` is
+    true."""
     lows = sorted(
         {d.earliest for _, d in spans} | {d.latest for _, d in spans}
     )
@@ -150,7 +175,7 @@ def overloaded(
     ]
     for low in lows:
         if stop is not None and stop():
-            return None
+            return
         after = [r for r in ranges if r[2] > low]
         for high in highs:
             if high <= low:
@@ -164,14 +189,7 @@ def overloaded(
                     min(length, width, early_end - low, high - latest)
                 )
                 inside.append(name)
-            need = sum(pieces)
-            if need > room(problem, allowed, low, high):
-                return inside, need, low, high, 0
-            if lanes > 1 and len(pieces) > lanes and need > width:
-                found = _shared_lane(pieces, lanes, width)
-                if found is not None:
-                    return inside, found[1], low, high, found[0]
-    return None
+            yield low, high, inside, pieces
 
 
 def _shared_lane(

@@ -53,7 +53,7 @@ import itertools
 from typing import TYPE_CHECKING, NamedTuple
 
 from ..model.plan import Blocker
-from .lanes import crowded, overloaded, room
+from .lanes import crowded, least_overlaps, overloaded, room
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Collection, Mapping, Set
@@ -417,12 +417,6 @@ def _energy(
     capacity = max(profile, default=0.0)
     # allowed[k]: capacity summed over the units before start + k.
     allowed = list(itertools.accumulate(profile, initial=0.0))
-
-    def room(low: int, high: int) -> float:
-        first = min(max(low - problem.start, 0), len(profile))
-        last = min(max(high - problem.start, 0), len(profile))
-        return allowed[last] - allowed[first]
-
     users = [
         (task, task.uses[resource], domains[task.id])
         for task in forced
@@ -440,48 +434,23 @@ def _energy(
             )
     if sum(a * t.length for t, a, _ in users) <= min(profile, default=0.0):
         return ()  # not even two units of work: nothing to find
-    # Interval ends at the ends of the tasks' ranges and of their
-    # compulsory parts ([latest, earliest + length) when not empty).
-    lows = sorted(
-        {d.earliest for _, _, d in users} | {d.latest for _, _, d in users}
-    )
-    highs = sorted(
-        {d.latest + t.length for t, _, d in users}
-        | {d.earliest + t.length for t, _, d in users}
-    )
-    # As in :func:`~.lanes.overloaded`: only tasks whose earliest end is
-    # past low and latest start before high overlap [low, high) surely.
-    ranges = [
-        (t.id, amount, t.length, d.earliest + t.length, d.latest)
-        for t, amount, d in users
-    ]
-    for low in lows:
-        if stop is not None and stop():
-            return ()
-        after = [r for r in ranges if r[3] > low]
-        for high in highs:
-            if high <= low:
-                continue
-            width = high - low
-            need, inside = 0.0, []
-            for name, amount, length, early_end, latest in after:
-                if latest >= high:
-                    continue
-                need += amount * min(
-                    length, width, early_end - low, high - latest
-                )
-                inside.append(name)
-            if need > room(low, high) + _EPS:
-                detail = (
-                    f"{resource}: tasks that must be scheduled need "
-                    f"{need:g} units of work in [{low}, {high}), where "
-                    f"capacity {_capacity_words(profile)} allows "
-                    f"{room(low, high):g}"
-                )
-                return tuple(
-                    Blocker(name, kind or "multiple", detail)
-                    for name in inside
-                )
+    amounts = {task.id: amount for task, amount, _ in users}
+    spans = [(task, dom) for task, _, dom in users]
+    for low, high, inside, pieces in least_overlaps(spans, stop):
+        need = sum(
+            amounts[name] * piece
+            for name, piece in zip(inside, pieces, strict=True)
+        )
+        space = room(problem, allowed, low, high)
+        if need > space + _EPS:
+            detail = (
+                f"{resource}: tasks that must be scheduled need "
+                f"{need:g} units of work in [{low}, {high}), where "
+                f"capacity {_capacity_words(profile)} allows {space:g}"
+            )
+            return tuple(
+                Blocker(name, kind or "multiple", detail) for name in inside
+            )
     return ()
 
 
