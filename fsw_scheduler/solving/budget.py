@@ -83,7 +83,7 @@ class SolveBudget:
         (:func:`~fsw_scheduler.analysis.proofs.infeasibility`) may take
         before the solve goes on without them (the solver then decides):
         their interval sweeps grow with the cube of the tasks every plan
-        must hold (0.09 s on 300 mandatory tasks over H = 2,880).
+        must hold (0.14 s on 300 mandatory tasks over H = 2,880).
     min_part_s
         The least share of the limit an independent part of a problem
         gets when the limit has room for it (:meth:`part_share`): enough
