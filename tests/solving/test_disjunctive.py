@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import random
+from typing import TYPE_CHECKING
+
 import pytest
 from hypothesis import given, settings
 
@@ -9,13 +12,18 @@ from fsw_scheduler.analysis.check import check_plan, format_report
 from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.errors import SolverError
 from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.solving.ilp.disjunctive import rule
 from fsw_scheduler.solving.ilp.disjunctive.model import DisjunctiveModel
 from fsw_scheduler.solving.ilp.disjunctive.rule import pairwise_exact, pick
 from fsw_scheduler.solving.ilp.model import solve_ilp
-from fsw_scheduler.solving.solve import solve
+from fsw_scheduler.solving.solve import best_start, solve
+from fsw_scheduler.solving.stats import stopped_on_nodes
 
 from ..factories import make_doc, make_task, problem_from
 from ..problems import COMMON, brute_force, decode_doc, problem_docs, show
+
+if TYPE_CHECKING:
+    from fsw_scheduler.model.problem import Problem
 
 
 def _without_consumables(doc: dict) -> dict:
@@ -169,3 +177,67 @@ def test_forced_on_consumables_is_refused() -> None:
     )
     with pytest.raises(SolverError, match="consumables"):
         solve_ilp(problem, formulation="disjunctive")
+
+
+def _crowded_power(seed: int) -> Problem:
+    """Five tasks on a power bus of 10 whose uses (3-7) let two or three
+    run at once: a disjunctive model that branches."""
+    rnd = random.Random(seed)
+    tasks = [
+        make_task(
+            f"t{idx}",
+            length=rnd.randint(2, 4),
+            delay_cost=rnd.randint(1, 5),
+            uses={"power": rnd.randint(3, 7)},
+        )
+        for idx in range(5)
+    ]
+    return problem_from(
+        make_doc(tasks, horizon=12, resources={"multiple": {"power": 10}})
+    )
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_an_unproved_disjunctive_run_hands_over_to_the_time_indexed_model(
+    seed: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Tests that a disjunctive run on a multiple resource that is still
+    unproved after the switch's node count goes on in the time-indexed
+    model from its plan, and proves the optimum; its status line says so
+    without reading as a run stopped on its nodes."""
+    monkeypatch.setattr(rule, "SWITCH_NODES", 1)
+    problem = _crowded_power(seed)
+    domains = start_domains(problem)
+    assert pick(problem, domains) == "disjunctive"
+    assert rule.switch_nodes(problem, domains, 15) == 1
+    start = best_start(problem, None)
+    assert start is not None
+    plan = solve_ilp(problem, warm=start.starts())
+    said = plan.stats.solver_status if plan.stats else ""
+    assert "disjunctive model unproved after 1 nodes" in said
+    assert "time-indexed model from its plan: Optimal" in said
+    assert not stopped_on_nodes(said)
+    assert plan.status is SolveStatus.OPTIMAL
+    best = brute_force(problem)
+    assert best is not None and plan.objective is not None
+    assert plan.objective.total == best[0].total
+    assert plan.stats is not None and plan.stats.bound == best[0].total
+    assert check_plan(problem, plan).ok
+    # A caller's own node limit at or under the switch's is kept: a probe
+    # stays a probe of the disjunctive model.
+    probe = solve_ilp(problem, warm=start.starts(), max_nodes=1)
+    probe_said = probe.stats.solver_status if probe.stats else ""
+    assert "time-indexed" not in probe_said
+    assert "disjunctive model" in probe_said
+
+
+def test_only_small_parts_with_a_multiple_resource_switch() -> None:
+    """Tests that binary-only parts and parts over the size measured keep
+    their disjunctive run to the end."""
+    crowded = _crowded_power(0)
+    domains = start_domains(crowded)
+    assert rule.switch_nodes(crowded, domains, 15) == rule.SWITCH_NODES
+    assert rule.switch_nodes(crowded, domains, 4) is None
+    tasks = [make_task(f"t{idx}", uses={"cam": 1}) for idx in range(4)]
+    binary = problem_from(make_doc(tasks, resources={"binary": ["cam"]}))
+    assert rule.switch_nodes(binary, start_domains(binary), 15) is None

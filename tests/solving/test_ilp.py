@@ -604,9 +604,24 @@ def test_multiple_resource_models_strong_branch_by_formulation() -> None:
     disjunctive = DisjunctiveModel(problem, start_domains(problem))
     options = cbc_options(disjunctive, everything) or []
     assert "strong 2" not in options
-    # The disjunctive model branches on more candidates instead.
-    assert DISJUNCTIVE_STRONG == ["strong 10"]
+    # The disjunctive model branches on more candidates instead, and
+    # without CBC's mini branch-and-bound (its nodes escape node limits).
+    assert DISJUNCTIVE_STRONG == ["strong 10", "depthMiniBab -999"]
     assert "strong 10" in options
+    assert "depthMiniBab -999" in options
+    binary = problem_from(
+        {
+            "horizon": 8,
+            "resources": {"binary": ["camera"]},
+            "tasks": [
+                make_task(f"t{idx}", length=2, uses={"camera": 1})
+                for idx in range(3)
+            ],
+        }
+    )
+    alone = DisjunctiveModel(binary, start_domains(binary))
+    kept = cbc_options(alone, {task.id: 0 for task in binary.tasks}) or []
+    assert "depthMiniBab -999" not in kept
     start = best_start(problem, None)
     assert start is not None
     plan = solve_ilp(problem, formulation="time-indexed", warm=start.starts())

@@ -16,6 +16,8 @@ import time
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+import msgspec
+
 from ...analysis.domains import start_domains
 from ...errors import SolverError
 from ...model.plan import Plan, SolverStats, SolveStatus
@@ -28,6 +30,7 @@ from .disjunctive.rule import (
     FORMULATIONS,
     changing_in_use,
     pick,
+    switch_nodes,
     used_kinds,
 )
 from .objective import objective
@@ -112,7 +115,19 @@ MULTIPLE_TIME_INDEXED = ["strong 2"]
 #: tuned on), 28 problems: 16.5 -> 15.3 s, none slower by more than
 #: 0.02 s (c15-multiple-5 of seed 14 1.76 -> 1.09 s). Binary-only parts
 #: keep CBC's default (their class met its target; not measured).
-DISJUNCTIVE_STRONG = ["strong 10"]
+#:
+#: ``depthMiniBab -999`` turns off CBC's mini branch-and-bound ("complete
+#: fathoming": small models of under 500 rows and columns get it by
+#: default), whose nodes neither count against a node limit nor close
+#: the weak bound any sooner: seed 33's b15-multiple-5 ran 60,437 nodes,
+#: 59,713 of them in it, in 2.3 s (a node limit of 5,000 set), and 2,123
+#: nodes in 0.61 s without it. On the 22 disjunctive multiple parts of
+#: ``--generator broad --seed 32..39 --only b15-multiple`` it took 27.6
+#: -> 23.8 s in total (with :data:`~.disjunctive.rule.SWITCH_NODES`:
+#: 16.7 s). Binary-only parts keep it: two of their tails went 6.7 ->
+#: 15.3 s and 11.0 s -> unproved at 20 s without it. (``depthMiniBab
+#: 0`` makes CBC 2.10.3 crash: never use it.)
+DISJUNCTIVE_STRONG = ["strong 10", "depthMiniBab -999"]
 
 #: Parts of at most this many tasks get :data:`CONSUMABLES_AND_SHARED`
 #: and :data:`MULTIPLE_TIME_INDEXED`: they were measured on 15-task
@@ -482,6 +497,24 @@ def solve_ilp(
         domains = start_domains(problem)
     if formulation == "auto":
         formulation = pick(problem, domains)
+        switch = (
+            switch_nodes(problem, domains, TUNED_MAX_TASKS)
+            if formulation == "disjunctive" and solver == "cbc"
+            else None
+        )
+        if switch is not None and (max_nodes is None or max_nodes > switch):
+            return _switching(
+                problem,
+                switch,
+                time_limit=time_limit,
+                threads=threads,
+                seed=seed,
+                warm=warm,
+                domains=domains,
+                max_nodes=max_nodes,
+                heuristics=heuristics,
+                stability=stability,
+            )
     elif formulation not in FORMULATIONS:
         raise SolverError(
             f"unknown formulation {formulation!r} (choose from "
@@ -585,6 +618,85 @@ def solve_ilp(
     return plan.replace(
         stats=SolverStats(
             **stats, bound=bound, wall_s=time.perf_counter() - began
+        )
+    )
+
+
+def _switching(
+    problem: Problem,
+    switch: int,
+    *,
+    time_limit: float | None,
+    warm: dict[str, int] | None,
+    domains: dict[str, Domain],
+    max_nodes: int | None,
+    **options: Any,
+) -> Plan:
+    """The disjunctive model for ``switch`` nodes, then, if that proved
+    nothing, the time-indexed model from its best plan in what is left
+    of ``time_limit`` (:func:`~.disjunctive.rule.switch_nodes` says
+    why). A run stopped by time is the answer as it is: the switch is on
+    nodes only, so the same on every machine.
+
+    The answer is the time-indexed run's, or the disjunctive run's plan
+    when the second run found none; its bound is the higher of the two
+    runs' and its status line says both.
+    """
+    began = time.perf_counter()
+    first = solve_ilp(
+        problem,
+        time_limit=time_limit,
+        warm=warm,
+        domains=domains,
+        formulation="disjunctive",
+        max_nodes=switch,
+        **options,
+    )
+    said = first.stats.solver_status if first.stats else ""
+    if not ("on iterations" in said and "interrupted" not in said):
+        return first
+    left = (
+        None
+        if time_limit is None
+        else time_limit - (time.perf_counter() - began)
+    )
+    second = solve_ilp(
+        problem,
+        time_limit=left,
+        warm=first.starts() if first.status.has_plan else warm,
+        domains=domains,
+        formulation="time-indexed",
+        max_nodes=max_nodes,
+        **options,
+    )
+    answer = second
+    if first.status.has_plan and (
+        not second.status.has_plan
+        or second.objective is None
+        or first.objective is None
+        or first.objective.total < second.objective.total
+    ):
+        answer = first.replace(status=SolveStatus.FEASIBLE)
+    one, two = first.stats, second.stats
+    if one is None or two is None:
+        return answer
+    bound = two.bound
+    if answer.status is not SolveStatus.OPTIMAL and one.bound is not None:
+        bound = one.bound if bound is None else max(bound, one.bound)
+    return answer.replace(
+        stats=msgspec.structs.replace(
+            two,
+            build_s=one.build_s + two.build_s,
+            solve_s=one.solve_s + two.solve_s,
+            overhead_s=one.overhead_s + two.overhead_s,
+            wall_s=time.perf_counter() - began,
+            bound=bound,
+            time_limit_s=time_limit,
+            # Not the first run's own words: "Stopped on iterations"
+            # would read as this answer's (stats.stopped_on_nodes).
+            solver_status=f"disjunctive model unproved after {switch} "
+            f"nodes; the time-indexed model from its plan: "
+            f"{two.solver_status}",
         )
     )
 

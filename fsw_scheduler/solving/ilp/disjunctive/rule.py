@@ -66,6 +66,21 @@ MIN_PAIR_SHARE = 0.10
 #: more than it tells, and no measurement covers such parts.
 MAX_USERS = 40
 
+#: Search nodes after which a disjunctive run on a part with a multiple
+#: resource in use hands over to the time-indexed model
+#: (:func:`switch_nodes`). Measured (with CBC's mini branch-and-bound
+#: off, :data:`~fsw_scheduler.solving.ilp.model.DISJUNCTIVE_STRONG`) on
+#: the 22 disjunctive parts of ``tools/bench --generator broad --seed
+#: 32..39 --only b15-multiple``, in total: no switch 23.8 s, 1,000 nodes
+#: 15.0 s (one part 0.60 -> 2.9 s), 2,000 nodes 15.6 s, 5,000 nodes
+#: 16.7 s with no part slower; seed 32's b15-multiple-3, unproved at a
+#: 20 s limit, proved in 11.7 s (the time-indexed model alone: 8.1 s).
+#: Where the disjunctive model won, it proved in at most about 2,000
+#: nodes. On seeds not looked at (40-45 broad, 40-42 paper; 38 parts of
+#: 10 and 15 tasks) no part switched and the total stayed within a
+#: rerun's spread (3.64 -> 3.57 s).
+SWITCH_NODES = 5_000
+
 Formulation = Literal["time-indexed", "disjunctive"]
 FORMULATIONS: tuple[Formulation, ...] = ("time-indexed", "disjunctive")
 
@@ -161,6 +176,29 @@ def pick(problem: Problem, domains: Mapping[str, Domain]) -> Formulation:
     if not exact and pairs < MIN_PAIR_SHARE * (pairs + triples):
         return "time-indexed"
     return "disjunctive"
+
+
+def switch_nodes(
+    problem: Problem, domains: Mapping[str, Domain], max_tasks: int
+) -> int | None:
+    """Nodes after which a disjunctive run should switch to the
+    time-indexed model, or None to let it run.
+
+    The disjunctive model is exact for binary resources and for multiple
+    resources whose over-capacity sets all hold a pair; for the others it
+    adds load rows at each start, whose LP bound is weak against the
+    weighted delays: its search can run tens of thousands of nodes on a
+    gap the time-indexed model's LP closes in a few hundred (see
+    :data:`SWITCH_NODES`). Only parts of up to ``max_tasks`` tasks are
+    switched (the time-indexed model of a larger part may not even fit
+    the limit), and only where :func:`pick` chooses the disjunctive
+    model and no resource in use rules the time-indexed one out.
+    """
+    if problem.num_tasks > max_tasks:
+        return None
+    if "multiple" in used_kinds(problem, domains):
+        return SWITCH_NODES
+    return None
 
 
 def used_kinds(
