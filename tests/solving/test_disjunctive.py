@@ -241,3 +241,28 @@ def test_only_small_parts_with_a_multiple_resource_switch() -> None:
     tasks = [make_task(f"t{idx}", uses={"cam": 1}) for idx in range(4)]
     binary = problem_from(make_doc(tasks, resources={"binary": ["cam"]}))
     assert rule.switch_nodes(binary, start_domains(binary), 15) is None
+
+
+def test_a_switch_with_no_time_for_the_second_model_keeps_the_first_plan(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Tests that when the time-indexed model cannot run in what is left
+    (here: its build estimate exceeds the limit), the answer is the
+    disjunctive run's plan, ``feasible``, with that run's bound, and the
+    status line names both."""
+    from fsw_scheduler.solving.ilp import model
+
+    monkeypatch.setattr(rule, "SWITCH_NODES", 1)
+    monkeypatch.setattr(model, "BUILD_S_PER_COLUMN", 1e6)
+    problem = _crowded_power(0)
+    start = best_start(problem, None)
+    assert start is not None
+    plan = solve_ilp(problem, warm=start.starts(), time_limit=30)
+    said = plan.stats.solver_status if plan.stats else ""
+    assert plan.status is SolveStatus.FEASIBLE
+    assert "disjunctive model unproved after 1 nodes" in said
+    assert "time limit too short to build a model" in said
+    assert plan.objective is not None and plan.stats is not None
+    assert plan.stats.bound is not None
+    assert plan.stats.bound <= plan.objective.total
+    assert check_plan(problem, plan).ok
