@@ -581,6 +581,7 @@ def test_multiple_resource_models_strong_branch_by_formulation() -> None:
     disjunctive one of the same part for ten."""
     from fsw_scheduler.solving.ilp.disjunctive.model import DisjunctiveModel
     from fsw_scheduler.solving.ilp.model import (
+        BINARY_STRONG,
         DISJUNCTIVE_STRONG,
         MULTIPLE_TIME_INDEXED,
         BuiltModel,
@@ -622,6 +623,9 @@ def test_multiple_resource_models_strong_branch_by_formulation() -> None:
     alone = DisjunctiveModel(binary, start_domains(binary))
     kept = cbc_options(alone, {task.id: 0 for task in binary.tasks}) or []
     assert "depthMiniBab -999" not in kept
+    # Binary-only parts branch on two candidates.
+    assert BINARY_STRONG == ["strong 2"]
+    assert "strong 2" in kept and "strong 10" not in kept
     start = best_start(problem, None)
     assert start is not None
     plan = solve_ilp(problem, formulation="time-indexed", warm=start.starts())
