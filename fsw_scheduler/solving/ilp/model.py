@@ -21,6 +21,7 @@ import msgspec
 from ...analysis.domains import start_domains
 from ...errors import SolverError
 from ...model.plan import Plan, SolverStats, SolveStatus
+from ..stats import stopped_on_nodes
 from .alternatives import impossible_groups
 from .cbc import ABS_GAP, MIN_CBC_S, CbcResult
 from .constraints import Constraints
@@ -668,7 +669,7 @@ def _switching(
         **options,
     )
     said = first.stats.solver_status if first.stats else ""
-    if not ("on iterations" in said and "interrupted" not in said):
+    if not stopped_on_nodes(said):
         return first
     left = (
         None

@@ -184,15 +184,18 @@ def switch_nodes(
     """Nodes after which a disjunctive run should switch to the
     time-indexed model, or None to let it run.
 
-    The disjunctive model is exact for binary resources and for multiple
-    resources whose over-capacity sets all hold a pair; for the others it
-    adds load rows at each start, whose LP bound is weak against the
-    weighted delays: its search can run tens of thousands of nodes on a
-    gap the time-indexed model's LP closes in a few hundred (see
-    :data:`SWITCH_NODES`). Only parts of up to ``max_tasks`` tasks are
-    switched (the time-indexed model of a larger part may not even fit
-    the limit), and only where :func:`pick` chooses the disjunctive
-    model and no resource in use rules the time-indexed one out.
+    The disjunctive model's LP bound on the weighted delays is weak (its
+    order rows are big-M rows, and where sets of three or more users
+    exceed a capacity only load rows at each start hold them): with a
+    multiple resource in use its search can run tens of thousands of
+    nodes on a gap the time-indexed model's LP closes in a few hundred
+    (see :data:`SWITCH_NODES`), pairwise exact or not (seed 33's
+    b15-multiple-5). Parts whose only shared resources are binary keep
+    their run: the time-indexed model is far slower there (its LP is
+    large and degenerate, see the module docstring). Only parts of up
+    to ``max_tasks`` tasks switch (the time-indexed model of a larger
+    part may not even fit the limit); the caller asks only where
+    :func:`pick` chose the disjunctive model.
     """
     if problem.num_tasks > max_tasks:
         return None
