@@ -1,4 +1,4 @@
-"""Which formulation to build for a part: disjunctive or time-indexed.
+"""Which formulation to build for a part, and when a disjunctive run yields.
 
 :func:`pick` picks the disjunctive model of
 :mod:`fsw_scheduler.solving.ilp.disjunctive` where the time-indexed model is
@@ -44,6 +44,11 @@ went 0.78 -> 0.43 s and 2.51 -> 2.19 s, the paper ones stayed at
 For binary resources the same command (``--only b15-binary``) gave a
 median of 2.07 s, 100.5x CP-SAT and 5/7 proved for the time-indexed
 model, 0.34 s, 28.4x and 7/7 for the disjunctive one.
+
+A disjunctive run on a small part with a multiple resource that has not
+proved its answer after :data:`SWITCH_NODES` nodes goes on in the
+time-indexed model from its best plan (:func:`switch_nodes`; the run
+itself is in :mod:`fsw_scheduler.solving.ilp.model`).
 """
 
 from __future__ import annotations
