@@ -83,9 +83,9 @@ def start_domains(
         Keyed by task id, in problem task order.
     """
     length = {task.id: task.length for task in problem.tasks}
-    low: dict[str, int] = {}
-    high: dict[str, int] = {}
-    cause: dict[str, tuple[str, str]] = {}
+    ranges = _Ranges({}, {}, {})
+    low, high, cause = ranges.low, ranges.high, ranges.cause
+    empty, kill = ranges.empty, ranges.kill
     for task in problem.tasks:
         low[task.id], high[task.id] = problem.start_bounds(task)
         if caps is not None and task.id in caps:
@@ -95,16 +95,6 @@ def start_domains(
                 "window",
                 "feasible interval and horizon leave no start time",
             )
-
-    def empty(name: str) -> bool:
-        return low[name] > high[name]
-
-    def kill(name: str, why: str, kind: str = "precedence") -> bool:
-        if empty(name):
-            return False
-        high[name] = low[name] - 1
-        cause[name] = (kind, why)
-        return True
 
     for name, (kind, why) in block_conflicts(problem).items():
         kill(name, why, kind)
@@ -153,49 +143,76 @@ def start_domains(
     # no domain, the bounds are the listed order's (the same fixpoint);
     # where it does, the listed order runs instead, so the precedence
     # named as the reason stays the one it always was.
-    trial = (dict(low), dict(high), dict(cause))
+    trial = ranges.copy()
     _settle(
         problem,
         length,
-        *trial,
+        trial,
         lambda rank: forward if rank % 2 == 0 else forward[::-1],
     )
-    if any(
-        trial[0][name] > trial[1][name] and not empty(name) for name in length
-    ):
-        _settle(
-            problem, length, low, high, cause, lambda _: problem.precedences
-        )
+    if any(trial.empty(name) and not empty(name) for name in length):
+        _settle(problem, length, ranges, lambda _: problem.precedences)
     else:
-        low, high = trial[0], trial[1]
+        ranges = trial
     return {
-        name: Domain(low[name], high[name], *cause.get(name, ("", "")))
+        name: Domain(
+            ranges.low[name],
+            ranges.high[name],
+            *ranges.cause.get(name, ("", "")),
+        )
         for name in length
     }
+
+
+class _Ranges:
+    """Start ranges being narrowed, and why each emptied one is empty.
+
+    Parameters
+    ----------
+    low, high
+        Earliest and latest start by task id (empty when low > high).
+    cause
+        Task id to (kind, detail) of what emptied its range.
+    """
+
+    def __init__(
+        self,
+        low: dict[str, int],
+        high: dict[str, int],
+        cause: dict[str, tuple[str, str]],
+    ) -> None:
+        self.low = low
+        self.high = high
+        self.cause = cause
+
+    def copy(self) -> _Ranges:
+        """An independent copy (a trial propagation works on it)."""
+        return _Ranges(dict(self.low), dict(self.high), dict(self.cause))
+
+    def empty(self, name: str) -> bool:
+        """True when ``name`` has no start left."""
+        return self.low[name] > self.high[name]
+
+    def kill(self, name: str, why: str, kind: str = "precedence") -> bool:
+        """Empty ``name``'s range for ``why``; False if it already was."""
+        if self.empty(name):
+            return False
+        self.high[name] = self.low[name] - 1
+        self.cause[name] = (kind, why)
+        return True
 
 
 def _settle(
     problem: Problem,
     length: dict[str, int],
-    low: dict[str, int],
-    high: dict[str, int],
-    cause: dict[str, tuple[str, str]],
+    ranges: _Ranges,
     order: Callable[[int], Sequence[Precedence]],
 ) -> None:
-    """Propagate the precedences into ``low`` and ``high`` (in place)
-    until nothing changes, pass ``rank`` going along ``order(rank)``; a
-    task left without a start gets its reason in ``cause``."""
-
-    def empty(name: str) -> bool:
-        return low[name] > high[name]
-
-    def kill(name: str, why: str) -> bool:
-        if empty(name):
-            return False
-        high[name] = low[name] - 1
-        cause[name] = ("precedence", why)
-        return True
-
+    """Propagate the precedences into ``ranges`` (in place) until nothing
+    changes, pass ``rank`` going along ``order(rank)``; a task left
+    without a start gets its reason."""
+    low, high, cause = ranges.low, ranges.high, ranges.cause
+    empty, kill = ranges.empty, ranges.kill
     # Each pass only shrinks ranges, so this terminates; the cap bounds
     # the work on long positive lax cycles, where any intermediate state
     # is still a valid relaxation.
