@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 from ..analysis.bounds import KeptSetProof, better_start, kept_set_bound
 from ..analysis.greedy import greedy_plan
 from ..analysis.insert import inserted
+from ..analysis.polish import polished
 from ..model.plan import SolverStats, SolveStatus
 from .budget import BOUND_SHARE, BUDGET, stop_at
 from .improve import MIN_ROUND_S, improve, meets
@@ -182,19 +183,31 @@ def replanned(
             )
         repaired = caught.better or repaired
         bound = higher(bound, caught.bound)
+    polish = _Polishing(problem, domains, end, bound)
+    repaired = polish(repaired)
     changed = changed_tasks(problem, in_force, repaired)
     best, improved = repaired, 0
+    # The search stops short of the end: the last moments polish its plan.
+    search_end = end - min(
+        POLISH_MAX_S, POLISH_SHARE * max(0.0, end - time.perf_counter())
+    )
     if changed and not meets(best, bound):
         best, improved = improve(
-            problem, repaired, domains, run, end, bound, around=changed
+            problem, repaired, domains, run, search_end, bound, around=changed
         )
     swept = 0
-    if not meets(best, bound) and end - time.perf_counter() >= MIN_ROUND_S:
+    if (
+        not meets(best, bound)
+        and search_end - time.perf_counter() >= MIN_ROUND_S
+    ):
         # The neighbourhoods around the change gave all they could and
         # time is left: the sweep over the whole horizon goes on from
         # there, as a fresh solve's search would (a fresh solve of the
         # new day often found a better arrangement away from the change).
-        best, swept = improve(problem, best, domains, run, end, bound)
+        best, swept = improve(problem, best, domains, run, search_end, bound)
+    if improved or swept:
+        best = polish(best)
+    said += polish.said()
     answer = _answer(
         best,
         bound,
@@ -453,6 +466,8 @@ def improved(
         # the search's stop and the gap.
         bound = higher(bound, caught.bound)
         said += f"the disjunctive relaxation: {caught.said}; "
+    polish = _Polishing(problem, domains, deadline, bound)
+    start = polish(start)
     narrowed = _narrowed(problem, start, domains, relaxed, _until(deadline))
     if narrowed is not None and columns(narrowed) <= SMALL_COLUMNS:
         # Around a good start plan the whole model can be as small as a
@@ -565,6 +580,7 @@ def improved(
             left - min(FULL_MARGIN_S, 0.1 * left),
         )
         said += "; then the whole model, narrowed: " + answered
+        best = polish(best)
     elif left >= MIN_ROUND_S and lns_end == deadline:
         # The search handed over with the whole model's time left, and
         # the insertion after it took some: under that the whole model is
@@ -575,7 +591,56 @@ def improved(
             problem, best, domains, run, deadline, bound, hand_over_s=math.inf
         )
         said += f"; then {more} more"
+    said += polish.said()
     return _answer(best, bound, _label(run, "lns"), said, began, time_limit)
+
+
+#: Share of a replan's time left after its repair, and seconds at most,
+#: that its search leaves for polishing the plan it ends with.
+POLISH_SHARE = 0.15
+POLISH_MAX_S = 0.3
+
+
+class _Polishing:
+    """Polish plans by a deadline (:func:`~fsw_scheduler.analysis.polish.
+    polished`: kept tasks moved earlier where that is better), counting
+    the delay units it saves for the status line.
+
+    Single moves the neighbourhood search had not been given the time to
+    find: on the replan suite's unproved answers (seeds 34-35) a polish
+    took 0.04-0.4 s and turned two of four answers worse than a fresh
+    solve's into its plan or better.
+    """
+
+    def __init__(
+        self,
+        problem: Problem,
+        domains: dict[str, Domain],
+        deadline: float,
+        bound: float | None,
+    ) -> None:
+        self.problem = problem
+        self.domains = domains
+        self.deadline = deadline
+        self.bound = bound
+        self.saved = 0
+
+    def __call__(self, plan: Plan) -> Plan:
+        """``plan`` polished, or itself when it meets the bound."""
+        if meets(plan, self.bound) or plan.objective is None:
+            return plan
+        better = polished(
+            self.problem, plan, self.domains, stop=stop_at(self.deadline)
+        )
+        if better.objective is not None:
+            self.saved += plan.objective.total - better.objective.total
+        return better
+
+    def said(self) -> str:
+        """What the polish saved, for the status line ("" if nothing)."""
+        if not self.saved:
+            return ""
+        return f"; tasks moved earlier: {self.saved} delay units saved"
 
 
 #: Share of the time left that inserting left-out tasks may take (its

@@ -1,0 +1,247 @@
+"""A plan's kept tasks moved earlier where that lowers its delay (pure).
+
+The neighbourhood search improves a large plan window by window, each
+window a CBC run of a fraction of a second or more; a replan has a fifth
+of the limit for it, and its answers were worse than a fresh solve's by
+a few hundred to a few thousand delay units on objectives of millions
+(replan suite, seeds 29-35). Many of those units were single moves no
+window had been given the time to find: a task that fits earlier as it
+is, or once the one or two tasks in its way start right after it.
+
+:func:`polished` makes such moves on the plan itself, with the checker
+as the only judge of a move (every resource kind, resource profiles,
+precedences, windows and pins, as :func:`~.check.check_plan` reads
+them): for each kept task, the most delay cost first, it tries the
+starts before its own where something begins or ends (and its earliest
+start), earliest first:
+
+* **shift**: the task alone at that start;
+* **push**: the task there and the one or two tasks sharing a resource
+  with it that are in its way started at its new end (or, for one of
+  them, at the next few points after it), when what they lose is less
+  than what the task gains.
+
+A move is kept when the checker accepts the plan and its objective
+falls; the sweep starts again after each kept move. The set of kept
+tasks never changes (leaving out less is :mod:`.insert`'s and the
+solver's business), so the plan's choice of options stands. The work is
+bounded in checks (:data:`MAX_CHECKS`), not in seconds, so the answer is
+the same on every machine; ``stop`` only guards a caller's deadline.
+Plans whose objective prices moves (a stable replan) are not polished:
+moving earlier may cost a move.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from ..model.plan import Activity, Plan
+from .check import check_plan
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from ..model.problem import Problem, Task
+    from .domains import Domain
+
+#: Plans checked at most: a check is 0.2-0.5 ms on 60 tasks over H =
+#: 1440-2880, so at most about a second. On the replan suite's unproved
+#: answers (seeds 34-35, 45-60 tasks) a polish took 95-1,249 checks.
+MAX_CHECKS = 2_000
+#: Tasks in the way that a push moves at most.
+MAX_PUSHED = 2
+#: Later points tried for a single task in the way, past the moved
+#: task's new end.
+LATER_POINTS = 4
+
+
+def polished(
+    problem: Problem,
+    plan: Plan,
+    domains: dict[str, Domain],
+    stop: Callable[[], bool] | None = None,
+    max_checks: int = MAX_CHECKS,
+) -> Plan:
+    """``plan`` with its kept tasks moved earlier where that is better.
+
+    Parameters
+    ----------
+    problem
+        The problem ``plan`` solves.
+    plan
+        A plan the checker accepts, with its objective.
+    domains
+        The problem's start domains
+        (:func:`~fsw_scheduler.analysis.domains.start_domains`).
+    stop
+        Asked before each check; the moves kept so far are returned once
+        it says true.
+    max_checks
+        Plans checked at most.
+
+    Returns
+    -------
+    Plan
+        ``plan`` itself when no move lowers its objective (or it has no
+        objective); otherwise the better plan, with the checker's
+        objective and ``plan``'s status, left-out tasks and chosen
+        options.
+    """
+    if plan.objective is None or not plan.activities:
+        return plan
+    return _Polish(problem, plan, domains, stop, max_checks).run()
+
+
+class _Polish:
+    """One polish of one plan: its starts, its best total, checks left."""
+
+    def __init__(
+        self,
+        problem: Problem,
+        plan: Plan,
+        domains: dict[str, Domain],
+        stop: Callable[[], bool] | None,
+        max_checks: int,
+    ) -> None:
+        self.problem = problem
+        self.plan = plan
+        self.domains = domains
+        self.stop = stop
+        self.checks_left = max_checks
+        self.tasks: dict[str, Task] = {t.id: t for t in problem.tasks}
+        self.starts = plan.starts()
+        assert plan.objective is not None
+        self.best = plan.objective.total
+        self.best_plan = plan
+        # Which resources each task holds (binary and multiple, and what
+        # it draws from a consumable): tasks in the way share one.
+        self.held = {
+            name: frozenset(k for k, v in task.uses.items() if v > 0)
+            for name, task in self.tasks.items()
+        }
+
+    def run(self) -> Plan:
+        """Sweep until a sweep keeps no move or the checks run out."""
+        while self.checks_left > 0 and self._sweep():
+            pass
+        return self.best_plan
+
+    def _sweep(self) -> bool:
+        """Try each kept task, the most delay cost first; True once a
+        move is kept (the caller sweeps again from the new plan)."""
+        starts, tasks = self.starts, self.tasks
+        order = sorted(
+            starts,
+            key=lambda n: (
+                -(starts[n] - self.domains[n].earliest) * tasks[n].delay_cost,
+                n,
+            ),
+        )
+        ends = (at + tasks[n].length for n, at in starts.items())
+        points = sorted({*starts.values(), *ends})
+        for name in order:
+            if self._earlier(name, points):
+                return True
+            if self.checks_left <= 0:
+                return False
+        return False
+
+    def _earlier(self, name: str, points: list[int]) -> bool:
+        """Try ``name`` at the starts before its own; True once a move
+        is kept."""
+        task = self.tasks[name]
+        now = self.starts[name]
+        low = self.domains[name].earliest
+        if task.delay_cost <= 0 or now <= low:
+            return False
+        for start in sorted({low, *(p for p in points if low < p < now)}):
+            if self.checks_left <= 0:
+                return False
+            moved = dict(self.starts)
+            moved[name] = start
+            if self._keep(moved):
+                return True
+            if self._push(name, start, moved, points):
+                return True
+        return False
+
+    def _push(
+        self, name: str, start: int, moved: dict[str, int], points: list[int]
+    ) -> bool:
+        """``name`` at ``start`` with the tasks in its way after it."""
+        task = self.tasks[name]
+        end = start + task.length
+        gain = task.delay_cost * (self.starts[name] - start)
+        held = self.held[name]
+        in_way = sorted(
+            (
+                other
+                for other, at in self.starts.items()
+                if other != name
+                and at < end
+                and at + self.tasks[other].length > start
+                and held & self.held[other]
+            ),
+            key=lambda other: (self.starts[other], other),
+        )
+        if not 1 <= len(in_way) <= MAX_PUSHED:
+            return False
+        if any(end > self.domains[other].latest for other in in_way):
+            return False
+        loss = sum(
+            self.tasks[other].delay_cost * max(0, end - self.starts[other])
+            for other in in_way
+        )
+        if loss >= gain:
+            return False
+        pushed = dict(moved)
+        for other in in_way:
+            pushed[other] = max(end, self.starts[other])
+        if self._keep(pushed):
+            return True
+        if len(in_way) > 1:
+            return False
+        other = in_way[0]
+        latest = self.domains[other].latest
+        for point in [p for p in points if end < p <= latest][:LATER_POINTS]:
+            if self.checks_left <= 0:
+                return False
+            if self.tasks[other].delay_cost * (point - self.starts[other]) >= (
+                gain
+            ):
+                return False
+            pushed = dict(moved)
+            pushed[other] = point
+            if self._keep(pushed):
+                return True
+        return False
+
+    def _keep(self, starts: dict[str, int]) -> bool:
+        """Check the plan of ``starts``; keep it if valid and better."""
+        if self.checks_left <= 0:
+            return False
+        if self.stop is not None and self.stop():
+            self.checks_left = 0
+            return False
+        self.checks_left -= 1
+        candidate = self.plan.replace(
+            objective=None,
+            activities=tuple(
+                sorted(
+                    (
+                        Activity(n, s, s + self.tasks[n].length)
+                        for n, s in starts.items()
+                    ),
+                    key=lambda a: (a.start, a.task),
+                )
+            ),
+        )
+        report = check_plan(self.problem, candidate)
+        if not report.ok or report.objective is None:
+            return False
+        if report.objective.total >= self.best:
+            return False
+        self.starts = starts
+        self.best = report.objective.total
+        self.best_plan = candidate.replace(objective=report.objective)
+        return True
