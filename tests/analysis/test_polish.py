@@ -12,7 +12,8 @@ from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.analysis.greedy import greedy_plan
 from fsw_scheduler.analysis.polish import polished
-from fsw_scheduler.model.plan import Activity, SolveStatus
+from fsw_scheduler.model.plan import Activity, SolverStats, SolveStatus
+from fsw_scheduler.solving import solve as solving
 
 from ..factories import bench_lib, make_task, problem_from
 from ..problems import plan_of
@@ -184,3 +185,27 @@ def test_a_large_broad_plan_is_polished_within_its_checks() -> None:
     assert check_plan(problem, better).ok
     assert _total(better) <= _total(start)
     assert len(asked) <= polish.MAX_CHECKS
+
+
+def test_an_unproved_answer_is_polished_and_says_so() -> None:
+    """Tests the solve's last step on a plan CBC left unproved: moved
+    earlier, still ``feasible``, its status line saying what it saved;
+    a proved answer is left as it is."""
+    problem = _camera(a_cost=1, b_cost=5)
+    stats = SolverStats(solver="cbc", solver_status="Stopped on time")
+    plan = plan_of(problem, {"b": 0, "a": 7}).replace(
+        status=SolveStatus.FEASIBLE, stats=stats
+    )
+    domains = start_domains(problem)
+    far = 1e12  # no deadline in the way
+    better = solving._polishing(problem, plan, domains, far)
+    assert better.status is SolveStatus.FEASIBLE
+    assert better.activities == (Activity("b", 0, 4), Activity("a", 4, 6))
+    assert better.stats is not None
+    assert better.stats.solver_status == (
+        "Stopped on time; tasks moved earlier: 3 delay units saved"
+    )
+    proved = plan.replace(status=SolveStatus.OPTIMAL)
+    assert solving._polishing(problem, proved, domains, far) is proved
+    # Past the deadline: nothing is tried.
+    assert solving._polishing(problem, plan, domains, 0.0) is plan
