@@ -186,10 +186,18 @@ def _forced_apart(
     """
     if len(forced) == problem.num_tasks:
         return None  # nothing else to plan apart from them
-    # The forced tasks alone, their costs as they are (not
-    # :func:`~fsw_scheduler.analysis.bounds.kept_only`, which makes them
-    # mandatory and so changes the rules' order among them).
-    alone = problem.replace(
+    core = _rules_only(forced_alone(problem, forced), stop)
+    if core is None:
+        return None
+    return around_core(problem, core.starts(), stop)
+
+
+def forced_alone(problem: Problem, forced: Set[str]) -> Problem:
+    """The problem of the tasks ``forced`` alone (the precedences among
+    them), their costs as they are (not :func:`~fsw_scheduler.analysis.
+    bounds.kept_only`, which makes them mandatory and so changes the
+    rules' order among them)."""
+    return problem.replace(
         tasks=tuple(t for t in problem.tasks if t.id in forced),
         precedences=tuple(
             p
@@ -197,10 +205,17 @@ def _forced_apart(
             if p.before in forced and p.after in forced
         ),
     )
-    core = _rules_only(alone, stop)
-    if core is None:
-        return None
-    around = _rules_only(problem.pinned(core.starts()), stop)
+
+
+def around_core(
+    problem: Problem,
+    core: dict[str, int],
+    stop: Callable[[], bool] | None = None,
+) -> Plan | None:
+    """The tasks of ``core`` pinned at their starts there, the others
+    list-scheduled around them where they fit; None if the checker
+    refuses the plan (or no rule places the pinned tasks)."""
+    around = _rules_only(problem.pinned(core), stop)
     if around is None:
         return None
     plan = _as_plan(problem, around.starts())

@@ -27,6 +27,7 @@ from ..model.plan import (
 from ..model.stability import Stability, rescored
 from . import large
 from .budget import BUDGET, stop_at, stop_within
+from .forced import forced_start
 from .incumbent import checked, narrow, probed
 from .joined import after, joined, starved
 from .repair import holding
@@ -443,6 +444,13 @@ def _solve_whole(
     start = best_start(
         problem, warm, stop=stop, domains=domains, stability=stability
     )
+    around_forced = False
+    if start is None and stability is None:
+        # No rule placed the forced tasks: the solver plans them alone.
+        start = forced_start(
+            problem, run, None if time_limit is None else began + time_limit
+        )
+        around_forced = start is not None
     if loud:
         log.info(
             "start plan: %s after %.1f s",
@@ -558,6 +566,15 @@ def _solve_whole(
             time_limit,
             None if relaxed is None else relaxed.bound,
             caught,
+        )
+    if around_forced and plan.stats is not None:
+        plan = plan.replace(
+            stats=msgspec.structs.replace(
+                plan.stats,
+                solver_status="start plan: list scheduling could not place "
+                "the tasks every plan must hold; built around the solver's "
+                f"plan of them and the supplies; {plan.stats.solver_status}",
+            )
         )
     return plan
 

@@ -1,0 +1,94 @@
+"""A start plan from the solver when list scheduling cannot place the
+tasks every plan must hold.
+
+List scheduling, every rule of it and the forced tasks planned apart
+(:func:`~fsw_scheduler.analysis.greedy.greedy_plan`), can fail on a
+feasible problem: tasks pinned where a replan found them running, tight
+windows and a battery leave the rules no order that fits. Without a
+start plan a part of 30 tasks or more went whole to CBC, whose root LP
+took the whole limit, and the answer was ``unknown`` (replan suite, seed
+38's r60-h1440-0 solved afresh at 10 s: 58 tasks, 10 of them forced, no
+plan; the replan, from the plan in force, had one). Here the forced
+tasks and the tasks that supply a consumable (optional, as they are: the
+forced ones may need some of them, as there), a model a fraction of the
+size, go to the solver for a share of the limit; its plan, pinned, has
+the other tasks list-scheduled around it, and that is the start plan
+the neighbourhood search and the insertion of left-out tasks work from
+(there: 11 tasks, proved in 1.7 s; the forced tasks alone are
+infeasible, their battery needs a supply).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import TYPE_CHECKING
+
+from ..analysis.greedy import around_core, forced_alone
+from ..analysis.proofs import forced_tasks
+from .budget import stop_at
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from ..model.plan import Plan
+    from ..model.problem import Problem
+
+#: Share of the time left that the solver gets for the forced tasks and
+#: supplies: without a start plan the whole model is the only other way
+#: to a plan, and on a large part its root LP takes the whole limit (at
+#: 0.3 the 11-task core of the example above, proved in 1.7 s, was
+#: stopped without a plan at a 5 s limit).
+FORCED_SHARE = 0.5
+#: Seconds at least for it (CBC's start and the model's reading).
+FORCED_MIN_S = 0.5
+
+
+def forced_start(
+    problem: Problem,
+    run: Callable[..., Plan],
+    deadline: float | None,
+) -> Plan | None:
+    """A start plan built around the solver's plan of the forced tasks
+    and the supplies.
+
+    Parameters
+    ----------
+    problem
+        A part whose start heuristic found no plan.
+    run
+        The solver (:func:`~fsw_scheduler.solving.ilp.solve_ilp` with the
+        caller's options); called with ``time_limit``.
+    deadline
+        When the caller's limit ends (:func:`time.perf_counter`); None
+        without a limit.
+
+    Returns
+    -------
+    Plan or None
+        Status ``feasible``, the checker's objective; None when there is
+        nothing forced, the solver finds no plan of the forced tasks and
+        supplies in its share, or the other tasks cannot be placed around it.
+    """
+    forced = forced_tasks(problem)
+    if not forced:
+        return None
+    supplies = {
+        task.id
+        for task in problem.tasks
+        if any(
+            amount < 0 and name in problem.resources.consumable
+            for name, amount in task.uses.items()
+        )
+    }
+    limit = None
+    stop = None
+    if deadline is not None:
+        left = deadline - time.perf_counter()
+        limit = FORCED_SHARE * left
+        if limit < FORCED_MIN_S:
+            return None
+        stop = stop_at(time.perf_counter() + 2 * limit)
+    core = run(forced_alone(problem, forced | supplies), time_limit=limit)
+    if not core.status.has_plan:
+        return None
+    return around_core(problem, core.starts(), stop)

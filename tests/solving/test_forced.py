@@ -1,0 +1,88 @@
+"""Tests of the start plan built around the solver's plan of the forced
+tasks, when list scheduling cannot place them."""
+
+from __future__ import annotations
+
+import functools
+import time
+from pathlib import Path
+
+import pytest
+
+from fsw_scheduler.analysis.check import check_plan
+from fsw_scheduler.analysis.greedy import greedy_plan
+from fsw_scheduler.analysis.proofs import forced_tasks
+from fsw_scheduler.model.plan import Plan, SolveStatus
+from fsw_scheduler.model.problem import Problem, decode_problem
+from fsw_scheduler.solving import forced
+from fsw_scheduler.solving.forced import forced_start
+from fsw_scheduler.solving.ilp import solve_ilp
+from fsw_scheduler.solving.solve import solve
+
+from ..factories import make_task, problem_from
+
+#: The replan suite's seed 38 r60-h1440-0, the new day after its goal:
+#: 58 tasks over H = 1440, two pinned where they ran, 10 forced, a
+#: battery of 16 units and one optional task that charges it.
+FIXTURE = Path(__file__).parent / "data" / "forced-core-r60.json"
+
+
+@pytest.fixture(scope="module")
+def problem() -> Problem:
+    return decode_problem(FIXTURE.read_bytes())
+
+
+def test_list_scheduling_cannot_place_the_forced_tasks(
+    problem: Problem,
+) -> None:
+    """Tests the premise: no rule of the start heuristic, nor the forced
+    tasks planned apart, gives a plan."""
+    assert greedy_plan(problem) is None
+
+
+def test_the_solver_plans_the_forced_tasks_and_the_others_fit_around(
+    problem: Problem,
+) -> None:
+    """Tests that the start plan holds every forced task and passes the
+    checker."""
+    run = functools.partial(solve_ilp, solver="cbc", threads=1)
+    plan = forced_start(problem, run, time.perf_counter() + 20)
+    assert plan is not None and plan.status is SolveStatus.FEASIBLE
+    assert check_plan(problem, plan).ok
+    kept = {a.task for a in plan.activities}
+    assert forced_tasks(problem) <= kept
+    # Tasks besides the forced ones and the supply are placed around them.
+    assert len(kept) > len(forced_tasks(problem)) + 1
+
+
+def test_a_fresh_solve_has_a_plan_and_says_where_it_started(
+    problem: Problem,
+) -> None:
+    """Tests the whole solve at 8 s: a plan (``unknown`` before), valid,
+    its status line naming the start plan's origin."""
+    plan = solve(problem, time_limit=8)
+    assert plan.status is SolveStatus.FEASIBLE
+    assert check_plan(problem, plan).ok
+    assert plan.stats is not None
+    assert plan.stats.solver_status.startswith(
+        "start plan: list scheduling could not place the tasks every plan "
+        "must hold; built around the solver's plan of them and the supplies"
+    )
+    assert plan.stats.wall_s <= 8
+
+
+def test_nothing_forced_or_no_time_gives_none() -> None:
+    """Tests that a problem with nothing forced, or a deadline leaving
+    the solver less than its least share, gives no start plan (the
+    solver is not called)."""
+    free = problem_from({"horizon": 10, "tasks": [make_task("a", 2)]})
+
+    def run(*args: object, **kwargs: object) -> Plan:
+        raise AssertionError("the solver is not called")
+
+    assert forced_start(free, run, None) is None
+    held = problem_from(
+        {"horizon": 10, "tasks": [make_task("a", 2, schedule_cost=0)]}
+    )
+    soon = time.perf_counter() + forced.FORCED_MIN_S
+    assert forced_start(held, run, soon) is None
