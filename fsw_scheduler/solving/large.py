@@ -24,7 +24,6 @@ from typing import TYPE_CHECKING
 from ..analysis.bounds import KeptSetProof, better_start, kept_set_bound
 from ..analysis.greedy import greedy_plan
 from ..analysis.insert import inserted
-from ..analysis.polish import polished
 from ..model.plan import SolverStats, SolveStatus
 from .budget import BOUND_SHARE, BUDGET, stop_at
 from .improve import MIN_ROUND_S, improve, meets
@@ -35,6 +34,7 @@ from .incumbent import (
     narrow,
     worth_a_probe,
 )
+from .polishing import POLISH_MAX_S, POLISH_SHARE, Polishing
 from .relaxed import RelaxedAnswer, fresh_min_left, relaxable
 from .relaxed import around as relaxed_around
 from .repair import changed_tasks, holding, repair
@@ -183,7 +183,7 @@ def replanned(
             )
         repaired = caught.better or repaired
         bound = higher(bound, caught.bound)
-    polish = _Polishing(problem, domains, end, bound)
+    polish = Polishing(problem, domains, end, bound)
     repaired = polish(repaired)
     changed = changed_tasks(problem, in_force, repaired)
     best, improved = repaired, 0
@@ -466,7 +466,7 @@ def improved(
         # the search's stop and the gap.
         bound = higher(bound, caught.bound)
         said += f"the disjunctive relaxation: {caught.said}; "
-    polish = _Polishing(problem, domains, deadline, bound)
+    polish = Polishing(problem, domains, deadline, bound)
     start = polish(start)
     narrowed = _narrowed(problem, start, domains, relaxed, _until(deadline))
     if narrowed is not None and columns(narrowed) <= SMALL_COLUMNS:
@@ -593,54 +593,6 @@ def improved(
         said += f"; then {more} more"
     said += polish.said()
     return _answer(best, bound, _label(run, "lns"), said, began, time_limit)
-
-
-#: Share of a replan's time left after its repair, and seconds at most,
-#: that its search leaves for polishing the plan it ends with.
-POLISH_SHARE = 0.15
-POLISH_MAX_S = 0.3
-
-
-class _Polishing:
-    """Polish plans by a deadline (:func:`~fsw_scheduler.analysis.polish.
-    polished`: kept tasks moved earlier where that is better), counting
-    the delay units it saves for the status line.
-
-    Single moves the neighbourhood search had not been given the time to
-    find: on the replan suite's unproved answers (seeds 34-35) a polish
-    took 0.04-0.4 s and turned two of four answers worse than a fresh
-    solve's into its plan or better.
-    """
-
-    def __init__(
-        self,
-        problem: Problem,
-        domains: dict[str, Domain],
-        deadline: float,
-        bound: float | None,
-    ) -> None:
-        self.problem = problem
-        self.domains = domains
-        self.deadline = deadline
-        self.bound = bound
-        self.saved = 0
-
-    def __call__(self, plan: Plan) -> Plan:
-        """``plan`` polished, or itself when it meets the bound."""
-        if meets(plan, self.bound) or plan.objective is None:
-            return plan
-        better = polished(
-            self.problem, plan, self.domains, stop=stop_at(self.deadline)
-        )
-        if better.objective is not None:
-            self.saved += plan.objective.total - better.objective.total
-        return better
-
-    def said(self) -> str:
-        """What the polish saved, for the status line ("" if nothing)."""
-        if not self.saved:
-            return ""
-        return f"; tasks moved earlier: {self.saved} delay units saved"
 
 
 #: Share of the time left that inserting left-out tasks may take (its

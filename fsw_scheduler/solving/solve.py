@@ -15,7 +15,6 @@ from ..analysis.domains import start_domains
 from ..analysis.explain import explain as explain_plan
 from ..analysis.greedy import greedy_plan
 from ..analysis.options import impossible_group
-from ..analysis.polish import polished
 from ..analysis.proofs import infeasibility
 from ..errors import SolverError
 from ..model import groups
@@ -30,6 +29,7 @@ from .budget import BUDGET, stop_at, stop_within
 from .forced import forced_start
 from .incumbent import checked, narrow, probed
 from .joined import after, joined, starved
+from .polishing import Polishing
 from .repair import holding
 from .single import one_task
 from .stats import with_call_stats, with_gap
@@ -645,28 +645,25 @@ def best_start(
 def _polishing(
     problem: Problem, plan: Plan, domains: dict[str, Domain], end: float
 ) -> Plan:
-    """An unproved answer polished (:func:`~fsw_scheduler.analysis.polish.
-    polished`: kept tasks moved earlier where that is better) in what the
-    solver left of the limit, its status line saying what that saved.
+    """An unproved answer polished (:class:`~.polishing.Polishing`) in
+    what the solver left of the limit, its status line saying what that
+    saved.
 
     CBC stopped at its deadline hands back its incumbent or the start
     plan, often with single moves left (replan suite, seeds 36-37: parts
     of 24-29 tasks, 46-162 delay units in 0.01 s, one of them to a plan
     better than the fresh solve's with the whole limit).
     """
-    if plan.status is not SolveStatus.FEASIBLE or plan.objective is None:
+    if plan.status is not SolveStatus.FEASIBLE or plan.stats is None:
         return plan
-    better = polished(
-        problem, plan, domains, stop=stop_at(end - BUDGET.lns_margin_s)
-    )
-    if better is plan or better.objective is None or plan.stats is None:
-        return better
-    saved = plan.objective.total - better.objective.total
+    polish = Polishing(problem, domains, end - BUDGET.lns_margin_s, None)
+    better = polish(plan)
+    if better is plan:
+        return plan
     return better.replace(
         stats=msgspec.structs.replace(
             plan.stats,
-            solver_status=f"{plan.stats.solver_status}; tasks moved "
-            f"earlier: {saved} delay units saved",
+            solver_status=plan.stats.solver_status + polish.said(),
         )
     )
 
