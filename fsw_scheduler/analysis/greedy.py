@@ -218,7 +218,14 @@ def around_core(
     around = _rules_only(problem.pinned(core), stop)
     if around is None:
         return None
-    plan = _as_plan(problem, around.starts())
+    return checked_starts(problem, around.starts())
+
+
+def checked_starts(problem: Problem, starts: dict[str, int]) -> Plan | None:
+    """The plan of ``starts`` (every other task left out), status
+    ``feasible`` with its objective, if the checker accepts it; else
+    None."""
+    plan = _as_plan(problem, starts)
     return plan if check_plan(problem, plan).ok else None
 
 

@@ -25,6 +25,9 @@ from ..factories import make_task, problem_from
 #: 58 tasks over H = 1440, two pinned where they ran, 10 forced, a
 #: battery of 16 units and one optional task that charges it.
 FIXTURE = Path(__file__).parent / "data" / "forced-core-r60.json"
+#: The replan suite's seed 40 r60-h1440-0, the new day: 59 tasks in 3
+#: parts, 7 forced (two pinned) that no rule places the others around.
+ALONE = Path(__file__).parent / "data" / "forced-core-alone-r60.json"
 
 
 @pytest.fixture(scope="module")
@@ -86,3 +89,19 @@ def test_nothing_forced_or_no_time_gives_none() -> None:
     )
     soon = time.perf_counter() + forced.FORCED_MIN_S
     assert forced_start(held, run, soon) is None
+
+
+def test_a_core_no_rule_fills_in_is_the_start_plan_alone() -> None:
+    """Tests that when no rule places the other tasks around the forced
+    ones, the solver's plan of those alone is the start plan, and a
+    fresh solve fills it in (``unknown`` at 10 s before)."""
+    problem = decode_problem(ALONE.read_bytes())
+    assert greedy_plan(problem) is None
+    run = functools.partial(solve_ilp, solver="cbc", threads=1)
+    plan = forced_start(problem, run, time.perf_counter() + 20)
+    assert plan is not None and check_plan(problem, plan).ok
+    assert {a.task for a in plan.activities} == forced_tasks(problem)
+    answer = solve(problem, time_limit=6)
+    assert answer.status is SolveStatus.FEASIBLE
+    assert check_plan(problem, answer).ok
+    assert len(answer.activities) > len(plan.activities)
