@@ -38,7 +38,7 @@ from .polishing import POLISH_MAX_S, POLISH_SHARE, Polishing
 from .relaxed import RelaxedAnswer, fresh_min_left, relaxable
 from .relaxed import around as relaxed_around
 from .repair import changed_tasks, holding, repair
-from .rounds import SHARE, rounds
+from .rounds import OVERTIME, SHARE, rounds
 from .stats import higher
 
 if TYPE_CHECKING:
@@ -456,6 +456,7 @@ def improved(
             run,
             relax_share * (deadline - time.perf_counter()),
             more=True,
+            end=deadline,
         )
         if caught.plan is not None and caught.plan.objective is not None:
             return _answer(
@@ -642,11 +643,13 @@ def _relaxation(
     limit: float,
     *,
     more: bool = False,
+    end: float | None = None,
 ) -> RelaxedAnswer:
     """:func:`~fsw_scheduler.solving.relaxed.around` ``start``, over the
     domains every plan at least as good keeps; with ``more``, in
     :func:`~fsw_scheduler.solving.rounds.rounds` of growing node limits
-    for all of ``limit``."""
+    for all of ``limit`` (and an overtime up to the part's ``end``, see
+    :data:`~fsw_scheduler.solving.rounds.OVERTIME`)."""
     stop = stop_at(time.perf_counter() + NARROW_SHARE * limit)
 
     def renarrow(plan: Plan) -> dict[str, Domain]:
@@ -654,7 +657,8 @@ def _relaxation(
         return narrow(problem, plan, domains) if narrowed is None else narrowed
 
     if more:
-        deadline = time.perf_counter() + limit
+        now = time.perf_counter()
+        deadline = now + limit
         return rounds(
             problem,
             start,
@@ -664,6 +668,7 @@ def _relaxation(
             renarrow,
             lambda plan: _inserting(problem, plan, domains, deadline),
             lambda narrowed: columns(narrowed) <= SMALL_COLUMNS,
+            OVERTIME * max(0.0, (end or deadline) - deadline),
         )
     return relaxed_around(problem, start, renarrow(start), run, limit)
 

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import functools
+import time
+from typing import TYPE_CHECKING
 
 from fsw_scheduler.analysis.bounds import kept_set_plan
 from fsw_scheduler.analysis.check import check_plan
@@ -16,6 +18,10 @@ from fsw_scheduler.solving.rounds import rounds
 from fsw_scheduler.solving.solve import _part, best_start, components
 
 from ..factories import bench_lib
+
+if TYPE_CHECKING:
+    from fsw_scheduler.analysis.domains import Domain
+    from fsw_scheduler.model.plan import Plan
 
 #: The optimum of the 29-task part of the large suite's f30-h1440 of seed
 #: 71 (CP-SAT proves the whole problem in 8.8 s; the time-indexed model
@@ -58,3 +64,33 @@ def test_rounds_prove_a_part_one_round_leaves_open() -> None:
     assert answer.plan.objective.total == OPTIMUM
     assert answer.bound == OPTIMUM
     assert check_plan(part, answer.plan).ok
+
+
+def test_a_round_that_found_a_better_plan_gets_one_more_in_overtime() -> None:
+    """Tests the overtime: with 4 s the rounds end on a better plan the
+    second round found, unproved, within the limit; given an overtime,
+    one more round around that plan proves the optimum."""
+    generator = bench_lib("generator")
+    bench = next(b for b in generator.large_suite(71) if b.name == "f30-h1440")
+    problem = bench.problem()
+    part, _ = _part(problem, max(components(problem), key=len), None)
+    domains = start_domains(part)
+    start = best_start(part, None, domains=domains)
+    assert start is not None
+    relaxed = kept_set_plan(part, start, domains)
+    start = relaxed.better or start
+    narrowed = narrow(part, start, domains, relaxed)
+    run = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
+
+    def renarrow(plan: Plan) -> dict[str, Domain]:
+        return narrow(part, plan, domains, relaxed)
+
+    began = time.perf_counter()
+    plain = rounds(part, start, narrowed, run, 4.0, renarrow)
+    assert time.perf_counter() - began < 4.0 + 1.5
+    assert plain.plan is None
+    longer = rounds(part, start, narrowed, run, 4.0, renarrow, overtime=60)
+    assert longer.plan is not None, longer.said
+    assert longer.plan.objective is not None
+    assert longer.plan.objective.total == OPTIMUM
+    assert check_plan(part, longer.plan).ok
