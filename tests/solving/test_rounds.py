@@ -20,8 +20,11 @@ from fsw_scheduler.solving.solve import _part, best_start, components
 from ..factories import bench_lib
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from fsw_scheduler.analysis.domains import Domain
     from fsw_scheduler.model.plan import Plan
+    from fsw_scheduler.model.problem import Problem
 
 #: The optimum of the 29-task part of the large suite's f30-h1440 of seed
 #: 71 (CP-SAT proves the whole problem in 8.8 s; the time-indexed model
@@ -29,22 +32,35 @@ if TYPE_CHECKING:
 OPTIMUM = 3_601_875
 
 
-def test_rounds_prove_a_part_one_round_leaves_open() -> None:
-    """Tests that where one round of the relaxation stops on its node
-    limit, rounds of growing node limits from the same start prove the
-    part's optimum, a plan the checker accepts, and that such a part's
-    model is large enough for the rounds' long share."""
+def _seed_71_part() -> tuple[
+    Problem, Plan, dict[str, Domain], Callable[[Plan], dict[str, Domain]]
+]:
+    """The 29-task part of the large suite's f30-h1440 of seed 71: the
+    part, its start plan, its domains narrowed around it, and the
+    narrowing of the rounds."""
     generator = bench_lib("generator")
     bench = next(b for b in generator.large_suite(71) if b.name == "f30-h1440")
     problem = bench.problem()
     part, _ = _part(problem, max(components(problem), key=len), None)
-    assert part.num_tasks == 29
     domains = start_domains(part)
     start = best_start(part, None, domains=domains)
     assert start is not None
     relaxed = kept_set_plan(part, start, domains)
     start = relaxed.better or start
-    narrowed = narrow(part, start, domains, relaxed)
+
+    def renarrow(plan: Plan) -> dict[str, Domain]:
+        return narrow(part, plan, domains, relaxed)
+
+    return part, start, renarrow(start), renarrow
+
+
+def test_rounds_prove_a_part_one_round_leaves_open() -> None:
+    """Tests that where one round of the relaxation stops on its node
+    limit, rounds of growing node limits from the same start prove the
+    part's optimum, a plan the checker accepts, and that such a part's
+    model is large enough for the rounds' long share."""
+    part, start, narrowed, renarrow = _seed_71_part()
+    assert part.num_tasks == 29
     assert columns(narrowed) >= rounds_module.LONG_COLUMNS
     run = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
     one = around(part, start, narrowed, run, 120.0)
@@ -56,7 +72,7 @@ def test_rounds_prove_a_part_one_round_leaves_open() -> None:
         narrowed,
         run,
         120.0,
-        lambda plan: narrow(part, plan, domains, relaxed),
+        renarrow,
     )
     assert answer.plan is not None, answer.said
     assert answer.plan.status is SolveStatus.OPTIMAL
@@ -70,21 +86,8 @@ def test_a_round_that_found_a_better_plan_gets_one_more_in_overtime() -> None:
     """Tests the overtime: with 4 s the rounds end on a better plan the
     second round found, unproved, within the limit; given an overtime,
     one more round around that plan proves the optimum."""
-    generator = bench_lib("generator")
-    bench = next(b for b in generator.large_suite(71) if b.name == "f30-h1440")
-    problem = bench.problem()
-    part, _ = _part(problem, max(components(problem), key=len), None)
-    domains = start_domains(part)
-    start = best_start(part, None, domains=domains)
-    assert start is not None
-    relaxed = kept_set_plan(part, start, domains)
-    start = relaxed.better or start
-    narrowed = narrow(part, start, domains, relaxed)
+    part, start, narrowed, renarrow = _seed_71_part()
     run = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
-
-    def renarrow(plan: Plan) -> dict[str, Domain]:
-        return narrow(part, plan, domains, relaxed)
-
     began = time.perf_counter()
     plain = rounds(part, start, narrowed, run, 4.0, renarrow)
     assert time.perf_counter() - began < 4.0 + 1.5
