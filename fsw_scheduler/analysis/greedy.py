@@ -204,6 +204,9 @@ def forced_alone(problem: Problem, forced: Set[str]) -> Problem:
             for p in problem.precedences
             if p.before in forced and p.after in forced
         ),
+        # The groups of the tasks kept, with the options wholly kept: no
+        # group may name a task the sub-problem does not hold.
+        alternatives=groups.kept_alternatives(problem, forced),
     )
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from fsw_scheduler.analysis.check import check_plan
-from fsw_scheduler.analysis.greedy import greedy_plan
+from fsw_scheduler.analysis.greedy import forced_alone, greedy_plan
 from fsw_scheduler.analysis.proofs import forced_tasks
 from fsw_scheduler.model.plan import Plan, SolveStatus
 from fsw_scheduler.model.problem import Problem, decode_problem
@@ -19,7 +19,7 @@ from fsw_scheduler.solving.forced import forced_start
 from fsw_scheduler.solving.ilp import solve_ilp
 from fsw_scheduler.solving.solve import solve
 
-from ..factories import make_task, problem_from
+from ..factories import bench_lib, make_task, problem_from
 
 #: The replan suite's seed 38 r60-h1440-0, the new day after its goal:
 #: 58 tasks over H = 1440, two pinned where they ran, 10 forced, a
@@ -105,3 +105,23 @@ def test_a_core_no_rule_fills_in_is_the_start_plan_alone() -> None:
     assert answer.status is SolveStatus.FEASIBLE
     assert check_plan(problem, answer).ok
     assert len(answer.activities) > len(plan.activities)
+
+
+def test_a_core_of_a_problem_with_groups_names_only_its_own_tasks() -> None:
+    """Tests on the mission suite's problems with alternatives that the
+    forced tasks' sub-problem keeps only groups whose options it holds
+    whole, and that the solver takes it."""
+    generator = bench_lib("generator")
+    seen = 0
+    for bench in generator.mission_suite(5):
+        problem = bench.problem()
+        if not problem.alternatives:
+            continue
+        core = forced_alone(problem, forced_tasks(problem))
+        names = {t.id for t in core.tasks}
+        for group in core.alternatives:
+            assert all(n in names for o in group.options for n in o)
+        plan = solve_ilp(core, time_limit=10)
+        assert plan.status.has_plan or not core.tasks
+        seen += 1
+    assert seen > 0
