@@ -26,6 +26,7 @@ from ..analysis.greedy import greedy_plan
 from ..analysis.insert import inserted
 from ..model.plan import SolverStats, SolveStatus
 from .budget import BOUND_SHARE, BUDGET, stop_at
+from .forced import forced_start
 from .improve import MIN_ROUND_S, improve, meets
 from .incumbent import (
     a_task_above,
@@ -272,7 +273,7 @@ def _second_look(
         problem,
         stop=stop_at(now + BUDGET.greedy_share * left),
         domains=domains,
-    )
+    ) or forced_start(problem, run, now + left)  # as a fresh solve starts
     if fresh is None or fresh.objective is None:
         return answer
     other = improved(problem, fresh, domains, run, now, left)

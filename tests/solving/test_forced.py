@@ -10,11 +10,17 @@ from pathlib import Path
 import pytest
 
 from fsw_scheduler.analysis.check import check_plan
+from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.analysis.greedy import forced_alone, greedy_plan
 from fsw_scheduler.analysis.proofs import forced_tasks
-from fsw_scheduler.model.plan import Plan, SolveStatus
+from fsw_scheduler.model.plan import (
+    Plan,
+    SolverStats,
+    SolveStatus,
+    objective_weight,
+)
 from fsw_scheduler.model.problem import Problem, decode_problem
-from fsw_scheduler.solving import forced
+from fsw_scheduler.solving import forced, large
 from fsw_scheduler.solving.forced import forced_start
 from fsw_scheduler.solving.ilp import solve_ilp
 from fsw_scheduler.solving.solve import solve
@@ -125,3 +131,33 @@ def test_a_core_of_a_problem_with_groups_names_only_its_own_tasks() -> None:
         assert plan.status.has_plan or not core.tasks
         seen += 1
     assert seen > 0
+
+
+def test_a_replans_second_look_starts_where_list_scheduling_cannot(
+    problem: Problem,
+) -> None:
+    """Tests that a replan's second look (its gap may hold a whole task)
+    on a day list scheduling cannot start from solves it afresh from the
+    forced start rather than keep the replan's answer as it is."""
+    run = functools.partial(solve_ilp, solver="cbc", threads=1)
+    domains = start_domains(problem)
+    start = forced_start(problem, run, time.perf_counter() + 20)
+    assert start is not None and start.objective is not None
+    weight = objective_weight(
+        [t.delay_cost for t in problem.tasks], problem.horizon
+    )
+    answer = start.replace(
+        stats=SolverStats(
+            solver="cbc-repair",
+            bound=start.objective.total - 2 * weight,
+            solver_status="replan from the plan in force",
+        )
+    )
+    began = time.perf_counter()
+    looked = large._second_look(problem, answer, domains, run, began, 6.0)
+    assert looked.stats is not None
+    assert "solved afresh in the rest of the limit" in (
+        looked.stats.solver_status
+    )
+    assert check_plan(problem, looked).ok
+    assert time.perf_counter() - began <= 6.0
