@@ -88,7 +88,8 @@ def forced_start(
         limit = FORCED_SHARE * left
         if limit < FORCED_MIN_S:
             return None
-        stop = stop_at(time.perf_counter() + 2 * limit)
+        # Placing the others around the core may take what is left.
+        stop = stop_at(deadline)
     core = run(forced_alone(problem, forced | supplies), time_limit=limit)
     if not core.status.has_plan:
         return None
