@@ -35,12 +35,12 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from ..model.plan import Activity, Plan
-from .check import check_plan
+from .greedy import checked_starts
 
 if TYPE_CHECKING:
     from collections.abc import Callable
 
+    from ..model.plan import Plan
     from ..model.problem import Problem, Task
     from .domains import Domain
 
@@ -224,24 +224,15 @@ class _Polish:
             self.checks_left = 0
             return False
         self.checks_left -= 1
-        candidate = self.plan.replace(
-            objective=None,
-            activities=tuple(
-                sorted(
-                    (
-                        Activity(n, s, s + self.tasks[n].length)
-                        for n, s in starts.items()
-                    ),
-                    key=lambda a: (a.start, a.task),
-                )
-            ),
-        )
-        report = check_plan(self.problem, candidate)
-        if not report.ok or report.objective is None:
+        # The same plan building and check as the start heuristic's.
+        candidate = checked_starts(self.problem, starts)
+        if candidate is None or candidate.objective is None:
             return False
-        if report.objective.total >= self.best:
+        if candidate.objective.total >= self.best:
             return False
         self.starts = starts
-        self.best = report.objective.total
-        self.best_plan = candidate.replace(objective=report.objective)
+        self.best = candidate.objective.total
+        self.best_plan = self.plan.replace(
+            activities=candidate.activities, objective=candidate.objective
+        )
         return True

@@ -658,8 +658,7 @@ def _relaxation(
         return narrow(problem, plan, domains) if narrowed is None else narrowed
 
     if more:
-        now = time.perf_counter()
-        deadline = now + limit
+        deadline = time.perf_counter() + limit
         return rounds(
             problem,
             start,
@@ -669,7 +668,7 @@ def _relaxation(
             renarrow,
             lambda plan: _inserting(problem, plan, domains, deadline),
             lambda narrowed: columns(narrowed) <= SMALL_COLUMNS,
-            OVERTIME * max(0.0, (end or deadline) - deadline),
+            0.0 if end is None else OVERTIME * max(0.0, end - deadline),
         )
     return relaxed_around(problem, start, renarrow(start), run, limit)
 

@@ -21,7 +21,7 @@ import msgspec
 from ...analysis.domains import start_domains
 from ...errors import SolverError
 from ...model.plan import Plan, SolverStats, SolveStatus
-from ..stats import stopped_on_nodes
+from ..stats import higher, stopped_on_nodes
 from .alternatives import impossible_groups
 from .cbc import ABS_GAP, MIN_CBC_S, CbcResult
 from .constraints import Constraints
@@ -697,8 +697,8 @@ def _switching(
     if one is None or two is None:
         return answer
     bound = two.bound
-    if answer.status is not SolveStatus.OPTIMAL and one.bound is not None:
-        bound = one.bound if bound is None else max(bound, one.bound)
+    if answer.status is not SolveStatus.OPTIMAL:
+        bound = higher(bound, one.bound)
     return answer.replace(
         stats=msgspec.structs.replace(
             two,
