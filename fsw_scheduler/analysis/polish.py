@@ -188,15 +188,16 @@ class _Polish:
             return False
         if any(end > self.domains[other].latest for other in in_way):
             return False
+        # Each task in the way starts before ``end``: it moves to ``end``.
         loss = sum(
-            self.tasks[other].delay_cost * max(0, end - self.starts[other])
+            self.tasks[other].delay_cost * (end - self.starts[other])
             for other in in_way
         )
         if loss >= gain:
             return False
         pushed = dict(moved)
         for other in in_way:
-            pushed[other] = max(end, self.starts[other])
+            pushed[other] = end
         if self._keep(pushed):
             return True
         if len(in_way) > 1:
