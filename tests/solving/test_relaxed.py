@@ -228,3 +228,48 @@ def test_a_fresh_part_needs_time_for_the_relaxation_by_its_size() -> None:
     assert fresh_min_left(sized(40)) == pytest.approx(3.6)
     assert fresh_min_left(sized(56)) == 5.0
     assert fresh_min_left(sized(200)) == 5.0
+
+
+def _campaign_problem(seed: int, style: str, name: str) -> Problem:
+    generator = bench_lib("generator")
+    bench = next(b for b in generator.campaign(seed, style) if b.name == name)
+    return bench.problem()
+
+
+def test_a_small_mixed_part_is_proved_by_the_relaxation() -> None:
+    """Tests that a 15-task part with a battery beside binary and multiple
+    resources (broad campaign, seed 81, b15-all-4: the time-indexed model
+    took 0.6 s) goes to the relaxation before the time-indexed model and
+    is proved by it, with the time-indexed model's optimum."""
+    problem = _campaign_problem(81, "broad", "b15-all-4")
+    plan = solve(problem, time_limit=30)
+    assert plan.status is SolveStatus.OPTIMAL, plan.stats
+    assert plan.stats is not None
+    assert "relaxation's optimum is a valid plan" in plan.stats.solver_status
+    assert check_plan(problem, plan).ok
+    assert plan.objective is not None
+    whole = solve_ilp(problem, formulation="time-indexed")
+    assert whole.status is SolveStatus.OPTIMAL
+    assert whole.objective is not None
+    assert plan.objective.total == whole.objective.total == 307_185
+
+
+def test_a_small_part_the_battery_decides_goes_on_to_the_whole_model() -> None:
+    """Tests that where the relaxation's optimum breaks the battery (paper
+    campaign, seed 81, c15-all-3) the part is still proved, by the
+    time-indexed model, with its optimum, and that the relaxation's run
+    is bounded by its share of the limit."""
+    problem = _campaign_problem(81, "paper", "c15-all-3")
+    domains = start_domains(problem)
+    start = best_start(problem, None, domains=domains)
+    assert start is not None
+    answer = relaxed_bound(problem, start, domains, time_limit=None)
+    assert answer.plan is None
+    plan = solve(problem, time_limit=30)
+    assert plan.status is SolveStatus.OPTIMAL, plan.stats
+    assert plan.stats is not None
+    assert "relaxation's optimum" not in plan.stats.solver_status
+    assert plan.objective is not None
+    assert answer.bound is not None
+    assert answer.bound <= plan.objective.total == 4_322
+    assert check_plan(problem, plan).ok
