@@ -109,8 +109,17 @@ SHORT_SHARE = 0.6
 #: and seeds 82-83 of both generators it proved 30 in 0.02-0.25 s that
 #: the time-indexed model proved in 0.02-7.1 s (median 0.14 -> 0.04 s);
 #: where it was not valid, the run cost 0.03-0.2 s before the model.
-SMALL_MIN_S = 0.2
+SMALL_MIN_S = 0.6
 SMALL_SHARE = 0.3
+
+#: Under a short limit the small part's rounds get at least this many
+#: seconds, at most :data:`SHORT_SHARE` of what is left: CBC is not
+#: started with less than ``MIN_CBC_S + STOP_MARGIN_S`` (0.35 s) of its
+#: limit, and the relaxation's optimum is the likelier proof there (the
+#: time-indexed model of a 15-task part seldom ends its root in 0.5 s).
+#: With :data:`SMALL_MIN_S` at 0.35 / :data:`SHORT_SHARE`, CBC always has
+#: its minimum.
+SMALL_FLOOR_S = 0.5
 
 
 def columns(domains: dict[str, Domain]) -> int:
@@ -223,17 +232,19 @@ def probed(
             # Without a limit the time-indexed model proves the part.
             caught = around(problem, start, narrowed, run, None)
         elif small or left >= MIN_LEFT_S:
-            share = SHARE
+            for_rounds = SHARE * left
             if small:
-                share = SMALL_SHARE
+                for_rounds = max(
+                    SMALL_SHARE * left, min(SMALL_FLOOR_S, SHORT_SHARE * left)
+                )
             elif columns(narrowed) >= LONG_COLUMNS:
-                share = LONG_SHARE
+                for_rounds = LONG_SHARE * left
             caught = rounds(
                 problem,
                 start,
                 narrowed,
                 run,
-                share * left,
+                for_rounds,
                 lambda plan: narrow(problem, plan, domains, relaxed),
                 # A large part's rounds stop once its model is small; a
                 # small part's go on while they end on their nodes.

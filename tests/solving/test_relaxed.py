@@ -273,3 +273,18 @@ def test_a_small_part_the_battery_decides_goes_on_to_the_whole_model() -> None:
     assert answer.bound is not None
     assert answer.bound <= plan.objective.total == 4_322
     assert check_plan(problem, plan).ok
+
+
+def test_a_small_mixed_part_is_proved_so_under_a_short_limit() -> None:
+    """Tests that under a 1 s limit the small part's relaxation still gets
+    the time CBC needs to start (its 0.3 share of what is left would be
+    under CBC's minimum): b15-all-4 of broad seed 81 is proved by it
+    (with the share alone: ``feasible``, 4 delay units above)."""
+    problem = _campaign_problem(81, "broad", "b15-all-4")
+    plan = solve(problem, time_limit=1.0)
+    assert plan.status is SolveStatus.OPTIMAL, plan.stats
+    assert plan.stats is not None
+    assert "relaxation's optimum is a valid plan" in plan.stats.solver_status
+    assert plan.objective is not None
+    assert plan.objective.total == 307_185
+    assert check_plan(problem, plan).ok
