@@ -28,14 +28,8 @@ from ..model.plan import SolverStats, SolveStatus
 from .budget import BOUND_SHARE, BUDGET, stop_at
 from .forced import forced_start
 from .improve import MIN_ROUND_S, improve, meets
-from .incumbent import (
-    a_task_above,
-    checked,
-    columns,
-    narrow,
-    worth_a_probe,
-)
-from .polishing import POLISH_MAX_S, POLISH_SHARE, Polishing
+from .incumbent import a_task_above, checked, columns, narrow, worth_a_probe
+from .polishing import POLISH_MAX_S, POLISH_SHARE, Polishing, shift_deadline
 from .relaxed import RelaxedAnswer, fresh_min_left, relaxable
 from .relaxed import around as relaxed_around
 from .repair import changed_tasks, holding, repair
@@ -215,6 +209,9 @@ def replanned(
         best, swept = improve(problem, best, domains, run, search_end, bound)
     if improved or swept:
         best = polish(best)
+    # The shift windows may run past the replan's share, within the limit.
+    last = end if full_limit is None else end - time_limit + full_limit
+    best = polish.shifted(best, run, shift_deadline(end, last))
     said += polish.said()
     answer = _answer(
         best,
@@ -476,7 +473,7 @@ def improved(
         bound = higher(bound, caught.bound)
         said += f"the disjunctive relaxation: {caught.said}; "
     polish = Polishing(problem, domains, deadline, bound)
-    start = polish(start)
+    start = polish.shifted(polish(start), run, shift_deadline(0.0, deadline))
     narrowed = _narrowed(problem, start, domains, relaxed, _until(deadline))
     if narrowed is not None and columns(narrowed) <= SMALL_COLUMNS:
         # Around a good start plan the whole model can be as small as a

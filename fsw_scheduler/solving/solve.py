@@ -29,7 +29,7 @@ from .budget import BUDGET, stop_at, stop_within
 from .forced import forced_start
 from .incumbent import checked, narrow, probed
 from .joined import after, joined, starved
-from .polishing import Polishing
+from .polishing import Polishing, shift_deadline
 from .repair import holding
 from .single import one_task
 from .stats import with_call_stats, with_gap
@@ -549,7 +549,7 @@ def _solve_whole(
             )
         plan = _keep_better(answer, start)
         if stability is None and time_limit is not None:
-            plan = _polishing(problem, plan, domains, began + time_limit)
+            plan = _polishing(problem, plan, domains, began + time_limit, run)
         if start is None and not plan.status.has_plan and plan.stats:
             # Rare: say why there is not even the start plan to fly.
             plan = plan.replace(
@@ -643,11 +643,15 @@ def best_start(
 
 
 def _polishing(
-    problem: Problem, plan: Plan, domains: dict[str, Domain], end: float
+    problem: Problem,
+    plan: Plan,
+    domains: dict[str, Domain],
+    end: float,
+    run: Callable[..., Plan],
 ) -> Plan:
-    """An unproved answer polished (:class:`~.polishing.Polishing`) in
-    what the solver left of the limit, its status line saying what that
-    saved.
+    """An unproved answer polished (:class:`~.polishing.Polishing`, and
+    its shift windows with ``run``) in what the solver left of the limit,
+    its status line saying what that saved.
 
     CBC stopped at its deadline hands back its incumbent or the start
     plan, often with single moves left (replan suite, seeds 36-37: parts
@@ -657,7 +661,9 @@ def _polishing(
     if plan.status is not SolveStatus.FEASIBLE or plan.stats is None:
         return plan
     polish = Polishing(problem, domains, end - BUDGET.lns_margin_s, None)
-    better = polish(plan)
+    better = polish.shifted(
+        polish(plan), run, shift_deadline(0.0, end - BUDGET.lns_margin_s)
+    )
     if better is plan:
         return plan
     return better.replace(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import itertools
 from typing import TYPE_CHECKING
 
@@ -14,9 +15,12 @@ from fsw_scheduler.analysis.greedy import greedy_plan
 from fsw_scheduler.analysis.polish import polished
 from fsw_scheduler.model.plan import Activity, SolverStats, SolveStatus
 from fsw_scheduler.solving import solve as solving
+from fsw_scheduler.solving.ilp import solve_ilp
 
 from ..factories import bench_lib, make_task, problem_from
 from ..problems import plan_of
+
+RUN = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
 
 if TYPE_CHECKING:
     from fsw_scheduler.model.plan import Plan
@@ -198,7 +202,7 @@ def test_an_unproved_answer_is_polished_and_says_so() -> None:
     )
     domains = start_domains(problem)
     far = 1e12  # no deadline in the way
-    better = solving._polishing(problem, plan, domains, far)
+    better = solving._polishing(problem, plan, domains, far, RUN)
     assert better.status is SolveStatus.FEASIBLE
     assert better.activities == (Activity("b", 0, 4), Activity("a", 4, 6))
     assert better.stats is not None
@@ -206,6 +210,6 @@ def test_an_unproved_answer_is_polished_and_says_so() -> None:
         "Stopped on time; tasks moved earlier: 3 delay units saved"
     )
     proved = plan.replace(status=SolveStatus.OPTIMAL)
-    assert solving._polishing(problem, proved, domains, far) is proved
+    assert solving._polishing(problem, proved, domains, far, RUN) is proved
     # Past the deadline: nothing is tried.
-    assert solving._polishing(problem, plan, domains, 0.0) is plan
+    assert solving._polishing(problem, plan, domains, 0.0, RUN) is plan
