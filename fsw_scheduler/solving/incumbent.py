@@ -106,7 +106,7 @@ SHORT_SHARE = 0.6
 #: :data:`SMALL_SHARE` of what is left, from :data:`SMALL_MIN_S` left on.
 #: Its optimum is most often a valid plan (the battery is rarely what
 #: decides): on the 35 problems of ``--only 15-all`` of seed 81 (broad)
-#: and seeds 82-83 of both generators it proved 30 in 0.02-0.25 s that
+#: and seeds 82-83 of both generators it proved 30 in 0.02-0.44 s that
 #: the time-indexed model proved in 0.02-7.1 s (median 0.14 -> 0.04 s);
 #: where it was not valid, the run cost 0.03-0.2 s before the model.
 SMALL_MIN_S = 0.6

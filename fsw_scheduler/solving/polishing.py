@@ -50,9 +50,10 @@ SHIFT_DELTAS = (5, 10)
 #: nodes is.
 SHIFT_NODES = 2_000
 
-#: Seconds the shift windows of a replan may take past the replan's
-#: share when less of it is left (CBC is not started with less than
-#: :data:`~fsw_scheduler.solving.improve.MIN_ROUND_S`).
+#: Seconds the shift windows may take from now (:func:`shift_deadline`):
+#: on a large part's start plan and an unproved answer at most this; a
+#: replan's past its share when less of that is left (CBC is not started
+#: with less than :data:`~fsw_scheduler.solving.improve.MIN_ROUND_S`).
 SHIFT_S = 0.6
 
 
