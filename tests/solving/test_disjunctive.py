@@ -129,15 +129,16 @@ def test_pairwise_exact_sees_sets_beyond_pairs() -> None:
             {"cam": 1, "bat": 1},
             "time-indexed",
         ),
-        ({"binary": ["cam"]}, {}, "time-indexed"),
+        ({"binary": ["cam"]}, {}, "disjunctive"),
+        ({"consumable": {"bat": 4}}, {"bat": 1}, "time-indexed"),
     ],
 )
-def test_rule_picks_disjunctive_for_shared_resources_only(
+def test_rule_picks_disjunctive_without_consumables(
     resources: dict, uses: dict, expected: str
 ) -> None:
     """Tests that the rule picks the disjunctive model for binary and
-    pairwise multiple resources without consumables, time-indexed
-    otherwise."""
+    pairwise multiple resources without consumables and for parts that
+    use no resource (precedences only), time-indexed otherwise."""
     tasks = [make_task(name, uses=uses) for name in ("a", "b", "c")]
     problem = problem_from(make_doc(tasks, resources=resources))
     assert pick(problem, start_domains(problem)) == expected

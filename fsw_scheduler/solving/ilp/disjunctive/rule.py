@@ -15,8 +15,6 @@ time-indexed model is kept
   capacity steps) in use: the disjunctive model's pair and load rows
   read one capacity, the time-indexed model has a row per unit with
   that unit's capacity (:func:`changing_in_use`);
-* for parts without a binary or multiple resource in use (precedences
-  only): its LP is tight there and the part is small;
 * for multiple resources where almost every set of users over a
   capacity needs three or more of them (pairs under
   :data:`MIN_PAIR_SHARE` of the :func:`minimal_sets` of the part's
@@ -44,6 +42,22 @@ went 0.78 -> 0.43 s and 2.51 -> 2.19 s, the paper ones stayed at
 For binary resources the same command (``--only b15-binary``) gave a
 median of 2.07 s, 100.5x CP-SAT and 5/7 proved for the time-indexed
 model, 0.34 s, 28.4x and 7/7 for the disjunctive one.
+
+A part with no resource in use (precedences and windows only) gets the
+disjunctive model too: the time-indexed model's LP is tight there, but
+it has a column per task and start time and a row per precedence and
+unit, where the disjunctive one has a few columns per task and a row
+per precedence. Measured through
+:func:`~fsw_scheduler.solving.solve.solve` (30 s limit, median of 3
+solves each), time-indexed against disjunctive, on problems not looked
+at before: the 28 15-task ``none`` problems of seeds 91 and 93 (both
+generators) 0.23 -> 0.14 s in total (paper seed 91's c15-none-6 0.052
+-> 0.009 s); the 84 ``none`` problems of 5-15 tasks of seeds 94-95,
+0.32 -> 0.23 s, none slower than 0.02 s; 24 problems of 20-29 tasks at
+H = 336 and 1440 built by the campaign's generators with no resource,
+0.29 -> 0.16 s (n25-h1440 0.049 -> 0.010 s). The same objectives
+everywhere; the one problem slower by more than a few milliseconds
+went 0.012 -> 0.021 s.
 
 A disjunctive run on a small part with a multiple resource that has not
 proved its answer after :data:`SWITCH_NODES` nodes goes on in the
@@ -150,17 +164,20 @@ def pick(problem: Problem, domains: Mapping[str, Domain]) -> Formulation:
     Returns
     -------
     str
-        ``disjunctive`` when the part uses a binary or multiple resource,
-        no consumable, and every multiple resource is
+        ``disjunctive`` when the part uses no resource, or a binary or
+        multiple resource, no consumable, and every multiple resource is
         :func:`pairwise_exact`, or has at most :data:`MAX_USERS` users
         and pairs make at least :data:`MIN_PAIR_SHARE` of the part's
         :func:`minimal_sets`; ``time-indexed`` otherwise.
     """
     kinds = used_kinds(problem, domains)
-    if "consumable" in kinds or not kinds:
+    if "consumable" in kinds:
         return "time-indexed"
     if changing_in_use(problem, domains):
         return "time-indexed"
+    if not kinds:
+        # Precedences and windows only (see the module docstring).
+        return "disjunctive"
     exact = True
     pairs = triples = 0
     for name in problem.resources.multiple:
