@@ -3,18 +3,19 @@
 from __future__ import annotations
 
 import functools
-from typing import TYPE_CHECKING
+import time
+from typing import TYPE_CHECKING, Any
 
 import pytest
 from hypothesis import assume, given, settings
 
-from fsw_scheduler.analysis.bounds import kept_set_bound
+from fsw_scheduler.analysis.bounds import kept_set_bound, kept_set_plan
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.analysis.insert import inserted
 from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.solving.ilp import solve_ilp
-from fsw_scheduler.solving.incumbent import narrow
+from fsw_scheduler.solving.incumbent import narrow, probed
 from fsw_scheduler.solving.relaxed import (
     RelaxedModel,
     applies,
@@ -27,6 +28,7 @@ from ..factories import bench_lib, make_doc, make_task, problem_from
 from ..problems import COMMON, decode_doc, problem_docs, show
 
 if TYPE_CHECKING:
+    from fsw_scheduler.model.plan import Plan
     from fsw_scheduler.model.problem import Problem
 
 CAM_AND_BATTERY = {"binary": ["cam"], "consumable": {"battery": 5}}
@@ -288,3 +290,40 @@ def test_a_small_mixed_part_is_proved_so_under_a_short_limit() -> None:
     assert plan.objective is not None
     assert plan.objective.total == 307_185
     assert check_plan(problem, plan).ok
+
+
+def test_no_probe_follows_a_small_parts_relaxation() -> None:
+    """Tests that after the relaxation's rounds on a small part whose
+    relaxed optimum breaks the battery (paper seed 91's c15-all-6, whose
+    start plan leaves out a task more than the bound) no probe of the
+    time-indexed model is run: the full run starts from the rounds'
+    incumbent (a probe there took 7.7 s and was thrown away)."""
+    problem = _campaign_problem(91, "paper", "c15-all-6")
+    domains = start_domains(problem)
+    start = best_start(problem, None, domains=domains)
+    assert start is not None
+    relaxed = kept_set_plan(problem, start, domains)
+    narrowed = narrow(problem, start, domains, relaxed)
+    runs: list[str] = []
+
+    def run(problem: Problem, **options: Any) -> Plan:
+        plan = solve_ilp(problem, solver="cbc", threads=1, seed=0, **options)
+        runs.append(plan.stats.solver_status if plan.stats else "")
+        return plan
+
+    run_it = functools.partial(run)
+    answer, incumbent, _, bound = probed(
+        problem,
+        run_it,
+        start,
+        domains,
+        narrowed,
+        relaxed,
+        time.perf_counter(),
+        30.0,
+    )
+    assert answer is None
+    assert runs == [], runs
+    assert bound is not None and incumbent is not None
+    assert incumbent.objective is not None
+    assert bound <= 46_716 <= incumbent.objective.total
