@@ -211,7 +211,7 @@ def replanned(
         best = polish(best)
     # The shift windows may run past the replan's share, within the limit.
     last = end if full_limit is None else end - time_limit + full_limit
-    best = polish.shifted(best, run, shift_deadline(end, last))
+    best = polish.shifted(best, run, shift_deadline(last, end))
     said += polish.said()
     answer = _answer(
         best,
@@ -473,7 +473,7 @@ def improved(
         bound = higher(bound, caught.bound)
         said += f"the disjunctive relaxation: {caught.said}; "
     polish = Polishing(problem, domains, deadline, bound)
-    start = polish.shifted(polish(start), run, shift_deadline(0.0, deadline))
+    start = polish.shifted(polish(start), run, shift_deadline(deadline))
     narrowed = _narrowed(problem, start, domains, relaxed, _until(deadline))
     if narrowed is not None and columns(narrowed) <= SMALL_COLUMNS:
         # Around a good start plan the whole model can be as small as a

@@ -20,12 +20,12 @@ from __future__ import annotations
 import time
 from typing import TYPE_CHECKING
 
-from ..analysis.check import check_plan
 from ..analysis.domains import Domain
 from ..analysis.polish import polished
 from ..model.plan import SolveStatus
 from .budget import stop_at
 from .improve import MIN_ROUND_S, meets
+from .incumbent import checked
 from .stats import stopped_on_nodes
 
 if TYPE_CHECKING:
@@ -57,9 +57,10 @@ SHIFT_NODES = 2_000
 SHIFT_S = 0.6
 
 
-def shift_deadline(end: float, last: float) -> float:
-    """When shift windows stop: at ``end``, or :data:`SHIFT_S` from now
-    when less is left, never past ``last`` (the caller's whole limit)."""
+def shift_deadline(last: float, end: float = 0.0) -> float:
+    """When shift windows stop: :data:`SHIFT_S` from now, or at ``end``
+    when that is later (a replan's share), never past ``last`` (the
+    caller's whole limit)."""
     return min(max(end, time.perf_counter() + SHIFT_S), last)
 
 
@@ -145,12 +146,16 @@ class Polishing:
                         min(domain.latest, start + delta),
                     )
                 )
-            answer = run(
+            # A plan the checker refuses comes back without an objective.
+            answer = checked(
                 self.problem,
-                warm=starts,
-                domains=window,
-                time_limit=left,
-                max_nodes=SHIFT_NODES,
+                run(
+                    self.problem,
+                    warm=starts,
+                    domains=window,
+                    time_limit=left,
+                    max_nodes=SHIFT_NODES,
+                ),
             )
             said = answer.stats.solver_status if answer.stats else ""
             if (
@@ -160,7 +165,6 @@ class Polishing:
                     answer.status is SolveStatus.OPTIMAL
                     or stopped_on_nodes(said)
                 )
-                or not check_plan(self.problem, answer).ok
             ):
                 continue
             self.shift_saved += plan.objective.total - answer.objective.total

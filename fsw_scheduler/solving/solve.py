@@ -660,10 +660,9 @@ def _polishing(
     """
     if plan.status is not SolveStatus.FEASIBLE or plan.stats is None:
         return plan
-    polish = Polishing(problem, domains, end - BUDGET.lns_margin_s, None)
-    better = polish.shifted(
-        polish(plan), run, shift_deadline(0.0, end - BUDGET.lns_margin_s)
-    )
+    last = end - BUDGET.lns_margin_s
+    polish = Polishing(problem, domains, last, None)
+    better = polish.shifted(polish(plan), run, shift_deadline(last))
     if better is plan:
         return plan
     return better.replace(
