@@ -77,7 +77,9 @@ class SolveBudget:
         not started in it) is given again from what the other parts left
         (:func:`~fsw_scheduler.solving.solve.solve`'s second pass): CBC
         starts on a small part's model with it (its stop margin and
-        minimum are 0.35 s) and proves most such parts in 0.01-0.1 s.
+        minimum are 0.1 s on a 15-task model, 0.35 s on a large one:
+        :func:`~fsw_scheduler.solving.ilp.cbc.stop_margin`) and proves
+        most such parts in 0.01-0.1 s.
     proof_share
         Share of the limit the cheap infeasibility proofs
         (:func:`~fsw_scheduler.analysis.proofs.infeasibility`) may take
@@ -87,10 +89,11 @@ class SolveBudget:
     min_part_s
         The least share of the limit an independent part of a problem
         gets when the limit has room for it (:meth:`part_share`): enough
-        for CBC to start on a small model and prove it. Below about 0.6 s
-        it is never started (the model's reading margin, CBC's
-        ``STOP_MARGIN_S`` and ``MIN_CBC_S``), and a part that needs it
-        keeps its start plan unproved.
+        for CBC to start on a small model and prove it, and on a large one
+        (CBC's stop margin grows to 0.3 s with the model,
+        :func:`~fsw_scheduler.solving.ilp.cbc.stop_margin`, beside the
+        model's reading margin and ``MIN_CBC_S``); a part that gets too
+        little for CBC keeps its start plan unproved.
     """
 
     greedy_share: float = 0.4

@@ -114,9 +114,10 @@ SMALL_SHARE = 0.3
 
 #: Under a short limit the small part's rounds get at least this many
 #: seconds, at most :data:`SHORT_SHARE` of what is left: CBC is not
-#: started with less than ``MIN_CBC_S + STOP_MARGIN_S`` (0.35 s) of its
-#: limit, and the relaxation's optimum is the likelier proof there (the
-#: time-indexed model of a 15-task part seldom ends its root in 0.5 s).
+#: started with less than ``MIN_CBC_S`` and its stop margin (0.1 s on a
+#: 15-task model, 0.35 s on a large one) of its limit, and the
+#: relaxation's optimum is the likelier proof there (the time-indexed
+#: model of a 15-task part seldom ends its root in 0.5 s).
 #: With :data:`SMALL_MIN_S` at 0.35 / :data:`SHORT_SHARE`, CBC always has
 #: its minimum.
 SMALL_FLOOR_S = 0.5

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import random
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import pytest
@@ -12,6 +13,7 @@ from fsw_scheduler.analysis.check import check_plan, format_report
 from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.errors import SolverError
 from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.solving.ilp.disjunctive import rule
 from fsw_scheduler.solving.ilp.disjunctive.model import DisjunctiveModel
 from fsw_scheduler.solving.ilp.disjunctive.rule import pairwise_exact, pick
@@ -232,16 +234,46 @@ def test_an_unproved_disjunctive_run_hands_over_to_the_time_indexed_model(
     assert "disjunctive model" in probe_said
 
 
-def test_only_small_parts_with_a_multiple_resource_switch() -> None:
+def test_only_small_parts_with_a_multiple_resource_switch(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     """Tests that binary-only parts and parts over the size measured keep
-    their disjunctive run to the end."""
+    their disjunctive run to the end, unless their time-indexed model is
+    small (few start times: a short horizon)."""
     crowded = _crowded_power(0)
     domains = start_domains(crowded)
+    starts = sum(d.latest - d.earliest + 1 for d in domains.values())
+    assert starts <= rule.SWITCH_COLUMNS
     assert rule.switch_nodes(crowded, domains, 15) == rule.SWITCH_NODES
+    # More tasks than measured, but as few start times as a small part's.
+    assert rule.switch_nodes(crowded, domains, 4) == rule.SWITCH_NODES
+    monkeypatch.setattr(rule, "SWITCH_COLUMNS", starts - 1)
     assert rule.switch_nodes(crowded, domains, 4) is None
+    assert rule.switch_nodes(crowded, domains, 15) == rule.SWITCH_NODES
     tasks = [make_task(f"t{idx}", uses={"cam": 1}) for idx in range(4)]
     binary = problem_from(make_doc(tasks, resources={"binary": ["cam"]}))
     assert rule.switch_nodes(binary, start_domains(binary), 15) is None
+
+
+#: 19 tasks over H = 60: a 16-task part sharing a camera and a multiple
+#: resource of capacity 3 at 166 of its 180 units of energy (CP-SAT's
+#: optimum of the whole: 4,327).
+SHORT_HORIZON = Path(__file__).parent / "data" / "short-horizon-crowded.json"
+
+
+def test_a_larger_part_with_few_start_times_switches_and_is_proved() -> None:
+    """Tests that a part of more tasks than the switch's measured sizes,
+    over a short horizon, switches to the time-indexed model after the
+    switch's nodes and is proved: its disjunctive run alone went to the
+    end of a 30 s limit unproved."""
+    problem = decode_problem(SHORT_HORIZON.read_bytes())
+    plan = solve(problem, time_limit=30)
+    assert plan.stats is not None
+    said = plan.stats.solver_status
+    assert plan.status is SolveStatus.OPTIMAL, said
+    assert "the time-indexed model from its plan: Optimal" in said
+    assert plan.objective is not None and plan.objective.total == 4327
+    assert check_plan(problem, plan).ok
 
 
 def test_a_switch_with_no_time_for_the_second_model_keeps_the_first_plan(

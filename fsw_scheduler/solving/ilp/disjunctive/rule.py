@@ -100,6 +100,17 @@ MAX_USERS = 40
 #: rerun's spread (3.64 -> 3.57 s).
 SWITCH_NODES = 5_000
 
+#: A part of more tasks than the switch's measured sizes (the caller's
+#: ``max_tasks``) switches too when its time-indexed model has at most
+#: this many columns (start times): the model is then as small as a
+#: 15-task part's (the root probe's threshold, :data:`~fsw_scheduler.
+#: solving.incumbent.ROOT_PROBE_COLUMNS`). A 16-task part over H = 60
+#: with a camera and a multiple resource of capacity 3 (about 900
+#: columns) ran the disjunctive model to the end of a 30 s limit
+#: unproved (27 s to prove it alone); the time-indexed model proves it
+#: in 1.4 s.
+SWITCH_COLUMNS = 5_000
+
 Formulation = Literal["time-indexed", "disjunctive"]
 FORMULATIONS: tuple[Formulation, ...] = ("time-indexed", "disjunctive")
 
@@ -216,10 +227,14 @@ def switch_nodes(
     their run: the time-indexed model is far slower there (its LP is
     large and degenerate, see the module docstring). Only parts of up
     to ``max_tasks`` tasks switch (the time-indexed model of a larger
-    part may not even fit the limit); the caller asks only where
-    :func:`pick` chose the disjunctive model.
+    part may not even fit the limit), or larger ones whose time-indexed
+    model has at most :data:`SWITCH_COLUMNS` columns; the caller asks
+    only where :func:`pick` chose the disjunctive model.
     """
-    if problem.num_tasks > max_tasks:
+    starts = sum(
+        d.latest - d.earliest + 1 for d in domains.values() if not d.empty
+    )
+    if problem.num_tasks > max_tasks and starts > SWITCH_COLUMNS:
         return None
     if "multiple" in used_kinds(problem, domains):
         return SWITCH_NODES
