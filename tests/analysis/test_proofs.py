@@ -21,7 +21,7 @@ from fsw_scheduler.analysis.proofs import (
 from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.solving.solve import solve
 
-from ..factories import CLI, make_task, problem_from
+from ..factories import CLI, make_doc, make_task, problem_from
 from ..problems import (
     COMMON,
     apart_docs,
@@ -450,6 +450,59 @@ def test_tight_block_overlapping_on_a_binary_resource_is_left_out() -> None:
         ("b", "binary"),
     }
     assert plan.stats is not None and plan.stats.solver == "greedy"
+
+
+def _beside_mandatory(mandatory_c: bool = True, clash: bool = False) -> dict:
+    """``a`` mandatory; ``c`` (mandatory or not) fixed 6 units after it,
+    ``b`` (worth 5) fixed 4 units after it for 10 units, both on the
+    camera: ``b`` needs only ``a``, but every plan holds ``c`` too."""
+    return make_doc(
+        [
+            make_task("a", 3, schedule_cost=0),
+            make_task("b", 10, schedule_cost=5, uses={"cam": 1}),
+            make_task(
+                "c", 1, schedule_cost=0 if mandatory_c else 1, uses={"cam": 1}
+            ),
+            make_task("d", 2, schedule_cost=0, uses={"cam": 1}),
+        ],
+        horizon=16,
+        resources={"binary": ["cam"]},
+        precedences=[
+            _tight("a", "b", 1, scope="at_least_first"),
+            _tight("a", "c", 3, scope="at_least_first"),
+            # d and c overlap: the tasks every plan holds conflict.
+            *([_tight("c", "d", -1)] if clash else []),
+        ],
+    )
+
+
+def test_a_block_beside_tasks_every_plan_holds_is_impossible() -> None:
+    """Tests that a task whose tight block with a mandatory task holds
+    another mandatory one it overlaps is impossible, the reason naming
+    what every plan holds, and the solve proves its plan at once."""
+    problem = problem_from(_beside_mandatory())
+    conflicts = block_conflicts(problem)
+    assert sorted(conflicts) == ["b"]
+    cause, why = conflicts["b"]
+    assert cause == "binary"
+    assert "b and c overlap on cam" in why and "every plan holds c" in why
+    assert start_domains(problem)["b"].empty
+    plan = solve(problem, time_limit=5)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.unscheduled == ("b",)
+    best = brute_force(problem)
+    assert best is not None and plan.objective is not None
+    assert plan.objective.total == best[0].total
+
+
+def test_a_block_beside_an_optional_task_stays_possible() -> None:
+    """Tests that the same block is no proof when the task it overlaps may
+    be left out, nor when the tasks every plan holds conflict among
+    themselves (the problem is infeasible, said once, by the proofs)."""
+    assert block_conflicts(problem_from(_beside_mandatory(False))) == {}
+    clashing = problem_from(_beside_mandatory(clash=True))
+    assert "b" not in block_conflicts(clashing)
+    assert infeasibility(clashing, start_domains(clashing))
 
 
 def test_at_least_first_block_leaves_the_first_task_free() -> None:
