@@ -63,6 +63,10 @@ def test_the_stop_margin_grows_with_the_model() -> None:
     assert stop_margin(9_000) == STOP_MARGIN_MIN_S
     assert STOP_MARGIN_MIN_S < stop_margin(50_000) < STOP_MARGIN_S
     assert stop_margin(1_000_000) == STOP_MARGIN_S
+    # The solve reads and checks CBC's answer within its limit: a longer
+    # limit keeps the whole margin whatever the model.
+    assert stop_margin(9_000, 0.3) == STOP_MARGIN_MIN_S
+    assert stop_margin(9_000, 10.0) == STOP_MARGIN_S
 
 
 def test_cbc_proves_a_small_model_under_a_short_limit() -> None:
