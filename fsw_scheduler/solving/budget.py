@@ -77,7 +77,7 @@ class SolveBudget:
         not started in it) is given again from what the other parts left
         (:func:`~fsw_scheduler.solving.solve.solve`'s second pass): CBC
         starts on a small part's model with it (its stop margin and
-        minimum are 0.1 s on a 15-task model, 0.35 s on a large one:
+        minimum are about 0.1 s on a 15-task model, 0.35 s on a large one:
         :func:`~fsw_scheduler.solving.ilp.cbc.stop_margin`) and proves
         most such parts in 0.01-0.1 s.
     proof_share
