@@ -64,6 +64,14 @@ class Domain(msgspec.Struct, frozen=True):
         return self.earliest > self.latest
 
 
+def start_count(domains: Mapping[str, Domain]) -> int:
+    """Start times in ``domains`` in all: the time-indexed model's
+    columns, the measure of a part's size that the solver's rules read."""
+    return sum(
+        d.latest - d.earliest + 1 for d in domains.values() if not d.empty
+    )
+
+
 def start_domains(
     problem: Problem, caps: Mapping[str, int] | None = None
 ) -> dict[str, Domain]:

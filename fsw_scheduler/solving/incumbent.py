@@ -21,7 +21,7 @@ import msgspec
 
 from ..analysis.bounds import KeptSetProof, fixings, kept_set_plan
 from ..analysis.check import check_plan
-from ..analysis.domains import cost_caps, start_domains
+from ..analysis.domains import cost_caps, start_count, start_domains
 from ..analysis.readmit import readmitted
 from ..model.plan import Plan, SolveStatus, objective_weight
 from .budget import stop_at, stop_within
@@ -123,13 +123,6 @@ SMALL_SHARE = 0.3
 SMALL_FLOOR_S = 0.5
 
 
-def columns(domains: dict[str, Domain]) -> int:
-    """Start times in ``domains``: the time-indexed model's columns."""
-    return sum(
-        d.latest - d.earliest + 1 for d in domains.values() if not d.empty
-    )
-
-
 def worth_a_probe(
     problem: Problem, start: Plan | None, relaxed: KeptSetProof | None
 ) -> bool:
@@ -221,7 +214,7 @@ def probed(
         if time_limit is None
         else time_limit - (time.perf_counter() - began)
     )
-    small = columns(narrowed) < RELAXED_COLUMNS
+    small = start_count(narrowed) < RELAXED_COLUMNS
     if relaxable(
         run, problem, domains, left, SMALL_MIN_S if small else SHORT_MIN_S
     ):
@@ -238,7 +231,7 @@ def probed(
                 for_rounds = max(
                     SMALL_SHARE * left, min(SMALL_FLOOR_S, SHORT_SHARE * left)
                 )
-            elif columns(narrowed) >= LONG_COLUMNS:
+            elif start_count(narrowed) >= LONG_COLUMNS:
                 for_rounds = LONG_SHARE * left
             caught = rounds(
                 problem,
@@ -251,7 +244,7 @@ def probed(
                 # small part's go on while they end on their nodes.
                 small=None
                 if small
-                else lambda narrowed: columns(narrowed) < RELAXED_COLUMNS,
+                else lambda narrowed: start_count(narrowed) < RELAXED_COLUMNS,
             )
         else:
             caught = around(problem, start, narrowed, run, SHORT_SHARE * left)
@@ -275,8 +268,10 @@ def probed(
     heuristics = False
     if worth_a_probe(problem, start, relaxed):
         low, high = PROBE_NODES
-        nodes = max(low, min(high, PROBE_WORK // max(1, columns(narrowed))))
-    elif columns(narrowed) >= ROOT_PROBE_COLUMNS:
+        nodes = max(
+            low, min(high, PROBE_WORK // max(1, start_count(narrowed)))
+        )
+    elif start_count(narrowed) >= ROOT_PROBE_COLUMNS:
         nodes, heuristics = 0, True
     else:
         return None, start, narrowed, bound

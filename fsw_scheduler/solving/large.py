@@ -22,13 +22,14 @@ import time
 from typing import TYPE_CHECKING
 
 from ..analysis.bounds import KeptSetProof, better_start, kept_set_bound
+from ..analysis.domains import start_count
 from ..analysis.greedy import greedy_plan
 from ..analysis.insert import inserted
 from ..model.plan import SolverStats, SolveStatus
 from .budget import BOUND_SHARE, BUDGET, stop_at
 from .forced import forced_start
 from .improve import MIN_ROUND_S, improve, meets
-from .incumbent import a_task_above, checked, columns, narrow, worth_a_probe
+from .incumbent import a_task_above, checked, narrow, worth_a_probe
 from .polishing import POLISH_MAX_S, POLISH_SHARE, Polishing, shift_deadline
 from .relaxed import RelaxedAnswer, fresh_min_left, relaxable
 from .relaxed import around as relaxed_around
@@ -475,7 +476,7 @@ def improved(
     polish = Polishing(problem, domains, deadline, bound)
     start = polish.shifted(polish(start), run, shift_deadline(deadline))
     narrowed = _narrowed(problem, start, domains, relaxed, _until(deadline))
-    if narrowed is not None and columns(narrowed) <= SMALL_COLUMNS:
+    if narrowed is not None and start_count(narrowed) <= SMALL_COLUMNS:
         # Around a good start plan the whole model can be as small as a
         # 15-task part's, which CBC proves at once where the search has
         # no bound to stop at (b30-h1440 of the large suite, seed 31:
@@ -512,7 +513,7 @@ def improved(
         if narrowed is None:
             return False
         around[:] = [(plan, again, narrowed)]
-        return columns(narrowed) <= HAND_OVER_COLUMNS
+        return start_count(narrowed) <= HAND_OVER_COLUMNS
 
     best, improved = improve(
         problem,
@@ -664,7 +665,7 @@ def _relaxation(
             limit,
             renarrow,
             lambda plan: _inserting(problem, plan, domains, deadline),
-            lambda narrowed: columns(narrowed) <= SMALL_COLUMNS,
+            lambda narrowed: start_count(narrowed) <= SMALL_COLUMNS,
             0.0 if end is None else OVERTIME * max(0.0, end - deadline),
         )
     return relaxed_around(problem, start, renarrow(start), run, limit)

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 
 from fsw_scheduler.analysis.check import check_plan, format_report
-from fsw_scheduler.analysis.domains import start_domains
+from fsw_scheduler.analysis.domains import start_count, start_domains
 from fsw_scheduler.errors import SolverError
 from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.model.problem import decode_problem
@@ -242,7 +242,7 @@ def test_only_small_parts_with_a_multiple_resource_switch(
     small (few start times: a short horizon)."""
     crowded = _crowded_power(0)
     domains = start_domains(crowded)
-    starts = sum(d.latest - d.earliest + 1 for d in domains.values())
+    starts = start_count(domains)
     assert starts <= rule.SWITCH_COLUMNS
     assert rule.switch_nodes(crowded, domains, 15) == rule.SWITCH_NODES
     # More tasks than measured, but as few start times as a small part's.

@@ -8,7 +8,7 @@ import time
 from typing import TYPE_CHECKING
 
 from fsw_scheduler.analysis.check import check_plan
-from fsw_scheduler.analysis.domains import start_domains
+from fsw_scheduler.analysis.domains import start_count, start_domains
 from fsw_scheduler.analysis.greedy import greedy_plan
 from fsw_scheduler.api import replan_typed
 from fsw_scheduler.model.change import decode_change
@@ -16,7 +16,6 @@ from fsw_scheduler.model.plan import SolverStats, SolveStatus
 from fsw_scheduler.solving import large
 from fsw_scheduler.solving.budget import BUDGET
 from fsw_scheduler.solving.ilp import solve_ilp
-from fsw_scheduler.solving.incumbent import columns
 from fsw_scheduler.solving.solve import solve
 
 from ..factories import bench_lib, make_doc, make_task, problem_from
@@ -39,7 +38,7 @@ def test_the_search_takes_parts_from_lns_min_tasks() -> None:
     assert thirty.num_tasks == BUDGET.lns_min_tasks
     assert large.searched(thirty)
     long = problem_from(fresh.generate_problem(29, 2880, 3))
-    assert columns(start_domains(long)) > 15_000
+    assert start_count(start_domains(long)) > 15_000
     assert not large.searched(long)
 
 

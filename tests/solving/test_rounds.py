@@ -8,11 +8,11 @@ from typing import TYPE_CHECKING
 
 from fsw_scheduler.analysis.bounds import kept_set_plan
 from fsw_scheduler.analysis.check import check_plan
-from fsw_scheduler.analysis.domains import start_domains
+from fsw_scheduler.analysis.domains import start_count, start_domains
 from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.solving import rounds as rounds_module
 from fsw_scheduler.solving.ilp import solve_ilp
-from fsw_scheduler.solving.incumbent import columns, narrow
+from fsw_scheduler.solving.incumbent import narrow
 from fsw_scheduler.solving.relaxed import around
 from fsw_scheduler.solving.rounds import rounds
 from fsw_scheduler.solving.solve import _part, best_start, components
@@ -61,7 +61,7 @@ def test_rounds_prove_a_part_one_round_leaves_open() -> None:
     model is large enough for the rounds' long share."""
     part, start, narrowed, renarrow = _seed_71_part()
     assert part.num_tasks == 29
-    assert columns(narrowed) >= rounds_module.LONG_COLUMNS
+    assert start_count(narrowed) >= rounds_module.LONG_COLUMNS
     run = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
     one = around(part, start, narrowed, run, 120.0)
     assert one.plan is None

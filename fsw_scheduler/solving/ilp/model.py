@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 import msgspec
 
-from ...analysis.domains import start_domains
+from ...analysis.domains import start_count, start_domains
 from ...errors import SolverError
 from ...model.plan import Plan, SolverStats, SolveStatus
 from ..stats import higher, stopped_on_nodes
@@ -546,9 +546,7 @@ def solve_ilp(
             "windows and capacity steps need the time-indexed model"
         )
     if time_limit is not None and formulation == "time-indexed":
-        columns = sum(
-            d.latest - d.earliest + 1 for d in domains.values() if not d.empty
-        )
+        columns = start_count(domains)
         if BUILD_S_PER_COLUMN * columns > time_limit:
             # Building alone would overrun the limit (200 tasks at
             # H = 1440: 158 000 columns, 2.9 s).

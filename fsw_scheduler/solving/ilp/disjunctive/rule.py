@@ -69,6 +69,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Literal
 
+from ....analysis.domains import start_count
+
 if TYPE_CHECKING:
     from collections.abc import Mapping
 
@@ -231,10 +233,7 @@ def switch_nodes(
     model has at most :data:`SWITCH_COLUMNS` columns; the caller asks
     only where :func:`pick` chose the disjunctive model.
     """
-    starts = sum(
-        d.latest - d.earliest + 1 for d in domains.values() if not d.empty
-    )
-    if problem.num_tasks > max_tasks and starts > SWITCH_COLUMNS:
+    if problem.num_tasks > max_tasks and start_count(domains) > SWITCH_COLUMNS:
         return None
     if "multiple" in used_kinds(problem, domains):
         return SWITCH_NODES
