@@ -11,7 +11,7 @@ import msgspec
 
 from ..analysis.bounds import KeptSetProof, at_lower_bound, kept_set_plan
 from ..analysis.check import check_plan
-from ..analysis.domains import start_domains
+from ..analysis.domains import start_count, start_domains
 from ..analysis.explain import explain as explain_plan
 from ..analysis.greedy import greedy_plan
 from ..analysis.options import impossible_group
@@ -251,10 +251,7 @@ def _solve_parts(
     weights = [
         1
         if len(part) == 1
-        else 1
-        + sum(
-            max(0, domains[n].latest - domains[n].earliest + 1) for n in part
-        )
+        else 1 + start_count({name: domains[name] for name in part})
         for part in parts
     ]
     # Smallest parts first: they are done at once, and what they leave of
