@@ -77,6 +77,7 @@ def readmitted(
         (task.id for task in problem.tasks),
         key=lambda name: (name not in starts, starts.get(name, 0)),
     )
+    before = _ancestors(problem)
     best = plan
     tries = 0
     for _ in range(MAX_PASSES):
@@ -86,7 +87,13 @@ def readmitted(
             if tries >= MAX_TRIES or (stop is not None and stop()):
                 return best
             tries += 1
-            trial = [name, *(n for n in order if n != name)]
+            # The task goes first with what must come before it: a list
+            # schedule places a task only once its predecessors are, so
+            # alone at the head it would still wait for them where they
+            # are (broad seed 98's b15-multiple-0: a task whose window
+            # closes before its predecessor's place in the order ends).
+            head = [*(n for n in order if n in before[name]), name]
+            trial = [*head, *(n for n in order if n not in head)]
             found = plan_in_order(problem, trial, domains)
             if (
                 found is not None
@@ -99,3 +106,21 @@ def readmitted(
         if not improved:
             break
     return best
+
+
+def _ancestors(problem: Problem) -> dict[str, set[str]]:
+    """Each task's predecessors through any chain of precedences."""
+    direct: dict[str, set[str]] = {t.id: set() for t in problem.tasks}
+    for prec in problem.precedences:
+        direct[prec.after].add(prec.before)
+    found: dict[str, set[str]] = {}
+    for name in direct:
+        seen: set[str] = set()
+        todo = list(direct[name])
+        while todo:
+            other = todo.pop()
+            if other not in seen and other != name:
+                seen.add(other)
+                todo.extend(direct[other])
+        found[name] = seen
+    return found

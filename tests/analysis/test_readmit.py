@@ -58,6 +58,52 @@ def test_a_left_out_task_first_gives_the_better_plan() -> None:
     assert better.objective.total < start.objective.total
 
 
+def test_a_left_out_task_goes_first_with_its_predecessors() -> None:
+    """Tests that a left-out task is tried at the head of the order with
+    what must come before it: alone there it waits for a predecessor
+    that the order places too late for the task's window."""
+    problem = problem_from(
+        {
+            "horizon": 30,
+            "resources": {"binary": ["camera"]},
+            "tasks": [
+                make_task("wide", 10, uses={"camera": 1}),
+                make_task("pre", 10, uses={"camera": 1}),
+                make_task(
+                    "late",
+                    5,
+                    schedule_cost=5,
+                    feasible_interval=[10, 15],
+                    feasible_interval_applies_to="task",
+                ),
+            ],
+            "precedences": [
+                {
+                    "before": "pre",
+                    "after": "late",
+                    "kind": "lax",
+                    "scope": "at_least_first",
+                }
+            ],
+        }
+    )
+    domains = start_domains(problem)
+    start = plan_in_order(problem, ["wide", "pre", "late"], domains)
+    assert start is not None and start.unscheduled == ("late",)
+    # The task alone at the head of the order is no better: its
+    # predecessor still comes after ``wide``.
+    alone = plan_in_order(problem, ["late", "wide", "pre"], domains)
+    assert alone is not None and alone.unscheduled == ("late",)
+    better = readmitted(problem, start, domains)
+    assert better.unscheduled == ()
+    assert {a.task: a.start for a in better.activities} == {
+        "pre": 0,
+        "late": 10,
+        "wide": 10,
+    }
+    assert check_plan(problem, better).ok
+
+
 def test_nothing_better_returns_the_plan_itself() -> None:
     """Tests that a plan leaving nothing out, or the best one, is kept."""
     problem = _crowded()
