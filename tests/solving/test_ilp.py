@@ -577,8 +577,9 @@ def test_consumable_beside_a_shared_resource_runs_cbc_without_cuts(
 
 def test_multiple_resource_models_strong_branch_by_formulation() -> None:
     """Tests that a time-indexed model of a multiple resource without a
-    consumable asks CBC for two strong-branching candidates, and a
-    disjunctive one of the same part for ten."""
+    consumable asks CBC for two strong-branching candidates and leaves
+    out its two costliest cut generators, and a disjunctive one of the
+    same part asks for ten candidates."""
     from fsw_scheduler.solving.ilp.disjunctive.model import DisjunctiveModel
     from fsw_scheduler.solving.ilp.model import (
         BINARY_STRONG,
@@ -588,7 +589,7 @@ def test_multiple_resource_models_strong_branch_by_formulation() -> None:
         cbc_options,
     )
 
-    assert MULTIPLE_TIME_INDEXED == ["strong 2"]
+    assert MULTIPLE_TIME_INDEXED == ["strong 2", "twoMir off", "zeroHalf off"]
     doc = {
         "horizon": 8,
         "resources": {"multiple": {"power": 10}},
@@ -601,6 +602,7 @@ def test_multiple_resource_models_strong_branch_by_formulation() -> None:
     everything = {task.id: 0 for task in problem.tasks}
     indexed = cbc_options(BuiltModel(problem), everything) or []
     assert "strong 2" in indexed
+    assert "twoMir off" in indexed and "zeroHalf off" in indexed
     assert "cuts off" not in indexed
     disjunctive = DisjunctiveModel(problem, start_domains(problem))
     options = cbc_options(disjunctive, everything) or []

@@ -101,7 +101,16 @@ CONSUMABLES_AND_SHARED = ["cuts off"]
 #: of seeds 1-6, 9-10 side by side: 79.9 -> 75.2 s, 5 -> 4 unproved;
 #: on seeds 13-14 (not tuned on), all 28: 15.9 -> 15.1 s. A small gain,
 #: no problem slower beyond a rerun's spread.
-MULTIPLE_TIME_INDEXED = ["strong 2"]
+#:
+#: Two-MIR and zero-half cuts off as well: at the root of these models
+#: they are the costliest generators (0.07 s each of a 0.5 s solve on
+#: broad seed 98's b15-multiple-2, 16 passes) and none of their cuts was
+#: still active at the end on the models looked at. CBC alone on the 10
+#: slowest time-indexed multiple models of seeds 97-98: 8.8 -> 6.9 s;
+#: on the 26 of seeds 100-101 (not looked at before), twice each: 4.9 ->
+#: 3.9 s (one 2.2 -> 2.5 s, one 1.6 -> 0.8 s), the same optima. Fewer
+#: cut passes as well (``passC 3``) lost on the second set (4.3 s).
+MULTIPLE_TIME_INDEXED = ["strong 2", "twoMir off", "zeroHalf off"]
 
 #: CBC options added to :data:`~.progress.WITH_START_DISJUNCTIVE` for
 #: a part with a multiple resource in use (of up to
