@@ -99,6 +99,17 @@ RELAXED_COLUMNS = ROOT_PROBE_COLUMNS
 SHORT_MIN_S = 0.8
 SHORT_SHARE = 0.6
 
+#: Under :data:`~fsw_scheduler.solving.relaxed.MIN_LEFT_S` left, such a
+#: part's relaxation runs in rounds (:func:`~fsw_scheduler.solving.
+#: rounds.rounds`) for this share of what is left: the time-indexed
+#: model of 5,000 columns or more seldom gets through its root in the
+#: rest, while the second round (2,000 nodes, probing on) proves many
+#: (the replan suite's seed 47 r30-h1440-0, 29 tasks, 10,965 columns:
+#: the fresh solve proved it in its second round at 1.7 s; the replan's
+#: one round of 0.6 of its 2 s stopped on its nodes and CBC's model was
+#: interrupted at the deadline with nothing).
+SHORT_ROUNDS_SHARE = 0.9
+
 #: A smaller part with a consumable beside a binary or multiple resource
 #: (the campaign's ``all`` class) gets the relaxation's rounds too
 #: (:func:`~fsw_scheduler.solving.rounds.rounds`, from
@@ -225,12 +236,14 @@ def probed(
         if left is None:
             # Without a limit the time-indexed model proves the part.
             caught = around(problem, start, narrowed, run, None)
-        elif small or left >= MIN_LEFT_S:
+        else:
             for_rounds = SHARE * left
             if small:
                 for_rounds = max(
                     SMALL_SHARE * left, min(SMALL_FLOOR_S, SHORT_SHARE * left)
                 )
+            elif left < MIN_LEFT_S:
+                for_rounds = SHORT_ROUNDS_SHARE * left
             elif start_count(narrowed) >= LONG_COLUMNS:
                 for_rounds = LONG_SHARE * left
             caught = rounds(
@@ -246,8 +259,6 @@ def probed(
                 if small
                 else lambda narrowed: start_count(narrowed) < RELAXED_COLUMNS,
             )
-        else:
-            caught = around(problem, start, narrowed, run, SHORT_SHARE * left)
         if caught.plan is not None:
             return caught.plan, start, narrowed, bound
         bound = caught.bound

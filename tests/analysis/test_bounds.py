@@ -8,6 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fsw_scheduler.analysis.bounds import (
+    MAX_NODES,
     KeptSetProof,
     better_start,
     delay_caps,
@@ -17,10 +18,11 @@ from fsw_scheduler.analysis.bounds import (
 )
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
+from fsw_scheduler.analysis.greedy import greedy_plan
 from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.solving.solve import best_start, solve
 
-from ..factories import problem_from
+from ..factories import bench_lib, problem_from
 from ..problems import COMMON, brute_force, decode_doc, plan_of, problem_docs
 
 if TYPE_CHECKING:
@@ -286,6 +288,28 @@ def test_the_kept_set_search_asked_to_stop_says_nothing() -> None:
     assert kept_set_bound(problem, plan, domains, stop=stop).bound is None
     full = kept_set_plan(problem, plan, domains, stop=lambda: False)
     assert full.plan is not None and full.bound is not None
+
+
+def test_the_kept_set_search_has_nodes_for_a_30_task_day() -> None:
+    """Tests that the kept-set search bounds a 30-task day whose start
+    plan leaves out many tasks: 20,000 nodes (the old cap) ran out on it,
+    and a solve or replan then went on with no bound and no readmission
+    (fresh shape, seed 89; seed 47's replan of r30-h1440-0 the same)."""
+    fresh = bench_lib("fresh")
+    problem = problem_from(fresh.generate_problem(30, 1440, 89))
+    domains = start_domains(problem)
+    start = greedy_plan(problem, domains=domains)
+    assert start is not None and start.objective is not None
+    assert kept_set_plan(problem, start, domains, 20_000).bound is None
+    assert MAX_NODES >= 100_000
+    found = kept_set_plan(problem, start, domains)
+    assert found.bound is not None
+    assert found.bound <= start.objective.total
+    best = solve(problem, time_limit=None, threads=1, seed=0)
+    assert best.objective is not None
+    # A valid lower bound: the optimum is at least it.
+    assert best.status is SolveStatus.OPTIMAL
+    assert best.objective.total >= found.bound
 
 
 @settings(COMMON, max_examples=200)

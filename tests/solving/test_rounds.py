@@ -4,23 +4,26 @@ from __future__ import annotations
 
 import functools
 import time
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from fsw_scheduler.analysis.bounds import kept_set_plan
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_count, start_domains
 from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.solving import incumbent
 from fsw_scheduler.solving import rounds as rounds_module
 from fsw_scheduler.solving.ilp import solve_ilp
 from fsw_scheduler.solving.incumbent import narrow
-from fsw_scheduler.solving.relaxed import around
+from fsw_scheduler.solving.relaxed import MIN_LEFT_S, around
 from fsw_scheduler.solving.rounds import rounds
-from fsw_scheduler.solving.solve import _part, best_start, components
+from fsw_scheduler.solving.solve import _part, best_start, components, solve
 
 from ..factories import bench_lib
 
 if TYPE_CHECKING:
     from collections.abc import Callable
+
+    import pytest
 
     from fsw_scheduler.analysis.domains import Domain
     from fsw_scheduler.model.plan import Plan
@@ -97,3 +100,30 @@ def test_a_round_that_found_a_better_plan_gets_one_more_in_overtime() -> None:
     assert longer.plan.objective is not None
     assert longer.plan.objective.total == OPTIMUM
     assert check_plan(part, longer.plan).ok
+
+
+def test_a_large_part_under_a_short_limit_gets_rounds_for_most_of_it(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Tests that a part whose model is too large for CBC's root in what
+    is left (a replan's 2 s, a short limit) gets the relaxation in rounds
+    for :data:`SHORT_ROUNDS_SHARE` of what is left, not one round of a
+    smaller share: the second round is the one that proves such parts."""
+    generator = bench_lib("generator")
+    bench = next(b for b in generator.large_suite(71) if b.name == "f30-h1440")
+    problem = bench.problem()
+    limits: list[float] = []
+
+    def spy(*args: Any, **kwargs: Any) -> Any:
+        limits.append(args[4])
+        return rounds(*args, **kwargs)
+
+    monkeypatch.setattr(incumbent, "rounds", spy)
+    limit = 3.0
+    assert limit < MIN_LEFT_S
+    plan = solve(problem, time_limit=limit, threads=1, seed=0)
+    assert plan.status.has_plan
+    assert check_plan(problem, plan).ok
+    assert len(limits) == 1
+    # More than one round of the old share could have, at most the share.
+    assert 0.6 * limit < limits[0] <= incumbent.SHORT_ROUNDS_SHARE * limit
