@@ -577,9 +577,9 @@ def test_consumable_beside_a_shared_resource_runs_cbc_without_cuts(
 
 def test_multiple_resource_models_strong_branch_by_formulation() -> None:
     """Tests that a time-indexed model of a multiple resource without a
-    consumable asks CBC for two strong-branching candidates and leaves
-    out its two costliest cut generators, and a disjunctive one of the
-    same part asks for ten candidates."""
+    consumable asks CBC for two strong-branching candidates, without its
+    two costliest cut generators and with at most 10 passes of cuts, and
+    a disjunctive one of the same part for ten candidates."""
     from fsw_scheduler.solving.ilp.disjunctive.model import DisjunctiveModel
     from fsw_scheduler.solving.ilp.model import (
         BINARY_STRONG,
@@ -589,7 +589,12 @@ def test_multiple_resource_models_strong_branch_by_formulation() -> None:
         cbc_options,
     )
 
-    assert MULTIPLE_TIME_INDEXED == ["strong 2", "twoMir off", "zeroHalf off"]
+    assert MULTIPLE_TIME_INDEXED == [
+        "strong 2",
+        "twoMir off",
+        "zeroHalf off",
+        "passC 10",
+    ]
     doc = {
         "horizon": 8,
         "resources": {"multiple": {"power": 10}},
@@ -603,6 +608,7 @@ def test_multiple_resource_models_strong_branch_by_formulation() -> None:
     indexed = cbc_options(BuiltModel(problem), everything) or []
     assert "strong 2" in indexed
     assert "twoMir off" in indexed and "zeroHalf off" in indexed
+    assert "passC 10" in indexed
     assert "cuts off" not in indexed
     disjunctive = DisjunctiveModel(problem, start_domains(problem))
     options = cbc_options(disjunctive, everything) or []

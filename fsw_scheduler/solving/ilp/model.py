@@ -108,9 +108,18 @@ CONSUMABLES_AND_SHARED = ["cuts off"]
 #: still active at the end on the models looked at. CBC alone on the 10
 #: slowest time-indexed multiple models of seeds 97-98: 8.8 -> 6.9 s;
 #: on the 26 of seeds 100-101 (not looked at before), twice each: 4.9 ->
-#: 3.9 s (one 2.2 -> 2.5 s, one 1.6 -> 0.8 s), the same optima. Fewer
-#: cut passes as well (``passC 3``) lost on the second set (4.3 s).
-MULTIPLE_TIME_INDEXED = ["strong 2", "twoMir off", "zeroHalf off"]
+#: 3.9 s (one 2.2 -> 2.5 s, one 1.6 -> 0.8 s), the same optima.
+#:
+#: At most 10 passes of cuts at the root (CBC's default ran 36 on broad
+#: seed 103's b15-multiple-4, 1.25 s, then a restart and 74 nodes: 4.3 s
+#: in all; with 10 passes 1.0 s and 12 nodes): CBC alone on the
+#: models of the multiple problems of seeds 97-98 and 100-103 (66
+#: models), 21.7 -> 16.6 s, the slowest 4.6 -> 1.0 s and 3.2 -> 1.0 s,
+#: two slower (1.9 -> 2.9 s, 2.1 -> 2.5 s); on seeds 104-105, not looked
+#: at before (28 models), 1.85 -> 1.40 s, none slower. 3 passes lost on
+#: seeds 100-101 (4.3 s against 3.9 s), 20 kept most of the tail (9.3
+#: against 6.5 s on seeds 102-103).
+MULTIPLE_TIME_INDEXED = ["strong 2", "twoMir off", "zeroHalf off", "passC 10"]
 
 #: CBC options added to :data:`~.progress.WITH_START_DISJUNCTIVE` for
 #: a part with a multiple resource in use (of up to
