@@ -92,10 +92,12 @@ RELAXED_COLUMNS = ROOT_PROBE_COLUMNS
 
 #: Under :data:`~fsw_scheduler.solving.relaxed.MIN_LEFT_S` left (a
 #: replan's 2 s), such a part still gets the relaxation from this much
-#: left on, for this share of it: CBC does not get through the root of a
-#: model this large in that time (the replan suite's seed 22
-#: r30-h1440-0, 16,251 columns: "time limit spent before CBC started"),
-#: while the relaxation finds better plans or proves the part.
+#: left on (for :data:`SHORT_ROUNDS_SHARE` of it): CBC does not get
+#: through the root of a model this large in that time (the replan
+#: suite's seed 22 r30-h1440-0, 16,251 columns: "time limit spent
+#: before CBC started"), while the relaxation finds better plans or
+#: proves the part. A small part's rounds under a short limit take at
+#: most :data:`SHORT_SHARE` of what is left (see :data:`SMALL_FLOOR_S`).
 SHORT_MIN_S = 0.8
 SHORT_SHARE = 0.6
 
