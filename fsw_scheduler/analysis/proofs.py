@@ -188,10 +188,10 @@ def block_conflicts(problem: Problem) -> dict[str, tuple[str, str]]:
     * has members whose simultaneous uses of a multiple resource exceed
       its capacity (``multiple``).
 
-    Tasks every plan holds (required ones and what they need) are
-    scheduled beside ``x`` too: where none of the above holds of ``x``'s
-    companions alone, the blocks are formed again with those of them that
-    tight precedences link to the companions (a task fixed 4 units after
+    Tasks every plan holds (:func:`forced_tasks`) are scheduled beside
+    ``x`` too: where none of the above holds of ``x``'s companions alone,
+    the blocks are formed again with those of them that tight
+    precedences link to the companions (a task fixed 4 units after
     a mandatory one, whose other tight successor, mandatory too, starts
     2 units later on the same camera, can never be scheduled; CP-SAT
     proves such a problem at once, and CBC's model did not in 30 s).
@@ -219,23 +219,13 @@ def block_conflicts(problem: Problem) -> dict[str, tuple[str, str]]:
     found: dict[str, tuple[str, str]] = {}
     seen: dict[frozenset[str], tuple[str, str] | None] = {}
 
-    def closure(start: set[str]) -> set[str]:
-        companions = set(start)
-        frontier = list(start)
-        while frontier:
-            for other in needs[frontier.pop()]:
-                if other not in companions:
-                    companions.add(other)
-                    frontier.append(other)
-        return companions
-
     def conflict(companions: set[str]) -> tuple[str, str] | None:
         key = frozenset(companions)
         if key not in seen:
             seen[key] = _block_conflict(problem, tasks, companions)
         return seen[key]
 
-    always = closure({t.id for t in problem.tasks if problem.required(t)})
+    always = forced_tasks(problem)
     if always and conflict(always) is not None:
         always = set()  # infeasible: said by infeasibility(), not here
     tight: dict[str, list[str]] = {}
@@ -244,13 +234,13 @@ def block_conflicts(problem: Problem) -> dict[str, tuple[str, str]]:
             tight.setdefault(prec.before, []).append(prec.after)
             tight.setdefault(prec.after, []).append(prec.before)
     for task in problem.tasks:
-        companions = closure({task.id})
+        companions = _reach({task.id}, needs)
         clash = conflict(companions)
         if clash is not None:
             cause, detail = clash
             found[task.id] = (cause, f"{detail}; scheduling it needs them")
             continue
-        beside = _tight_reach(companions, always, tight)
+        beside = _reach(companions, tight, within=always) - companions
         if not beside:
             continue
         clash = conflict(companions | beside)
@@ -263,19 +253,21 @@ def block_conflicts(problem: Problem) -> dict[str, tuple[str, str]]:
     return found
 
 
-def _tight_reach(
-    companions: Set[str], always: Set[str], tight: Mapping[str, list[str]]
+def _reach(
+    start: Set[str],
+    links: Mapping[str, list[str]],
+    within: Set[str] | None = None,
 ) -> set[str]:
-    """The tasks of ``always`` (not companions) that tight precedences
-    link to ``companions``, directly or through one another."""
-    reached = set(companions)
-    frontier = list(companions)
+    """``start`` and every task ``links`` lead to from it, directly or
+    through one another; with ``within``, only through tasks of it."""
+    reached = set(start)
+    frontier = list(start)
     while frontier:
-        for other in tight.get(frontier.pop(), ()):
-            if other in always and other not in reached:
+        for other in links.get(frontier.pop(), ()):
+            if other not in reached and (within is None or other in within):
                 reached.add(other)
                 frontier.append(other)
-    return reached - set(companions)
+    return reached
 
 
 def _block_conflict(
