@@ -234,13 +234,13 @@ def block_conflicts(problem: Problem) -> dict[str, tuple[str, str]]:
             tight.setdefault(prec.before, []).append(prec.after)
             tight.setdefault(prec.after, []).append(prec.before)
     for task in problem.tasks:
-        companions = _reach({task.id}, needs)
+        companions = reach({task.id}, needs)
         clash = conflict(companions)
         if clash is not None:
             cause, detail = clash
             found[task.id] = (cause, f"{detail}; scheduling it needs them")
             continue
-        beside = _reach(companions, tight, within=always) - companions
+        beside = reach(companions, tight, within=always) - companions
         if not beside:
             continue
         clash = conflict(companions | beside)
@@ -253,7 +253,7 @@ def block_conflicts(problem: Problem) -> dict[str, tuple[str, str]]:
     return found
 
 
-def _reach(
+def reach(
     start: Set[str],
     links: Mapping[str, list[str]],
     within: Set[str] | None = None,

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 
 from .check import check_plan
 from .greedy import plan_in_order
+from .proofs import reach
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -77,7 +78,9 @@ def readmitted(
         (task.id for task in problem.tasks),
         key=lambda name: (name not in starts, starts.get(name, 0)),
     )
-    before = _ancestors(problem)
+    earlier: dict[str, list[str]] = {}
+    for prec in problem.precedences:
+        earlier.setdefault(prec.after, []).append(prec.before)
     best = plan
     tries = 0
     for _ in range(MAX_PASSES):
@@ -92,7 +95,8 @@ def readmitted(
             # alone at the head it would still wait for them where they
             # are (broad seed 98's b15-multiple-0: a task whose window
             # closes before its predecessor's place in the order ends).
-            head = [*(n for n in order if n in before[name]), name]
+            before = reach({name}, earlier) - {name}
+            head = [*(n for n in order if n in before), name]
             trial = [*head, *(n for n in order if n not in head)]
             found = plan_in_order(problem, trial, domains)
             if (
@@ -106,21 +110,3 @@ def readmitted(
         if not improved:
             break
     return best
-
-
-def _ancestors(problem: Problem) -> dict[str, set[str]]:
-    """Each task's predecessors through any chain of precedences."""
-    direct: dict[str, set[str]] = {t.id: set() for t in problem.tasks}
-    for prec in problem.precedences:
-        direct[prec.after].add(prec.before)
-    found: dict[str, set[str]] = {}
-    for name in direct:
-        seen: set[str] = set()
-        todo = list(direct[name])
-        while todo:
-            other = todo.pop()
-            if other not in seen and other != name:
-                seen.add(other)
-                todo.extend(direct[other])
-        found[name] = seen
-    return found
