@@ -76,8 +76,16 @@ class Constraints:
         self.program = program
         self.problem = problem
         self.vars = variables
-        #: Classes of identical tasks, ordered by :meth:`_identical_tasks`.
-        self.twins = identical_tasks(problem, variables.domains)
+        #: Classes of identical tasks, ordered by :meth:`_identical_tasks`
+        #: (tasks with candidate starts are told apart by them).
+        self.twins = [
+            twins
+            for group in identical_tasks(problem, variables.domains)
+            if len(
+                twins := [n for n in group if n not in variables.candidates]
+            )
+            > 1
+        ]
 
     def add_all(self) -> None:
         """Add every family, in a fixed order (stable row numbering)."""

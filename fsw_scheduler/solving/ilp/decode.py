@@ -35,6 +35,9 @@ class Formulation:
     stability
         The previous starts and the price of moving them (default: none,
         the paper's objective); see :mod:`.moves`.
+    options
+        Passed on to the Variables class (the time-indexed model's
+        ``candidates``).
     """
 
     def __init__(
@@ -45,12 +48,13 @@ class Formulation:
         constraints: Any,
         objective: Callable[..., Any],
         stability: Stability | None = None,
+        **options: Any,
     ) -> None:
         self.problem = problem
         self.domains = domains
         self.stability = stability or Stability()
         self.program = Program()
-        self.vars = variables(self.program, problem, domains)
+        self.vars = variables(self.program, problem, domains, **options)
         self.constraints = constraints(self.program, problem, self.vars)
         self.constraints.add_all()
         big, _ = self.stability.weights(problem)

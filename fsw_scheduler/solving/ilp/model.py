@@ -206,6 +206,12 @@ class BuiltModel(Formulation):
         ones, such as those of
         :func:`fsw_scheduler.analysis.domains.cost_caps`,
         give a smaller model with the same optimum.
+    stability
+        See :class:`~.decode.Formulation`.
+    candidates
+        Candidate starts of some tasks (:class:`.variables.Variables`):
+        a smaller model whose solutions are plans, its optimum not
+        necessarily the problem's.
     """
 
     vars: Variables
@@ -216,6 +222,7 @@ class BuiltModel(Formulation):
         problem: Problem,
         domains: dict[str, Domain] | None = None,
         stability: Stability | None = None,
+        candidates: dict[str, list[int]] | None = None,
     ) -> None:
         super().__init__(
             problem,
@@ -224,6 +231,7 @@ class BuiltModel(Formulation):
             Constraints,
             objective,
             stability,
+            candidates=candidates,
         )
 
 
@@ -473,6 +481,7 @@ def solve_ilp(
     max_nodes: int | None = None,
     heuristics: bool = False,
     stability: Stability | None = None,
+    candidates: dict[str, list[int]] | None = None,
 ) -> Plan:
     """Build and solve the ILP of ``problem``.
 
@@ -517,6 +526,11 @@ def solve_ilp(
         (:mod:`fsw_scheduler.model.stability`): the move term
         (:mod:`.moves`) joins the objective of either formulation, and
         the plan's objective reports ``moves``. Default: none.
+    candidates
+        Candidate starts of some tasks, for the time-indexed model
+        (:class:`BuiltModel`; the disjunctive one ignores them): its
+        answer is then the best plan with those starts, and ``optimal``
+        says only that. Default: every start of each domain.
 
     Returns
     -------
@@ -548,6 +562,7 @@ def solve_ilp(
                 max_nodes=max_nodes,
                 heuristics=heuristics,
                 stability=stability,
+                candidates=candidates,
             )
     elif formulation not in FORMULATIONS:
         raise SolverError(
@@ -580,7 +595,7 @@ def solve_ilp(
                 began,
             )
     built: BuiltModel | DisjunctiveModel = (
-        BuiltModel(problem, domains, stability)
+        BuiltModel(problem, domains, stability, candidates)
         if formulation == "time-indexed"
         else DisjunctiveModel(problem, domains, stability)
     )

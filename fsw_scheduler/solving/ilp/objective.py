@@ -84,6 +84,9 @@ def objective(
         terms[scheduled] = terms.get(scheduled, 0.0) + task.delay_cost * (
             latest - problem.start
         )
-        for var in steps[:-1]:
-            terms[var] = terms.get(var, 0.0) - task.delay_cost
+        # Each step taken saves the delay up to the next one.
+        for var, width in zip(
+            steps[:-1], variables.widths(task.id), strict=True
+        ):
+            terms[var] = terms.get(var, 0.0) - task.delay_cost * width
     return terms, constant

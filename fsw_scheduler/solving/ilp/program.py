@@ -56,6 +56,12 @@ class Program:
         self.rows: list[tuple[Terms, str, float]] = []
         #: Branching priorities by column, lower first (others come last).
         self.priorities: dict[int, int] = {}
+        #: Rows already added by :meth:`add_row`, when it skips repeats
+        #: (:attr:`skip_repeats`). A model with candidate starts writes
+        #: the same row at every unit between two candidates.
+        self.seen: set[tuple[tuple[tuple[int, float], ...], str, float]]
+        self.seen = set()
+        self.skip_repeats = False
 
     @property
     def num_columns(self) -> int:
@@ -99,13 +105,19 @@ class Program:
         """Add ``terms (sense) rhs`` without its zero coefficients.
 
         Returns False, adding nothing, when no coefficient is left (a
-        constant row is the caller's to validate) or when the row is one
-        column's and its bounds already satisfy it.
+        constant row is the caller's to validate), when the row is one
+        column's and its bounds already satisfy it, or, with
+        :attr:`skip_repeats`, when the same row was added before.
         """
         if 0 in terms.values():  # a C-level scan; zeros are rare
             terms = {col: coef for col, coef in terms.items() if coef != 0}
         if not terms or (len(terms) == 1 and self._holds(terms, sense, rhs)):
             return False
+        if self.skip_repeats:
+            key = (tuple(sorted(terms.items())), sense, rhs)
+            if key in self.seen:
+                return False
+            self.seen.add(key)
         self.rows.append((terms, sense, rhs))
         return True
 

@@ -11,14 +11,25 @@ the classic time-indexed model, with the same LP bound).
 
 Feasible intervals (both readings), horizon and pins are enforced here, by
 the domain: :func:`fsw_scheduler.analysis.domains.start_domains`.
+
+A task may also be given *candidate* starts, a sorted subset of its domain
+that holds both its ends: it then has one step per candidate,
+``z[i, c_k] = 1`` iff it has started by ``c_k``, and ``z[i, t]`` is the
+step of the last candidate at or before ``t``. The rows are written as
+before through :meth:`Variables.step`, so they hold for those starts
+only: a smaller model of the same problem whose every solution is a plan
+(the neighbourhood search's sub-models,
+:mod:`fsw_scheduler.solving.improve`).
 """
 
 from __future__ import annotations
 
+import bisect
+import itertools
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from collections.abc import Mapping, Sequence
+    from collections.abc import Collection, Mapping, Sequence
 
     from ...analysis.domains import Domain
     from ...model.problem import Problem, Task
@@ -26,7 +37,9 @@ if TYPE_CHECKING:
 
 
 def shared_steps(
-    problem: Problem, domains: Mapping[str, Domain]
+    problem: Problem,
+    domains: Mapping[str, Domain],
+    sparse: Collection[str] = (),
 ) -> dict[str, str]:
     """Tasks whose steps are another task's, shifted: task id to that task.
 
@@ -36,7 +49,8 @@ def shared_steps(
     ``j`` reads ``i``'s columns instead of having its own, and the
     precedence's rows become empty. Chains share one task's columns
     (offsets add up); a pair already linked is not linked again, so a
-    cycle of such precedences keeps its rows.
+    cycle of such precedences keeps its rows. Tasks in ``sparse`` (with
+    candidate starts) keep their own columns.
     """
     #: Task id to (task it follows, shift of its start from that task's).
     parent: dict[str, tuple[str, int]] = {}
@@ -51,6 +65,8 @@ def shared_steps(
     for prec in problem.precedences:
         if prec.kind != "tight" or prec.scope != "both":
             continue
+        if prec.before in sparse or prec.after in sparse:
+            continue  # candidate starts need not line up
         first, first_shift = root(prec.before)
         second, second_shift = root(prec.after)
         if first == second:
@@ -80,6 +96,10 @@ class Variables:
     domains
         Start domains from
         :func:`~fsw_scheduler.analysis.domains.start_domains`.
+    candidates
+        Task id to its candidate starts (see the module docstring):
+        sorted, inside its domain, its first and last the domain's ends.
+        Tasks not given have every start of their domain.
     """
 
     def __init__(
@@ -87,19 +107,36 @@ class Variables:
         program: Program,
         problem: Problem,
         domains: dict[str, Domain],
+        candidates: Mapping[str, Sequence[int]] | None = None,
     ) -> None:
         self.problem = problem
         self.domains = domains
         self.tasks: list[Task] = list(problem.tasks)
         self.steps: dict[str, list[int]] = {}
-        shared = shared_steps(problem, domains)
+        #: Candidate starts of the tasks that have them (module docstring).
+        self.candidates: dict[str, list[int]] = {}
+        for name, starts in (candidates or {}).items():
+            domain = domains[name]
+            if domain.empty:
+                continue
+            ordered = sorted(set(starts))
+            if ordered[0] != domain.earliest or ordered[-1] != domain.latest:
+                raise ValueError(
+                    f"candidate starts of {name} must begin and end at its "
+                    f"domain's ends [{domain.earliest}, {domain.latest}]"
+                )
+            self.candidates[name] = ordered
+        # Between two candidates a unit's rows repeat the unit before's.
+        program.skip_repeats = bool(self.candidates)
+        shared = shared_steps(problem, domains, self.candidates)
         for task in self.tasks:
             domain = domains[task.id]
             if domain.empty or task.id in shared:
                 continue
-            self.steps[task.id] = list(
-                program.add_binaries(domain.latest - domain.earliest + 1)
-            )
+            count = domain.latest - domain.earliest + 1
+            if task.id in self.candidates:
+                count = len(self.candidates[task.id])
+            self.steps[task.id] = list(program.add_binaries(count))
         for task in self.tasks:
             if task.id in shared and shared[task.id] in self.steps:
                 self.steps[task.id] = self.steps[shared[task.id]]
@@ -135,7 +172,20 @@ class Variables:
             return None
         first, column, last = span
         # A task's steps are consecutive columns.
-        return column + (min(time, last) - first)
+        if time >= last:
+            return column + len(self.steps[task_id]) - 1
+        starts = self.candidates.get(task_id)
+        if starts is not None:
+            return column + bisect.bisect_right(starts, time) - 1
+        return column + (time - first)
+
+    def widths(self, task_id: str) -> list[int]:
+        """Time units from each step of ``task_id`` to the next, but the
+        last (all 1 without candidate starts): the delay a step saves."""
+        starts = self.candidates.get(task_id)
+        if starts is None:
+            return [1] * (len(self.steps[task_id]) - 1)
+        return [b - a for a, b in itertools.pairwise(starts)]
 
     def add_step(
         self, terms: Terms, task_id: str, time: int, coef: float
@@ -177,6 +227,17 @@ class Variables:
         times = range(
             max(first, origin), min(last + task.length, origin + len(rows))
         )
+        if task.id in self.candidates:
+            step = self.step
+            for time in times:
+                terms = rows[time - origin]
+                on = step(task.id, time)
+                off = step(task.id, time - task.length)
+                if on is not None:
+                    terms[on] = terms.get(on, 0.0) + amount
+                if off is not None:
+                    terms[off] = terms.get(off, 0.0) - amount
+            return times
         for time in times:
             terms = rows[time - origin]
             # The steps are the consecutive columns of [first, last],
@@ -194,9 +255,10 @@ class Variables:
         if steps is None or values[steps[-1]] < 0.5:
             return None
         first = self.domains[task_id].earliest
+        starts = self.candidates.get(task_id)
         for offset, col in enumerate(steps):
             if values[col] >= 0.5:
-                return first + offset
+                return first + offset if starts is None else starts[offset]
         return None  # unreachable: the last step is 1
 
     def initial(self, starts: dict[str, int], columns: int) -> list[float]:
@@ -211,14 +273,27 @@ class Variables:
             steps = self.steps.get(task.id)
             if steps is None:
                 continue
-            first = self.domains[task.id].earliest
-            start = starts.get(task.id)
-            if start is None or not first <= start < first + len(steps):
+            index = self._index(task.id, starts.get(task.id))
+            if index is None:
                 if not self.problem.required(task):
                     continue
                 # A mandatory task new to this problem: suggest its earliest
                 # start rather than an unscheduled value below its bound.
-                start = first
-            for col in steps[start - first :]:
+                index = 0
+            for col in steps[index:]:
                 values[col] = 1.0
         return values
+
+    def _index(self, task_id: str, start: int | None) -> int | None:
+        """The step at which ``start`` is the task's start, None when it is
+        not one of its allowed starts."""
+        if start is None:
+            return None
+        first = self.domains[task_id].earliest
+        starts = self.candidates.get(task_id)
+        if starts is None:
+            count = len(self.steps[task_id])
+            return start - first if first <= start < first + count else None
+        index = bisect.bisect_left(starts, start)
+        found = index < len(starts) and starts[index] == start
+        return index if found else None
