@@ -21,6 +21,14 @@ Every plan of the part is a solution of this program with the same
 objective, so CBC's bound on it bounds the part (:func:`relaxed_bound`).
 When CBC proves the program's optimum and that plan passes the checker
 on the real part (its consumables included), it is optimal there too.
+
+When the proved optimum breaks a consumable, the level at the units where
+it first went below zero joins the program, read on the start columns
+(:meth:`RelaxedModel._timed_level_rows`: a binary per task that may or
+may not be over by then), and CBC solves it again (:func:`relaxed_bound`,
+at most :data:`MAX_LEVEL_ROUNDS` times): the rows hold for every plan,
+so each optimum still bounds the part, and that plan can no longer break
+the level there.
 """
 
 from __future__ import annotations
@@ -33,6 +41,7 @@ import msgspec
 
 from ..analysis.bounds import KeptSetProof, better_start, level_rows
 from ..analysis.check import check_plan
+from ..model.levels import resource_profiles
 from ..model.plan import Plan, SolverStats, SolveStatus
 from .ilp.decode import Formulation
 from .ilp.disjunctive.constraints import Constraints
@@ -41,14 +50,15 @@ from .ilp.disjunctive.objective import objective
 from .ilp.disjunctive.rule import changing_in_use, used_kinds
 from .ilp.disjunctive.variables import Variables
 from .ilp.model import run_cbc
-from .ilp.program import LE
+from .ilp.program import GE, LE
+from .stats import higher
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Sequence
 
     from ..analysis.domains import Domain
     from ..model.problem import Problem
-    from .ilp.program import Program
+    from .ilp.program import Program, Terms
 
 
 class RelaxedAnswer(NamedTuple):
@@ -69,12 +79,17 @@ class RelaxedAnswer(NamedTuple):
         list-scheduled.
     said
         CBC's status line.
+    levels
+        The units whose levels were written on the starts (the next run
+        of the relaxation over the same or narrower domains starts with
+        them).
     """
 
     bound: float | None
     plan: Plan | None
     better: Plan | None
     said: str
+    levels: tuple[int, ...] = ()
 
 
 def applies(problem: Problem, domains: dict[str, Domain]) -> bool:
@@ -124,9 +139,32 @@ def without_consumables(problem: Problem) -> Problem:
 PROBING = ("probing on",)
 
 
+class _Levelled(Variables):
+    """The disjunctive variables, and the columns of the timed level rows
+    with how each takes its value from a MIP start's starts."""
+
+    def __init__(
+        self,
+        program: Program,
+        problem: Problem,
+        domains: dict[str, Domain],
+    ) -> None:
+        super().__init__(program, problem, domains)
+        #: Column, and its value from the start and "scheduled" values.
+        self.fills: list[tuple[int, Callable[[list[float]], float]]] = []
+
+    def initial(self, starts: dict[str, int], columns: int) -> list[float]:
+        """As :meth:`Variables.initial`, the level rows' columns filled."""
+        values = super().initial(starts, columns)
+        for column, fill in self.fills:
+            values[column] = fill(values)
+        return values
+
+
 class RelaxedModel(DisjunctiveModel):
     """The disjunctive model of ``problem`` without its consumables, with
-    the kept-set relaxation's level rows on its "scheduled" binaries.
+    the kept-set relaxation's level rows on its "scheduled" binaries, and
+    the levels at ``checkpoints`` on its start columns.
 
     Parameters
     ----------
@@ -136,7 +174,12 @@ class RelaxedModel(DisjunctiveModel):
         Its start domains (narrowed ones bound every plan within them).
     probing
         CBC's probing on (its other cuts stay off; :data:`PROBING`).
+    checkpoints
+        Units at whose end each consumable's level is written on the
+        starts (:meth:`_timed_level_rows`).
     """
+
+    vars: _Levelled
 
     def __init__(
         self,
@@ -144,6 +187,7 @@ class RelaxedModel(DisjunctiveModel):
         domains: dict[str, Domain],
         *,
         probing: bool = False,
+        checkpoints: Sequence[int] = (),
     ) -> None:
         original = problem
         if probing:
@@ -158,7 +202,7 @@ class RelaxedModel(DisjunctiveModel):
             self,
             without_consumables(problem),
             domains,
-            Variables,
+            _Levelled,
             constraints,
             objective,
         )
@@ -173,6 +217,161 @@ class RelaxedModel(DisjunctiveModel):
                 LE,
                 limit,
             )
+        for point in sorted(set(checkpoints)):
+            self._timed_level_rows(problem, domains, point)
+
+    def _timed_level_rows(
+        self, problem: Problem, domains: dict[str, Domain], point: int
+    ) -> None:
+        """Each consumable's level at the end of unit ``point``, on the
+        start columns: ``sum_consumers w - sum_generators v <= initial +
+        external charge up to point``.
+
+        ``w`` is a consumer's use by then, ``a min(n, max(0, point + 1 -
+        s))`` when kept: ``a n`` for one that is always over by then;
+        else ``w >= a (point + 1 - s)`` and, when it may be over, a
+        binary ``b`` ("over": ``s <= point + 1 - n``; ``b = 0`` forces
+        ``s >= point + 2 - n``) with ``w >= a n b`` and the first row
+        relaxed by ``b``. ``v`` is a generator's charge by then, at most
+        ``g n`` and ``g (point + 1 - s)``, and 0 unless a binary
+        "started" (``s <= point``) is set. Both rows hold with ``y = 0``
+        (``w = v = 0``). The values of a plan satisfy every row (``w``,
+        ``v`` its true use and charge, ``b`` and "started" as they are),
+        so the rows cut off no plan: the sum over-counts the level only
+        where a capacity (``max``) would have lost charge.
+        """
+        program = self.program
+        for name, initial in problem.resources.initial_levels.items():
+            external = problem.resources.external_profile(
+                name, problem.start, problem.horizon
+            )
+            charge = sum(external[: point + 1 - problem.start])
+            terms: Terms = {}
+            for task in problem.tasks:
+                amount = task.uses.get(name, 0)
+                domain = domains[task.id]
+                if not amount or domain.empty or domain.earliest > point:
+                    continue
+                if amount > 0:
+                    self._consumer(terms, task.id, task.length, amount, point)
+                else:
+                    self._generator(
+                        terms, task.id, task.length, -amount, point
+                    )
+            if terms:
+                program.add_row(terms, LE, initial + charge)
+
+    def _consumer(
+        self, terms: Terms, name: str, length: int, amount: float, point: int
+    ) -> None:
+        """A consumer's use by the end of ``point`` into ``terms``."""
+        program, vars_ = self.program, self.vars
+        domain = self.domains[name]
+        low, high = domain.earliest, domain.latest
+        start, kept = vars_.start(name), vars_.scheduled(name)
+        if high + length <= point + 1:  # always over by then
+            terms[kept] = terms.get(kept, 0.0) + amount * length
+            return
+        use = program.add_column(0.0)
+        terms[use] = 1.0
+        # w >= a (point + 1 - s) - a (point + 1 - low) (1 - y) - a D b
+        partial: Terms = {
+            start: -amount,
+            kept: amount * (point + 1 - low),
+            use: -1.0,
+        }
+        over_by = point + 1 - length  # "over" iff s <= over_by
+        if low <= over_by:
+            (over,) = program.add_binaries(1)
+            partial[over] = -amount * (over_by - low)
+            # b = 0 forces s >= over_by + 1
+            program.add_row(
+                {start: 1.0, over: float(over_by + 1 - low)}, GE, over_by + 1
+            )
+            # w >= a n (b + y - 1)
+            program.add_row(
+                {over: amount * length, kept: amount * length, use: -1.0},
+                LE,
+                amount * length,
+            )
+            vars_.fills.append(
+                (over, functools.partial(_by, start=start, time=over_by))
+            )
+        program.add_row(partial, LE, -amount * low)
+        vars_.fills.append(
+            (
+                use,
+                functools.partial(
+                    _run_by,
+                    task=(start, kept, length),
+                    rate=amount,
+                    time=point,
+                ),
+            )
+        )
+
+    def _generator(
+        self, terms: Terms, name: str, length: int, rate: float, point: int
+    ) -> None:
+        """A generator's charge by the end of ``point`` into ``terms``."""
+        program, vars_ = self.program, self.vars
+        domain = self.domains[name]
+        low, high = domain.earliest, domain.latest
+        start, kept = vars_.start(name), vars_.scheduled(name)
+        charge = program.add_column(0.0)
+        terms[charge] = -1.0
+        # v <= g n y
+        program.add_row({charge: 1.0, kept: -rate * length}, LE, 0.0)
+        if high <= point:  # always started by then
+            # v <= g (point + 1 - s)
+            program.add_row({charge: 1.0, start: rate}, LE, rate * (point + 1))
+        else:
+            (started,) = program.add_binaries(1)
+            # started = 0 forces s >= point + 1
+            program.add_row(
+                {start: 1.0, started: float(point + 1 - low)}, GE, point + 1
+            )
+            program.add_row({charge: 1.0, started: -rate * length}, LE, 0.0)
+            # v <= g (point + 1 - s) + g (high - point - 1) (1 - started)
+            program.add_row(
+                {
+                    charge: 1.0,
+                    start: rate,
+                    started: rate * (high - point - 1),
+                },
+                LE,
+                rate * high,
+            )
+            vars_.fills.append(
+                (started, functools.partial(_by, start=start, time=point))
+            )
+        vars_.fills.append(
+            (
+                charge,
+                functools.partial(
+                    _run_by, task=(start, kept, length), rate=rate, time=point
+                ),
+            )
+        )
+
+
+def _by(values: list[float], *, start: int, time: int) -> float:
+    """1 if the start column's value is at most ``time``, else 0."""
+    return float(values[start] <= time + 0.5)
+
+
+def _run_by(
+    values: list[float],
+    *,
+    task: tuple[int, int, int],
+    rate: float,
+    time: int,
+) -> float:
+    """``rate`` times the units a task (start column, "scheduled" column,
+    length) has run by the end of ``time``, 0 when not kept."""
+    start, kept, length = task
+    units = min(length, max(0.0, time + 1 - values[start]))
+    return rate * values[kept] * units
 
 
 class _Apart(Constraints):
@@ -216,6 +415,7 @@ def relaxed_bound(
     probing: bool = False,
     threads: int = 1,
     seed: int = 0,
+    levels: Sequence[int] = (),
 ) -> RelaxedAnswer:
     """CBC on :class:`RelaxedModel`, from ``incumbent``.
 
@@ -230,6 +430,12 @@ def relaxed_bound(
         ``incumbent`` (:func:`~fsw_scheduler.solving.incumbent.narrow`).
     time_limit, max_nodes, probing, threads, seed
         For CBC (``probing``: :class:`RelaxedModel`'s).
+    levels
+        Units whose levels are written on the starts from the first run
+        (:class:`RelaxedModel`'s ``checkpoints``); while CBC proves an
+        optimum that breaks a consumable and only that, the units where
+        it first and most went below zero join them (:func:`lowest_units`)
+        and CBC runs again, at most :data:`MAX_LEVEL_ROUNDS` times.
 
     Returns
     -------
@@ -237,28 +443,60 @@ def relaxed_bound(
         The bound, and the part's optimum when the relaxation's is valid.
     """
     began = time.perf_counter()
-    built = RelaxedModel(problem, domains, probing=probing)
-    built_at = time.perf_counter()
-    limit = None
-    if time_limit is not None:
-        limit = max(0.0, time_limit - (time.perf_counter() - began))
-    outcome = run_cbc(
-        built, limit, threads, seed, incumbent.starts(), max_nodes
-    )
-    bound = outcome.bound
-    if outcome.values is None or not outcome.status.has_plan:
-        return RelaxedAnswer(bound, None, None, outcome.solver_status)
-    relaxed = built.decode(outcome.status, outcome.values)
-    proved = outcome.status is SolveStatus.OPTIMAL
-    if proved and relaxed.objective is not None:
-        bound = float(relaxed.objective.total)
-    report = check_plan(
-        problem, relaxed.replace(objective=None, status=SolveStatus.FEASIBLE)
+    checkpoints = sorted(set(levels))
+    best: float | None = None  # every run's bound holds
+    rounds = 0
+    while True:
+        built = RelaxedModel(
+            problem, domains, probing=probing, checkpoints=checkpoints
+        )
+        built_at = time.perf_counter()
+        limit = None
+        if time_limit is not None:
+            limit = max(0.0, time_limit - (time.perf_counter() - began))
+        outcome = run_cbc(
+            built, limit, threads, seed, incumbent.starts(), max_nodes
+        )
+        best = higher(best, outcome.bound)
+        if outcome.values is None or not outcome.status.has_plan:
+            return RelaxedAnswer(
+                best, None, None, outcome.solver_status, tuple(checkpoints)
+            )
+        relaxed = built.decode(outcome.status, outcome.values)
+        proved = outcome.status is SolveStatus.OPTIMAL
+        if proved and relaxed.objective is not None:
+            best = higher(best, float(relaxed.objective.total))
+        report = check_plan(
+            problem,
+            relaxed.replace(objective=None, status=SolveStatus.FEASIBLE),
+        )
+        below = sorted(set(lowest_units(problem, relaxed)) - set(checkpoints))
+        if (
+            not proved
+            or report.ok
+            or not below
+            or rounds >= MAX_LEVEL_ROUNDS
+            or any(v.rule != "consumable" for v in report.violations)
+            or (
+                time_limit is not None
+                and time.perf_counter() - began >= time_limit
+            )
+        ):
+            break
+        # The optimum breaks a level only: the level there joins the
+        # program, and CBC solves it again.
+        checkpoints = sorted({*checkpoints, *below})
+        rounds += 1
+    bound = best
+    written = (
+        f" (the levels at {len(checkpoints)} units written on the starts)"
+        if checkpoints
+        else ""
     )
     if proved and report.ok and report.objective is not None:
         said = (
-            "the disjunctive relaxation's optimum is a valid plan: "
-            + outcome.solver_status
+            "the disjunctive relaxation's optimum is a valid plan"
+            f"{written}: " + outcome.solver_status
         )
         stats = SolverStats(
             solver="cbc-relaxed",
@@ -274,7 +512,7 @@ def relaxed_bound(
         optimal = relaxed.replace(
             status=SolveStatus.OPTIMAL, objective=report.objective, stats=stats
         )
-        return RelaxedAnswer(bound, optimal, None, said)
+        return RelaxedAnswer(bound, optimal, None, said, tuple(checkpoints))
     # The relaxation's solution, if valid, and its kept set list-scheduled
     # (which often leaves out as little as the optimum: the large suite's
     # b30-h1440 of seed 53, 2,279,897 against CP-SAT's optimum 2,279,283,
@@ -304,8 +542,40 @@ def relaxed_bound(
         key=lambda plan: plan.objective.total if plan.objective else 0,
         default=None,
     )
-    return RelaxedAnswer(bound, None, better, outcome.solver_status)
+    return RelaxedAnswer(
+        bound,
+        None,
+        better,
+        outcome.solver_status + written,
+        tuple(checkpoints),
+    )
 
+
+def lowest_units(problem: Problem, plan: Plan) -> list[int]:
+    """Units at whose end a consumable's level is below zero in ``plan``:
+    the first and the lowest of each stretch below zero, of each
+    consumable (the level rows there cut the most off)."""
+    found: set[int] = set()
+    levels = resource_profiles(problem, plan)
+    for name in problem.resources.consumable:
+        stretch: list[int] = []
+        for index, level in enumerate([*levels[name], 0.0]):
+            if level < -_EPS:
+                stretch.append(index)
+                continue
+            if stretch:
+                lowest = min(stretch, key=lambda i: (levels[name][i], i))
+                found.update(problem.start + i for i in (stretch[0], lowest))
+                stretch = []
+    return sorted(found)
+
+
+#: Levels this far below zero count as below (float amounts).
+_EPS = 1e-9
+
+#: Times the relaxation is solved again with the levels where its optimum
+#: broke a consumable (:func:`relaxed_bound`).
+MAX_LEVEL_ROUNDS = 8
 
 #: Share of the time left that the relaxation may take before the rest
 #: of a part's solve, and its search nodes (a node limit: the same bound
@@ -370,12 +640,13 @@ def around(
     nodes: int = NODES,
     *,
     probing: bool = False,
+    levels: Sequence[int] = (),
 ) -> RelaxedAnswer:
     """:func:`relaxed_bound` from ``start`` over ``narrowed`` (the domains
     every plan at least as good keeps), with ``nodes`` nodes
-    (:data:`NODES`), ``probing`` and at most ``limit`` seconds, with
-    ``run``'s threads and seed. Its bound is dropped when above
-    ``start`` (it then bounds nothing)."""
+    (:data:`NODES`), ``probing``, the ``levels`` a run before wrote, and
+    at most ``limit`` seconds, with ``run``'s threads and seed. Its bound
+    is dropped when above ``start`` (it then bounds nothing)."""
     settings = run.keywords if isinstance(run, functools.partial) else {}
     answer = relaxed_bound(
         problem,
@@ -384,6 +655,7 @@ def around(
         time_limit=limit,
         max_nodes=nodes,
         probing=probing,
+        levels=levels,
         threads=settings.get("threads", 1),
         seed=settings.get("seed", 0),
     )

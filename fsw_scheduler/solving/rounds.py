@@ -124,6 +124,7 @@ def rounds(
     bound: float | None = None
     better: Plan | None = None
     said: list[str] = []
+    levels: tuple[int, ...] = ()
     while True:
         began = time.perf_counter()
         answer = around(
@@ -137,7 +138,10 @@ def rounds(
             # better plan to narrow around; the next ones with CBC's
             # probing, which closes the search in far fewer nodes.
             probing=nodes > NODES,
+            # The levels a round wrote hold over narrower domains too.
+            levels=levels,
         )
+        levels = answer.levels
         bound = higher(bound, answer.bound)
         said.append(f"{nodes} nodes: {answer.said}")
         if answer.plan is not None:

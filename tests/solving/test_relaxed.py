@@ -14,6 +14,7 @@ from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.analysis.insert import inserted
 from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.solving import relaxed
 from fsw_scheduler.solving.ilp import solve_ilp
 from fsw_scheduler.solving.incumbent import narrow, probed
 from fsw_scheduler.solving.relaxed import (
@@ -70,11 +71,32 @@ def test_a_valid_relaxed_optimum_is_the_parts_optimum() -> None:
     assert answer.bound == 3 > kept.bound
 
 
-def test_a_relaxed_optimum_that_breaks_a_consumable_is_a_bound_only() -> None:
+def test_a_relaxed_optimum_that_breaks_a_consumable_is_a_bound_only(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     """Tests that a relaxed optimum running a consumer before the charge
     it needs is not taken as a plan, and that its bound stays below the
-    optimum."""
-    doc = make_doc(
+    optimum; with its levels written on the starts the next optimum is
+    the part's."""
+    doc = _charge_first()
+    problem = problem_from(doc)
+    domains = start_domains(problem)
+    start = best_start(problem, None, domains=domains)
+    assert start is not None
+    monkeypatch.setattr(relaxed, "MAX_LEVEL_ROUNDS", 0)
+    answer = relaxed_bound(problem, start, domains, time_limit=None)
+    assert answer.plan is None
+    assert answer.bound == 0 < _optimum(doc) == 1
+    monkeypatch.undo()
+    answer = relaxed_bound(problem, start, domains, time_limit=None)
+    assert answer.plan is not None and answer.plan.objective is not None
+    assert answer.plan.objective.total == answer.bound == 1
+    assert answer.levels
+
+
+def _charge_first() -> dict:
+    """A consumer that needs the charge before it (the store is empty)."""
+    return make_doc(
         [
             make_task("charge", 2, uses={"battery": -3}),
             make_task("use", 1, uses={"battery": 4}, schedule_cost=0),
@@ -83,13 +105,6 @@ def test_a_relaxed_optimum_that_breaks_a_consumable_is_a_bound_only() -> None:
         horizon=10,
         resources={"binary": ["cam"], "consumable": {"battery": 0}},
     )
-    problem = problem_from(doc)
-    domains = start_domains(problem)
-    start = best_start(problem, None, domains=domains)
-    assert start is not None
-    answer = relaxed_bound(problem, start, domains, time_limit=None)
-    assert answer.plan is None
-    assert answer.bound == 0 < _optimum(doc) == 1
 
 
 def test_tasks_told_apart_only_by_a_consumable_are_not_twins() -> None:
@@ -256,11 +271,34 @@ def test_a_small_mixed_part_is_proved_by_the_relaxation() -> None:
     assert plan.objective.total == whole.objective.total == 307_185
 
 
-def test_a_small_part_the_battery_decides_goes_on_to_the_whole_model() -> None:
+def test_a_small_part_the_battery_decides_is_proved_by_its_levels() -> None:
+    """Tests that where the relaxation's first optimum breaks the battery
+    (paper campaign, seed 81, c15-all-3) the levels written where it
+    went below zero make the next optimum the part's."""
+    problem = _campaign_problem(81, "paper", "c15-all-3")
+    domains = start_domains(problem)
+    start = best_start(problem, None, domains=domains)
+    assert start is not None
+    answer = relaxed_bound(problem, start, domains, time_limit=None)
+    assert answer.levels
+    assert answer.plan is not None and answer.plan.objective is not None
+    assert answer.plan.objective.total == answer.bound == 4_322
+    plan = solve(problem, time_limit=30)
+    assert plan.status is SolveStatus.OPTIMAL, plan.stats
+    assert plan.stats is not None
+    assert "levels at" in plan.stats.solver_status
+    assert check_plan(problem, plan).ok
+
+
+def test_a_small_part_the_battery_decides_goes_on_to_the_whole_model(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     """Tests that where the relaxation's optimum breaks the battery (paper
-    campaign, seed 81, c15-all-3) the part is still proved, by the
-    time-indexed model, with its optimum, and that the relaxation's run
-    is bounded by its share of the limit."""
+    campaign, seed 81, c15-all-3) and no level is written on the starts,
+    the part is still proved, by the time-indexed model, with its
+    optimum, and that the relaxation's run is bounded by its share of the
+    limit."""
+    monkeypatch.setattr(relaxed, "MAX_LEVEL_ROUNDS", 0)
     problem = _campaign_problem(81, "paper", "c15-all-3")
     domains = start_domains(problem)
     start = best_start(problem, None, domains=domains)

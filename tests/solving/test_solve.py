@@ -773,10 +773,12 @@ def test_neighbourhood_search_bound_and_gap_hold(doc: dict) -> None:
 def test_a_large_part_spends_its_limit_and_says_its_gap() -> None:
     """Tests that a 30-task problem solved by neighbourhood search under a
     limit reports a proven bound and its gap, and while the gap is open
-    uses its limit (it used to stop after 13 of 20 s, with no bound)."""
+    uses its limit (it used to stop after 13 of 20 s, with no bound).
+    Seed 7003's problem, which this test read first, is now proved by the
+    relaxation with its levels written on the starts (1.4 s)."""
     import time
 
-    doc = bench_lib("fresh").generate_problem(30, 2880, 7003)
+    doc = bench_lib("fresh").generate_problem(30, 2880, 7007)
     problem = problem_from(doc)
     began = time.perf_counter()
     plan = solve(problem, time_limit=8)
