@@ -25,7 +25,7 @@ from ..analysis.domains import cost_caps, start_count, start_domains
 from ..analysis.readmit import readmitted
 from ..model.plan import Plan, SolveStatus, objective_weight
 from .budget import stop_at, stop_within
-from .relaxed import MIN_LEFT_S, around, relaxable
+from .relaxed import MIN_LEFT_S, SMALL_LEVEL_ROUNDS, around, relaxable
 from .rounds import LONG_COLUMNS, LONG_SHARE, SHARE, rounds
 from .stats import stopped_on_nodes
 
@@ -235,9 +235,19 @@ def probed(
         # the whole limit on a large part, and seconds of cut passes on
         # a small one; the relaxation's optimum, valid more often than
         # not, takes milliseconds.
+        # A small part's time-indexed model is proved in about a second:
+        # few runs again with levels (relaxed.SMALL_LEVEL_ROUNDS).
+        level_rounds = SMALL_LEVEL_ROUNDS if small else None
         if left is None:
             # Without a limit the time-indexed model proves the part.
-            caught = around(problem, start, narrowed, run, None)
+            caught = around(
+                problem,
+                start,
+                narrowed,
+                run,
+                None,
+                level_rounds=level_rounds,
+            )
         else:
             for_rounds = SHARE * left
             if small:
@@ -260,6 +270,7 @@ def probed(
                 small=None
                 if small
                 else lambda narrowed: start_count(narrowed) < RELAXED_COLUMNS,
+                level_rounds=level_rounds,
             )
         if caught.plan is not None:
             return caught.plan, start, narrowed, bound

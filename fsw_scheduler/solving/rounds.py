@@ -81,6 +81,7 @@ def rounds(
     polish: Callable[[Plan], Plan] | None = None,
     small: Callable[[dict[str, Domain]], bool] | None = None,
     overtime: float = 0.0,
+    level_rounds: int | None = None,
 ) -> RelaxedAnswer:
     """The relaxation around ``start`` over ``narrowed``, again and again
     with more nodes while it stops on its node limit, for ``limit``
@@ -110,6 +111,9 @@ def rounds(
         Seconds past ``limit`` that one more round may take when a round
         found a better plan and less of ``limit`` is left than it took
         (stopped on its nodes or by the limit; :data:`OVERTIME`).
+    level_rounds
+        For each round (:func:`~fsw_scheduler.solving.relaxed.around`);
+        given, no round follows one that wrote levels.
 
     Returns
     -------
@@ -140,6 +144,7 @@ def rounds(
             probing=nodes > NODES,
             # The levels a round wrote hold over narrower domains too.
             levels=levels,
+            level_rounds=level_rounds,
         )
         levels = answer.levels
         bound = higher(bound, answer.bound)
@@ -162,6 +167,11 @@ def rounds(
         # domains say nothing more.
         now = time.perf_counter()
         more = stopped_on_nodes(answer.said)
+        if level_rounds is not None and answer.levels:
+            # A part given few runs with levels goes on in its time-indexed
+            # model: more nodes over the levels cost more than that
+            # (relaxed.SMALL_LEVEL_ROUNDS).
+            more = False
         if (
             answer.better is not None
             and overtime > 0
