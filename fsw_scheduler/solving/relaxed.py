@@ -22,13 +22,14 @@ objective, so CBC's bound on it bounds the part (:func:`relaxed_bound`).
 When CBC proves the program's optimum and that plan passes the checker
 on the real part (its consumables included), it is optimal there too.
 
-When the proved optimum breaks a consumable, the level at the units where
-it first went below zero joins the program, read on the start columns
-(:meth:`RelaxedModel._timed_level_rows`: a binary per task that may or
-may not be over by then), and CBC solves it again (:func:`relaxed_bound`,
-at most :data:`MAX_LEVEL_ROUNDS` times): the rows hold for every plan,
-so each optimum still bounds the part, and that plan can no longer break
-the level there.
+When the proved optimum breaks a consumable and nothing else, the level
+at the units where it first and most went below zero joins the program,
+read on the start columns (:meth:`RelaxedModel._timed_level_rows`: a
+binary per task that may or may not be over, or started, by then), and
+CBC solves it again (:func:`relaxed_bound`, at most
+:data:`MAX_LEVEL_ROUNDS` times): the rows hold for every plan, so each
+optimum still bounds the part, and that plan can no longer break the
+level there.
 """
 
 from __future__ import annotations
