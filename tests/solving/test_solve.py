@@ -839,7 +839,11 @@ def test_the_whole_model_gets_what_the_search_leaves() -> None:
     assert check_plan(problem, plan).ok
     assert plan.stats.bound is not None
     assert plan.stats.bound <= plan.objective.total
-    assert 0.75 * 10 <= wall < 10 + 0.5
+    assert wall < 10 + 0.5, said
+    if plan.status is SolveStatus.FEASIBLE:
+        # While its gap is open it spends the limit (the search's faster
+        # sub-models can leave the whole model time to prove it).
+        assert wall >= 0.75 * 10, said
 
 
 # -- the mission model: alternatives and resources that change over time ---
@@ -1122,3 +1126,41 @@ def test_a_part_starved_of_its_share_is_given_it_again() -> None:
     assert starved(part(0.2, 3.0), least)  # handed most of it back
     assert not starved(part(2.9, 3.0), least)
     assert not starved(part(0.2, None), least)
+
+
+def test_a_small_replan_unproved_in_its_share_is_solved_again() -> None:
+    """Tests that a replan of parts CBC proves, which its share of the
+    limit leaves unproved, goes on from its plan in the rest of the limit
+    and answers the optimum; a larger limit is not spent once it is
+    proved."""
+    import time
+
+    from fsw_scheduler.solving.budget import SolveBudget
+
+    generator = bench_lib("generator")
+    bench = next(
+        b for b in generator.campaign(102, "paper") if b.name == "c15-all-5"
+    )
+    problem = bench.problem()
+    in_force = solve(problem, time_limit=30)
+    assert in_force.status is SolveStatus.OPTIMAL
+    assert in_force.objective is not None
+    # A share too short for anything but the start plan (0.05 s).
+    short = SolveBudget(replan_share=0.0, replan_min_s=0.05)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(solve_module, "BUDGET", short)
+        began = time.perf_counter()
+        # The plan in force less one task: something to replan.
+        warm = in_force.replace(activities=in_force.activities[1:])
+        plan = solve(problem, time_limit=20, warm=warm)
+        wall = time.perf_counter() - began
+    assert plan.status is SolveStatus.OPTIMAL, plan.stats
+    assert plan.objective is not None
+    assert plan.objective.total == in_force.objective.total
+    assert plan.stats is not None
+    assert "solved again from that plan in the rest" in (
+        plan.stats.solver_status
+    )
+    assert plan.stats.time_limit_s == 20
+    assert wall < 15
+    assert check_plan(problem, plan).ok
