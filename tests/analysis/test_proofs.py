@@ -7,6 +7,7 @@ import subprocess
 
 import msgspec
 from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
@@ -569,3 +570,108 @@ def test_block_conflicts_never_remove_a_schedulable_task(doc: dict) -> None:
             )
         )
         assert brute_force(forced) is None, (name, doc)
+
+
+@settings(COMMON, max_examples=300)
+@given(doc=problem_docs(max_tasks=4, max_horizon=8, capacities=True))
+def test_proofs_never_reject_a_feasible_problem_with_stores(doc: dict) -> None:
+    """Tests that a cheap proof of infeasibility (the store test among
+    them: consumables with a capacity) agrees with brute force."""
+    problem = decode_doc(doc)
+    proof = infeasibility(problem, start_domains(problem))
+    if proof:
+        assert brute_force(problem) is None, proof
+
+
+def _store_day(units: int) -> dict:
+    """A forced consumer of 2 a unit for ``units`` units, a store of 10
+    (initial 5) charged 1 a unit from outside from unit 10 on, and a
+    generator that shares its camera (it cannot run beside it)."""
+    return make_doc(
+        [
+            make_task(
+                "use", units, schedule_cost=0, uses={"cam": 1, "bat": 2}
+            ),
+            make_task("gen", 20, uses={"cam": 1, "bat": -1}),
+        ],
+        horizon=80,
+        resources={
+            "binary": ["cam"],
+            "consumable": {
+                "bat": {"initial": 5, "max": 10, "external": [[10, 1]]}
+            },
+        },
+    )
+
+
+def test_a_consumer_that_drains_more_than_the_store_holds_is_refused() -> None:
+    """Tests that a forced consumer taking more in its run than the store
+    can hold plus what can come in meanwhile is proved impossible at once
+    (fuzz case 11021: CBC had not proved it in 20 s), and that one unit
+    less is not claimed (the store refills to 10 before it, and the
+    outside charge gives 10 more while it runs)."""
+    problem = problem_from(_store_day(11))
+    proof = infeasibility(problem, start_domains(problem))
+    assert [b.task for b in proof] == ["use"]
+    assert proof[0].cause == "consumable"
+    assert "more than the store holds (10)" in proof[0].detail
+    plan = solve(problem, time_limit=5)
+    assert plan.status is SolveStatus.INFEASIBLE
+    assert plan.stats is not None and plan.stats.solver == "proof"
+    fits = problem_from(_store_day(10))
+    assert infeasibility(fits, start_domains(fits)) == ()
+    assert solve(fits, time_limit=5).status is SolveStatus.OPTIMAL
+
+
+@st.composite
+def _store_docs(draw: st.DrawFn) -> dict:
+    """A small day around one store with a capacity: a forced consumer,
+    optional generators (some on its camera), an outside charge."""
+    horizon = draw(st.integers(4, 9))
+    initial = draw(st.integers(0, 4))
+    store: dict = {
+        "initial": initial,
+        "max": initial + draw(st.integers(0, 2)),
+    }
+    if draw(st.booleans()):
+        store["external"] = [
+            [draw(st.integers(0, horizon - 1)), draw(st.sampled_from([1, 2]))]
+        ]
+    tasks = [
+        make_task(
+            "use",
+            draw(st.integers(1, min(4, horizon))),
+            schedule_cost=0,
+            uses={
+                "bat": draw(st.integers(1, 3)),
+                "cam": draw(st.integers(0, 1)),
+            },
+        )
+    ]
+    for k in range(draw(st.integers(0, 2))):
+        tasks.append(
+            make_task(
+                f"gen{k}",
+                draw(st.integers(1, 3)),
+                uses={
+                    "bat": -draw(st.integers(1, 2)),
+                    "cam": draw(st.integers(0, 1)),
+                },
+            )
+        )
+    return make_doc(
+        tasks,
+        horizon=horizon,
+        resources={"binary": ["cam"], "consumable": {"bat": store}},
+    )
+
+
+@settings(COMMON, max_examples=300)
+@given(doc=_store_docs())
+def test_the_store_test_never_rejects_a_feasible_day(doc: dict) -> None:
+    """Tests the store test against brute force on days built around it:
+    a proof only where no plan exists."""
+    problem = decode_doc(doc)
+    proof = infeasibility(problem, start_domains(problem))
+    if proof:
+        assert brute_force(problem) is None, (proof, doc)
