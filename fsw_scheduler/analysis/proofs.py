@@ -32,9 +32,11 @@ without a solver, in time polynomial in their number:
   needing 34 % of it run at most two at a time) need their least
   overlaps with ``[a, b)`` to fit in m lanes of ``b - a`` units
   (:func:`~fsw_scheduler.analysis.lanes.crowded`);
-* consumables: by the end of the latest possible end of some forced
-  consumers, their consumption exceeding the initial level plus all the
-  generation any task could have delivered by then.
+* consumables (:mod:`~fsw_scheduler.analysis.stores`): by the end of the
+  latest possible end of some forced consumers, their consumption
+  exceeding the initial level plus all the generation any task could
+  have delivered by then; a forced consumer taking more in its run than
+  a store with a capacity holds plus what can come in meanwhile.
 
 Each proof is reported as :class:`~fsw_scheduler.model.plan.Blocker`\\ s
 naming the tasks and the constraint.
@@ -53,6 +55,7 @@ import itertools
 from typing import TYPE_CHECKING, NamedTuple
 
 from ..model.plan import Blocker
+from . import stores
 from .lanes import crowded, least_overlaps, overloaded, room
 
 if TYPE_CHECKING:
@@ -399,7 +402,7 @@ def infeasibility(
         empty when no cheap proof exists (the problem may still be
         infeasible) or ``stop`` ended the search first.
     """
-    drained = _drain(problem, domains)
+    drained = stores.drain(problem, domains)
     if drained:
         return drained
     forced = forced_tasks(problem)
@@ -440,10 +443,10 @@ def infeasibility(
         if found:
             return found
     for name, initial in res.initial_levels.items():
-        found = _budget(problem, tasks, domains, name, initial)
+        found = stores.budget(problem, tasks, domains, name, initial)
         if found:
             return found
-        found = _store(problem, tasks, domains, name)
+        found = stores.store(problem, tasks, domains, name)
         if found:
             return found
     return ()
@@ -503,179 +506,10 @@ def _energy(
     return ()
 
 
-def _drain(
-    problem: Problem, domains: Mapping[str, Domain]
-) -> tuple[Blocker, ...]:
-    """An external rate that empties a store whatever the plan, or ``()``.
-
-    With no task consuming, the level at the end of unit ``t`` is at most
-    the initial level, plus the external rate summed up to ``t``, plus
-    everything every generator can ever give (with no generator, walked
-    with the capacity, which loses charge as the store does); below 0
-    there, no plan is valid. The blocker names the resource (no task is
-    at fault).
-    """
-    res = problem.resources
-    for name in res.changing:
-        if name not in res.consumable:
-            continue
-        external = res.external_profile(name, problem.start, problem.horizon)
-        generation = sum(
-            -task.uses[name] * task.length
-            for task in problem.tasks
-            if task.uses.get(name, 0) < 0 and not domains[task.id].empty
-        )
-        level = res.initial(name) + generation
-        # With no generator the capacity binds exactly: what a full store
-        # cannot take of the external charge is lost.
-        top = res.ceiling(name) if not generation else None
-        for unit, rate in enumerate(external):
-            level += rate
-            if top is not None:
-                level = min(top, level)
-            if level < -_EPS:
-                return (
-                    Blocker(
-                        name,
-                        "consumable",
-                        f"{name}: its external rate alone takes the level "
-                        f"below 0 by the end of t={problem.start + unit} "
-                        f"(initial {res.initial(name):g}, all generation "
-                        f"possible {generation:g}"
-                        + ("" if top is None else f", capacity {top:g}")
-                        + ")",
-                    ),
-                )
-    return ()
-
-
 def _capacity_words(profile: list[float]) -> str:
     """``4`` for a constant capacity, ``0..4`` for one that changes."""
     low, high = min(profile, default=0.0), max(profile, default=0.0)
     return f"{high:g}" if low == high else f"{low:g}..{high:g}"
-
-
-def _budget(
-    problem: Problem,
-    forced: list[Task],
-    domains: Mapping[str, Domain],
-    resource: str,
-    initial: float,
-) -> tuple[Blocker, ...]:
-    """The level test of one consumable over the forced consumers.
-
-    By time ``t`` (the end of unit ``t - 1``) the forced consumers that end
-    by ``t`` whatever their start have taken all they need, while no more
-    can have come in than the initial level and what every generator
-    could deliver by ``t``, each starting at its earliest.
-    """
-    consumers = sorted(
-        (
-            (domains[task.id].latest + task.length, task)
-            for task in forced
-            if task.uses.get(resource, 0) > 0
-        ),
-        key=lambda item: (item[0], item[1].id),
-    )
-    generators = [
-        (task, -task.uses[resource], domains[task.id])
-        for task in problem.tasks
-        if task.uses.get(resource, 0) < 0 and not domains[task.id].empty
-    ]
-    # Charge from outside by the end of each unit (drain left out: a
-    # bound on what can be there).
-    external = problem.resources.external_profile(
-        resource, problem.start, problem.horizon
-    )
-    charged = list(
-        itertools.accumulate((max(0.0, r) for r in external), initial=0.0)
-    )
-    need = 0.0
-    done: list[str] = []
-    for end, task in consumers:
-        need += task.uses[resource] * task.length
-        done.append(task.id)
-        supply = (
-            initial
-            + charged[min(max(end - problem.start, 0), len(external))]
-            + sum(
-                amount * max(0, min(gen.length, end - dom.earliest))
-                for gen, amount, dom in generators
-            )
-        )
-        if need > supply + _EPS:
-            detail = (
-                f"{resource}: tasks that must be scheduled consume "
-                f"{need:g} by time {end}, but at most {supply:g} can be "
-                "there (initial level and all generation possible by then)"
-            )
-            return tuple(Blocker(name, "consumable", detail) for name in done)
-    return ()
-
-
-def _store(
-    problem: Problem,
-    forced: list[Task],
-    domains: Mapping[str, Domain],
-    resource: str,
-) -> tuple[Blocker, ...]:
-    """The store test of one consumable with a capacity (``max``).
-
-    The level is never above the capacity (or the initial level, if
-    higher), so a forced consumer of ``a`` a unit over ``n`` units starts
-    with at most that much, and during its run no more can come in than
-    the external charge of its best ``n`` units and what every generator
-    that can run beside it gives in ``n`` units (none that shares a
-    binary resource with it, or whose domain keeps it apart): when ``n a``
-    is more than the capacity and those together, the level goes below 0
-    whatever the plan (fuzz case 11021: 2 a unit for 13 units, a store of
-    10 charged 1 a unit; CBC had not proved it in 20 s).
-    """
-    res = problem.resources
-    top = res.ceiling(resource)
-    if top is None:
-        return ()
-    top = max(top, res.initial(resource))
-    external = res.external_profile(resource, problem.start, problem.horizon)
-    charged = list(
-        itertools.accumulate((max(0.0, r) for r in external), initial=0.0)
-    )
-    binary = set(res.binary)
-    generators = [
-        (task, -task.uses[resource], domains[task.id])
-        for task in problem.tasks
-        if task.uses.get(resource, 0) < 0 and not domains[task.id].empty
-    ]
-    for task in forced:
-        amount = task.uses.get(resource, 0)
-        domain = domains[task.id]
-        if amount <= 0 or domain.empty:
-            continue
-        length = task.length
-        # The most external charge in a run of the task: its best window.
-        charge = max(
-            charged[min(max(s - problem.start + length, 0), len(external))]
-            - charged[min(max(s - problem.start, 0), len(external))]
-            for s in range(domain.earliest, domain.latest + 1)
-        )
-        mine = {n for n, a in task.uses.items() if a and n in binary}
-        beside = sum(
-            rate * min(length, gen.length)
-            for gen, rate, dom in generators
-            if not mine & {n for n, a in gen.uses.items() if a}
-            and dom.earliest < domain.latest + length
-            and domain.earliest < dom.latest + gen.length
-        )
-        drain = amount * length
-        if drain > top + charge + beside + _EPS:
-            detail = (
-                f"{resource}: {task.id} takes {drain:g} in its {length} "
-                f"units, more than the store holds ({top:g}) and can take "
-                f"in meanwhile ({charge:g} from outside, {beside:g} from "
-                "tasks that can run beside it)"
-            )
-            return (Blocker(task.id, "consumable", detail),)
-    return ()
 
 
 #: Cliques grown from single tasks (beyond one per resource) are tried
