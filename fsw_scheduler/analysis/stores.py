@@ -95,19 +95,9 @@ def budget(
         ),
         key=lambda item: (item[0], item[1].id),
     )
-    generators = [
-        (task, -task.uses[resource], domains[task.id])
-        for task in problem.tasks
-        if task.uses.get(resource, 0) < 0 and not domains[task.id].empty
-    ]
-    # Charge from outside by the end of each unit (drain left out: a
-    # bound on what can be there).
-    external = problem.resources.external_profile(
-        resource, problem.start, problem.horizon
-    )
-    charged = list(
-        itertools.accumulate((max(0.0, r) for r in external), initial=0.0)
-    )
+    generators = _generators(problem, domains, resource)
+    charged = _charged(problem, resource)
+    units = len(charged) - 1  # the horizon's
     need = 0.0
     done: list[str] = []
     for end, task in consumers:
@@ -115,7 +105,7 @@ def budget(
         done.append(task.id)
         supply = (
             initial
-            + charged[min(max(end - problem.start, 0), len(external))]
+            + charged[min(max(end - problem.start, 0), units)]
             + sum(
                 amount * max(0, min(gen.length, end - dom.earliest))
                 for gen, amount, dom in generators
@@ -154,16 +144,10 @@ def store(
     if top is None:
         return ()
     top = max(top, res.initial(resource))
-    external = res.external_profile(resource, problem.start, problem.horizon)
-    charged = list(
-        itertools.accumulate((max(0.0, r) for r in external), initial=0.0)
-    )
+    charged = _charged(problem, resource)
+    units = len(charged) - 1  # the horizon's
     binary = set(res.binary)
-    generators = [
-        (task, -task.uses[resource], domains[task.id])
-        for task in problem.tasks
-        if task.uses.get(resource, 0) < 0 and not domains[task.id].empty
-    ]
+    generators = _generators(problem, domains, resource)
     for task in forced:
         amount = task.uses.get(resource, 0)
         domain = domains[task.id]
@@ -172,8 +156,8 @@ def store(
         length = task.length
         # The most external charge in a run of the task: its best window.
         charge = max(
-            charged[min(max(s - problem.start + length, 0), len(external))]
-            - charged[min(max(s - problem.start, 0), len(external))]
+            charged[min(max(s - problem.start + length, 0), units)]
+            - charged[min(max(s - problem.start, 0), units)]
             for s in range(domain.earliest, domain.latest + 1)
         )
         mine = {n for n, a in task.uses.items() if a and n in binary}
@@ -194,3 +178,27 @@ def store(
             )
             return (Blocker(task.id, "consumable", detail),)
     return ()
+
+
+def _generators(
+    problem: Problem, domains: Mapping[str, Domain], resource: str
+) -> list[tuple[Task, float, Domain]]:
+    """The placeable tasks that charge ``resource``, each with its rate
+    (positive) and start domain."""
+    return [
+        (task, -task.uses[resource], domains[task.id])
+        for task in problem.tasks
+        if task.uses.get(resource, 0) < 0 and not domains[task.id].empty
+    ]
+
+
+def _charged(problem: Problem, resource: str) -> list[float]:
+    """Charge from outside by the start of each unit, and after the last:
+    the external rate's positive part summed (drain left out: a bound on
+    what can have come in)."""
+    external = problem.resources.external_profile(
+        resource, problem.start, problem.horizon
+    )
+    return list(
+        itertools.accumulate((max(0.0, r) for r in external), initial=0.0)
+    )
