@@ -45,9 +45,8 @@ def drain(
             continue
         external = res.external_profile(name, problem.start, problem.horizon)
         generation = sum(
-            -task.uses[name] * task.length
-            for task in problem.tasks
-            if task.uses.get(name, 0) < 0 and not domains[task.id].empty
+            rate * gen.length
+            for gen, rate, _ in _generators(problem, domains, name)
         )
         level = res.initial(name) + generation
         # With no generator the capacity binds exactly: what a full store
@@ -97,7 +96,6 @@ def budget(
     )
     generators = _generators(problem, domains, resource)
     charged = _charged(problem, resource)
-    units = len(charged) - 1  # the horizon's
     need = 0.0
     done: list[str] = []
     for end, task in consumers:
@@ -105,7 +103,7 @@ def budget(
         done.append(task.id)
         supply = (
             initial
-            + charged[min(max(end - problem.start, 0), units)]
+            + _by(problem, charged, end)
             + sum(
                 amount * max(0, min(gen.length, end - dom.earliest))
                 for gen, amount, dom in generators
@@ -145,7 +143,6 @@ def store(
         return ()
     top = max(top, res.initial(resource))
     charged = _charged(problem, resource)
-    units = len(charged) - 1  # the horizon's
     binary = set(res.binary)
     generators = _generators(problem, domains, resource)
     for task in forced:
@@ -154,12 +151,6 @@ def store(
         if amount <= 0 or domain.empty:
             continue
         length = task.length
-        # The most external charge in a run of the task: its best window.
-        charge = max(
-            charged[min(max(s - problem.start + length, 0), units)]
-            - charged[min(max(s - problem.start, 0), units)]
-            for s in range(domain.earliest, domain.latest + 1)
-        )
         mine = {n for n, a in task.uses.items() if a and n in binary}
         beside = sum(
             rate * min(length, gen.length)
@@ -169,6 +160,14 @@ def store(
             and domain.earliest < dom.latest + gen.length
         )
         drain = amount * length
+        if drain <= top + beside + _EPS:
+            continue  # the store and the generators alone carry it
+        # The most external charge in a run of the task: its best window
+        # (a scan of its domain, done only for a consumer that can fail).
+        charge = max(
+            _by(problem, charged, s + length) - _by(problem, charged, s)
+            for s in range(domain.earliest, domain.latest + 1)
+        )
         if drain > top + charge + beside + _EPS:
             detail = (
                 f"{resource}: {task.id} takes {drain:g} in its {length} "
@@ -202,3 +201,9 @@ def _charged(problem: Problem, resource: str) -> list[float]:
     return list(
         itertools.accumulate((max(0.0, r) for r in external), initial=0.0)
     )
+
+
+def _by(problem: Problem, charged: list[float], time: int) -> float:
+    """What :func:`_charged` says has come in by ``time`` (clamped to the
+    horizon)."""
+    return charged[min(max(time - problem.start, 0), len(charged) - 1)]

@@ -475,11 +475,9 @@ def relaxed_bound(
             problem,
             relaxed.replace(objective=None, status=SolveStatus.FEASIBLE),
         )
-        below = sorted(set(lowest_units(problem, relaxed)) - set(checkpoints))
         if (
             not proved
             or report.ok
-            or not below
             or rounds >= level_rounds
             or any(v.rule != "consumable" for v in report.violations)
             or (
@@ -487,6 +485,9 @@ def relaxed_bound(
                 and time.perf_counter() - began >= time_limit
             )
         ):
+            break
+        below = sorted(set(lowest_units(problem, relaxed)) - set(checkpoints))
+        if not below:
             break
         # The optimum breaks a level only: the level there joins the
         # program, and CBC solves it again.

@@ -147,22 +147,9 @@ def solve(
             ),
         )
     parts = components(problem)
-    if len(parts) > 1:
-        plan = _solve_parts(
-            problem,
-            parts,
-            run,
-            began,
-            limit,
-            warm,
-            domains,
-            stability,
-            time_limit,
-        )
-    else:
-        plan = _solve_whole(
-            problem, run, began, limit, warm, domains, stability, time_limit
-        )
+    plan = _solved(
+        problem, parts, run, began, limit, warm, domains, stability, time_limit
+    )
     if time_limit is not None and limit != time_limit:
         plan = _proved_later(
             problem, plan, parts, run, began, domains, stability, time_limit
@@ -187,6 +174,36 @@ def solve(
             why=explain_plan(problem, plan, BUDGET.budgeted(plain, budget))
         )
     return plan
+
+
+def _solved(
+    problem: Problem,
+    parts: list[list[str]],
+    run: functools.partial[Plan],
+    began: float,
+    time_limit: float | None,
+    warm: Plan | None,
+    domains: dict[str, Domain],
+    stability: Stability | None,
+    full_limit: float | None,
+) -> Plan:
+    """``problem`` solved part by part (:func:`_solve_parts`) when it has
+    independent ``parts``, else whole (:func:`_solve_whole`)."""
+    if len(parts) > 1:
+        return _solve_parts(
+            problem,
+            parts,
+            run,
+            began,
+            time_limit,
+            warm,
+            domains,
+            stability,
+            full_limit,
+        )
+    return _solve_whole(
+        problem, run, began, time_limit, warm, domains, stability, full_limit
+    )
 
 
 #: A replan that its share of the limit leaves unproved goes on when at
@@ -228,14 +245,9 @@ def _proved_later(
         or max(len(part) for part in parts) >= BUDGET.lns_min_tasks
     ):
         return plan
-    if len(parts) > 1:
-        again = _solve_parts(
-            problem, parts, run, now, left, plan, domains, stability, left
-        )
-    else:
-        again = _solve_whole(
-            problem, run, now, left, plan, domains, stability, left
-        )
+    again = _solved(
+        problem, parts, run, now, left, plan, domains, stability, left
+    )
     said = "no better"
     answer = plan
     if again.objective is not None and (
