@@ -158,8 +158,11 @@ def test_the_probe_starts_from_the_readmitted_plan() -> None:
         problem, start, domains, relaxed, domains, 0.0, None
     )
     assert better.unscheduled == ("long",)
-    # The bound (binary resources ignored: keep all three, bound 0) stays.
-    assert again.bound == relaxed.bound == 0
+    # The bound (the camera's energy: "long" or both others go) stays,
+    # and it is the readmitted plan's left-out cost.
+    assert better.objective is not None
+    left_out = better.objective.total - better.objective.delay_cost
+    assert again.bound == relaxed.bound == left_out > 0
     assert set(narrowed) == set(domains)
     unchanged = _readmitting(problem, better, domains, again, domains, 0, None)
     assert unchanged[0] is better and unchanged[2] is domains
