@@ -125,7 +125,8 @@ def _overloaded(
     starts = sorted({domains[t.id].earliest for t, _ in users})
     ends = sorted({domains[t.id].latest + t.length for t, _ in users})
     if len(starts) * len(ends) * len(users) > MAX_PAIRS_WORK:
-        pairs = {(starts[0], b) for b in ends} | {(a, ends[-1]) for a in starts}
+        first, last = starts[0], ends[-1]
+        pairs = {(first, b) for b in ends} | {(a, last) for a in starts}
     else:
         pairs = {(a, b) for a in starts for b in ends}
     found = []

@@ -74,7 +74,7 @@ def test_users_above_half_a_capacity_are_one_at_a_time() -> None:
     }  # fmt: skip
     problem = problem_from(doc)
     domains = start_domains(problem)
-    uses, limits = energy_rows(problem, domains, problem.tasks)
+    _, limits = energy_rows(problem, domains, problem.tasks)
     assert limits, "the pair above half the capacity has no row"
     plan = plan_of(problem, {"a": 0, "b": None})
     bound = kept_set_bound(problem, plan, domains).bound
