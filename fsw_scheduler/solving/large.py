@@ -31,10 +31,10 @@ from .forced import forced_start
 from .improve import MIN_ROUND_S, improve, meets
 from .incumbent import a_task_above, checked, narrow, worth_a_probe
 from .polishing import POLISH_MAX_S, POLISH_SHARE, Polishing, shift_deadline
-from .relaxed import NODES, RelaxedAnswer, fresh_min_left, relaxable
+from .relaxed import RelaxedAnswer, fresh_min_left, relaxable
 from .relaxed import around as relaxed_around
 from .repair import changed_tasks, holding, repair
-from .rounds import GROWTH, OVERTIME, SHARE, rounds
+from .rounds import OVERTIME, SHARE, rounds
 from .stats import higher
 
 if TYPE_CHECKING:
@@ -210,32 +210,6 @@ def replanned(
         best, swept = improve(problem, best, domains, run, search_end, bound)
     if improved or swept:
         best = polish(best)
-    left = end - time.perf_counter()
-    if not meets(best, bound) and relaxable(
-        run, problem, domains, left, MIN_ROUND_S
-    ):
-        narrowed = _narrowed(problem, best, domains, relaxed, _until(end))
-        caught = relaxed_around(
-            problem,
-            best,
-            narrow(problem, best, domains) if narrowed is None else narrowed,
-            run,
-            left,
-            NODES * GROWTH,
-            probing=True,
-        )
-        said += f"; the relaxation again around its plan: {caught.said}"
-        if caught.plan is not None and caught.plan.objective is not None:
-            return _answer(
-                caught.plan,
-                float(caught.plan.objective.total),
-                _label(run, "relaxed"),
-                "replan: " + caught.said,
-                began,
-                time_limit,
-            )
-        best = caught.better or best
-        bound = higher(bound, caught.bound)
     # The shift windows may run past the replan's share, within the limit.
     last = end if full_limit is None else end - time_limit + full_limit
     best = polish.shifted(best, run, shift_deadline(last, end))
