@@ -40,6 +40,20 @@ def _camera_day() -> dict:
     }  # fmt: skip
 
 
+def _power_pair(horizon: int, capacity: int, amount: int) -> dict:
+    """Two 5-unit users ``a`` (worth 2) and ``b`` (worth 1) of ``amount``
+    of a power resource of ``capacity``."""
+    return {
+        "horizon": horizon,
+        "resources": {"multiple": {"power": capacity}},
+        "tasks": [
+            {"id": name, "length": 5, "delay_cost": 1, "schedule_cost": worth,
+             "uses": {"power": amount}}
+            for name, worth in (("a", 2), ("b", 1))
+        ],
+    }  # fmt: skip
+
+
 def test_an_overloaded_camera_raises_the_bound(monkeypatch) -> None:
     """Tests that three 5-unit camera tasks over 10 units make the bound
     count the cheapest one left out (the relaxation without the rows kept
@@ -62,17 +76,7 @@ def test_users_above_half_a_capacity_are_one_at_a_time() -> None:
     get a row of their own, as on a binary resource: two users of 6 of
     10 whose amounts alone fit the horizon's energy (12 units of 60
     against 100) cannot both run in 6 units."""
-    doc = {
-        "horizon": 6,
-        "resources": {"multiple": {"power": 10}},
-        "tasks": [
-            {"id": "a", "length": 5, "delay_cost": 1, "schedule_cost": 2,
-             "uses": {"power": 6}},
-            {"id": "b", "length": 5, "delay_cost": 1, "schedule_cost": 1,
-             "uses": {"power": 6}},
-        ],
-    }  # fmt: skip
-    problem = problem_from(doc)
+    problem = problem_from(_power_pair(horizon=6, capacity=10, amount=6))
     domains = start_domains(problem)
     _, limits = energy_rows(problem, domains, problem.tasks)
     assert limits, "the pair above half the capacity has no row"
@@ -85,17 +89,7 @@ def test_users_at_half_a_capacity_may_run_together() -> None:
     """Tests that two users of exactly half a capacity, which run side by
     side, get no row that keeps them apart: their plan together meets
     every row, and the bound leaves nothing out."""
-    doc = {
-        "horizon": 5,
-        "resources": {"multiple": {"power": 6}},
-        "tasks": [
-            {"id": "a", "length": 5, "delay_cost": 1, "schedule_cost": 2,
-             "uses": {"power": 3}},
-            {"id": "b", "length": 5, "delay_cost": 1, "schedule_cost": 1,
-             "uses": {"power": 3}},
-        ],
-    }  # fmt: skip
-    problem = problem_from(doc)
+    problem = problem_from(_power_pair(horizon=5, capacity=6, amount=3))
     domains = start_domains(problem)
     assert energy_rows(problem, domains, problem.tasks) == (
         {"a": [], "b": []},
