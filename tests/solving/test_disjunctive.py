@@ -269,8 +269,8 @@ def test_a_larger_part_with_few_start_times_switches_and_is_proved(
     over a short horizon, switches to the time-indexed model after the
     switch's nodes and is proved: its disjunctive run alone went to the
     end of a 30 s limit unproved. (Without the energy rows: with them
-    the kept-set bound and the disjunctive model prove it at once, see
-    the next test.)"""
+    the kept-set bound narrows it so that the disjunctive model proves
+    it at once, see the next test.)"""
     monkeypatch.setattr(energetic, "MAX_ROWS", 0)
     problem = decode_problem(SHORT_HORIZON.read_bytes())
     plan = solve(problem, time_limit=30)
@@ -284,10 +284,10 @@ def test_a_larger_part_with_few_start_times_switches_and_is_proved(
 
 def test_the_energy_rows_prove_the_crowded_short_horizon_without_a_switch(
 ) -> None:
-    """Tests that the same part, with the energy rows (a power resource
-    asked for more than the horizon holds), is proved by the disjunctive
-    model before the switch's nodes (4.0 s with the switch, 0.8-2.0 s
-    without it when measured)."""
+    """Tests that the same part, with the kept-set relaxation's energy
+    rows (a power resource asked for more than the horizon holds), is
+    proved by the disjunctive model before the switch's nodes (4.0 s
+    with the switch, 0.8 s without it when measured)."""
     problem = decode_problem(SHORT_HORIZON.read_bytes())
     plan = solve(problem, time_limit=30)
     assert plan.stats is not None

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 from ..alternatives import alternative_rows
 from ..constraints import identical_tasks
 from ..program import EQ, GE, LE
-from .energy import add_busy_rows, add_energy_rows
+from .energy import add_busy_rows
 from .rule import pairwise_exact
 
 if TYPE_CHECKING:
@@ -63,7 +63,6 @@ class Constraints:
         self._binary_resources()
         self._multiple_resources()
         add_busy_rows(self.program, self.vars, self.problem, self._users)
-        add_energy_rows(self.program, self.vars, self.problem)
         for prec in self.problem.precedences:
             self._precedence(prec)
         self._identical_tasks()

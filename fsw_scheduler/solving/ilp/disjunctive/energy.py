@@ -33,8 +33,7 @@ from __future__ import annotations
 import itertools
 from typing import TYPE_CHECKING
 
-from ....analysis.energetic import energy_rows
-from ..program import GE, LE
+from ..program import GE
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Sequence
@@ -144,34 +143,3 @@ def add_busy_rows(
         machine = [(task, 1.0) for task, _ in users_of(resource)]
         for members in busy_sets(machine, earliest):
             add_busy_row(program, variables, [machine[k] for k in members], 1)
-
-
-def add_energy_rows(
-    program: Program, variables: Variables, problem: Problem
-) -> None:
-    """The kept-set relaxation's energy rows over the "scheduled" columns.
-
-    ``sum_j e_j y_j <= C (b - a)`` for the most overloaded intervals
-    ``[a, b)`` of each binary and multiple resource (and of a multiple
-    resource's users above half its capacity), ``e_j`` the least use of
-    user ``j`` inside the interval over its start domain
-    (:func:`~fsw_scheduler.analysis.energetic.energy_rows`): a knapsack
-    on what is kept, true in every plan. The order rows are big-M rows
-    whose LP keeps every task: on seed 63's b30-h1440 of the large suite
-    (a camera asked for more time than the horizon has) the relaxation's
-    bound was 205,007 against an optimum of 1,014,386. None when a
-    capacity changes over time (the rows read one capacity).
-    """
-    if problem.resources.changing:
-        return
-    placeable = [
-        task for task in problem.tasks if variables.placeable(task.id)
-    ]
-    uses, limits = energy_rows(problem, variables.domains, placeable)
-    for row, limit in enumerate(limits):
-        terms = {
-            variables.scheduled(task.id): uses[task.id][row]
-            for task in placeable
-            if uses[task.id][row]
-        }
-        program.add_row(terms, LE, limit)
