@@ -82,6 +82,7 @@ def test_users_above_half_a_capacity_are_one_at_a_time() -> None:
     assert limits, "the pair above half the capacity has no row"
     plan = plan_of(problem, {"a": 0, "b": None})
     bound = kept_set_bound(problem, plan, domains).bound
+    assert plan.objective is not None
     assert bound == plan.objective.total
 
 
