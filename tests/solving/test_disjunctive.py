@@ -282,9 +282,7 @@ def test_a_larger_part_with_few_start_times_switches_and_is_proved(
     assert check_plan(problem, plan).ok
 
 
-def test_the_energy_rows_prove_the_crowded_short_horizon_without_a_switch() -> (
-    None
-):
+def test_energy_rows_prove_the_crowded_short_horizon_unswitched() -> None:
     """Tests that the same part, with the kept-set relaxation's energy
     rows (a power resource asked for more than the horizon holds), is
     proved by the disjunctive model before the switch's nodes (4.0 s
