@@ -203,7 +203,14 @@ def kept_set_plan(
         # capacities: alternatives and changing resources are the
         # solver's to decide.
         return KeptSetProof(None, None)
-    search = _finished(problem, domains, plan.objective.total, max_nodes, stop)
+    search = _finished(
+        problem,
+        domains,
+        plan.objective.total,
+        max_nodes,
+        stop,
+        _energy(problem, domains),
+    )
     if search is None:
         return KeptSetProof(None, None)
     if search.best is None:
@@ -429,7 +436,10 @@ def fixings(
     if proof.bound is None:
         return None
     caps = delay_caps(problem, domains, cutoff, proof.bound)
-    relaxed = _finished(problem, domains, cutoff + 1, max_nodes, stop)
+    # The energy rows are the same for every search here: read once (6-19
+    # ms each on parts of 50-60 tasks, and a search per left-out task).
+    energy = _energy(problem, domains)
+    relaxed = _finished(problem, domains, cutoff + 1, max_nodes, stop, energy)
     if relaxed is None or relaxed.best is None:
         return Fixings(frozenset(), caps)
     dropped = set()
@@ -439,7 +449,13 @@ def fixings(
         if stop is not None and stop():
             break
         search = _finished(
-            problem, domains, cutoff + 1, max_nodes, stop, (task.id, True)
+            problem,
+            domains,
+            cutoff + 1,
+            max_nodes,
+            stop,
+            energy,
+            (task.id, True),
         )
         if search is None:
             continue
@@ -454,27 +470,42 @@ def fixings(
     return Fixings(frozenset(dropped), caps)
 
 
+_Rows = tuple[dict[str, list[float]], list[float]]
+
+
+def _energy(problem: Problem, domains: Mapping[str, Domain]) -> _Rows:
+    """The energy rows over the placeable tasks (:func:`~.energetic.
+    energy_rows`); none when a capacity changes over time (the rows read
+    one capacity)."""
+    if problem.resources.changing:
+        return {}, []
+    placeable = [t for t in problem.tasks if not domains[t.id].empty]
+    return energy_rows(problem, domains, placeable)
+
+
 def _finished(
     problem: Problem,
     domains: Mapping[str, Domain],
     cutoff: int,
     max_nodes: int,
     stop: Callable[[], bool] | None,
+    energy: _Rows,
     force: tuple[str, bool] | None = None,
 ) -> _KeptSetSearch | None:
     """A kept-set search run to its end, or None when it ran out.
 
-    With the energy rows first; a search that runs out of nodes with them
-    (each node copies every row, so its node budget shrinks with them)
-    and has any runs again without them. Seed 63's b45-h1440 of the
-    large suite: 7,505,611 without the rows, out of nodes with them.
+    With the ``energy`` rows (:func:`_energy`) first; a search that runs
+    out of nodes with them (each node copies every row, so its node
+    budget shrinks with them) and has any runs again without them. Seed
+    63's b45-h1440 of the large suite: 7,505,611 without the rows, out
+    of nodes with them.
     """
-    search = _KeptSetSearch(problem, domains, cutoff, force)
+    search = _KeptSetSearch(problem, domains, cutoff, force, energy=energy)
     if search.run(max_nodes, stop):
         return search
-    if not search.energetic:
+    if not energy[1]:
         return None
-    search = _KeptSetSearch(problem, domains, cutoff, force, energetic=False)
+    search = _KeptSetSearch(problem, domains, cutoff, force)
     return search if search.run(max_nodes, stop) else None
 
 
@@ -489,9 +520,9 @@ class _KeptSetSearch:
         Only kept sets of relaxed cost below this are searched for.
     force
         One task's decision imposed (id, kept), or None.
-    energetic
-        Whether to add the energy rows of binary and multiple resources
-        (:func:`~.energetic.energy_rows`) to the consumables' level rows.
+    energy
+        Rows added to the consumables' level rows: the energy rows of
+        binary and multiple resources (:func:`_energy`); None: none.
     """
 
     def __init__(
@@ -501,7 +532,7 @@ class _KeptSetSearch:
         cutoff: int,
         force: tuple[str, bool] | None = None,
         *,
-        energetic: bool = True,
+        energy: _Rows | None = None,
     ) -> None:
         weight = objective_weight(
             [t.delay_cost for t in problem.tasks], problem.horizon
@@ -517,13 +548,10 @@ class _KeptSetSearch:
         }
         self.need = self.total - cutoff + 1  # value of a better kept set
         uses, self.limits = level_rows(problem, domains, placeable)
-        self.energetic = False
-        if energetic and not problem.resources.changing:
-            energy, limits = energy_rows(problem, domains, placeable)
-            self.energetic = bool(limits)
-            self.limits += limits
-            for task_id, row in energy.items():
-                uses[task_id] += row
+        if energy is not None:
+            self.limits += energy[1]
+            for task_id, row in energy[0].items():
+                uses[task_id] = uses[task_id] + row
         # Mandatory tasks are decided first (kept), then by value: leaving
         # out a valuable task drops the bound at once.
         self.order = sorted(
