@@ -115,10 +115,10 @@ def test_rows_are_the_most_overloaded_first_and_at_most_the_cap() -> None:
     )
 
 
-def test_many_users_get_a_line_of_intervals(monkeypatch) -> None:
-    """Tests that a group too large for every pair of ends gets only the
-    intervals from its earliest start or to its latest end, and still
-    finds the overload: 40 camera runs of 3 units within 90."""
+def test_many_users_get_a_thinned_grid_of_intervals(monkeypatch) -> None:
+    """Tests that a group too large for every pair of ends gets evenly
+    thinned starts and ends, its first start and last end among them,
+    and still finds the overload: 40 camera runs of 3 units within 90."""
     tasks = [
         {"id": f"t{k:02d}", "length": 3, "delay_cost": 1,
          "schedule_cost": 1, "uses": {"camera": 1},
@@ -130,15 +130,24 @@ def test_many_users_get_a_line_of_intervals(monkeypatch) -> None:
     )
     domains = start_domains(problem)
     _, full = energy_rows(problem, domains, problem.tasks, max_rows=10_000)
-    monkeypatch.setattr(energetic, "MAX_PAIRS_WORK", 10)
-    uses, line = energy_rows(problem, domains, problem.tasks, max_rows=10_000)
-    # Every interval of the line ends at the latest end or starts at 0:
-    # one interval per start and per end instead of every pair.
+    # 40 users: 9 starts and 9 ends at most (81 intervals, not 1,600).
+    monkeypatch.setattr(energetic, "MAX_PAIRS_WORK", 40 * 81)
+    uses, grid = energy_rows(problem, domains, problem.tasks, max_rows=10_000)
+    assert 0 < len(grid) <= 81 < len(full)
     last = max(d.latest + 3 for d in domains.values())
-    assert float(last) in line and len(line) < len(full)
-    assert len(line) <= 2 * 40
-    at = line.index(float(last))
+    # The widest interval, from the first start to the last end, is kept.
+    assert float(last) in grid
+    at = grid.index(float(last))
     assert sum(row[at] for row in uses.values()) == 120
+
+
+def test_thinning_keeps_the_ends_and_spreads_the_rest() -> None:
+    """Tests that thinning keeps the first and the last point and at most
+    the number asked, spread by rank."""
+    points = list(range(0, 100, 3))
+    assert energetic._thinned(points, 5) == [0, 24, 48, 72, 99]
+    assert energetic._thinned(points, 100) == points
+    assert energetic._thinned([4, 7, 9], 2) == [4, 9]
 
 
 @settings(COMMON, max_examples=300)
