@@ -29,6 +29,8 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
+from .lanes import least_overlaps
+
 if TYPE_CHECKING:
     from collections.abc import Mapping, Sequence
 
@@ -121,18 +123,16 @@ def _thinned(points: list[int], keep: int) -> list[int]:
     return sorted({points[k * last // (keep - 1)] for k in range(keep)})
 
 
-def _overlap(start: int, length: int, a: int, b: int) -> int:
-    """Units of a run ``[start, start + length)`` inside ``[a, b)``."""
-    return max(0, min(start + length, b) - max(start, a))
-
-
 def _overloaded(
     users: list[tuple[Task, float]],
     capacity: float,
     domains: Mapping[str, Domain],
 ) -> list[tuple[float, int, int, dict[str, float], float]]:
     """Intervals that the users, all kept, would overload: (overload
-    ratio, a, b, least use per task id, limit) for each."""
+    ratio, a, b, least use per task id, limit) for each. The least
+    overlaps are the infeasibility proofs' (:func:`~.lanes.
+    least_overlaps`), over intervals from a user's earliest start to a
+    user's latest end."""
     if capacity <= 0:
         return []
     starts = sorted({domains[t.id].earliest for t, _ in users})
@@ -140,22 +140,15 @@ def _overloaded(
     if len(starts) * len(ends) * len(users) > MAX_PAIRS_WORK:
         keep = max(2, math.isqrt(MAX_PAIRS_WORK // len(users)))
         starts, ends = _thinned(starts, keep), _thinned(ends, keep)
-    pairs = {(a, b) for a in starts for b in ends}
+    amounts = {task.id: amount for task, amount in users}
+    spans = [(task, domains[task.id]) for task, _ in users]
     found = []
-    for a, b in sorted(pairs):
-        if b <= a:
-            continue
-        row: dict[str, float] = {}
-        total = 0.0
-        for task, amount in users:
-            domain = domains[task.id]
-            least = min(
-                _overlap(domain.earliest, task.length, a, b),
-                _overlap(domain.latest, task.length, a, b),
-            )
-            if least:
-                row[task.id] = amount * least
-                total += amount * least
+    for a, b, inside, pieces in least_overlaps(spans, lows=starts, highs=ends):
+        row = {
+            name: amounts[name] * piece
+            for name, piece in zip(inside, pieces, strict=True)
+        }
+        total = sum(row.values())
         limit = capacity * (b - a)
         if total > limit + _EPS:
             found.append((total / limit, a, b, row, limit))

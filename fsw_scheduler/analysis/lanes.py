@@ -154,19 +154,25 @@ def overloaded(
 def least_overlaps(
     spans: Sequence[tuple[Task, Domain]],
     stop: Callable[[], bool] | None = None,
+    *,
+    lows: Sequence[int] | None = None,
+    highs: Sequence[int] | None = None,
 ) -> Iterator[tuple[int, int, list[str], list[int]]]:
     """Each interval ``[low, high)`` between the ends of the tasks'
     ranges and of their compulsory parts, with the tasks that overlap it
     whatever their starts and those least overlaps: (low, high, task ids,
     overlaps), the tasks in ``spans`` order. Ends once ``stop()`` is
-    true."""
-    lows = sorted(
-        {d.earliest for _, d in spans} | {d.latest for _, d in spans}
-    )
-    highs = sorted(
-        {d.latest + t.length for t, d in spans}
-        | {d.earliest + t.length for t, d in spans}
-    )
+    true. ``lows`` and ``highs`` (sorted) replace the intervals' ends
+    (the energy rows of :mod:`.energetic` take their own)."""
+    if lows is None:
+        lows = sorted(
+            {d.earliest for _, d in spans} | {d.latest for _, d in spans}
+        )
+    if highs is None:
+        highs = sorted(
+            {d.latest + t.length for t, d in spans}
+            | {d.earliest + t.length for t, d in spans}
+        )
     # (id, length, earliest end, latest start): a task overlaps
     # [low, high) whatever its start only if its earliest end is past low
     # and its latest start before high.
