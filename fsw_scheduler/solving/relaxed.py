@@ -35,6 +35,7 @@ level there.
 from __future__ import annotations
 
 import functools
+import itertools
 import time
 from typing import TYPE_CHECKING, NamedTuple
 
@@ -218,11 +219,29 @@ class RelaxedModel(DisjunctiveModel):
                 LE,
                 limit,
             )
+        # Net outside change before each unit, per consumable: read once
+        # for all the checkpoints.
+        changed = {
+            name: list(
+                itertools.accumulate(
+                    problem.resources.external_profile(
+                        name, problem.start, problem.horizon
+                    ),
+                    initial=0.0,
+                )
+            )
+            for name in problem.resources.initial_levels
+            if checkpoints
+        }
         for point in sorted(set(checkpoints)):
-            self._timed_level_rows(problem, domains, point)
+            self._timed_level_rows(problem, domains, point, changed)
 
     def _timed_level_rows(
-        self, problem: Problem, domains: dict[str, Domain], point: int
+        self,
+        problem: Problem,
+        domains: dict[str, Domain],
+        point: int,
+        changed: dict[str, list[float]],
     ) -> None:
         """Each consumable's level at the end of unit ``point``, on the
         start columns: ``sum_consumers w - sum_generators v <= initial +
@@ -239,14 +258,14 @@ class RelaxedModel(DisjunctiveModel):
         (``w = v = 0``). The values of a plan satisfy every row (``w``,
         ``v`` its true use and charge, ``b`` and "started" as they are),
         so the rows cut off no plan: the sum over-counts the level only
-        where a capacity (``max``) would have lost charge.
+        where a capacity (``max``) would have lost charge. ``changed`` is
+        each consumable's net outside change before each unit (its
+        external profile summed).
         """
         program = self.program
         for name, initial in problem.resources.initial_levels.items():
-            external = problem.resources.external_profile(
-                name, problem.start, problem.horizon
-            )
-            charge = sum(external[: point + 1 - problem.start])
+            net = changed[name]
+            charge = net[min(point + 1 - problem.start, len(net) - 1)]
             terms: Terms = {}
             for task in problem.tasks:
                 amount = task.uses.get(name, 0)
