@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 from typing import TYPE_CHECKING
 
 from fsw_scheduler.analysis import insert
@@ -187,3 +188,82 @@ def test_a_broad_start_plan_leaves_out_less() -> None:
     assert len(better.unscheduled) <= 21
     # The same plan again: no clock in the decisions.
     assert inserted(problem, start, domains) == better
+
+
+def _drawn(dear: int) -> Problem:
+    """A battery of 4 over 12 units, no charge: ``cheap`` (worth 1) and
+    ``dear`` (worth ``dear``) each draw 1 a unit for 4 units, so only one
+    of them can run."""
+    return problem_from(
+        {
+            "horizon": 12,
+            "resources": {"consumable": {"battery": 4}},
+            "tasks": [
+                make_task("cheap", 4, uses={"battery": 1}),
+                make_task("dear", 4, schedule_cost=dear, uses={"battery": 1}),
+            ],
+        }
+    )
+
+
+def test_a_cheap_consumer_gives_its_charge_to_a_dear_one() -> None:
+    """Tests that a task short of a consumable gets it from a placed
+    consumer worth less, which is left out (nothing blocks it in time:
+    the battery is spent over the whole horizon)."""
+    problem = _drawn(dear=3)
+    start = plan_of(problem, {"cheap": 0, "dear": None})
+    better = inserted(problem, start, start_domains(problem))
+    assert better.unscheduled == ("cheap",)
+    assert better.starts() == {"dear": 0}
+    assert check_plan(problem, better).ok
+
+
+def test_a_consumer_worth_as_much_keeps_its_charge() -> None:
+    """Tests that a consumer is not taken out for a task worth no more
+    (the move would not lower the objective): the plan comes back."""
+    problem = _drawn(dear=1)
+    start = plan_of(problem, {"cheap": 0, "dear": None})
+    assert inserted(problem, start, start_domains(problem)) is start
+
+
+def test_a_consumer_is_tried_where_the_charge_is() -> None:
+    """Tests that a left-out consumer sharing no resource with a placed
+    task is tried at its first fitting start, not only at its window's
+    first: an empty battery is charged 1 a unit over units 0-3 and
+    ``use`` draws 2 a unit for 2 units, so it fits from 2 on, not at 0."""
+    problem = problem_from(
+        {
+            "horizon": 12,
+            "resources": {"consumable": {"battery": 0}},
+            "tasks": [
+                make_task("charge", 4, uses={"battery": -1}),
+                make_task("use", 2, schedule_cost=2, uses={"battery": 2}),
+            ],
+        }
+    )
+    start = plan_of(problem, {"charge": 0, "use": None})
+    better = inserted(problem, start, start_domains(problem))
+    assert better.unscheduled == ()
+    assert better.starts() == {"charge": 0, "use": 2}
+    assert check_plan(problem, better).ok
+
+
+def test_a_chain_of_four_comes_in_together() -> None:
+    """Tests that four left-out tasks tied by ``both`` precedences (none
+    can run without the others) are inserted in one move."""
+    names = ["a", "b", "c", "d"]
+    problem = problem_from(
+        {
+            "horizon": 20,
+            "resources": {"binary": ["camera"]},
+            "tasks": [make_task(n, 2, uses={"camera": 1}) for n in names],
+            "precedences": [
+                {"before": x, "after": y, "kind": "lax", "scope": "both"}
+                for x, y in itertools.pairwise(names)
+            ],
+        }
+    )
+    start = plan_of(problem, dict.fromkeys(names))
+    better = inserted(problem, start, start_domains(problem))
+    assert better.unscheduled == ()
+    assert better.starts() == {"a": 0, "b": 2, "c": 4, "d": 6}
