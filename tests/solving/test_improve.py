@@ -81,3 +81,53 @@ def test_a_stalled_sweep_goes_on_when_not_handed_over() -> None:
     )
     assert improved == 0 and best.starts() == plan.starts()
     assert asked == [plan]
+
+
+def test_a_left_out_task_is_freed_with_the_partner_it_needs() -> None:
+    """Tests that a neighbourhood freeing a left-out task frees, over its
+    whole domain, the left-out partner it cannot run without, even one
+    that can only run far from the window: ``a`` (worth 3, at 0-10) and
+    ``b`` (worth 3, at 80-95) need each other (a ``both`` precedence)
+    and ``x`` (worth 1) holds the camera where ``a`` could run. The
+    window about 0 then drops ``x`` for both."""
+    problem = problem_from(
+        make_doc(
+            [
+                make_task(
+                    "a",
+                    5,
+                    uses={"cam": 1},
+                    schedule_cost=3,
+                    feasible_interval=[0, 10],
+                ),
+                make_task(
+                    "b",
+                    5,
+                    uses={"cam": 1},
+                    schedule_cost=3,
+                    feasible_interval=[80, 95],
+                ),
+                make_task(
+                    "x",
+                    10,
+                    uses={"cam": 1},
+                    schedule_cost=1,
+                    feasible_interval=[0, 10],
+                ),
+            ],
+            horizon=100,
+            resources={"binary": ["cam"]},
+            precedences=[
+                {"before": "a", "after": "b", "kind": "lax", "scope": "both"}
+            ],
+        )
+    )
+    plan = plan_of(problem, {"a": None, "b": None, "x": 0})
+    domains = start_domains(problem)
+    narrowed = improve._neighbourhood(problem, plan, domains, 0, 20, 6)
+    assert narrowed is not None
+    assert narrowed["b"] == domains["b"]
+    run = functools.partial(solve_ilp, solver="cbc", threads=1)
+    found = run(problem, domains=narrowed, warm=plan.starts(), time_limit=20)
+    assert found.starts() == {"a": 0, "b": 80}
+    assert check_plan(problem, found).ok
