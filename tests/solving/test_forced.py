@@ -6,6 +6,7 @@ from __future__ import annotations
 import functools
 import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -161,3 +162,58 @@ def test_a_replans_second_look_starts_where_list_scheduling_cannot(
     )
     assert check_plan(problem, looked).ok
     assert time.perf_counter() - began <= 6.0
+
+
+def test_a_consumable_no_plan_can_exhaust_is_dropped() -> None:
+    """Tests that ``without_slack`` drops a consumable whose users, all
+    run in full, take no more than its level (and their uses of it),
+    keeps one they can exhaust, and counts an external drain (10 units
+    of it: the users' 2 alone would leave 11 untouched)."""
+    doc = {
+        "horizon": 10,
+        "resources": {
+            "consumable": {
+                "slack": 8,
+                "tight": 7,
+                "drained": {"initial": 11, "external": [[0, -1]]},
+            }
+        },
+        "tasks": [
+            make_task("a", 2, uses={"slack": 2, "tight": 2, "drained": 1}),
+            make_task("b", 4, uses={"slack": 1, "tight": 1}),
+        ],
+    }
+    problem = problem_from(doc)
+    kept = forced.without_slack(problem)
+    assert list(kept.resources.consumable) == ["tight", "drained"]
+    assert [t.uses for t in kept.tasks] == [
+        {"tight": 2, "drained": 1},
+        {"tight": 1},
+    ]
+    assert forced.without_slack(kept) is kept
+
+
+def test_a_packed_core_is_planned_without_the_battery_it_cannot_empty() -> (
+    None
+):
+    """Tests the large suite's b60-h1440 of seed 66: list scheduling
+    cannot place its 12 forced tasks (three binary resources packed to
+    the unit), which take 2,311 of a battery's 2,312. The solver gets
+    them alone, without the battery nor the battery's nine supplies (the
+    time-indexed model of them all gave no plan in 9.6 s, and the solve
+    answered ``unknown``), and the start plan holds them all."""
+    generator = bench_lib("generator")
+    bench = next(p for p in generator.large_suite(66) if p.name == "b60-h1440")
+    problem = bench.problem()
+    assert greedy_plan(problem) is None
+    asked: list[Problem] = []
+
+    def run(core: Problem, **kwargs: Any) -> Plan:
+        asked.append(core)
+        return solve_ilp(core, solver="cbc", threads=1, **kwargs)
+
+    plan = forced_start(problem, run, time.perf_counter() + 20)
+    assert [core.num_tasks for core in asked] == [12]
+    assert not asked[0].resources.consumable
+    assert plan is not None and check_plan(problem, plan).ok
+    assert forced_tasks(problem) <= {a.task for a in plan.activities}
