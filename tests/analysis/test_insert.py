@@ -267,3 +267,31 @@ def test_a_chain_of_four_comes_in_together() -> None:
     better = inserted(problem, start, start_domains(problem))
     assert better.unscheduled == ()
     assert better.starts() == {"a": 0, "b": 2, "c": 4, "d": 6}
+
+
+def test_five_tasks_in_the_way_make_room() -> None:
+    """Tests that a left-out task with five placed tasks in its way (its
+    only start) takes their place, each going back later."""
+    problem = problem_from(
+        {
+            "horizon": 30,
+            "resources": {"binary": ["camera"]},
+            "tasks": [
+                make_task(
+                    "long",
+                    10,
+                    schedule_cost=3,
+                    uses={"camera": 1},
+                    feasible_interval=[0, 10],
+                ),
+                *(make_task(n, 2, uses={"camera": 1}) for n in "abcde"),
+            ],
+        }
+    )
+    start = plan_of(
+        problem, {"long": None, "a": 0, "b": 2, "c": 4, "d": 6, "e": 8}
+    )
+    better = inserted(problem, start, start_domains(problem))
+    assert better.unscheduled == ()
+    assert better.starts()["long"] == 0
+    assert check_plan(problem, better).ok
