@@ -614,7 +614,7 @@ def _inserting(
     (:func:`~fsw_scheduler.analysis.insert.inserted`).
 
     List scheduling leaves out a task that finds no room when its turn
-    comes; moving one to three tasks placed before it often makes room
+    comes; moving one to six tasks placed before it often makes room
     (the large suite's b60-h1440 of seed 47: 20 left out instead of 27,
     CP-SAT 17), in well under a second, where the neighbourhood search
     had found one improvement in 20 s.
