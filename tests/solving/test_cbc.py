@@ -273,3 +273,45 @@ def test_a_run_whose_cuts_cut_off_plans_is_run_again_without_cuts() -> None:
     assert "cuts cut off valid plans" in plan.stats.solver_status
     assert "again with cuts off" in plan.stats.solver_status
     assert check_plan(problem, plan).ok
+
+
+def _market_split() -> Program:
+    """The market split program of ``_PARENT`` (minutes to refute)."""
+    rng = random.Random(7)
+    program = Program()
+    cols = [program.add_column(0, 1, integer=True) for _ in range(40)]
+    for _ in range(5):
+        weights: dict[int, float] = {c: rng.randint(0, 99) for c in cols}
+        program.add_row(weights, EQ, sum(weights.values()) // 2)
+    program.set_objective(dict.fromkeys(cols, 1.0))
+    return program
+
+
+def test_a_crashed_run_is_retried_in_what_is_left(tmp_path: Path) -> None:
+    """Tests that CBC crashing after 2 s of a 4 s limit is run again only
+    for what is left: the answer comes within the limit (the retry got
+    the first run's whole share again, and a 20 s solve answered after
+    20.6 s). The crash is CBC's own signal, raised by a wrapper around
+    the real CBC on its first call."""
+    marker = tmp_path / "crashed"
+    wrapper = tmp_path / "cbc"
+    wrapper.write_text(
+        textwrap.dedent(
+            f"""\
+            #!/bin/sh
+            if [ ! -e {marker} ]; then
+                touch {marker}
+                sleep 2
+                kill -SEGV $$
+            fi
+            exec {cbc.cbc_path()} "$@"
+            """
+        )
+    )
+    wrapper.chmod(0o755)
+    began = time.monotonic()
+    result = CbcRun(time_limit=4.0, path=str(wrapper)).solve(_market_split())
+    took = time.monotonic() - began
+    assert marker.exists()
+    assert result.retried
+    assert took < 4.0 + 0.5, took

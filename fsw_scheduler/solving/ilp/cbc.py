@@ -546,6 +546,29 @@ class CbcRun:
             ),
         )
 
+    def _limits(
+        self, program: Program, began: float
+    ) -> tuple[list[str], float | None] | None:
+        """CBC's ``-sec`` flag and the deadline of its run (seconds from
+        its start) for what is left of the limit since ``began``; None
+        when that is too short for CBC to do more than read the model."""
+        deadline = self.deadline_s
+        if self.time_limit is None:
+            return [], deadline
+        # Large models take a while to write, and CBC to read: it gets
+        # the rest as CPU time, and SIGINT a little before the end of its
+        # share in case its clock lags.
+        left = self.time_limit - (time.monotonic() - began)
+        reading = READ_S_PER_ENTRY * program.num_entries
+        margin = stop_margin(program.num_entries, left)
+        cpu_limit = round(left - reading - margin, 3)
+        if cpu_limit < MIN_CBC_S:
+            return None
+        if deadline is None:
+            # The interrupt leaves a large model its longer grace.
+            deadline = left - margin - (self.grace_s - GRACE_S)
+        return ["-sec", str(cpu_limit)], deadline
+
     def _solve_once(
         self, program: Program, warm: Sequence[float] | None = None
     ) -> CbcResult:
@@ -568,38 +591,39 @@ class CbcRun:
             if program.priorities:
                 _write_priorities(files["prio"], program)
                 head += ["-priorityIn", files["prio"]]
-            deadline = self.deadline_s
-            if self.time_limit is not None:
-                # Large models take a while to write, and CBC to read:
-                # it gets the rest as CPU time, and SIGINT a little before
-                # the end of its share in case its clock lags.
-                left = self.time_limit - (time.monotonic() - began)
-                reading = READ_S_PER_ENTRY * program.num_entries
-                margin = stop_margin(program.num_entries, left)
-                cpu_limit = round(left - reading - margin, 3)
-                if cpu_limit < MIN_CBC_S:
-                    # CBC would only read the model and stop.
-                    return _not_started()
-                head += ["-sec", str(cpu_limit)]
-                if deadline is None:
-                    # The interrupt leaves a large model its longer grace.
-                    deadline = left - margin - (self.grace_s - GRACE_S)
+            limits = self._limits(program, began)
+            if limits is None:
+                # CBC would only read the model and stop.
+                return _not_started()
             tail = ["-solve", "-solution", files["sol"]]
             options = list(self.options)
             code = self._run(
-                head + _flags(options) + tail, files["log"], deadline
+                head + limits[0] + _flags(options) + tail,
+                files["log"],
+                limits[1],
             )
             retried = False
             if self._failed(code, files["sol"]) and not self.interrupted:
                 # CBC 2.10 can crash without preprocessing on some
-                # infeasible models: retry once with its defaults.
+                # infeasible models: retry once with its defaults, in
+                # what is left (with the first run's share again, a 20 s
+                # solve answered after 20.6 s).
                 log.warning(
                     "cbc exited with %s; retrying with preprocessing", code
                 )
+                limits = self._limits(program, began)
+                if limits is None:
+                    return dataclasses.replace(
+                        _not_started(),
+                        solver_status=f"cbc exited with {code}; no time "
+                        "left to run it again",
+                    )
                 options.remove(FRAGILE)
                 retried = True
                 code = self._run(
-                    head + _flags(options) + tail, files["log"], deadline
+                    head + limits[0] + _flags(options) + tail,
+                    files["log"],
+                    limits[1],
                 )
             seconds, bound, overshot, root = _read_log(files["log"])
             if overshot:
