@@ -475,6 +475,8 @@ def improved(
         said += f"the disjunctive relaxation: {caught.said}; "
     polish = Polishing(problem, domains, deadline, bound)
     start = polish.shifted(polish(start), run, shift_deadline(deadline))
+    # Tasks moved earlier may leave room for a left-out one.
+    start = _inserting(problem, start, domains, deadline)
     narrowed = _narrowed(problem, start, domains, relaxed, _until(deadline))
     if narrowed is not None and start_count(narrowed) <= SMALL_COLUMNS:
         # Around a good start plan the whole model can be as small as a
@@ -532,7 +534,7 @@ def improved(
         hand_over=None if bound is None else small,
     )
     said += f"neighbourhood search: {improved} improvements of the start plan"
-    if improved and not meets(best, bound):
+    if not meets(best, bound):
         # The search's moves may have opened room for a left-out task.
         best = _inserting(problem, best, domains, deadline)
     left = deadline - time.perf_counter()
