@@ -590,12 +590,16 @@ def improved(
         )
         said += "; then the whole model, narrowed: " + answered
         best = polish(best)
-    elif left >= MIN_ROUND_S and lns_end == deadline:
-        # The search handed over with the whole model's time left, and
-        # the insertion after it took some: under that the whole model is
-        # not run, so the search goes on to the deadline rather than
-        # leave the time unused with the gap open (one run of a 30-task
-        # part at 8 s answered after 5.8 s this way).
+    if (
+        not meets(best, bound)
+        and deadline - time.perf_counter() >= MIN_ROUND_S
+        and (lns_end == deadline or left >= FULL_MIN_S)
+    ):
+        # The search goes on rather than leave the time unused with the
+        # gap open: the insertion took the whole model's time (a 30-task
+        # part at 8 s answered after 5.8 s), or that model was too large
+        # for it (seed 68's f45-h2880: 42,010 columns, stopped at once to
+        # leave its kill's grace, the answer at 16.3 s of 20).
         best, more = improve(
             problem, best, domains, run, deadline, bound, hand_over_s=math.inf
         )
@@ -615,19 +619,13 @@ def _inserting(
     """``plan`` with left-out tasks inserted where that is better
     (:func:`~fsw_scheduler.analysis.insert.inserted`).
 
-    List scheduling leaves out a task that finds no room when its turn
-    comes; moving one to six tasks placed before it often makes room
-    (the large suite's b60-h1440 of seed 47: 20 left out instead of 27,
-    CP-SAT 17), in well under a second, where the neighbourhood search
-    had found one improvement in 20 s.
+    Moving what blocks a left-out task often makes room for it (the
+    large suite's b60-h1440 of seed 47: 20 left out instead of 27,
+    CP-SAT 17, in under a second; the search found one gain in 20 s).
     """
     now = time.perf_counter()
-    return inserted(
-        problem,
-        plan,
-        domains,
-        stop=stop_at(now + INSERT_SHARE * max(0.0, deadline - now)),
-    )
+    stop = stop_at(now + INSERT_SHARE * max(0.0, deadline - now))
+    return inserted(problem, plan, domains, stop=stop)
 
 
 #: Share of the time left after the search that the relaxation gets
