@@ -409,10 +409,10 @@ class _Inserting:
 
         A consumable's level is spent over the whole horizon, not where
         the task stands: the tasks worth least per unit they draw go
-        first, as a knapsack's greedy does, up to :data:`MAX_DRAINED`
-        (seed 63's f45-h2880 of the large suite: a battery drawn by 12
-        tasks, where the plans left out 49 schedule-cost units against
-        CP-SAT's 36, swapping cheap consumers for dear ones).
+        first, as a knapsack's greedy does, up to :data:`MAX_DRAINED`;
+        none that supplies one of them (seed 63's f45-h2880 of the large
+        suite: a battery of 40 units drawn by 12 tasks, where CP-SAT's
+        plan keeps dearer consumers than the product's).
         """
         tasks = self.tasks
         drawn = [
@@ -424,10 +424,10 @@ class _Inserting:
             return False
 
         def draw(name: str) -> float:
-            return sum(
-                tasks[name].uses.get(r, 0.0) * tasks[name].length
-                for r in drawn
-            )
+            uses = [tasks[name].uses.get(r, 0.0) for r in drawn]
+            if any(use < 0 for use in uses):
+                return 0.0  # a supply: taking it out leaves less
+            return sum(uses) * tasks[name].length
 
         ranked = sorted(
             (
