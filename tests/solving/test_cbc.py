@@ -315,3 +315,22 @@ def test_a_crashed_run_is_retried_in_what_is_left(tmp_path: Path) -> None:
     assert marker.exists()
     assert result.retried
     assert took < 4.0 + 0.5, took
+
+
+def test_a_model_its_grace_leaves_no_time_for_is_not_started() -> None:
+    """Tests that a model so large that its interrupt, early by its kill's
+    grace (1.5e-5 s an entry), would come before CBC has read it is not
+    started: the run says so at once, where CBC was started and
+    interrupted at once (a 42,010-column model given 3.7 s of a 20 s
+    solve, the answer 3.7 s early)."""
+    program = Program()
+    cols = [program.add_column(0, 1, integer=True) for _ in range(2000)]
+    for row in range(200):
+        program.add_row({c: 1.0 + (c + row) % 7 for c in cols}, EQ, 1000)
+    program.set_objective(dict.fromkeys(cols, 1.0))
+    assert program.num_entries == 400_000
+    began = time.monotonic()
+    result = CbcRun(time_limit=4.0).solve(program)
+    assert result.status is SolveStatus.UNKNOWN
+    assert result.solver_status == "time limit spent before CBC started"
+    assert time.monotonic() - began < 4.0

@@ -567,6 +567,11 @@ class CbcRun:
         if deadline is None:
             # The interrupt leaves a large model its longer grace.
             deadline = left - margin - (self.grace_s - GRACE_S)
+            if deadline < reading + MIN_CBC_S:
+                # Interrupted before it has read the model (a 42,010-column
+                # model given 3.7 s, its grace 3.4 s): not started, and
+                # the caller keeps the time.
+                return None
         return ["-sec", str(cpu_limit)], deadline
 
     def _solve_once(
