@@ -9,6 +9,8 @@ test in turn):
   the initial level plus all generation possible by then;
 * :func:`store`: a forced consumer that takes more in its run than a
   store with a capacity holds plus what can come in meanwhile.
+
+And the converse, :func:`never_short`: a store that no plan can empty.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from typing import TYPE_CHECKING
 from ..model.plan import Blocker
 
 if TYPE_CHECKING:
-    from collections.abc import Mapping
+    from collections.abc import Iterable, Mapping, Sequence
 
     from ..model.problem import Problem, Task
     from .domains import Domain
@@ -207,3 +209,21 @@ def _by(problem: Problem, charged: list[float], time: int) -> float:
     """What :func:`_charged` says has come in by ``time`` (clamped to the
     horizon)."""
     return charged[min(max(time - problem.start, 0), len(charged) - 1)]
+
+
+def never_short(
+    initial: float,
+    external: Sequence[float],
+    users: Iterable[tuple[Task, float]],
+) -> bool:
+    """True if a consumable can never run short: its consumers, all run
+    in full, and its external drain take no more than its ``initial``
+    level (charge, from outside or from a task, only raises a level: a
+    full store loses the excess, never more).
+
+    ``external`` is its external profile, ``users`` the (task, amount)
+    pairs of the tasks that may use it.
+    """
+    drain = -sum(rate for rate in external if rate < 0)
+    drawn = sum(amount * task.length for task, amount in users if amount > 0)
+    return drawn + drain <= initial

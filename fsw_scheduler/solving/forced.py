@@ -29,6 +29,7 @@ import msgspec
 
 from ..analysis.greedy import around_core, checked_starts, forced_alone
 from ..analysis.proofs import forced_tasks
+from ..analysis.stores import never_short
 from .budget import stop_at
 
 if TYPE_CHECKING:
@@ -129,18 +130,15 @@ def without_slack(problem: Problem) -> Problem:
     without the battery is proved in 0.4 s.
     """
     resources = problem.resources
-    slack = set()
-    for name, initial in resources.initial_levels.items():
-        external = resources.external_profile(
-            name, problem.start, problem.horizon
+    slack = {
+        name
+        for name, initial in resources.initial_levels.items()
+        if never_short(
+            initial,
+            resources.external_profile(name, problem.start, problem.horizon),
+            [(t, t.uses[name]) for t in problem.tasks if name in t.uses],
         )
-        drawn = -sum(rate for rate in external if rate < 0) + sum(
-            task.uses.get(name, 0.0) * task.length
-            for task in problem.tasks
-            if task.uses.get(name, 0.0) > 0
-        )
-        if drawn <= initial:
-            slack.add(name)
+    }
     if not slack:
         return problem
     return problem.replace(

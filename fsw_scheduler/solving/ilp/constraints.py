@@ -12,6 +12,7 @@ from __future__ import annotations
 import itertools
 from typing import TYPE_CHECKING
 
+from ...analysis.stores import never_short
 from .alternatives import alternative_rows
 from .program import EQ, LE
 from .strengthen import strengthening_rows
@@ -200,11 +201,7 @@ class Constraints:
             external = problem.resources.external_profile(
                 resource, problem.start, problem.horizon
             )
-            # Charge from outside only raises the level (a full store
-            # loses the excess, never more), so drain is all that counts.
-            drain = -sum(rate for rate in external if rate < 0)
-            worst = sum(a * t.length for t, a in users if a > 0) + drain
-            if worst <= initial:
+            if never_short(initial, external, users):
                 continue
             self._consumable_total(resource, initial, users, sum(external))
             # Which tasks fit the budget is the hard part here: branch on
