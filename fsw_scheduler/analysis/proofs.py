@@ -214,11 +214,7 @@ def block_conflicts(problem: Problem) -> dict[str, tuple[str, str]]:
     if not any(prec.kind == "tight" for prec in problem.precedences):
         return {}
     tasks = {task.id: task for task in problem.tasks}
-    needs: dict[str, list[str]] = {name: [] for name in tasks}
-    for prec in problem.precedences:
-        needs[prec.after].append(prec.before)
-        if prec.scope == "both":
-            needs[prec.before].append(prec.after)
+    needs = precedence_needs(problem)
     found: dict[str, tuple[str, str]] = {}
     seen: dict[frozenset[str], tuple[str, str] | None] = {}
 
@@ -254,6 +250,18 @@ def block_conflicts(problem: Problem) -> dict[str, tuple[str, str]]:
                 f"{detail}; every plan holds {', '.join(sorted(beside))}",
             )
     return found
+
+
+def precedence_needs(problem: Problem) -> dict[str, list[str]]:
+    """Each task's precedence partners it cannot be scheduled without:
+    the ``before`` of each precedence it follows, the ``after`` of each
+    ``both`` one it leads (a list per task id, in precedence order)."""
+    needs: dict[str, list[str]] = {task.id: [] for task in problem.tasks}
+    for prec in problem.precedences:
+        needs[prec.after].append(prec.before)
+        if prec.scope == "both":
+            needs[prec.before].append(prec.after)
+    return needs
 
 
 def reach(

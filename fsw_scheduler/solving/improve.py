@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 
 from ..analysis.check import check_plan
 from ..analysis.domains import Domain
+from ..analysis.proofs import precedence_needs
 from ..model.plan import Plan, SolveStatus
 
 if TYPE_CHECKING:
@@ -342,13 +343,10 @@ def _partners(
     units where CP-SAT's leave out 36, its better plan keeping a chain of
     four tasks whose last could only run 600 units after the others;
     every window kept that one out. At most :data:`MAX_PARTNERS` are
-    added; past that the neighbourhood stays as it is.
+    added, the first found (the freed tasks taken in id order, last
+    first), so the same neighbourhood comes out on every run.
     """
-    needs: dict[str, list[str]] = {t.id: [] for t in problem.tasks}
-    for prec in problem.precedences:
-        needs[prec.after].append(prec.before)
-        if prec.scope == "both":
-            needs[prec.before].append(prec.after)
+    needs = precedence_needs(problem)
     added: set[str] = set()
     queue = sorted(n for n in free if n not in starts)
     while queue:
