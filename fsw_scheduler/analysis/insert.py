@@ -429,15 +429,14 @@ class _Inserting:
                 return 0.0  # a supply: taking it out leaves less
             return sum(uses) * tasks[name].length
 
+        draws = {n: draw(n) for n in starts if n not in self.pending}
         ranked = sorted(
             (
                 n
-                for n in starts
-                if n not in self.pending
-                and draw(n) > 0
-                and self._droppable(n, starts)
+                for n, drew in draws.items()
+                if drew > 0 and self._droppable(n, starts)
             ),
-            key=lambda n: (tasks[n].schedule_cost / draw(n), n),
+            key=lambda n: (tasks[n].schedule_cost / draws[n], n),
         )
         worth = 0
         for taken, name in enumerate(ranked):

@@ -221,18 +221,21 @@ class RelaxedModel(DisjunctiveModel):
             )
         # Net outside change before each unit, per consumable: read once
         # for all the checkpoints.
-        changed = {
-            name: list(
-                itertools.accumulate(
-                    problem.resources.external_profile(
-                        name, problem.start, problem.horizon
-                    ),
-                    initial=0.0,
+        changed = (
+            {
+                name: list(
+                    itertools.accumulate(
+                        problem.resources.external_profile(
+                            name, problem.start, problem.horizon
+                        ),
+                        initial=0.0,
+                    )
                 )
-            )
-            for name in problem.resources.initial_levels
+                for name in problem.resources.initial_levels
+            }
             if checkpoints
-        }
+            else {}
+        )
         for point in sorted(set(checkpoints)):
             self._timed_level_rows(problem, domains, point, changed)
 

@@ -600,12 +600,11 @@ class CbcRun:
             if limits is None:
                 # CBC would only read the model and stop.
                 return _not_started()
+            sec, deadline = limits
             tail = ["-solve", "-solution", files["sol"]]
             options = list(self.options)
             code = self._run(
-                head + limits[0] + _flags(options) + tail,
-                files["log"],
-                limits[1],
+                head + sec + _flags(options) + tail, files["log"], deadline
             )
             retried = False
             if self._failed(code, files["sol"]) and not self.interrupted:
@@ -623,12 +622,11 @@ class CbcRun:
                         solver_status=f"cbc exited with {code}; no time "
                         "left to run it again",
                     )
+                sec, deadline = limits
                 options.remove(FRAGILE)
                 retried = True
                 code = self._run(
-                    head + limits[0] + _flags(options) + tail,
-                    files["log"],
-                    limits[1],
+                    head + sec + _flags(options) + tail, files["log"], deadline
                 )
             seconds, bound, overshot, root = _read_log(files["log"])
             if overshot:
