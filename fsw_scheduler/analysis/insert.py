@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING
 from ..model.plan import Activity, Plan, SolveStatus, objective_weight
 from .board import Board
 from .check import check_plan
+from .proofs import precedence_needs
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -132,6 +133,7 @@ class _Inserting:
         self.weight = objective_weight(
             [t.delay_cost for t in problem.tasks], problem.horizon
         )
+        self.needs = precedence_needs(problem)
         self.precedences: dict[str, list[Precedence]] = {
             t.id: [] for t in problem.tasks
         }
@@ -222,17 +224,8 @@ class _Inserting:
         :data:`MAX_CHAIN` or one that cannot be placed."""
         needed = [name]
         for current in needed:
-            for prec in self.precedences[current]:
-                other = None
-                if prec.after == current:
-                    other = prec.before
-                elif prec.scope == "both":
-                    other = prec.after
-                if (
-                    other is not None
-                    and other not in self.starts
-                    and other not in needed
-                ):
+            for other in self.needs[current]:
+                if other not in self.starts and other not in needed:
                     needed.append(other)
         if len(needed) > MAX_CHAIN or any(
             self.domains[n].empty for n in needed
