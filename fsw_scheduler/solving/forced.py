@@ -22,20 +22,23 @@ tasks alone are infeasible, their battery needs a supply).
 
 from __future__ import annotations
 
+import functools
 import time
 from typing import TYPE_CHECKING
 
 import msgspec
 
+from ..analysis.domains import start_domains
 from ..analysis.greedy import around_core, checked_starts, forced_alone
 from ..analysis.proofs import forced_tasks
 from ..analysis.stores import never_short
+from ..model.plan import Plan, SolveStatus
 from .budget import stop_at
+from .relaxed import relaxable, relaxed_bound
 
 if TYPE_CHECKING:
     from collections.abc import Callable
 
-    from ..model.plan import Plan
     from ..model.problem import Problem
 
 #: Share of the time left that the solver gets for the forced tasks and
@@ -46,6 +49,15 @@ if TYPE_CHECKING:
 FORCED_SHARE = 0.5
 #: Seconds at least for it (CBC's start and the model's reading).
 FORCED_MIN_S = 0.5
+#: Share of that which the disjunctive relaxation gets first when the
+#: core keeps a consumable (:func:`_relaxed_core`).
+RELAXED_CORE_SHARE = 0.75
+#: What a solve says when the forced tasks and supplies are its whole
+#: part and their plan is proved (:func:`forced_start`).
+WHOLE_CORE = (
+    "the tasks every plan must hold and the supplies they need are the "
+    "whole part: the solver proved their plan"
+)
 
 
 def forced_start(
@@ -70,7 +82,9 @@ def forced_start(
     Returns
     -------
     Plan or None
-        Status ``feasible``, the checker's objective; None when there is
+        Status ``feasible``, the checker's objective (``optimal`` when the
+        forced tasks and supplies are the whole part and the solver
+        proved their plan); None when there is
         nothing forced, the solver finds no plan of the forced tasks and
         supplies in its share (or its plan does not hold on the whole
         part).
@@ -93,19 +107,32 @@ def forced_start(
     }
     limit = None
     stop = None
+    began = time.perf_counter()
     if deadline is not None:
-        left = deadline - time.perf_counter()
+        left = deadline - began
         limit = FORCED_SHARE * left
         if limit < FORCED_MIN_S:
             return None
         # Placing the others around the core may take what is left.
         stop = stop_at(deadline)
-    core = run(
-        without_slack(forced_alone(problem, forced | supplies)),
-        time_limit=limit,
-    )
+    alone = without_slack(forced_alone(problem, forced | supplies))
+    core = _relaxed_core(alone, run, limit)
+    if core is None:
+        if limit is not None:
+            limit = max(0.0, limit - (time.perf_counter() - began))
+        core = run(alone, time_limit=limit)
     if not core.status.has_plan:
         return None
+    if (
+        len(alone.tasks) == problem.num_tasks
+        and core.status is SolveStatus.OPTIMAL
+    ):
+        # The core is the whole part (the forced tasks and the supplies
+        # they need, nothing else; the consumables dropped bind no plan):
+        # its optimum is the part's.
+        whole = checked_starts(problem, core.starts())
+        if whole is not None:
+            return whole.replace(status=SolveStatus.OPTIMAL, stats=core.stats)
     # Where no rule places the others around it (replan suite, seed 40's
     # r60-h1440-0 afresh: 7 forced tasks planned in 0.09 s, then no
     # plan), the core alone: the insertion of left-out tasks and the
@@ -113,6 +140,45 @@ def forced_start(
     return around_core(problem, core.starts(), stop) or checked_starts(
         problem, core.starts()
     )
+
+
+def _relaxed_core(
+    core: Problem, run: Callable[..., Plan], limit: float | None
+) -> Plan | None:
+    """The core's optimum from the disjunctive relaxation, when it holds
+    a consumable and that optimum is a valid plan; else None.
+
+    A core that keeps a consumable goes to the time-indexed model, whose
+    rows per unit for the consumable and per binary resource make a
+    model of thousands of columns over a long horizon even for a few
+    tasks: the replan suite's seed 53 r60-h1440-0 solved afresh has 7
+    forced tasks and a supply over H = 1440, 7,840 columns, and CBC
+    found no plan in 4 s (the answer was ``unknown``). The relaxation
+    (:func:`~fsw_scheduler.solving.relaxed.relaxed_bound`: the
+    disjunctive model, the levels written on the starts where its optimum
+    breaks them) proves the core's optimum in 1.0 s there, CP-SAT's. It
+    gets :data:`RELAXED_CORE_SHARE` of ``limit``; the time-indexed model
+    gets what it leaves.
+    """
+    domains = start_domains(core)
+    if not relaxable(run, core, domains, None):
+        return None
+    settings = run.keywords if isinstance(run, functools.partial) else {}
+    nothing = Plan(
+        status=SolveStatus.FEASIBLE,
+        objective=None,
+        activities=(),
+        unscheduled=tuple(task.id for task in core.tasks),
+    )
+    answer = relaxed_bound(
+        core,
+        nothing,
+        domains,
+        time_limit=None if limit is None else RELAXED_CORE_SHARE * limit,
+        threads=settings.get("threads", 1),
+        seed=settings.get("seed", 0),
+    )
+    return answer.plan
 
 
 def without_slack(problem: Problem) -> Problem:

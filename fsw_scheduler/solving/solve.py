@@ -26,7 +26,7 @@ from ..model.plan import (
 from ..model.stability import Stability, rescored
 from . import large
 from .budget import BUDGET, stop_at, stop_within
-from .forced import forced_start
+from .forced import WHOLE_CORE, forced_start
 from .incumbent import checked, narrow, probed
 from .joined import after, joined, starved
 from .polishing import Polishing, shift_deadline
@@ -167,8 +167,7 @@ def solve(
                 if time_limit is None
                 else time_limit - (time.perf_counter() - began)
             )
-        # Why a task is out does not depend on what moved: explained
-        # with the paper's objective.
+        # Why a task is out does not depend on moves: the paper's terms.
         plain = functools.partial(run, stability=None)
         plan = plan.replace(
             why=explain_plan(problem, plan, BUDGET.budgeted(plain, budget))
@@ -578,7 +577,9 @@ def _solve_whole(
         )
         return with_call_stats(plan, began, time_limit)
     if start is not None:
-        if at_lower_bound(problem, start, domains):
+        if start.status is SolveStatus.OPTIMAL:  # its solver said below
+            proof = WHOLE_CORE
+        elif at_lower_bound(problem, start, domains):
             proof = "every task at its earliest start: no solve"
         elif not large.searched(problem):
             stop = stop_within(began, time_limit)
@@ -596,7 +597,7 @@ def _solve_whole(
         plan = start.replace(
             status=SolveStatus.OPTIMAL,
             stats=SolverStats(
-                solver="greedy",
+                solver=start.stats.solver if start.stats else "greedy",
                 wall_s=time.perf_counter() - began,
                 bound=start.objective.total if start.objective else None,
                 solver_status=proof,
