@@ -27,7 +27,7 @@ from ..model.plan import Plan, SolveStatus, objective_weight
 from .budget import stop_at, stop_within
 from .relaxed import MIN_LEFT_S, SMALL_LEVEL_ROUNDS, around, relaxable
 from .rounds import LONG_COLUMNS, LONG_SHARE, SHARE, rounds
-from .stats import stopped_on_nodes
+from .stats import higher, stopped_on_nodes
 
 if TYPE_CHECKING:
     import functools
@@ -396,3 +396,49 @@ def narrow(
         for name in fixed.dropped:
             caps[name] = domains[name].earliest - 1
     return start_domains(problem, caps) if caps else domains
+
+
+def whole_model(
+    problem: Problem,
+    best: Plan,
+    bound: float | None,
+    run: Callable[..., Plan],
+    narrowed: dict[str, Domain],
+    limit: float,
+) -> tuple[Plan, float | None, str]:
+    """The whole model, narrowed around ``best``, run with ``limit``.
+
+    Returns the better plan (CBC's answer when it is no worse and
+    proved, or strictly better), the bound raised by CBC's where that
+    bounds the whole problem, and what CBC said.
+    """
+    answer = checked(
+        problem,
+        run(problem, warm=best.starts(), domains=narrowed, time_limit=limit),
+    )
+    found = answer.stats.bound if answer.stats is not None else None
+    if answer.status is SolveStatus.OPTIMAL and (
+        answer.objective is not None
+        and best.objective is not None
+        and answer.objective.total <= best.objective.total
+    ):
+        best = answer
+        found = float(answer.objective.total)
+    elif (
+        answer.status.has_plan
+        and answer.objective is not None
+        and best.objective is not None
+        and answer.objective.total < best.objective.total
+    ):
+        best = answer
+    if (
+        found is not None
+        and best.objective is not None
+        and found <= best.objective.total + 0.5
+    ):
+        # A bound of the narrowed model bounds the whole problem: the
+        # optimum fits in it. Above the incumbent it bounds nothing
+        # (a stopped CBC's last LP, not its root's).
+        bound = higher(bound, found)
+    said = answer.stats.solver_status if answer.stats else "no answer"
+    return best.replace(status=SolveStatus.FEASIBLE, why=()), bound, said
