@@ -306,9 +306,7 @@ def test_a_search_left_with_too_little_for_the_whole_model_goes_on(
         assert wall >= 0.75 * 5, plan.stats
 
 
-def test_a_replan_whose_search_ends_early_runs_the_small_whole_model() -> (
-    None
-):
+def test_a_replan_whose_search_ends_early_runs_the_small_whole_model() -> None:
     """Tests that a replan whose neighbourhoods run out with the gap open
     and time left runs the whole model narrowed around its plan when that
     is small, and proves it (replan suite, seed 52's r45-h1440-1: the
