@@ -8,8 +8,10 @@ shrinks and keeps its optimum (:func:`narrow`). When the start plan is
 far from the kept-set bound, left-out tasks are readmitted first where
 that gives a better plan (:mod:`fsw_scheduler.analysis.readmit`), then
 CBC run with a node limit finds a better one to narrow around
-(:func:`probed`). Whatever the solver returns goes
-through the independent checker first (:func:`checked`).
+(:func:`probed`); the large parts and replans run the whole model
+narrowed around their plan when it is small (:func:`whole_model`).
+Whatever the solver returns goes through the independent checker first
+(:func:`checked`).
 """
 
 from __future__ import annotations
