@@ -665,6 +665,11 @@ def replay_solve(
       independent checker and reused.
     * An explanation cut by its time budget (``not_analysed``) is taken
       from the record when the plan itself is the same.
+    * A solve recorded ``optimal`` that, run again, holds nothing better
+      (no proof in its limit here, or another plan of the same
+      objective: the proof came after steps the clock ended) has its
+      recorded plan checked and reused (:func:`_no_better`); a better
+      plan is a divergence.
     """
     record = records.get(command.solve_id)
     recorded = record.result if record is not None else None
@@ -705,7 +710,43 @@ def replay_solve(
                 "cut by its time budget: the recorded one is reused"
             )
         return plan.replace(why=recorded.why)
+    if not same and _no_better(plan, recorded) and recorded.objective:
+        issues = _check(command, recorded, config)
+        if not issues:
+            got = (
+                f"{plan.status.value} {plan.objective.total}"
+                if plan.objective is not None
+                else plan.status.value
+            )
+            report.notes.append(
+                f"solve {command.solve_id} ({command.trigger}) proved "
+                f"optimal when recorded ({recorded.objective.total}) on a "
+                f"path the clock decided; solved again in its limit "
+                f"({limit} s): "
+                f"{got}, nothing better: the recorded plan passes the "
+                "checker and is reused"
+            )
+            return recorded
     return plan
+
+
+def _no_better(plan: Plan, recorded: Plan) -> bool:
+    """True if ``recorded`` is an optimal plan and ``plan``, the same
+    solve run again, holds nothing better: no plan, a worse one (stopped
+    at its limit on this run), or another of the same objective.
+
+    A proof can come after steps the clock ends (a relaxation interrupted
+    at its deadline, a search that ran so many rounds), so run again it
+    may stop short of the proof or end on another of equal optima; only
+    a strictly better plan contradicts the recording.
+    """
+    if recorded.status is not SolveStatus.OPTIMAL or not recorded.objective:
+        return False
+    if plan.status is SolveStatus.INFEASIBLE:
+        return False
+    return plan.objective is None or (
+        plan.objective.total >= recorded.objective.total
+    )
 
 
 def _verify_what_if(

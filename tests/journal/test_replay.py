@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import shutil
 import subprocess
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import pytest
 from mcap.reader import make_reader
@@ -543,3 +543,97 @@ def test_an_overrun_session_replays_identical(tmp_path: Path) -> None:
     assert "overrun" in triggers
     report = verify(journal)
     assert report.identical, report.summary()
+
+
+def _twins() -> tuple[Any, Any, Any]:
+    """Two equal tasks sharing a camera, solved (optimal): the command,
+    the config and the recorded plan; either order is an optimum."""
+    from fsw_scheduler.engine.events import StartSolve
+    from fsw_scheduler.runtime.config import NodeConfig
+    from fsw_scheduler.runtime.policy import run_solve
+
+    from ..factories import make_doc, make_task, problem_from
+
+    problem = problem_from(
+        make_doc(
+            [
+                make_task("a", 3, uses={"camera": 1}),
+                make_task("b", 3, uses={"camera": 1}),
+            ],
+            resources={"binary": ["camera"]},
+        )
+    )
+    command = StartSolve(1, "initial", problem, None)
+    config = NodeConfig(explain=False)
+    return command, config, run_solve(config, command)
+
+
+def _swapped(problem: Any, plan: Any, shift: int = 0) -> Any:
+    """``plan`` with its two activities' starts swapped (``shift`` more
+    units for the later one), a valid plan of ``problem`` with the
+    checker's objective."""
+    import msgspec
+
+    from fsw_scheduler.analysis.check import check_plan
+
+    first, second = sorted(plan.activities, key=lambda a: a.start)
+
+    def moved(activity: Any, start: int) -> Any:
+        length = activity.end - activity.start
+        return msgspec.structs.replace(
+            activity, start=start, end=start + length
+        )
+
+    swapped = plan.replace(
+        activities=(
+            moved(second, first.start),
+            moved(first, second.start + shift),
+        )
+    )
+    report = check_plan(problem, swapped.replace(objective=None))
+    assert report.ok, report
+    return swapped.replace(objective=report.objective)
+
+
+def test_a_proof_met_again_with_another_optimum_reuses_the_record() -> None:
+    """Tests replay_solve on a solve recorded ``optimal`` whose re-solve
+    ends on another plan of the same objective (a proof can come after
+    steps the clock ends, and equal optima differ by the path): the
+    recorded plan is checked and reused, and the report says why."""
+    from fsw_scheduler.journal.replay import VerifyReport, replay_solve
+    from fsw_scheduler.model.plan import SolveStatus
+    from fsw_scheduler.runtime.policy import run_solve
+    from fsw_scheduler.wire import messages
+
+    command, config, solved = _twins()
+    assert solved.status is SolveStatus.OPTIMAL
+    recorded = _swapped(command.problem, solved)
+    assert recorded.starts() != solved.starts()
+    assert recorded.objective == solved.objective
+    record = messages.SolveRecord(
+        1, "initial", "", command.problem, recorded.status, result=recorded
+    )
+    report = VerifyReport()
+    plan = replay_solve(run_solve, config, command, {1: record}, report)
+    assert plan.starts() == recorded.starts()
+    assert any("proved optimal when recorded" in n for n in report.notes)
+
+
+def test_a_recorded_proof_beaten_again_is_not_reused() -> None:
+    """Tests that a solve recorded ``optimal`` whose re-solve finds a
+    better plan is not reused: the re-solved plan comes back (and the
+    comparison then diverges), whatever the checker says of the record."""
+    from fsw_scheduler.journal.replay import VerifyReport, replay_solve
+    from fsw_scheduler.runtime.policy import run_solve
+    from fsw_scheduler.wire import messages
+
+    command, config, solved = _twins()
+    recorded = _swapped(command.problem, solved, shift=1)  # a unit later
+    record = messages.SolveRecord(
+        1, "initial", "", command.problem, recorded.status, result=recorded
+    )
+    report = VerifyReport()
+    assert recorded.objective.total > solved.objective.total
+    plan = replay_solve(run_solve, config, command, {1: record}, report)
+    assert plan.starts() == solved.starts()
+    assert not report.notes
