@@ -668,8 +668,9 @@ def replay_solve(
     * A solve recorded ``optimal`` that, run again, holds nothing better
       (no proof in its limit here, or another plan of the same
       objective: the proof came after steps the clock ended) has its
-      recorded plan checked and reused (:func:`_no_better`); a better
-      plan is a divergence.
+      recorded plan checked and reused, and one recorded ``infeasible``
+      that gives ``unknown`` is reused (:func:`_no_better`); a better
+      plan, or a plan where none was, is a divergence.
     """
     record = records.get(command.solve_id)
     recorded = record.result if record is not None else None
@@ -710,36 +711,39 @@ def replay_solve(
                 "cut by its time budget: the recorded one is reused"
             )
         return plan.replace(why=recorded.why)
-    if not same and _no_better(plan, recorded) and recorded.objective:
-        issues = _check(command, recorded, config)
-        if not issues:
-            got = (
-                f"{plan.status.value} {plan.objective.total}"
-                if plan.objective is not None
-                else plan.status.value
-            )
+    if not same and _no_better(plan, recorded):
+        checked = bool(recorded.activities)
+        if not checked or not _check(command, recorded, config):
             report.notes.append(
                 f"solve {command.solve_id} ({command.trigger}) proved "
-                f"optimal when recorded ({recorded.objective.total}) on a "
-                f"path the clock decided; solved again in its limit "
-                f"({limit} s): "
-                f"{got}, nothing better: the recorded plan passes the "
-                "checker and is reused"
+                f"{_said(recorded)} when recorded on a path the clock "
+                f"decided; solved again in its limit ({limit} s): "
+                f"{_said(plan)}, nothing better: the recorded answer is "
+                "reused" + (" (it passes the checker)" if checked else "")
             )
             return recorded
     return plan
 
 
+def _said(plan: Plan) -> str:
+    total = f" {plan.objective.total}" if plan.objective else ""
+    return plan.status.value + total
+
+
 def _no_better(plan: Plan, recorded: Plan) -> bool:
-    """True if ``recorded`` is an optimal plan and ``plan``, the same
-    solve run again, holds nothing better: no plan, a worse one (stopped
-    at its limit on this run), or another of the same objective.
+    """True if ``plan``, a proved solve run again, holds nothing that
+    contradicts ``recorded``: for an ``optimal`` record, no plan, a worse
+    one (stopped at its limit on this run) or another of the same
+    objective; for an ``infeasible`` one, no answer (``unknown``).
 
     A proof can come after steps the clock ends (a relaxation interrupted
     at its deadline, a search that ran so many rounds), so run again it
     may stop short of the proof or end on another of equal optima; only
-    a strictly better plan contradicts the recording.
+    a strictly better plan, or a plan where none was, contradicts the
+    recording.
     """
+    if recorded.status is SolveStatus.INFEASIBLE:
+        return plan.status is SolveStatus.UNKNOWN
     if recorded.status is not SolveStatus.OPTIMAL or not recorded.objective:
         return False
     if plan.status is SolveStatus.INFEASIBLE:

@@ -616,7 +616,10 @@ def test_a_proof_met_again_with_another_optimum_reuses_the_record() -> None:
     report = VerifyReport()
     plan = replay_solve(run_solve, config, command, {1: record}, report)
     assert plan.starts() == recorded.starts()
-    assert any("proved optimal when recorded" in n for n in report.notes)
+    assert any(
+        "proved optimal" in n and "recorded answer is reused" in n
+        for n in report.notes
+    ), report.notes
 
 
 def test_a_recorded_proof_beaten_again_is_not_reused() -> None:
@@ -636,4 +639,73 @@ def test_a_recorded_proof_beaten_again_is_not_reused() -> None:
     assert recorded.objective.total > solved.objective.total
     plan = replay_solve(run_solve, config, command, {1: record}, report)
     assert plan.starts() == solved.starts()
+    assert not report.notes
+
+
+def _two_lanes() -> Any:
+    """Six mandatory tasks of 30-40 on a capacity of 100 (at most two or
+    three at once) in a window too short for them: infeasible, which CBC
+    proves (no proof of the product's catches it)."""
+    from ..factories import make_doc, make_task, problem_from
+
+    return problem_from(
+        make_doc(
+            [
+                make_task(
+                    f"h{i}",
+                    8,
+                    schedule_cost=0,
+                    uses={"power": amount},
+                    feasible_interval=[0, 23],
+                )
+                for i, amount in enumerate([40, 35, 30, 40, 35, 30])
+            ],
+            horizon=40,
+            resources={"multiple": {"power": 100}},
+            feasible_interval_applies_to="task",
+        )
+    )
+
+
+def test_an_infeasibility_not_proved_again_in_time_is_reused() -> None:
+    """Tests that a solve recorded ``infeasible`` that, run again in its
+    recorded limit, stops without an answer (``unknown``: the proof took
+    longer here) reuses the recorded answer with a note, and that one
+    whose re-solve finds a plan is not reused."""
+    import msgspec
+
+    from fsw_scheduler.engine.events import StartSolve
+    from fsw_scheduler.journal.replay import VerifyReport, replay_solve
+    from fsw_scheduler.model.plan import SolveStatus
+    from fsw_scheduler.runtime.config import NodeConfig
+    from fsw_scheduler.runtime.policy import run_solve
+    from fsw_scheduler.wire import messages
+
+    command = StartSolve(1, "initial", _two_lanes(), None)
+    config = NodeConfig(explain=False)
+    proved = run_solve(config, command)
+    assert proved.status is SolveStatus.INFEASIBLE
+    assert proved.stats is not None
+    recorded = proved.replace(
+        stats=msgspec.structs.replace(proved.stats, time_limit_s=0.01)
+    )
+    record = messages.SolveRecord(
+        1, "initial", "", command.problem, recorded.status, result=recorded
+    )
+    report = VerifyReport()
+    plan = replay_solve(run_solve, config, command, {1: record}, report)
+    assert plan is recorded
+    assert any("proved infeasible when recorded" in n for n in report.notes)
+
+    # A feasible problem recorded as infeasible: the re-solve's plan.
+    twins, _, solved = _twins()
+    forged = solved.replace(
+        status=SolveStatus.INFEASIBLE, activities=(), objective=None
+    )
+    record = messages.SolveRecord(
+        1, "initial", "", twins.problem, forged.status, result=forged
+    )
+    report = VerifyReport()
+    plan = replay_solve(run_solve, config, twins, {1: record}, report)
+    assert plan.status is SolveStatus.OPTIMAL
     assert not report.notes
