@@ -51,7 +51,10 @@ class Board:
             name: list(itertools.accumulate(ext[name], initial=initial))[1:]
             for name, initial in res.initial_levels.items()
         }
-        self.lowest = {name: list(v) for name, v in self.level.items()}
+        # The running minimum from the end: an external rate may dip and
+        # come back (an eclipse's drain, then the sun), and a consumer
+        # placed before the dip must leave enough for it.
+        self.lowest = {name: _suffix_min(v) for name, v in self.level.items()}
         self._capped_init(problem)
         _keep_empty(res, problem.start, span, self)
 
@@ -346,10 +349,14 @@ class Board:
 
     def _refresh(self, name: str) -> None:
         """lowest[t] = min(level[t:]), for the constant-drop test."""
-        # A running minimum from the end (exact: min only picks values).
-        lowest = list(itertools.accumulate(reversed(self.level[name]), min))
-        lowest.reverse()
-        self.lowest[name] = lowest
+        self.lowest[name] = _suffix_min(self.level[name])
+
+
+def _suffix_min(values: list[float]) -> list[float]:
+    """``[min(values[t:]) for t]`` (exact: min only picks values)."""
+    lowest = list(itertools.accumulate(reversed(values), min))
+    lowest.reverse()
+    return lowest
 
 
 class _Empty(NamedTuple):

@@ -120,3 +120,28 @@ def test_boards_of_the_same_resources_start_alike_and_apart() -> None:
     assert first.level != fresh.level
     third = Board(problem)
     assert third.level == fresh.level and third.lowest == fresh.lowest
+
+
+def test_a_consumer_before_a_dip_of_the_outside_rate_waits_for_it() -> None:
+    """Tests that an empty board's lowest levels look past a dip of the
+    external rate (an eclipse's drain, then the sun): a consumer of 2 on
+    a store of 5 drained by 1 a unit until t = 5, then charged, cannot
+    run before the level comes back, and the start heuristic finds the
+    plan (it placed it at 0, which the checker refused, and had none)."""
+    problem = problem_from(
+        make_doc(
+            [make_task("a", 1, uses={"bat": 2}, schedule_cost=0)],
+            horizon=20,
+            resources={
+                "consumable": {
+                    "bat": {"initial": 5, "external": [[0, -1], [5, 1]]}
+                }
+            },
+        )
+    )
+    board = Board(problem)
+    assert board.lowest["bat"][:6] == [0.0, 0.0, 0.0, 0.0, 0.0, 1.0]
+    task = problem.tasks[0]
+    assert board.first_fit(task, 0, 19) == 6
+    plan = greedy_plan(problem)
+    assert plan is not None and plan.starts() == {"a": 6}
