@@ -251,7 +251,7 @@ class Constraints:
         """The level balance from checkpoint to checkpoint (see above);
         the external rate of the units between adds to the right side."""
         start = self.problem.start
-        add_step = self.vars.add_step
+        add_step, add_steps = self.vars.add_step, self.vars.add_steps
         previous: int | None = None
         after = self.problem.start - 1  # the last unit already counted
         for point in checkpoints:
@@ -261,9 +261,17 @@ class Constraints:
             if previous is not None:
                 terms[previous] = -1.0
             for task, amount in users:
-                for unit in range(after + 1, point + 1):
+                # The sum over the units u of z[u] - z[u - length].
+                low, high, length = after + 1, point + 1, task.length
+                if float(amount).is_integer():  # in any order: exact
+                    add_steps(terms, task.id, low, high, amount)
+                    add_steps(
+                        terms, task.id, low - length, high - length, -amount
+                    )
+                    continue
+                for unit in range(low, high):
                     add_step(terms, task.id, unit, amount)
-                    add_step(terms, task.id, unit - task.length, -amount)
+                    add_step(terms, task.id, unit - length, -amount)
             rhs = initial if previous is None else 0.0
             rhs += sum(external[after + 1 - start : point + 1 - start])
             self._row(terms, sense, rhs)

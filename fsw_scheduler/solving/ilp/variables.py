@@ -195,6 +195,31 @@ class Variables:
         if var is not None:
             terms[var] = terms.get(var, 0.0) + coef
 
+    def add_steps(
+        self, terms: Terms, task_id: str, low: int, high: int, coef: float
+    ) -> None:
+        """Add ``coef * z[task, u]`` to ``terms`` for every u in ``[low,
+        high)``: :meth:`add_step` unit by unit, the units past the last
+        step (all on the "scheduled" column) added at once: the same sums
+        when ``coef`` is a whole number, which callers see to (the level
+        rows' units, most of a 15-task model's build)."""
+        span = self._spans.get(task_id)
+        if span is None:
+            return
+        first, column, last = span
+        low = max(low, first)
+        if task_id in self.candidates:
+            for time in range(low, high):
+                self.add_step(terms, task_id, time, coef)
+            return
+        for time in range(low, min(high, last)):
+            var = column + (time - first)
+            terms[var] = terms.get(var, 0.0) + coef
+        over = high - max(low, last)
+        if over > 0:
+            top = column + len(self.steps[task_id]) - 1
+            terms[top] = terms.get(top, 0.0) + coef * over
+
     def starts_at(self, task_id: str, time: int) -> Terms:
         """ "Scheduled and starts at ``time``" as terms of the steps:
         ``z[i, time] - z[i, time - 1]`` (empty where it cannot start)."""
