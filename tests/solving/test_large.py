@@ -112,20 +112,20 @@ def test_a_replan_the_repair_cannot_start_keeps_what_holds(
     assert plan.objective.unscheduled_cost == 1, plan
 
 
-def test_a_replan_the_relaxation_proves_is_proved_within_its_share() -> None:
-    """Tests that a goal on a 45-task plan whose new part the disjunctive
-    relaxation proves is answered optimal from the replan's own share of
-    the limit (replan suite, seed 20's r45-h1440-1: the search around
-    the change alone ended 140 units above the optimum)."""
+def _replan_suite_case(
+    seed: int, name: str, limit: float
+) -> tuple[Problem, Plan, float]:
+    """The replan suite's case ``name`` of ``seed`` (``r45-...``): its day
+    solved with ``limit``, then its goal replanned with ``limit``; the
+    new problem, the replan's plan and its wall time."""
     replans = bench_lib("replans")
     generator = bench_lib("generator")
-    own = generator.problem_seed(20, "r45-h1440-1")
+    own = generator.problem_seed(seed, name)
     problem = problem_from(
-        bench_lib("fresh").generate_problem(45, replans.HORIZON, own)
+        bench_lib("fresh").generate_problem(
+            int(name[1:3]), replans.HORIZON, own
+        )
     )
-    # A replan's share of 30 s (6 s) is more than the relaxation needs
-    # on an idle core (0.3 s): the suite's other worker shares the core.
-    limit = 30.0
     first = solve(problem, time_limit=limit)
     assert first.status.has_plan
     goal = decode_change(generator.dump_json(replans.goal_doc(own)))
@@ -133,7 +133,18 @@ def test_a_replan_the_relaxation_proves_is_proved_within_its_share() -> None:
     new_problem, plan, _ = replan_typed(
         problem, first, goal, replans.GOAL_AT, time_limit=limit
     )
-    wall = time.perf_counter() - began
+    return new_problem, plan, time.perf_counter() - began
+
+
+def test_a_replan_the_relaxation_proves_is_proved_within_its_share() -> None:
+    """Tests that a goal on a 45-task plan whose new part the disjunctive
+    relaxation proves is answered optimal from the replan's own share of
+    the limit (replan suite, seed 20's r45-h1440-1: the search around
+    the change alone ended 140 units above the optimum)."""
+    # A replan's share of 30 s (6 s) is more than the relaxation needs
+    # on an idle core (0.3 s): the suite's other worker shares the core.
+    limit = 30.0
+    new_problem, plan, wall = _replan_suite_case(20, "r45-h1440-1", limit)
     assert check_plan(new_problem, plan).ok
     assert plan.status is SolveStatus.OPTIMAL, plan.stats
     assert plan.stats is not None and plan.stats.solver == "cbc-relaxed"
@@ -312,19 +323,8 @@ def test_a_replan_whose_search_ends_early_runs_the_small_whole_model() -> None:
     is small, and proves it (replan suite, seed 52's r45-h1440-1: the
     replan answered ``feasible`` after 0.6 s with a gap of 794, the fresh
     solve proved the same plan in 0.15 s this way)."""
-    replans = bench_lib("replans")
-    generator = bench_lib("generator")
-    own = generator.problem_seed(52, "r45-h1440-1")
-    problem = problem_from(
-        bench_lib("fresh").generate_problem(45, replans.HORIZON, own)
-    )
     limit = 10.0
-    first = solve(problem, time_limit=limit)
-    assert first.status.has_plan
-    goal = decode_change(generator.dump_json(replans.goal_doc(own)))
-    new_problem, plan, _ = replan_typed(
-        problem, first, goal, replans.GOAL_AT, time_limit=limit
-    )
+    new_problem, plan, _ = _replan_suite_case(52, "r45-h1440-1", limit)
     assert check_plan(new_problem, plan).ok
     assert plan.status is SolveStatus.OPTIMAL, plan.stats
     assert plan.stats is not None
