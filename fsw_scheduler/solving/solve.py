@@ -27,7 +27,7 @@ from ..model.stability import Stability, rescored
 from . import large
 from .budget import BUDGET, stop_at, stop_within
 from .forced import WHOLE_CORE, forced_start
-from .incumbent import checked, narrow, probed
+from .incumbent import checked, finished, narrow, probed
 from .joined import after, joined, starved
 from .polishing import Polishing, shift_deadline
 from .repair import holding
@@ -630,17 +630,15 @@ def _solve_whole(
             problem, run, start, domains, narrowed, relaxed, began, time_limit
         )
         if answer is None:
-            answer = checked(
+            answer = finished(
                 problem,
-                run(
-                    problem,
-                    warm=start.starts() if start else None,
-                    domains=narrowed,
-                    # The start plan's time counts against the limit.
-                    time_limit=None
-                    if time_limit is None
-                    else time_limit - (time.perf_counter() - began),
-                ),
+                run,
+                start,
+                domains,
+                narrowed,
+                began,
+                time_limit,
+                caught,
             )
         plan = _keep_better(answer, start)
         if stability is None and time_limit is not None:

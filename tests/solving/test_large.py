@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import time
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from fsw_scheduler.analysis.check import check_plan
@@ -13,9 +14,12 @@ from fsw_scheduler.analysis.greedy import greedy_plan
 from fsw_scheduler.api import replan_typed
 from fsw_scheduler.model.change import decode_change
 from fsw_scheduler.model.plan import SolverStats, SolveStatus
+from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.solving import large
 from fsw_scheduler.solving.budget import BUDGET
 from fsw_scheduler.solving.ilp import solve_ilp
+from fsw_scheduler.solving.incumbent import finished
+from fsw_scheduler.solving.rounds import LONG_COLUMNS
 from fsw_scheduler.solving.solve import solve
 
 from ..factories import bench_lib, make_doc, make_task, problem_from
@@ -330,3 +334,31 @@ def test_a_replan_whose_search_ends_early_runs_the_small_whole_model() -> None:
     assert plan.stats is not None
     assert "the whole model, narrowed: Optimal" in plan.stats.solver_status
     assert plan.stats.wall_s < BUDGET.replan_limit(limit)
+
+
+def test_a_part_too_long_for_cbc_in_the_time_left_is_searched() -> None:
+    """Tests that a part under 30 tasks whose whole model is too long for
+    CBC to start in the time left (the large suite's f30-h2880 of seed 69:
+    a 28-task part over H = 2880, 39,661 columns after its rounds) gets
+    the neighbourhood search from its plan instead: the solve kept its
+    start plan, 9,032 above CP-SAT's optimum, with "time limit spent
+    before CBC started". From the start heuristic's plan of the whole
+    problem (56,194 columns), 3 s of search gain on it, every plan
+    checked."""
+    problem = decode_problem(
+        (
+            Path(__file__).parent / "data" / "long-part-f30-h2880.json"
+        ).read_bytes()
+    )
+    domains = start_domains(problem)
+    assert start_count(domains) >= LONG_COLUMNS
+    start = greedy_plan(problem)
+    assert start is not None and start.objective is not None
+    run = functools.partial(solve_ilp, solver="cbc", threads=1)
+    plan = finished(
+        problem, run, start, domains, domains, time.perf_counter(), 3.0, None
+    )
+    assert plan.objective is not None and check_plan(problem, plan).ok
+    assert plan.objective.total < start.objective.total
+    assert plan.stats is not None
+    assert "neighbourhood search" in plan.stats.solver_status
