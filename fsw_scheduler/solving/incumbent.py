@@ -489,9 +489,10 @@ def finished(
             time.perf_counter() + left - BUDGET.lns_margin_s,
             bound,
         )
+        solver = getattr(run, "keywords", {}).get("solver", "cbc")
         return best.replace(
             stats=SolverStats(
-                solver="cbc-lns",
+                solver=f"{solver}-lns",
                 wall_s=time.perf_counter() - began,
                 bound=bound,
                 solver_status=f"the whole model ({start_count(narrowed)} "
