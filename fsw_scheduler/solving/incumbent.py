@@ -447,6 +447,12 @@ def whole_model(
     return best.replace(status=SolveStatus.FEASIBLE, why=()), bound, said
 
 
+#: :func:`finished` searches a long model's part only when less than
+#: this share of its limit is left: rounds that ended early (not on their
+#: nodes) leave CBC the time the whole model had before.
+LONG_SEARCH_LEFT = 0.5
+
+
 def finished(
     problem: Problem,
     run: Callable[..., Plan],
@@ -461,9 +467,10 @@ def finished(
     narrowed, from ``start``; or, when that model is too long for CBC to
     get through its root in what the relaxation's rounds left of the
     limit (at least :data:`~.rounds.LONG_COLUMNS` columns, the rounds had
-    :data:`~.rounds.LONG_SHARE`), the neighbourhood search from
-    ``start`` (:func:`~.improve.improve`: windows of a few tasks, which
-    CBC starts at once) until the limit or ``bound``.
+    :data:`~.rounds.LONG_SHARE`, and less than :data:`LONG_SEARCH_LEFT`
+    of the limit is left), the neighbourhood search from ``start``
+    (:func:`~.improve.improve`: windows of a few tasks, which CBC starts
+    at once) until the limit or ``bound``.
 
     The large suite's f30-h2880 of seed 69 (a 28-task part, 3 of its
     rounds without a better plan in 17.7 s): CBC was not started in the
@@ -478,7 +485,8 @@ def finished(
     if (
         start is not None
         and left is not None
-        and left >= MIN_ROUND_S
+        and time_limit is not None
+        and MIN_ROUND_S <= left < LONG_SEARCH_LEFT * time_limit
         and start_count(narrowed) >= LONG_COLUMNS
     ):
         best, improved = improve(
