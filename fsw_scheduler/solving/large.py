@@ -29,12 +29,7 @@ from ..model.plan import SolverStats, SolveStatus
 from .budget import BOUND_SHARE, BUDGET, stop_at
 from .forced import forced_start
 from .improve import MIN_ROUND_S, improve, meets
-from .incumbent import (
-    a_task_above,
-    narrow,
-    whole_model,
-    worth_a_probe,
-)
+from .incumbent import a_task_above, narrow, whole_model, worth_a_probe
 from .polishing import POLISH_MAX_S, POLISH_SHARE, Polishing, shift_deadline
 from .relaxed import RelaxedAnswer, fresh_min_left, relaxable
 from .relaxed import around as relaxed_around
@@ -102,7 +97,9 @@ def replanned(
     neighbourhood search works around the tasks that changed, within the
     limit (a replan's: :meth:`~fsw_scheduler.solving.budget.SolveBudget.
     replan_limit`), and stops when those neighbourhoods give nothing
-    more. The kept-set bound says whether it is optimal, and its gap.
+    more; the whole model narrowed around its plan then gets the rest of
+    the share when it is small. The kept-set bound says whether it is
+    optimal, and its gap.
     When the repair finds no plan the part is solved afresh
     (:func:`_afresh`, then the same second look as below); None when
     that has no start plan either.
