@@ -127,3 +127,45 @@ def test_a_large_part_under_a_short_limit_gets_rounds_for_most_of_it(
     assert len(limits) == 1
     # More than one round of the old share could have, at most the share.
     assert 0.6 * limit < limits[0] <= incumbent.SHORT_ROUNDS_SHARE * limit
+
+
+def test_rounds_whose_bound_stalls_stop() -> None:
+    """Tests that the rounds stop after one that found no better plan and
+    barely raised the bound (under STALL_SHARE of the gap): the 44-task
+    part of the large suite's f45-h1440 of seed 69, from the plan its
+    first round handed on (8,273,587), whose second round raises the bound
+    by 711 on a gap of 2,014,307: no third round (8,000 nodes), which ran
+    on to the limit, found nothing, and left the search 3 s of 20 (the
+    answer 8,195,476; with the search's time, 7,228,355)."""
+    import json
+    from pathlib import Path
+
+    from fsw_scheduler.analysis.greedy import checked_starts
+    from fsw_scheduler.model.problem import decode_problem
+
+    data = Path(__file__).parent / "data"
+    problem = decode_problem(
+        (data / "rounds-stall-f45-h1440.json").read_bytes()
+    )
+    part = max(components(problem), key=len)
+    sub, _ = _part(problem, part, None)
+    domains = start_domains(sub)
+    starts = json.loads(
+        (data / "rounds-stall-f45-h1440-plan.json").read_text()
+    )
+    start = checked_starts(sub, starts)
+    assert start is not None
+    relaxed = kept_set_plan(sub, start, domains)
+    run = functools.partial(solve_ilp, solver="cbc", threads=1)
+    began = time.perf_counter()
+    answer = rounds(
+        sub,
+        start,
+        narrow(sub, start, domains, relaxed),
+        run,
+        30.0,
+        lambda plan: narrow(sub, plan, domains, relaxed),
+    )
+    assert answer.said.startswith("2 rounds"), answer.said
+    assert answer.better is None and answer.plan is None
+    assert time.perf_counter() - began < 25.0
