@@ -22,7 +22,6 @@ tasks alone are infeasible, their battery needs a supply).
 
 from __future__ import annotations
 
-import functools
 import time
 from typing import TYPE_CHECKING
 
@@ -34,7 +33,7 @@ from ..analysis.proofs import forced_tasks
 from ..analysis.stores import never_short
 from ..model.plan import Plan, SolveStatus
 from .budget import stop_at
-from .relaxed import relaxable, relaxed_bound
+from .relaxed import around, relaxable
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -154,7 +153,7 @@ def _relaxed_core(
     tasks: the replan suite's seed 53 r60-h1440-0 solved afresh has 7
     forced tasks and a supply over H = 1440, 7,840 columns, and CBC
     found no plan in 4 s (the answer was ``unknown``). The relaxation
-    (:func:`~fsw_scheduler.solving.relaxed.relaxed_bound`: the
+    (:func:`~fsw_scheduler.solving.relaxed.around`: the
     disjunctive model, the levels written on the starts where its optimum
     breaks them) proves the core's optimum in 1.0 s there, CP-SAT's. It
     gets :data:`RELAXED_CORE_SHARE` of ``limit``; the time-indexed model
@@ -163,22 +162,14 @@ def _relaxed_core(
     domains = start_domains(core)
     if not relaxable(run, core, domains, None):
         return None
-    settings = run.keywords if isinstance(run, functools.partial) else {}
     nothing = Plan(
         status=SolveStatus.FEASIBLE,
         objective=None,
         activities=(),
         unscheduled=tuple(task.id for task in core.tasks),
     )
-    answer = relaxed_bound(
-        core,
-        nothing,
-        domains,
-        time_limit=None if limit is None else RELAXED_CORE_SHARE * limit,
-        threads=settings.get("threads", 1),
-        seed=settings.get("seed", 0),
-    )
-    return answer.plan
+    share = None if limit is None else RELAXED_CORE_SHARE * limit
+    return around(core, nothing, domains, run, share, nodes=None).plan
 
 
 def without_slack(problem: Problem) -> Problem:

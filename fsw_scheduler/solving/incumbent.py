@@ -30,7 +30,7 @@ from .budget import BUDGET, stop_at, stop_within
 from .improve import MIN_ROUND_S, improve
 from .relaxed import MIN_LEFT_S, SMALL_LEVEL_ROUNDS, around, relaxable
 from .rounds import LONG_COLUMNS, LONG_SHARE, SHARE, rounds
-from .stats import higher, stopped_on_nodes
+from .stats import higher, method_label, stopped_on_nodes
 
 if TYPE_CHECKING:
     import functools
@@ -497,10 +497,9 @@ def finished(
             time.perf_counter() + left - BUDGET.lns_margin_s,
             bound,
         )
-        solver = getattr(run, "keywords", {}).get("solver", "cbc")
         return best.replace(
             stats=SolverStats(
-                solver=f"{solver}-lns",
+                solver=method_label(run, "lns"),
                 wall_s=time.perf_counter() - began,
                 bound=bound,
                 solver_status=f"the whole model ({start_count(narrowed)} "

@@ -16,7 +16,6 @@ tasks or more under a time limit are not handed whole to CBC at first
 
 from __future__ import annotations
 
-import functools
 import math
 import time
 from typing import TYPE_CHECKING
@@ -35,7 +34,7 @@ from .relaxed import RelaxedAnswer, fresh_min_left, relaxable
 from .relaxed import around as relaxed_around
 from .repair import changed_tasks, holding, repair
 from .rounds import OVERTIME, SHARE, rounds
-from .stats import higher
+from .stats import higher, method_label
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -181,7 +180,7 @@ def replanned(
             return _answer(
                 caught.plan,
                 float(caught.plan.objective.total),
-                _label(run, "relaxed"),
+                method_label(run, "relaxed"),
                 "replan: " + caught.said,
                 began,
                 time_limit,
@@ -231,7 +230,7 @@ def replanned(
     answer = _answer(
         best,
         bound,
-        _label(run, "repair"),
+        method_label(run, "repair"),
         f"replan from the plan in force: {len(changed)} tasks changed by "
         f"its repair; neighbourhood search around them: {improved} "
         f"improvements, then over the horizon: {swept}{said}",
@@ -475,7 +474,7 @@ def improved(
             return _answer(
                 caught.plan,
                 float(caught.plan.objective.total),
-                _label(run, "relaxed"),
+                method_label(run, "relaxed"),
                 caught.said,
                 began,
                 time_limit,
@@ -506,7 +505,7 @@ def improved(
             return _answer(
                 start,
                 bound,
-                _label(run, "lns"),
+                method_label(run, "lns"),
                 said.rstrip("; "),
                 began,
                 time_limit,
@@ -580,7 +579,7 @@ def improved(
                 return _answer(
                     caught.plan,
                     float(caught.plan.objective.total),
-                    _label(run, "relaxed"),
+                    method_label(run, "relaxed"),
                     said,
                     began,
                     time_limit,
@@ -619,7 +618,9 @@ def improved(
         )
         said += f"; then {more} more"
     said += polish.said()
-    return _answer(best, bound, _label(run, "lns"), said, began, time_limit)
+    return _answer(
+        best, bound, method_label(run, "lns"), said, began, time_limit
+    )
 
 
 #: Share of the time left that inserting left-out tasks may take (its
@@ -714,13 +715,6 @@ def _until(deadline: float, share: float = NARROW_SHARE) -> Callable[[], bool]:
     left before ``deadline``."""
     now = time.perf_counter()
     return stop_at(now + share * (deadline - now))
-
-
-def _label(run: Callable[..., Plan], method: str) -> str:
-    """The solver's name and the method, as ``stats.solver`` says it."""
-    if isinstance(run, functools.partial):
-        return f"{run.keywords.get('solver', 'cbc')}-{method}"
-    return method
 
 
 def _answer(

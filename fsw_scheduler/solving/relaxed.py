@@ -679,7 +679,7 @@ def around(
     narrowed: dict[str, Domain],
     run: Callable[..., Plan],
     limit: float | None,
-    nodes: int = NODES,
+    nodes: int | None = NODES,
     *,
     probing: bool = False,
     levels: Sequence[int] = (),
@@ -687,9 +687,10 @@ def around(
 ) -> RelaxedAnswer:
     """:func:`relaxed_bound` from ``start`` over ``narrowed`` (the domains
     every plan at least as good keeps), with ``nodes`` nodes
-    (:data:`NODES`), ``probing``, the ``levels`` a run before wrote and
-    at most ``level_rounds`` runs again (:func:`relaxed_bound`), and at
-    most ``limit`` seconds, with ``run``'s threads and seed. Its bound
+    (:data:`NODES`; None: no node limit), ``probing``, the ``levels`` a
+    run before wrote and at most ``level_rounds`` runs again
+    (:func:`relaxed_bound`), and at most ``limit`` seconds, with
+    ``run``'s threads and seed. Its bound
     is dropped when above ``start`` (it then bounds nothing)."""
     settings = run.keywords if isinstance(run, functools.partial) else {}
     answer = relaxed_bound(

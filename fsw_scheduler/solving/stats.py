@@ -3,6 +3,7 @@ and its gap."""
 
 from __future__ import annotations
 
+import functools
 import time
 from typing import TYPE_CHECKING
 
@@ -11,6 +12,8 @@ import msgspec
 from ..model.plan import SolveStatus
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from ..model.plan import Plan
 
 
@@ -19,6 +22,14 @@ def higher(bound: float | None, other: float | None) -> float | None:
     if bound is None or other is None:
         return other if bound is None else bound
     return max(bound, other)
+
+
+def method_label(run: Callable[..., Plan], method: str) -> str:
+    """The solver's name (``run``'s) and the method, as ``stats.solver``
+    says it, e.g. ``cbc-lns``."""
+    if isinstance(run, functools.partial):
+        return f"{run.keywords.get('solver', 'cbc')}-{method}"
+    return method
 
 
 def stopped_on_nodes(said: str) -> bool:
