@@ -1,15 +1,15 @@
-"""Large parts and replans: the neighbourhood search with a bound.
+"""Large parts: the neighbourhood search with a bound, fresh or replanned.
 
 Parts of :attr:`~fsw_scheduler.solving.budget.SolveBudget.lns_min_tasks`
 tasks or more under a time limit are not handed whole to CBC at first
 (its root LP alone can take longer than the limit):
-
-* :func:`improved`: the start plan improved by neighbourhood search
-  (:mod:`fsw_scheduler.solving.improve`), bounded by the kept-set
-  relaxation, then the whole model narrowed around the incumbent with
-  what is left; the plan carries its bound (``stats.bound``);
-* :func:`replanned`: a replan from the plan in force, repaired
-  (:mod:`fsw_scheduler.solving.repair`) and searched around what changed.
+:func:`improved` improves the start plan by neighbourhood search
+(:mod:`fsw_scheduler.solving.improve`), bounded by the kept-set
+relaxation and the disjunctive relaxation, then runs the whole model
+narrowed around the incumbent with what is left; the plan carries its
+bound (``stats.bound``). A replan of such a part
+(:mod:`.replanning`) uses the same pieces: :func:`relaxation`,
+:func:`inserting`, :func:`narrowed_around`, :func:`answer`.
 
 :func:`fsw_scheduler.solving.solve.solve` calls them and adds the gap.
 """
@@ -22,17 +22,14 @@ from typing import TYPE_CHECKING
 
 from ..analysis.bounds import KeptSetProof, better_start, kept_set_bound
 from ..analysis.domains import start_count
-from ..analysis.greedy import greedy_plan
 from ..analysis.insert import inserted
 from ..model.plan import SolverStats, SolveStatus
 from .budget import BOUND_SHARE, BUDGET, stop_at
-from .forced import forced_start
 from .improve import MIN_ROUND_S, improve, meets
-from .incumbent import a_task_above, narrow, whole_model, worth_a_probe
-from .polishing import POLISH_MAX_S, POLISH_SHARE, Polishing, shift_deadline
-from .relaxed import RelaxedAnswer, fresh_min_left, relaxable
+from .incumbent import narrow, whole_model, worth_a_probe
+from .polishing import Polishing, shift_deadline
+from .relaxed import NODES, RelaxedAnswer, fresh_min_left, relaxable
 from .relaxed import around as relaxed_around
-from .repair import changed_tasks, holding, repair
 from .rounds import OVERTIME, SHARE, rounds
 from .stats import higher, method_label
 
@@ -46,8 +43,9 @@ if TYPE_CHECKING:
 
 def searched(problem: Problem) -> bool:
     """True if a part under a time limit goes to the neighbourhood search
-    (:func:`improved`, :func:`replanned`) rather than whole to CBC: from
-    :attr:`~fsw_scheduler.solving.budget.SolveBudget.lns_min_tasks` tasks.
+    (:func:`improved`, :func:`~.replanning.replanned`) rather than whole
+    to CBC: from :attr:`~fsw_scheduler.solving.budget.SolveBudget.
+    lns_min_tasks` tasks.
 
     Parts of 20-29 tasks whose model had over 15,000 columns were sent
     here too for a while: on the large suite's seed 47 (not tuned on) a
@@ -56,310 +54,6 @@ def searched(problem: Problem) -> bool:
     bound were both worse than CBC's.
     """
     return problem.num_tasks >= BUDGET.lns_min_tasks
-
-
-#: Share of a replan's time its repair (the start heuristic) may take.
-REPAIR_SHARE = 0.7
-
-#: Search nodes of a replan's kept-set bound: its default 20,000 took
-#: 0.2-0.6 s on 60 tasks, a third of a replan; 5,000 found the same bound
-#: on 5 of the 6 large parts (30-60 tasks) where 20,000 found one, in a
-#: tenth of a second.
-REPLAN_BOUND_NODES = 5_000
-
-
-#: A replan runs the disjunctive relaxation (:mod:`.relaxed`) after its
-#: repair when at least this long is left, for this share of it. A
-#: fresh solve has its own minimum (:func:`~fsw_scheduler.solving.
-#: relaxed.fresh_min_left`, 1-5 s by size); a replan has 2 s in all.
-#: At a share of 0.5 the relaxation was stopped by its time in 17 of
-#: the 26 replans of seeds 17-23 that ran it; at 0.75, 22 of 42 replans
-#: were no worse than the fresh solve against 20 (better on 7, worse on
-#: 2, same median 1.46 s).
-REPLAN_RELAX_MIN_S = 0.6
-REPLAN_RELAX_SHARE = 0.75
-
-
-def replanned(
-    problem: Problem,
-    in_force: Plan,
-    domains: dict[str, Domain],
-    run: Callable[..., Plan],
-    began: float,
-    time_limit: float,
-    full_limit: float | None = None,
-) -> Plan | None:
-    """A large part replanned from the plan in force, or None.
-
-    The plan in force is repaired (:func:`~fsw_scheduler.solving.repair.
-    repair`: its tasks stay, the others go into its gaps), then the
-    neighbourhood search works around the tasks that changed, within the
-    limit (a replan's: :meth:`~fsw_scheduler.solving.budget.SolveBudget.
-    replan_limit`), and stops when those neighbourhoods give nothing
-    more; the whole model narrowed around its plan then gets the rest of
-    the share when it is small. The kept-set bound says whether it is
-    optimal, and its gap.
-    When the repair finds no plan the part is solved afresh
-    (:func:`_afresh`, then the same second look as below); None when
-    that has no start plan either.
-
-    With ``full_limit`` (the caller's limit, of which ``time_limit`` is
-    the replan's share) a replan that may still leave out a whole task
-    too many (its gap at least the weight of a schedule cost unit) gets
-    a second look: the part solved afresh in what is left of the full
-    limit, the better plan kept (:func:`_second_look`).
-    """
-    end = began + time_limit - BUDGET.lns_margin_s
-    # The start heuristic under the repair took the whole replan on 60
-    # tasks (1.9 of 2 s), and the bound after it ran past the limit: it
-    # stops at REPAIR_SHARE of the time, keeping the rest for the bound
-    # and the search around the change.
-    stop = stop_at(began + REPAIR_SHARE * (end - began))
-    repaired = repair(problem, in_force, domains, stop=stop)
-    if repaired is None:
-        # Solved afresh in the replan's share: it may leave out whole
-        # tasks too many as well (replan suite, seed 38's r60-h1440-1:
-        # 20.6 M at 1.7 s, the fresh solve 18.5 M), so the second look.
-        afresh = _afresh(problem, in_force, domains, run, began, time_limit)
-        if afresh is None:
-            return None
-        return _second_look(problem, afresh, domains, run, began, full_limit)
-    relaxed = kept_set_bound(
-        problem,
-        repaired,
-        domains,
-        max_nodes=REPLAN_BOUND_NODES,
-        stop=_until(end, BOUND_SHARE),
-    )
-    if relaxed.bound is None:
-        # Out of nodes: once more with a fresh solve's (seed 12's
-        # r45-h1440-1 of the replan suite: a bound in 0.13 s, and from
-        # its kept set a plan leaving out 53 instead of 56).
-        relaxed = kept_set_bound(
-            problem, repaired, domains, stop=_until(end, BOUND_SHARE)
-        )
-    if relaxed.plan is not None:
-        return _proved_start(
-            relaxed.plan,
-            began,
-            time_limit,
-            "replan: the plan in force, repaired, meets the kept-set bound",
-        )
-    bound = None if relaxed.bound is None else float(relaxed.bound)
-    if worth_a_probe(problem, repaired, relaxed):
-        # The repaired plan leaves out more than the bound: the plan in
-        # force was poor on the new day (its start heuristic stopped
-        # early). The relaxed optimum's tasks list-scheduled alone, as a
-        # fresh solve does (replan suite, seed 15's r60-h1440-0: 82 left
-        # out instead of 88, as the fresh solve; seed 13's r45-h1440-1:
-        # 44 instead of 45).
-        repaired = (
-            better_start(
-                problem, repaired, relaxed, stop=_until(end, BOUND_SHARE)
-            )
-            or repaired
-        )
-    # The repair puts the new tasks into gaps only: a task that needs a
-    # placed one moved is left out (replan suite, seed 20's r60-h1440-0:
-    # a task the fresh solve keeps, 725,323 above it).
-    inserting = len(repaired.unscheduled)
-    repaired = _inserting(problem, repaired, domains, end)
-    inserting -= len(repaired.unscheduled)
-    said = f"; {inserting} left-out tasks inserted" if inserting else ""
-    left = end - time.perf_counter()
-    if relaxable(run, problem, domains, left, REPLAN_RELAX_MIN_S):
-        # The disjunctive relaxation proves some parts at once that the
-        # search around the change cannot (replan suite, seed 20's
-        # r45-h1440-1: the fresh solve proved it in 0.34 s this way, the
-        # replan without it ended 140 units worse).
-        caught = _relaxation(
-            problem, repaired, domains, relaxed, run, REPLAN_RELAX_SHARE * left
-        )
-        said += f"; the disjunctive relaxation: {caught.said}"
-        if caught.plan is not None and caught.plan.objective is not None:
-            return _answer(
-                caught.plan,
-                float(caught.plan.objective.total),
-                method_label(run, "relaxed"),
-                "replan: " + caught.said,
-                began,
-                time_limit,
-            )
-        repaired = caught.better or repaired
-        bound = higher(bound, caught.bound)
-    polish = Polishing(problem, domains, end, bound)
-    repaired = polish(repaired)
-    changed = changed_tasks(problem, in_force, repaired)
-    best, improved = repaired, 0
-    # The search stops short of the end: the last moments polish its plan.
-    search_end = end - min(
-        POLISH_MAX_S, POLISH_SHARE * max(0.0, end - time.perf_counter())
-    )
-    if changed and not meets(best, bound):
-        best, improved = improve(
-            problem, repaired, domains, run, search_end, bound, around=changed
-        )
-    swept = 0
-    if (
-        not meets(best, bound)
-        and search_end - time.perf_counter() >= MIN_ROUND_S
-    ):
-        # The neighbourhoods around the change gave all they could and
-        # time is left: the sweep over the whole horizon goes on from
-        # there, as a fresh solve's search would (a fresh solve of the
-        # new day often found a better arrangement away from the change).
-        best, swept = improve(problem, best, domains, run, search_end, bound)
-    if improved or swept:
-        best = polish(best)
-    narrowed = None
-    if not meets(best, bound) and end - time.perf_counter() >= MIN_ROUND_S:
-        narrowed = _narrowed(problem, best, domains, relaxed, _until(end))
-    if narrowed is not None and start_count(narrowed) <= SMALL_COLUMNS:
-        # The search ran out of neighbourhoods with time left: around a
-        # good plan the whole model is small (replan suite, seed 52's
-        # r45-h1440-1: 0.6 s, gap 794; the fresh solve proved the same
-        # plan in 0.15 s this way).
-        best, bound, answered = whole_model(
-            problem, best, bound, run, narrowed, end - time.perf_counter()
-        )
-        said += f"; the whole model, narrowed: {answered}"
-    # The shift windows may run past the replan's share, within the limit.
-    last = end if full_limit is None else end - time_limit + full_limit
-    best = polish.shifted(best, run, shift_deadline(last, end))
-    said += polish.said()
-    answer = _answer(
-        best,
-        bound,
-        method_label(run, "repair"),
-        f"replan from the plan in force: {len(changed)} tasks changed by "
-        f"its repair; neighbourhood search around them: {improved} "
-        f"improvements, then over the horizon: {swept}{said}",
-        began,
-        time_limit,
-    )
-    return _second_look(problem, answer, domains, run, began, full_limit)
-
-
-#: Seconds a second look (:func:`_second_look`) needs at least: a start
-#: plan and a few neighbourhoods of a 60-task part.
-SECOND_LOOK_MIN_S = 2.0
-
-
-def _second_look(
-    problem: Problem,
-    answer: Plan,
-    domains: dict[str, Domain],
-    run: Callable[..., Plan],
-    began: float,
-    full_limit: float | None,
-) -> Plan:
-    """``answer``, or the part solved afresh when that is better.
-
-    A replan keeps the plan in force and searches around the change; when
-    the bound says it may still leave out a whole task too many (a gap of
-    at least the objective's weight of one schedule cost unit), a fresh
-    solve of the new day often finds the arrangement that holds it
-    (replan suite, seed 26's r60-h1440-0: 9,260,008 after the repair's
-    2 s, 8,191,196 afresh). So the part is solved afresh (:func:`_afresh`
-    from the start heuristic) in what is left of ``full_limit``, and the
-    better plan is the answer, the replan's on a tie. A replan whose gap
-    is only delay answers at its share of the limit.
-    """
-    stats = answer.stats
-    if (
-        full_limit is None
-        or answer.objective is None
-        or stats is None
-        or stats.bound is None
-    ):
-        return answer
-    now = time.perf_counter()
-    left = began + full_limit - now
-    if (
-        not a_task_above(problem, answer.objective.total, stats.bound)
-        or left < SECOND_LOOK_MIN_S
-    ):
-        return answer
-    fresh = greedy_plan(
-        problem,
-        stop=stop_at(now + BUDGET.greedy_share * left),
-        domains=domains,
-    ) or forced_start(problem, run, now + left)  # as a fresh solve starts
-    if fresh is None or fresh.objective is None:
-        return answer
-    other = improved(problem, fresh, domains, run, now, left)
-    better = (
-        other
-        if other.objective is not None
-        and other.objective.total < answer.objective.total
-        else answer
-    )
-    bound = higher(stats.bound, other.stats.bound if other.stats else None)
-    said = (
-        "solved afresh in the rest of the limit: its plan kept"
-        if better is other
-        else "solved afresh in the rest of the limit: no better"
-    )
-    label = better.stats.solver if better.stats else stats.solver
-    return _answer(
-        better,
-        bound,
-        label,
-        f"{stats.solver_status}; a whole task may be left out too many "
-        f"(gap {answer.objective.total - stats.bound:.0f}), {said}",
-        began,
-        full_limit,
-    )
-
-
-def _afresh(
-    problem: Problem,
-    in_force: Plan,
-    domains: dict[str, Domain],
-    run: Callable[..., Plan],
-    began: float,
-    time_limit: float,
-) -> Plan | None:
-    """A replan the repair cannot start: solved as a fresh large part
-    (:func:`improved`), from the better of the start heuristic's plan and
-    what of the plan in force holds by itself (:func:`~fsw_scheduler.
-    solving.repair.holding`), or None when neither is a plan.
-
-    The start heuristic has the same share of the limit as in a fresh
-    solve; under load it is stopped early, with little more than the
-    forced tasks placed, and what of the plan in force holds then leaves
-    out far less (replan suite, the heuristic stopped at once: seed 13's
-    r45-h1440-0 left out 50 instead of 102, seed 15's 79 instead of 84;
-    the fresh solve 31 and 48). Unloaded, the heuristic's plan is the
-    better start and nothing changes. The relaxation is tried from a
-    replan's minimum and share (:data:`REPLAN_RELAX_MIN_S`,
-    :data:`REPLAN_RELAX_SHARE`), as after a repair.
-    """
-    held = holding(problem, in_force, domains)
-    fresh = greedy_plan(
-        problem,
-        stop=stop_at(began + BUDGET.greedy_share * time_limit),
-        domains=domains,
-    )
-    starts = [p for p in (held, fresh) if p and p.objective is not None]
-    if not starts:
-        return None
-    # On a tie, what the plan in force keeps.
-    start = min(starts, key=lambda p: p.objective.total if p.objective else 0)
-    # The relaxation from a replan's minimum and share, as after a repair:
-    # a fresh solve proves some such parts by it at once (replan suite,
-    # seed 23's r45-h1440-1: proved in 0.78 s this way; 627,089 above the
-    # fresh solve's optimum without it).
-    return improved(
-        problem,
-        start,
-        domains,
-        run,
-        began,
-        time_limit,
-        REPLAN_RELAX_MIN_S,
-        REPLAN_RELAX_SHARE,
-    )
 
 
 #: Seconds (at most; a tenth of what is left) that the whole model run
@@ -406,7 +100,7 @@ def improved(
     of the time; a stalled sweep hands the rest over to it as soon as
     the incumbent makes it small (:data:`HAND_OVER_COLUMNS`). Left-out
     tasks are first inserted into the start plan where moving what is in
-    their way pays (:func:`_inserting`), and again into a plan the
+    their way pays (:func:`inserting`), and again into a plan the
     relaxation or the search improved. The
     kept-set relaxation (:func:`~fsw_scheduler.analysis.bounds.
     kept_set_plan`) bounds every plan from the start, and the search
@@ -426,7 +120,7 @@ def improved(
     if relax_min_s is None:
         relax_min_s = fresh_min_left(problem)
     relaxed = kept_set_bound(
-        problem, start, domains, stop=_until(deadline, BOUND_SHARE)
+        problem, start, domains, stop=until(deadline, BOUND_SHARE)
     )
     if relaxed.plan is None and worth_a_probe(problem, start, relaxed):
         # The start plan leaves out more than the bound: the relaxed
@@ -436,12 +130,12 @@ def improved(
         # long as the start plan did, so only here.
         start = (
             better_start(
-                problem, start, relaxed, stop=_until(deadline, BOUND_SHARE)
+                problem, start, relaxed, stop=until(deadline, BOUND_SHARE)
             )
             or start
         )
     if relaxed.plan is not None:
-        return _proved_start(
+        return proved_start(
             relaxed.plan,
             began,
             time_limit,
@@ -449,7 +143,7 @@ def improved(
             "of tasks to keep costs less: no solve",
         )
     before = len(start.unscheduled)
-    start = _inserting(problem, start, domains, deadline)
+    start = inserting(problem, start, domains, deadline)
     bound = None if relaxed.bound is None else float(relaxed.bound)
     said = ""
     if len(start.unscheduled) < before:
@@ -460,7 +154,7 @@ def improved(
     if relaxable(
         run, problem, domains, deadline - time.perf_counter(), relax_min_s
     ):
-        caught = _relaxation(
+        caught = relaxation(
             problem,
             start,
             domains,
@@ -471,7 +165,7 @@ def improved(
             end=deadline,
         )
         if caught.plan is not None and caught.plan.objective is not None:
-            return _answer(
+            return answer(
                 caught.plan,
                 float(caught.plan.objective.total),
                 method_label(run, "relaxed"),
@@ -480,7 +174,7 @@ def improved(
                 time_limit,
             )
         if caught.better is not None:
-            start = _inserting(problem, caught.better, domains, deadline)
+            start = inserting(problem, caught.better, domains, deadline)
         # Not a bound for the caps (they add each task's delay to the
         # kept-set bound, and this one counts delays already): only for
         # the search's stop and the gap.
@@ -489,8 +183,10 @@ def improved(
     polish = Polishing(problem, domains, deadline, bound)
     start = polish.shifted(polish(start), run, shift_deadline(deadline))
     # Tasks moved earlier may leave room for a left-out one.
-    start = _inserting(problem, start, domains, deadline)
-    narrowed = _narrowed(problem, start, domains, relaxed, _until(deadline))
+    start = inserting(problem, start, domains, deadline)
+    narrowed = narrowed_around(
+        problem, start, domains, relaxed, until(deadline)
+    )
     if narrowed is not None and start_count(narrowed) <= SMALL_COLUMNS:
         # Around a good start plan the whole model can be as small as a
         # 15-task part's, which CBC proves at once where the search has
@@ -502,7 +198,7 @@ def improved(
         )
         said += f"the whole model, narrowed: {answered}; "
         if meets(start, bound):
-            return _answer(
+            return answer(
                 start,
                 bound,
                 method_label(run, "lns"),
@@ -522,9 +218,11 @@ def improved(
         # seed 31: the search held the optimum and swept on until the
         # limit; 12,126 columns around it, proved by CBC in 5 s).
         again = kept_set_bound(
-            problem, plan, domains, stop=_until(deadline, BOUND_SHARE)
+            problem, plan, domains, stop=until(deadline, BOUND_SHARE)
         )
-        narrowed = _narrowed(problem, plan, domains, again, _until(deadline))
+        narrowed = narrowed_around(
+            problem, plan, domains, again, until(deadline)
+        )
         if narrowed is None:
             return False
         around[:] = [(plan, again, narrowed)]
@@ -549,7 +247,7 @@ def improved(
     said += f"neighbourhood search: {improved} improvements of the start plan"
     if not meets(best, bound):
         # The search's moves may have opened room for a left-out task.
-        best = _inserting(problem, best, domains, deadline)
+        best = inserting(problem, best, domains, deadline)
     left = deadline - time.perf_counter()
     if meets(best, bound):
         said += "; it meets the kept-set bound"
@@ -561,12 +259,12 @@ def improved(
             # more than it did of the start plan.
             again = (
                 kept_set_bound(
-                    problem, best, domains, stop=_until(deadline, BOUND_SHARE)
+                    problem, best, domains, stop=until(deadline, BOUND_SHARE)
                 )
                 if improved
                 else relaxed
             )
-            narrowed = narrow(problem, best, domains, again, _until(deadline))
+            narrowed = narrow(problem, best, domains, again, until(deadline))
         bound = higher(bound, again.bound)
         if relaxable(run, problem, domains, left):
             # Around a better incumbent the relaxation's domains are
@@ -576,7 +274,7 @@ def improved(
             )
             said += "; then the disjunctive relaxation: " + caught.said
             if caught.plan is not None and caught.plan.objective is not None:
-                return _answer(
+                return answer(
                     caught.plan,
                     float(caught.plan.objective.total),
                     method_label(run, "relaxed"),
@@ -587,7 +285,7 @@ def improved(
             if caught.better is not None:
                 best = caught.better
                 narrowed = narrow(
-                    problem, best, domains, again, _until(deadline)
+                    problem, best, domains, again, until(deadline)
                 )
             bound = higher(bound, caught.bound)
             left = deadline - time.perf_counter()
@@ -618,7 +316,7 @@ def improved(
         )
         said += f"; then {more} more"
     said += polish.said()
-    return _answer(
+    return answer(
         best, bound, method_label(run, "lns"), said, began, time_limit
     )
 
@@ -628,7 +326,7 @@ def improved(
 INSERT_SHARE = 0.2
 
 
-def _inserting(
+def inserting(
     problem: Problem, plan: Plan, domains: dict[str, Domain], deadline: float
 ) -> Plan:
     """``plan`` with left-out tasks inserted where that is better
@@ -648,7 +346,7 @@ def _inserting(
 END_SHARE = 0.5
 
 
-def _relaxation(
+def relaxation(
     problem: Problem,
     start: Plan,
     domains: dict[str, Domain],
@@ -658,6 +356,7 @@ def _relaxation(
     *,
     more: bool = False,
     end: float | None = None,
+    nodes: int = NODES,
 ) -> RelaxedAnswer:
     """:func:`~fsw_scheduler.solving.relaxed.around` ``start``, over the
     domains every plan at least as good keeps; with ``more``, in
@@ -667,7 +366,7 @@ def _relaxation(
     stop = stop_at(time.perf_counter() + NARROW_SHARE * limit)
 
     def renarrow(plan: Plan) -> dict[str, Domain]:
-        narrowed = _narrowed(problem, plan, domains, relaxed, stop)
+        narrowed = narrowed_around(problem, plan, domains, relaxed, stop)
         return narrow(problem, plan, domains) if narrowed is None else narrowed
 
     if more:
@@ -679,14 +378,15 @@ def _relaxation(
             run,
             limit,
             renarrow,
-            lambda plan: _inserting(problem, plan, domains, deadline),
+            lambda plan: inserting(problem, plan, domains, deadline),
             lambda narrowed: start_count(narrowed) <= SMALL_COLUMNS,
             0.0 if end is None else OVERTIME * max(0.0, end - deadline),
+            nodes=nodes,
         )
     return relaxed_around(problem, start, renarrow(start), run, limit)
 
 
-def _narrowed(
+def narrowed_around(
     problem: Problem,
     plan: Plan,
     domains: dict[str, Domain],
@@ -710,14 +410,14 @@ def _narrowed(
 NARROW_SHARE = 0.25
 
 
-def _until(deadline: float, share: float = NARROW_SHARE) -> Callable[[], bool]:
+def until(deadline: float, share: float = NARROW_SHARE) -> Callable[[], bool]:
     """A stop at ``share`` (:data:`NARROW_SHARE` by default) of the time
     left before ``deadline``."""
     now = time.perf_counter()
     return stop_at(now + share * (deadline - now))
 
 
-def _answer(
+def answer(
     plan: Plan,
     bound: float | None,
     solver: str,
@@ -743,7 +443,7 @@ def _answer(
     )
 
 
-def _proved_start(
+def proved_start(
     plan: Plan, began: float, time_limit: float | None, proof: str
 ) -> Plan:
     """``plan`` proved optimal without a solver, with its statistics."""

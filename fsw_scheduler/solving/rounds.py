@@ -91,6 +91,7 @@ def rounds(
     small: Callable[[dict[str, Domain]], bool] | None = None,
     overtime: float = 0.0,
     level_rounds: int | None = None,
+    nodes: int = NODES,
 ) -> RelaxedAnswer:
     """The relaxation around ``start`` over ``narrowed``, again and again
     with more nodes while it stops on its node limit, for ``limit``
@@ -133,7 +134,6 @@ def rounds(
         better than ``start``, and what each round said.
     """
     end = time.perf_counter() + limit
-    nodes = NODES
     bound: float | None = None
     better: Plan | None = None
     said: list[str] = []

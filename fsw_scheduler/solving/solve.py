@@ -24,7 +24,7 @@ from ..model.plan import (
     SolveStatus,
 )
 from ..model.stability import Stability, rescored
-from . import large
+from . import large, replanning
 from .budget import BUDGET, stop_at, stop_within
 from .forced import WHOLE_CORE, forced_start
 from .incumbent import checked, finished, narrow, probed
@@ -231,7 +231,7 @@ def _proved_later(
     tasks, its relaxation's second round cut by the 2 s share, 123 delay
     units above the optimum that the fresh solve proves in 4.1 s). A
     larger part keeps its share's answer (its own second look,
-    :func:`~.large.replanned`, is for a whole task too many): more time
+    :func:`~.replanning.replanned`, is for a whole task too many): more time
     rarely proves it.
     """
     now = time.perf_counter()
@@ -339,7 +339,7 @@ def _solve_parts(
     a resource or a precedence need no solver at all. Each part gets a
     share of what is left of the limit, by its number of start times,
     the smallest first. A replan's part whose gap asks for a second look
-    (:func:`~.large.replanned`) gets the same share of what is left of
+    (:func:`~.replanning.replanned`) gets the same share of what is left of
     ``full_limit``.
     """
     # A part of one task needs no solver (its earliest start, or a check
@@ -497,7 +497,7 @@ def _solve_whole(
     """Start plan, then the solver or the neighbourhood search; no ``why``.
 
     ``full_limit`` is the caller's limit where ``time_limit`` is a
-    replan's share of it (see :func:`~.large.replanned`).
+    replan's share of it (see :func:`~.replanning.replanned`).
 
     With a move part (``stability``) the shortcuts are off, each for the
     same reason: the replan's repair, the at-lower-bound and kept-set
@@ -513,7 +513,7 @@ def _solve_whole(
         and time_limit is not None
         and large.searched(problem)
     ):
-        replanned = large.replanned(
+        replanned = replanning.replanned(
             problem, warm, domains, run, began, time_limit, full_limit
         )
         if replanned is not None:

@@ -21,7 +21,7 @@ from fsw_scheduler.model.plan import (
     objective_weight,
 )
 from fsw_scheduler.model.problem import Problem, decode_problem
-from fsw_scheduler.solving import forced, large
+from fsw_scheduler.solving import forced, replanning
 from fsw_scheduler.solving.forced import forced_start
 from fsw_scheduler.solving.ilp import solve_ilp
 from fsw_scheduler.solving.solve import solve
@@ -163,7 +163,7 @@ def test_a_replans_second_look_starts_where_list_scheduling_cannot(
         )
     )
     began = time.perf_counter()
-    looked = large._second_look(problem, answer, domains, run, began, 6.0)
+    looked = replanning._second_look(problem, answer, domains, run, began, 6.0)
     assert looked.stats is not None
     assert "solved afresh in the rest of the limit" in (
         looked.stats.solver_status

@@ -15,7 +15,7 @@ from fsw_scheduler.api import replan_typed
 from fsw_scheduler.model.change import decode_change
 from fsw_scheduler.model.plan import SolverStats, SolveStatus
 from fsw_scheduler.model.problem import decode_problem
-from fsw_scheduler.solving import large
+from fsw_scheduler.solving import large, replanning
 from fsw_scheduler.solving.budget import BUDGET
 from fsw_scheduler.solving.ilp import solve_ilp
 from fsw_scheduler.solving.incumbent import finished
@@ -75,9 +75,9 @@ def test_a_replan_whose_bound_runs_out_of_nodes_searches_it_again(
     domains = start_domains(problem)
     in_force = greedy_plan(problem, domains=domains)
     assert in_force is not None
-    monkeypatch.setattr(large, "REPLAN_BOUND_NODES", 1)
+    monkeypatch.setattr(replanning, "REPLAN_BOUND_NODES", 1)
     run = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
-    plan = large.replanned(
+    plan = replanning.replanned(
         problem, in_force, domains, run, time.perf_counter(), 3.0
     )
     assert plan is not None and check_plan(problem, plan).ok
@@ -103,11 +103,12 @@ def test_a_replan_the_repair_cannot_start_keeps_what_holds(
     domains = start_domains(problem)
     in_force = plan_of(problem, {"a": 0, "b": 4, "c": 8})
     assert not check_plan(problem, in_force).ok
-    monkeypatch.setattr(
-        large, "BUDGET", dataclasses.replace(BUDGET, greedy_share=0.0)
-    )
+    for module in (large, replanning):
+        monkeypatch.setattr(
+            module, "BUDGET", dataclasses.replace(BUDGET, greedy_share=0.0)
+        )
     run = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
-    plan = large.replanned(
+    plan = replanning.replanned(
         problem, in_force, domains, run, time.perf_counter(), 0.3
     )
     assert plan is not None and check_plan(problem, plan).ok
@@ -174,7 +175,7 @@ def test_a_replan_solved_afresh_runs_the_relaxation_from_its_share() -> None:
     run = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
     # 4 s: twice a replan's usual share, for the suite's other worker;
     # still under the 5 s a fresh solve needs to try the relaxation.
-    plan = large.replanned(
+    plan = replanning.replanned(
         problem, broken, domains, run, time.perf_counter(), 4.0
     )
     assert plan is not None and check_plan(problem, plan).ok
@@ -232,7 +233,7 @@ def test_a_replan_inserts_a_new_task_the_repair_left_out() -> None:
     says so."""
     problem, in_force = _first_place_taken()
     run = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
-    plan = large.replanned(
+    plan = replanning.replanned(
         problem,
         in_force,
         start_domains(problem),
@@ -269,7 +270,7 @@ def test_a_replan_that_may_leave_out_a_task_too_many_gets_a_second_look() -> (
     domains = start_domains(problem)
     answer = _answered(in_force, best.objective.total)
     began = time.perf_counter()
-    looked = large._second_look(problem, answer, domains, run, began, 8.0)
+    looked = replanning._second_look(problem, answer, domains, run, began, 8.0)
     assert looked.stats is not None
     assert (
         "a whole task may be left out too many" in looked.stats.solver_status
@@ -283,12 +284,12 @@ def test_a_replan_that_may_leave_out_a_task_too_many_gets_a_second_look() -> (
     # Within one unit's weight of its bound: only delay left to gain.
     assert answer.objective is not None
     close = _answered(in_force, answer.objective.total - 1)
-    assert large._second_look(problem, close, domains, run, began, 8.0) is (
-        close
-    )
-    assert large._second_look(problem, answer, domains, run, began, None) is (
-        answer
-    )
+    assert replanning._second_look(
+        problem, close, domains, run, began, 8.0
+    ) is (close)
+    assert replanning._second_look(
+        problem, answer, domains, run, began, None
+    ) is (answer)
 
 
 def test_a_search_left_with_too_little_for_the_whole_model_goes_on(
