@@ -79,8 +79,10 @@ def replanned(
     limit (a replan's: :meth:`~fsw_scheduler.solving.budget.SolveBudget.
     replan_limit`), and stops when those neighbourhoods give nothing
     more; the whole model narrowed around its plan then gets the rest of
-    the share when it is small. The kept-set bound says whether it is
-    optimal, and its gap.
+    the share when it is small, and the disjunctive relaxation runs again
+    in rounds in what is left while the gap is open (:func:`_again`).
+    The kept-set bound and the relaxation's say whether it is optimal,
+    and its gap.
     When the repair finds no plan the part is solved afresh
     (:func:`_afresh`, then the same second look as below); None when
     that has no start plan either.
