@@ -358,10 +358,11 @@ def relaxation(
     end: float | None = None,
     nodes: int = NODES,
 ) -> RelaxedAnswer:
-    """:func:`~fsw_scheduler.solving.relaxed.around` ``start``, over the
-    domains every plan at least as good keeps; with ``more``, in
-    :func:`~fsw_scheduler.solving.rounds.rounds` of growing node limits
-    for all of ``limit`` (and an overtime up to the part's ``end``, see
+    """:func:`~fsw_scheduler.solving.relaxed.around` ``start`` with
+    ``nodes`` nodes, over the domains every plan at least as good keeps;
+    with ``more``, in :func:`~fsw_scheduler.solving.rounds.rounds` of
+    growing node limits from ``nodes`` for all of ``limit`` (and an
+    overtime up to the part's ``end``, see
     :data:`~fsw_scheduler.solving.rounds.OVERTIME`)."""
     stop = stop_at(time.perf_counter() + NARROW_SHARE * limit)
 
@@ -383,7 +384,7 @@ def relaxation(
             0.0 if end is None else OVERTIME * max(0.0, end - deadline),
             nodes=nodes,
         )
-    return relaxed_around(problem, start, renarrow(start), run, limit)
+    return relaxed_around(problem, start, renarrow(start), run, limit, nodes)
 
 
 def narrowed_around(

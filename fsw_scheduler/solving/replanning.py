@@ -251,8 +251,12 @@ def _again(
     nodes (replan suite, seed 56's r60-h1440-0: answered at 1.25 of 2 s,
     68 units above the optimum the fresh solve proved at 1.9 s in its
     second round). The rounds start with the nodes of the first run's
-    next round when ``best`` is the plan that run started from (the same
-    run again would say the same), else with its nodes. On seeds 55-58 of
+    next round when ``best`` costs what ``relaxed_from``, the plan that
+    run started from, cost: the domains narrowed around a plan read its
+    objective only (:func:`~fsw_scheduler.analysis.domains.cost_caps`,
+    the kept-set fixings), so that run again would search the same
+    model; else with its nodes, over the domains narrowed around the
+    better plan. On seeds 55-58 of
     the replan suite (24 replans, 10 s) 19 were no worse than the fresh
     solve against 18 without, medians 0.37-1.23 s against 0.35-0.97 s.
 

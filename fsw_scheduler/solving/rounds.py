@@ -124,6 +124,12 @@ def rounds(
     level_rounds
         For each round (:func:`~fsw_scheduler.solving.relaxed.around`);
         given, no round follows one that wrote levels.
+    nodes
+        The first round's node limit (:data:`~fsw_scheduler.solving.
+        relaxed.NODES` by default; each next round has :data:`GROWTH`
+        times the one before): a caller whose own run of the relaxation
+        already stopped on those nodes over the same domains starts at
+        the next round's.
 
     Returns
     -------
