@@ -31,12 +31,12 @@ from ..analysis.domains import start_domains
 from ..analysis.greedy import around_core, checked_starts, forced_alone
 from ..analysis.proofs import forced_tasks
 from ..analysis.stores import never_short
-from ..model.plan import Plan, SolveStatus
+from ..model.plan import Blocker, Plan, SolverStats, SolveStatus
 from .budget import stop_at
 from .relaxed import around, relaxable
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Set
 
     from ..model.problem import Problem
 
@@ -83,10 +83,12 @@ def forced_start(
     Plan or None
         Status ``feasible``, the checker's objective (``optimal`` when the
         forced tasks and supplies are the whole part and the solver
-        proved their plan); None when there is
-        nothing forced, the solver finds no plan of the forced tasks and
-        supplies in its share (or its plan does not hold on the whole
-        part).
+        proved their plan); status ``infeasible`` when the solver proved
+        that the forced tasks and supplies have no plan and every plan
+        of the part would be one of theirs (:func:`relaxes`); None when
+        there is nothing forced, the solver finds no plan of the forced
+        tasks and supplies in its share (or its plan does not hold on
+        the whole part).
     """
     forced = forced_tasks(problem)
     if not forced:
@@ -114,12 +116,26 @@ def forced_start(
             return None
         # Placing the others around the core may take what is left.
         stop = stop_at(deadline)
-    alone = without_slack(forced_alone(problem, forced | supplies))
+    # The options of a group that may not be left out: every plan holds
+    # one of them, so the core chooses one (a mandatory group, an option
+    # above half of a multiple resource, beside three forced users of
+    # 45 % of it in three lengths less a unit: the forced tasks alone
+    # fit, and the whole model found nothing in 10 s).
+    options = {
+        name
+        for group in problem.alternatives
+        if group.schedule_cost == 0
+        for option in group.options
+        for name in option
+    }
+    alone = without_slack(forced_alone(problem, forced | supplies | options))
     core = _relaxed_core(alone, run, limit)
     if core is None:
         if limit is not None:
             limit = max(0.0, limit - (time.perf_counter() - began))
         core = run(alone, time_limit=limit)
+    if core.status is SolveStatus.INFEASIBLE and relaxes(problem, alone):
+        return _no_plan(problem, alone, forced, core)
     if not core.status.has_plan:
         return None
     if (
@@ -138,6 +154,81 @@ def forced_start(
     # search fill it in.
     return around_core(problem, core.starts(), stop) or checked_starts(
         problem, core.starts()
+    )
+
+
+def relaxes(problem: Problem, sub: Problem) -> bool:
+    """True when every plan of ``problem``, cut to the tasks of ``sub``,
+    is a plan of ``sub``: a sub-problem without a plan then proves that
+    ``problem`` has none.
+
+    Leaving tasks out frees binary and multiple resources and raises
+    every consumable's level (the level rule is monotone in what tasks
+    take), and a precedence or a consumable dropped is a rule less, so
+    the cut holds unless ``sub`` lost a task that *supplies* a
+    consumable it keeps, or a group of ``sub`` is stricter than the
+    problem's: one that may not be left out with an option fewer, or a
+    member of a group ``sub`` does not keep, which would stand alone on
+    its own cost there (:func:`~fsw_scheduler.model.groups.
+    kept_alternatives`).
+    """
+    held = {task.id for task in sub.tasks}
+    kept = sub.resources.consumable
+    if any(
+        amount < 0 and name in kept
+        for task in problem.tasks
+        if task.id not in held
+        for name, amount in task.uses.items()
+    ):
+        return False
+    whole = {group.id: group for group in problem.alternatives}
+    same = {
+        group.id
+        for group in sub.alternatives
+        if group.options == whole[group.id].options
+    }
+    if any(
+        group.schedule_cost == 0 and group.id not in same
+        for group in sub.alternatives
+    ):
+        return False
+    return all(
+        group.id in same
+        for group in problem.alternatives
+        if any(name in held for option in group.options for name in option)
+    )
+
+
+def _no_plan(
+    problem: Problem, core: Problem, forced: Set[str], answer: Plan
+) -> Plan:
+    """The part's answer when the solver proved its forced tasks and
+    supplies (``core``) have no plan: ``infeasible``, each forced task
+    named with the argument."""
+    more = len(core.tasks) - len(forced)
+    detail = (
+        f"the {len(forced)} tasks every plan must hold"
+        + (
+            f" (with {more} more: the supplies of their consumables and "
+            "the options of groups that may not be left out)"
+            if more
+            else ""
+        )
+        + " have no plan among themselves: the solver proved it"
+    )
+    return Plan(
+        status=SolveStatus.INFEASIBLE,
+        objective=None,
+        unscheduled=tuple(task.id for task in problem.tasks),
+        why=tuple(
+            Blocker(task.id, "combination", detail)
+            for task in problem.tasks
+            if task.id in forced
+        ),
+        stats=msgspec.structs.replace(
+            answer.stats or SolverStats(solver="cbc"),
+            solver_status=f"infeasible: {detail}",
+        ),
     )
 
 
