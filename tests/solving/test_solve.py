@@ -997,11 +997,11 @@ def test_why_names_each_option_not_chosen() -> None:
     assert blocker.detail.endswith("objective would be 10, not 3")
 
 
-def test_the_disjunctive_model_refuses_changing_capacities() -> None:
+def test_the_disjunctive_model_holds_windows_by_blocks() -> None:
     """Tests that the disjunctive model, which reads one capacity per
-    resource, is never built for windows (auto picks the time-indexed
-    one, and asking for it is an error)."""
-    from fsw_scheduler.errors import SolverError
+    resource, is built for windows with the gaps held by pinned blocks
+    (:mod:`fsw_scheduler.solving.ilp.disjunctive.blocks`): the plan
+    keeps the antenna's window and names no block."""
     from fsw_scheduler.solving.ilp import solve_ilp
 
     doc = make_doc(
@@ -1010,13 +1010,12 @@ def test_the_disjunctive_model_refuses_changing_capacities() -> None:
         resources={"binary": {"antenna": {"available": [[4, 12]]}}},
     )
     problem = problem_from(doc)
-    plan = solve_ilp(problem)
-    assert "disjunctive" not in (
-        plan.stats.solver_status if plan.stats else ""
-    )
-    assert plan.starts() == {"t0": 4, "t1": 6, "t2": 8}
-    with pytest.raises(SolverError, match="time-indexed"):
-        solve_ilp(problem, formulation="disjunctive")
+    for formulation in ("auto", "disjunctive", "time-indexed"):
+        plan = solve_ilp(problem, formulation=formulation)
+        assert plan.starts() == {"t0": 4, "t1": 6, "t2": 8}
+        assert plan.unscheduled == ()
+    said = solve_ilp(problem).stats
+    assert said is not None and "disjunctive" in said.solver_status
 
 
 def test_an_external_drain_alone_is_a_proof() -> None:

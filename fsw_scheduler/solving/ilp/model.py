@@ -29,7 +29,6 @@ from .decode import Formulation
 from .disjunctive.model import DisjunctiveModel
 from .disjunctive.rule import (
     FORMULATIONS,
-    changing_in_use,
     pick,
     switch_nodes,
     used_kinds,
@@ -573,11 +572,6 @@ def solve_ilp(
         problem, domains
     ):
         raise SolverError("the disjunctive model has no consumables")
-    elif formulation == "disjunctive" and changing_in_use(problem, domains):
-        raise SolverError(
-            "the disjunctive model reads one capacity per resource: "
-            "windows and capacity steps need the time-indexed model"
-        )
     if time_limit is not None and formulation == "time-indexed":
         columns = start_count(domains)
         if BUILD_S_PER_COLUMN * columns > time_limit:

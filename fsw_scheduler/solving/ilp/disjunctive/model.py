@@ -4,9 +4,12 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from ....errors import SolverError
 from ..decode import Formulation
+from .blocks import MAX_BLOCKS, blocked
 from .constraints import Constraints
 from .objective import objective
+from .rule import changing_in_use
 from .variables import Variables
 
 if TYPE_CHECKING:
@@ -26,7 +29,10 @@ class DisjunctiveModel(Formulation):
     ----------
     problem
         A validated problem without consumables in use
-        (:func:`.rule.pick`).
+        (:func:`.rule.pick`); binary windows and capacity steps in use
+        are modelled by pinned blocks (:mod:`.blocks`), consumables'
+        external rates not at all (:class:`~fsw_scheduler.errors.
+        SolverError`).
     domains
         Start domains to model.
     """
@@ -44,6 +50,24 @@ class DisjunctiveModel(Formulation):
         domains: dict[str, Domain],
         stability: Stability | None = None,
     ) -> None:
+        changing = changing_in_use(problem, domains)
+        wide = blocked(problem, domains, changing) if changing else None
+        if changing and wide is None:
+            raise SolverError(
+                "the disjunctive model reads one capacity per resource and "
+                f"holds at most {MAX_BLOCKS} stretches of binary windows or "
+                "capacity steps; external rates and more stretches need the "
+                "time-indexed model"
+            )
+        model_problem, model_domains = wide or (problem, domains)
         super().__init__(
-            problem, domains, Variables, Constraints, objective, stability
+            model_problem,
+            model_domains,
+            Variables,
+            Constraints,
+            objective,
+            stability,
         )
+        # Plans name the problem's tasks as given: the blocks are read
+        # by no decoder, the solver's rules or the caller.
+        self.problem, self.domains = problem, domains

@@ -11,10 +11,12 @@ time-indexed model is kept
 
 * for consumables: levels over time are what its rows express, and the
   disjunctive model has none;
-* for resources whose capacity changes over time (binary windows,
-  capacity steps) in use: the disjunctive model's pair and load rows
-  read one capacity, the time-indexed model has a row per unit with
-  that unit's capacity (:func:`changing_in_use`);
+* for consumables with an external rate, and for parts whose binary
+  windows and capacity steps in use (:func:`changing_in_use`) make more
+  than :data:`~.blocks.MAX_BLOCKS` blocks: the disjunctive model reads
+  one capacity per resource, and holds a changing one by pinned tasks
+  of its own (:mod:`.blocks`), each a user of its resource, where the
+  time-indexed model has a row per unit with that unit's capacity;
 * for multiple resources where almost every set of users over a
   capacity needs three or more of them (pairs under
   :data:`MIN_PAIR_SHARE` of the :func:`minimal_sets` of the part's
@@ -70,6 +72,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Literal
 
 from ....analysis.domains import start_count
+from .blocks import blocked
 
 if TYPE_CHECKING:
     from collections.abc import Mapping
@@ -186,8 +189,14 @@ def pick(problem: Problem, domains: Mapping[str, Domain]) -> Formulation:
     kinds = used_kinds(problem, domains)
     if "consumable" in kinds:
         return "time-indexed"
-    if changing_in_use(problem, domains):
-        return "time-indexed"
+    changing = changing_in_use(problem, domains)
+    if changing:
+        wide = blocked(problem, domains, changing)
+        if wide is None:
+            return "time-indexed"
+        # The rule reads the part as the model will: the blocks among the
+        # users of their resources, at the peak capacities.
+        problem, domains = wide
     if not kinds:
         # Precedences and windows only (see the module docstring).
         return "disjunctive"
