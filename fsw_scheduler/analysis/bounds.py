@@ -30,6 +30,7 @@ the 7 at 15 tasks that used to need CBC (each ~0.1-0.3 s there).
 
 from __future__ import annotations
 
+import itertools
 from typing import TYPE_CHECKING, NamedTuple
 
 import msgspec
@@ -105,21 +106,34 @@ def level_rows(
     """Relaxed level rows: each task's use by each checkpoint, and limits.
 
     Returns the use per task id (one entry per row, of every consumable
-    together) and each row's initial level. Consumables that the tasks
-    cannot exhaust get no row.
+    together) and each row's limit: the initial level with the external
+    rate's net change up to the checkpoint (a level never ends above
+    what was put in, the ceiling only takes away, so the tasks' net use
+    by then is within that). Consumables that the tasks cannot exhaust,
+    even drained, get no row.
     """
     uses: dict[str, list[float]] = {task.id: [] for task in kept}
     limits: list[float] = []
-    for name, initial in problem.resources.initial_levels.items():
+    res = problem.resources
+    for name, initial in res.initial_levels.items():
         users = [
             (task, task.uses[name])
             for task in kept
             if task.uses.get(name, 0) != 0
         ]
-        if sum(a * t.length for t, a in users if a > 0) <= initial + _EPS:
+        outside = list(
+            itertools.accumulate(
+                res.external_profile(name, problem.start, problem.horizon)
+            )
+        )
+        drained = min(0.0, min(outside, default=0.0))
+        if (
+            sum(a * t.length for t, a in users if a > 0)
+            <= initial + drained + _EPS
+        ):
             continue
         for point in _checkpoints(problem, domains, users):
-            limits.append(initial)
+            limits.append(initial + outside[point - problem.start])
             for task in kept:
                 amount = task.uses.get(name, 0)
                 domain = domains[task.id]
@@ -198,10 +212,11 @@ def kept_set_plan(
     KeptSetProof
         The optimal plan (status ``optimal``) if proved, and the bound.
     """
-    if plan.objective is None or problem.has_mission_model:
-        # The relaxation prices tasks one by one and reads constant
-        # capacities: alternatives and changing resources are the
-        # solver's to decide.
+    if plan.objective is None or problem.alternatives:
+        # The relaxation prices tasks one by one: a group's choice is the
+        # solver's to decide. Changing capacities are read at their peak
+        # (the energy rows) and external rates as they add up (the level
+        # rows), both relaxations still.
         return KeptSetProof(None, None)
     search = _finished(
         problem,
@@ -475,10 +490,7 @@ _Rows = tuple[dict[str, list[float]], list[float]]
 
 def _energy(problem: Problem, domains: Mapping[str, Domain]) -> _Rows:
     """The energy rows over the placeable tasks (:func:`~.energetic.
-    energy_rows`); none when a capacity changes over time (the rows read
-    one capacity)."""
-    if problem.resources.changing:
-        return {}, []
+    energy_rows`; a capacity that changes over time read at its peak)."""
     placeable = [t for t in problem.tasks if not domains[t.id].empty]
     return energy_rows(problem, domains, placeable)
 

@@ -46,6 +46,7 @@ from ..analysis.check import check_plan
 from ..model.levels import resource_profiles
 from ..model.plan import Plan, SolverStats, SolveStatus
 from .ilp.decode import Formulation
+from .ilp.disjunctive.blocks import blocked
 from .ilp.disjunctive.constraints import Constraints
 from .ilp.disjunctive.model import DisjunctiveModel
 from .ilp.disjunctive.objective import objective
@@ -97,18 +98,20 @@ class RelaxedAnswer(NamedTuple):
 def applies(problem: Problem, domains: dict[str, Domain]) -> bool:
     """True if the relaxation can be built for ``problem`` and says more
     than the kept-set bound: a consumable and a binary or multiple
-    resource in use, no alternatives or mission model (the kept-set rows price
-    tasks one by one), and no resource whose capacity changes over time
-    other than the consumables (the disjunctive model reads one
-    capacity)."""
-    if problem.has_mission_model:
+    resource in use, no alternatives (the kept-set rows price tasks one
+    by one), and the binary windows and capacity steps in use few enough
+    for the disjunctive model's blocks (:mod:`.ilp.disjunctive.blocks`:
+    it reads one capacity per resource)."""
+    if problem.alternatives:
         return False
     kinds = used_kinds(problem, domains)
     if "consumable" not in kinds or kinds == {"consumable"}:
         # Without a binary or multiple resource in use the relaxation is
         # the kept-set relaxation's LP, weaker than its search.
         return False
-    return not changing_in_use(without_consumables(problem), domains)
+    stripped = without_consumables(problem)
+    changing = changing_in_use(stripped, domains)
+    return not changing or blocked(stripped, domains, changing) is not None
 
 
 def without_consumables(problem: Problem) -> Problem:
@@ -200,14 +203,21 @@ class RelaxedModel(DisjunctiveModel):
         ) -> Constraints:
             return _Apart(program, stripped, variables, original)
 
+        stripped = without_consumables(problem)
+        changing = changing_in_use(stripped, domains)
+        # Windows and capacity steps are held by pinned blocks, as in the
+        # disjunctive model (applies() has checked that they can be).
+        wide = blocked(stripped, domains, changing) if changing else None
+        model_problem, model_domains = wide or (stripped, domains)
         Formulation.__init__(
             self,
-            without_consumables(problem),
-            domains,
+            model_problem,
+            model_domains,
             _Levelled,
             constraints,
             objective,
         )
+        self.problem, self.domains = stripped, domains
         placeable = [t for t in problem.tasks if not domains[t.id].empty]
         uses, limits = level_rows(problem, domains, placeable)
         for row, limit in enumerate(limits):
@@ -410,9 +420,11 @@ class _Apart(Constraints):
         original: Problem,
     ) -> None:
         super().__init__(program, problem, variables)
+        # The original's uses, consumables included; a block (a task of
+        # the model's problem only) has its own.
         uses = {
             task.id: tuple(sorted((k, v) for k, v in task.uses.items() if v))
-            for task in original.tasks
+            for task in (*problem.tasks, *original.tasks)
         }
         twins: list[list[str]] = []
         for group in self.twins:

@@ -26,7 +26,7 @@ from fsw_scheduler.solving.relaxed import (
 from fsw_scheduler.solving.solve import best_start, solve
 
 from ..factories import bench_lib, make_doc, make_task, problem_from
-from ..problems import COMMON, decode_doc, problem_docs, show
+from ..problems import COMMON, decode_doc, mission_docs, problem_docs, show
 
 if TYPE_CHECKING:
     from fsw_scheduler.model.plan import Plan
@@ -138,6 +138,37 @@ def test_the_relaxation_never_bounds_above_the_optimum(doc: dict) -> None:
     """Tests that on small drawn problems with a consumable and a binary
     or multiple resource the relaxation's bound is at most the optimum,
     and a plan it proves is valid and optimal."""
+    problem = decode_doc(doc)
+    domains = start_domains(problem)
+    assume(applies(problem, domains))
+    exact = solve_ilp(problem, formulation="time-indexed")
+    assume(exact.status is SolveStatus.OPTIMAL)
+    assert exact.objective is not None
+    start = best_start(problem, None, domains=domains)
+    assume(start is not None)
+    assert start is not None
+    answer = relaxed_bound(problem, start, domains, time_limit=None)
+    assert answer.bound is not None
+    assert answer.bound <= exact.objective.total + 1e-6, show(doc, exact)
+    if answer.plan is not None:
+        assert answer.plan.objective == exact.objective, show(doc, exact)
+        assert check_plan(problem, answer.plan).ok
+    if answer.better is not None:
+        assert check_plan(problem, answer.better).ok
+
+
+@settings(COMMON, max_examples=80)
+@given(doc=mission_docs(max_tasks=5, max_horizon=8))
+def test_the_relaxation_with_blocks_never_bounds_above_the_optimum(
+    doc: dict,
+) -> None:
+    """Tests the same on days whose camera has windows, whose multiple
+    resource has capacity steps (held by pinned blocks in the
+    disjunctive model) and whose battery is charged or drained from
+    outside (its level rows add what came in), without the groups."""
+    doc = {k: v for k, v in doc.items() if k != "alternatives"}
+    for task in doc["tasks"]:
+        task.setdefault("schedule_cost", 1)
     problem = decode_doc(doc)
     domains = start_domains(problem)
     assume(applies(problem, domains))
