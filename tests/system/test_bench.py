@@ -647,6 +647,35 @@ def test_large_suite_has_its_shape() -> None:
         assert problem.horizon == bench.horizon
 
 
+def test_orbit_suite_is_the_large_suite_under_passes_and_eclipses() -> None:
+    """Tests the orbit suite (``tools/bench --suite orbit``): the large
+    suite's problems, named ``o`` + theirs, every binary resource in
+    passes and every multiple one in steps of the full capacity and 70 %
+    of it, valid, the same from the same seed."""
+    large = generator.suite("large", 47)
+    orbit = generator.suite("orbit", 47)
+    assert [b.name for b in orbit] == [f"o{b.name}" for b in large]
+    assert [b.to_json() for b in generator.suite("orbit", 47)] == [
+        b.to_json() for b in orbit
+    ]
+    for plain, bench in zip(large, orbit, strict=True):
+        problem = decode_problem(bench.to_json())
+        assert [t.id for t in problem.tasks] == [
+            t["id"] for t in plain.doc["tasks"]
+        ]
+        resources = problem.resources
+        assert set(resources.changing) == {
+            *resources.binary,
+            *resources.multiple,
+        } - {n for n in resources.consumable}
+        for name in resources.multiple:
+            peak = resources.peak_capacity(name)
+            profile = resources.capacity_profile(
+                name, problem.start, problem.horizon
+            )
+            assert set(profile) == {peak, int(peak * 0.7)}
+
+
 def test_cbc_and_cpsat_agree_on_every_feature_at_once() -> None:
     """Tests that CBC and CP-SAT prove the same answers on problems mixing
     windows, capacity steps, charges, alternatives and precedences."""

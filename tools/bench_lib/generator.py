@@ -210,6 +210,22 @@ def large_suite(seed: int = 0) -> list[BenchProblem]:
     return problems
 
 
+def orbit_suite(seed: int = 0) -> list[BenchProblem]:
+    """Return the large suite under an orbit: each problem of
+    :func:`large_suite` with passes on its binary resources and eclipses
+    on its multiple ones (:func:`.mission.with_orbit`, drawn from the
+    problem's own seed), named ``o`` + its name (``of30-h1440``)."""
+    return [
+        dataclasses.replace(
+            bench,
+            name=f"o{bench.name}",
+            suite="orbit",
+            doc=mission.with_orbit(bench.doc, problem_seed(seed, bench.name)),
+        )
+        for bench in large_suite(seed)
+    ]
+
+
 #: Problems per kind of the infeasible suite.
 INFEASIBLE_PER_KIND = 2
 
@@ -345,6 +361,8 @@ def suite(
         return mission_suite(seed)
     if name == "large":
         return large_suite(seed)
+    if name == "orbit":
+        return orbit_suite(seed)
     if name == "infeasible":
         return infeasible_suite(seed)
     raise ValueError(f"unknown suite {name!r}")

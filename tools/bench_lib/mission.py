@@ -22,6 +22,7 @@ byte (the transformations draw nothing).
 from __future__ import annotations
 
 import copy
+import random
 from typing import Any
 
 MISSION_CLASSES = ("alternatives", "profiles")
@@ -99,4 +100,38 @@ def with_profiles(doc: dict[str, Any]) -> dict[str, Any]:
                 ],
             }
         res["consumable"] = stores
+    return doc
+
+
+def with_orbit(doc: dict[str, Any], seed: int) -> dict[str, Any]:
+    """``doc`` under an orbit drawn from ``seed``: each binary resource
+    available in passes of a twelfth to a fifth of the horizon with gaps
+    of 5-25 units between them, and each constant multiple capacity at
+    70 % in every other stretch of a tenth to a fifth of the horizon
+    (eclipses). Consumables stay as they are."""
+    doc = copy.deepcopy(doc)
+    rng = random.Random(seed)
+    start, horizon = doc.get("start", 0), doc["horizon"]
+    end = start + horizon
+    res = doc["resources"]
+    binary = res.get("binary") or []
+    if isinstance(binary, list):
+        passes = {}
+        for name in binary:
+            windows, t = [], start + rng.randint(0, 30)
+            while t < end:
+                width = rng.randint(horizon // 12, horizon // 5)
+                windows.append([t, min(end, t + width)])
+                t += width + rng.randint(5, 25)
+            passes[name] = {"available": windows}
+        res["binary"] = passes
+    for name, cap in list(res.get("multiple", {}).items()):
+        if not isinstance(cap, int | float):
+            continue
+        steps, t, sunlit = [], start, True
+        while t < end:
+            steps.append([t, cap if sunlit else int(cap * 0.7)])
+            t += rng.randint(horizon // 10, horizon // 5)
+            sunlit = not sunlit
+        res["multiple"][name] = {"steps": steps}
     return doc
