@@ -544,11 +544,7 @@ def _solve_whole(
             problem, run, None if time_limit is None else began + time_limit
         )
         if start is not None and start.status is SolveStatus.INFEASIBLE:
-            # The forced tasks and their supplies alone have no plan (five
-            # mandatory users of a multiple resource, one above half of
-            # it, in a window one unit short: no cheap proof says so, and
-            # the whole model of 40 tasks found nothing in 10 s).
-            return with_call_stats(start, began, time_limit)
+            return with_call_stats(start, began, time_limit)  # no plan
         around_forced = start is not None
     if loud:
         log.info(

@@ -1,6 +1,7 @@
-"""Resources that change over time, for the disjunctive model: each
-stretch a binary resource is unavailable, or a multiple resource runs
-under its peak capacity, held by a pinned task of its own.
+"""Binary windows and capacity steps in the disjunctive model, as blocks.
+
+Each stretch a binary resource is unavailable, or a multiple resource
+runs under its peak capacity, is held by a pinned task of its own.
 
 The disjunctive model reads one capacity per resource (its pair and
 load rows, :mod:`.constraints`). A *block* is a pinned, mandatory task
