@@ -109,18 +109,22 @@ def test_what_stays_with_the_time_indexed_model() -> None:
 
 @st.composite
 def _days(draw: Any) -> dict[str, Any]:
-    """Small days on a camera with windows and a power profile."""
+    """Small days on a camera with windows and a power profile, from a
+    start of 0 to 5."""
     horizon = draw(st.integers(12, 30))
+    begin = draw(st.integers(0, 5))  # the problem's start
     cuts = sorted(draw(st.sets(st.integers(1, horizon - 1), max_size=4)))
-    edges = [0, *cuts, horizon]
+    edges = [begin + t for t in (0, *cuts, horizon)]
     windows = [
         [a, b]
         for k, (a, b) in enumerate(itertools.pairwise(edges))
         if k % 2 == 0
     ]
     levels = draw(st.lists(st.integers(0, 10), min_size=1, max_size=4))
-    at = sorted(draw(st.sets(st.integers(1, horizon - 1), max_size=3)))
-    steps = [[0, levels[0]]] + [
+    at = sorted(
+        draw(st.sets(st.integers(begin + 1, begin + horizon - 1), max_size=3))
+    )
+    steps = [[begin, levels[0]]] + [
         [t, levels[k % len(levels)]] for k, t in enumerate(at, 1)
     ]
     tasks = []
@@ -142,6 +146,7 @@ def _days(draw: Any) -> dict[str, Any]:
     return make_doc(
         tasks,
         horizon=horizon,
+        start=begin,
         resources={
             "binary": {"camera": {"available": windows}},
             "multiple": {"power": {"steps": steps}},
