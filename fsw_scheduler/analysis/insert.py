@@ -32,6 +32,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from ..model import groups
 from ..model.plan import Activity, Plan, SolveStatus, objective_weight
 from .board import Board
 from .check import check_plan
@@ -99,7 +100,7 @@ def inserted(
     if (
         plan.objective is None
         or not plan.unscheduled
-        or problem.has_mission_model
+        or problem.resources.changing
     ):
         return plan
     state = _Inserting(problem, plan, domains)
@@ -149,10 +150,15 @@ class _Inserting:
 
     def left_out(self) -> list[str]:
         """Left-out tasks that could be placed, the most valuable first."""
+        # A group's members come in or go out by whole options: not one
+        # by one here (their own costs are not the objective's).
+        member = self.problem.groups.member
         names = [
             t.id
             for t in self.problem.tasks
-            if t.id not in self.starts and not self.domains[t.id].empty
+            if t.id not in self.starts
+            and not self.domains[t.id].empty
+            and t.id not in member
         ]
         return sorted(
             names,
@@ -268,20 +274,22 @@ class _Inserting:
                     key=lambda a: (a.start, a.task),
                 )
             ),
-            unscheduled=tuple(
-                t.id for t in self.problem.tasks if t.id not in self.starts
-            ),
+            unscheduled=groups.left_out(self.problem, self.starts),
+            chosen=groups.chosen(self.problem, self.starts),
         )
         report = check_plan(self.problem, found)
-        if not report.ok or report.objective is None:
+        if (
+            not report.ok
+            or report.objective is None
+            or report.objective.total >= original.objective.total
+        ):
             return original
         return found.replace(objective=report.objective)
 
     def _total(self, starts: dict[str, int]) -> int:
-        """The objective of a plan with ``starts`` (no mission model)."""
-        missed = sum(
-            t.schedule_cost for t in self.problem.tasks if t.id not in starts
-        )
+        """The objective of a plan with ``starts`` (groups left out cost
+        their own; resources that change over time are not read here)."""
+        missed = groups.unscheduled_cost(self.problem, starts)
         delay = sum(
             self.tasks[n].delay_cost * (s - self.problem.start)
             for n, s in starts.items()
@@ -340,7 +348,10 @@ class _Inserting:
                 and prec.before in starts
             ):
                 return False
-        return not self.problem.required(self.tasks[name])
+        return (
+            not self.problem.required(self.tasks[name])
+            and name not in self.problem.groups.member
+        )
 
     def _candidates(
         self, task: Task, starts: dict[str, int], low: int, high: int

@@ -5,6 +5,9 @@ from __future__ import annotations
 import itertools
 from typing import TYPE_CHECKING
 
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
 from fsw_scheduler.analysis import insert
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
@@ -13,7 +16,7 @@ from fsw_scheduler.analysis.insert import inserted
 from fsw_scheduler.model.plan import Activity, SolveStatus
 
 from ..factories import bench_lib, crowded_camera, make_task, problem_from
-from ..problems import plan_of
+from ..problems import COMMON, decode_doc, mission_docs, plan_of
 
 if TYPE_CHECKING:
     from fsw_scheduler.model.problem import Problem
@@ -295,3 +298,97 @@ def test_five_tasks_in_the_way_make_room() -> None:
     assert better.unscheduled == ()
     assert better.starts()["long"] == 0
     assert check_plan(problem, better).ok
+
+
+def test_a_task_comes_in_beside_a_group_whose_option_moves() -> None:
+    """Tests insertion in a problem with a group of alternatives: the
+    left-out task takes the camera from the chosen option's task, which
+    moves but stays (members are neither inserted nor dropped one by
+    one), the plan names the group's choice, and the checker accepts it
+    at a lower objective."""
+    problem = problem_from(
+        {
+            "horizon": 8,
+            "resources": {"binary": ["camera"]},
+            "tasks": [
+                make_task("hf", 4, delay_cost=1, uses={"camera": 1}),
+                make_task("lf", 4, delay_cost=1, uses={"camera": 1}),
+                make_task(
+                    "b",
+                    4,
+                    delay_cost=5,
+                    schedule_cost=5,
+                    uses={"camera": 1},
+                    feasible_interval=[0, 4],
+                ),
+            ],
+            "alternatives": [
+                {"id": "img", "schedule_cost": 1, "options": [["hf"], ["lf"]]}
+            ],
+        }
+    )
+    start = plan_of(problem, {"hf": 0, "lf": None, "b": None})
+    assert start.unscheduled == ("b",)
+    better = inserted(problem, start, start_domains(problem))
+    assert better.activities == (Activity("b", 0, 4), Activity("hf", 4, 8))
+    assert better.unscheduled == ()
+    assert better.chosen == {"img": 0}
+    assert check_plan(problem, better).ok
+    assert better.objective is not None and start.objective is not None
+    assert better.objective.total < start.objective.total
+
+
+def _steady(doc: dict) -> dict:
+    """``doc`` without its resources that change over time (insertion
+    reads constant capacities), its group kept."""
+    resources = doc["resources"]
+    changing = {"w0", "s0", "e0"}
+    resources["binary"] = {
+        k: v for k, v in resources["binary"].items() if k not in changing
+    }
+    for kind in ("multiple", "consumable"):
+        resources[kind] = {
+            k: v for k, v in resources[kind].items() if k not in changing
+        }
+    for task in doc["tasks"]:
+        task["uses"] = {
+            k: v for k, v in task.get("uses", {}).items() if k not in changing
+        }
+    return doc
+
+
+@settings(COMMON, max_examples=200)
+@given(
+    doc=mission_docs(max_tasks=5, max_horizon=8),
+    drop=st.sets(st.integers(0, 4)),
+)
+def test_insertion_with_a_group_gives_valid_better_plans(
+    doc: dict, drop: set[int]
+) -> None:
+    """Tests, on drawn days with a group of alternatives, that insertion
+    from any valid plan at earliest starts returns that plan or a valid
+    one of lower objective."""
+    problem = decode_doc(_steady(doc))
+    domains = start_domains(problem)
+    kept = {
+        t.id
+        for k, t in enumerate(problem.tasks)
+        if k not in drop and not domains[t.id].empty
+    }
+    start = plan_of(
+        problem,
+        {
+            t.id: domains[t.id].earliest if t.id in kept else None
+            for t in problem.tasks
+        },
+    )
+    if not check_plan(problem, start).ok or start.objective is None:
+        return
+    better = inserted(problem, start, domains)
+    if better is start:
+        return
+    report = check_plan(problem, better)
+    assert report.ok, (doc, better)
+    assert better.objective == report.objective
+    assert better.objective is not None
+    assert better.objective.total < start.objective.total
