@@ -17,12 +17,14 @@ from typing import TYPE_CHECKING
 from hypothesis import HealthCheck, assume, settings
 from hypothesis import strategies as st
 
+from fsw_scheduler.analysis.check import check_plan
+from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.errors import InputError
 from fsw_scheduler.model.plan import Activity, Objective, Plan, SolveStatus
 from fsw_scheduler.model.problem import decode_problem
 
 if TYPE_CHECKING:
-    from collections.abc import Iterable, Iterator, Sequence
+    from collections.abc import Collection, Iterable, Iterator, Sequence
 
     from fsw_scheduler.model.problem import Problem, Task
     from fsw_scheduler.model.stability import Stability
@@ -601,6 +603,23 @@ def plan_of(problem: Problem, starts: Assignment) -> Plan:
         ),
         tuple(left),
     )
+
+
+def at_earliest_but(problem: Problem, drop: Collection[int]) -> Plan | None:
+    """The plan of every placeable task at its earliest start but those at
+    the indexes ``drop`` (left out), if the checker accepts it; else
+    None."""
+    domains = start_domains(problem)
+    plan = plan_of(
+        problem,
+        {
+            t.id: None
+            if k in drop or domains[t.id].empty
+            else domains[t.id].earliest
+            for k, t in enumerate(problem.tasks)
+        },
+    )
+    return plan if check_plan(problem, plan).ok else None
 
 
 def starts_of(problem: Problem, plan: Plan) -> Assignment:

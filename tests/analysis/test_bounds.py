@@ -25,6 +25,7 @@ from fsw_scheduler.solving.solve import best_start, solve
 from ..factories import bench_lib, problem_from
 from ..problems import (
     COMMON,
+    at_earliest_but,
     brute_force,
     decode_doc,
     mission_docs,
@@ -368,16 +369,10 @@ def test_windows_steps_and_external_rates_keep_the_bound_a_bound(
     tasks out: its bound never exceeds the optimum found by exhaustive
     search, and what it proves is the optimum."""
     problem = decode_doc(_without_groups(doc))
-    domains = start_domains(problem)
-    kept = {
-        t.id
-        for idx, t in enumerate(problem.tasks)
-        if idx not in drop and not domains[t.id].empty
-    }
-    plan = _at_earliest(problem, kept)
-    if not check_plan(problem, plan).ok:
+    plan = at_earliest_but(problem, drop)
+    if plan is None:
         return
-    proof = kept_set_plan(problem, plan, domains)
+    proof = kept_set_plan(problem, plan, start_domains(problem))
     if proof.bound is None:
         return
     best = brute_force(problem)

@@ -16,7 +16,13 @@ from fsw_scheduler.analysis.insert import inserted
 from fsw_scheduler.model.plan import Activity, SolveStatus
 
 from ..factories import bench_lib, crowded_camera, make_task, problem_from
-from ..problems import COMMON, decode_doc, mission_docs, plan_of
+from ..problems import (
+    COMMON,
+    at_earliest_but,
+    decode_doc,
+    mission_docs,
+    plan_of,
+)
 
 if TYPE_CHECKING:
     from fsw_scheduler.model.problem import Problem
@@ -369,21 +375,10 @@ def test_insertion_with_a_group_gives_valid_better_plans(
     from any valid plan at earliest starts returns that plan or a valid
     one of lower objective."""
     problem = decode_doc(_steady(doc))
-    domains = start_domains(problem)
-    kept = {
-        t.id
-        for k, t in enumerate(problem.tasks)
-        if k not in drop and not domains[t.id].empty
-    }
-    start = plan_of(
-        problem,
-        {
-            t.id: domains[t.id].earliest if t.id in kept else None
-            for t in problem.tasks
-        },
-    )
-    if not check_plan(problem, start).ok or start.objective is None:
+    start = at_earliest_but(problem, drop)
+    if start is None or start.objective is None:
         return
+    domains = start_domains(problem)
     better = inserted(problem, start, domains)
     if better is start:
         return
