@@ -26,6 +26,7 @@ never cuts a kept set), the :data:`MAX_ROWS` most overloaded first.
 
 from __future__ import annotations
 
+import itertools
 import math
 from typing import TYPE_CHECKING
 
@@ -52,8 +53,10 @@ MAX_PAIRS_WORK = 50_000
 
 _EPS = 1e-9
 
-#: A group of users of one capacity: (task, amount) pairs and the capacity.
-_Group = tuple[list[tuple["Task", float]], float]
+#: A group of users of one capacity: (task, amount) pairs, the capacity
+#: (the peak of one that changes) and what a changing one holds up to
+#: each unit (:func:`_held`; None for a constant one).
+_Group = tuple[list[tuple["Task", float]], float, list[float] | None]
 
 
 def energy_rows(
@@ -68,8 +71,8 @@ def energy_rows(
     Parameters
     ----------
     problem
-        A validated problem whose binary and multiple capacities do not
-        change (the caller's condition: the rows read one capacity).
+        A validated problem; a binary window or a capacity step limits
+        each interval's row to what the resource holds over it.
     domains
         Its start domains (those of ``kept`` must not be empty).
     kept
@@ -84,8 +87,10 @@ def energy_rows(
         the form of :func:`~fsw_scheduler.analysis.bounds.level_rows`.
     """
     found: list[tuple[float, int, int, dict[str, float], float]] = []
-    for users, capacity in _groups(problem, kept):
-        found.extend(_overloaded(users, capacity, domains))
+    for users, capacity, held in _groups(problem, kept):
+        found.extend(
+            _overloaded(users, capacity, domains, held, problem.start)
+        )
     found.sort(key=lambda row: (-row[0], row[1], row[2]))
     if max_rows is None:
         max_rows = MAX_ROWS
@@ -100,18 +105,37 @@ def energy_rows(
 
 def _groups(problem: Problem, kept: Sequence[Task]) -> list[_Group]:
     """Users of each binary and multiple resource with its capacity, and
-    the users of each multiple resource above half its capacity."""
+    the users of each multiple resource above half its capacity (one at
+    a time: capacity 1). A resource whose capacity changes over time has
+    its peak and what it holds over each interval (:func:`_held`); the
+    users above half of its peak, one at a time, only the peak."""
     resources = problem.resources
+    changing = set(resources.changing)
     groups: list[_Group] = []
     for name in resources.binary_names:
-        groups.append(([(t, 1.0) for t in kept if t.uses.get(name, 0)], 1.0))
+        users = [(t, 1.0) for t in kept if t.uses.get(name, 0)]
+        groups.append((users, 1.0, _held(problem, name, changing)))
     for name in resources.multiple:
         capacity = resources.peak_capacity(name)
         users = [(t, float(t.uses[name])) for t in kept if t.uses.get(name)]
-        groups.append((users, capacity))
+        groups.append((users, capacity, _held(problem, name, changing)))
         apart = [(t, 1.0) for t, amount in users if amount > capacity / 2]
-        groups.append((apart, 1.0))
-    return [(users, cap) for users, cap in groups if len(users) > 1]
+        groups.append((apart, 1.0, None))
+    return [group for group in groups if len(group[0]) > 1]
+
+
+def _held(
+    problem: Problem, name: str, changing: set[str]
+) -> list[float] | None:
+    """What a changing resource holds up to each unit (``held[k]``: the
+    sum of its capacities over ``[start, start + k)``), or None for a
+    constant one (its capacity times the interval's length)."""
+    if name not in changing:
+        return None
+    profile = problem.resources.capacity_profile(
+        name, problem.start, problem.horizon
+    )
+    return [0.0, *itertools.accumulate(profile)]
 
 
 def _thinned(points: list[int], keep: int) -> list[int]:
@@ -127,12 +151,16 @@ def _overloaded(
     users: list[tuple[Task, float]],
     capacity: float,
     domains: Mapping[str, Domain],
+    held: list[float] | None = None,
+    start: int = 0,
 ) -> list[tuple[float, int, int, dict[str, float], float]]:
     """Intervals that the users, all kept, would overload: (overload
     ratio, a, b, least use per task id, limit) for each. The least
     overlaps are the infeasibility proofs' (:func:`~.lanes.
     least_overlaps`), over intervals from a user's earliest start to a
-    user's latest end."""
+    user's latest end. The limit is ``capacity`` times the interval's
+    length, or with ``held`` (:func:`_held`, from unit ``start``) what
+    the resource holds over the interval."""
     if capacity <= 0:
         return []
     starts = sorted({domains[t.id].earliest for t, _ in users})
@@ -149,7 +177,12 @@ def _overloaded(
             for name, piece in zip(inside, pieces, strict=True)
         }
         total = sum(row.values())
-        limit = capacity * (b - a)
+        limit = (
+            capacity * (b - a)
+            if held is None
+            else held[b - start] - held[a - start]
+        )
         if total > limit + _EPS:
-            found.append((total / limit, a, b, row, limit))
+            ratio = total / limit if limit > 0 else math.inf
+            found.append((ratio, a, b, row, limit))
     return found

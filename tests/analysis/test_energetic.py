@@ -171,3 +171,39 @@ def test_every_valid_plan_meets_every_row(doc: dict) -> None:
                 uses[t.id][row] for t in placeable if starts[t.id] is not None
             )
             assert taken <= limit + 1e-9, (doc, starts, row)
+
+
+def test_a_window_limits_each_row_to_what_it_holds() -> None:
+    """Tests a camera available in [0, 2) and [6, 10) only: five 1-unit
+    users within [0, 8) would fit its 8 units at the peak, but it holds 4
+    there, so the row over [0, 8) binds with that limit; and a power
+    resource at 10 down to 4 from unit 4: five 4-unit users of 4 within
+    [0, 8) take 80, what it holds there is 56."""
+    problem = problem_from(
+        {
+            "horizon": 10,
+            "resources": {
+                "binary": {"camera": {"available": [[0, 2], [6, 10]]}},
+                "multiple": {"power": {"steps": [[0, 10], [4, 4]]}},
+            },
+            "tasks": [
+                {"id": f"t{k}", "length": 1, "delay_cost": 1,
+                 "schedule_cost": 1, "feasible_interval": [0, 8],
+                 "uses": {"camera": 1}}
+                for k in range(5)
+            ] + [
+                {"id": f"p{k}", "length": 4, "delay_cost": 1,
+                 "schedule_cost": 1, "feasible_interval": [0, 8],
+                 "uses": {"power": 4}}
+                for k in range(5)
+            ],
+        }
+    )  # fmt: skip
+    domains = start_domains(problem)
+    uses, limits = energy_rows(problem, domains, list(problem.tasks))
+    rows = [
+        ({name: uses[name][k] for name in uses if uses[name][k]}, limit)
+        for k, limit in enumerate(limits)
+    ]
+    assert ({f"t{k}": 1.0 for k in range(5)}, 4.0) in rows
+    assert ({f"p{k}": 16.0 for k in range(5)}, 56.0) in rows
