@@ -30,7 +30,6 @@ the 7 at 15 tasks that used to need CBC (each ~0.1-0.3 s there).
 
 from __future__ import annotations
 
-import itertools
 from typing import TYPE_CHECKING, NamedTuple
 
 import msgspec
@@ -121,19 +120,14 @@ def level_rows(
             for task in kept
             if task.uses.get(name, 0) != 0
         ]
-        outside = list(
-            itertools.accumulate(
-                res.external_profile(name, problem.start, problem.horizon)
-            )
-        )
-        drained = min(0.0, min(outside, default=0.0))
+        before = res.external_before(name, problem.start, problem.horizon)
         if (
             sum(a * t.length for t, a in users if a > 0)
-            <= initial + drained + _EPS
+            <= initial + min(before) + _EPS
         ):
             continue
         for point in _checkpoints(problem, domains, users):
-            limits.append(initial + outside[point - problem.start])
+            limits.append(initial + before[point + 1 - problem.start])
             for task in kept:
                 amount = task.uses.get(name, 0)
                 domain = domains[task.id]

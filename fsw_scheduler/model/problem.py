@@ -241,6 +241,13 @@ class Resources(msgspec.Struct, frozen=True, omit_defaults=True):
         """
         return profiles.external_profile(self, name, start, horizon)
 
+    def external_before(
+        self, name: str, start: int, horizon: int
+    ) -> list[float]:
+        """A consumable's net outside change before each unit: index
+        ``k`` sums the first ``k`` units of :meth:`external_profile`."""
+        return profiles.external_before(self, name, start, horizon)
+
     def external_charge(self, name: str, start: int, horizon: int) -> float:
         """The sum of a consumable's external charges (rates ``> 0``) over
         ``[start, start + horizon)``, from its steps (no walk of the

@@ -9,6 +9,7 @@ reads the raw fields itself). Pure: no solver, no bus, no clock.
 
 from __future__ import annotations
 
+import itertools
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -98,6 +99,19 @@ def external_profile(
     if not external:
         return [0.0] * horizon
     return step_values(external, start, horizon)
+
+
+def external_before(
+    resources: Resources, name: str, start: int, horizon: int
+) -> list[float]:
+    """The net outside change of consumable ``name`` before each unit:
+    entry ``k`` sums the first ``k`` units of :func:`external_profile`
+    (``horizon + 1`` entries, the first 0)."""
+    return list(
+        itertools.accumulate(
+            external_profile(resources, name, start, horizon), initial=0.0
+        )
+    )
 
 
 def external_charge(

@@ -35,7 +35,6 @@ level there.
 from __future__ import annotations
 
 import functools
-import itertools
 import time
 from typing import TYPE_CHECKING, NamedTuple
 
@@ -46,11 +45,11 @@ from ..analysis.check import check_plan
 from ..model.levels import resource_profiles
 from ..model.plan import Plan, SolverStats, SolveStatus
 from .ilp.decode import Formulation
-from .ilp.disjunctive.blocks import blocked
+from .ilp.disjunctive.blocks import modelled
 from .ilp.disjunctive.constraints import Constraints
 from .ilp.disjunctive.model import DisjunctiveModel
 from .ilp.disjunctive.objective import objective
-from .ilp.disjunctive.rule import changing_in_use, used_kinds
+from .ilp.disjunctive.rule import used_kinds
 from .ilp.disjunctive.variables import Variables
 from .ilp.model import run_cbc
 from .ilp.program import GE, LE
@@ -111,9 +110,7 @@ def applies(problem: Problem, domains: dict[str, Domain]) -> bool:
         # Without a binary or multiple resource in use the relaxation is
         # the kept-set relaxation's LP, weaker than its search.
         return False
-    stripped = without_consumables(problem)
-    changing = changing_in_use(stripped, domains)
-    return not changing or blocked(stripped, domains, changing) is not None
+    return modelled(without_consumables(problem), domains) is not None
 
 
 def without_consumables(problem: Problem) -> Problem:
@@ -206,15 +203,15 @@ class RelaxedModel(DisjunctiveModel):
             return _Apart(program, stripped, variables, original)
 
         stripped = without_consumables(problem)
-        changing = changing_in_use(stripped, domains)
         # Windows and capacity steps are held by pinned blocks, as in the
         # disjunctive model (applies() has checked that they can be).
-        wide = blocked(stripped, domains, changing) if changing else None
-        model_problem, model_domains = wide or (stripped, domains)
+        wide = modelled(stripped, domains)
+        assert wide is not None, "the relaxation applies (applies())"
+        model_problem, model_domains = wide
         Formulation.__init__(
             self,
             model_problem,
-            model_domains,
+            dict(model_domains),
             _Levelled,
             constraints,
             objective,
@@ -235,13 +232,8 @@ class RelaxedModel(DisjunctiveModel):
         # for all the checkpoints.
         changed = (
             {
-                name: list(
-                    itertools.accumulate(
-                        problem.resources.external_profile(
-                            name, problem.start, problem.horizon
-                        ),
-                        initial=0.0,
-                    )
+                name: problem.resources.external_before(
+                    name, problem.start, problem.horizon
                 )
                 for name in problem.resources.initial_levels
             }

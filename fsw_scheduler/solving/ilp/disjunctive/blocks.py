@@ -48,6 +48,42 @@ MAX_BLOCKS = 48
 PREFIX = "~"
 
 
+def changing_in_use(
+    problem: Problem, domains: Mapping[str, Domain]
+) -> list[str]:
+    """Resources whose capacity changes over time that a placeable task
+    of ``problem`` uses, and every consumable with an external rate, used
+    or not (its level rows bind with no task): what the disjunctive model
+    cannot read as one capacity (:func:`modelled`)."""
+    changing = set(problem.resources.changing)
+    # An external rate is a use of its consumable that no task makes.
+    drained = [n for n in problem.resources.consumable if n in changing]
+    return sorted(
+        {*drained}
+        | {
+            name
+            for task in problem.tasks
+            if not domains[task.id].empty
+            for name, amount in task.uses.items()
+            if amount and name in changing
+        }
+    )
+
+
+def modelled(
+    problem: Problem, domains: Mapping[str, Domain]
+) -> tuple[Problem, Mapping[str, Domain]] | None:
+    """What the disjunctive model reads for ``problem``: the problem and
+    its domains as they are when no resource in use changes over time,
+    else with the blocks of its windows and steps (:func:`blocked`);
+    None when one cannot be held so (a consumable's external rate, more
+    than :data:`MAX_BLOCKS` blocks)."""
+    changing = changing_in_use(problem, domains)
+    if not changing:
+        return problem, domains
+    return blocked(problem, domains, changing)
+
+
 def blocks(problem: Problem, names: Iterable[str]) -> list[Task] | None:
     """The block tasks of the resources ``names``, or None when one of
     them is not binary or multiple (a consumable's external rate).
@@ -56,35 +92,46 @@ def blocks(problem: Problem, names: Iterable[str]) -> list[Task] | None:
     resource's peak capacity over the horizon (1 for a binary resource
     outside its windows).
     """
-    res = problem.resources
     out: list[Task] = []
     for name in names:
-        kind = res.kind_of(name)
-        if kind not in ("binary", "multiple"):
+        found = _stretches(problem, name)
+        if found is None:
             return None
-        profile = res.capacity_profile(name, problem.start, problem.horizon)
-        # A binary resource is 1 where it is available: one user at a time
-        # (a resource never available is blocked over the whole horizon).
-        peak = 1.0 if kind == "binary" else max(profile, default=0.0)
-        run_from = 0
-        for index in range(1, len(profile) + 1):
-            if index < len(profile) and profile[index] == profile[run_from]:
-                continue
-            short = peak - profile[run_from]
-            if short > 0:
-                begin = problem.start + run_from
-                out.append(
-                    Task(
-                        id=f"{PREFIX}{name}@{begin}",
-                        length=index - run_from,
-                        delay_cost=0,
-                        schedule_cost=0,
-                        uses={name: short},
-                        fixed_start=begin,
-                    )
-                )
-            run_from = index
+        out += found[1]
     return out
+
+
+def _stretches(problem: Problem, name: str) -> tuple[float, list[Task]] | None:
+    """The peak of binary or multiple resource ``name`` over the horizon
+    and its blocks (:func:`blocks`), or None for another kind."""
+    res = problem.resources
+    kind = res.kind_of(name)
+    if kind not in ("binary", "multiple"):
+        return None
+    profile = res.capacity_profile(name, problem.start, problem.horizon)
+    # A binary resource is 1 where it is available: one user at a time
+    # (a resource never available is blocked over the whole horizon).
+    peak = 1.0 if kind == "binary" else max(profile, default=0.0)
+    out: list[Task] = []
+    run_from = 0
+    for index in range(1, len(profile) + 1):
+        if index < len(profile) and profile[index] == profile[run_from]:
+            continue
+        short = peak - profile[run_from]
+        if short > 0:
+            begin = problem.start + run_from
+            out.append(
+                Task(
+                    id=f"{PREFIX}{name}@{begin}",
+                    length=index - run_from,
+                    delay_cost=0,
+                    schedule_cost=0,
+                    uses={name: short},
+                    fixed_start=begin,
+                )
+            )
+        run_from = index
+    return peak, out
 
 
 def blocked(
@@ -99,23 +146,24 @@ def blocked(
     Only the resources named change: the others keep their profiles
     (none, when ``names`` is every changing resource in use).
     """
-    names = sorted(set(names))
-    added = blocks(problem, names)
-    if added is None or len(added) > MAX_BLOCKS:
+    peaks: dict[str, float] = {}
+    added: list[Task] = []
+    for name in sorted(set(names)):
+        found = _stretches(problem, name)
+        if found is None:
+            return None
+        peaks[name], more_blocks = found
+        added += more_blocks
+    if len(added) > MAX_BLOCKS:
         return None
     res = problem.resources
     multiple = {
-        name: (
-            max(res.capacity_profile(name, problem.start, problem.horizon))
-            if name in names
-            else spec
-        )
-        for name, spec in res.multiple.items()
+        name: peaks.get(name, spec) for name, spec in res.multiple.items()
     }
     binary: tuple[str, ...] | dict = res.binary
     if isinstance(res.binary, dict):
         binary = {
-            name: (type(spec)() if name in names else spec)
+            name: (type(spec)() if name in peaks else spec)
             for name, spec in res.binary.items()
         }
     wide = problem.replace(

@@ -169,7 +169,8 @@ class Constraints:
         otherwise the load is also bounded at every user's start
         (:meth:`_load_at_starts`).
         """
-        # Only constant capacities come here (rule.changing_in_use).
+        # Only constant capacities come here: a changing one in use is
+        # read at its peak beside its blocks (blocks.modelled).
         multiple = {
             name: self.problem.resources.peak_capacity(name)
             for name in self.problem.resources.multiple

@@ -6,10 +6,9 @@ from typing import TYPE_CHECKING
 
 from ....errors import SolverError
 from ..decode import Formulation
-from .blocks import MAX_BLOCKS, blocked
+from .blocks import MAX_BLOCKS, modelled
 from .constraints import Constraints
 from .objective import objective
-from .rule import changing_in_use
 from .variables import Variables
 
 if TYPE_CHECKING:
@@ -50,19 +49,18 @@ class DisjunctiveModel(Formulation):
         domains: dict[str, Domain],
         stability: Stability | None = None,
     ) -> None:
-        changing = changing_in_use(problem, domains)
-        wide = blocked(problem, domains, changing) if changing else None
-        if changing and wide is None:
+        wide = modelled(problem, domains)
+        if wide is None:
             raise SolverError(
                 "the disjunctive model reads one capacity per resource and "
                 f"holds at most {MAX_BLOCKS} stretches of binary windows or "
                 "capacity steps; external rates and more stretches need the "
                 "time-indexed model"
             )
-        model_problem, model_domains = wide or (problem, domains)
+        model_problem, model_domains = wide
         super().__init__(
             model_problem,
-            model_domains,
+            dict(model_domains),
             Variables,
             Constraints,
             objective,

@@ -12,11 +12,12 @@ time-indexed model is kept
 * for consumables: levels over time are what its rows express, and the
   disjunctive model has none;
 * for consumables with an external rate, and for parts whose binary
-  windows and capacity steps in use (:func:`changing_in_use`) make more
-  than :data:`~.blocks.MAX_BLOCKS` blocks: the disjunctive model reads
-  one capacity per resource, and holds a changing one by pinned tasks
-  of its own (:mod:`.blocks`), each a user of its resource, where the
-  time-indexed model has a row per unit with that unit's capacity;
+  windows and capacity steps in use make more than
+  :data:`~.blocks.MAX_BLOCKS` blocks (:func:`.blocks.modelled`): the
+  disjunctive model reads one capacity per resource, and holds a
+  changing one by pinned tasks of its own (:mod:`.blocks`), each a user
+  of its resource, where the time-indexed model has a row per unit with
+  that unit's capacity;
 * for multiple resources where almost every set of users over a
   capacity needs three or more of them (pairs under
   :data:`MIN_PAIR_SHARE` of the :func:`minimal_sets` of the part's
@@ -72,7 +73,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Literal
 
 from ....analysis.domains import start_count
-from .blocks import blocked
+from .blocks import modelled
 
 if TYPE_CHECKING:
     from collections.abc import Mapping
@@ -189,14 +190,12 @@ def pick(problem: Problem, domains: Mapping[str, Domain]) -> Formulation:
     kinds = used_kinds(problem, domains)
     if "consumable" in kinds:
         return "time-indexed"
-    changing = changing_in_use(problem, domains)
-    if changing:
-        wide = blocked(problem, domains, changing)
-        if wide is None:
-            return "time-indexed"
-        # The rule reads the part as the model will: the blocks among the
-        # users of their resources, at the peak capacities.
-        problem, domains = wide
+    wide = modelled(problem, domains)
+    if wide is None:
+        return "time-indexed"
+    # The rule reads the part as the model will: the blocks among the
+    # users of their resources, at the peak capacities.
+    problem, domains = wide
     if not kinds:
         # Precedences and windows only (see the module docstring).
         return "disjunctive"
@@ -262,25 +261,3 @@ def used_kinds(
             if amount and kind is not None:
                 kinds.add(kind)
     return kinds
-
-
-def changing_in_use(
-    problem: Problem, domains: Mapping[str, Domain]
-) -> list[str]:
-    """Resources whose capacity changes over time that a placeable task
-    of ``problem`` uses, and every consumable with an external rate, used
-    or not (its level rows bind with no task): the disjunctive model can
-    read none of them."""
-    changing = set(problem.resources.changing)
-    # An external rate is a use of its consumable that no task makes.
-    drained = [n for n in problem.resources.consumable if n in changing]
-    return sorted(
-        {*drained}
-        | {
-            name
-            for task in problem.tasks
-            if not domains[task.id].empty
-            for name, amount in task.uses.items()
-            if amount and name in changing
-        }
-    )
