@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 from typing import TYPE_CHECKING
 
 from hypothesis import given, settings
@@ -10,6 +11,8 @@ from hypothesis import strategies as st
 from fsw_scheduler.analysis.bounds import (
     MAX_NODES,
     KeptSetProof,
+    _energy,
+    _KeptSetSearch,
     better_start,
     delay_caps,
     fixings,
@@ -300,15 +303,16 @@ def test_the_kept_set_search_asked_to_stop_says_nothing() -> None:
 
 def test_the_kept_set_search_has_nodes_for_a_30_task_day() -> None:
     """Tests that the kept-set search bounds a 30-task day whose start
-    plan leaves out many tasks: 20,000 nodes (the old cap) ran out on it,
-    and a solve or replan then went on with no bound and no readmission
-    (fresh shape, seed 89; seed 47's replan of r30-h1440-0 the same)."""
+    plan leaves out many tasks: 20,000 nodes (the old cap) ran out on it
+    before the rows' fractional knapsacks pruned the search, and a solve
+    or replan then went on with no bound and no readmission (fresh shape,
+    seed 89; seed 47's replan of r30-h1440-0 the same)."""
     fresh = bench_lib("fresh")
     problem = problem_from(fresh.generate_problem(30, 1440, 89))
     domains = start_domains(problem)
     start = greedy_plan(problem, domains=domains)
     assert start is not None and start.objective is not None
-    assert kept_set_plan(problem, start, domains, 20_000).bound is None
+    assert kept_set_plan(problem, start, domains, 20_000).bound is not None
     assert MAX_NODES >= 100_000
     found = kept_set_plan(problem, start, domains)
     assert found.bound is not None
@@ -383,3 +387,64 @@ def test_windows_steps_and_external_rates_keep_the_bound_a_bound(
         assert proof.plan.objective == objective
     if proof.better is not None:
         assert check_plan(problem, proof.better).ok
+
+
+@settings(COMMON, max_examples=300)
+@given(
+    doc=st.one_of(
+        problem_docs(max_tasks=8, max_horizon=12),
+        problem_docs(max_tasks=8, max_horizon=12, capacities=True),
+    ),
+    forced=st.tuples(st.integers(0, 7), st.booleans()),
+    energy=st.booleans(),
+)
+def test_the_row_knapsacks_prune_no_better_kept_set(
+    doc: dict, forced: tuple[int, bool], energy: bool
+) -> None:
+    """Tests that the kept-set search, pruned by each row's fractional
+    knapsack, finds the same least relaxed cost as trying every kept set
+    against its rows, its precedence links, the mandatory tasks and one
+    decision imposed (which holds even against a mandatory task), with
+    the energy rows or without."""
+    problem = decode_doc(doc)
+    domains = start_domains(problem)
+    placeable = [t for t in problem.tasks if not domains[t.id].empty]
+    if not placeable:
+        return
+    force = (placeable[forced[0] % len(placeable)].id, forced[1])
+    rows = _energy(problem, domains) if energy else None
+    cutoff = 10**12
+    search = _KeptSetSearch(problem, domains, cutoff, force, energy=rows)
+    assert search.run(MAX_NODES)
+    least = cutoff
+    for keep in itertools.product((False, True), repeat=len(search.order)):
+        search.keep = list(keep)
+        # The imposed decision holds even against a mandatory task.
+        wanted = [
+            force[1] if t.id == force[0] else (True if t.mandatory else None)
+            for t in search.order
+        ]
+        if any(
+            want is not None and kept != want
+            for want, kept in zip(wanted, keep, strict=True)
+        ):
+            continue
+        if not all(
+            search._allowed(k, keep[k]) for k in range(len(search.order))
+        ):
+            continue
+        level = [0.0] * len(search.limits)
+        for k, kept in enumerate(keep):
+            if kept:
+                level = [
+                    a + u for a, u in zip(level, search.uses[k], strict=True)
+                ]
+        if any(
+            a > lim + 1e-9 for a, lim in zip(level, search.limits, strict=True)
+        ):
+            continue
+        value = sum(
+            v for v, kept in zip(search.values, keep, strict=True) if kept
+        )
+        least = min(least, search.total - value)
+    assert search.best_cost == least, (doc, force, energy)
