@@ -640,6 +640,8 @@ class _KeptSetSearch:
                 use[k] = use[k + 1] + (self.uses[k][r] if k in user else 0)
             self.user_value.append(value)
             self.user_use.append(use)
+        self.row_order = list(range(rows))
+        self._after: dict[tuple[int, int], list[int]] = {}
 
     def _knapsack(self, k: int, got: int, rows: list[float]) -> bool:
         """True when no kept set extending the first ``k`` decisions can
@@ -661,16 +663,14 @@ class _KeptSetSearch:
         held = self.held_uses[k]
         need = self.need
         values, uses = self.values, self.uses
-        for r, users in enumerate(self.by_ratio):
+        for r in self.row_order:
             room = self.limits[r] - rows[r] - credit[r] - held[r]
             if room < -_EPS:
                 return True
             if self.user_use[r][k] <= room + _EPS:
                 continue  # the row holds all its users: no cut
             value = base + free - self.user_value[r][k]
-            for j in users:
-                if j < k:
-                    continue
+            for j in self._undecided(r, k):
                 use = uses[j][r]
                 if use <= room:
                     room -= use
@@ -679,8 +679,23 @@ class _KeptSetSearch:
                     value += values[j] * room / use
                     break
             if value < need - _EPS:
+                if r != self.row_order[0]:
+                    # The row that cut is asked first at the next node:
+                    # neighbouring nodes are cut by the same row.
+                    self.row_order.remove(r)
+                    self.row_order.insert(0, r)
                 return True
         return False
+
+    def _undecided(self, r: int, k: int) -> list[int]:
+        """Row ``r``'s free users from depth ``k`` on, best value per unit
+        first (each list built once)."""
+        key = (r, k)
+        users = self._after.get(key)
+        if users is None:
+            users = [j for j in self.by_ratio[r] if j >= k]
+            self._after[key] = users
+        return users
 
     def _links(self, problem: Problem) -> list[list[tuple[int, bool, bool]]]:
         """Precedence scopes, at the later decided task of each pair.
