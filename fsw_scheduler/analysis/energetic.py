@@ -84,7 +84,7 @@ def energy_rows(
     -------
     tuple
         The use per task id (one entry per row) and each row's limit, in
-        the form of :func:`~fsw_scheduler.analysis.bounds.level_rows`.
+        the form of :func:`~fsw_scheduler.analysis.keptset.level_rows`.
     """
     found: list[tuple[float, int, int, dict[str, float], float]] = []
     for users, capacity, held in _groups(problem, kept):

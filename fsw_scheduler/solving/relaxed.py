@@ -40,8 +40,9 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import msgspec
 
-from ..analysis.bounds import KeptSetProof, better_start, level_rows
+from ..analysis.bounds import KeptSetProof, better_start
 from ..analysis.check import check_plan
+from ..analysis.keptset import level_rows
 from ..model.levels import resource_profiles
 from ..model.plan import Plan, SolverStats, SolveStatus
 from .ilp.decode import Formulation

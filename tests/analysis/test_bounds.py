@@ -11,8 +11,6 @@ from hypothesis import strategies as st
 from fsw_scheduler.analysis.bounds import (
     MAX_NODES,
     KeptSetProof,
-    _energy,
-    _KeptSetSearch,
     better_start,
     delay_caps,
     fixings,
@@ -22,6 +20,7 @@ from fsw_scheduler.analysis.bounds import (
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.analysis.greedy import greedy_plan
+from fsw_scheduler.analysis.keptset import KeptSetSearch, energy
 from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.solving.solve import best_start, solve
 
@@ -396,10 +395,10 @@ def test_windows_steps_and_external_rates_keep_the_bound_a_bound(
         problem_docs(max_tasks=8, max_horizon=12, capacities=True),
     ),
     forced=st.tuples(st.integers(0, 7), st.booleans()),
-    energy=st.booleans(),
+    with_energy=st.booleans(),
 )
 def test_the_row_knapsacks_prune_no_better_kept_set(
-    doc: dict, forced: tuple[int, bool], energy: bool
+    doc: dict, forced: tuple[int, bool], with_energy: bool
 ) -> None:
     """Tests that the kept-set search, pruned by each row's fractional
     knapsack, finds the same least relaxed cost as trying every kept set
@@ -412,9 +411,9 @@ def test_the_row_knapsacks_prune_no_better_kept_set(
     if not placeable:
         return
     force = (placeable[forced[0] % len(placeable)].id, forced[1])
-    rows = _energy(problem, domains) if energy else None
+    rows = energy(problem, domains) if with_energy else None
     cutoff = 10**12
-    search = _KeptSetSearch(problem, domains, cutoff, force, energy=rows)
+    search = KeptSetSearch(problem, domains, cutoff, force, energy=rows)
     assert search.run(MAX_NODES)
     least = cutoff
     for keep in itertools.product((False, True), repeat=len(search.order)):
@@ -447,4 +446,4 @@ def test_the_row_knapsacks_prune_no_better_kept_set(
             v for v, kept in zip(search.values, keep, strict=True) if kept
         )
         least = min(least, search.total - value)
-    assert search.best_cost == least, (doc, force, energy)
+    assert search.best_cost == least, (doc, force, with_energy)
