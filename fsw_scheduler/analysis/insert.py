@@ -81,8 +81,9 @@ def inserted(
     Parameters
     ----------
     problem
-        A validated problem without a mission model (alternatives and
-        changing resources are left to the solver: ``plan`` is returned).
+        A validated problem; groups of alternatives and resources that
+        change over time included (the board reads each unit's capacity
+        and external rate, and the checker judges the plan).
     plan
         A valid plan of ``problem`` with its objective.
     domains
@@ -97,11 +98,7 @@ def inserted(
         ``plan`` itself when no move was kept; else a plan of status
         ``feasible`` that the checker accepts, with a lower objective.
     """
-    if (
-        plan.objective is None
-        or not plan.unscheduled
-        or problem.resources.changing
-    ):
+    if plan.objective is None or not plan.unscheduled:
         return plan
     state = _Inserting(problem, plan, domains)
     tries = 0

@@ -344,37 +344,19 @@ def test_a_task_comes_in_beside_a_group_whose_option_moves() -> None:
     assert better.objective.total < start.objective.total
 
 
-def _steady(doc: dict) -> dict:
-    """``doc`` without its resources that change over time (insertion
-    reads constant capacities), its group kept."""
-    resources = doc["resources"]
-    changing = {"w0", "s0", "e0"}
-    resources["binary"] = {
-        k: v for k, v in resources["binary"].items() if k not in changing
-    }
-    for kind in ("multiple", "consumable"):
-        resources[kind] = {
-            k: v for k, v in resources[kind].items() if k not in changing
-        }
-    for task in doc["tasks"]:
-        task["uses"] = {
-            k: v for k, v in task.get("uses", {}).items() if k not in changing
-        }
-    return doc
-
-
-@settings(COMMON, max_examples=200)
+@settings(COMMON, max_examples=300)
 @given(
     doc=mission_docs(max_tasks=5, max_horizon=8),
     drop=st.sets(st.integers(0, 4)),
 )
-def test_insertion_with_a_group_gives_valid_better_plans(
+def test_insertion_on_mission_days_gives_valid_better_plans(
     doc: dict, drop: set[int]
 ) -> None:
-    """Tests, on drawn days with a group of alternatives, that insertion
-    from any valid plan at earliest starts returns that plan or a valid
-    one of lower objective."""
-    problem = decode_doc(_steady(doc))
+    """Tests, on drawn days with a group of alternatives, a binary window,
+    capacity steps and an external rate, that insertion from any valid
+    plan at earliest starts returns that plan or a valid one of lower
+    objective."""
+    problem = decode_doc(doc)
     start = at_earliest_but(problem, drop)
     if start is None or start.objective is None:
         return
@@ -386,4 +368,39 @@ def test_insertion_with_a_group_gives_valid_better_plans(
     assert report.ok, (doc, better)
     assert better.objective == report.objective
     assert better.objective is not None
+    assert better.objective.total < start.objective.total
+
+
+def test_a_task_is_inserted_where_a_pass_leaves_room() -> None:
+    """Tests insertion on a camera that is only available in two passes:
+    the left-out task, which must start in the first pass, goes in once
+    the one holding that pass moves to the second."""
+    problem = problem_from(
+        {
+            "horizon": 30,
+            "resources": {
+                "binary": {"camera": {"available": [[0, 10], [20, 30]]}},
+                "multiple": {},
+                "consumable": {},
+            },
+            "tasks": [
+                make_task("a", 6, delay_cost=1, uses={"camera": 1}),
+                make_task(
+                    "b",
+                    6,
+                    delay_cost=1,
+                    schedule_cost=5,
+                    uses={"camera": 1},
+                    feasible_interval=[0, 10],
+                ),
+            ],
+        }
+    )
+    start = plan_of(problem, {"a": 0, "b": None})
+    assert start.unscheduled == ("b",)
+    better = inserted(problem, start, start_domains(problem))
+    assert better.unscheduled == ()
+    assert better.activities == (Activity("b", 0, 6), Activity("a", 20, 26))
+    assert check_plan(problem, better).ok
+    assert better.objective is not None and start.objective is not None
     assert better.objective.total < start.objective.total
