@@ -52,15 +52,22 @@ REPLAN_BOUND_NODES = 5_000
 
 
 #: A replan runs the disjunctive relaxation (:mod:`.relaxed`) after its
-#: repair when at least this long is left, for this share of it. A
-#: fresh solve has its own minimum (:func:`~fsw_scheduler.solving.
-#: relaxed.fresh_min_left`, 1-5 s by size); a replan has 2 s in all.
-#: At a share of 0.5 the relaxation was stopped by its time in 17 of
-#: the 26 replans of seeds 17-23 that ran it; at 0.75, 22 of 42 replans
-#: were no worse than the fresh solve against 20 (better on 7, worse on
-#: 2, same median 1.46 s).
+#: repair when at least this long is left, in rounds of growing node
+#: limits (:func:`~fsw_scheduler.solving.rounds.rounds`, as a fresh
+#: solve does) for this share of it. A fresh solve has its own minimum
+#: (:func:`~fsw_scheduler.solving.relaxed.fresh_min_left`, 1-5 s by
+#: size); a replan has 2 s in all. At a share of 0.5 the relaxation was
+#: stopped by its time in 17 of the 26 replans of seeds 17-23 that ran
+#: it; at 0.75 (one run), 22 of 42 replans were no worse than the fresh
+#: solve against 20. One run at 0.9 or 1.0 was no better (17 of 24 on
+#: seeds 55-58 against 18). In rounds at 0.9, from the plans in force
+#: the replan suite's seeds 66-71 saved, 21 of 36 replans were no worse
+#: than the fresh solve against 19 with one run at 0.75, medians 1.39 and
+#: 1.36 s against 1.48 and 1.71 s: seed 67's r45-h1440-0 and -1 and
+#: seed 70's r45-h1440-0 reach the optimum the fresh solve proves in its
+#: second round; seed 66's r45-h1440-1 ends 5 units above it.
 REPLAN_RELAX_MIN_S = 0.6
-REPLAN_RELAX_SHARE = 0.75
+REPLAN_RELAX_SHARE = 0.9
 
 
 def replanned(
@@ -160,7 +167,14 @@ def replanned(
         # r45-h1440-1: the fresh solve proved it in 0.34 s this way, the
         # replan without it ended 140 units worse).
         caught = large.relaxation(
-            problem, repaired, domains, relaxed, run, REPLAN_RELAX_SHARE * left
+            problem,
+            repaired,
+            domains,
+            relaxed,
+            run,
+            REPLAN_RELAX_SHARE * left,
+            more=True,
+            end=end,
         )
         said += f"; the disjunctive relaxation: {caught.said}"
         if caught.plan is not None and caught.plan.objective is not None:
