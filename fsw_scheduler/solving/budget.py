@@ -65,11 +65,14 @@ class SolveBudget:
         0.2 s by 0.3 s).
     replan_share
         Share of the time limit a solve from a plan in force (a replan:
-        ``warm`` given) may take, at least :attr:`replan_min_s`: large
-        parts are repaired and searched around what changed
-        (:mod:`fsw_scheduler.solving.repair`), small ones solved as
-        before within it. A replan pays for what changed, not for a whole
-        fresh solve.
+        ``warm`` given) with a large part may take, at least
+        :attr:`replan_min_s`: large parts are repaired and searched
+        around what changed (:mod:`fsw_scheduler.solving.repair`), small
+        ones solved as before within it. A replan pays for what changed,
+        not for a whole fresh solve. A replan whose parts are all small
+        (under :attr:`lns_min_tasks` tasks) has the whole limit: a part
+        its share left unproved was solved again from its plan, and that
+        took longer than one solve.
     replan_min_s
         The least limit of a replan (when the caller's allows it).
     min_start_s

@@ -32,7 +32,7 @@ from .joined import after, joined, starved
 from .polishing import Polishing, shift_deadline
 from .repair import holding
 from .single import one_task
-from .stats import higher, with_call_stats, with_gap
+from .stats import with_call_stats, with_gap
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -79,9 +79,12 @@ def solve(
     warm
         The plan in force, mapped onto ``problem`` (a replan): a candidate
         MIP start (see :func:`best_start`). Under a time limit a replan
-        takes :meth:`~fsw_scheduler.solving.budget.SolveBudget.
-        replan_limit` of it, and a large part is repaired from this plan
-        and searched around what changed instead of solved afresh.
+        with a part of :attr:`~fsw_scheduler.solving.budget.SolveBudget.
+        lns_min_tasks` tasks or more takes :meth:`~fsw_scheduler.solving.
+        budget.SolveBudget.replan_limit` of it, and such a part is
+        repaired from this plan and searched around what changed instead
+        of solved afresh; smaller parts have the whole limit, from this
+        plan as their MIP start.
     explain_budget
         Seconds all explanation solves may take together (default: the
         time limit, else
@@ -124,8 +127,18 @@ def solve(
         stability = None
     began = time.perf_counter()
     limit = time_limit
-    if warm is not None and time_limit is not None:
-        # A replan pays for what changed (repair.py), not a fresh solve.
+    parts = components(problem)
+    if (
+        warm is not None
+        and time_limit is not None
+        and max(len(part) for part in parts) >= BUDGET.lns_min_tasks
+    ):
+        # A replan of a large part pays for what changed (repair.py), not
+        # a fresh solve. Parts CBC proves get the whole limit: in a share,
+        # those it left unproved were solved again from its plan in the
+        # rest, and took longer than one solve (replan suite, seed 73's
+        # r30-h1440-0 and -1: 3.8 and 4.3 s against 1.8 and 2.8 s, the
+        # same optima; seed 70's r30-h1440-0 4.9 s against 3.0 s).
         limit = BUDGET.replan_limit(time_limit)
     domains = start_domains(problem)
     proving = stop_within(began, limit, BUDGET.proof_share)
@@ -146,14 +159,9 @@ def solve(
                 time_limit_s=time_limit,
             ),
         )
-    parts = components(problem)
     plan = _solved(
         problem, parts, run, began, limit, warm, domains, stability, time_limit
     )
-    if time_limit is not None and limit != time_limit:
-        plan = _proved_later(
-            problem, plan, parts, run, began, domains, stability, time_limit
-        )
     plan = with_gap(plan)
     if explain and (
         plan.unscheduled or not plan.status.has_plan or plan.picks
@@ -202,82 +210,6 @@ def _solved(
         )
     return _solve_whole(
         problem, run, began, time_limit, warm, domains, stability, full_limit
-    )
-
-
-#: A replan that its share of the limit leaves unproved goes on when at
-#: least this long is left of the caller's limit (:func:`_proved_later`).
-PROVED_LATER_MIN_S = 1.0
-
-
-def _proved_later(
-    problem: Problem,
-    plan: Plan,
-    parts: list[list[str]],
-    run: functools.partial[Plan],
-    began: float,
-    domains: dict[str, Domain],
-    stability: Stability | None,
-    time_limit: float,
-) -> Plan:
-    """A replan whose parts are all CBC's (under :attr:`~fsw_scheduler.
-    solving.budget.SolveBudget.lns_min_tasks` tasks) and that its share
-    of the limit left unproved, solved again from its plan in the rest of
-    ``time_limit``; the better plan is the answer.
-
-    Such a part is proved by a fresh solve within the limit more often
-    than not, and a replan that keeps a plan the fresh solve beats is
-    worse than solving afresh (replan suite, seed 47's r30-h1440-1: 27
-    tasks, its relaxation's second round cut by the 2 s share, 123 delay
-    units above the optimum that the fresh solve proves in 4.1 s). A
-    larger part keeps its share's answer (its own second look,
-    :func:`~.replanning.replanned`, is for a whole task too many): more time
-    rarely proves it.
-    """
-    now = time.perf_counter()
-    left = began + time_limit - now
-    if (
-        plan.status is not SolveStatus.FEASIBLE
-        or plan.objective is None
-        or plan.stats is None
-        or left < PROVED_LATER_MIN_S
-        or max(len(part) for part in parts) >= BUDGET.lns_min_tasks
-    ):
-        return plan
-    again = _solved(
-        problem, parts, run, now, left, plan, domains, stability, left
-    )
-    said = "no better"
-    answer = plan
-    if again.objective is not None and (
-        again.objective.total < plan.objective.total
-        or (
-            again.status is SolveStatus.OPTIMAL
-            and again.objective.total == plan.objective.total
-        )
-    ):
-        said, answer = "its answer kept", again
-    stats = answer.stats or plan.stats
-    bound = higher(
-        plan.stats.bound, again.stats.bound if again.stats else None
-    )
-    if answer.status is SolveStatus.OPTIMAL and answer.objective is not None:
-        bound = answer.objective.total
-    return answer.replace(
-        stats=msgspec.structs.replace(
-            stats,
-            wall_s=time.perf_counter() - began,
-            time_limit_s=time_limit,
-            bound=bound,
-            solver_status=f"{plan.stats.solver_status}; not proved in the "
-            f"replan's share of the limit: solved again from that plan in "
-            f"the rest, {said}"
-            + (
-                f" ({again.stats.solver_status})"
-                if again.stats is not None
-                else ""
-            ),
-        )
     )
 
 
