@@ -67,9 +67,9 @@ class SolveBudget:
         Share of the time limit a solve from a plan in force (a replan:
         ``warm`` given) with a large part may take, at least
         :attr:`replan_min_s`: large parts are repaired and searched
-        around what changed (:mod:`fsw_scheduler.solving.repair`), small
-        ones solved as before within it. A replan pays for what changed,
-        not for a whole fresh solve. A replan whose parts are all small
+        around what changed (:mod:`fsw_scheduler.solving.repair`). A
+        replan pays for what changed, not for a whole fresh solve. A
+        replan whose parts are all small
         (under :attr:`lns_min_tasks` tasks) has the whole limit: a part
         its share left unproved was solved again from its plan, and that
         took longer than one solve.

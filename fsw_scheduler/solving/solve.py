@@ -131,7 +131,7 @@ def solve(
     if (
         warm is not None
         and time_limit is not None
-        and max(len(part) for part in parts) >= BUDGET.lns_min_tasks
+        and max(map(len, parts), default=0) >= BUDGET.lns_min_tasks
     ):
         # A replan of a large part pays for what changed (repair.py), not
         # a fresh solve. Parts CBC proves get the whole limit: in a share,
