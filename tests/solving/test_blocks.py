@@ -4,7 +4,7 @@ pinned blocks (:mod:`fsw_scheduler.solving.ilp.disjunctive.blocks`)."""
 from __future__ import annotations
 
 import itertools
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -20,11 +20,21 @@ from fsw_scheduler.solving.ilp.disjunctive.rule import pick
 
 from ..factories import make_doc, make_task, problem_from
 
+if TYPE_CHECKING:
+    from fsw_scheduler.model.problem import Problem, Task
+
 #: A camera with a gap and a power profile with a low step and a zero one.
 RESOURCES = {
     "binary": {"camera": {"available": [[2, 10], [13, 30]]}},
     "multiple": {"power": {"steps": [[0, 10], [8, 4], [12, 10], [20, 0]]}},
 }
+
+
+def _blocks(problem: Problem, names: list[str]) -> list[Task]:
+    """The block tasks :func:`blocks.blocked` adds for ``names``."""
+    wide = blocks.blocked(problem, start_domains(problem), names)
+    assert wide is not None
+    return [t for t in wide[0].tasks if t.id.startswith(blocks.PREFIX)]
 
 
 def test_blocks_are_the_stretches_under_the_peak() -> None:
@@ -38,8 +48,7 @@ def test_blocks_are_the_stretches_under_the_peak() -> None:
             resources=RESOURCES,
         )
     )
-    found = blocks.blocks(problem, ["camera", "power"])
-    assert found is not None
+    found = _blocks(problem, ["camera", "power"])
     assert [
         (t.id, t.fixed_start, t.length, t.uses, t.schedule_cost, t.delay_cost)
         for t in found
@@ -68,10 +77,8 @@ def test_a_resource_never_available_is_blocked_whole() -> None:
         resources={"binary": {"camera": {"available": []}}},
     )
     problem = problem_from(doc)
-    found = blocks.blocks(problem, ["camera"])
-    assert found is not None and [
-        (t.fixed_start, t.length) for t in found
-    ] == [(0, 10)]
+    found = _blocks(problem, ["camera"])
+    assert [(t.fixed_start, t.length) for t in found] == [(0, 10)]
     for formulation in ("disjunctive", "time-indexed"):
         plan = solve_ilp(problem, formulation=formulation)
         assert plan.status is SolveStatus.OPTIMAL

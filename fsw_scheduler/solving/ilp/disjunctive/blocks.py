@@ -84,26 +84,14 @@ def modelled(
     return blocked(problem, domains, changing)
 
 
-def blocks(problem: Problem, names: Iterable[str]) -> list[Task] | None:
-    """The block tasks of the resources ``names``, or None when one of
-    them is not binary or multiple (a consumable's external rate).
-
-    A stretch is a maximal run of units with the same shortfall from the
-    resource's peak capacity over the horizon (1 for a binary resource
-    outside its windows).
-    """
-    out: list[Task] = []
-    for name in names:
-        found = _stretches(problem, name)
-        if found is None:
-            return None
-        out += found[1]
-    return out
-
-
 def _stretches(problem: Problem, name: str) -> tuple[float, list[Task]] | None:
     """The peak of binary or multiple resource ``name`` over the horizon
-    and its blocks (:func:`blocks`), or None for another kind."""
+    and its blocks, or None for another kind.
+
+    A block holds a stretch: a maximal run of units with the same
+    shortfall from the resource's peak capacity over the horizon (1 for
+    a binary resource outside its windows).
+    """
     res = problem.resources
     kind = res.kind_of(name)
     if kind not in ("binary", "multiple"):
