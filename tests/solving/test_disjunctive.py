@@ -209,7 +209,7 @@ def test_an_unproved_disjunctive_run_hands_over_to_the_time_indexed_model(
     unproved after the switch's node count goes on in the time-indexed
     model from its plan, and proves the optimum; its status line says so
     without reading as a run stopped on its nodes."""
-    monkeypatch.setattr(rule, "SWITCH_NODES", 1)
+    monkeypatch.setattr(rule, "SWITCH_NODES_MULTIPLE_ONLY", 1)
     problem = _crowded_power(seed)
     domains = start_domains(problem)
     assert pick(problem, domains) == "disjunctive"
@@ -240,20 +240,35 @@ def test_only_small_parts_with_a_multiple_resource_switch(
 ) -> None:
     """Tests that binary-only parts and parts over the size measured keep
     their disjunctive run to the end, unless their time-indexed model is
-    small (few start times: a short horizon)."""
+    small (few start times: a short horizon); that a part whose only
+    shared resources are multiple ones switches early, and one with a
+    binary resource in use as well after the later count."""
     crowded = _crowded_power(0)
     domains = start_domains(crowded)
     starts = start_count(domains)
+    early = rule.SWITCH_NODES_MULTIPLE_ONLY
+    assert early < rule.SWITCH_NODES
     assert starts <= rule.SWITCH_COLUMNS
-    assert rule.switch_nodes(crowded, domains, 15) == rule.SWITCH_NODES
+    assert rule.switch_nodes(crowded, domains, 15) == early
     # More tasks than measured, but as few start times as a small part's.
-    assert rule.switch_nodes(crowded, domains, 4) == rule.SWITCH_NODES
+    assert rule.switch_nodes(crowded, domains, 4) == early
     monkeypatch.setattr(rule, "SWITCH_COLUMNS", starts - 1)
     assert rule.switch_nodes(crowded, domains, 4) is None
-    assert rule.switch_nodes(crowded, domains, 15) == rule.SWITCH_NODES
+    assert rule.switch_nodes(crowded, domains, 15) == early
     tasks = [make_task(f"t{idx}", uses={"cam": 1}) for idx in range(4)]
     binary = problem_from(make_doc(tasks, resources={"binary": ["cam"]}))
     assert rule.switch_nodes(binary, start_domains(binary), 15) is None
+    both = [
+        make_task(f"t{idx}", uses={"cam": 1, "power": 6}) for idx in range(4)
+    ]
+    mixed = problem_from(
+        make_doc(
+            both, resources={"binary": ["cam"], "multiple": {"power": 10}}
+        )
+    )
+    assert rule.switch_nodes(mixed, start_domains(mixed), 15) == (
+        rule.SWITCH_NODES
+    )
 
 
 #: 19 tasks over H = 60: a 16-task part sharing a camera and a multiple
@@ -305,7 +320,7 @@ def test_a_switch_with_no_time_for_the_second_model_keeps_the_first_plan(
     status line names both."""
     from fsw_scheduler.solving.ilp import model
 
-    monkeypatch.setattr(rule, "SWITCH_NODES", 1)
+    monkeypatch.setattr(rule, "SWITCH_NODES_MULTIPLE_ONLY", 1)
     monkeypatch.setattr(model, "BUILD_S_PER_COLUMN", 1e6)
     problem = _crowded_power(0)
     start = best_start(problem, None)

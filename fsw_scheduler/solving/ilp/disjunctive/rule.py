@@ -63,7 +63,8 @@ everywhere; the one problem slower by more than a few milliseconds
 went 0.012 -> 0.021 s.
 
 A disjunctive run on a small part with a multiple resource that has not
-proved its answer after :data:`SWITCH_NODES` nodes goes on in the
+proved its answer after :data:`SWITCH_NODES_MULTIPLE_ONLY` nodes (with a
+binary resource in use as well, :data:`SWITCH_NODES`) goes on in the
 time-indexed model from its best plan (:func:`switch_nodes`; the run
 itself is in :mod:`fsw_scheduler.solving.ilp.model`).
 """
@@ -105,6 +106,30 @@ MAX_USERS = 40
 #: 10 and 15 tasks) no part switched and the total stayed within a
 #: rerun's spread (3.64 -> 3.57 s).
 SWITCH_NODES = 5_000
+
+#: Search nodes after which a disjunctive run hands over when the part's
+#: only shared resources are multiple ones (no binary resource in use):
+#: the time-indexed model has no binary resource to make its LP large
+#: and degenerate there, and its LP closes in a few nodes what the
+#: disjunctive search runs thousands on. Measured through
+#: :func:`~fsw_scheduler.solving.solve.solve` (10 s limit) on the 52
+#: 15-task multiple problems of ``tools/bench --generator paper|broad
+#: --only 15-mult`` seeds 0-5 and 121-126 whose part the rule gave the
+#: disjunctive model, in total: 5,000 nodes 34.5 s, 1,000 nodes 27.4 s,
+#: 500 nodes 25.1 s, 200 nodes 27.1 s; 25 parts under 50 ms against 23
+#: (paper seed 121's c15-multiple-0: 0.96 -> 0.16 s; the time-indexed
+#: model proves it at its root). On seeds 127-132 (not looked at
+#: before; 30 such parts) 17.2 -> 16.0 s: three parts faster by more
+#: than 0.1 s (paper seed 128's c15-multiple-0 3.26 -> 1.73 s), three
+#: slower (broad seed 127's b15-multiple-6 0.22 -> 0.64 s: the
+#: disjunctive model would have proved it within 5,000 nodes), the
+#: other 24 within 0.1 s; the same optima. With a binary resource in
+#: use as well the time-indexed model stays slow (``tools/fuzz`` seed
+#: 20084, a 19-task part with cameras and two power resources: proved
+#: in 2.2 s with 5,000 nodes, 6.0 s with 500), so :data:`SWITCH_NODES`
+#: holds there; ``tools/fuzz --first 21000 --count 60`` gave the same
+#: answers before and after.
+SWITCH_NODES_MULTIPLE_ONLY = 500
 
 #: A part of more tasks than the switch's measured sizes (the caller's
 #: ``max_tasks``) switches too when its time-indexed model has at most
@@ -243,9 +268,12 @@ def switch_nodes(
     """
     if problem.num_tasks > max_tasks and start_count(domains) > SWITCH_COLUMNS:
         return None
-    if "multiple" in used_kinds(problem, domains):
+    kinds = used_kinds(problem, domains)
+    if "multiple" not in kinds:
+        return None
+    if "binary" in kinds:
         return SWITCH_NODES
-    return None
+    return SWITCH_NODES_MULTIPLE_ONLY
 
 
 def used_kinds(
