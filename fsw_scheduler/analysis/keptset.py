@@ -4,7 +4,8 @@
 relaxation of :mod:`.bounds`: every kept task at its earliest start, each
 consumable's level rows (:func:`level_rows`: consumers as late as their
 domains allow, generators as early), the energy rows of binary and
-multiple resources (:func:`energy`), and the precedence scopes. It
+multiple resources (:func:`energy`), the precedence scopes and the pairs
+no plan holds together (:mod:`.exclusions`). It
 decides tasks depth first, mandatory ones and the most valuable first,
 and cuts a node when the values still to come, or one row's fractional
 knapsack, cannot reach a better set. :func:`finished` runs it to its end
@@ -17,6 +18,7 @@ from typing import TYPE_CHECKING
 
 from ..model.plan import objective_weight
 from .energetic import energy_rows
+from .exclusions import exclusive_pairs
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Mapping
@@ -195,6 +197,7 @@ class KeptSetSearch:
         self.values = [value[t.id] for t in self.order]
         self.uses = [uses[t.id] for t in self.order]
         self.links = self._links(problem)
+        self.apart = self._apart(problem)
         num = len(self.order)
         self.rest = [0] * (num + 1)  # best value still to come
         # Generators still undecided can lower each row by this much.
@@ -349,8 +352,21 @@ class KeptSetSearch:
             links[second].append((first, prec.scope == "both", second == b))
         return links
 
+    def _apart(self, problem: Problem) -> list[list[int]]:
+        """The earlier decided partners of each task in the pairs no plan
+        holds together (:func:`~.exclusions.exclusive_pairs`)."""
+        index = {t.id: k for k, t in enumerate(self.order)}
+        apart: list[list[int]] = [[] for _ in self.order]
+        for first, second in exclusive_pairs(problem):
+            a, b = index.get(first), index.get(second)
+            if a is not None and b is not None:
+                apart[max(a, b)].append(min(a, b))
+        return apart
+
     def _allowed(self, k: int, kept: bool) -> bool:
         keep = self.keep
+        if kept and any(keep[other] for other in self.apart[k]):
+            return False
         for other, both, is_after in self.links[k]:
             if other < 0:
                 if kept:

@@ -221,7 +221,7 @@ def block_conflicts(problem: Problem) -> dict[str, tuple[str, str]]:
     def conflict(companions: set[str]) -> tuple[str, str] | None:
         key = frozenset(companions)
         if key not in seen:
-            seen[key] = _block_conflict(problem, tasks, companions)
+            seen[key] = block_conflict(problem, tasks, companions)
         return seen[key]
 
     always = forced_tasks(problem)
@@ -281,7 +281,7 @@ def reach(
     return reached
 
 
-def _block_conflict(
+def block_conflict(
     problem: Problem, tasks: Mapping[str, Task], companions: Set[str]
 ) -> tuple[str, str] | None:
     """Why the tight blocks of ``companions`` cannot hold, or None."""

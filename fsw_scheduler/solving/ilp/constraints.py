@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 
 from ...analysis.stores import never_short
 from .alternatives import alternative_rows
+from .exclusive import exclusive_rows
 from .program import EQ, LE
 from .strengthen import strengthening_rows
 
@@ -98,6 +99,7 @@ class Constraints:
             self._precedence(prec)
         self._identical_tasks()
         self._alternatives()
+        exclusive_rows(self.program, self.problem, self.vars)
 
     # -- helpers ------------------------------------------------------------
 

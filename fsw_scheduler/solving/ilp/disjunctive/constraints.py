@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 
 from ..alternatives import alternative_rows
 from ..constraints import identical_tasks
+from ..exclusive import exclusive_rows
 from ..program import EQ, GE, LE
 from .energy import add_busy_rows
 from .rule import pairwise_exact
@@ -68,6 +69,7 @@ class Constraints:
         self._identical_tasks()
         # All or none of an option, at most one option per group.
         alternative_rows(self.program, self.problem, self.vars)
+        exclusive_rows(self.program, self.problem, self.vars)
 
     # -- helpers ------------------------------------------------------------
 
