@@ -20,7 +20,7 @@ from ..alternatives import alternative_rows
 from ..constraints import identical_tasks
 from ..exclusive import exclusive_rows
 from ..program import EQ, GE, LE
-from .energy import add_busy_rows
+from .energy import add_busy_rows, add_energy_rows
 from .rule import pairwise_exact
 
 if TYPE_CHECKING:
@@ -41,6 +41,10 @@ class Constraints:
     variables
         The start, scheduled and order columns.
     """
+
+    #: Whether :meth:`add_all` writes the energy rows
+    #: (:func:`.energy.add_energy_rows`).
+    energy_rows = True
 
     def __init__(
         self, program: Program, problem: Problem, variables: Variables
@@ -64,6 +68,8 @@ class Constraints:
         self._binary_resources()
         self._multiple_resources()
         add_busy_rows(self.program, self.vars, self.problem, self._users)
+        if self.energy_rows:
+            add_energy_rows(self.program, self.vars, self.problem)
         for prec in self.problem.precedences:
             self._precedence(prec)
         self._identical_tasks()

@@ -1,4 +1,4 @@
-"""Busy-time rows: a lower bound on the weighted starts of shared users.
+"""Busy-time and energy rows: what shared users take, without order columns.
 
 The order rows of :mod:`.constraints` are big-M rows, and their LP
 relaxation lets every user of a resource start at its earliest time at
@@ -22,10 +22,15 @@ The sets written for a resource (see :func:`busy_sets`) are those whose
 rows define the LP optimum of the one-machine problem: users by release
 (every user starting at or after some user's earliest start) and the
 prefixes of Smith's order (delay cost per energy, highest first).
-Only binary resources get rows (see :func:`add_busy_rows`). On the
+Only binary resources get busy-time rows (see :func:`add_busy_rows`). On the
 15-task binary problems (paper and broad) they lifted the root bound
 and, with CBC's cuts off, took the slowest from 0.20-0.29 s to 0.09 s
 (b15-binary-0) and 0.11 to 0.05 s (b15-binary-2).
+
+:func:`add_energy_rows` adds, on the "scheduled" columns alone, the
+kept-set relaxation's energy rows (:mod:`fsw_scheduler.analysis.
+energetic`): what the users must run inside an interval within what
+the resource gives there, for binary resources and multiple ones alike.
 """
 
 from __future__ import annotations
@@ -33,7 +38,8 @@ from __future__ import annotations
 import itertools
 from typing import TYPE_CHECKING
 
-from ..program import GE
+from ....analysis.energetic import energy_rows
+from ..program import GE, LE
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Sequence
@@ -143,3 +149,47 @@ def add_busy_rows(
         machine = [(task, 1.0) for task, _ in users_of(resource)]
         for members in busy_sets(machine, earliest):
             add_busy_row(program, variables, [machine[k] for k in members], 1)
+
+
+def add_energy_rows(
+    program: Program, variables: Variables, problem: Problem
+) -> int:
+    """The kept-set relaxation's energy rows, on the "scheduled" columns.
+
+    :func:`~fsw_scheduler.analysis.energetic.energy_rows`: over an
+    interval, the least time each user must run inside it, summed over
+    the scheduled users, within what the resource gives there. The order
+    rows are big-M rows and the busy-time rows bound the starts only: a
+    camera asked for more time than the horizon has still lets the LP
+    keep every task, and its bound is the delays alone (broad seed 133's
+    b15-binary-3: 426 camera units asked of 336; CBC's bound stayed at
+    6,126 under a plan of 130,218 for 20 s; with these rows `optimal` in
+    0.6 s, CP-SAT 0.08 s). Rows are written only where the users
+    together exceed the interval, the most overloaded first, so a day
+    that fits gets none. The problem here is the model's (blocks added,
+    capacities at their peak: :mod:`.blocks`), whose blocks are pinned
+    users that take their share of each interval. On the 168 15-task
+    binary problems of ``tools/bench --only 15-bin`` seeds 121-132 (both
+    generators) 13.9 -> 11.1 s in total, none slower by more than 0.05
+    s; on the 84 multiple ones of seeds 127-132, 12.0 -> 11.7 s. The
+    large parts' relaxation leaves them out (see
+    :class:`~fsw_scheduler.solving.relaxed._Apart`).
+
+    Returns
+    -------
+    int
+        The rows written.
+    """
+    placeable = [
+        task for task in problem.tasks if variables.placeable(task.id)
+    ]
+    uses, limits = energy_rows(problem, variables.domains, placeable)
+    written = 0
+    for row, limit in enumerate(limits):
+        terms: dict[int, float] = {}
+        for task_id, amounts in uses.items():
+            if amounts[row] > 0:
+                column = variables.scheduled(task_id)
+                terms[column] = terms.get(column, 0.0) + amounts[row]
+        written += program.add_row(terms, LE, limit)
+    return written
