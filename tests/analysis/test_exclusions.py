@@ -176,3 +176,37 @@ def test_the_tight_chain_day_is_proved() -> None:
     assert plan.status is SolveStatus.OPTIMAL, plan.stats
     assert plan.objective is not None and plan.objective.total == 48867
     assert "T008" in plan.unscheduled
+
+
+def test_a_star_of_tight_successors_is_held_to_the_cap() -> None:
+    """Tests that a root with 300 tight successors on one camera (44,850
+    pairs, no two successors fit together) gives at most
+    :data:`~fsw_scheduler.analysis.exclusions.MAX_PAIRS` pairs, each of
+    two successors, the first ones in task order."""
+    from fsw_scheduler.analysis import exclusions
+
+    tasks = [make_task("r", 1)] + [
+        make_task(f"b{k:03d}", 3, uses={"cam": 1}) for k in range(300)
+    ]
+    precedences = [
+        {
+            "before": "r",
+            "after": f"b{k:03d}",
+            "kind": "tight",
+            "scope": "at_least_first",
+            "offset": k % 3,
+        }
+        for k in range(300)
+    ]
+    problem = problem_from(
+        make_doc(
+            tasks,
+            horizon=2000,
+            resources={"binary": ["cam"]},
+            precedences=precedences,
+        )
+    )
+    pairs = exclusive_pairs(problem)
+    assert len(pairs) == exclusions.MAX_PAIRS
+    assert pairs[0] == ("b000", "b001")
+    assert all(a.startswith("b") and b.startswith("b") for a, b in pairs)
