@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import itertools
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -33,6 +34,11 @@ from ..problems import (
     start_ok,
 )
 
+if TYPE_CHECKING:
+    from collections.abc import Iterator
+
+    from fsw_scheduler.model.problem import Problem
+
 
 def _busy_program(doc: dict) -> tuple[Program, Variables]:
     """The busy-time rows of ``doc``'s problem alone, over its columns."""
@@ -53,14 +59,11 @@ def _holds(program: Program, values: list[float]) -> bool:
     return True
 
 
-@settings(COMMON, max_examples=80)
-@given(doc=problem_docs(max_tasks=4, max_horizon=8))
-def test_busy_rows_hold_in_every_feasible_plan(doc: dict) -> None:
-    """Tests that every feasible assignment, found by enumeration,
-    satisfies every busy-time row (the rows cut no plan)."""
-    doc["resources"]["consumable"] = {}
-    problem = decode_doc(doc)
-    program, variables = _busy_program(doc)
+def _feasible_plans(
+    problem: Problem, program: Program, variables: Variables
+) -> Iterator[tuple[Assignment, list[float]]]:
+    """Every feasible assignment of ``problem``, found by enumeration,
+    with the column values it gives ``program``."""
     options = []
     for task in problem.tasks:
         starts: list[int | None] = [
@@ -75,8 +78,23 @@ def test_busy_rows_hold_in_every_feasible_plan(doc: dict) -> None:
         if not is_feasible(problem, assignment):
             continue
         placed = {k: v for k, v in assignment.items() if v is not None}
-        values = variables.initial(placed, program.num_columns)
-        assert _holds(program, values), show(doc) + f"\n{assignment}"
+        yield assignment, variables.initial(placed, program.num_columns)
+
+
+@settings(COMMON, max_examples=80)
+@given(doc=problem_docs(max_tasks=4, max_horizon=8))
+def test_busy_and_energy_rows_hold_in_every_feasible_plan(doc: dict) -> None:
+    """Tests that every feasible assignment, found by enumeration,
+    satisfies every busy-time row and every energy row (the rows cut no
+    plan)."""
+    doc["resources"]["consumable"] = {}
+    problem = decode_doc(doc)
+    busy, busy_vars = _busy_program(doc)
+    energy, energy_vars = _energy_program(doc)
+    for assignment, values in _feasible_plans(problem, busy, busy_vars):
+        assert _holds(busy, values), show(doc) + f"\n{assignment}"
+    for assignment, values in _feasible_plans(problem, energy, energy_vars):
+        assert _within(energy, values), show(doc) + f"\n{assignment}"
 
 
 def test_busy_row_cuts_overlapping_starts_on_one_machine() -> None:
@@ -109,32 +127,6 @@ def _within(program: Program, values: list[float]) -> bool:
         if sum(c * values[col] for col, c in terms.items()) > rhs + 1e-6:
             return False
     return True
-
-
-@settings(COMMON, max_examples=80)
-@given(doc=problem_docs(max_tasks=4, max_horizon=8))
-def test_energy_rows_hold_in_every_feasible_plan(doc: dict) -> None:
-    """Tests that every feasible assignment, found by enumeration,
-    satisfies every energy row (the rows cut no plan)."""
-    doc["resources"]["consumable"] = {}
-    problem = decode_doc(doc)
-    program, variables = _energy_program(doc)
-    options = []
-    for task in problem.tasks:
-        starts: list[int | None] = [
-            s
-            for s in range(problem.start, problem.start + problem.horizon)
-            if start_ok(problem, task, s)
-        ]
-        options.append([*starts, None])
-    ids = [task.id for task in problem.tasks]
-    for combo in itertools.product(*options):
-        assignment: Assignment = dict(zip(ids, combo, strict=True))
-        if not is_feasible(problem, assignment):
-            continue
-        placed = {k: v for k, v in assignment.items() if v is not None}
-        values = variables.initial(placed, program.num_columns)
-        assert _within(program, values), show(doc) + f"\n{assignment}"
 
 
 def test_an_overloaded_camera_gets_a_row_on_the_scheduled_columns() -> None:
