@@ -242,7 +242,8 @@ def test_only_small_parts_with_a_multiple_resource_switch(
     their disjunctive run to the end, unless their time-indexed model is
     small (few start times: a short horizon); that a part whose only
     shared resources are multiple ones switches early, and one with a
-    binary resource in use as well after the later count."""
+    binary resource in use as well after the later count, and when it is
+    over the measured size only under the smaller column count."""
     crowded = _crowded_power(0)
     domains = start_domains(crowded)
     starts = start_count(domains)
@@ -266,9 +267,16 @@ def test_only_small_parts_with_a_multiple_resource_switch(
             both, resources={"binary": ["cam"], "multiple": {"power": 10}}
         )
     )
-    assert rule.switch_nodes(mixed, start_domains(mixed), 15) == (
-        rule.SWITCH_NODES
+    mixed_domains = start_domains(mixed)
+    assert rule.switch_nodes(mixed, mixed_domains, 15) == rule.SWITCH_NODES
+    # A part over the measured size with a camera switches only while its
+    # time-indexed model is smaller still.
+    assert rule.switch_nodes(mixed, mixed_domains, 2) == rule.SWITCH_NODES
+    monkeypatch.setattr(
+        rule, "SWITCH_COLUMNS_BINARY", start_count(mixed_domains) - 1
     )
+    assert rule.switch_nodes(mixed, mixed_domains, 2) is None
+    assert rule.switch_nodes(mixed, mixed_domains, 15) == rule.SWITCH_NODES
 
 
 #: 19 tasks over H = 60: a 16-task part sharing a camera and a multiple

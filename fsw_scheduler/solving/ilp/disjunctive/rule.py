@@ -142,6 +142,18 @@ SWITCH_NODES_MULTIPLE_ONLY = 500
 #: in 1.4 s.
 SWITCH_COLUMNS = 5_000
 
+#: The same for a larger part with a binary resource in use as well,
+#: whose time-indexed model is slow past a few thousand columns (its LP
+#: large and degenerate, see the module docstring): ``tools/fuzz`` seed
+#: 19040, a 20-task part with a camera and two power resources (3,835
+#: columns), switched after 5,000 nodes (3.6 s) and was not proved in
+#: the time-indexed model by the end of 20 s (`feasible` 4,255); the
+#: disjunctive model alone proves it, 4,219, in 5.5 s. The 16-task
+#: part above has about 800 columns. Of the 24 parts with a camera and
+#: a multiple resource that the disjunctive model took in ``tools/fuzz
+#: --first 19000 --count 300``, that was the one that switched.
+SWITCH_COLUMNS_BINARY = 2_000
+
 Formulation = Literal["time-indexed", "disjunctive"]
 FORMULATIONS: tuple[Formulation, ...] = ("time-indexed", "disjunctive")
 
@@ -263,13 +275,17 @@ def switch_nodes(
     large and degenerate, see the module docstring). Only parts of up
     to ``max_tasks`` tasks switch (the time-indexed model of a larger
     part may not even fit the limit), or larger ones whose time-indexed
-    model has at most :data:`SWITCH_COLUMNS` columns; the caller asks
+    model has at most :data:`SWITCH_COLUMNS` columns
+    (:data:`SWITCH_COLUMNS_BINARY` with a binary resource in use as
+    well); the caller asks
     only where :func:`pick` chose the disjunctive model.
     """
-    if problem.num_tasks > max_tasks and start_count(domains) > SWITCH_COLUMNS:
-        return None
     kinds = used_kinds(problem, domains)
     if "multiple" not in kinds:
+        return None
+    if problem.num_tasks > max_tasks and start_count(domains) > (
+        SWITCH_COLUMNS_BINARY if "binary" in kinds else SWITCH_COLUMNS
+    ):
         return None
     if "binary" in kinds:
         return SWITCH_NODES
