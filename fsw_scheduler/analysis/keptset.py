@@ -196,8 +196,9 @@ class KeptSetSearch:
         )
         self.values = [value[t.id] for t in self.order]
         self.uses = [uses[t.id] for t in self.order]
-        self.links = self._links(problem)
-        self.apart = self._apart(problem)
+        index = {t.id: k for k, t in enumerate(self.order)}
+        self.links = self._links(problem, index)
+        self.apart = self._apart(problem, index)
         num = len(self.order)
         self.rest = [0] * (num + 1)  # best value still to come
         # Generators still undecided can lower each row by this much.
@@ -329,15 +330,16 @@ class KeptSetSearch:
             self._after[key] = users
         return users
 
-    def _links(self, problem: Problem) -> list[list[tuple[int, bool, bool]]]:
+    def _links(
+        self, problem: Problem, index: dict[str, int]
+    ) -> list[list[tuple[int, bool, bool]]]:
         """Precedence scopes, at the later decided task of each pair.
 
         Each entry is ``(other, both, is_after)``: ``other`` the earlier
         decided task (-1: one that is never kept), ``both`` the scope,
         ``is_after`` whether the task holding the entry is the later one
-        of the precedence.
+        of the precedence. ``index`` is each task's place in the order.
         """
-        index = {t.id: k for k, t in enumerate(self.order)}
         links: list[list[tuple[int, bool, bool]]] = [[] for _ in self.order]
         for prec in problem.precedences:
             a, b = index.get(prec.before), index.get(prec.after)
@@ -352,10 +354,11 @@ class KeptSetSearch:
             links[second].append((first, prec.scope == "both", second == b))
         return links
 
-    def _apart(self, problem: Problem) -> list[list[int]]:
+    def _apart(
+        self, problem: Problem, index: dict[str, int]
+    ) -> list[list[int]]:
         """The earlier decided partners of each task in the pairs no plan
         holds together (:func:`~.exclusions.exclusive_pairs`)."""
-        index = {t.id: k for k, t in enumerate(self.order)}
         apart: list[list[int]] = [[] for _ in self.order]
         for first, second in exclusive_pairs(problem):
             a, b = index.get(first), index.get(second)

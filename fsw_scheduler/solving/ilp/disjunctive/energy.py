@@ -38,7 +38,7 @@ from __future__ import annotations
 import itertools
 from typing import TYPE_CHECKING
 
-from ....analysis.energetic import energy_rows
+from ....analysis import keptset
 from ..program import GE, LE
 
 if TYPE_CHECKING:
@@ -156,7 +156,8 @@ def add_energy_rows(
 ) -> int:
     """The kept-set relaxation's energy rows, on the "scheduled" columns.
 
-    :func:`~fsw_scheduler.analysis.energetic.energy_rows`: over an
+    :func:`~fsw_scheduler.analysis.keptset.energy` (the placeable
+    tasks' :func:`~fsw_scheduler.analysis.energetic.energy_rows`): over an
     interval, the least time each user must run inside it, summed over
     the scheduled users, within what the resource gives there. The order
     rows are big-M rows and the busy-time rows bound the starts only: a
@@ -180,10 +181,7 @@ def add_energy_rows(
     int
         The rows written.
     """
-    placeable = [
-        task for task in problem.tasks if variables.placeable(task.id)
-    ]
-    uses, limits = energy_rows(problem, variables.domains, placeable)
+    uses, limits = keptset.energy(problem, variables.domains)
     written = 0
     for row, limit in enumerate(limits):
         terms: dict[int, float] = {}
