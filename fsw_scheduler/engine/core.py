@@ -217,6 +217,7 @@ class Engine:
             reported=dict(dispatches.reported),
             sent=dict(dispatches.sent),
             cancelling=dict(dispatches.cancelling),
+            numbers=dict(dispatches.numbers),
             held=tuple(state.held),
             counters=state.counters,
             last_solve=state.last_solve,
@@ -276,6 +277,7 @@ class Engine:
                     activity,
                     since,
                     state.term,
+                    number=state.dispatches.numbers.get(activity.task, 1),
                 )
             )
         dispatches = state.dispatches

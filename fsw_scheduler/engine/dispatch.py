@@ -38,6 +38,8 @@ if TYPE_CHECKING:
 LIVE = ("planned", "dispatched", "running", "cancelling")
 #: The states of a command that stands: given, and not answered for good.
 COMMANDED = ("dispatched", "running")
+#: States a command leads to (an activity in one was commanded).
+ENDED = ("cancelling", "completed", "failed", "preempted", "unknown")
 
 
 class Dispatches:
@@ -58,9 +60,22 @@ class Dispatches:
     cancelling
         Task to the time unit the cancel of its dispatch (still in
         ``sent``) was sent, until the executor answers it.
+    numbers
+        Task to the number of its last run command (1 for the first):
+        part of the ``dispatch_id`` from the second on
+        (:func:`dispatch_id`), so that a task commanded again at the same
+        span (after a cancel answered, or a failure in the unit it was
+        sent) gets an id no receiver has acted on. Absent: 1.
     """
 
-    __slots__ = ("cancelling", "dispatched", "lifecycle", "reported", "sent")
+    __slots__ = (
+        "cancelling",
+        "dispatched",
+        "lifecycle",
+        "numbers",
+        "reported",
+        "sent",
+    )
 
     def __init__(
         self,
@@ -69,12 +84,22 @@ class Dispatches:
         sent: dict[str, tuple[int, int]] | None = None,
         reported: dict[str, Lifecycle] | None = None,
         cancelling: dict[str, int] | None = None,
+        numbers: dict[str, int] | None = None,
     ) -> None:
         self.lifecycle = dict(lifecycle or {})
         self.dispatched = dict(dispatched or {})
         self.sent = dict(sent or {})
         self.reported = dict(reported or {})
         self.cancelling = dict(cancelling or {})
+        self.numbers = dict(numbers or {})
+
+    def id_of(self, task: str) -> str | None:
+        """The ``dispatch_id`` of ``task``'s dispatch that stands (None
+        without one)."""
+        span = self.sent.get(task)
+        if span is None:
+            return None
+        return span_id(task, span, self.numbers.get(task, 1))
 
     def adopt(
         self,
@@ -87,8 +112,9 @@ class Dispatches:
     ) -> list[tuple[str, tuple[int, int]]]:
         """Take a new plan: removed tasks leave, planned ones wait again.
 
-        A dispatch that the new plan leaves exactly in place stands and is
-        not sent again (sending it again with each replan made storms).
+        A command that the new plan leaves exactly in place stands and is
+        not sent again (sending it again with each replan made storms),
+        whether or not its ``running`` report came during the solve.
         A commanded activity the plan moves or removes is cancelled, not
         commanded again (when ``now`` is given; without it, as journals
         recorded before cancels, it is planned again): it turns
@@ -137,10 +163,12 @@ class Dispatches:
                 # Waits for its answer, or already ran (a plan computed
                 # before its report): never commanded again blindly.
                 continue
-            if state == "dispatched" and self.sent.get(activity.task) == (
+            if state in COMMANDED and self.sent.get(activity.task) == (
                 activity.start,
                 activity.end,
             ):
+                # Reported running while the solve ran, and kept where it
+                # was commanded: a cancel here would stop it for nothing.
                 continue
             if cancel(activity.task):
                 continue
@@ -184,11 +212,20 @@ class Dispatches:
                 self.lifecycle[activity.task] = "missed"
                 missed.append(activity)
                 continue
+            self.numbers[activity.task] = self._last_number(activity.task) + 1
             self.lifecycle[activity.task] = "dispatched"
             self.dispatched[activity.task] = now
             self.sent[activity.task] = (activity.start, activity.end)
             due.append(activity)
         return due, missed
+
+    def _last_number(self, task: str) -> int:
+        """The number of ``task``'s last run command (0: none). A state
+        from before numbers were kept counts a commanded task as 1."""
+        if task in self.numbers:
+            return self.numbers[task]
+        ran = self.lifecycle.get(task) in (*COMMANDED, *ENDED)
+        return 1 if ran or task in self.sent else 0
 
     def standing(self, plan: Plan) -> list[tuple[Activity, int]]:
         """Each activity whose dispatch still stands, with when it was sent."""
@@ -272,12 +309,36 @@ class Dispatches:
             self.reported.pop(task, None)
             self.sent.pop(task, None)
             self.cancelling.pop(task, None)
+            self.numbers.pop(task, None)
 
 
-def dispatch_id(activity: Activity) -> str:
+def dispatch_id(activity: Activity, number: int = 1) -> str:
     """The name of the command that flies ``activity``:
-    ``<task>:<start>-<end>``, the same for as long as it keeps its place."""
-    return f"{activity.task}:{activity.start}-{activity.end}"
+    ``<task>:<start>-<end>``, the same for as long as it keeps its place;
+    from the task's second run command on, ``#<number>`` follows (a
+    command at a span already commanded, after a cancel or a failure,
+    is a new command)."""
+    return span_id(activity.task, (activity.start, activity.end), number)
+
+
+def span_id(task: str, span: tuple[int, int], number: int = 1) -> str:
+    """:func:`dispatch_id` of ``task``'s command number ``number`` for
+    ``span``."""
+    base = f"{task}:{span[0]}-{span[1]}"
+    return base if number <= 1 else f"{base}#{number}"
+
+
+def parse_id(dispatch_id: str) -> tuple[str, tuple[int, int], int] | None:
+    """Task, span and number of a ``dispatch_id`` (None if it is not
+    one of :func:`dispatch_id`'s)."""
+    head, _, tail = dispatch_id.rpartition(":")
+    span_text, mark, number_text = tail.partition("#")
+    start, _, end = span_text.partition("-")
+    if not (head and start.isdigit() and end.isdigit()):
+        return None
+    if mark and not (number_text.isdigit() and int(number_text) > 1):
+        return None
+    return head, (int(start), int(end)), int(number_text or 1)
 
 
 def dispatch_message(
@@ -287,11 +348,13 @@ def dispatch_message(
     dispatched_at: int,
     term: int = 0,
     action: Literal["run", "cancel"] = "run",
+    number: int = 1,
 ) -> Publish:
     """The dispatch of ``activity``, sent at ``dispatched_at``.
 
-    Its ``dispatch_id`` (task, start and end) stays the same for as long
-    as the activity keeps its place, so a receiver keeps one. With
+    Its ``dispatch_id`` (task, start and end, and ``number`` from the
+    task's second command on) stays the same for as long as the command
+    stands, so a receiver keeps one. With
     ``action`` ``cancel``, the same message tells the receiver to stop (or
     never start) that dispatch and answer ``cancelled``; on the same key
     as the dispatch, so it cannot overtake it.
@@ -307,7 +370,7 @@ def dispatch_message(
             uses=dict(sorted(problem.task(task).uses.items())),
             dispatched_at=dispatched_at,
             late=activity.start < dispatched_at,
-            dispatch_id=dispatch_id(activity),
+            dispatch_id=dispatch_id(activity, number),
             term=term,
             action=action,
         ),

@@ -21,7 +21,7 @@ from ..replan.commit import PIN_CAUSE
 from ..wire import topics
 from ..wire.messages import Dispatch, PlanMessage
 from . import overrun
-from .dispatch import dispatch_message
+from .dispatch import dispatch_message, span_id
 from .events import Command, Log, Publish
 from .snapshot import QueuedChange
 
@@ -162,18 +162,19 @@ class Execution:
         schedule = state.schedule
         if not cancels or schedule is None or state.plan_id is None:
             return
-        for task, (start, end) in cancels:
+        for task, span in cancels:
             schedule = schedule.with_report(
                 ExecutionReport(task, "missed", state.clock())
             )
+            name = span_id(task, span, state.dispatches.numbers.get(task, 1))
             out.append(
                 Log(
                     "info",
-                    f"{task}: cancel of {task}:{start}-{end} sent; not "
+                    f"{task}: cancel of {name} sent; not "
                     "commanded again before the executor answers",
                 )
             )
-            out.append(self.cancel_message(task, (start, end), state.clock()))
+            out.append(self.cancel_message(task, span, state.clock()))
         state.schedule = schedule
 
     def cancel_message(
@@ -195,7 +196,9 @@ class Execution:
                 end=span[1],
                 uses=dict(sorted(uses.items())),
                 dispatched_at=at,
-                dispatch_id=f"{task}:{span[0]}-{span[1]}",
+                dispatch_id=span_id(
+                    task, span, state.dispatches.numbers.get(task, 1)
+                ),
                 term=state.term,
                 action="cancel",
             ),
@@ -273,6 +276,7 @@ class Execution:
                     activity,
                     state.now,
                     state.term,
+                    number=state.dispatches.numbers.get(activity.task, 1),
                 )
             )
         if due:

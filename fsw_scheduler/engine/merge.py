@@ -103,6 +103,7 @@ def facts_of(
                 at=_last_at(own, task),
                 start=span[0] if span else None,
                 end=span[1] if span else None,
+                number=own.numbers.get(task, 1),
             )
         )
     goals = []
@@ -245,6 +246,7 @@ def merge_facts(state: EngineState, facts: Facts) -> tuple[list[str], ...]:
         )
         if span is not None:
             dispatches.sent[task] = span
+            dispatches.numbers[task] = fact.number
         steady = schedule.problem.task(task).preemption == "none"
         if span is not None and (
             fact.state == "cancelling"

@@ -21,7 +21,7 @@ from ..errors import FieldIssue
 from ..model.change import ExecutionReport
 from . import overrun
 from .config import HELD_REPORTS
-from .dispatch import dispatch_id
+from .dispatch import dispatch_id, parse_id
 from .events import Command, Log
 from .snapshot import QueuedChange
 
@@ -273,13 +273,14 @@ class Reports:
         ):
             return False
         task = report.task
-        head, _, span_text = report.dispatch_id.rpartition(":")
-        start, _, end = span_text.partition("-")
-        if head != task or not (start.isdigit() and end.isdigit()):
+        parsed = parse_id(report.dispatch_id)
+        if parsed is None or parsed[0] != task:
             return False
-        span = (int(start), int(end))
+        _, span, number = parsed
         dispatches = self._state.dispatches
-        if dispatches.sent.get(task) == span or dispatches.lifecycle.get(
+        if dispatches.id_of(
+            task
+        ) == report.dispatch_id or dispatches.lifecycle.get(
             task, "planned"
         ) not in ("planned", "dispatched", "missed"):
             return False
@@ -288,6 +289,7 @@ class Reports:
             return False
         dispatches.dispatched.pop(task, None)
         dispatches.sent[task] = span
+        dispatches.numbers[task] = number
         dispatches.report(task, report.state)
         at = min(max(report.at, schedule.problem.start), self._state.clock())
         self._state.schedule = schedule.with_report(
@@ -373,9 +375,15 @@ class Reports:
         schedule = self._state.schedule
         current = schedule.plan.activity(task) if schedule else None
         if sent is not None:
-            expected: str | None = f"{task}:{sent[0]}-{sent[1]}"
+            expected = self._state.dispatches.id_of(task)
         else:
-            expected = dispatch_id(current) if current is not None else None
+            expected = (
+                dispatch_id(
+                    current, self._state.dispatches.numbers.get(task, 1)
+                )
+                if current is not None
+                else None
+            )
         if expected is not None and report.dispatch_id != expected:
             return FieldIssue(
                 "dispatch_id",

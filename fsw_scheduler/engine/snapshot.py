@@ -124,6 +124,7 @@ class EngineSnapshot(msgspec.Struct, frozen=True, omit_defaults=True):
     reported: dict[str, Lifecycle] = {}
     sent: dict[str, tuple[int, int]] = {}
     cancelling: dict[str, int] = {}
+    numbers: dict[str, int] = {}
     held: tuple[ActivityReport, ...] = ()
     counters: Counters = Counters()
     last_solve: SolveSummary | None = None

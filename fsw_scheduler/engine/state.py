@@ -119,6 +119,7 @@ class EngineState:
             sent=snapshot.sent,
             reported=snapshot.reported,
             cancelling=snapshot.cancelling,
+            numbers=snapshot.numbers,
         )
         state.held = list(snapshot.held)
         state.counters = snapshot.counters

@@ -244,10 +244,11 @@ class Dispatch(msgspec.Struct, frozen=True, omit_defaults=True):
 
     An activity is dispatched once per plan change of that activity: a
     replan that keeps it where it was sends nothing. ``dispatch_id``
-    (``<task>:<start>-<end>``) names the command; a receiver that already
-    acts on that id ignores a repeat, and a new id for the same task
-    replaces the earlier command. ``term`` fences: a receiver ignores a
-    dispatch whose term is lower than the highest it has seen.
+    (``<task>:<start>-<end>``, then ``#<n>`` from the task's second run
+    command on: no two commands share one) names the command; a receiver
+    that already acts on that id ignores a repeat, and a new id for the
+    same task replaces the earlier command. ``term`` fences: a receiver
+    ignores a dispatch whose term is lower than the highest it has seen.
 
     ``action`` is ``run`` (start it) or ``cancel``: stop the dispatch
     ``dispatch_id`` names, or never start it, and answer with a report
@@ -588,9 +589,10 @@ class Fact(msgspec.Struct, frozen=True, omit_defaults=True):
 
     ``state`` is its lifecycle there (``dispatched``, ``running``,
     ``cancelling``, ``completed``, ``failed``, ``unknown``); ``start``
-    and ``end`` the span of the dispatch that stands (its ``dispatch_id``
-    is ``<task>:<start>-<end>``), when one does; ``at`` the time unit of
-    its last report (or of the state, without one).
+    and ``end`` the span of the dispatch that stands, when one does, and
+    ``number`` its run command's number (its ``dispatch_id`` is
+    ``<task>:<start>-<end>``, then ``#<number>`` from 2 on); ``at`` the
+    time unit of its last report (or of the state, without one).
     """
 
     task: Id
@@ -600,6 +602,7 @@ class Fact(msgspec.Struct, frozen=True, omit_defaults=True):
     at: Instant = 0
     start: int | None = None
     end: int | None = None
+    number: Annotated[int, msgspec.Meta(ge=1)] = 1
 
 
 class CarriedGoal(msgspec.Struct, frozen=True, omit_defaults=True):

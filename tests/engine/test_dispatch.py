@@ -7,7 +7,10 @@ from __future__ import annotations
 import json
 from typing import TYPE_CHECKING
 
+import pytest
+
 from fsw_scheduler.engine.config import EngineConfig
+from fsw_scheduler.engine.dispatch import parse_id, span_id
 from fsw_scheduler.engine.events import ReportArrived
 from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.wire import messages
@@ -117,7 +120,7 @@ def test_a_preempted_command_is_cancelled_before_it_is_sent_again() -> None:
     driver.tick(x.start)  # its new place comes: still no answer
     assert _runs(driver) == ["X:0-4"]
     _report(driver, "X", "cancelled", x.start, "X:0-4")
-    assert _runs(driver) == ["X:0-4", f"X:{x.start}-{x.end}"]
+    assert _runs(driver) == ["X:0-4", f"X:{x.start}-{x.end}#2"]
 
 
 def test_a_cancel_answered_late_replans_the_activity() -> None:
@@ -176,3 +179,107 @@ def test_recorded_sessions_keep_moving_commands_without_a_cancel() -> None:
     sent, as those journals recorded."""
     driver = _preempted(EngineConfig())
     assert all(a == "run" for a, _ in _commands(driver))
+
+
+@pytest.mark.parametrize("preemption", ["none", "from_start", "delete"])
+@pytest.mark.parametrize("running_first", [True, False])
+def test_a_command_reported_running_during_a_solve_stands(
+    preemption: str, running_first: bool
+) -> None:
+    """Tests that an activity dispatched while a solve runs, and reported
+    ``running`` before or after that solve returns with it in the same
+    place, is neither cancelled nor commanded again (a cancel there
+    stopped it for nothing, and its next command reused its id)."""
+    driver = Driver(EMPTY, FACTS, hold=True)
+    driver.tick(0)
+    driver.goal(
+        {
+            "goal_id": "g1",
+            "tasks": [
+                make_task(
+                    "X",
+                    4,
+                    preemption=preemption,
+                    feasible_interval=[2, 20],
+                    uses={"camera": 1},
+                )
+            ],
+        }
+    )
+    driver.finish()
+    driver.tick(1)
+    driver.goal(
+        {
+            "goal_id": "g2",
+            "tasks": [
+                make_task("Y", 1, feasible_interval=[2, 20], uses={"power": 5})
+            ],
+        }
+    )
+    driver.tick(2)  # X is dispatched while g2's solve is held
+    assert _runs(driver) == ["X:2-6"]
+    if running_first:
+        _report(driver, "X", "running", 2, "X:2-6")
+    while driver.held:
+        driver.finish()
+    if not running_first:
+        _report(driver, "X", "running", 2, "X:2-6")
+    for now in range(3, 6):
+        driver.tick(now)
+    assert [c for c in _commands(driver) if c[1].startswith("X:")] == [
+        ("run", "X:2-6")
+    ]
+    assert driver.engine.status().activities["X"] == "running"
+    _report(driver, "X", "completed", 6, "X:2-6")
+    driver.tick(6)
+    assert driver.engine.status().activities["X"] == "completed"
+
+
+@pytest.mark.parametrize(
+    "preemption", ["none", "from_start", "from_interrupt"]
+)
+def test_a_retry_at_the_same_span_is_a_new_command(preemption: str) -> None:
+    """Tests that an activity that fails in the unit it was sent, and is
+    planned again at the same span, is commanded under a new id (a
+    receiver ignores an id it has acted on: with the old id the retry
+    never ran and the activity stayed ``dispatched``); its reports are
+    taken, and an engine rebuilt from the snapshot sends the same id."""
+    driver = Driver(EMPTY, FACTS)
+    driver.tick(0)
+    driver.goal(
+        {
+            "goal_id": "g1",
+            "tasks": [
+                make_task(
+                    "X",
+                    2,
+                    preemption=preemption,
+                    feasible_interval=[0, 20],
+                    uses={"camera": 1},
+                )
+            ],
+        }
+    )
+    _report(driver, "X", "running", 0, "X:0-2")
+    _report(driver, "X", "failed", 0, "X:0-2")
+    assert _runs(driver) == ["X:0-2", "X:0-2#2"]
+    rebuilt = type(driver.engine).restore(FACTS, driver.engine.snapshot())
+    again = published(rebuilt.resume_commands(), messages.Dispatch)
+    assert [(d.action, d.dispatch_id) for d in again] == [("run", "X:0-2#2")]
+    _report(driver, "X", "running", 0, "X:0-2#2")
+    driver.tick(1)
+    driver.tick(2)
+    _report(driver, "X", "completed", 2, "X:0-2#2")
+    assert driver.engine.status().activities["X"] == "completed"
+    assert _runs(driver) == ["X:0-2", "X:0-2#2"]
+
+
+def test_dispatch_ids_name_span_and_number() -> None:
+    """Tests that ids read back as they were written, and that what is
+    not one is refused."""
+    assert span_id("A:b", (3, 7)) == "A:b:3-7"
+    assert span_id("A:b", (3, 7), 4) == "A:b:3-7#4"
+    assert parse_id("A:b:3-7#4") == ("A:b", (3, 7), 4)
+    assert parse_id("A:b:3-7") == ("A:b", (3, 7), 1)
+    for bad in ("A:3-7#1", "A:3-7#x", "A:3-", "3-7", "A:3-7#"):
+        assert parse_id(bad) is None, bad

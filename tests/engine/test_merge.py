@@ -241,3 +241,31 @@ def test_a_command_with_no_word_back_is_asked_about() -> None:
     assert (cancel.dispatch_id, cancel.term) == ("Q:3-5", 2)
     activities = a.engine.status().activities
     assert (activities["Q"], activities["R"]) == ("cancelling", "running")
+
+
+def test_a_fact_keeps_the_number_of_its_command() -> None:
+    """Tests that a fact hands over its command's number and that the
+    winner's cancel names that command's id (``#3``): a cancel naming
+    another id would leave the loser's command running."""
+    a, _ = _split()
+    a.step(TermBegan(2))
+    a.goal(
+        _goal(
+            "gQ",
+            "Q",
+            2,
+            preemption="from_start",
+            feasible_interval=[10, 20],
+            feasible_interval_applies_to="start",
+        )
+    )
+    fact = messages.Fact("Q", "dispatched", at=3, start=3, end=5, number=3)
+    out = a.step(FactsArrived(messages.Facts(term=1, facts=(fact,))))
+    (cancel,) = [
+        d for d in published(out, messages.Dispatch) if d.action == "cancel"
+    ]
+    assert cancel.dispatch_id == "Q:3-5#3"
+    handed = facts_of(a.engine.snapshot(), None)
+    assert [(f.task, f.number) for f in handed.facts if f.task == "Q"] == [
+        ("Q", 3)
+    ]
