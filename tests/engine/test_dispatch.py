@@ -181,6 +181,20 @@ def test_recorded_sessions_keep_moving_commands_without_a_cancel() -> None:
     assert all(a == "run" for a, _ in _commands(driver))
 
 
+def _camera_goal(
+    driver: Driver, length: int, preemption: str, window: list[int]
+) -> None:
+    """Goal g1: task X of ``length`` on the camera within ``window``."""
+    task = make_task(
+        "X",
+        length,
+        preemption=preemption,
+        feasible_interval=window,
+        uses={"camera": 1},
+    )
+    driver.goal({"goal_id": "g1", "tasks": [task]})
+
+
 @pytest.mark.parametrize("preemption", ["none", "from_start", "delete"])
 @pytest.mark.parametrize("running_first", [True, False])
 def test_a_command_reported_running_during_a_solve_stands(
@@ -192,20 +206,7 @@ def test_a_command_reported_running_during_a_solve_stands(
     stopped it for nothing, and its next command reused its id)."""
     driver = Driver(EMPTY, FACTS, hold=True)
     driver.tick(0)
-    driver.goal(
-        {
-            "goal_id": "g1",
-            "tasks": [
-                make_task(
-                    "X",
-                    4,
-                    preemption=preemption,
-                    feasible_interval=[2, 20],
-                    uses={"camera": 1},
-                )
-            ],
-        }
-    )
+    _camera_goal(driver, 4, preemption, [2, 20])
     driver.finish()
     driver.tick(1)
     driver.goal(
@@ -246,20 +247,7 @@ def test_a_retry_at_the_same_span_is_a_new_command(preemption: str) -> None:
     taken, and an engine rebuilt from the snapshot sends the same id."""
     driver = Driver(EMPTY, FACTS)
     driver.tick(0)
-    driver.goal(
-        {
-            "goal_id": "g1",
-            "tasks": [
-                make_task(
-                    "X",
-                    2,
-                    preemption=preemption,
-                    feasible_interval=[0, 20],
-                    uses={"camera": 1},
-                )
-            ],
-        }
-    )
+    _camera_goal(driver, 2, preemption, [0, 20])
     _report(driver, "X", "running", 0, "X:0-2")
     _report(driver, "X", "failed", 0, "X:0-2")
     assert _runs(driver) == ["X:0-2", "X:0-2#2"]
