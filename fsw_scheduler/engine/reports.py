@@ -278,11 +278,12 @@ class Reports:
             return False
         _, span, number = parsed
         dispatches = self._state.dispatches
-        if dispatches.id_of(
-            task
-        ) == report.dispatch_id or dispatches.lifecycle.get(
-            task, "planned"
-        ) not in ("planned", "dispatched", "missed"):
+        ours = dispatches.id_of(task) == report.dispatch_id
+        if ours or dispatches.lifecycle.get(task, "planned") not in (
+            "planned",
+            "dispatched",
+            "missed",
+        ):
             return False
         schedule = self._state.schedule
         if schedule is None or report.state == "cancelled":
