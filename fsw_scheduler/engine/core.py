@@ -277,7 +277,7 @@ class Engine:
                     activity,
                     since,
                     state.term,
-                    number=state.dispatches.numbers.get(activity.task, 1),
+                    number=state.dispatches.number(activity.task),
                 )
             )
         dispatches = state.dispatches

@@ -38,8 +38,15 @@ if TYPE_CHECKING:
 LIVE = ("planned", "dispatched", "running", "cancelling")
 #: The states of a command that stands: given, and not answered for good.
 COMMANDED = ("dispatched", "running")
-#: States a command leads to (an activity in one was commanded).
-ENDED = ("cancelling", "completed", "failed", "preempted", "unknown")
+#: States that say an activity was commanded (a dispatch was sent).
+WAS_COMMANDED = (
+    "dispatched",
+    "running",
+    "cancelling",
+    "completed",
+    "failed",
+    "unknown",
+)
 
 
 class Dispatches:
@@ -99,7 +106,12 @@ class Dispatches:
         span = self.sent.get(task)
         if span is None:
             return None
-        return span_id(task, span, self.numbers.get(task, 1))
+        return span_id(task, span, self.number(task))
+
+    def number(self, task: str) -> int:
+        """The number of ``task``'s last run command (1 when none is
+        recorded: the first, or a state from before numbers were kept)."""
+        return self.numbers.get(task, 1)
 
     def adopt(
         self,
@@ -224,7 +236,7 @@ class Dispatches:
         from before numbers were kept counts a commanded task as 1."""
         if task in self.numbers:
             return self.numbers[task]
-        ran = self.lifecycle.get(task) in (*COMMANDED, *ENDED)
+        ran = self.lifecycle.get(task) in (*WAS_COMMANDED, "preempted")
         return 1 if ran or task in self.sent else 0
 
     def standing(self, plan: Plan) -> list[tuple[Activity, int]]:

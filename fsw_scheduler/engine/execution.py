@@ -166,12 +166,11 @@ class Execution:
             schedule = schedule.with_report(
                 ExecutionReport(task, "missed", state.clock())
             )
-            name = span_id(task, span, state.dispatches.numbers.get(task, 1))
             out.append(
                 Log(
                     "info",
-                    f"{task}: cancel of {name} sent; not "
-                    "commanded again before the executor answers",
+                    f"{task}: cancel of {state.dispatches.id_of(task)} sent; "
+                    "not commanded again before the executor answers",
                 )
             )
             out.append(self.cancel_message(task, span, state.clock()))
@@ -196,9 +195,7 @@ class Execution:
                 end=span[1],
                 uses=dict(sorted(uses.items())),
                 dispatched_at=at,
-                dispatch_id=span_id(
-                    task, span, state.dispatches.numbers.get(task, 1)
-                ),
+                dispatch_id=span_id(task, span, state.dispatches.number(task)),
                 term=state.term,
                 action="cancel",
             ),
@@ -276,7 +273,7 @@ class Execution:
                     activity,
                     state.now,
                     state.term,
-                    number=state.dispatches.numbers.get(activity.task, 1),
+                    number=state.dispatches.number(activity.task),
                 )
             )
         if due:

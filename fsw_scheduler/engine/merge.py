@@ -25,6 +25,7 @@ import msgspec
 
 from ..model.change import ExecutionReport
 from ..wire.messages import CarriedGoal, Fact, Facts
+from .dispatch import WAS_COMMANDED
 
 if TYPE_CHECKING:
     from ..model.problem import Task
@@ -32,14 +33,7 @@ if TYPE_CHECKING:
     from .state import EngineState
 
 #: Lifecycle states that say an activity was commanded.
-FACT_STATES = (
-    "dispatched",
-    "running",
-    "cancelling",
-    "completed",
-    "failed",
-    "unknown",
-)
+FACT_STATES = WAS_COMMANDED
 #: States a fact handed over never overrides on the winner.
 _SETTLED = ("completed", "failed", "unknown", "obsolete")
 

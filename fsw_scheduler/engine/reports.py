@@ -379,9 +379,7 @@ class Reports:
             expected = self._state.dispatches.id_of(task)
         else:
             expected = (
-                dispatch_id(
-                    current, self._state.dispatches.numbers.get(task, 1)
-                )
+                dispatch_id(current, self._state.dispatches.number(task))
                 if current is not None
                 else None
             )
