@@ -6,12 +6,16 @@ anything is allocated, every chunk is decompressed and its CRC checked,
 and a finished file's summary is checked against the CRC in its footer;
 a metadata record (which MCAP leaves without a CRC: the settings a
 resume reads) against its own (``_crc32``, from the writer).
-A file cut short by a crash (its last record incomplete, nothing after
-it) is *truncated*: :func:`~fsw_scheduler.journal.recover.recover`
-finishes it. Anything else is *damage* (a bit flip, a torn write inside
-the file, another program's bytes), named with its byte offset; a state
-folder with damage is refused (``run`` exits 2 naming file and offset)
-rather than resumed into a state the bus never saw. ``fsw-scheduler
+Every record type but a bare message has fields whose sizes add up to
+its length field, so a length field is checked against them: one flipped
+past the end of the file is not mistaken for a record a crash cut short
+(whose fields run past the end as well). A file cut short by a crash
+(its last record incomplete, nothing after it) is *truncated*:
+:func:`~fsw_scheduler.journal.recover.recover` finishes it. Anything
+else is *damage* (a bit flip, a torn write inside the file, another
+program's bytes), named with its byte offset; a state folder with damage
+is refused (``run`` exits 2 naming file and offset) rather than resumed
+into a state the bus never saw. ``fsw-scheduler
 state check DIR`` prints this for an operator.
 """
 
@@ -122,8 +126,14 @@ def check_file(path: PathLike) -> FileCheck:
             if ends:
                 result.damage = "a record runs past the end of the file"
                 result.offset = at
+            else:
+                _check_cut(data, at, length, result)
             return result
-        issue = _record_issue(data, at, end, result)
+        own = _fields_length(data, at + RECORD_HEAD.size, opcode)
+        if own is not None and own != length:
+            issue = f"its length field says {length} bytes, its fields {own}"
+        else:
+            issue = _record_issue(data, at, end, result)
         if issue is not None:
             result.damage, result.offset = issue, at
             return result
@@ -137,6 +147,91 @@ def check_file(path: PathLike) -> FileCheck:
                 result.offset = end
             return result
         at = end
+
+
+#: The fields of each record type in order (MCAP specification): ``B``,
+#: ``H``, ``I``, ``Q`` fixed integers; ``s`` a string or map (a ``uint32``
+#: byte length, then the bytes); ``b`` bytes with a ``uint64`` length.
+#: Every record's fields but a bare message's add up to its length field,
+#: which is what tells a length flipped past the end of the file from a
+#: record a crash cut short (:func:`_check_cut`).
+_FIELDS: dict[int, str] = {
+    Opcode.HEADER: "ss",
+    Opcode.FOOTER: "QQI",
+    Opcode.SCHEMA: "Hsss",
+    Opcode.CHANNEL: "HHsss",
+    Opcode.CHUNK: "QQQIsb",
+    Opcode.MESSAGE_INDEX: "Hs",
+    Opcode.CHUNK_INDEX: "QQQQsQsQQ",
+    Opcode.ATTACHMENT: "QQssbI",
+    Opcode.ATTACHMENT_INDEX: "QQQQQss",
+    Opcode.STATISTICS: "QHIIIIQQs",
+    Opcode.METADATA: "ss",
+    Opcode.METADATA_INDEX: "QQs",
+    Opcode.SUMMARY_OFFSET: "BQQ",
+    Opcode.DATA_END: "I",
+}
+_FIXED = {"B": 1, "H": 2, "I": 4, "Q": 8}
+
+
+def _fields_length(data: bytes, body: int, opcode: int) -> int | None:
+    """The length a record's own fields give it (from ``body``, the byte
+    after its head); None when they run past the end of ``data`` (a cut
+    record) or the record type has no such sum (a bare message)."""
+    fields = _FIELDS.get(opcode)
+    if fields is None:
+        return None
+    at = body
+    for kind in fields:
+        if kind in _FIXED:
+            at += _FIXED[kind]
+            continue
+        width = 4 if kind == "s" else 8
+        if at + width > len(data):
+            return None
+        (size,) = struct.unpack_from("<I" if width == 4 else "<Q", data, at)
+        at += width + size
+    return at - body if at <= len(data) else None
+
+
+def _check_cut(data: bytes, at: int, length: int, result: FileCheck) -> None:
+    """Tell a record a crash cut short from a length field damaged upwards.
+
+    Both run past the end of an unfinished file. A crash writes the head
+    and the fields as one, so a cut record's fields run past the end too;
+    a flipped length leaves fields that end inside the file, followed by
+    the records that were written after it. The second is damage: read as
+    a crash, everything after it would be dropped without a word.
+    """
+    body = at + RECORD_HEAD.size
+    own = _fields_length(data, body, RECORD_HEAD.unpack_from(data, at)[0])
+    if own is None or own == length:
+        return
+    nxt = body + own
+    if nxt < len(data) and not _starts_record(data, nxt):
+        # What follows is no record (zeros, torn pages after a power
+        # cut): the fields read garbage, the record was cut.
+        return
+    result.damage = (
+        f"its length field says {length} bytes, past the end of the file; "
+        f"its fields fill {own} and records follow them"
+    )
+    result.offset = at
+
+
+def _starts_record(data: bytes, at: int) -> bool:
+    """Whether a record that checks out (or is cut by the file's end)
+    starts at ``at``."""
+    if at + RECORD_HEAD.size > len(data):
+        return False
+    opcode, length = RECORD_HEAD.unpack_from(data, at)
+    if opcode not in _KNOWN or opcode == 0 or length > MAX_RECORD_BYTES:
+        return False
+    end = at + RECORD_HEAD.size + length
+    if end > len(data):
+        own = _fields_length(data, at + RECORD_HEAD.size, opcode)
+        return own is None or own == length
+    return _record_issue(data, at, end, FileCheck(Path())) is None
 
 
 class _Exact(io.BytesIO):

@@ -88,6 +88,55 @@ def test_truncation_is_not_damage(state_folder: Path, tmp_path: Path) -> None:
         shutil.rmtree(folder)
 
 
+def _records(data: bytes) -> list[tuple[int, int]]:
+    """(offset, opcode) of each record of a journal's data section."""
+    import struct
+
+    at, found = 8, []
+    while at + 9 <= len(data):
+        opcode, length = struct.unpack_from("<BQ", data, at)
+        if opcode == 0x0F:  # data end: the summary follows
+            break
+        found.append((at, opcode))
+        at += 9 + length
+    return found
+
+
+def test_a_length_flipped_past_the_end_of_a_crashed_file_is_damage(
+    state_folder: Path, tmp_path: Path
+) -> None:
+    """Tests the journal a killed node leaves (every record up to its
+    summary), with bits of each record's length field flipped in turn.
+
+    A length flipped upwards past the end of the file once read as a
+    record cut by the crash, so the records after it were dropped in
+    silence and an older state resumed. Each flip is now refused."""
+    (journal,) = journal_files(state_folder)
+    data = journal.read_bytes()
+    records = _records(data)
+    assert len(records) > 10
+    # The file as a kill leaves it: no data end, no summary, no footer.
+    last_at = records[-1][0]
+    length = int.from_bytes(data[last_at + 1 : last_at + 9], "little")
+    crashed = data[: last_at + 9 + length]
+    path = tmp_path / journal.name
+    path.write_bytes(crashed)
+    assert check_file(path).ok and not check_file(path).finished
+    for at, _opcode in records:
+        # Low bits (a length that stays inside the file), high ones (past
+        # its end, under and over the record bound).
+        for bit in (0, 3, 9, 14, 20, 27, 40, 63):
+            flipped = bytearray(crashed)
+            flipped[at + 1 + bit // 8] ^= 1 << (bit % 8)
+            path.write_bytes(bytes(flipped))
+            check = check_file(path)
+            assert not check.ok, (at, bit, check.describe())
+            # At the record, or where its wrong length leads.
+            assert check.offset is not None and check.offset >= at
+        with pytest.raises(StateDamaged):  # the last flip
+            open_state(tmp_path)
+
+
 def test_a_flipped_length_is_damage_not_an_allocation(tmp_path: Path) -> None:
     """Tests a record length field flipped to a huge value: named as
     damage before any allocation."""
