@@ -130,6 +130,7 @@ def check_file(path: PathLike) -> FileCheck:
                 _check_cut(data, at, length, result)
             return result
         own = _fields_length(data, at + RECORD_HEAD.size, opcode)
+        issue: str | None
         if own is not None and own != length:
             issue = f"its length field says {length} bytes, its fields {own}"
         else:
