@@ -84,6 +84,8 @@ class SchedulerClient:
         The spacecraft id of the scheduler's keys.
     timeout
         Default deadline of every wait, in seconds.
+    answer_fences
+        Answer ``scheduler/fences/<zid>`` (False: a receiver that cannot).
 
     Attributes
     ----------
@@ -103,6 +105,7 @@ class SchedulerClient:
         spacecraft: str = keys.DEFAULT_SPACECRAFT,
         *,
         timeout: float = WAIT_S,
+        answer_fences: bool = True,
     ) -> None:
         self.client = session
         self.topics = keys.Topics(spacecraft)
@@ -132,9 +135,10 @@ class SchedulerClient:
         )
         self._fence_answer: Any = None
         try:
-            self._fence_answer = session.declare_queryable(
-                self._fence_key, self._on_fence_query
-            )
+            if answer_fences:
+                self._fence_answer = session.declare_queryable(
+                    self._fence_key, self._on_fence_query
+                )
         except zenoh.ZError as error:  # refused (a secure profile's ACL)
             log.debug("no fence queryable: %s", error)
 

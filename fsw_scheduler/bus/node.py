@@ -58,6 +58,7 @@ from ..wire.terms import MAX_TERM
 from .inbox import BUS_INPUTS, NOTICES, Inbox, Worker, direct
 from .outputs import FATAL, NodeOutputs, reply
 from .provenance import Origin, Provenance, capture
+from .term_record import term_record
 from .whatif import WhatIfs
 
 if TYPE_CHECKING:
@@ -134,6 +135,7 @@ class SchedulerNode:
         publishers: Callable[[str], frozenset[str] | None] | None = None,
         term_floor: int = 0,
         on_term: Callable[[int], None] | None = None,
+        vouched: int | None = None,
     ) -> None:
         if config.horizon is not None:
             problem = problem.replace(horizon=config.horizon)
@@ -223,6 +225,7 @@ class SchedulerNode:
         # The highest term seen elsewhere (redundancy): this node's term
         # is above it and above its own state's.
         self._term_floor = term_floor
+        self._vouched = vouched
         self._on_term = on_term
         #: The lease this node commands on (set before :meth:`start`; see
         #: :mod:`~fsw_scheduler.bus.lease`); None: not watched.
@@ -323,22 +326,16 @@ class SchedulerNode:
         if term > MAX_TERM:
             # Never reached by raising one at a time from verified terms.
             raise BusError(f"no term left above {term - 1}")
-        reason = {"took_over": "takeover", "": "start"}.get(
-            self.resumed, "resume"
-        )
-        lost = ""
-        engine, floor = self.engine, self._term_floor
-        if engine.term < floor:
-            # The state is older than a term already in use (a restored,
-            # moved-aside or empty folder, a lagging copy): say so.
-            lost = (
-                f"state of term {engine.term} (plan {engine.plan_id}, "
-                f"t={engine.now}) is older than term {floor}, already in "
-                f"use: what term {floor} decided after it is lost; "
-                "goals without a verdict must be sent again"
-            )
+        engine = self.engine
         self._term_payload = messages.encode(
-            messages.Term(term, self.config.node_id or "", reason, lost)
+            term_record(
+                term,
+                self.config.node_id or "",
+                self.resumed,
+                (engine.term, engine.plan_id, engine.now),
+                self._term_floor,
+                self._vouched,
+            )
         )
         self._on_sample(
             "term", self.topics.key(topics.TERM), self._term_payload

@@ -12,8 +12,8 @@ the same on every node so that they agree without talking:
   folder's, the members' tokens and stored states (``scheduler/stored``),
   the receivers' fences (``scheduler/fences``), the states shared with
   it; a term beyond the bound is ignored. It commands from the newest
-  state it can get; an older one than a term in use is resumed only
-  with an alarm saying what was lost. The term is journaled (and synced)
+  state it can get; one older than a term in use, with an alarm saying
+  what was lost. The term is journaled (and synced)
   before the node commands, and stamped on every plan, dispatch and
   status; receivers fence: they ignore anything from a lower term than
   the highest seen.
@@ -34,9 +34,8 @@ the same on every node so that they agree without talking:
   that the active node is gone.
 * **Newest state wins.** Two active nodes (a partition healed) see each
   other's tokens; the one with the higher term stays (it took over from
-  the other, so its state is the newer one), then the better order. The
-  other stands down, says ``stood_down`` on ``scheduler/status`` and
-  becomes its standby.
+  the other: its state is newer), then the better order. The other
+  stands down, says ``stood_down`` and hands over what the winner lacks.
 * **Leases** (:mod:`fsw_scheduler.bus.lease`): a commanding node whose own
   view of the bus had a gap longer than half the Zenoh lease but shorter
   than the lease asks the bus who commands and goes on if no one else
@@ -46,8 +45,7 @@ the same on every node so that they agree without talking:
   term, only if no one else does.
 
 Takeover time is the link-loss detection plus one pass of this loop
-(:data:`POLL_S`); the tests measure it on separate processes through a
-router.
+(:data:`POLL_S`), measured on separate processes through a router.
 """
 
 from __future__ import annotations
@@ -65,7 +63,7 @@ import zenoh
 from ..engine.merge import facts_of, lost_goals
 from ..errors import FieldIssue
 from ..wire import messages, topics
-from ..wire.terms import term_refused
+from ..wire.terms import MAX_TERM, term_refused
 from .lease import has_links
 from .members import Member, beats, order, precedence
 from .members import default_node_id as default_node_id  # its old home
@@ -126,6 +124,7 @@ class Redundancy:
         #: Whether another scheduler was ever seen: from then on, this
         #: node commands only while it has a link to the bus.
         self.seen_others = False
+        self.fence_max = -1  # the highest term a fence answered
         self.changes: queue.Queue[None] = queue.Queue()
         self._lock = threading.Lock()
         #: The state shared with this node, followed and kept
@@ -354,6 +353,7 @@ class Redundancy:
                 if refused is None:
                     # A receiver saw it stamped on a command: in use.
                     self._verify(term)
+                    self.fence_max = max(self.fence_max, term)
                 else:
                     self._refuse(where, refused)
 
@@ -379,6 +379,11 @@ class Redundancy:
                 return
             self._verify(term)
         self.shared.keep(payload, (term, inputs))
+
+    def vouched(self) -> int:
+        """The highest term a receiver's fence answered (-1: none); any,
+        once another scheduler was seen (its state decides then)."""
+        return MAX_TERM if self.seen_others else self.fence_max
 
     def latest_snapshot(self) -> EngineSnapshot | None:
         """The newest state the active node shared (None: none yet)."""
@@ -783,11 +788,13 @@ def _stand_down(
 def _tell_lost(
     redundancy: Redundancy, own: EngineSnapshot, active: Member
 ) -> None:
-    """A node that starts with a state of its own finds a commander: each
-    goal it took in its last term that the commander's state lacks is
-    named, to be sent again (as at a heal)."""
+    """A node that starts with a state of its own finds a commander: what
+    the commander's state lacks of its last term is handed over, as at a
+    heal (a standby back first after both computers were reset may have
+    missed the last steps); a goal that cannot be is named, to resend."""
     newer = redundancy.latest_snapshot()
     if newer is None or (newer.term, newer.inputs) == (own.term, own.inputs):
         return
+    redundancy.hand_over(facts_of(own, newer, redundancy.me.node_id))
     for goal_id in lost_goals(own, newer):
         redundancy.publish_lost_goal(goal_id, own.term, active, newer.term)

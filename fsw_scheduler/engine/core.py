@@ -406,6 +406,12 @@ class Engine:
                     "alarm", detail=event.lost, state="degraded"
                 )
             )
+        elif event.unverified:
+            # Nothing known lost, nothing proved current: said once.
+            out.append(Log("warning", event.unverified))
+            out.append(
+                self._verdicts.publish("alarm", detail=event.unverified)
+            )
 
     def _on_facts(self, event: FactsArrived, out: list[Command]) -> None:
         """Take what a commander that stood down commanded (see

@@ -92,6 +92,7 @@ class TermBegan(msgspec.Struct, frozen=True, tag=True):
     node_id: str = ""
     reason: str = ""
     lost: str = ""
+    unverified: str = ""
 
 
 class FactsArrived(msgspec.Struct, frozen=True, tag=True):

@@ -9,10 +9,10 @@ input): a completed activity is never commanded again, one its executor
 reported running is kept running where it was commanded (the replan
 that follows pins it), one commanded with no word back is asked about
 with a cancel in the winner's term (the executor answers what ran),
-and a goal the winner lacks of which something was commanded is carried
-over with what ran, instead of being sent again by its sender. Only a
-goal of which nothing was commanded is told to be sent again
-(:func:`commanded`).
+and a goal the winner lacks is carried over (with what ran of it),
+instead of being sent again by its sender: its sender had its
+``goal_accepted``. Only a goal whose task ids are other tasks at the
+winner is told to be sent again (:func:`lost_goals`).
 
 Pure: no bus, no clock.
 """
@@ -47,18 +47,34 @@ def commanded(snapshot: EngineSnapshot) -> set[str]:
     } | set(snapshot.sent)
 
 
+def _task_ids(snapshot: EngineSnapshot) -> set[str]:
+    """Every task id ``snapshot``'s schedule knows."""
+    schedule = snapshot.schedule
+    if schedule is None:
+        return set()
+    return {
+        t.id
+        for t in (
+            *schedule.problem.tasks,
+            *schedule.deferred,
+            *schedule.catalog,
+        )
+    }
+
+
 def lost_goals(own: EngineSnapshot, winner: EngineSnapshot) -> list[str]:
     """Goals this node took in its own term that the state which outranks
-    it does not hold (both sides of a partition accepted goals) and of
-    which nothing was commanded: each must be told, by name, to be sent
-    again. (A goal partly commanded is handed over with its facts.)"""
-    ran = commanded(own)
+    it does not hold and cannot be handed: a task id of theirs is another
+    task there (a sender reused it on the winner's side). Each must be
+    told, by name, to be sent again. (Every other goal the winner lacks
+    is handed over with the facts: :func:`facts_of`.)"""
+    taken = _task_ids(winner)
     return [
         goal_id
         for goal_id, record in own.ledger.items()
         if record.term == own.term
         and goal_id not in winner.ledger
-        and not ran.intersection(record.tasks)
+        and taken.intersection(record.tasks)
     ]
 
 
@@ -82,7 +98,10 @@ def facts_of(
     Facts
         Each commanded activity whose state the winner does not share,
         and each goal this node accepted in its term that the winner does
-        not hold and of which something was commanded.
+        not hold and whose task ids are free there: commanded or not, its
+        sender had its ``goal_accepted`` and sends it no more (a standby
+        reset with the commander may have missed the last goals; two
+        sides of a split each accepted their own).
     """
     theirs = winner.lifecycle if winner is not None else {}
     facts = []
@@ -102,14 +121,14 @@ def facts_of(
         )
     goals = []
     held = winner.ledger if winner is not None else {}
-    ran = commanded(own)
+    taken = _task_ids(winner) if winner is not None else set()
     schedule = own.schedule
     for goal_id, record in own.ledger.items():
         if (
             goal_id in held
             or record.term != own.term
             or schedule is None
-            or not ran.intersection(record.tasks)
+            or taken.intersection(record.tasks)
         ):
             continue
         ids = set(record.tasks)

@@ -301,7 +301,7 @@ def verify(
         # that resumed began its new term, said so and asked again for the
         # solve that was in flight; after a rotation, that solve is still
         # running.
-        inputs = _term_first(inputs, topics, decoder, engine, now, report)
+        inputs = _term_first(inputs, topics, decoder, engine, now, report, run)
         if info.resumed:
             run(engine.resume_commands(info.resumed))
         pending = engine.pending_solve()
@@ -503,9 +503,10 @@ def _term_first(
     engine: Engine,
     now: int,
     report: VerifyReport,
+    run: Callable[[list], None],
 ) -> list[RecordedMessage]:
-    """Step the term a node began right after its opening snapshot (the
-    status it then says first carries it); the rest of ``inputs``."""
+    """Step the term a node began right after its opening snapshot (its
+    alarm, if any, is compared too); the rest of ``inputs``."""
     for at, message in enumerate(inputs):
         kind = topics.schema_kind(message.topic)
         if kind == "snapshot":
@@ -515,7 +516,7 @@ def _term_first(
         event = decoder.event(message.topic, message.payload)
         if event is not None:
             report.inputs += 1
-            engine.step(event, now)  # a term only logs
+            run(engine.step(event, now))
         return inputs[:at] + inputs[at + 1 :]
     return inputs
 

@@ -20,6 +20,7 @@ import os
 import re
 import shutil
 import time
+import zlib
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, NamedTuple
 
@@ -126,6 +127,55 @@ class FolderIdentity(msgspec.Struct, frozen=True):
 
     spacecraft: str
     problem_sha256: str
+
+
+#: The highest term this folder's node began, kept apart from the journal.
+TERM_MARK = "term.json"
+
+
+class _TermMark(msgspec.Struct, frozen=True):
+    """``term.json``: a term and the CRC-32 of its decimal digits (a bit
+    flip must not raise or lower it unseen)."""
+
+    term: int
+    crc32: int
+
+
+def read_term_mark(folder: Path) -> int:
+    """The highest term a node of ``folder`` began (0: none, or a mark
+    that does not check out, said in the log).
+
+    The journal holds each term as well; the mark outlives it when an
+    operator moves a damaged run's files aside or the journal is lost, so
+    a node resumed from older files still knows the term in use and
+    begins above it with an alarm for what it lost, instead of reusing a
+    term that receivers fence on.
+    """
+    path = folder / TERM_MARK
+    try:
+        mark = msgspec.json.decode(path.read_bytes(), type=_TermMark)
+    except FileNotFoundError:
+        return 0
+    except (OSError, msgspec.DecodeError) as error:
+        log.error("%s unreadable (%s): the journal's term alone", path, error)
+        return 0
+    if mark.term < 0 or zlib.crc32(str(mark.term).encode()) != mark.crc32:
+        log.error("%s does not match its CRC: the journal's term alone", path)
+        return 0
+    return mark.term
+
+
+def write_term_mark(folder: Path, term: int) -> None:
+    """Raise ``folder``'s term mark to ``term`` (never lowers it), on the
+    disk before this returns; a disk fault is logged, not raised (the
+    journal has the term too)."""
+    if read_term_mark(folder) >= term:
+        return
+    mark = _TermMark(term, zlib.crc32(str(term).encode()))
+    try:
+        _write_synced(folder / TERM_MARK, msgspec.json.encode(mark))
+    except OSError as error:
+        log.error("cannot write %s: %s", folder / TERM_MARK, error)
 
 
 def problem_digest(problem: Problem) -> str:

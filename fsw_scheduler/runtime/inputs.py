@@ -97,7 +97,11 @@ class InputDecoder:
             return Explained(message.solve_id, message.plan_id, message.why)
         if kind == "term":
             return TermBegan(
-                message.term, message.node_id, message.reason, message.lost
+                message.term,
+                message.node_id,
+                message.reason,
+                message.lost,
+                message.unverified,
             )
         if kind == "facts":
             return FactsArrived(message)

@@ -576,12 +576,21 @@ class Term(msgspec.Struct, frozen=True, omit_defaults=True):
     term already in use (a restored, moved-aside or empty folder, a
     standby's copy that lagged): what that term decided after the state
     is lost, and the node says so (status ``alarm``).
+
+    ``unverified`` is set when the state this term begins from is of a
+    term no one else vouches for (no other scheduler, and no receiver's
+    fence answered with that term or a higher one): the node resumed on
+    its folder's word alone. A folder restored from a copy, moved aside
+    or emptied would reuse a term then, and receivers that hold a higher
+    one would ignore this node; the node says so (status ``alarm``, state
+    unchanged).
     """
 
     term: int
     node_id: str = ""
     reason: str = ""
     lost: str = ""
+    unverified: str = ""
 
 
 class Fact(msgspec.Struct, frozen=True, omit_defaults=True):

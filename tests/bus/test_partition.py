@@ -253,3 +253,82 @@ def test_a_peer_tool_leaving_a_standalone_node_costs_nothing(
         assert not any("lease lost" in line for line in node.log)
     finally:
         node.kill()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", ["aside", "restored"])
+def test_a_lone_node_on_an_old_folder_says_so_without_a_fence_to_ask(
+    tmp_path: Path, kind: str
+) -> None:
+    """Tests one node after two terms, restarted on a folder whose newest
+    run was moved aside, or on a copy of it taken in term 1, while the
+    only receiver restarted (its fence answers term 0).
+
+    Moved aside: the folder's term mark (``term.json``) still says term
+    2, so the node begins term 3 and says ``alarm`` that what term 2
+    decided is lost. Restored: the mark was restored too, nothing on the
+    bus remembers term 2 and the node cannot tell; it begins term 2 again
+    but says ``alarm`` that no one vouches for its state's term, instead
+    of ``ok`` in silence."""
+    import shutil
+
+    import zenoh
+
+    from fsw_scheduler.bus.session import loopback_config
+    from fsw_scheduler.journal.state import journal_files
+    from fsw_scheduler.testing import SchedulerClient
+
+    from ..factories import ping_goal
+
+    soak = soak_partition()
+    router, port = soak.start_router()
+    state = tmp_path / "state"
+    node = soak.node(state, port, "A", 0)
+    config = loopback_config(listen=None, connect=[f"tcp/127.0.0.1:{port}"])
+    config.insert_json5("mode", '"client"')
+    try:
+        with zenoh.open(config) as session:
+            client = SchedulerClient(session, timeout=30.0)
+            for run, name in enumerate(("one", "two")):
+                node.start()
+                client.wait_scheduler(30)
+                client.tick(run)
+                answers = client.send_goals([ping_goal(name, name.upper())])
+                assert answers[name] == {"goal_accepted"}
+                node.kill()
+                if run == 0:
+                    shutil.copytree(state, tmp_path / "backup")
+            client.close()
+        if kind == "aside":
+            newest = journal_files(state)[-1].name.split("-")[1]
+            (state / "aside").mkdir()
+            for path in journal_files(state):
+                if path.name.split("-")[1] == newest:
+                    shutil.move(path, state / "aside" / path.name)
+        else:
+            shutil.rmtree(state)
+            shutil.copytree(tmp_path / "backup", state)
+        with zenoh.open(config) as session:
+            # The receiver restarted: its fence knows no term.
+            client = SchedulerClient(session, timeout=30.0)
+            mark = len(node.log)
+            node.start()
+            said = "older than term 2" if kind == "aside" else "vouches for"
+            node.wait_log((said,), 30, since=mark)
+            (alarm,) = [line for line in node.log[mark:] if said in line]
+            client.wait_scheduler(30)
+            status = client.query_status()
+            client.close()
+    finally:
+        node.kill()
+        router.close()
+    if kind == "aside":
+        assert status.term == 3, status
+    else:
+        assert status.term == 2 and status.state == "ok", status
+        assert "state of term 1" in alarm, alarm
+    # The alarm is a decision like the others: the replay says it again.
+    from fsw_scheduler.journal.replay import verify
+
+    last = journal_files(state)[-1]
+    assert verify(last).identical, last

@@ -12,6 +12,7 @@ from fsw_scheduler.engine.core import Engine
 from fsw_scheduler.engine.events import (
     ReportArrived,
     StartSolve,
+    TermBegan,
 )
 from fsw_scheduler.engine.snapshot import EngineSnapshot
 from fsw_scheduler.wire import messages
@@ -204,3 +205,17 @@ def test_an_executor_following_a_higher_term_is_an_alarm() -> None:
     assert alarm.state == "degraded"
     assert "term 9" in alarm.detail and "ignores" in alarm.detail
     assert driver.engine.status().state == "degraded"
+
+
+def test_a_term_no_one_vouches_for_is_an_alarm_not_a_degradation() -> None:
+    """Tests a term begun from a state no receiver or peer confirmed: the
+    node says ``alarm`` with why, once, and stays ``ok`` (nothing is known
+    lost); a term with something lost degrades instead."""
+    driver = _started()
+    out = driver.step(TermBegan(2, unverified="term 2 begins from ..."))
+    (alarm,) = statuses(out, "alarm")
+    assert alarm.detail == "term 2 begins from ..."
+    assert alarm.state == "ok" and driver.engine.status().state == "ok"
+    out = driver.step(TermBegan(3, lost="state of term 2 is older"))
+    (alarm,) = statuses(out, "alarm")
+    assert alarm.state == "degraded"

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 from fsw_scheduler.engine.config import EngineConfig
 from fsw_scheduler.engine.core import Engine
 from fsw_scheduler.engine.events import FactsArrived, ReportArrived, TermBegan
-from fsw_scheduler.engine.merge import commanded, facts_of
+from fsw_scheduler.engine.merge import commanded, facts_of, lost_goals
 from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.runtime.inputs import InputDecoder
 from fsw_scheduler.wire import messages, topics
@@ -128,16 +128,26 @@ def test_the_winner_never_commands_what_the_loser_commanded() -> None:
     assert statuses(out, "goal_accepted")
 
 
-def test_only_goals_with_nothing_commanded_are_sent_again() -> None:
-    """Tests that a goal the loser took but commanded nothing of is not
-    carried over (its sender is told to send it again), while one of
-    which something ran is."""
+def test_every_goal_the_winner_lacks_is_carried_over() -> None:
+    """Tests that a goal the loser took, commanded or not, is carried
+    over (its sender had ``goal_accepted``: a second verdict saying "send
+    it again" would contradict it), and the winner accepts it into its
+    plan; only a goal whose task id is another task at the winner is
+    told to be sent again."""
     a, b = _split()
     b.goal(_goal("gLate", "U", 1, feasible_interval=[20, 25]))
-    own = b.engine.snapshot()
+    b.goal(_goal("gClash", "Q", 1, feasible_interval=[20, 25]))
+    a.goal(_goal("gOther", "Q", 1, feasible_interval=[30, 35]))
+    own, theirs = b.engine.snapshot(), a.engine.snapshot()
     assert "U" not in commanded(own) and "T" in commanded(own)
-    facts = facts_of(own, a.engine.snapshot())
-    assert [g.goal_id for g in facts.goals] == ["gB"]
+    facts = facts_of(own, theirs)
+    assert [g.goal_id for g in facts.goals] == ["gB", "gLate"]
+    assert lost_goals(own, theirs) == ["gClash"]
+    out = a.step(FactsArrived(facts))
+    (said,) = statuses(out, "facts_merged")
+    assert "gLate" in said.detail
+    assert "U" in {t.task for t in a.plan.activities}
+    assert a.engine.snapshot().ledger["gLate"].verdict == "accepted"
 
 
 def test_facts_are_a_journaled_input() -> None:

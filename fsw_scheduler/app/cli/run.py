@@ -130,7 +130,18 @@ def cmd_run(args: argparse.Namespace) -> int:
             shared = state
             nonlocal journal
             extra: dict[str, Any] = {}
+            noted = on_term
             if args.state:
+                from ...journal.state import read_term_mark, write_term_mark
+
+                # The term mark outlives journal files moved aside or lost.
+                term_floor = max(term_floor, read_term_mark(Path(args.state)))
+
+                def noted(term: int) -> None:
+                    write_term_mark(Path(args.state), term)
+                    if on_term is not None:
+                        on_term(term)
+
                 # Opened only to command: a standby keeps only the state
                 # it is shared (StandbyStore), not a journal.
                 if journal is not None:
@@ -168,7 +179,10 @@ def cmd_run(args: argparse.Namespace) -> int:
                     redundancy.has_peers if redundancy is not None else False
                 ),
                 term_floor=term_floor,
-                on_term=on_term,
+                on_term=noted,
+                vouched=(
+                    redundancy.vouched() if redundancy is not None else None
+                ),
                 **extra,
             )
 
