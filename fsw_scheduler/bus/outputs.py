@@ -26,6 +26,7 @@ from ..journal.follow import needed
 from ..journal.state import prune
 from ..runtime.policy import node_info
 from ..wire import messages, topics
+from .confirm import StandbyConfirmations, holds_verdict
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -152,8 +153,11 @@ class NodeOutputs:
         # What a standby is sent: the records since the last message.
         self._seq = 0
         self._snapshot_due = 0.0
+        # A goal verdict waits for a standby's word (confirm.py).
+        self._confirm: StandbyConfirmations | None = None
         if share_state is not None:
             journal.tap = []
+            self._confirm = StandbyConfirmations(session, keys)
         self._resumed = ""
 
     # -- lifecycle -----------------------------------------------------------
@@ -212,6 +216,8 @@ class NodeOutputs:
             except zenoh.ZError as error:  # session already closed
                 log.debug("undeclare: %s", error)
         self.publishers.clear()
+        if self._confirm is not None:
+            self._confirm.close()
         if self._journal.recorder is not None:
             self._journal.recorder.close()
 
@@ -259,13 +265,16 @@ class NodeOutputs:
             stage(suffix, messages.encode(message), message)
         # The standby's copy before the bus sees any output, so that it
         # never lags behind what the bus has seen (same link, in order).
-        self.share()
+        confirm = holds_verdict(outputs)
+        seq = self.share(confirm)
         if puts:
             # Group commit: one sync for every record of the step (its
             # inputs, the solve results, its outputs) before any output.
             self.sync()
         elif self.durable:
             self._journal.flush()  # nothing commands: the page cache
+        if confirm and seq is not None and self._confirm is not None:
+            self._confirm.wait(self.stream, seq)
         return puts
 
     def send(self, puts: Staged) -> None:
@@ -277,11 +286,13 @@ class NodeOutputs:
         if self.durable and self._journal.fault is None:
             self._maybe_rotate()
 
-    def share(self) -> None:
+    def share(self, confirm: bool = False) -> int | None:
         """Send a hot standby what was journaled since the last time: the
-        records, and the whole state every :data:`SNAPSHOT_EVERY_S`."""
+        records, and the whole state every :data:`SNAPSHOT_EVERY_S`; with
+        ``confirm``, asking it to say when it holds them. The sequence
+        number to wait for (None: nothing sent, no standby)."""
         if self._share_state is None:
-            return
+            return None
         if not self._share_state():
             # No one to share with: a standby that comes asks for the
             # state, which holds what is dropped here; the number moves
@@ -289,12 +300,14 @@ class NodeOutputs:
             if self._journal.tap:
                 self._journal.tap = []
                 self._seq += 1
-            return
-        self.share_changes()
+            return None
+        before = self._seq
+        seq = self.share_changes(confirm)
         if time.monotonic() >= self._snapshot_due:
             self._share_snapshot()
+        return seq if seq > before else None
 
-    def share_changes(self) -> int:
+    def share_changes(self, confirm: bool = False) -> int:
         """Publish the records journaled since the last message (if any);
         the sequence number of the last message sent."""
         tap = self._journal.tap
@@ -315,6 +328,7 @@ class NodeOutputs:
                     self._seq,
                     self.engine.term,
                     tuple((k, msgspec.Raw(p)) for k, p in tap),
+                    confirm,
                 )
             ),
         )

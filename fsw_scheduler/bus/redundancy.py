@@ -60,10 +60,11 @@ from typing import TYPE_CHECKING, Any, Protocol
 import msgspec
 import zenoh
 
-from ..engine.merge import facts_of, lost_goals
 from ..errors import FieldIssue
 from ..wire import messages, topics
 from ..wire.terms import MAX_TERM, term_refused
+from .confirm import say_saved
+from .handover import stand_down, tell_lost
 from .lease import has_links
 from .members import Member, beats, order, precedence
 from .members import default_node_id as default_node_id  # its old home
@@ -237,6 +238,7 @@ class Redundancy:
 
     def _on_changes(self, sample: zenoh.Sample) -> None:
         self.shared.on_changes(sample.payload.to_bytes())
+        self.changes.put(None)  # the loop applies it now: no poll wait
 
     def _keep_snapshot(self, payload: bytes, tag: Tag | None = None) -> None:
         try:
@@ -637,7 +639,7 @@ def serve(
                 # A lease that ended is the cause; the other commander is
                 # what this node sees of it.
                 lost = node.lease.lost() if node.lease is not None else None
-                own = _stand_down(
+                own = stand_down(
                     redundancy,
                     node,
                     other,
@@ -650,7 +652,7 @@ def serve(
         if node is not None and node.stood_down is not None:
             # Said once the bus is seen again: the link may be down now.
             reason = node.stood_down
-            own = _stand_down(redundancy, node, None, None)
+            own = stand_down(redundancy, node, None, None)
             node, standing_by_for = None, False
             idle_since = _reverify(stop, redundancy, discovery_s)
             continue
@@ -667,7 +669,7 @@ def serve(
                     if boot is not None:
                         # Started with a state of its own, and someone
                         # commands: goals it alone holds are lost.
-                        _tell_lost(redundancy, boot, active)
+                        tell_lost(redundancy, boot, active)
                         boot = None
                 redundancy.publish_standby(
                     active, "stood_down" if say else "standby", say
@@ -680,6 +682,12 @@ def serve(
                 standing_by_for = active
             redundancy.follow()
             redundancy.shared.save()
+            say_saved(
+                redundancy.session,
+                redundancy.topics,
+                redundancy.me.node_id,
+                redundancy.shared,
+            )
         elif node.wait_stopped(0):
             break  # the node's loop died: let a supervisor restart us
         redundancy.answer()
@@ -754,47 +762,3 @@ def _newest(
     ):
         return own, "resumed"
     return shared, "took_over" if followed else "resumed"
-
-
-def _stand_down(
-    redundancy: Redundancy,
-    node: SchedulerNode,
-    winner: Member | None,
-    reason: str | None,
-) -> EngineSnapshot:
-    """Stop commanding: close the node, withdraw the token, say why
-    (``reason`` None: the caller says it later)."""
-    log.warning("standing down: %s", reason or node.stood_down)
-    state = node.engine.snapshot()
-    node.close()
-    redundancy.withdraw_active()
-    redundancy.shared.commanding = False
-    redundancy.shared.stored = msgspec.json.encode(state)
-    if reason is not None:
-        if winner is not None:
-            redundancy.ask_snapshot()
-        redundancy.publish_standby(winner, "stood_down", reason)
-        newer = redundancy.latest_snapshot() if winner is not None else None
-        if winner is not None:
-            redundancy.hand_over(facts_of(state, newer, redundancy.me.node_id))
-        if newer is not None:
-            for goal_id in lost_goals(state, newer):
-                redundancy.publish_lost_goal(
-                    goal_id, state.term, winner, newer.term
-                )
-    return state
-
-
-def _tell_lost(
-    redundancy: Redundancy, own: EngineSnapshot, active: Member
-) -> None:
-    """A node that starts with a state of its own finds a commander: what
-    the commander's state lacks of its last term is handed over, as at a
-    heal (a standby back first after both computers were reset may have
-    missed the last steps); a goal that cannot be is named, to resend."""
-    newer = redundancy.latest_snapshot()
-    if newer is None or (newer.term, newer.inputs) == (own.term, own.inputs):
-        return
-    redundancy.hand_over(facts_of(own, newer, redundancy.me.node_id))
-    for goal_id in lost_goals(own, newer):
-        redundancy.publish_lost_goal(goal_id, own.term, active, newer.term)

@@ -107,6 +107,9 @@ class SharedState:
         self._followed: Tag | None = None
         self._changes: deque[bytes] = deque()
         self._held: list[messages.Changes] = []
+        #: The last record applied that the commander waits on (to save,
+        #: then say so on ``scheduler/saved``).
+        self.confirm_due: Tag | None = None
 
     def keep(
         self, payload: bytes, rank: tuple[int, int], tag: Tag | None = None
@@ -173,6 +176,8 @@ class SharedState:
             for key, record in change.records:
                 follower.apply(key, bytes(record))
             seq, applied = change.seq, True
+            if change.confirm:
+                self.confirm_due = (stream, seq)
         del self._held[:-MAX_CHANGES_WAITING]
         self._followed = (stream, seq)
         if applied:
@@ -212,4 +217,6 @@ class SharedState:
         """Write the copy to the folder when due (see
         :class:`~fsw_scheduler.journal.state.StandbyStore`)."""
         if self.store is not None and not self.commanding:
+            # A record the commander waits on is saved at once.
+            force = force or self.confirm_due is not None
             self.store.save_due(time.monotonic(), force)

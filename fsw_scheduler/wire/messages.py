@@ -464,13 +464,29 @@ class Changes(msgspec.Struct, frozen=True):
     names the commander's run (``<node id>:<term>``) and ``seq`` counts
     its messages from 1; a snapshot it shares carries the same two in its
     attachment (``<stream> <seq>``: the state after message ``seq``).
-    ``records`` are ``[key, message]`` pairs as journaled.
+    ``records`` are ``[key, message]`` pairs as journaled. ``confirm``:
+    the step's outputs hold a goal verdict, which waits for a standby's
+    :class:`Saved` (so a goal accepted is never held by the commander
+    alone when both computers are reset).
     """
 
     stream: str
     seq: int
     term: int
     records: tuple[tuple[str, msgspec.Raw], ...] = ()
+    confirm: bool = False
+
+
+class Saved(msgspec.Struct, frozen=True, omit_defaults=True):
+    """``scheduler/saved``: a standby holds the commander's state up to
+    message ``seq`` of ``stream`` (:class:`Changes`), in its folder and
+    synced when ``durable`` (else in memory only: no ``--state``, or its
+    disk failed)."""
+
+    stream: str
+    seq: int
+    node_id: str = ""
+    durable: bool = False
 
 
 class Paused(msgspec.Struct, frozen=True):

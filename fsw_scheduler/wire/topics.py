@@ -44,6 +44,9 @@ ACTIVE = "scheduler/active"
 #: What a commander journals, step by step, for its hot standby: the
 #: records after the last shared snapshot (``messages.Changes``).
 CHANGES = "scheduler/changes"
+#: A standby's word that it holds the commander's state up to a record
+#: (``messages.Saved``): what a commander waits for before a goal verdict.
+SAVED = "scheduler/saved"
 #: Queried only: the state each member holds (its own folder's, the
 #: copy it keeps as a standby), ``scheduler/stored/<rank>/<started>/<id>``.
 STORED = "scheduler/stored"
