@@ -1,5 +1,4 @@
-"""A commander's wait for its standby before a goal verdict, and the
-standby's word that ends it.
+"""A goal verdict waits for a standby's word that it holds the step.
 
 A goal's ``goal_accepted`` is a promise: the goal will be planned, by
 this node or by whichever takes over. A standby that takes over holds
