@@ -1,8 +1,10 @@
-"""What a node that stops commanding, or finds another commanding, hands
-over: its state to the next term, what it commanded and the goals the
+"""What a node hands over when it stops commanding or finds a commander.
+
+Its state to the next term, what it commanded and the goals the
 commander lacks (``scheduler/facts``, merged by
 :mod:`fsw_scheduler.engine.merge`), and, by name, a goal that cannot be
-handed over (``goal_rejected``, "send the goal again")."""
+handed over (``goal_rejected``, "send the goal again").
+"""
 
 from __future__ import annotations
 
