@@ -119,3 +119,43 @@ def test_a_full_disk_keeps_the_copy_in_memory(
     assert store.fault is None
     assert not list(tmp_path.glob("*.saving"))
     assert open_state(tmp_path).rebuilt is not None
+
+
+def test_the_term_mark_only_rises_and_a_damaged_one_is_not_believed(
+    tmp_path: Path,
+) -> None:
+    """Tests ``term.json``: written and read back, never lowered; a bit
+    flip (CRC), garbage or a mark far beyond every known term is not
+    believed, and the node falls back on its journal's term."""
+    from fsw_scheduler.app.cli.run import _with_mark
+    from fsw_scheduler.journal.state import (
+        TERM_MARK,
+        read_term_mark,
+        write_term_mark,
+    )
+    from fsw_scheduler.wire.terms import MAX_TERM_JUMP
+
+    assert read_term_mark(tmp_path) == 0
+    write_term_mark(tmp_path, 3)
+    write_term_mark(tmp_path, 2)  # never lowers
+    assert read_term_mark(tmp_path) == 3
+    assert _with_mark(tmp_path, 1, 2) == 3
+    mark = tmp_path / TERM_MARK
+    good = mark.read_bytes()
+    for at in range(len(good)):
+        for bit in range(8):
+            flipped = bytearray(good)
+            flipped[at] ^= 1 << bit
+            mark.write_bytes(bytes(flipped))
+            assert read_term_mark(tmp_path) in (0, 3), (at, bit)
+    mark.write_bytes(b"\x00garbage")
+    assert read_term_mark(tmp_path) == 0
+    import zlib
+
+    huge = 5 + MAX_TERM_JUMP + 1
+    mark.write_bytes(
+        msgspec.json.encode({"term": huge, "crc32": zlib.crc32(b"%d" % huge)})
+    )
+    assert read_term_mark(tmp_path) == huge
+    assert _with_mark(tmp_path, 0, 5) == 0  # beyond the bound: ignored
+    assert _with_mark(tmp_path, 0, huge - 1) == huge

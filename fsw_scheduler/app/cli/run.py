@@ -132,10 +132,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             extra: dict[str, Any] = {}
             noted = on_term
             if args.state:
-                from ...journal.state import read_term_mark, write_term_mark
-
-                # The term mark outlives journal files moved aside or lost.
-                term_floor = max(term_floor, read_term_mark(Path(args.state)))
+                from ...journal.state import write_term_mark
 
                 def noted(term: int) -> None:
                     write_term_mark(Path(args.state), term)
@@ -149,6 +146,12 @@ def cmd_run(args: argparse.Namespace) -> int:
                 journal, opened = _open_state(args, config, problem)
                 extra.update(opened)
                 folder = opened.get("engine")
+                term_floor = _with_mark(
+                    Path(args.state),
+                    term_floor,
+                    folder.term if folder is not None else 0,
+                    shared.term if shared is not None else 0,
+                )
                 if (
                     shared is not None
                     and folder is not None
@@ -235,6 +238,21 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"fsw-scheduler: error: {node.failed}", file=sys.stderr)
         return EXIT_NO_PLAN
     return EXIT_OK
+
+
+def _with_mark(folder: Path, floor: int, *known: int) -> int:
+    """``floor`` raised to ``folder``'s term mark, which outlives journal
+    files moved aside or lost; a mark beyond the bound above every term
+    known is not believed (said in the log)."""
+    from ...journal.state import read_term_mark
+    from ...wire.terms import term_refused
+
+    mark = read_term_mark(folder)
+    refused = term_refused(mark, max(floor, *known))
+    if refused is not None:
+        log.error("%s: term mark %d ignored: %s", folder, mark, refused)
+        return floor
+    return max(floor, mark)
 
 
 def _standby_state(
