@@ -64,6 +64,7 @@ from ..errors import FieldIssue
 from ..wire import messages, topics
 from ..wire.terms import MAX_TERM, term_refused
 from .confirm import say_saved
+from .fenced import FenceWatch
 from .handover import stand_down, tell_lost
 from .lease import has_links
 from .members import Member, beats, order, precedence
@@ -507,6 +508,23 @@ class Redundancy:
         except zenoh.ZError as error:
             log.warning("facts: %s", error)
 
+    def publish_fenced(self, node: SchedulerNode, alarm: str) -> None:
+        """``alarm`` (state ``degraded``) from the commanding ``node``: a
+        receiver's fence is above its term (:mod:`.fenced`)."""
+        log.error("%s", alarm)
+        engine = node.engine
+        self._say(
+            messages.Status(
+                state="degraded",
+                plan_id=engine.plan_id,
+                now=engine.now,
+                event="alarm",
+                detail=alarm,
+                node_id=self.me.node_id,
+                term=node.term,
+            )
+        )
+
     def _say(self, status: messages.Status) -> None:
         """Publish a status of this node (not commanding: no journal)."""
         try:
@@ -629,6 +647,7 @@ def serve(
                 node.lease = lease().start()
                 node.reverify = _recheck(redundancy, node)
             node.start()
+            fences = FenceWatch(redundancy.session, redundancy.topics)
             own = boot = None
         elif node is not None and current is not None:
             other, term = current
@@ -690,6 +709,8 @@ def serve(
             )
         elif node.wait_stopped(0):
             break  # the node's loop died: let a supervisor restart us
+        elif (alarm := fences.check(node.term)) is not None:
+            redundancy.publish_fenced(node, alarm)
         redundancy.answer()
         with contextlib.suppress(queue.Empty):
             redundancy.changes.get(timeout=POLL_S)

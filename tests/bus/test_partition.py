@@ -332,3 +332,43 @@ def test_a_lone_node_on_an_old_folder_says_so_without_a_fence_to_ask(
 
     last = journal_files(state)[-1]
     assert verify(last).identical, last
+
+
+@pytest.mark.slow
+def test_a_commander_fenced_by_a_receiver_says_so(tmp_path: Path) -> None:
+    """Tests a term written on an open bus above the commander's: the
+    receiver's fence follows it and drops every command, and the node,
+    which asks the fences every few seconds, says ``alarm`` (degraded)
+    naming the term instead of ``ok``."""
+    import zenoh
+
+    from fsw_scheduler.bus.fenced import FENCE_CHECK_S
+    from fsw_scheduler.bus.session import loopback_config
+    from fsw_scheduler.testing import SchedulerClient
+    from fsw_scheduler.wire import messages, topics
+
+    soak = soak_partition()
+    router, port = soak.start_router()
+    node = soak.node(tmp_path / "state", port, "A", 0)
+    config = loopback_config(listen=None, connect=[f"tcp/127.0.0.1:{port}"])
+    config.insert_json5("mode", '"client"')
+    try:
+        node.start()
+        with zenoh.open(config) as session:
+            client = SchedulerClient(session, timeout=30.0)
+            client.wait_scheduler(30)
+            client.tick(0)
+            assert client.query_status().term == 1
+            seen = len(client.statuses)
+            client.put(topics.TERM, messages.Term(7, "forger"))
+            alarm = client.wait_status(
+                lambda s: s.event == "alarm" and "fences term 7" in s.detail,
+                3 * FENCE_CHECK_S,
+                since=seen,
+            )
+            assert alarm.state == "degraded" and alarm.node_id == "A"
+            assert client.fence.term == 7
+            client.close()
+    finally:
+        node.kill()
+        router.close()
