@@ -1,10 +1,10 @@
-"""A goal verdict waits for a standby's word that it holds the step.
+"""A goal accepted waits for a standby's word that it holds the step.
 
 A goal's ``goal_accepted`` is a promise: the goal will be planned, by
 this node or by whichever takes over. A standby that takes over holds
 what was shared with it, and a standby that boots after both computers
-were reset holds what it saved. So before a step whose outputs hold a
-goal verdict reaches the bus, the commander waits until a standby says
+were reset holds what it saved. So before a step whose outputs accept
+a goal reach the bus, the commander waits until a standby says
 (``scheduler/saved``) it holds the state up to that step: in its folder
 and synced, when it has one.
 
@@ -31,17 +31,18 @@ if TYPE_CHECKING:
 log = logging.getLogger("fsw_scheduler.node")
 JSON = zenoh.Encoding.APPLICATION_JSON
 
-#: Longest wait for a standby's word before a goal verdict goes out anyway.
+#: Longest wait for a standby's word before a goal accepted goes out anyway.
 CONFIRM_WAIT_S = 0.5
 
-#: The status events that give a goal its verdict.
-VERDICTS = frozenset({"goal_accepted", "goal_rejected"})
+#: The verdict that is a promise to keep: a goal rejected is not
+#: planned, and a flood of rejected inputs must not cost a save each.
+PROMISE = "goal_accepted"
 
 
 def holds_verdict(outputs: list[tuple[str, msgspec.Struct]]) -> bool:
-    """Whether a step's outputs give a goal its verdict."""
+    """Whether a step's outputs accept a goal."""
     return any(
-        isinstance(message, messages.Status) and message.event in VERDICTS
+        isinstance(message, messages.Status) and message.event == PROMISE
         for _, message in outputs
     )
 
@@ -111,7 +112,7 @@ class StandbyConfirmations:
             self._lagging = True
         log.warning(
             "no standby said it holds the state of %s #%d within %g s: "
-            "goal verdicts go out without it until one does",
+            "goals are accepted without it until one does",
             stream,
             seq,
             self.wait_s,

@@ -63,12 +63,13 @@ def test_a_verdict_waits_for_the_word_a_silent_standby_once() -> None:
 
 
 def test_only_a_goal_verdict_waits() -> None:
-    """Tests which steps wait: those whose outputs give a goal its
-    verdict, not plans, dispatches or other statuses."""
+    """Tests which steps wait: those whose outputs accept a goal, not
+    a rejection (a flood of bad inputs must not cost a save each), plans
+    or other statuses."""
     status = messages.Status(state="ok", plan_id=1, event="goal_accepted")
     other = msgspec.structs.replace(status, event="plan")
     assert holds_verdict([(topics.STATUS, status)])
-    assert holds_verdict(
+    assert not holds_verdict(
         [
             (
                 topics.STATUS,
