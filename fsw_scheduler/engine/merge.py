@@ -47,13 +47,14 @@ def commanded(snapshot: EngineSnapshot) -> set[str]:
     } | set(snapshot.sent)
 
 
-def _task_ids(snapshot: EngineSnapshot) -> set[str]:
-    """Every task id ``snapshot``'s schedule knows."""
-    schedule = snapshot.schedule
+def _defined(snapshot: EngineSnapshot | None) -> dict[str, Task]:
+    """Every task ``snapshot``'s schedule knows, by id (the catalog's,
+    the goal's full definition, wins)."""
+    schedule = snapshot.schedule if snapshot is not None else None
     if schedule is None:
-        return set()
+        return {}
     return {
-        t.id
+        t.id: t
         for t in (
             *schedule.problem.tasks,
             *schedule.deferred,
@@ -62,19 +63,37 @@ def _task_ids(snapshot: EngineSnapshot) -> set[str]:
     }
 
 
+def _fate(tasks: tuple[str, ...], mine: dict, theirs: dict) -> str:
+    """What becomes of a goal the winner lacks: ``carried`` (none of its
+    task ids is known there), ``held`` (each of its tasks is there, the
+    same: a sender sent them on that side under another goal id) or
+    ``told`` (a task id of it is another task there, or only some of its
+    tasks are: it cannot be merged, its sender must send it again)."""
+    there = [t for t in tasks if t in theirs]
+    if not there:
+        return "carried"
+    if len(there) == len(tasks) and all(
+        t in mine and mine[t] == theirs[t] for t in tasks
+    ):
+        return "held"
+    return "told"
+
+
 def lost_goals(own: EngineSnapshot, winner: EngineSnapshot) -> list[str]:
     """Goals this node took in its own term that the state which outranks
     it does not hold and cannot be handed: a task id of theirs is another
-    task there (a sender reused it on the winner's side). Each must be
-    told, by name, to be sent again. (Every other goal the winner lacks
-    is handed over with the facts: :func:`facts_of`.)"""
-    taken = _task_ids(winner)
+    task there, or only some of their tasks are there (a sender reused
+    them on the winner's side). Each must be told, by name, to be sent
+    again. (A goal none of whose task ids is there is handed over with
+    the facts, :func:`facts_of`; one whose tasks are all there, the same,
+    is held there already.)"""
+    mine, theirs = _defined(own), _defined(winner)
     return [
         goal_id
         for goal_id, record in own.ledger.items()
         if record.term == own.term
         and goal_id not in winner.ledger
-        and taken.intersection(record.tasks)
+        and _fate(record.tasks, mine, theirs) == "told"
     ]
 
 
@@ -98,10 +117,10 @@ def facts_of(
     Facts
         Each commanded activity whose state the winner does not share,
         and each goal this node accepted in its term that the winner does
-        not hold and whose task ids are free there: commanded or not, its
-        sender had its ``goal_accepted`` and sends it no more (a standby
-        reset with the commander may have missed the last goals; two
-        sides of a split each accepted their own).
+        not hold and none of whose task ids is known there: commanded or
+        not, its sender had its ``goal_accepted`` and sends it no more (a
+        standby reset with the commander may have missed the last goals;
+        two sides of a split each accepted their own).
     """
     theirs = winner.lifecycle if winner is not None else {}
     facts = []
@@ -121,25 +140,17 @@ def facts_of(
         )
     goals = []
     held = winner.ledger if winner is not None else {}
-    taken = _task_ids(winner) if winner is not None else set()
+    defined, their_tasks = _defined(own), _defined(winner)
     schedule = own.schedule
     for goal_id, record in own.ledger.items():
         if (
             goal_id in held
             or record.term != own.term
             or schedule is None
-            or taken.intersection(record.tasks)
+            or _fate(record.tasks, defined, their_tasks) != "carried"
         ):
             continue
         ids = set(record.tasks)
-        defined: dict[str, Task] = {}
-        for known in (
-            *schedule.problem.tasks,
-            *schedule.deferred,
-            *schedule.catalog,
-        ):
-            if known.id in ids:
-                defined[known.id] = known  # the catalog's (full) one wins
         precedences = tuple(
             p
             for p in schedule.catalog_precedences

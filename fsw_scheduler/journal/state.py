@@ -165,11 +165,11 @@ def read_term_mark(folder: Path) -> int:
     return mark.term
 
 
-def write_term_mark(folder: Path, term: int) -> None:
-    """Raise ``folder``'s term mark to ``term`` (never lowers it), on the
-    disk before this returns; a disk fault is logged, not raised (the
-    journal has the term too)."""
-    if read_term_mark(folder) >= term:
+def write_term_mark(folder: Path, term: int, replace: bool = False) -> None:
+    """Raise ``folder``'s term mark to ``term`` (never lowers it but to
+    ``replace`` one not believed), on the disk before this returns; a
+    disk fault is logged, not raised (the journal has the term too)."""
+    if not replace and read_term_mark(folder) >= term:
         return
     mark = _TermMark(term, zlib.crc32(str(term).encode()))
     try:

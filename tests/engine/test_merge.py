@@ -133,11 +133,15 @@ def test_every_goal_the_winner_lacks_is_carried_over() -> None:
     over (its sender had ``goal_accepted``: a second verdict saying "send
     it again" would contradict it), and the winner accepts it into its
     plan; only a goal whose task id is another task at the winner is
-    told to be sent again."""
+    told to be sent again, and one whose task the winner holds, the same,
+    under another goal id (its sender sent it on both sides) is held there
+    already: neither carried nor told."""
     a, b = _split()
     b.goal(_goal("gLate", "U", 1, feasible_interval=[20, 25]))
     b.goal(_goal("gClash", "Q", 1, feasible_interval=[20, 25]))
     a.goal(_goal("gOther", "Q", 1, feasible_interval=[30, 35]))
+    b.goal(_goal("gSame", "R", 1, feasible_interval=[40, 45]))
+    a.goal(_goal("gTwin", "R", 1, feasible_interval=[40, 45]))
     own, theirs = b.engine.snapshot(), a.engine.snapshot()
     assert "U" not in commanded(own) and "T" in commanded(own)
     facts = facts_of(own, theirs)

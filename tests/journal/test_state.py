@@ -157,5 +157,13 @@ def test_the_term_mark_only_rises_and_a_damaged_one_is_not_believed(
         msgspec.json.encode({"term": huge, "crc32": zlib.crc32(b"%d" % huge)})
     )
     assert read_term_mark(tmp_path) == huge
-    assert _with_mark(tmp_path, 0, 5) == 0  # beyond the bound: ignored
     assert _with_mark(tmp_path, 0, huge - 1) == huge
+    # Its next term beyond the bound (receivers would refuse it): ignored,
+    # and replaced by the highest term known, which it protects again.
+    assert _with_mark(tmp_path, 0, 5) == 0
+    assert read_term_mark(tmp_path) == 5
+    write_term_mark(tmp_path, 6)
+    assert _with_mark(tmp_path, 0, 1) == 6
+    edge = 5 + MAX_TERM_JUMP  # its next term: one past the bound
+    write_term_mark(tmp_path, edge)
+    assert _with_mark(tmp_path, 0, 5) == 0

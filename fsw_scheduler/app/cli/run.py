@@ -242,15 +242,18 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 def _with_mark(folder: Path, floor: int, *known: int) -> int:
     """``floor`` raised to ``folder``'s term mark, which outlives journal
-    files moved aside or lost; a mark beyond the bound above every term
-    known is not believed (said in the log)."""
-    from ...journal.state import read_term_mark
+    files moved aside or lost. A mark whose next term would be beyond the
+    bound above every term known (receivers would refuse it) is not
+    believed: said in the log, and replaced by the highest term known, so
+    that the mark goes on protecting the folder."""
+    from ...journal.state import read_term_mark, write_term_mark
     from ...wire.terms import term_refused
 
-    mark = read_term_mark(folder)
-    refused = term_refused(mark, max(floor, *known))
+    mark, verified = read_term_mark(folder), max(floor, *known)
+    refused = term_refused(mark + 1, verified)
     if refused is not None:
         log.error("%s: term mark %d ignored: %s", folder, mark, refused)
+        write_term_mark(folder, verified, replace=True)
         return floor
     return max(floor, mark)
 
