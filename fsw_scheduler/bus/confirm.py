@@ -3,21 +3,29 @@
 A goal's ``goal_accepted`` is a promise: the goal will be planned, by
 this node or by whichever takes over. A standby that takes over holds
 what was shared with it, and a standby that boots after both computers
-were reset holds what it saved. So before a step whose outputs accept
-a goal reach the bus, the commander waits until a standby says
-(``scheduler/saved``) it holds the state up to that step: in its folder
-and synced, when it has one.
+were reset holds what it saved. So the ``goal_accepted`` of a step is
+held back until a standby says (``scheduler/saved``) it holds the state
+up to that step: in its folder and synced, when it has one. Only the
+verdict waits: the step's plan and dispatches go out at once, and the
+commander goes on with its next inputs meanwhile (a loop that stopped
+for it would hold clock ticks back behind the executors' reports).
 
 The wait is bounded (:data:`CONFIRM_WAIT_S`): a standby that does not
-answer in time (stopped, its disk slow) costs one wait, after which the
-commander no longer waits until a standby answers again; it says so in
-its log. A commander with no standby on the bus never waits.
+answer in time (stopped, its disk slow, cut off) costs one wait, after
+which verdicts go out at once until a standby answers again. That, and
+a standby that answers but cannot save (its disk full), leave goals
+accepted meanwhile held by the commander alone (or in the standby's
+memory): the commander says so, status ``alarm`` (state ``degraded``,
+on the bus only: it is not a decision a replay reproduces), once per
+episode. A commander with no standby on the bus never waits.
 """
 
 from __future__ import annotations
 
 import logging
 import threading
+import time
+from collections import deque
 from typing import TYPE_CHECKING, Any
 
 import msgspec
@@ -26,6 +34,8 @@ import zenoh
 from ..wire import messages, topics
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from .standby import SharedState
 
 log = logging.getLogger("fsw_scheduler.node")
@@ -39,17 +49,14 @@ CONFIRM_WAIT_S = 0.5
 PROMISE = "goal_accepted"
 
 
-def holds_verdict(outputs: list[tuple[str, msgspec.Struct]]) -> bool:
-    """Whether a step's outputs accept a goal."""
-    return any(
-        isinstance(message, messages.Status) and message.event == PROMISE
-        for _, message in outputs
-    )
+def is_promise(message: msgspec.Struct) -> bool:
+    """Whether ``message`` accepts a goal."""
+    return isinstance(message, messages.Status) and message.event == PROMISE
 
 
 class StandbyConfirmations:
     """What the standbys said they hold (``scheduler/saved``), and the
-    commander's bounded wait for it.
+    verdicts held back until they do.
 
     Parameters
     ----------
@@ -59,12 +66,17 @@ class StandbyConfirmations:
         Its key expressions.
     wait_s
         The bound of one wait.
+    say
+        Publishes an alarm (from the commander's loop).
+    wake
+        Called when a standby's word comes (from a Zenoh callback: it
+        only wakes the commander's loop).
 
     Attributes
     ----------
     waits, late, volatile
-        Waits, waits that ran out, and confirmations from a standby that
-        holds the state in memory only.
+        Verdicts held back, waits that ran out, and confirmations from a
+        standby that holds the state in memory only.
     """
 
     def __init__(
@@ -72,13 +84,21 @@ class StandbyConfirmations:
         session: zenoh.Session,
         keys: topics.Topics,
         wait_s: float = CONFIRM_WAIT_S,
+        say: Callable[[str], None] | None = None,
+        wake: Callable[[], None] | None = None,
     ) -> None:
         self.wait_s = wait_s
         self.waits = self.late = self.volatile = 0
-        self._cond = threading.Condition()
+        self._say = say
+        self._wake = wake
+        self._lock = threading.Lock()
         self._held: dict[str, int] = {}
         # After a wait that ran out, none until a standby answers again.
         self._lagging = False
+        # A standby's save fault: the one said last, the one seen last.
+        self._fault_said = self._fault = ""
+        #: Held back: (deadline, stream, seq, the step's verdicts).
+        self._waiting: deque[tuple[float, str, int, list[Any]]] = deque()
         self._subscriber: Any = session.declare_subscriber(
             keys.key(topics.SAVED), self._on_saved
         )
@@ -90,34 +110,68 @@ class StandbyConfirmations:
             )
         except msgspec.DecodeError:
             return
-        with self._cond:
+        with self._lock:
             if saved.seq > self._held.get(saved.stream, 0):
                 self._held[saved.stream] = saved.seq
             self.volatile += not saved.durable
             self._lagging = False
-            self._cond.notify_all()
+            self._fault = (
+                f"standby {saved.node_id} cannot save its copy "
+                f"({saved.fault[:200]})"
+                if saved.fault
+                else ""
+            )
+        if self._wake is not None:
+            self._wake()
 
-    def wait(self, stream: str, seq: int) -> bool:
-        """Wait until a standby holds message ``seq`` of ``stream``; False
-        if none said so within the bound (or one did not before)."""
-        with self._cond:
-            if self._lagging:
+    def hold(self, stream: str, seq: int, verdicts: list[Any]) -> bool:
+        """Hold ``verdicts`` back until a standby holds message ``seq`` of
+        ``stream`` (see :meth:`release`); False when they need not wait
+        (a wait ran out before and no standby answered since)."""
+        with self._lock:
+            if self._lagging and not self._waiting:
                 return False
             self.waits += 1
-            if self._cond.wait_for(
-                lambda: self._held.get(stream, 0) >= seq, self.wait_s
-            ):
-                return True
-            self.late += 1
-            self._lagging = True
-        log.warning(
-            "no standby said it holds the state of %s #%d within %g s: "
-            "goals are accepted without it until one does",
-            stream,
-            seq,
-            self.wait_s,
+        deadline = time.monotonic() + self.wait_s
+        self._waiting.append((deadline, stream, seq, verdicts))
+        return True
+
+    def release(self) -> tuple[list[Any], float | None]:
+        """The verdicts free to go now, in order, and the seconds until
+        the next one is due anyway (None: none waits)."""
+        free: list[Any] = []
+        now = time.monotonic()
+        while self._waiting:
+            deadline, stream, seq, verdicts = self._waiting[0]
+            with self._lock:
+                held = self._held.get(stream, 0) >= seq or self._lagging
+                fault = self._fault
+            if not held and now < deadline:
+                return free, deadline - now
+            if not held:
+                with self._lock:
+                    self.late += 1
+                    self._lagging = True
+                self._alarm(
+                    f"no standby said within {self.wait_s:g} s that it "
+                    f"holds the state of {stream} #{seq}"
+                )
+            elif fault and fault != self._fault_said:
+                self._alarm(fault)
+            self._fault_said = fault
+            self._waiting.popleft()
+            free += verdicts
+        return free, None
+
+    def _alarm(self, why: str) -> None:
+        """Say that goals accepted now may be held by this node alone."""
+        detail = (
+            f"{why}: goals accepted until a standby holds them again are "
+            "lost if both computers are reset"
         )
-        return False
+        log.warning("%s", detail)
+        if self._say is not None:
+            self._say(detail)
 
     def close(self) -> None:
         """Stop listening (idempotent)."""
@@ -142,12 +196,13 @@ def say_saved(
     if due is None:
         return
     store = shared.store
-    durable = store is not None and store.fault is None
+    fault = store.fault if store is not None else None
+    saved = messages.Saved(
+        due[0], due[1], node_id, store is not None and not fault, fault or ""
+    )
     try:
         session.put(
-            keys.key(topics.SAVED),
-            messages.encode(messages.Saved(due[0], due[1], node_id, durable)),
-            encoding=JSON,
+            keys.key(topics.SAVED), messages.encode(saved), encoding=JSON
         )
     except zenoh.ZError as error:
         log.warning("saying what is saved: %s", error)

@@ -177,6 +177,7 @@ class SchedulerNode:
             share_state=wanted if self._sharing else None,
             journal_max_bytes=journal_max_bytes,
             state_max_bytes=state_max_bytes,
+            wake=lambda: self._inbox.put("wake", None),
         )
         self._seconds = seconds
         self._solve_fn = solve_fn
@@ -513,9 +514,12 @@ class SchedulerNode:
         self._outputs.watch()  # retries a failed journal without steps
         if timeout is None:
             timeout = self._clock.seconds_to_next() if self._clock else 0.5
-        held = self._what_ifs.seconds_to_next()
-        if held is not None:
-            timeout = min(timeout, held)
+        for held in (
+            self._what_ifs.seconds_to_next(),
+            self._outputs.release(),
+        ):
+            if held is not None:
+                timeout = min(timeout, held)
         item = self._inbox.get(timeout=max(timeout, 0.001))
         try:
             self._handle(item)

@@ -26,7 +26,7 @@ from ..journal.follow import needed
 from ..journal.state import prune
 from ..runtime.policy import node_info
 from ..wire import messages, topics
-from .confirm import StandbyConfirmations, holds_verdict
+from .confirm import StandbyConfirmations, is_promise
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -128,6 +128,7 @@ class NodeOutputs:
         share_state: Callable[[], bool] | None = None,
         journal_max_bytes: int | None = None,
         state_max_bytes: int | None = None,
+        wake: Callable[[], None] | None = None,
     ) -> None:
         self.session = session
         self.topics = keys
@@ -157,7 +158,11 @@ class NodeOutputs:
         self._confirm: StandbyConfirmations | None = None
         if share_state is not None:
             journal.tap = []
-            self._confirm = StandbyConfirmations(session, keys)
+            self._confirm = StandbyConfirmations(
+                session, keys, say=self._say_alarm, wake=wake
+            )
+        # The step's goal_accepted verdicts and the record they wait on.
+        self._promises: tuple[set[bytes], str, int] | None = None
         self._resumed = ""
 
     # -- lifecycle -----------------------------------------------------------
@@ -265,26 +270,49 @@ class NodeOutputs:
             stage(suffix, messages.encode(message), message)
         # The standby's copy before the bus sees any output, so that it
         # never lags behind what the bus has seen (same link, in order).
-        confirm = holds_verdict(outputs)
-        seq = self.share(confirm)
+        promises = {
+            messages.encode(message)
+            for _, message in outputs
+            if is_promise(message)
+        }
+        seq = self.share(bool(promises))
+        if promises and seq is not None:
+            self._promises = (promises, self.stream, seq)
         if puts:
             # Group commit: one sync for every record of the step (its
             # inputs, the solve results, its outputs) before any output.
             self.sync()
         elif self.durable:
             self._journal.flush()  # nothing commands: the page cache
-        if confirm and seq is not None and self._confirm is not None:
-            self._confirm.wait(self.stream, seq)
         return puts
 
     def send(self, puts: Staged) -> None:
         """Publish what :meth:`write_ahead` journaled, then tend the
-        journal (a fault to report or retry, a file to rotate)."""
+        journal (a fault to report or retry, a file to rotate). A goal's
+        ``goal_accepted`` is held back until a standby holds its step
+        (:mod:`.confirm`; :meth:`release` sends it)."""
+        promises, self._promises = self._promises, None
+        if promises is not None and self._confirm is not None:
+            payloads, stream, seq = promises
+            held = [(s, p) for s, p in puts if p in payloads]
+            if self._confirm.hold(stream, seq, held):
+                puts = [(s, p) for s, p in puts if p not in payloads]
         for suffix, payload in puts:
             self.put(suffix, payload)
+        self.release()
         self.watch()
         if self.durable and self._journal.fault is None:
             self._maybe_rotate()
+
+    def release(self) -> float | None:
+        """Send the verdicts whose step a standby now holds (or whose wait
+        ran out); the seconds until the next one is due anyway."""
+        if self._confirm is None:
+            return None
+        free, left = self._confirm.release()
+        for suffix, payload in free:
+            self.put(suffix, payload)
+        return left
 
     def share(self, confirm: bool = False) -> int | None:
         """Send a hot standby what was journaled since the last time: the
@@ -446,6 +474,11 @@ class NodeOutputs:
                 )
             ),
         )
+
+    def _say_alarm(self, detail: str) -> None:
+        """An alarm on the bus only (not journaled: no decision)."""
+        status = self.engine.status("alarm", detail=detail, state="degraded")
+        self.put(topics.STATUS, messages.encode(status))
 
     def _share_snapshot(self) -> None:
         """Publish the engine's state for a hot standby."""

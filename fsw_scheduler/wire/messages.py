@@ -481,12 +481,13 @@ class Saved(msgspec.Struct, frozen=True, omit_defaults=True):
     """``scheduler/saved``: a standby holds the commander's state up to
     message ``seq`` of ``stream`` (:class:`Changes`), in its folder and
     synced when ``durable`` (else in memory only: no ``--state``, or its
-    disk failed)."""
+    disk failed: ``fault`` says how)."""
 
     stream: str
     seq: int
     node_id: str = ""
     durable: bool = False
+    fault: str = ""
 
 
 class Paused(msgspec.Struct, frozen=True):

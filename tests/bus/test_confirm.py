@@ -3,12 +3,12 @@
 
 from __future__ import annotations
 
-import time
+import threading
 
 import msgspec
 import zenoh
 
-from fsw_scheduler.bus.confirm import StandbyConfirmations, holds_verdict
+from fsw_scheduler.bus.confirm import StandbyConfirmations, is_promise
 from fsw_scheduler.bus.session import (
     listening_endpoints,
     loopback_config,
@@ -25,57 +25,62 @@ def _pair() -> tuple[zenoh.Session, zenoh.Session]:
     return commander, standby
 
 
-def test_a_verdict_waits_for_the_word_a_silent_standby_once() -> None:
-    """Tests the wait: it ends as soon as a standby says it holds the
-    record (or a later one); one that ran out makes the next return at
-    once, until a standby answers again."""
+def test_a_verdict_is_held_until_the_word_a_silent_standby_once() -> None:
+    """Tests the verdicts held back: free as soon as a standby says it
+    holds their record (or a later one); one whose wait ran out goes out
+    with an alarm, and later ones are not held until a standby answers
+    again; a standby that cannot save is said once as an alarm."""
     commander, standby = _pair()
     keys = topics.Topics("sat1")
+    woken = threading.Event()
+    alarms: list[str] = []
     try:
-        confirmations = StandbyConfirmations(commander, keys, wait_s=0.3)
+        confirmations = StandbyConfirmations(
+            commander, keys, wait_s=0.3, say=alarms.append, wake=woken.set
+        )
         wait_matching(standby, keys.key(topics.SAVED), 10)
 
-        def say(seq: int) -> None:
-            standby.put(
-                keys.key(topics.SAVED),
-                messages.encode(messages.Saved("A:1", seq, "B", True)),
-            )
+        def say(seq: int, fault: str = "") -> None:
+            woken.clear()
+            saved = messages.Saved("A:1", seq, "B", not fault, fault)
+            standby.put(keys.key(topics.SAVED), messages.encode(saved))
+            assert woken.wait(10)
 
+        assert confirmations.hold("A:1", 2, ["v2"])
+        free, left = confirmations.release()
+        assert free == [] and left is not None and 0 < left <= 0.3
         say(2)
-        assert confirmations.wait("A:1", 2)
-        assert confirmations.wait("A:1", 1)  # an earlier record: held
-        began = time.monotonic()
-        assert not confirmations.wait("A:1", 3)  # no word: the bound
-        assert time.monotonic() - began >= 0.29
-        began = time.monotonic()
-        assert not confirmations.wait("A:1", 4)  # lagging: no second wait
-        assert time.monotonic() - began < 0.1
-        assert not confirmations.wait("A:2", 1)
-        say(4)  # the standby is back: waits again
-        deadline = time.monotonic() + 10
-        while not confirmations.wait("A:1", 4):
-            assert time.monotonic() < deadline
-        assert (confirmations.late, confirmations.volatile) == (1, 0)
+        assert confirmations.release() == (["v2"], None)
+        assert confirmations.hold("A:1", 1, ["v1"])  # an earlier record
+        assert confirmations.release() == (["v1"], None)
+        assert confirmations.hold("A:1", 3, ["v3"])  # no word comes
+        free, left = confirmations.release()
+        assert free == [] and left is not None
+        threading.Event().wait(left)  # its deadline
+        assert confirmations.release() == (["v3"], None)
+        (late,) = alarms
+        assert "no standby said within 0.3 s" in late
+        assert "lost if both computers are reset" in late
+        assert not confirmations.hold("A:1", 4, ["v4"])  # not held now
+        say(5, "OSError: [Errno 28] No space left on device")
+        assert confirmations.hold("A:1", 5, ["v5"])  # answered: held again
+        assert confirmations.release() == (["v5"], None)
+        say(6, "OSError: [Errno 28] No space left on device")
+        assert confirmations.hold("A:1", 6, ["v6"])
+        assert confirmations.release() == (["v6"], None)
+        assert len(alarms) == 2 and "cannot save its copy" in alarms[1]
+        assert (confirmations.late, confirmations.volatile) == (1, 2)
         confirmations.close()
     finally:
         standby.close()
         commander.close()
 
 
-def test_only_a_goal_verdict_waits() -> None:
-    """Tests which steps wait: those whose outputs accept a goal, not
-    a rejection (a flood of bad inputs must not cost a save each), plans
-    or other statuses."""
+def test_only_a_goal_accepted_waits() -> None:
+    """Tests which outputs wait: a goal accepted, not a rejection (a
+    flood of bad inputs must not cost a save each), plans or other
+    statuses."""
     status = messages.Status(state="ok", plan_id=1, event="goal_accepted")
-    other = msgspec.structs.replace(status, event="plan")
-    assert holds_verdict([(topics.STATUS, status)])
-    assert not holds_verdict(
-        [
-            (
-                topics.STATUS,
-                msgspec.structs.replace(status, event="goal_rejected"),
-            )
-        ]
-    )
-    assert not holds_verdict([(topics.STATUS, other)])
-    assert not holds_verdict([])
+    assert is_promise(status)
+    for event in ("goal_rejected", "plan", "alarm"):
+        assert not is_promise(msgspec.structs.replace(status, event=event))
