@@ -1,6 +1,9 @@
 """A commander asks the receivers' fences now and then: one that holds a
 higher term than the commander's ignores its commands.
 
+(It also says when it meets another commander in its own term:
+:func:`tie_alarm`.)
+
 A receiver raises its fence to the highest term it sees on any plan,
 dispatch, status or ``scheduler/term``. If that is above the commander's
 own term, every command is dropped there while the commander sees
@@ -23,6 +26,8 @@ if TYPE_CHECKING:
     import zenoh
 
     from ..wire import topics
+    from .members import Member
+    from .redundancy import Redundancy
 
 #: Seconds between two questions to the receivers' fences while commanding.
 FENCE_CHECK_S = 5.0
@@ -77,3 +82,27 @@ class FenceWatch:
             "commander this node cannot see, or a term forged on an open "
             "bus)"
         )
+
+
+def tie_alarm(
+    redundancy: Redundancy, term: int, said: set[Member]
+) -> str | None:
+    """The alarm of a commander that meets another one in its own term
+    (each began it on its side of a split: the plans of that term are not
+    told apart by ``(term, plan_id)``), once per other node; None: none."""
+    members, actives = redundancy.view()
+    others = sorted(
+        m
+        for m, t in actives.items()
+        if t == term and m != redundancy.me and m in members and m not in said
+    )
+    if not others:
+        return None
+    said.update(others)
+    names = ", ".join(m.node_id for m in others)
+    return (
+        f"{names} also commanded in term {term} (each side of a split began "
+        f"it): plans of term {term} from both are not told apart by "
+        "(term, plan_id); this node's stand from now on (it outranks "
+        f"{names}, which stands down)"
+    )

@@ -64,7 +64,7 @@ from ..errors import FieldIssue
 from ..wire import messages, topics
 from ..wire.terms import MAX_TERM, term_refused
 from .confirm import say_saved
-from .fenced import FenceWatch
+from .fenced import FenceWatch, tie_alarm
 from .handover import stand_down, tell_lost
 from .lease import has_links
 from .members import Member, beats, order, precedence
@@ -508,9 +508,10 @@ class Redundancy:
         except zenoh.ZError as error:
             log.warning("facts: %s", error)
 
-    def publish_fenced(self, node: SchedulerNode, alarm: str) -> None:
-        """``alarm`` (state ``degraded``) from the commanding ``node``: a
-        receiver's fence is above its term (:mod:`.fenced`)."""
+    def publish_alarm(self, node: SchedulerNode, alarm: str) -> None:
+        """``alarm`` (state ``degraded``) from the commanding ``node`` (a
+        receiver's fence above its term, :mod:`.fenced`; another commander
+        met in the same term)."""
         log.error("%s", alarm)
         engine = node.engine
         self._say(
@@ -606,6 +607,7 @@ def serve(
     idle_since = time.monotonic()
     hold_until = 0.0  # no command before (monotonic seconds)
     seen_commander = False
+    tied: set[Member] = set()  # commanders met in this node's term
     isolated = False
     while not stop.is_set():
         if node is None and redundancy.seen_others:
@@ -668,6 +670,8 @@ def serve(
                     f"node: {node.term})",
                 )
                 node, standing_by_for = None, other
+            elif (tie := tie_alarm(redundancy, node.term, tied)) is not None:
+                redundancy.publish_alarm(node, tie)
         if node is not None and node.stood_down is not None:
             # Said once the bus is seen again: the link may be down now.
             reason = node.stood_down
@@ -710,7 +714,7 @@ def serve(
         elif node.wait_stopped(0):
             break  # the node's loop died: let a supervisor restart us
         elif (alarm := fences.check(node.term)) is not None:
-            redundancy.publish_fenced(node, alarm)
+            redundancy.publish_alarm(node, alarm)
         redundancy.answer()
         with contextlib.suppress(queue.Empty):
             redundancy.changes.get(timeout=POLL_S)
