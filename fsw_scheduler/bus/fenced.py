@@ -40,10 +40,8 @@ class FenceWatch:
 
     Parameters
     ----------
-    session
-        The commander's Zenoh session.
-    keys
-        Its key expressions.
+    session, keys
+        Where the commander asks: its Zenoh session and key expressions.
     every_s
         Seconds between two questions.
     """
