@@ -19,11 +19,12 @@ import heapq
 import queue
 import threading
 import time
-from collections import deque
+from collections import OrderedDict, deque
 from typing import TYPE_CHECKING, Any
 
 import zenoh
 
+from ..runtime.inputs import goal_id_of
 from ..wire import topics
 from ..wire.messages import Busy, Dropped
 
@@ -49,6 +50,8 @@ MAX_PENDING_KEYS = 4096
 #: it, a refused goal is only counted in :attr:`Inbox.busy` (never seen in
 #: practice: publishing one takes far less time than receiving one).
 MAX_BUSY_NOTICES = 65536
+#: Accepted goal ids an inbox remembers (as many as the largest ledger).
+MAX_ACCEPTED_IDS = 65536
 
 
 #: Seconds between two answers to telemetry dropped on one key. The first
@@ -196,6 +199,21 @@ class Inbox:
         self.lost = 0
         self.busy = 0
         self.queries_dropped = 0
+        #: Goal ids accepted (the newest :data:`MAX_ACCEPTED_IDS`): a goal
+        #: sent again under one of them is queued past the count limit, to
+        #: be answered that its verdict stands, not "busy".
+        self._accepted: OrderedDict[str, None] = OrderedDict()
+
+    def note_verdict(self, goal_id: str | None, event: str) -> None:
+        """A goal's verdict (from the loop): an id ``goal_accepted`` is
+        remembered."""
+        if goal_id is None or event != "goal_accepted":
+            return
+        with self._cond:
+            self._accepted[goal_id] = None
+            self._accepted.move_to_end(goal_id)
+            while len(self._accepted) > MAX_ACCEPTED_IDS:
+                self._accepted.popitem(last=False)
 
     def counters(self) -> dict[str, int]:
         """What the inbox refused or superseded, by status counter name."""
@@ -217,11 +235,16 @@ class Inbox:
         arrived: float,
         origin: Origin | None = None,
     ) -> bool:
-        """Queue a goal; False when the limits are reached (not queued)."""
+        """Queue a goal; False when the limits are reached (not queued).
+
+        Past the count limit (not the byte limit), a goal whose id was
+        accepted is queued all the same: the sender sends it again for
+        want of a verdict, and "busy" would be a second verdict.
+        """
         with self._cond:
-            if (
+            if self.bytes + len(payload) > self.max_bytes or (
                 self.goals >= self.max_goals
-                or self.bytes + len(payload) > self.max_bytes
+                and goal_id_of(payload) not in self._accepted
             ):
                 return False
             self.goals += 1

@@ -94,10 +94,9 @@ class SchedulerNode:
     journal
         Optional MCAP recorder receiving every input and output in
         processing order (see :mod:`fsw_scheduler.journal.replay`).
-    seconds
-        Monotonic clock in seconds for the wall time source.
-    wall_ns
-        Wall clock in nanoseconds for journal log times.
+    seconds, wall_ns
+        Monotonic seconds (the wall time source); wall-clock nanoseconds
+        (journal log times).
     security
         How the bus is protected (:func:`~fsw_scheduler.bus.security.
         assess`), published in ``scheduler/config``.
@@ -187,6 +186,9 @@ class SchedulerNode:
             seconds,
             self.topics.key("**"),
         )
+        for goal_id, record in self.engine.snapshot().ledger.items():
+            if record.verdict == "accepted":  # resumed: sent again, it stands
+                self._inbox.note_verdict(goal_id, "goal_accepted")
         self._stop = threading.Event()
         self._token: Any = None
         self.failed: str | None = None
@@ -689,6 +691,7 @@ class SchedulerNode:
                 "goal_rejected",
             ):  # the goal has its verdict: its deadline is over
                 self._arrivals.pop(message.goal_id or "", None)
+                self._inbox.note_verdict(message.goal_id, message.event)
         puts = self._outputs.write_ahead(commands)
         for command in commands:
             if not isinstance(command, Publish):

@@ -161,6 +161,7 @@ class NodeOutputs:
             self._confirm = StandbyConfirmations(
                 session, keys, say=self._say_alarm, wake=wake
             )
+        self._sharing = False  # whether a standby was there last time
         # The step's goal_accepted verdicts and the record they wait on.
         self._promises: tuple[set[bytes], str, int] | None = None
         self._resumed = ""
@@ -322,6 +323,14 @@ class NodeOutputs:
         if self._share_state is None:
             return None
         if not self._share_state():
+            if self._sharing:
+                self._sharing = False  # a standby left: said once
+                self._say_alarm(
+                    "no standby holds this node's state any more (it left "
+                    "the bus): goals accepted until one is back are held "
+                    "by this node alone, lost if both computers are reset "
+                    "and the other boots first"
+                )
             # No one to share with: a standby that comes asks for the
             # state, which holds what is dropped here; the number moves
             # on, so that one that already had a state sees the gap.
@@ -329,6 +338,7 @@ class NodeOutputs:
                 self._journal.tap = []
                 self._seq += 1
             return None
+        self._sharing = True
         before = self._seq
         seq = self.share_changes(confirm)
         if time.monotonic() >= self._snapshot_due:

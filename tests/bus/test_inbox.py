@@ -151,3 +151,25 @@ def test_a_sample_replacing_a_waiting_one_keeps_the_bytes_bound() -> None:
     answer, waiting = inbox.get(0.0), inbox.get(0.0)
     assert answer is not None and answer[2].size == 200
     assert waiting is not None and waiting[2] == b"1" * 10
+
+
+def test_a_goal_accepted_before_is_queued_past_the_count_limit() -> None:
+    """Tests a goal sent again under an accepted id while the inbox is
+    full of other goals: queued all the same (the loop answers that its
+    verdict stands), where another goal is refused "busy"; the byte limit
+    still holds for it."""
+    import json
+
+    def goal(goal_id: str, pad: int = 0) -> bytes:
+        doc = {"goal_id": goal_id, "tasks": [], "x": "y" * pad}
+        return json.dumps(doc).encode()
+
+    inbox = Inbox(max_goals=2, max_bytes=400)
+    assert inbox.put_goal("k", goal("a"), 0.0)
+    assert inbox.put_goal("k", goal("b"), 0.0)
+    assert not inbox.put_goal("k", goal("c"), 0.0)  # full: busy
+    inbox.note_verdict("c", "goal_rejected")  # a rejection is not kept
+    assert not inbox.put_goal("k", goal("c"), 0.0)
+    inbox.note_verdict("c", "goal_accepted")
+    assert inbox.put_goal("k", goal("c"), 0.0)
+    assert not inbox.put_goal("k", goal("c", 400), 0.0)  # bytes
