@@ -25,8 +25,8 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections import deque
-from typing import TYPE_CHECKING, Any
+from collections import OrderedDict, deque
+from typing import TYPE_CHECKING, Any, TypeGuard
 
 import msgspec
 import zenoh
@@ -44,12 +44,15 @@ JSON = zenoh.Encoding.APPLICATION_JSON
 #: Longest wait for a standby's word before a goal accepted goes out anyway.
 CONFIRM_WAIT_S = 0.5
 
+#: Goal ids a commander remembers as held by a standby.
+MAX_KEPT = 65536
+
 #: The verdict that is a promise to keep: a goal rejected is not
 #: planned, and a flood of rejected inputs must not cost a save each.
 PROMISE = "goal_accepted"
 
 
-def is_promise(message: msgspec.Struct) -> bool:
+def is_promise(message: msgspec.Struct) -> TypeGuard[messages.Status]:
     """Whether ``message`` accepts a goal."""
     return isinstance(message, messages.Status) and message.event == PROMISE
 
@@ -97,8 +100,15 @@ class StandbyConfirmations:
         self._lagging = False
         # A standby's save fault: the one said last, the one seen last.
         self._fault_said = self._fault = ""
-        #: Held back: (deadline, stream, seq, the step's verdicts).
-        self._waiting: deque[tuple[float, str, int, list[Any]]] = deque()
+        #: Held back: (deadline, stream, seq, the step's verdicts, their
+        #: goal ids).
+        self._waiting: deque[
+            tuple[float, str, int, list[Any], tuple[str, ...]]
+        ] = deque()
+        # Goal ids whose acceptance a standby said it holds (the newest
+        # MAX_KEPT): the same verdict again, for a re-sent goal, need not
+        # wait nor cost the standby a save.
+        self._kept: OrderedDict[str, None] = OrderedDict()
         self._subscriber: Any = session.declare_subscriber(
             keys.key(topics.SAVED), self._on_saved
         )
@@ -124,16 +134,27 @@ class StandbyConfirmations:
         if self._wake is not None:
             self._wake()
 
-    def hold(self, stream: str, seq: int, verdicts: list[Any]) -> bool:
-        """Hold ``verdicts`` back until a standby holds message ``seq`` of
-        ``stream`` (see :meth:`release`); False when they need not wait
-        (a wait ran out before and no standby answered since)."""
+    def kept(self, goal_id: str | None) -> bool:
+        """Whether a standby said it holds ``goal_id``'s acceptance."""
+        return goal_id in self._kept
+
+    def hold(
+        self,
+        stream: str,
+        seq: int,
+        verdicts: list[Any],
+        goal_ids: tuple[str, ...] = (),
+    ) -> bool:
+        """Hold ``verdicts`` (accepting ``goal_ids``) back until a standby
+        holds message ``seq`` of ``stream`` (see :meth:`release`); False
+        when they need not wait (a wait ran out before and no standby
+        answered since)."""
         with self._lock:
             if self._lagging and not self._waiting:
                 return False
             self.waits += 1
         deadline = time.monotonic() + self.wait_s
-        self._waiting.append((deadline, stream, seq, verdicts))
+        self._waiting.append((deadline, stream, seq, verdicts, goal_ids))
         return True
 
     def release(self) -> tuple[list[Any], float | None]:
@@ -142,9 +163,10 @@ class StandbyConfirmations:
         free: list[Any] = []
         now = time.monotonic()
         while self._waiting:
-            deadline, stream, seq, verdicts = self._waiting[0]
+            deadline, stream, seq, verdicts, goal_ids = self._waiting[0]
             with self._lock:
-                held = self._held.get(stream, 0) >= seq or self._lagging
+                said = self._held.get(stream, 0) >= seq
+                held = said or self._lagging
                 fault = self._fault
             if not held and now < deadline:
                 return free, deadline - now
@@ -161,6 +183,10 @@ class StandbyConfirmations:
             self._fault_said = fault
             self._waiting.popleft()
             free += verdicts
+            for goal_id in goal_ids if said and not fault else ():
+                self._kept[goal_id] = None
+                if len(self._kept) > MAX_KEPT:
+                    self._kept.popitem(last=False)
         return free, None
 
     def _alarm(self, why: str) -> None:

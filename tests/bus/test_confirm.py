@@ -46,25 +46,29 @@ def test_a_verdict_is_held_until_the_word_a_silent_standby_once() -> None:
             standby.put(keys.key(topics.SAVED), messages.encode(saved))
             assert woken.wait(10)
 
-        assert confirmations.hold("A:1", 2, ["v2"])
+        assert confirmations.hold("A:1", 2, ["v2"], ("g2",))
         free, left = confirmations.release()
         assert free == [] and left is not None and 0 < left <= 0.3
+        assert not confirmations.kept("g2")
         say(2)
         assert confirmations.release() == (["v2"], None)
+        assert confirmations.kept("g2")  # said again: it need not wait
         assert confirmations.hold("A:1", 1, ["v1"])  # an earlier record
         assert confirmations.release() == (["v1"], None)
-        assert confirmations.hold("A:1", 3, ["v3"])  # no word comes
+        assert confirmations.hold("A:1", 3, ["v3"], ("g3",))  # no word
         free, left = confirmations.release()
         assert free == [] and left is not None
         threading.Event().wait(left)  # its deadline
         assert confirmations.release() == (["v3"], None)
+        assert not confirmations.kept("g3")
         (late,) = alarms
         assert "no standby said within 0.3 s" in late
         assert "lost if both computers are reset" in late
         assert not confirmations.hold("A:1", 4, ["v4"])  # not held now
         say(5, "OSError: [Errno 28] No space left on device")
-        assert confirmations.hold("A:1", 5, ["v5"])  # answered: held again
+        assert confirmations.hold("A:1", 5, ["v5"], ("g5",))  # held again
         assert confirmations.release() == (["v5"], None)
+        assert not confirmations.kept("g5")  # in the standby's memory only
         say(6, "OSError: [Errno 28] No space left on device")
         assert confirmations.hold("A:1", 6, ["v6"])
         assert confirmations.release() == (["v6"], None)
