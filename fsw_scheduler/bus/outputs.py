@@ -163,9 +163,7 @@ class NodeOutputs:
             )
         self._sharing = False  # whether a standby was there last time
         # The step's goal_accepted verdicts and the record they wait on.
-        self._promises: tuple[set[bytes], tuple[str, ...], str, int] | None = (
-            None
-        )
+        self._promises: tuple[dict[bytes, str], str, int] | None = None
         self._resumed = ""
 
     # -- lifecycle -----------------------------------------------------------
@@ -269,26 +267,22 @@ class NodeOutputs:
                         self.topics.key(item.suffix), item.payload
                     )
 
+        confirm = self._confirm
+        promised: dict[bytes, str] = {}  # goal_accepted payload: goal id
         for suffix, message in outputs:
-            stage(suffix, messages.encode(message), message)
+            payload = messages.encode(message)
+            stage(suffix, payload, message)
+            if (
+                is_promise(message)
+                # The same verdict again (a re-sent goal) a standby holds.
+                and not (confirm is not None and confirm.kept(message.goal_id))
+            ):
+                promised[payload] = message.goal_id or ""
         # The standby's copy before the bus sees any output, so that it
         # never lags behind what the bus has seen (same link, in order).
-        confirm = self._confirm
-        promised = [
-            message
-            for _, message in outputs
-            if is_promise(message)
-            # The same verdict again (a re-sent goal) a standby holds.
-            and not (confirm is not None and confirm.kept(message.goal_id))
-        ]
         seq = self.share(bool(promised))
         if promised and seq is not None:
-            self._promises = (
-                {messages.encode(m) for m in promised},
-                tuple(m.goal_id or "" for m in promised),
-                self.stream,
-                seq,
-            )
+            self._promises = (promised, self.stream, seq)
         if puts:
             # Group commit: one sync for every record of the step (its
             # inputs, the solve results, its outputs) before any output.
@@ -304,9 +298,9 @@ class NodeOutputs:
         (:mod:`.confirm`; :meth:`release` sends it)."""
         promises, self._promises = self._promises, None
         if promises is not None and self._confirm is not None:
-            payloads, goal_ids, stream, seq = promises
+            payloads, stream, seq = promises
             held = [(s, p) for s, p in puts if p in payloads]
-            if self._confirm.hold(stream, seq, held, goal_ids):
+            if self._confirm.hold(stream, seq, held, tuple(payloads.values())):
                 puts = [(s, p) for s, p in puts if p not in payloads]
         for suffix, payload in puts:
             self.put(suffix, payload)

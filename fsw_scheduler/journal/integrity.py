@@ -127,7 +127,7 @@ def check_file(path: PathLike) -> FileCheck:
                 result.damage = "a record runs past the end of the file"
                 result.offset = at
             else:
-                _check_cut(data, at, length, result)
+                _check_cut(data, at, opcode, length, result)
             return result
         own = _fields_length(data, at + RECORD_HEAD.size, opcode)
         issue: str | None
@@ -195,7 +195,9 @@ def _fields_length(data: bytes, body: int, opcode: int) -> int | None:
     return at - body if at <= len(data) else None
 
 
-def _check_cut(data: bytes, at: int, length: int, result: FileCheck) -> None:
+def _check_cut(
+    data: bytes, at: int, opcode: int, length: int, result: FileCheck
+) -> None:
     """Tell a record a crash cut short from a length field damaged upwards.
 
     Both run past the end of an unfinished file. A crash writes the head
@@ -205,7 +207,7 @@ def _check_cut(data: bytes, at: int, length: int, result: FileCheck) -> None:
     a crash, everything after it would be dropped without a word.
     """
     body = at + RECORD_HEAD.size
-    own = _fields_length(data, body, RECORD_HEAD.unpack_from(data, at)[0])
+    own = _fields_length(data, body, opcode)
     if own is None or own == length:
         return
     nxt = body + own
