@@ -134,6 +134,12 @@ class StandbyConfirmations:
         if self._wake is not None:
             self._wake()
 
+    def healthy(self) -> bool:
+        """Whether the standby's last word came in time and said saved
+        (so that no alarm of this episode stands)."""
+        with self._lock:
+            return not self._lagging and not self._fault
+
     def kept(self, goal_id: str | None) -> bool:
         """Whether a standby said it holds ``goal_id``'s acceptance."""
         return goal_id in self._kept

@@ -56,14 +56,21 @@ class FenceWatch:
         self.keys = keys
         self.every_s = every_s
         self._due = time.monotonic() + every_s
+        #: The alarm of the last answer (None: no fence above the term).
+        self.standing: str | None = None
 
     def check(self, term: int) -> str | None:
         """The alarm to say about the fences (asked when due) for a node
-        commanding in ``term``; None when no fence is above it."""
+        commanding in ``term``; None when no fence is above it or it is
+        not time to ask (:attr:`standing` keeps the last answer's)."""
         now = time.monotonic()
         if now < self._due:
             return None
         self._due = now + self.every_s
+        self.standing = self._ask(term)
+        return self.standing
+
+    def _ask(self, term: int) -> str | None:
         above = [
             (where, seen)
             for where, seen in fence_terms(

@@ -178,6 +178,8 @@ class SchedulerNode:
             state_max_bytes=state_max_bytes,
             wake=lambda: self._inbox.put("wake", None),
         )
+        #: What a status query names until it ends (:mod:`.standing`).
+        self.standing = self._outputs.standing
         self._seconds = seconds
         self._solve_fn = solve_fn
         self._inbox = Inbox(
@@ -760,20 +762,7 @@ class SchedulerNode:
         if suffix == topics.WHAT_IF:
             self._what_ifs.ask(query)  # it replies, now or later
             return
-        message: msgspec.Struct | None
-        tag: bytes | None = None
-        if suffix == topics.PLAN:
-            message = self.engine.plan_message
-        elif suffix == topics.SNAPSHOT:
-            # The records so far go first; the state says which it follows.
-            tag = self._outputs.snapshot_tag()
-            message = self.engine.snapshot()
-        elif suffix == topics.PROFILES:
-            message = self._annotator.profiles
-        elif suffix == topics.NODE_INFO:
-            message = self._outputs.info()
-        else:
-            message = self.engine.status("query")
+        message, tag = self._outputs.answer(suffix)
         reply(
             query,
             self.topics.key(suffix),

@@ -27,6 +27,7 @@ from ..journal.state import prune
 from ..runtime.policy import node_info
 from ..wire import messages, topics
 from .confirm import StandbyConfirmations, is_promise
+from .standing import JOURNAL, STANDBY_LATE, STANDBY_LEFT, Standing
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -110,6 +111,9 @@ class NodeOutputs:
         Publishes that failed since the start.
     publish_failures_in_a_row
         Publishes that failed since the last one that went out.
+    standing
+        The conditions a status query's answer names until they end
+        (:mod:`.standing`).
     """
 
     def __init__(
@@ -138,6 +142,7 @@ class NodeOutputs:
         self.publishers: dict[str, zenoh.Publisher] = {}
         self.publish_failures = 0
         self.publish_failures_in_a_row = 0
+        self.standing = Standing()
         self._journal = journal
         self._annotator = annotator
         self._provenance = provenance
@@ -159,7 +164,10 @@ class NodeOutputs:
         if share_state is not None:
             journal.tap = []
             self._confirm = StandbyConfirmations(
-                session, keys, say=self._say_alarm, wake=wake
+                session,
+                keys,
+                say=lambda detail: self._say_alarm(detail, STANDBY_LATE),
+                wake=wake,
             )
         self._sharing = False  # whether a standby was there last time
         # The step's goal_accepted verdicts and the record they wait on.
@@ -199,6 +207,23 @@ class NodeOutputs:
             ),
             durable=self._journal.fault is None,
         )
+
+    def answer(
+        self, suffix: str
+    ) -> tuple[msgspec.Struct | None, bytes | None]:
+        """What a query on ``suffix`` is answered (None: nothing yet), and
+        its attachment (a snapshot's tag)."""
+        if suffix == topics.PLAN:
+            return self.engine.plan_message, None
+        if suffix == topics.SNAPSHOT:
+            # The records so far go first; the state says which it follows.
+            tag = self.snapshot_tag()
+            return self.engine.snapshot(), tag
+        if suffix == topics.PROFILES:
+            return self._annotator.profiles, None
+        if suffix == topics.NODE_INFO:
+            return self.info(), None
+        return self.standing.apply(self.engine.status("query")), None
 
     def sync(self) -> None:
         """When durable, put what was journaled on the disk now (fsync):
@@ -317,6 +342,8 @@ class NodeOutputs:
         free, left = self._confirm.release()
         for suffix, payload in free:
             self.put(suffix, payload)
+        if self._confirm.healthy():
+            self.standing.put(STANDBY_LATE, None)
         return left
 
     def share(self, confirm: bool = False) -> int | None:
@@ -333,7 +360,8 @@ class NodeOutputs:
                     "no standby holds this node's state any more (it left "
                     "the bus): goals accepted until one is back are held "
                     "by this node alone, lost if both computers are reset "
-                    "and the other boots first"
+                    "and the other boots first",
+                    STANDBY_LEFT,
                 )
             # No one to share with: a standby that comes asks for the
             # state, which holds what is dropped here; the number moves
@@ -343,6 +371,7 @@ class NodeOutputs:
                 self._seq += 1
             return None
         self._sharing = True
+        self.standing.put(STANDBY_LEFT, None)
         before = self._seq
         seq = self.share_changes(confirm)
         if time.monotonic() >= self._snapshot_due:
@@ -470,6 +499,7 @@ class NodeOutputs:
     def _say_journal(self, state: str, event: str, detail: str) -> None:
         """A status about the journal, straight to the bus (not journaled:
         it is about the journal)."""
+        self.standing.put(JOURNAL, detail if state != "ok" else None)
         status = self.engine.status(event, detail=detail)
         status = msgspec.structs.replace(
             status,
@@ -489,8 +519,10 @@ class NodeOutputs:
             ),
         )
 
-    def _say_alarm(self, detail: str) -> None:
-        """An alarm on the bus only (not journaled: no decision)."""
+    def _say_alarm(self, detail: str, condition: str) -> None:
+        """An alarm on the bus only (not journaled: no decision); the
+        ``condition`` it begins stands in query answers until it ends."""
+        self.standing.put(condition, detail)
         status = self.engine.status("alarm", detail=detail, state="degraded")
         self.put(topics.STATUS, messages.encode(status))
 

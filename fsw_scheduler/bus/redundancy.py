@@ -70,6 +70,7 @@ from .lease import has_links
 from .members import Member, beats, order, precedence
 from .members import default_node_id as default_node_id  # its old home
 from .standby import SharedState, Tag, fence_terms, tag_of
+from .standing import FENCE
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -715,6 +716,9 @@ def serve(
             break  # the node's loop died: let a supervisor restart us
         elif (alarm := fences.check(node.term)) is not None:
             redundancy.publish_alarm(node, alarm)
+            node.standing.put(FENCE, alarm)
+        elif fences.standing is None:
+            node.standing.put(FENCE, None)
         redundancy.answer()
         with contextlib.suppress(queue.Empty):
             redundancy.changes.get(timeout=POLL_S)

@@ -46,6 +46,7 @@ def test_a_verdict_is_held_until_the_word_a_silent_standby_once() -> None:
             standby.put(keys.key(topics.SAVED), messages.encode(saved))
             assert woken.wait(10)
 
+        assert confirmations.healthy()  # nothing said yet, nothing late
         assert confirmations.hold("A:1", 2, ["v2"], ("g2",))
         free, left = confirmations.release()
         assert free == [] and left is not None and 0 < left <= 0.3
@@ -64,16 +65,20 @@ def test_a_verdict_is_held_until_the_word_a_silent_standby_once() -> None:
         (late,) = alarms
         assert "no standby said within 0.3 s" in late
         assert "lost if both computers are reset" in late
+        assert not confirmations.healthy()  # the alarm stands
         assert not confirmations.hold("A:1", 4, ["v4"])  # not held now
         say(5, "OSError: [Errno 28] No space left on device")
         assert confirmations.hold("A:1", 5, ["v5"], ("g5",))  # held again
         assert confirmations.release() == (["v5"], None)
         assert not confirmations.kept("g5")  # in the standby's memory only
+        assert not confirmations.healthy()  # it cannot save
         say(6, "OSError: [Errno 28] No space left on device")
         assert confirmations.hold("A:1", 6, ["v6"])
         assert confirmations.release() == (["v6"], None)
         assert len(alarms) == 2 and "cannot save its copy" in alarms[1]
         assert (confirmations.late, confirmations.volatile) == (1, 2)
+        say(7)
+        assert confirmations.healthy()  # saved again: the episode ends
         confirmations.close()
     finally:
         standby.close()

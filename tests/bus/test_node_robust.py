@@ -1129,6 +1129,10 @@ def test_a_full_disk_degrades_and_durability_returns(
         failed = h.wait_status(lambda s: s.event == "journal_failed")
         assert failed.state == "degraded" and not failed.durable
         assert "No space left" in failed.detail
+        # Asked later, the node still says it (not the engine's "ok").
+        asked = h.query_status()
+        assert asked.state == "degraded" and not asked.durable
+        assert "journal: " in asked.detail and "No space left" in asked.detail
         h.publish_goal(ping_goal("while-full", "Full"))
         verdict = h.wait_status(
             lambda s: s.goal_id == "while-full" and s.event == "goal_accepted"
@@ -1137,6 +1141,8 @@ def test_a_full_disk_degrades_and_durability_returns(
         full["on"] = False
         back = h.wait_status(lambda s: s.event == "journal_resumed", 10)
         assert back.durable
+        asked = h.query_status()
+        assert asked.state == "ok" and asked.durable and not asked.detail
         h.tick(2)
     for path in recorder.paths:
         assert check_file(path).ok, check_file(path).describe()

@@ -339,7 +339,8 @@ def test_a_commander_fenced_by_a_receiver_says_so(tmp_path: Path) -> None:
     """Tests a term written on an open bus above the commander's: the
     receiver's fence follows it and drops every command, and the node,
     which asks the fences every few seconds, says ``alarm`` (degraded)
-    naming the term instead of ``ok``."""
+    naming the term instead of ``ok``, and a status query says it while
+    the fence stands."""
     import zenoh
 
     from fsw_scheduler.bus.fenced import FENCE_CHECK_S
@@ -368,7 +369,76 @@ def test_a_commander_fenced_by_a_receiver_says_so(tmp_path: Path) -> None:
             )
             assert alarm.state == "degraded" and alarm.node_id == "A"
             assert client.fence.term == 7
+            # A status asked for later says it too, while the fence stands.
+            asked = client.query_status()
+            assert asked.state == "degraded" and "fence: " in asked.detail
+            assert "fences term 7" in asked.detail
             client.close()
     finally:
         node.kill()
+        router.close()
+
+
+def test_a_commander_whose_standby_left_says_so_until_one_is_back(
+    tmp_path: Path,
+) -> None:
+    """Tests a standby killed outright, then started again, through a
+    router: the commander says ``alarm`` (degraded) at its next step that
+    no standby holds its state, a status query says so for as long as it
+    lasts, and once a standby follows again a query says ``ok``."""
+    import zenoh
+
+    from fsw_scheduler.bus.session import loopback_config
+    from fsw_scheduler.testing import SchedulerClient
+
+    from ..factories import ping_goal
+
+    soak = soak_partition()
+    router, port = soak.start_router()
+    a = soak.node(tmp_path / "a", port, "A", 0)
+    b = soak.node(tmp_path / "b", port, "B", 1)
+    config = loopback_config(listen=None, connect=[f"tcp/127.0.0.1:{port}"])
+    config.insert_json5("mode", '"client"')
+    try:
+        a.start()
+        with zenoh.open(config) as session:
+            client = SchedulerClient(session, timeout=30.0)
+            client.wait_scheduler(30)
+            client.tick(0)
+            b.start()
+            b.wait_log(("standing by for A",), 30)
+            answers = client.send_goals([ping_goal("held", "Held")])
+            assert answers["held"] == {"goal_accepted"}
+            assert client.query_status().state == "ok"
+            b.kill()
+            seen = len(client.statuses)
+            deadline = time.monotonic() + 30
+            asked = client.query_status()
+            now = 1
+            # The commander sees the standby gone at a step: tick until.
+            while "standby_left" not in asked.detail:
+                assert time.monotonic() < deadline, asked
+                client.tick(now)
+                now += 1
+                asked = client.query_status()
+            alarm = client.wait_status(
+                lambda s: s.event == "alarm" and "no standby" in s.detail,
+                10,
+                since=seen,
+            )
+            assert alarm.state == "degraded" and alarm.node_id == "A"
+            assert asked.state == "degraded", asked
+            b.start()
+            b.wait_log(("standing by for A",), 30)
+            deadline = time.monotonic() + 30
+            while asked.state != "ok":
+                assert time.monotonic() < deadline, asked
+                client.tick(now)
+                now += 1
+                asked = client.query_status()
+            assert not asked.detail, asked
+            client.close()
+    finally:
+        a.kill()
+        b.kill()
         router.close()
