@@ -58,6 +58,7 @@ from ..wire.terms import MAX_TERM
 from .inbox import BUS_INPUTS, NOTICES, Inbox, Worker, direct
 from .outputs import FATAL, NodeOutputs, reply
 from .provenance import Origin, Provenance, capture
+from .standing import TERM_MARK
 from .term_record import term_record
 from .whatif import WhatIfs
 
@@ -133,7 +134,7 @@ class SchedulerNode:
         clock_start: int = 0,
         publishers: Callable[[str], frozenset[str] | None] | None = None,
         term_floor: int = 0,
-        on_term: Callable[[int], None] | None = None,
+        on_term: Callable[[int], str | None] | None = None,
         vouched: int | None = None,
     ) -> None:
         if config.horizon is not None:
@@ -302,8 +303,8 @@ class SchedulerNode:
         outputs.open(self.resumed)
         term = self._begin_term()
         outputs.sync()  # the term is on disk before any command
-        if self._on_term is not None:
-            self._on_term(term)
+        if self._on_term is not None and (fault := self._on_term(term)):
+            outputs.alarm(fault, TERM_MARK)  # the folder's term.json
         outputs.put(topics.TERM, self._term_payload)
         outputs.share()
         outputs.watch()  # a journal down from the start: say so

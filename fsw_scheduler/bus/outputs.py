@@ -166,7 +166,7 @@ class NodeOutputs:
             self._confirm = StandbyConfirmations(
                 session,
                 keys,
-                say=lambda detail: self._say_alarm(detail, STANDBY_LATE),
+                say=lambda detail: self.alarm(detail, STANDBY_LATE),
                 wake=wake,
             )
         self._sharing = False  # whether a standby was there last time
@@ -356,7 +356,7 @@ class NodeOutputs:
         if not self._share_state():
             if self._sharing:
                 self._sharing = False  # a standby left: said once
-                self._say_alarm(
+                self.alarm(
                     "no standby holds this node's state any more (it left "
                     "the bus): goals accepted until one is back are held "
                     "by this node alone, lost if both computers are reset "
@@ -519,7 +519,7 @@ class NodeOutputs:
             ),
         )
 
-    def _say_alarm(self, detail: str, condition: str) -> None:
+    def alarm(self, detail: str, condition: str) -> None:
         """An alarm on the bus only (not journaled: no decision); the
         ``condition`` it begins stands in query answers until it ends."""
         self.standing.put(condition, detail)

@@ -8,7 +8,8 @@ condition stands, a query's answer says ``degraded`` and names each one
 in ``detail`` (and ``durable`` false while the journal cannot be
 written). It ends when the cause does: a fence no higher than the
 node's term, a standby that holds the state again, a journal written
-again.
+again. A term mark (``term.json``) that could not be written at the
+start of a term stands for the whole term.
 
 Published statuses of a step keep the engine's word: they are journaled,
 and replay reproduces them from the journal alone (these conditions are
@@ -30,7 +31,8 @@ FENCE = "fence"
 STANDBY_LEFT = "standby_left"
 STANDBY_LATE = "standby_late"
 JOURNAL = "journal"
-ORDER = (FENCE, JOURNAL, STANDBY_LEFT, STANDBY_LATE)
+TERM_MARK = "term_mark"
+ORDER = (FENCE, JOURNAL, TERM_MARK, STANDBY_LEFT, STANDBY_LATE)
 
 #: The most characters of one condition's detail in an answer.
 MAX_DETAIL = 300

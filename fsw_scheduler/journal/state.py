@@ -165,17 +165,31 @@ def read_term_mark(folder: Path) -> int:
     return mark.term
 
 
-def write_term_mark(folder: Path, term: int, replace: bool = False) -> None:
+def write_term_mark(
+    folder: Path, term: int, replace: bool = False
+) -> str | None:
     """Raise ``folder``'s term mark to ``term`` (never lowers it but to
-    ``replace`` one not believed), on the disk before this returns; a
-    disk fault is logged, not raised (the journal has the term too)."""
+    ``replace`` one not believed), on the disk before this returns.
+
+    Returns
+    -------
+    str or None
+        What went wrong (a disk fault, logged, not raised: the journal has
+        the term too, and the node says it); None when the mark holds.
+    """
     if not replace and read_term_mark(folder) >= term:
-        return
+        return None
     mark = _TermMark(term, zlib.crc32(str(term).encode()))
     try:
         _write_synced(folder / TERM_MARK, msgspec.json.encode(mark))
     except OSError as error:
-        log.error("cannot write %s: %s", folder / TERM_MARK, error)
+        fault = (
+            f"cannot write {folder / TERM_MARK}: {error}: if this folder's "
+            f"journal is lost too, a restart may begin term {term} again"
+        )
+        log.error("%s", fault)
+        return fault
+    return None
 
 
 def problem_digest(problem: Problem) -> str:

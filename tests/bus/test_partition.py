@@ -442,3 +442,44 @@ def test_a_commander_whose_standby_left_says_so_until_one_is_back(
         a.kill()
         b.kill()
         router.close()
+
+
+def test_a_term_mark_that_cannot_be_written_is_said_for_the_term(
+    tmp_path: Path,
+) -> None:
+    """Tests a state folder whose ``term.json`` cannot be replaced (a
+    directory stands in its place): the node commands, says ``alarm``
+    naming the file, and a status query says ``degraded`` with it for as
+    long as the term lasts; before, it was only in the log."""
+    import zenoh
+
+    from fsw_scheduler.bus.session import loopback_config
+    from fsw_scheduler.journal.state import TERM_MARK
+    from fsw_scheduler.testing import SchedulerClient
+
+    from ..factories import ping_goal
+
+    soak = soak_partition()
+    router, port = soak.start_router()
+    state = tmp_path / "state"
+    (state / TERM_MARK / "blocked").mkdir(parents=True)
+    node = soak.node(state, port, "A", 0)
+    config = loopback_config(listen=None, connect=[f"tcp/127.0.0.1:{port}"])
+    config.insert_json5("mode", '"client"')
+    try:
+        node.start()
+        node.wait_log(("cannot write",), 30)
+        with zenoh.open(config) as session:
+            client = SchedulerClient(session, timeout=30.0)
+            client.wait_scheduler(30)
+            client.tick(0)
+            answers = client.send_goals([ping_goal("kept", "Kept")])
+            assert answers["kept"] == {"goal_accepted"}
+            asked = client.query_status()
+            client.close()
+    finally:
+        node.kill()
+        router.close()
+    assert asked.state == "degraded" and asked.term == 1, asked
+    assert "term_mark: cannot write" in asked.detail, asked
+    assert "term.json" in asked.detail

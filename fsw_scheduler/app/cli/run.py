@@ -134,10 +134,11 @@ def cmd_run(args: argparse.Namespace) -> int:
             if args.state:
                 from ...journal.state import write_term_mark
 
-                def noted(term: int) -> None:
-                    write_term_mark(Path(args.state), term)
+                def noted(term: int) -> str | None:
+                    fault = write_term_mark(Path(args.state), term)
                     if on_term is not None:
                         on_term(term)
+                    return fault
 
                 # Opened only to command: a standby keeps only the state
                 # it is shared (StandbyStore), not a journal.
