@@ -25,13 +25,14 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections import OrderedDict, deque
+from collections import deque
 from typing import TYPE_CHECKING, Any, TypeGuard
 
 import msgspec
 import zenoh
 
 from ..wire import messages, topics
+from .recent import Recent
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -108,7 +109,7 @@ class StandbyConfirmations:
         # Goal ids whose acceptance a standby said it holds (the newest
         # MAX_KEPT): the same verdict again, for a re-sent goal, need not
         # wait nor cost the standby a save.
-        self._kept: OrderedDict[str, None] = OrderedDict()
+        self._kept: Recent[None] = Recent(MAX_KEPT)
         self._subscriber: Any = session.declare_subscriber(
             keys.key(topics.SAVED), self._on_saved
         )
@@ -190,9 +191,7 @@ class StandbyConfirmations:
             self._waiting.popleft()
             free += verdicts
             for goal_id in goal_ids if said and not fault else ():
-                self._kept[goal_id] = None
-                if len(self._kept) > MAX_KEPT:
-                    self._kept.popitem(last=False)
+                self._kept.put(goal_id, None)
         return free, None
 
     def _alarm(self, why: str) -> None:

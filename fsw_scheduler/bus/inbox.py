@@ -19,7 +19,7 @@ import heapq
 import queue
 import threading
 import time
-from collections import OrderedDict, deque
+from collections import deque
 from typing import TYPE_CHECKING, Any
 
 import zenoh
@@ -27,6 +27,7 @@ import zenoh
 from ..runtime.inputs import goal_id_of
 from ..wire import topics
 from ..wire.messages import Busy, Dropped
+from .recent import Recent
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -202,7 +203,7 @@ class Inbox:
         #: Goal ids accepted (the newest :data:`MAX_ACCEPTED_IDS`): a goal
         #: sent again under one of them is queued past the count limit, to
         #: be answered that its verdict stands, not "busy".
-        self._accepted: OrderedDict[str, None] = OrderedDict()
+        self._accepted: Recent[None] = Recent(MAX_ACCEPTED_IDS)
 
     def note_verdict(self, goal_id: str | None, event: str) -> None:
         """A goal's verdict (from the loop): an id ``goal_accepted`` is
@@ -210,10 +211,7 @@ class Inbox:
         if goal_id is None or event != "goal_accepted":
             return
         with self._cond:
-            self._accepted[goal_id] = None
-            self._accepted.move_to_end(goal_id)
-            while len(self._accepted) > MAX_ACCEPTED_IDS:
-                self._accepted.popitem(last=False)
+            self._accepted.put(goal_id, None)
 
     def counters(self) -> dict[str, int]:
         """What the inbox refused or superseded, by status counter name."""

@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import logging
 import threading
-from collections import OrderedDict
 from typing import TYPE_CHECKING, Any
 
 import msgspec
@@ -36,6 +35,7 @@ import zenoh
 
 from ..engine.events import GoalArrived, InputRejected
 from ..wire import messages
+from .recent import Recent
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -83,7 +83,7 @@ class Provenance:
         self._publishers = publishers
         self._lock = threading.Lock()
         self._links: dict[str, str] = {}
-        self._goals: OrderedDict[str, messages.Source] = OrderedDict()
+        self._goals: Recent[messages.Source] = Recent(MAX_PENDING_GOALS)
         self._current: messages.Source | None = None
 
     # -- links ---------------------------------------------------------------
@@ -134,10 +134,7 @@ class Provenance:
         elif isinstance(event, InputRejected):
             goal_id = event.goal_id
         if goal_id is not None:
-            self._goals[goal_id] = source
-            self._goals.move_to_end(goal_id)
-            while len(self._goals) > MAX_PENDING_GOALS:
-                self._goals.popitem(last=False)
+            self._goals.put(goal_id, source)
 
     def end(self) -> None:
         """The input's event has been processed."""
@@ -154,7 +151,7 @@ class Provenance:
             "goal_accepted",
             "goal_rejected",
         ):
-            source = self._goals.pop(message.goal_id, None)
+            source = self._goals.pop(message.goal_id)
         if source is None and message.event in _VERDICTS:
             source = self._current
         if source is None:

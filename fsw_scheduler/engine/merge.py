@@ -32,19 +32,8 @@ if TYPE_CHECKING:
     from .snapshot import EngineSnapshot
     from .state import EngineState
 
-#: Lifecycle states that say an activity was commanded.
-FACT_STATES = WAS_COMMANDED
 #: States a fact handed over never overrides on the winner.
 _SETTLED = ("completed", "failed", "unknown", "obsolete")
-
-
-def commanded(snapshot: EngineSnapshot) -> set[str]:
-    """Tasks ``snapshot``'s node commanded (a dispatch was sent)."""
-    return {
-        task
-        for task, state in snapshot.lifecycle.items()
-        if state in FACT_STATES
-    } | set(snapshot.sent)
 
 
 def _defined(snapshot: EngineSnapshot | None) -> dict[str, Task]:
@@ -125,7 +114,7 @@ def facts_of(
     theirs = winner.lifecycle if winner is not None else {}
     facts = []
     for task, state in sorted(own.lifecycle.items()):
-        if state not in FACT_STATES or theirs.get(task) == state:
+        if state not in WAS_COMMANDED or theirs.get(task) == state:
             continue
         span = own.sent.get(task)
         facts.append(

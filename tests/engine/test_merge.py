@@ -9,8 +9,9 @@ from typing import TYPE_CHECKING
 
 from fsw_scheduler.engine.config import EngineConfig
 from fsw_scheduler.engine.core import Engine
+from fsw_scheduler.engine.dispatch import WAS_COMMANDED
 from fsw_scheduler.engine.events import FactsArrived, ReportArrived, TermBegan
-from fsw_scheduler.engine.merge import commanded, facts_of, lost_goals
+from fsw_scheduler.engine.merge import facts_of, lost_goals
 from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.runtime.inputs import InputDecoder
 from fsw_scheduler.wire import messages, topics
@@ -143,7 +144,8 @@ def test_every_goal_the_winner_lacks_is_carried_over() -> None:
     b.goal(_goal("gSame", "R", 1, feasible_interval=[40, 45]))
     a.goal(_goal("gTwin", "R", 1, feasible_interval=[40, 45]))
     own, theirs = b.engine.snapshot(), a.engine.snapshot()
-    assert "U" not in commanded(own) and "T" in commanded(own)
+    assert own.lifecycle.get("U") not in WAS_COMMANDED and "U" not in own.sent
+    assert own.lifecycle["T"] in WAS_COMMANDED
     facts = facts_of(own, theirs)
     assert [g.goal_id for g in facts.goals] == ["gB", "gLate"]
     assert lost_goals(own, theirs) == ["gClash"]
