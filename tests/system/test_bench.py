@@ -706,14 +706,14 @@ def test_cbc_and_cpsat_agree_on_every_feature_at_once() -> None:
 @pytest.mark.parametrize("seed", [0, 5])
 def test_infeasible_suite_is_answered_infeasible(seed: int) -> None:
     """Tests the infeasible suite (``tools/bench --suite infeasible``):
-    22 valid problems of 30-60 tasks, two of each impossible core, the
+    28 valid problems of 30-60 tasks, two of each impossible core, the
     same from their seeds, and every one answered ``infeasible`` by the
     product (never ``unknown``) with a proof that names its core, and
     by CP-SAT where it is installed."""
     from fsw_scheduler.solving.solve import solve
 
     problems = generator.suite("infeasible", seed)
-    assert len(problems) == 22
+    assert len(problems) == 28
     kinds = {bench.resource_class for bench in problems}
     assert kinds == set(bench_lib("infeasible").KINDS)
     again = generator.suite("infeasible", seed)

@@ -233,7 +233,7 @@ INFEASIBLE_PER_KIND = 2
 def infeasible_suite(seed: int = 0) -> list[BenchProblem]:
     """Return the infeasible suite: :data:`INFEASIBLE_PER_KIND` problems
     of each kind of :mod:`bench_lib.infeasible` (30-60 tasks, H up to
-    2,880, an impossible core of mandatory tasks in optional noise), 22
+    2,880, an impossible core of mandatory tasks in optional noise), 28
     in all. Every solver must answer ``infeasible``: ``unknown`` is a
     miss."""
     problems = []

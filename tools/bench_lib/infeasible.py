@@ -32,6 +32,18 @@ consumable resource, some windows and lax or tight precedences) around a
     a tight chain whose last task's window it cannot reach.
 ``group``
     a mandatory group of two options, each kept out by a pinned task.
+``energy``
+    six to nine tasks of mixed amounts (a fifth to under half of a
+    multiple resource: two, three or four fit at once) whose work in a
+    common window is more than its capacity allows there.
+``packing``
+    one more task than a binary resource has passes, each pass shorter
+    than two of them: the passes hold their total length, but none
+    holds two.
+``clash``
+    tasks that no two can share a time for different reasons (a camera
+    for some, the power for others, both between the two sets) in a
+    window shorter than their total length.
 
 Not tuned on by the proofs: the kinds are those a mission planner meets
 (the issue's shapes and their generalisations), drawn with sizes,
@@ -56,6 +68,9 @@ KINDS = (
     "pinned",
     "tight",
     "group",
+    "energy",
+    "packing",
+    "clash",
 )
 
 BINARY = ("cam", "ant")
@@ -321,6 +336,51 @@ def _group(rng: random.Random, horizon: int) -> Core:
     return core, [], [group], []
 
 
+def _energy(rng: random.Random, horizon: int) -> Core:
+    count = rng.randint(6, 9)
+    amounts = [rng.randint(20, 45) for _ in range(count)]
+    lengths = [rng.randint(5, 20) for _ in range(count)]
+    work = sum(a * n for a, n in zip(amounts, lengths, strict=True))
+    width = max(max(lengths), work // MULTIPLE["power"] - rng.randint(1, 3))
+    window = _window(rng, horizon, width)
+    core = [
+        _task(f"H{i}", n, {"power": a}, feasible_interval=window)
+        for i, (a, n) in enumerate(zip(amounts, lengths, strict=True))
+    ]
+    return core, [], [], []
+
+
+def _packing(rng: random.Random, horizon: int) -> Core:
+    passes = rng.randint(2, 5)
+    length = rng.randint(4, 12)
+    width = 2 * length - 1  # one task fits, two do not
+    room = (horizon - 1) // passes - width - 1
+    gap = rng.randint(1, max(1, min(40, room)))
+    low = rng.randint(0, horizon - passes * (width + gap) - 1)
+    windows = [
+        [low + k * (width + gap), low + k * (width + gap) + width]
+        for k in range(passes)
+    ]
+    core = [_task(f"H{i}", length, {"ant": 1}) for i in range(passes + 1)]
+    return core, [], [], windows
+
+
+def _clash(rng: random.Random, horizon: int) -> Core:
+    count = rng.randint(3, 6)
+    lengths = [rng.randint(4, 15) for _ in range(count)]
+    window = _window(rng, horizon, sum(lengths) - rng.randint(1, 3))
+    core = [
+        _task(
+            f"H{i}",
+            n,
+            {"cam": 1, "power": 45} if i % 2 else {"power": 60},
+            feasible_interval=window,
+        )
+        for i, n in enumerate(lengths)
+    ]
+    return core, [], [], []
+
+
 _CORES = {
     "lanes": _lanes,
     "rounds": _rounds,
@@ -333,4 +393,7 @@ _CORES = {
     "pinned": _pinned,
     "tight": _tight,
     "group": _group,
+    "energy": _energy,
+    "packing": _packing,
+    "clash": _clash,
 }
