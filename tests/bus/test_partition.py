@@ -15,7 +15,7 @@ stay in the plan, exactly one node commands and A says why it stood down.
 from __future__ import annotations
 
 import time
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import pytest
 
@@ -24,6 +24,15 @@ from ..factories import tool_script
 if TYPE_CHECKING:
     from pathlib import Path
     from types import ModuleType
+
+
+def _client_of(port: int) -> Any:
+    """A Zenoh client configuration of the router on ``port``."""
+    from fsw_scheduler.bus.session import loopback_config
+
+    config = loopback_config(listen=None, connect=[f"tcp/127.0.0.1:{port}"])
+    config.insert_json5("mode", '"client"')
+    return config
 
 
 def soak_partition() -> ModuleType:
@@ -274,7 +283,6 @@ def test_a_lone_node_on_an_old_folder_says_so_without_a_fence_to_ask(
 
     import zenoh
 
-    from fsw_scheduler.bus.session import loopback_config
     from fsw_scheduler.journal.state import journal_files
     from fsw_scheduler.testing import SchedulerClient
 
@@ -284,8 +292,7 @@ def test_a_lone_node_on_an_old_folder_says_so_without_a_fence_to_ask(
     router, port = soak.start_router()
     state = tmp_path / "state"
     node = soak.node(state, port, "A", 0)
-    config = loopback_config(listen=None, connect=[f"tcp/127.0.0.1:{port}"])
-    config.insert_json5("mode", '"client"')
+    config = _client_of(port)
     try:
         with zenoh.open(config) as session:
             client = SchedulerClient(session, timeout=30.0)
@@ -344,15 +351,13 @@ def test_a_commander_fenced_by_a_receiver_says_so(tmp_path: Path) -> None:
     import zenoh
 
     from fsw_scheduler.bus.fenced import FENCE_CHECK_S
-    from fsw_scheduler.bus.session import loopback_config
     from fsw_scheduler.testing import SchedulerClient
     from fsw_scheduler.wire import messages, topics
 
     soak = soak_partition()
     router, port = soak.start_router()
     node = soak.node(tmp_path / "state", port, "A", 0)
-    config = loopback_config(listen=None, connect=[f"tcp/127.0.0.1:{port}"])
-    config.insert_json5("mode", '"client"')
+    config = _client_of(port)
     try:
         node.start()
         with zenoh.open(config) as session:
@@ -388,7 +393,6 @@ def test_a_commander_whose_standby_left_says_so_until_one_is_back(
     lasts, and once a standby follows again a query says ``ok``."""
     import zenoh
 
-    from fsw_scheduler.bus.session import loopback_config
     from fsw_scheduler.testing import SchedulerClient
 
     from ..factories import ping_goal
@@ -397,8 +401,7 @@ def test_a_commander_whose_standby_left_says_so_until_one_is_back(
     router, port = soak.start_router()
     a = soak.node(tmp_path / "a", port, "A", 0)
     b = soak.node(tmp_path / "b", port, "B", 1)
-    config = loopback_config(listen=None, connect=[f"tcp/127.0.0.1:{port}"])
-    config.insert_json5("mode", '"client"')
+    config = _client_of(port)
     try:
         a.start()
         with zenoh.open(config) as session:
@@ -453,7 +456,6 @@ def test_a_term_mark_that_cannot_be_written_is_said_for_the_term(
     long as the term lasts; before, it was only in the log."""
     import zenoh
 
-    from fsw_scheduler.bus.session import loopback_config
     from fsw_scheduler.journal.state import TERM_MARK
     from fsw_scheduler.testing import SchedulerClient
 
@@ -464,8 +466,7 @@ def test_a_term_mark_that_cannot_be_written_is_said_for_the_term(
     state = tmp_path / "state"
     (state / TERM_MARK / "blocked").mkdir(parents=True)
     node = soak.node(state, port, "A", 0)
-    config = loopback_config(listen=None, connect=[f"tcp/127.0.0.1:{port}"])
-    config.insert_json5("mode", '"client"')
+    config = _client_of(port)
     try:
         node.start()
         node.wait_log(("cannot write",), 30)
