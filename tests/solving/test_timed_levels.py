@@ -65,12 +65,16 @@ def test_lowest_units_are_the_first_and_the_lowest_below_zero() -> None:
     problem = problem_from(_battery_day())
     plan = plan_of(problem, {"gen": 10, "a": 0, "b": 0})
     # Level after unit t: 7 - 4 (t + 1) for t <= 2 (two consumers), then
-    # -5 until the charge from unit 10 on: below zero from unit 1, lowest
-    # (-5) first at unit 2.
+    # -5 until the charge from unit 10 on (+3 a unit: -2 after unit 10,
+    # +1 after 11): below zero over units 1-10, lowest (-5) first at 2.
     assert lowest_units(problem, plan) == [1, 2]
+    # Spread: also the stretch's last unit (10) and one every
+    # len // 4 = 2 units across it (1, 3, 5, 7, 9).
+    assert lowest_units(problem, plan, spread=4) == [1, 2, 3, 5, 7, 9, 10]
     fine = plan_of(problem, {"gen": 10, "a": 0, "b": 10})
     assert check_plan(problem, fine).ok
     assert lowest_units(problem, fine) == []
+    assert lowest_units(problem, fine, spread=4) == []
 
 
 @settings(COMMON, max_examples=150)
