@@ -49,8 +49,16 @@ SHARE = 0.6
 #: of what is left instead: CBC did not get through the root of such a
 #: model in the rest of a 20 s limit (the large suite's f30-h1440 of
 #: seed 71, 21,630 columns: killed at the deadline after 7 s), while the
-#: rounds prove its 29-task part in 8-12 s.
-LONG_COLUMNS = 15_000
+#: rounds prove its 29-task part in 8-12 s. At 15,000 the fresh
+#: campaign's f25-h1440-1 of seed 138 (10,705 columns, whose root CBC
+#: did not get through in 3.7 s) had its last round cut at 6 s of 10
+#: and answered `feasible`; at 10,000, `optimal` in 5.5 s, as is seed
+#: 140's f25-h336-2 (8.7 s). On the fresh campaign's seeds 138-141 (72
+#: problems, 10 s) nothing else changed by more than 0.3 s; three parts
+#: of 12,000-12,600 columns that the time-indexed model proves after the
+#: rounds took 0.3-0.4 s longer (the large suite's b30-h1440 of seed 82,
+#: 9.7 -> 10.0 s of 20).
+LONG_COLUMNS = 10_000
 LONG_SHARE = 0.9
 
 #: Each round has this many times the nodes of the one before: the
