@@ -653,7 +653,7 @@ SMALL_LEVEL_ROUNDS = 1
 #: model CBC does not get through its root in 2.5 s) took ten runs of the
 #: relaxation, each moving the dip by a unit or two, and was proved at
 #: 9.93 s of a 30 s limit (`feasible` at 10 s, 2,012 units above); with
-#: the stretch spread over four more units, at 5.7 s (at 10 s, 100 units
+#: the stretch spread over four more units, at 5.7 s (at 10 s, 62-100 units
 #: above). A small part's one run keeps the two units: written there, the
 #: wider model cost paper seed 102's c15-all-5 its proof in that run
 #: (0.78 -> 3.68 s).
