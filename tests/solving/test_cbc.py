@@ -140,6 +140,15 @@ def test_sweep_kills_a_cbc_orphan_of_a_dead_parent(tmp_path: Path) -> None:
         [sys.executable, "-c", "import time; time.sleep(60)", str(tmp_path)]
     )
     try:
+        # An orphan has run for a while when a sweep comes: right after
+        # its spawn, its new arguments may not be readable yet (the
+        # parent resumes within exec; 20 in 300 on a loaded machine).
+        for process, arg in ((orphan, model), (bystander, tmp_path)):
+            cmdline = Path(f"/proc/{process.pid}/cmdline")
+            deadline = time.monotonic() + 10
+            while os.fsencode(str(arg)) not in cmdline.read_bytes():
+                assert time.monotonic() < deadline, process.args
+                time.sleep(0.001)
         assert sweep_stale_dirs(str(tmp_path)) == [str(stale)]
         assert orphan.wait(10) == -signal.SIGKILL
         assert bystander.poll() is None
