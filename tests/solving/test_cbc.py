@@ -145,10 +145,10 @@ def test_sweep_kills_a_cbc_orphan_of_a_dead_parent(tmp_path: Path) -> None:
         # parent resumes within exec; 20 in 300 on a loaded machine).
         for process, arg in ((orphan, model), (bystander, tmp_path)):
             cmdline = Path(f"/proc/{process.pid}/cmdline")
-            deadline = time.monotonic() + 10
-            while os.fsencode(str(arg)) not in cmdline.read_bytes():
-                assert time.monotonic() < deadline, process.args
-                time.sleep(0.001)
+            assert _until(
+                lambda c=cmdline, a=os.fsencode(str(arg)): a in c.read_bytes(),
+                10,
+            ), process.args
         assert sweep_stale_dirs(str(tmp_path)) == [str(stale)]
         assert orphan.wait(10) == -signal.SIGKILL
         assert bystander.poll() is None
