@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import os
 import random
 import signal
@@ -81,6 +82,12 @@ def _children(pid: int) -> list[int]:
     return found
 
 
+def _has_arg(pid: int, arg: Path) -> bool:
+    """Whether ``arg`` is among the arguments /proc shows for ``pid``."""
+    cmdline = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+    return os.fsencode(str(arg)) in cmdline
+
+
 def _until(condition: Callable[[], object], timeout: float) -> bool:
     """Poll ``condition`` every 10 ms for up to ``timeout`` seconds."""
     end = time.monotonic() + timeout
@@ -144,11 +151,8 @@ def test_sweep_kills_a_cbc_orphan_of_a_dead_parent(tmp_path: Path) -> None:
         # its spawn, its new arguments may not be readable yet (the
         # parent resumes within exec; 20 in 300 on a loaded machine).
         for process, arg in ((orphan, model), (bystander, tmp_path)):
-            cmdline = Path(f"/proc/{process.pid}/cmdline")
-            assert _until(
-                lambda c=cmdline, a=os.fsencode(str(arg)): a in c.read_bytes(),
-                10,
-            ), process.args
+            readable = functools.partial(_has_arg, process.pid, arg)
+            assert _until(readable, 10), process.args
         assert sweep_stale_dirs(str(tmp_path)) == [str(stale)]
         assert orphan.wait(10) == -signal.SIGKILL
         assert bystander.poll() is None
