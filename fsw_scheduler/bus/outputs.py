@@ -370,8 +370,9 @@ class NodeOutputs:
                 self._journal.tap = []
                 self._seq += 1
             return None
-        self._sharing = True
-        self.standing.put(STANDBY_LEFT, None)
+        if not self._sharing:
+            self._sharing = True  # a standby (back): nothing to say
+            self.standing.put(STANDBY_LEFT, None)
         before = self._seq
         seq = self.share_changes(confirm)
         if time.monotonic() >= self._snapshot_due:

@@ -714,11 +714,11 @@ def serve(
             )
         elif node.wait_stopped(0):
             break  # the node's loop died: let a supervisor restart us
-        elif (alarm := fences.check(node.term)) is not None:
-            redundancy.publish_alarm(node, alarm)
-            node.standing.put(FENCE, alarm)
-        elif fences.standing is None:
-            node.standing.put(FENCE, None)
+        else:
+            if (alarm := fences.check(node.term)) is not None:
+                redundancy.publish_alarm(node, alarm)
+            # A status query names it for as long as the last answer did.
+            node.standing.put(FENCE, fences.standing)
         redundancy.answer()
         with contextlib.suppress(queue.Empty):
             redundancy.changes.get(timeout=POLL_S)
