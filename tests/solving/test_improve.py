@@ -131,3 +131,38 @@ def test_a_left_out_task_is_freed_with_the_partner_it_needs() -> None:
     found = run(problem, domains=narrowed, warm=plan.starts(), time_limit=20)
     assert found.starts() == {"a": 0, "b": 80}
     assert check_plan(problem, found).ok
+
+
+def test_a_task_in_the_way_may_move_far_from_the_window() -> None:
+    """Tests that a neighbourhood's free task may move anywhere in its
+    domain: ``m`` (mandatory, at 0) keeps ``w`` (worth 5, only at 0-10)
+    out, and ``f`` (pinned: not freed) fills 10-60, so ``m`` has room
+    only 50 units past the window; the neighbourhood of ``w`` and ``m``
+    over [0, 20) places both."""
+    problem = problem_from(
+        make_doc(
+            [
+                make_task("m", 10, uses={"cam": 1}, schedule_cost=0),
+                make_task("f", 50, uses={"cam": 1}, schedule_cost=1),
+                make_task(
+                    "w",
+                    10,
+                    uses={"cam": 1},
+                    schedule_cost=5,
+                    feasible_interval=[0, 10],
+                ),
+            ],
+            horizon=100,
+            resources={"binary": ["cam"]},
+        )
+    )
+    plan = plan_of(problem, {"m": 0, "f": 10, "w": None})
+    assert check_plan(problem, plan).ok
+    domains = start_domains(problem)
+    narrowed = improve._neighbourhood(problem, plan, domains, 0, 20, 2)
+    assert narrowed is not None
+    assert narrowed["f"].earliest == narrowed["f"].latest == 10
+    run = functools.partial(solve_ilp, solver="cbc", threads=1)
+    found = run(problem, domains=narrowed, warm=plan.starts(), time_limit=20)
+    assert check_plan(problem, found).ok
+    assert found.starts() == {"m": 60, "f": 10, "w": 0}

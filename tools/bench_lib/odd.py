@@ -2,14 +2,16 @@
 
 The campaign generators draw problems of a few families at fixed
 horizons; these draw any mix the format allows, at sizes where CP-SAT
-answers at once: 4-22 tasks, horizons of 20-700 units starting at 0-100,
-zero to three cameras (some with availability windows), zero to two
-multiple resources (some with capacity steps), zero to two consumables
-(some with a ceiling and external charge; some tasks generate), windows
-on the start or on the whole task, tight and lax precedences of both
-scopes with offsets of either sign, and now and then a group of
-alternatives. Nothing guarantees feasibility. All randomness comes from
-:class:`random.Random` seeded with the problem's number.
+answers at once: 4-22 tasks, horizons of 20-700 units starting at 0-100
+(or, ``large``, 30-60 tasks over 120-2,880 units, where neither solver
+always proves its answer in 20 s), zero to three cameras (some with
+availability windows), zero to two multiple resources (some with
+capacity steps), zero to two consumables (some with a ceiling and
+external charge; some tasks generate), windows on the start or on the
+whole task, tight and lax precedences of both scopes with offsets of
+either sign, and now and then a group of alternatives. Nothing
+guarantees feasibility. All randomness comes from :class:`random.Random`
+seeded with the problem's number.
 """
 
 from __future__ import annotations
@@ -21,13 +23,19 @@ from typing import Any
 HORIZONS = (20, 40, 60, 120, 300, 700)
 #: Problem starts drawn from.
 STARTS = (0, 0, 5, 100)
+#: Task counts and horizons of the large shapes (``tools/fuzz --large``):
+#: the sizes the large, orbit and replan suites measure, drawn as freely.
+LARGE_SIZES = (30, 60)
+LARGE_HORIZONS = (120, 300, 700, 1440, 2880)
 
 
-def generate_problem(seed: int) -> dict[str, Any]:
-    """Problem ``seed`` as a JSON-ready dict."""
+def generate_problem(seed: int, large: bool = False) -> dict[str, Any]:
+    """Problem ``seed`` as a JSON-ready dict; ``large``: of
+    :data:`LARGE_SIZES` tasks over one of :data:`LARGE_HORIZONS`, drawn
+    otherwise the same way."""
     rng = random.Random(seed)
-    size = rng.randint(4, 22)
-    horizon = rng.choice(HORIZONS)
+    size = rng.randint(*LARGE_SIZES) if large else rng.randint(4, 22)
+    horizon = rng.choice(LARGE_HORIZONS if large else HORIZONS)
     start = rng.choice(STARTS)
     resources, binary, multiple, consumable = _resources(rng, start, horizon)
     tasks = [
