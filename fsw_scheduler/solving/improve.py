@@ -277,8 +277,8 @@ def _neighbourhood(
 
     The free tasks may move anywhere in their domains, not only near the
     window (they were held within 15 units of it): what keeps a left-out
-    task out is often a task that fits only far away. On ``tools/fuzz``
-    shapes of 30-60 tasks, seed 531 (58 tasks, H = 300, a power resource
+    task out is often a task that fits only far away. On ``tools/fuzz
+    --large`` seed 531 (58 tasks, H = 300, a power resource
     of capacity 3 over [100, 200) and 1 after): a mandatory 10-unit task
     placed at 112 kept two tasks with windows there out, and its only
     other room was past 300. Held near the window the search ended at 28
@@ -329,7 +329,6 @@ def _neighbourhood(
         domain = domains[task.id]
         start = starts.get(task.id)
         if (task.id in partners or task.id in free) and not domain.empty:
-            # Anywhere in its domain (see FREE_ANYWHERE).
             narrowed[task.id] = domain
         elif start is not None:
             narrowed[task.id] = Domain(start, start)
