@@ -17,7 +17,7 @@ import pytest
 
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.model.plan import SolveStatus
-from fsw_scheduler.solving.ilp import cbc
+from fsw_scheduler.solving.ilp import cbc, progress
 from fsw_scheduler.solving.ilp.cbc import CbcRun, sweep_stale_dirs
 from fsw_scheduler.solving.ilp.program import EQ, Program
 from fsw_scheduler.solving.ilp.progress import WatchedCbcRun, line_buffered
@@ -379,3 +379,18 @@ def test_an_interrupted_run_proves_no_infeasibility(
     assert result.interrupted
     assert result.status is SolveStatus.UNKNOWN
     assert "interrupted: no proof" in result.solver_status
+
+
+def test_a_run_in_its_search_is_interrupted_at_its_deadline() -> None:
+    """Tests that a CBC run of more than a second that is in its search
+    when the early interrupt is due (the market split program: its root
+    takes milliseconds, its search minutes) is interrupted just before
+    its deadline, not 0.7 s earlier, and still ends within its limit."""
+    run = WatchedCbcRun(time_limit=3.0)
+    began = time.monotonic()
+    result = run.solve(_market_split())
+    took = time.monotonic() - began
+    assert result.interrupted
+    assert "killed" not in result.solver_status
+    # Margin 0.3 s: interrupted at 2.6 s (the early interrupt: 2.0 s).
+    assert 2.4 <= took <= 3.0 + progress.KILL_MARGIN_S, took

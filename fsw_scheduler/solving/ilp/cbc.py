@@ -499,6 +499,8 @@ class CbcRun:
         self.interrupted = False
         #: Seconds from SIGINT to kill in the current run (:meth:`solve`).
         self.grace_s = GRACE_S
+        #: Matrix entries of the current run's program.
+        self.entries = 0
 
     def solve(
         self, program: Program, warm: Sequence[float] | None = None
@@ -583,6 +585,7 @@ class CbcRun:
         if self.time_limit is not None and self.time_limit < MIN_CBC_S:
             return _not_started()
         self.grace_s = max(GRACE_S, GRACE_S_PER_ENTRY * program.num_entries)
+        self.entries = program.num_entries
         with tempfile.TemporaryDirectory(prefix=_dir_prefix()) as tmp:
             files = {
                 kind: os.path.join(tmp, f"model.{kind}")
@@ -739,14 +742,17 @@ class CbcRun:
         finally:
             timer.cancel()
 
-    def _stop(self, process: subprocess.Popen) -> None:
-        """SIGINT (CBC then writes its best solution), kill after grace."""
+    def _stop(
+        self, process: subprocess.Popen, grace_s: float | None = None
+    ) -> None:
+        """SIGINT (CBC then writes its best solution), kill after
+        ``grace_s`` (default :attr:`grace_s`)."""
         if process.poll() is not None:
             return
         self.interrupted = True
         process.send_signal(signal.SIGINT)
         try:
-            process.wait(self.grace_s)
+            process.wait(self.grace_s if grace_s is None else grace_s)
         except subprocess.TimeoutExpired:
             process.kill()
 
