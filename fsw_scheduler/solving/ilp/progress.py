@@ -50,18 +50,18 @@ KILL_MARGIN_S = 0.3
 #: is a larger share, and small models answer the interrupt at once).
 SHORT_S = 1.0
 
-#: A model of at most this many matrix entries whose CBC has begun its
-#: search (its log says "After N nodes") when the early interrupt is due
-#: is interrupted :data:`SEARCH_EARLY_S` before its deadline instead,
-#: and killed :data:`KILL_MARGIN_S` after it as before: in its search
-#: CBC answers an interrupt between nodes. On a 15-task time-indexed
-#: model of 2,800 columns and 21,324 entries (66 ms a node, root done at
-#: 0.64 s) CBC exited 32-150 ms after SIGINTs sent in its search; in its
-#: root, after up to 500 ms, and one sent while it read the model was
-#: lost (it ran to its end, 3.3 s). The early interrupt had cut 0.7 s
-#: off every run of more than a second: the fuzz shape of seed 613 (38
-#: tasks, H = 300), whose whole model narrowed CBC proves in 4.0 s, got
-#: 3.4 s of a 4.4 s share at a 10 s limit and was answered `feasible`.
+#: A model of at most this many matrix entries whose CBC has begun its search
+#: (its log says "After N nodes") when the early interrupt is due is
+#: interrupted :data:`SEARCH_EARLY_S` before its deadline instead, and killed
+#: when it was before (:data:`KILL_MARGIN_S` after the deadline): in its search
+#: CBC answers an interrupt between nodes. On a 15-task time-indexed model of
+#: 2,800 columns and 21,324 entries (66 ms a node, root done at 0.64 s) CBC
+#: exited 32-150 ms after SIGINTs sent in its search; in its root, after up to
+#: 500 ms, and one sent while it read the model was lost (it ran to its end,
+#: 3.3 s). The early interrupt had cut 0.7 s off every run of more than a
+#: second: the fuzz shape of seed 613 (38 tasks, H = 300), whose whole model
+#: narrowed CBC proves in 4.0 s, got 3.4 s of a 4.4 s share at a 10 s limit and
+#: was answered `feasible`.
 SEARCH_ENTRIES = 30_000
 SEARCH_EARLY_S = 0.1
 
