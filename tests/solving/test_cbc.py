@@ -243,16 +243,22 @@ def test_a_bound_above_a_held_plan_is_not_trusted() -> None:
     assert close.root == -284500
 
 
+def _two_of_three() -> Program:
+    """Two of three binaries, the cheapest: a program CBC proves at once."""
+    program = Program()
+    cols = [program.add_column(0, 1, integer=True) for _ in range(3)]
+    program.add_row(dict.fromkeys(cols, 1), EQ, 2)
+    program.set_objective({c: k + 1 for k, c in enumerate(cols)})
+    return program
+
+
 def test_a_run_whose_cuts_overshoot_reports_the_root_bound(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Tests that CbcRun reports the root LP bound and no proof when its
     log shows cuts above the plan it holds (the real log of that run,
     written where CBC's own goes)."""
-    program = Program()
-    cols = [program.add_column(0, 1, integer=True) for _ in range(3)]
-    program.add_row(dict.fromkeys(cols, 1), EQ, 2)
-    program.set_objective({c: k + 1 for k, c in enumerate(cols)})
+    program = _two_of_three()
     real = cbc.CbcRun._run
 
     def run_then_replay(
@@ -357,10 +363,7 @@ def test_an_interrupted_run_proves_no_infeasibility(
     in its root, seen on a 13,660-column model with a valid plan known)
     answers ``unknown``, not ``infeasible``: the real CBC runs, then its
     solution file is the one of that run."""
-    program = Program()
-    cols = [program.add_column(0, 1, integer=True) for _ in range(3)]
-    program.add_row(dict.fromkeys(cols, 1), EQ, 2)
-    program.set_objective({c: k + 1 for k, c in enumerate(cols)})
+    program = _two_of_three()
     real = cbc.CbcRun._run
 
     def run_then_interrupted(
