@@ -52,7 +52,8 @@ from ..runtime.policy import (
     run_explain,
     run_solve,
 )
-from ..solving.ilp.cbc import Cancel, cancel_scope, sweep_stale_dirs
+from ..solving.ilp.cbc import Cancel, cancel_scope
+from ..solving.ilp.child import sweep_stale_dirs
 from ..wire import messages, topics
 from ..wire.terms import MAX_TERM
 from .inbox import BUS_INPUTS, NOTICES, Inbox, Worker, direct

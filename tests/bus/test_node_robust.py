@@ -906,7 +906,7 @@ def test_cbc_dies_with_a_killed_node(tmp_path: Path) -> None:
         process.wait(10)
         _wait_for(lambda: not _alive(cbc), 5, "CBC gone with its parent")
         # Its temporary directory is left; the next node removes it.
-        from fsw_scheduler.solving.ilp.cbc import sweep_stale_dirs
+        from fsw_scheduler.solving.ilp.child import sweep_stale_dirs
 
         folder = str(Path(model).parent)
         assert Path(folder).exists()

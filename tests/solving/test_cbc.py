@@ -17,8 +17,9 @@ import pytest
 
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.model.plan import SolveStatus
-from fsw_scheduler.solving.ilp import cbc, progress
-from fsw_scheduler.solving.ilp.cbc import CbcRun, sweep_stale_dirs
+from fsw_scheduler.solving.ilp import cbc, child, progress
+from fsw_scheduler.solving.ilp.cbc import CbcRun
+from fsw_scheduler.solving.ilp.child import sweep_stale_dirs
 from fsw_scheduler.solving.ilp.program import EQ, Program
 from fsw_scheduler.solving.ilp.progress import WatchedCbcRun, line_buffered
 from fsw_scheduler.solving.solve import solve
@@ -38,10 +39,10 @@ linux = pytest.mark.skipif(
 _PARENT = textwrap.dedent(
     """
     import random, sys
-    from fsw_scheduler.solving.ilp import cbc
+    from fsw_scheduler.solving.ilp import cbc, child
     from fsw_scheduler.solving.ilp.program import EQ, Program
     if sys.argv[1] == "preexec":
-        cbc._setpriv = lambda: None
+        child._setpriv = lambda: None
     rng = random.Random(7)
     program = Program()
     cols = [program.add_column(0, 1, integer=True) for _ in range(40)]
@@ -102,7 +103,7 @@ def _until(condition: Callable[[], object], timeout: float) -> bool:
 @pytest.mark.parametrize("guard", ["setpriv", "preexec"])
 def test_cbc_dies_when_its_parent_is_killed(guard: str) -> None:
     """Tests that SIGKILL of the solving process also ends its CBC."""
-    if guard == "setpriv" and cbc._setpriv() is None:
+    if guard == "setpriv" and child._setpriv() is None:
         pytest.skip("no setpriv with --pdeathsig")
     parent = subprocess.Popen(
         [sys.executable, "-c", _PARENT, guard],
@@ -171,8 +172,8 @@ def test_one_thread_runs_cbc_serial_search() -> None:
 
 def test_cbc_is_spawned_without_python_in_the_child() -> None:
     """Tests that with setpriv the child runs no preexec_fn (vfork)."""
-    command, preexec = cbc._guarded(["cbc", "model.mps"])
-    if cbc._setpriv() is None:
+    command, preexec = child.guarded(["cbc", "model.mps"])
+    if child._setpriv() is None:
         assert command == ["cbc", "model.mps"]
     else:
         assert preexec is None
