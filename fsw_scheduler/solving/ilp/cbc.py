@@ -48,7 +48,7 @@ from ...model.plan import SolveStatus
 from .child import dir_prefix, guarded
 
 if TYPE_CHECKING:
-    from collections.abc import Iterator, Sequence
+    from collections.abc import Callable, Iterator, Sequence
 
     from .program import Program
 
@@ -578,8 +578,14 @@ class CbcRun:
         """CBC's environment; None inherits this process's."""
         return None
 
-    def _wait(self, process: subprocess.Popen, deadline: float | None) -> None:
-        """Wait for CBC; past the deadline interrupt it, then kill it.
+    def _wait(
+        self,
+        process: subprocess.Popen,
+        deadline: float | None,
+        stop: Callable[[subprocess.Popen], None] | None = None,
+    ) -> None:
+        """Wait for CBC; past the deadline interrupt it, then kill it
+        (``stop``, :meth:`_stop` by default, on a timer thread).
 
         The wait itself blocks in ``waitpid``: ``Popen.wait(timeout)``
         polls with sleeps of up to 50 ms, which added about 20 ms to every
@@ -588,7 +594,7 @@ class CbcRun:
         if deadline is None:
             process.wait()
             return
-        timer = threading.Timer(deadline, self._stop, (process,))
+        timer = threading.Timer(deadline, stop or self._stop, (process,))
         timer.daemon = True
         timer.start()
         try:

@@ -30,6 +30,7 @@ import logging
 import os
 import re
 import shutil
+import subprocess
 import threading
 import time
 from pathlib import Path
@@ -38,7 +39,7 @@ from typing import TYPE_CHECKING
 from .cbc import GRACE_S, CbcRun
 
 if TYPE_CHECKING:
-    import subprocess
+    from collections.abc import Callable
 
 #: Seconds between two progress lines.
 PROGRESS_S = 3.0
@@ -291,48 +292,36 @@ class WatchedCbcRun(CbcRun):
     def _environment(self) -> dict[str, str] | None:
         return line_buffered(dict(os.environ))
 
-    def _wait(self, process: subprocess.Popen, deadline: float | None) -> None:
+    def _wait(
+        self,
+        process: subprocess.Popen,
+        deadline: float | None,
+        stop: Callable[[subprocess.Popen], None] | None = None,
+    ) -> None:
         if deadline is None or deadline <= SHORT_S:
-            super()._wait(process, deadline)
+            super()._wait(process, deadline, stop)
             return
         early = max(deadline - GRACE_S + KILL_MARGIN_S, SHORT_S)
-        if self.entries > SEARCH_ENTRIES or self.grace_s > GRACE_S:
-            super()._wait(process, early)
+        if (
+            stop is not None
+            or self.entries > SEARCH_ENTRIES
+            or self.grace_s > GRACE_S
+        ):
+            super()._wait(process, early, stop)
             return
         began = time.monotonic()
-        lock = threading.Lock()
-        later: list[threading.Timer] = []
-        waited = False
 
-        def interrupt() -> None:
-            if process.poll() is not None:
-                return
+        def interrupt(process: subprocess.Popen) -> None:
+            # At the early interrupt; in its search CBC gets it at the
+            # deadline instead, and is killed when it would have been
+            # (see SEARCH_ENTRIES).
             if not _searching(self._log_path):
                 self._stop(process)
                 return
-            # In its search: the interrupt at the deadline, the kill when
-            # the early interrupt's would have come (see SEARCH_ENTRIES).
             at = deadline - SEARCH_EARLY_S
-            timer = threading.Timer(
-                max(0.0, at - (time.monotonic() - began)),
-                self._stop,
-                (process, early + GRACE_S - at),
-            )
-            timer.daemon = True
-            with lock:
-                if waited:
-                    return
-                later.append(timer)
-                timer.start()
+            try:
+                process.wait(max(0.0, at - (time.monotonic() - began)))
+            except subprocess.TimeoutExpired:
+                self._stop(process, early + GRACE_S - at)
 
-        first = threading.Timer(early, interrupt)
-        first.daemon = True
-        first.start()
-        try:
-            process.wait()
-        finally:
-            first.cancel()
-            with lock:
-                waited = True
-                for timer in later:
-                    timer.cancel()
+        super()._wait(process, early, interrupt)
