@@ -71,34 +71,46 @@ def forced_tasks(problem: Problem) -> set[str]:
     """Tasks that every valid plan schedules.
 
     The required tasks (:meth:`Problem.required`: a member of a group is
-    not, one by one), closed under "needs": the ``before`` of any
-    precedence whose ``after`` is forced, the ``after`` of a ``both``
-    precedence whose ``before`` is forced, and the other tasks of a
-    forced member's option.
+    not, one by one), closed under "needs" (:func:`with_needs`).
     """
-    forced = {task.id for task in problem.tasks if problem.required(task)}
+    return with_needs(
+        problem, {task.id for task in problem.tasks if problem.required(task)}
+    )
+
+
+def with_needs(problem: Problem, names: Set[str]) -> set[str]:
+    """``names`` and every task a plan scheduling them must schedule too.
+
+    The closure under "needs": the ``before`` of any precedence whose
+    ``after`` is in it, the ``after`` of a ``both`` precedence whose
+    ``before`` is, and the other tasks of a member's option. A
+    sub-problem of a set so closed keeps every rule that binds its tasks
+    to the others: a plan of it holds on ``problem`` with the others left
+    out.
+    """
+    needed = set(names)
     index = problem.groups
     present = {task.id for task in problem.tasks}
-    changed = bool(forced)
+    changed = bool(needed)
     while changed:
         changed = False
-        for name in list(forced):
+        for name in list(needed):
             for partner in index.partners(name):
-                if partner in present and partner not in forced:
-                    forced.add(partner)
+                if partner in present and partner not in needed:
+                    needed.add(partner)
                     changed = True
         for prec in problem.precedences:
-            if prec.after in forced and prec.before not in forced:
-                forced.add(prec.before)
+            if prec.after in needed and prec.before not in needed:
+                needed.add(prec.before)
                 changed = True
             if (
                 prec.scope == "both"
-                and prec.before in forced
-                and prec.after not in forced
+                and prec.before in needed
+                and prec.after not in needed
             ):
-                forced.add(prec.after)
+                needed.add(prec.after)
                 changed = True
-    return forced
+    return needed
 
 
 class TightConflict(NamedTuple):

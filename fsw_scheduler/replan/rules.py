@@ -472,27 +472,10 @@ def rule_tight_chain(work: Work) -> None:
     definition) with the catalog precedences that join them to live tasks.
     Obsolete tasks never come back.
     """
-    tight = [p for p in work.catalog_precedences if p.kind == "tight"]
-    seen = set(work.rescheduled)
-    queue = list(work.rescheduled)
     added: list[str] = []
-    while queue:
-        name = queue.pop(0)
-        for prec in tight:
-            if name not in (prec.before, prec.after):
-                continue
-            other = prec.after if prec.before == name else prec.before
-            if other in seen or other in work.obsolete:
-                continue
-            seen.add(other)
-            queue.append(other)
-            if (
-                other not in work.tasks
-                and other in work.runs
-                and (other in work.catalog)
-            ):
-                work.tasks[other] = work.catalog[other]
-                added.append(other)
+    for name in executed_chain(work, work.rescheduled):
+        work.tasks[name] = work.catalog[name]
+        added.append(name)
     if not added:
         return
     work.readded += added
@@ -511,6 +494,33 @@ def rule_tight_chain(work: Work) -> None:
             present.add(prec)
 
 
+def executed_chain(work: Work, names: Sequence[str]) -> list[str]:
+    """The executed tasks tied to ``names`` by tight precedences of the
+    catalog (transitively, in either direction) that a chain brought back
+    would re-add: not live, finished, in the catalog, not obsolete."""
+    tight = [p for p in work.catalog_precedences if p.kind == "tight"]
+    seen = set(names)
+    queue = list(names)
+    found: list[str] = []
+    while queue:
+        name = queue.pop(0)
+        for prec in tight:
+            if name not in (prec.before, prec.after):
+                continue
+            other = prec.after if prec.before == name else prec.before
+            if other in seen or other in work.obsolete:
+                continue
+            seen.add(other)
+            queue.append(other)
+            if (
+                other not in work.tasks
+                and other in work.runs
+                and (other in work.catalog)
+            ):
+                found.append(other)
+    return found
+
+
 def rule_settled_precedences(work: Work) -> tuple[list[str], list[str]]:
     """Precedences touching a finished task are dropped.
 
@@ -524,8 +534,10 @@ def rule_settled_precedences(work: Work) -> tuple[list[str], list[str]]:
     start is removed (rule ``window_passed``). A tight successor whose
     required start has already passed can no longer follow its
     precondition: it is handed to :func:`rule_tight_chain`, which runs the
-    precondition again. A precedence whose ``after`` is pinned (already
-    started) is settled and dropped.
+    precondition again, unless that would bring back a mandatory task for
+    an optional successor (:func:`_reruns_mandatory`): such a successor
+    is removed (``window_passed``). A precedence whose ``after`` is pinned
+    (already started) is settled and dropped.
 
     Returns
     -------
@@ -547,7 +559,15 @@ def rule_settled_precedences(work: Work) -> tuple[list[str], list[str]]:
             continue
         bound = run[1] + prec.offset
         if prec.kind == "tight" and bound < work.now:
-            redo.append(prec.after)
+            if _reruns_mandatory(work, prec.after):
+                seeds.setdefault(
+                    prec.after,
+                    f"its tight precondition {prec.before} ran (ended "
+                    f"{run[1]}) and is mandatory: it is not run again for "
+                    "an optional task",
+                )
+            else:
+                redo.append(prec.after)
             continue
         high = None if prec.kind == "lax" else bound
         task = _bounded(work, work.tasks[prec.after], bound, high)
@@ -563,6 +583,34 @@ def rule_settled_precedences(work: Work) -> tuple[list[str], list[str]]:
     for name, detail in seeds.items():
         work.remove(name, "window_passed", detail)
     return [n for n in redo if n in work.tasks], list(seeds)
+
+
+def _reruns_mandatory(work: Work, successor: str) -> bool:
+    """True when running ``successor``'s tight chain again would bring
+    back a mandatory executed task for an optional ``successor``.
+
+    A mandatory task that ran has met its requirement; brought back from
+    the catalog it would be mandatory again, so an optional successor
+    (one the plan may well leave out) would force a second run, and with
+    it perhaps a problem without a plan. Such a successor leaves instead
+    (replan suite, seed 147's r60-h1440-1: a 35-unit camera task run
+    again for a successor the plan had left out; the replan found no
+    start plan and answered ``unknown``).
+    """
+    task = work.tasks[successor]
+    member = any(
+        successor in option
+        for group in work.groups
+        for option in group.options
+    )
+    if task.fixed_start is not None or (
+        task.schedule_cost == 0 and not member
+    ):
+        return False  # required: its precondition runs again
+    return any(
+        work.catalog[name].schedule_cost == 0
+        for name in executed_chain(work, [successor])
+    )
 
 
 def rule_window_passed(work: Work) -> list[str]:

@@ -29,7 +29,7 @@ import msgspec
 
 from ..analysis.domains import start_domains
 from ..analysis.greedy import around_core, checked_starts, forced_alone
-from ..analysis.proofs import forced_tasks
+from ..analysis.proofs import forced_tasks, with_needs
 from ..analysis.stores import never_short
 from ..model.plan import Blocker, Plan, SolverStats, SolveStatus
 from .budget import stop_at
@@ -128,7 +128,14 @@ def forced_start(
         for option in group.options
         for name in option
     }
-    alone = without_slack(forced_alone(problem, forced | supplies | options))
+    # With what the supplies and options need (a supply that must follow
+    # an optional task): a core plan without it does not hold on the part
+    # (replan suite, seed 147's r60-h1440-1: the core's battery supply
+    # needed a lax predecessor; the core was planned in 0.1 s, refused on
+    # the part, and the part answered `unknown` at 10 s).
+    alone = without_slack(
+        forced_alone(problem, with_needs(problem, forced | supplies | options))
+    )
     core = _relaxed_core(alone, run, limit)
     if core is None:
         if limit is not None:

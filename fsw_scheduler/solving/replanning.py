@@ -412,7 +412,14 @@ def _afresh(
     )
     starts = [p for p in (held, fresh) if p and p.objective is not None]
     if not starts:
-        return None
+        # No rule placed the forced tasks: the solver plans them alone, as
+        # in a fresh solve (replan suite, seed 147's r60-h1440-1: a
+        # finished mandatory task run again for its tight successor, the
+        # battery short until a supply with a predecessor runs).
+        core = forced_start(problem, run, began + time_limit)
+        if core is None or core.objective is None:
+            return None
+        starts = [core]
     # On a tie, what the plan in force keeps.
     start = min(starts, key=lambda p: p.objective.total if p.objective else 0)
     # The relaxation from a replan's minimum and share, as after a repair:

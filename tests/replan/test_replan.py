@@ -412,6 +412,29 @@ def test_rule_settled_precedences_rerun_passed_precondition() -> None:
     assert placed(plan, "a").end == placed(plan, "t").start
 
 
+def test_rule_settled_precedences_keep_a_mandatory_precondition_done() -> None:
+    """Tests that an optional successor late for a mandatory precondition
+    that ran leaves, with its tight followers, instead of bringing the
+    precondition back mandatory (a second run every plan would have to
+    hold, for a task the plan may leave out; the replan suite's seed 147
+    answered ``unknown`` so)."""
+    problem = small(
+        [task("a", schedule_cost=0), task("t"), task("u")],
+        [tight("a", "t", "at_least_first"), tight("t", "u")],
+    )
+    schedule = Schedule.begin(problem, plan_of(problem, {"a": 0}))
+    replan = apply_levels(schedule, {}, 5)
+    assert replan.readded == ()
+    assert rules(replan) == {
+        "a": "finished",
+        "t": "window_passed",
+        "u": "tight_cascade",
+    }
+    assert ids(replan) == []
+    reason = next(r.detail for r in replan.removed if r.task == "t")
+    assert "a ran (ended 2) and is mandatory" in reason
+
+
 def test_rule_settled_precedences_without_start_left() -> None:
     """Tests that an anchored successor with no start left is removed."""
     problem = small(

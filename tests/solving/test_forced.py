@@ -43,6 +43,14 @@ BATTERY_CORE = Path(__file__).parent / "data" / "forced-core-battery-r60.json"
 BATTERY_CORE_ALONE = (
     Path(__file__).parent / "data" / "forced-core-battery-8.json"
 )
+#: The replan suite's seed 147 r60-h1440-1, the new day after its goal
+#: (as the replan rules made it before a mandatory task was no longer run
+#: again for an optional successor): 56 tasks over [60, 1500), 4 forced,
+#: a battery the forced tasks empty but for one optional supply, T047,
+#: which may run only with an optional lax predecessor, T055.
+SUPPLY_NEEDS = (
+    Path(__file__).parent / "data" / "forced-core-supply-needs-r60.json"
+)
 
 
 @pytest.fixture(scope="module")
@@ -254,3 +262,40 @@ def test_a_core_that_is_the_whole_problem_is_proved() -> None:
     assert plan.objective is not None and plan.objective.total == 3638
     assert check_plan(problem, plan).ok
     assert plan.stats is not None and "whole part" in plan.stats.solver_status
+
+
+def test_a_supply_brings_what_it_needs_into_the_core() -> None:
+    """Tests that the forced core holds what its supplies need: T047
+    charges the battery and needs T055 before it (lax, at least the
+    first). Without T055 the core's plan was refused on the part, and the
+    part answered ``unknown`` at 10 s (CP-SAT proves a plan in 16 s)."""
+    problem = decode_problem(SUPPLY_NEEDS.read_bytes())
+    assert greedy_plan(problem) is None
+    run = functools.partial(solve_ilp, solver="cbc", threads=1)
+    plan = forced_start(problem, run, time.perf_counter() + 10)
+    assert plan is not None and check_plan(problem, plan).ok
+    kept = {a.task for a in plan.activities}
+    assert forced_tasks(problem) | {"T047", "T055"} <= kept
+    answer = solve(problem, time_limit=6)
+    assert answer.status is SolveStatus.FEASIBLE
+    assert check_plan(problem, answer).ok
+
+
+def test_a_replan_the_repair_cannot_start_plans_the_forced_core() -> None:
+    """Tests that a replan whose repair and start heuristic both fail
+    (the plan in force holds nothing of the new day's forced tasks)
+    starts from the forced core in its own share, as a fresh solve does:
+    an answer with a plan and a bound, within the limit. Before, it fell
+    through to a whole model too large to start in the share, and said
+    ``unknown`` after a second of a 10 s limit."""
+    problem = decode_problem(SUPPLY_NEEDS.read_bytes())
+    in_force = Plan(
+        SolveStatus.FEASIBLE,
+        None,
+        unscheduled=tuple(task.id for task in problem.tasks),
+    )
+    began = time.perf_counter()
+    answer = solve(problem, time_limit=10, warm=in_force)
+    assert time.perf_counter() - began <= 10
+    assert answer.status.has_plan and check_plan(problem, answer).ok
+    assert answer.stats is not None and answer.stats.bound is not None
