@@ -391,8 +391,9 @@ def _afresh(
     """A replan the repair cannot start: solved as a fresh large part
     (:func:`~.large.improved`), from the better of the start heuristic's
     plan and what of the plan in force holds by itself
-    (:func:`~fsw_scheduler.solving.repair.holding`), or None when neither
-    is a plan.
+    (:func:`~fsw_scheduler.solving.repair.holding`), else from the
+    solver's plan of the forced tasks (:func:`~.forced.forced_start`, as
+    a fresh solve starts); None when none of these is a plan.
 
     The start heuristic has the same share of the limit as in a fresh
     solve; under load it is stopped early, with little more than the
