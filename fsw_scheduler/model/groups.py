@@ -19,7 +19,7 @@ import msgspec
 if TYPE_CHECKING:
     from collections.abc import Collection, Iterable
 
-    from .problem import Alternative, Problem
+    from .problem import Alternative, Problem, Task
 
 __all__ = [
     "Groups",
@@ -77,6 +77,17 @@ class Groups:
             return ()
         group, o_idx = found
         return tuple(n for n in group.options[o_idx] if n != task_id)
+
+    def required(self, task: Task) -> bool:
+        """True if every plan must schedule ``task``.
+
+        A pinned task, or a mandatory one (schedule cost 0) that is no
+        member of a group: a member of a mandatory group is not required
+        on its own, one option of its group is.
+        """
+        if task.fixed_start is not None:
+            return True
+        return task.schedule_cost == 0 and task.id not in self.member
 
     def rivals(self, task_id: str) -> tuple[str, ...]:
         """The tasks of the other options of ``task_id``'s group."""

@@ -379,15 +379,9 @@ class Problem(msgspec.Struct, frozen=True, omit_defaults=True):
         return groups_.of(self)
 
     def required(self, task: Task) -> bool:
-        """True if every plan must schedule ``task``.
-
-        A pinned task, or a mandatory one (schedule cost 0) that is no
-        member of a group: a member of a mandatory group is not required
-        on its own, one option of its group is.
-        """
-        if task.fixed_start is not None:
-            return True
-        return task.schedule_cost == 0 and task.id not in self.groups.member
+        """True if every plan must schedule ``task``
+        (:meth:`.groups.Groups.required`)."""
+        return self.groups.required(task)
 
     @property
     def has_mission_model(self) -> bool:

@@ -597,15 +597,7 @@ def _reruns_mandatory(work: Work, successor: str) -> bool:
     again for a successor the plan had left out; the replan found no
     start plan and answered ``unknown``).
     """
-    task = work.tasks[successor]
-    member = any(
-        successor in option
-        for group in work.groups
-        for option in group.options
-    )
-    if task.fixed_start is not None or (
-        task.schedule_cost == 0 and not member
-    ):
+    if groups.index(tuple(work.groups)).required(work.tasks[successor]):
         return False  # required: its precondition runs again
     return any(
         work.catalog[name].schedule_cost == 0
