@@ -183,3 +183,67 @@ def _precedences(rng: random.Random, size: int) -> list[dict[str, Any]]:
             },
         )
     return list(found.values())
+
+
+def replan_change(
+    doc: dict[str, Any], plan: dict[str, Any], seed: int
+) -> tuple[int, dict[str, Any]]:
+    """A change to replan problem ``doc`` with, and the unit it comes at.
+
+    ``plan`` is the plan in force as ``{"activities": [{"task", "start",
+    "end"}, ...]}``. The unit is drawn between the problem's start and the
+    end of its last activity. Drawn from the same seed:
+
+    * 6 in 10: a goal of two of the problem's own tasks cloned under new
+      ids, without their windows or fixed starts (so every generator's
+      resources fit), one in three made mandatory;
+    * 2 in 10: ``activity_failed`` for an activity running at that unit
+      (a goal when none runs);
+    * 2 in 10: ``levels`` of a consumable measured at a level drawn from
+      0 to its ceiling (or its initial level; a goal when there is
+      none).
+    """
+    rng = random.Random(seed * 7 + 1)
+    start = doc["start"]
+    activities = plan["activities"]
+    last = max((a["end"] for a in activities), default=start + 1)
+    now = rng.randint(start, max(start + 1, last))
+    draw = rng.random()
+    running = [a for a in activities if a["start"] <= now < a["end"]]
+    consumables = doc["resources"].get("consumable", {})
+    if draw < 0.2 and running:
+        failed = rng.choice(running)
+        return now, {
+            "event": "activity_failed",
+            "task": failed["task"],
+            "at": now,
+        }
+    if draw < 0.4 and consumables:
+        name = rng.choice(sorted(consumables))
+        spec = consumables[name]
+        ceiling = (
+            spec.get("max") or spec["initial"]
+            if isinstance(spec, dict)
+            else spec
+        )
+        top = float(ceiling)
+        level = round(rng.uniform(0, top), 1)
+        return now, {"event": "levels", "levels": {name: level}, "at": now}
+    picks = rng.sample(doc["tasks"], k=min(2, len(doc["tasks"])))
+    tasks = []
+    for idx, task in enumerate(picks):
+        clone = {
+            key: value
+            for key, value in task.items()
+            if key
+            not in (
+                "fixed_start",
+                "feasible_interval",
+                "feasible_interval_applies_to",
+            )
+        }
+        clone["id"] = f"G{seed}-{idx}"
+        if rng.random() < 1 / 3:
+            clone["schedule_cost"] = 0
+        tasks.append(clone)
+    return now, {"goal_id": f"goal-{seed}", "tasks": tasks}

@@ -1,0 +1,135 @@
+"""Tests of ``tools/fuzz``: odd shapes and their replans judged against
+CP-SAT."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from fsw_scheduler.model.change import Removal, decode_change
+from fsw_scheduler.model.plan import Activity, Plan, SolveStatus
+from fsw_scheduler.model.problem import decode_problem
+from fsw_scheduler.replan.diff import PlanDiff
+
+from ..factories import ROOT, bench_lib, tool_script
+
+odd = bench_lib("odd")
+pytest.importorskip("ortools.sat.python.cp_model")
+
+
+def test_replan_changes_are_valid_documents_of_every_kind() -> None:
+    """Over a few seeds the draw gives goals, failures and levels, each a
+    document the change decoder takes, at a unit inside the plan."""
+    kinds = set()
+    for seed in range(60):
+        doc = odd.generate_problem(seed)
+        activities = [
+            {
+                "task": task["id"],
+                "start": doc["start"],
+                "end": doc["start"] + task["length"],
+            }
+            for task in doc["tasks"][:3]
+        ]
+        now, change = odd.replan_change(doc, {"activities": activities}, seed)
+        assert doc["start"] <= now <= doc["start"] + doc["horizon"]
+        decode_change(json.dumps(change).encode())
+        kinds.add(change.get("event", "goal"))
+        if "tasks" in change:
+            ids = {task["id"] for task in doc["tasks"]}
+            assert not ids & {task["id"] for task in change["tasks"]}
+    assert kinds == {"goal", "activity_failed", "levels"}
+
+
+def test_what_the_checker_cannot_see_in_a_replan_is_a_finding() -> None:
+    """An activity placed before the replan's unit, a task with no
+    verdict and a task taken as finished before its end are named."""
+    fuzz = tool_script("fuzz", "fuzz_tool")
+    old = decode_problem(
+        json.dumps(
+            {
+                "horizon": 40,
+                "resources": {},
+                "tasks": [
+                    {
+                        "id": name,
+                        "length": 2,
+                        "delay_cost": 1,
+                        "schedule_cost": 1,
+                    }
+                    for name in ("a", "b", "c")
+                ],
+            }
+        ).encode()
+    )
+    new = decode_problem(
+        json.dumps(
+            {
+                "horizon": 40,
+                "resources": {},
+                "tasks": [
+                    {
+                        "id": "b",
+                        "length": 2,
+                        "delay_cost": 1,
+                        "schedule_cost": 1,
+                    }
+                ],
+            }
+        ).encode()
+    )
+    before = Plan(
+        SolveStatus.OPTIMAL,
+        None,
+        (Activity("a", 0, 2), Activity("b", 10, 12), Activity("c", 3, 5)),
+        (),
+    )
+    fine = Plan(SolveStatus.OPTIMAL, None, (Activity("b", 14, 16),), ())
+    done = (
+        Removal("a", "finished"),
+        Removal("c", "finished"),
+    )
+    assert fuzz.replan_findings(old, before, new, fine, _diff(done), 8) == []
+    wrong = Plan(SolveStatus.OPTIMAL, None, (Activity("b", 7, 9),), ())
+    assert fuzz.replan_findings(
+        old, before, new, wrong, _diff(done[:1]), 8
+    ) == [
+        "rewrites the past: b at 7 < 8",
+        "lost: c has no verdict",
+    ]
+    assert fuzz.replan_findings(old, before, new, fine, _diff(done), 4) == [
+        "finished early: c ends at 5 > 4"
+    ]
+
+
+def _diff(removed: tuple[Removal, ...]) -> PlanDiff:
+    return PlanDiff(kept=(), continued=(), moved=(), added=(), removed=removed)
+
+
+def test_fuzz_replans_judges_each_replan_against_cp_sat() -> None:
+    """The tool as a user runs it: every replan judged, none wrong."""
+    result = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "tools" / "fuzz"),
+            "--replans",
+            "--first",
+            "1",
+            "--count",
+            "30",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[-1] == "0 problems with a wrong or late answer"
+    judged = [line for line in lines if "| cpsat" in line]
+    assert len(judged) >= 15
+    for kind in ("goal at", "activity_failed at", "levels at"):
+        assert any(kind in line for line in judged), kind
