@@ -10,7 +10,10 @@ task's earliest fitting start without trying every start one by one.
 
 from __future__ import annotations
 
+import bisect
 import itertools
+import math
+import operator
 import threading
 from typing import TYPE_CHECKING, NamedTuple
 
@@ -28,6 +31,9 @@ class Board:
         self.used = {n: [0.0] * span for n in (*res.binary, *res.multiple)}
         self.ceiling = res.ceilings
         self.initial = res.initial_levels
+        # Stores with a ceiling: running sums of their net use, worked out
+        # when a test needs them (a booking drops them).
+        self._sums: dict[str, _Sums] = {}
         empty = _empty_board(res, problem.start, span)
         if empty is not None:
             # Profiles are only read; levels are copied, as each board
@@ -154,7 +160,11 @@ class Board:
             drop = 0.0
             for a in units:
                 drop += a
-            after = _holding_from(lowest, first + shift + len(units), drop)
+            last = first + shift + len(units)
+            if name in self.ceiling:
+                after = self._capped_from(name, last, drop, len(units))
+            else:
+                after = _holding_from(lowest, last, drop)
             shift = max(shift, after - len(units) - first)
         return shift
 
@@ -184,6 +194,10 @@ class Board:
             if name in self.used:
                 continue
             low = first + shift
+            if name in self.ceiling:
+                if not self._capped_holds(name, low, units):
+                    return False
+                continue
             level = self.level[name]
             drop = 0.0
             for k, a in enumerate(units):
@@ -216,6 +230,10 @@ class Board:
             level = self.level.get(name)
             if level is None or amount < 0:
                 continue
+            if name in self.ceiling:
+                if not self._capped_holds(name, first, [amount] * task.length):
+                    return False
+                continue
             drop = 0.0
             for t in range(first, end):
                 drop += amount
@@ -224,6 +242,98 @@ class Board:
             if end < len(level) and self.lowest[name][end] - drop < -1e-9:
                 return False
         return True
+
+    def _capped_holds(self, name: str, low: int, units: list[float]) -> bool:
+        """True if ``units`` more drawn from board unit ``low`` on keep the
+        consumable ``name``, which has a ceiling, at or above 0.
+
+        Taking a drop to last, as the tests of a store without a ceiling
+        do, is short here: a store kept full by an external charge loses
+        what it cannot take, and a consumer gives that back as it draws
+        (a 38-unit task drawing 1 a unit from a store of at most 10
+        charged 1 a unit was placed nowhere, though plans hold it). The
+        level ``x_t = min(top, x_(t-1) - n_t)`` (``n``: net use, the
+        external rate negative; ``x_(-1)``: the initial level) is
+        ``min(initial - P_t, min over 0 <= j < t of top - (P_t - P_j))``
+        with ``P`` the running sum of ``n``. It stays at or above 0 iff
+        ``P_t <= initial`` at every ``t`` and ``P_t - P_j <= top`` for
+        every ``j < t``: no stretch draws more than a full store holds.
+        Only the terms the new use raises are tested, against the board's
+        running minimum and later maximum of ``P``
+        (:meth:`_sums`): what the drawing adds unit by unit, then its
+        whole after it.
+        """
+        sums = self._sums_of(name)
+        top = self.ceiling[name]
+        initial = self.initial[name]
+        running = sums.running
+        low_sum = sums.least[low - 1] if low > 0 else math.inf
+        end = min(len(running), low + len(units))
+        if end < len(running):
+            # What lasts after the drawing, first (one look-up each): the
+            # usual reason a start is refused.
+            drop = 0.0
+            for a in units:
+                drop += a
+            later = sums.most[end] + drop
+            if later > initial + 1e-9 or later - low_sum > top + 1e-9:
+                return False
+        added = 0.0
+        for t in range(low, end):
+            added += units[t - low]
+            reached = running[t] + added
+            if reached > initial + 1e-9 or reached - low_sum > top + 1e-9:
+                return False
+            if reached < low_sum:
+                low_sum = reached
+        if end < len(running):
+            later = sums.most[end] + added
+            if later - low_sum > top + 1e-9:
+                return False
+        return True
+
+    def _sums_of(self, name: str) -> _Sums:
+        """The running sums of store ``name`` (:class:`_Sums`)."""
+        sums = self._sums.get(name)
+        if sums is None:
+            sums = self._sums[name] = _sums(self.net[name])
+        return sums
+
+    def _capped_from(
+        self, name: str, end: int, drop: float, length: int
+    ) -> int:
+        """The first board unit from ``end`` on at which a drawing of
+        ``drop`` in all over ``length`` units may end (exclusive) on the
+        store ``name``, which has a ceiling; no later end is passed over
+        that :meth:`_capped_holds` would accept.
+
+        Two of its tests read sums the drawing does not touch: what is
+        left after it against the initial level (the later maximum of
+        ``P`` only falls with the unit), and the stretch from the least
+        sum before it to the greatest after it against the ceiling; a
+        drawing refused on that stretch is refused for every end up to
+        that greatest unit too (the stretch still holds it), so those
+        ends are passed over at once.
+        """
+        sums = self._sums_of(name)
+        most, least = sums.most, sums.least
+        initial, top = self.initial[name], self.ceiling[name]
+        while end < len(most):
+            later = most[end] + drop
+            if later > initial + 1e-9:
+                end += 1
+                continue
+            low = end - length
+            if low > 0 and later - least[low - 1] > top + 1e-9:
+                # The last unit at which the greatest sum from ``end`` on
+                # is reached (``most`` does not rise).
+                peak = bisect.bisect_right(
+                    most, -most[end], lo=end, key=operator.neg
+                )
+                end = max(end + 1, peak)
+                continue
+            return end
+        return end
 
     def overrun(self, task: Task, start: int) -> tuple[int, str] | None:
         """The last unit (absolute) at which ``task`` at ``start`` overruns
@@ -279,7 +389,14 @@ class Board:
             drop = 0.0
             for _ in range(task.length):
                 drop += amount
-            end = _holding_from(lowest, start - base + task.length, drop)
+            if name in self.ceiling:
+                # A store with a ceiling refills: only the total drawn
+                # against the initial level is sure to last.
+                end = self._capped_from(
+                    name, start - base + task.length, drop, task.length
+                )
+            else:
+                end = _holding_from(lowest, start - base + task.length, drop)
             start = max(start, end - task.length + base)
         return start
 
@@ -332,6 +449,7 @@ class Board:
         # Levels before ``base`` do not change: the walk starts there, from
         # the level before it (the same sums in the same order as a walk
         # from the start: the same floats).
+        self._sums.pop(name, None)
         first = min(max(base, 0), len(net))
         value = level[first - 1] if first > 0 else self.initial[name]
         top = self.ceiling[name]
@@ -372,6 +490,22 @@ class Board:
     def _refresh(self, name: str) -> None:
         """lowest[t] = min(level[t:]), for the constant-drop test."""
         self.lowest[name] = _suffix_min(self.level[name])
+
+
+class _Sums(NamedTuple):
+    """A store's running sum of net use, its running minimum and its
+    maximum from each unit on (:meth:`Board._capped_holds`)."""
+
+    running: list[float]
+    least: list[float]
+    most: list[float]
+
+
+def _sums(net: list[float]) -> _Sums:
+    running = list(itertools.accumulate(net))
+    most = list(itertools.accumulate(reversed(running), max))
+    most.reverse()
+    return _Sums(running, list(itertools.accumulate(running, min)), most)
 
 
 def _suffix_min(values: list[float]) -> list[float]:
