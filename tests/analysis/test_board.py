@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from fsw_scheduler.analysis.board import Board
 from fsw_scheduler.analysis.check import check_plan
@@ -135,16 +135,10 @@ def test_a_consumer_before_a_dip_of_the_outside_rate_waits_for_it() -> None:
     a store of 5 drained by 1 a unit until t = 5, then charged, cannot
     run before the level comes back, and the start heuristic finds the
     plan (it placed it at 0, which the checker refused, and had none)."""
-    problem = problem_from(
-        make_doc(
-            [make_task("a", 1, uses={"bat": 2}, schedule_cost=0)],
-            horizon=20,
-            resources={
-                "consumable": {
-                    "bat": {"initial": 5, "external": [[0, -1], [5, 1]]}
-                }
-            },
-        )
+    problem = _one_consumer(
+        make_task("a", 1, uses={"bat": 2}, schedule_cost=0),
+        20,
+        {"initial": 5, "external": [[0, -1], [5, 1]]},
     )
     board = Board(problem)
     assert board.lowest["bat"][:6] == [0.0, 0.0, 0.0, 0.0, 0.0, 1.0]
@@ -154,9 +148,7 @@ def test_a_consumer_before_a_dip_of_the_outside_rate_waits_for_it() -> None:
     assert plan is not None and plan.starts() == {"a": 6}
 
 
-def test_a_store_kept_full_by_a_charge_takes_a_consumer_longer_than_it() -> (
-    None
-):
+def test_a_store_kept_full_by_a_charge_feeds_a_long_consumer() -> None:
     """Tests that a consumer drawing in all more than a store's ceiling
     fits where an external charge gives it back as it draws: a store of
     at most 10 (5 at first) charged 1 a unit from t = 150, and a task of
@@ -166,16 +158,10 @@ def test_a_store_kept_full_by_a_charge_takes_a_consumer_longer_than_it() -> (
     start heuristic schedules it (``tools/fuzz`` seed 44342: the start
     plan left out such a task and its partner, 65,416 above the optimum,
     and CBC did not improve on it within 5 s)."""
-    problem = problem_from(
-        make_doc(
-            [make_task("long", 38, uses={"bat": 1}, schedule_cost=3)],
-            horizon=300,
-            resources={
-                "consumable": {
-                    "bat": {"initial": 5, "max": 10, "external": [[150, 1]]}
-                }
-            },
-        )
+    problem = _one_consumer(
+        make_task("long", 38, uses={"bat": 1}, schedule_cost=3),
+        300,
+        {"initial": 5, "max": 10, "external": [[150, 1]]},
     )
     task = problem.tasks[0]
     board = Board(problem)
@@ -183,13 +169,8 @@ def test_a_store_kept_full_by_a_charge_takes_a_consumer_longer_than_it() -> (
     assert board.fits_one(task, 145)
     assert board.first_fit(task, 0, 262) == 145
     for start, fits in ((144, False), (145, True)):
-        plan = Plan(
-            SolveStatus.FEASIBLE,
-            None,
-            (Activity("long", start, start + 38),),
-            (),
-        )
-        assert check_plan(problem, plan).ok is fits
+        trial = _plan(problem, (Activity("long", start, start + 38),))
+        assert check_plan(problem, trial).ok is fits
     plan = greedy_plan(problem)
     assert plan is not None and plan.starts() == {"long": 145}
 
@@ -273,6 +254,17 @@ def test_the_board_fits_as_the_checker_judges_stores_with_a_ceiling() -> None:
         assert board.first_fit_demand(shape, 0, last) == first
     assert asked > 3000 and fitted > 300
     assert disagreed == 0
+
+
+def _one_consumer(
+    task: dict[str, Any], horizon: int, store: dict[str, Any]
+) -> Problem:
+    """A problem of ``task`` alone beside the consumable ``bat``."""
+    return problem_from(
+        make_doc(
+            [task], horizon=horizon, resources={"consumable": {"bat": store}}
+        )
+    )
 
 
 def _plan(problem: Problem, activities: tuple[Activity, ...]) -> Plan:
