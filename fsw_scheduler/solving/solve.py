@@ -104,9 +104,10 @@ def solve(
     Plan
         Every task appears once, in ``activities`` or ``unscheduled``.
     """
+    began = time.perf_counter()
     # The backend is imported here so that importing fsw_scheduler does not
     # import PuLP (the pure core must stay free of it).
-    from .ilp import SOLVERS, solve_ilp
+    from .ilp import SOLVERS, backend_ready, solve_ilp
 
     if solver not in SOLVERS:
         # Said before any work: a problem the proofs or the start plan
@@ -114,6 +115,8 @@ def solve(
         raise SolverError(
             f"unknown solver {solver!r} (choose from {', '.join(SOLVERS)})"
         )
+    # On the clock, before the limit is shared out (once per process).
+    backend_ready(solver)
     run = functools.partial(
         solve_ilp,
         solver=solver,
@@ -125,7 +128,6 @@ def solve(
         run = functools.partial(run, stability=stability)
     else:
         stability = None
-    began = time.perf_counter()
     limit = time_limit
     parts = components(problem)
     if (

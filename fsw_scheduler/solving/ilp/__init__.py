@@ -7,4 +7,5 @@ per constraint family), :mod:`.objective` (the lexicographic objective) and
 """
 
 from .model import SOLVERS as SOLVERS
+from .model import backend_ready as backend_ready
 from .model import solve_ilp as solve_ilp
