@@ -260,7 +260,7 @@ class Board:
         every ``j < t``: no stretch draws more than a full store holds.
         Only the terms the new use raises are tested, against the board's
         running minimum and later maximum of ``P``
-        (:meth:`_sums`): what the drawing adds unit by unit, then its
+        (:meth:`_sums_of`): what the drawing adds unit by unit, then its
         whole after it.
         """
         sums = self._sums_of(name)

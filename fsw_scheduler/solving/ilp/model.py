@@ -65,6 +65,7 @@ def backend_ready(solver: str) -> None:
     else:
         import pulp  # noqa: F401
 
+
 #: Seconds to build and write a model, per column (measured: 2.9 s for the
 #: 158 000 columns of 200 tasks at H = 1440, 18 us each; rounded up).
 BUILD_S_PER_COLUMN = 2.5e-5
