@@ -424,15 +424,10 @@ def test_core_does_not_import_solver_or_bus() -> None:
         "bad = [m for m in ('pulp', 'zenoh', 'matplotlib', 'mcap') "
         "if m in sys.modules]; print(bad); sys.exit(bool(bad))"
     )
-    result = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True
-    )
-    assert result.returncode == 0, result.stdout + result.stderr
+    _fresh_process(code)
 
 
-def test_the_first_solve_of_a_process_readies_the_solver_on_its_clock() -> (
-    None
-):
+def test_the_first_solve_readies_the_solver_on_its_clock() -> None:
     """Tests that solve() finds CBC (which imports PuLP, about 0.1 s the
     first time in a process) before it shares out its limit, so that the
     first solve answers within its limit too: a problem its proofs
@@ -454,11 +449,17 @@ def test_the_first_solve_of_a_process_readies_the_solver_on_its_clock() -> (
         "print(plan.status.value, plan.stats.solver, 'pulp' in sys.modules,"
         " plan.stats.wall_s >= 0.8 * took)\n"
     )
+    said = _fresh_process(code).split()
+    assert said == ["infeasible", "proof", "True", "True"]
+
+
+def _fresh_process(code: str) -> str:
+    """Run ``code`` in a new interpreter; its output (it must succeed)."""
     result = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True
     )
     assert result.returncode == 0, result.stdout + result.stderr
-    assert result.stdout.split() == ["infeasible", "proof", "True", "True"]
+    return result.stdout
 
 
 def _large_problem() -> dict:
