@@ -26,6 +26,7 @@ the first time later would rebind it to the module.)
 from __future__ import annotations
 
 import os
+import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -358,6 +359,7 @@ def replan_typed(
         move_cost=settings.move_cost,
     )
     pins = commit_pins(replan.problem, previous, settings.commit_window)
+    began = time.perf_counter()
     if not replan.problem.tasks:
         new_plan = empty_plan()
     else:
@@ -369,11 +371,17 @@ def replan_typed(
             stability=stability,
         )
         if pins and new_plan.status is SolveStatus.INFEASIBLE:
-            # The window left no plan: the degraded path, as the node's.
+            # The window left no plan: the degraded path, as the node's,
+            # in what is left of the limit (it bounds the whole answer).
+            left = (
+                None
+                if time_limit is None
+                else max(0.0, time_limit - (time.perf_counter() - began))
+            )
             new_plan = solve_fn(
                 replan.problem,
                 solver,
-                time_limit=time_limit,
+                time_limit=left,
                 warm=replan.warm,
                 stability=stability,
             )

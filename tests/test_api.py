@@ -240,6 +240,55 @@ def test_replan_pins_that_leave_no_plan_degrade() -> None:
     assert set(broken) <= moved | set(pinned.unscheduled)
 
 
+def test_a_degraded_replan_solves_again_in_what_is_left_of_its_limit() -> None:
+    """Tests that the degraded path of an offline replan (the pins left no
+    plan, so the problem is solved again without them) gets what is left
+    of the limit, not the whole limit again: the limit bounds the whole
+    answer, as the node's response deadline does. The solves are the real
+    ones, recorded on their way."""
+    from fsw_scheduler.api import ReplanSettings, replan_typed
+    from fsw_scheduler.model.change import decode_change
+    from fsw_scheduler.solving.solve import solve
+
+    text, plan, _ = _paper_at_15()
+    goal = decode_change(
+        json.dumps(
+            {
+                "goal_id": "slew",
+                "tasks": [
+                    {
+                        "id": "Slew",
+                        "length": 2,
+                        "delay_cost": 1,
+                        "schedule_cost": 0,
+                        "feasible_interval": [37, 37],
+                        "uses": {"position": 1},
+                    }
+                ],
+            }
+        )
+    )
+    limits: list[float | None] = []
+
+    def recorded(*args: Any, **kwargs: Any) -> Plan:
+        limits.append(kwargs["time_limit"])
+        return solve(*args, **kwargs)
+
+    _, pinned, _ = replan_typed(
+        decode_problem(text),
+        plan,
+        goal,
+        15,
+        time_limit=5.0,
+        solve_fn=recorded,
+        settings=ReplanSettings(commit_window=30),
+    )
+    assert pinned.status.value == "degraded"
+    first, second = limits
+    assert first == 5.0
+    assert second is not None and second < 5.0
+
+
 @pytest.mark.parametrize(
     ("settings", "field"),
     [

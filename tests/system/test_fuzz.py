@@ -105,6 +105,42 @@ def test_what_the_checker_cannot_see_in_a_replan_is_a_finding() -> None:
     ]
 
 
+def test_a_pin_the_plan_does_not_keep_is_a_finding_unless_named() -> None:
+    """Tests the commit window's check: a pinned start kept is fine; one
+    moved is a finding, unless the plan is ``degraded`` and its ``why``
+    names the pin (cause ``commit_window``)."""
+    from fsw_scheduler.model.plan import Blocker
+
+    fuzz = tool_script("fuzz", "fuzz_tool")
+    pins = {"a": 4, "b": 9}
+    kept = Plan(
+        SolveStatus.OPTIMAL,
+        None,
+        (Activity("a", 4, 6), Activity("b", 9, 11)),
+        (),
+    )
+    assert fuzz.pin_findings(pins, kept) == []
+    moved = Plan(
+        SolveStatus.OPTIMAL,
+        None,
+        (Activity("a", 4, 6), Activity("b", 12, 14)),
+        (),
+    )
+    assert fuzz.pin_findings(pins, moved) == [
+        "breaks the pin of b at 9 (not degraded)"
+    ]
+    named = Plan(
+        SolveStatus.DEGRADED,
+        None,
+        (Activity("a", 4, 6),),
+        ("b",),
+        why=(Blocker("b", "commit_window", "left out"),),
+    )
+    assert fuzz.pin_findings(pins, named) == []
+    unnamed = named.replace(why=())
+    assert fuzz.pin_findings(pins, unnamed) == ["breaks the pin of b at 9"]
+
+
 def _diff(removed: tuple[Removal, ...]) -> PlanDiff:
     return PlanDiff(kept=(), continued=(), moved=(), added=(), removed=removed)
 
@@ -131,5 +167,5 @@ def test_fuzz_replans_judges_each_replan_against_cp_sat() -> None:
     assert lines[-1] == "0 problems with a wrong or late answer"
     judged = [line for line in lines if "| cpsat" in line]
     assert len(judged) >= 15
-    for kind in ("goal at", "activity_failed at", "levels at"):
+    for kind in ("goal", "activity_failed", "levels", "commit window"):
         assert any(kind in line for line in judged), kind
