@@ -206,6 +206,23 @@ def test_replan_stability_matches_the_node() -> None:
     assert offline.objective == driver.plan.objective
 
 
+#: A mandatory goal task that needs the position at 37, which the planned
+#: AcquisitionHF and SetPositionY hold in the replan at t=15.
+SLEW_GOAL: dict[str, Any] = {
+    "goal_id": "slew",
+    "tasks": [
+        {
+            "id": "Slew",
+            "length": 2,
+            "delay_cost": 1,
+            "schedule_cost": 0,
+            "feasible_interval": [37, 37],
+            "uses": {"position": 1},
+        }
+    ],
+}
+
+
 def test_replan_pins_that_leave_no_plan_degrade() -> None:
     """Tests that a commit window whose pins leave no plan (a mandatory
     goal task needs the position at 37, which the planned AcquisitionHF
@@ -213,19 +230,7 @@ def test_replan_pins_that_leave_no_plan_degrade() -> None:
     names each broken pin, as the node's degraded path does; without the
     window the same goal just fits."""
     problem, plan, _ = _paper_at_15()
-    goal = {
-        "goal_id": "slew",
-        "tasks": [
-            {
-                "id": "Slew",
-                "length": 2,
-                "delay_cost": 1,
-                "schedule_cost": 0,
-                "feasible_interval": [37, 37],
-                "uses": {"position": 1},
-            }
-        ],
-    }
+    goal = SLEW_GOAL
     _, free, _ = fs.replan(problem, plan, goal, 15)
     assert free.status.value == "optimal"
     _, pinned, diff = fs.replan(problem, plan, goal, 15, commit_window=30)
@@ -251,23 +256,7 @@ def test_a_degraded_replan_solves_again_in_what_is_left_of_its_limit() -> None:
     from fsw_scheduler.solving.solve import solve
 
     text, plan, _ = _paper_at_15()
-    goal = decode_change(
-        json.dumps(
-            {
-                "goal_id": "slew",
-                "tasks": [
-                    {
-                        "id": "Slew",
-                        "length": 2,
-                        "delay_cost": 1,
-                        "schedule_cost": 0,
-                        "feasible_interval": [37, 37],
-                        "uses": {"position": 1},
-                    }
-                ],
-            }
-        )
-    )
+    goal = decode_change(json.dumps(SLEW_GOAL))
     limits: list[float | None] = []
 
     def recorded(*args: Any, **kwargs: Any) -> Plan:
