@@ -548,6 +548,9 @@ def rule_settled_precedences(work: Work) -> tuple[list[str], list[str]]:
     keep = []
     redo = []
     seeds: dict[str, str] = {}
+    # The work's own groups, once: not the shared index's cache, which
+    # would keep each replan's passing tuple.
+    index = groups.Groups(tuple(work.groups))
     for prec in work.precedences:
         before_live = prec.before in work.tasks
         after_live = prec.after in work.tasks
@@ -559,7 +562,7 @@ def rule_settled_precedences(work: Work) -> tuple[list[str], list[str]]:
             continue
         bound = run[1] + prec.offset
         if prec.kind == "tight" and bound < work.now:
-            if _reruns_mandatory(work, prec.after):
+            if _reruns_mandatory(work, index, prec.after):
                 seeds.setdefault(
                     prec.after,
                     f"its tight precondition {prec.before} ran (ended "
@@ -585,7 +588,9 @@ def rule_settled_precedences(work: Work) -> tuple[list[str], list[str]]:
     return [n for n in redo if n in work.tasks], list(seeds)
 
 
-def _reruns_mandatory(work: Work, successor: str) -> bool:
+def _reruns_mandatory(
+    work: Work, index: groups.Groups, successor: str
+) -> bool:
     """True when running ``successor``'s tight chain again would bring
     back a mandatory executed task for an optional ``successor``.
 
@@ -597,7 +602,7 @@ def _reruns_mandatory(work: Work, successor: str) -> bool:
     again for a successor the plan had left out; the replan found no
     start plan and answered ``unknown``).
     """
-    if groups.index(tuple(work.groups)).required(work.tasks[successor]):
+    if index.required(work.tasks[successor]):
         return False  # required: its precondition runs again
     return any(
         work.catalog[name].schedule_cost == 0
