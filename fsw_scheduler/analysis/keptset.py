@@ -19,9 +19,10 @@ from typing import TYPE_CHECKING
 from ..model.plan import objective_weight
 from .energetic import energy_rows
 from .exclusions import exclusive_pairs
+from .sequencing import Job, machine_delay
 
 if TYPE_CHECKING:
-    from collections.abc import Callable, Mapping
+    from collections.abc import Callable, Mapping, Sequence
 
     from ..model.problem import Problem, Task
     from .domains import Domain
@@ -160,6 +161,13 @@ class KeptSetSearch:
     energy
         Rows added to the consumables' level rows: the energy rows of
         binary and multiple resources (:func:`energy`); None: none.
+    machines
+        Sets of tasks no two of which run at once, each task in one at
+        most (:func:`~.sequencing.machines`): a kept set then also costs
+        the delay its tasks on each machine cannot avoid
+        (:func:`~.sequencing.machine_delay`), so the relaxed optimum is
+        a higher bound. Its kept sets' costs are then no longer the sums
+        of per-task values that :func:`~.bounds.delay_caps` reads.
     """
 
     def __init__(
@@ -170,6 +178,7 @@ class KeptSetSearch:
         force: tuple[str, bool] | None = None,
         *,
         energy: Rows | None = None,
+        machines: Sequence[tuple[str, ...]] = (),
     ) -> None:
         weight = objective_weight(
             [t.delay_cost for t in problem.tasks], problem.horizon
@@ -198,6 +207,20 @@ class KeptSetSearch:
         self.uses = [uses[t.id] for t in self.order]
         index = {t.id: k for k, t in enumerate(self.order)}
         self.links = self._links(problem, index)
+        # Each task's machine (-1: none) and its job there.
+        self.machine_of = [-1] * len(self.order)
+        for m, names in enumerate(machines):
+            for name in names:
+                if name in index:
+                    self.machine_of[index[name]] = m
+        self.jobs: list[Job] = [
+            (domains[t.id].earliest, t.length, t.delay_cost)
+            for t in self.order
+        ]
+        #: The kept jobs on each machine, and their delay bound, as the
+        #: search goes down.
+        self.on_machine: list[list[Job]] = [[] for _ in machines]
+        self.machine_cost = [0] * len(machines)
         self.apart = self._apart(problem, index)
         num = len(self.order)
         self.rest = [0] * (num + 1)  # best value still to come
@@ -402,9 +425,16 @@ class KeptSetSearch:
         self._search(0, 0, [0.0] * len(self.limits))
         return not self.out_of_budget
 
-    def _search(self, k: int, got: int, rows: list[float]) -> bool:
+    def _search(
+        self, k: int, got: int, rows: list[float], extra: int = 0
+    ) -> bool:
         """Explore kept sets extending the first ``k`` decisions; False
-        when the node budget is spent."""
+        when the node budget is spent.
+
+        ``extra`` is the machines' delay bound of the tasks kept so far:
+        every set extending them pays at least that much (the bound
+        grows with the set).
+        """
         self.nodes_left -= 1
         if self.nodes_left < 0 or (
             self.stop is not None
@@ -413,9 +443,9 @@ class KeptSetSearch:
         ):
             self.out_of_budget = True
             return False
-        if got + self.rest[k] < self.need:
+        if got + self.rest[k] - extra < self.need:
             return True
-        if k < len(self.order) and self._knapsack(k, got, rows):
+        if k < len(self.order) and self._knapsack(k, got - extra, rows):
             return True
         credit = self.credit[k]
         if any(
@@ -428,8 +458,8 @@ class KeptSetSearch:
             self.best = {
                 t.id for t, kept in zip(self.order, self.keep) if kept
             }
-            self.best_cost = self.total - got
-            self.need = got + 1
+            self.best_cost = self.total - got + extra
+            self.need = got - extra + 1
             return True
         task = self.order[k]
         if self.force is not None and self.force[0] == task.id:
@@ -446,9 +476,27 @@ class KeptSetSearch:
                 grown = [
                     r + u for r, u in zip(rows, self.uses[k], strict=True)
                 ]
-                done = self._search(k + 1, got + self.values[k], grown)
+                done = self._kept(k, got + self.values[k], grown, extra)
             else:
-                done = self._search(k + 1, got, rows)
+                done = self._search(k + 1, got, rows, extra)
             if not done:
                 return False
         return True
+
+    def _kept(self, k: int, got: int, rows: list[float], extra: int) -> bool:
+        """:meth:`_search` below task ``k`` kept, with its machine's delay
+        bound grown by it."""
+        m = self.machine_of[k]
+        if m < 0:
+            return self._search(k + 1, got, rows, extra)
+        jobs = self.on_machine[m]
+        before = self.machine_cost[m]
+        jobs.append(self.jobs[k])
+        self.machine_cost[m] = machine_delay(jobs)
+        try:
+            return self._search(
+                k + 1, got, rows, extra + self.machine_cost[m] - before
+            )
+        finally:
+            jobs.pop()
+            self.machine_cost[m] = before

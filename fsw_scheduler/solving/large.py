@@ -20,7 +20,12 @@ import math
 import time
 from typing import TYPE_CHECKING
 
-from ..analysis.bounds import KeptSetProof, better_start, kept_set_bound
+from ..analysis.bounds import (
+    KeptSetProof,
+    better_start,
+    kept_set_bound,
+    proved_by,
+)
 from ..analysis.domains import start_count
 from ..analysis.insert import inserted
 from ..model.plan import SolverStats, SolveStatus
@@ -139,12 +144,11 @@ def improved(
             relaxed.plan,
             began,
             time_limit,
-            "every kept task at its earliest start, and no other choice "
-            "of tasks to keep costs less: no solve",
+            f"{proved_by(relaxed)}: no solve",
         )
     before = len(start.unscheduled)
     start = inserting(problem, start, domains, deadline)
-    bound = None if relaxed.bound is None else float(relaxed.bound)
+    bound = None if relaxed.lowest is None else float(relaxed.lowest)
     said = ""
     if len(start.unscheduled) < before:
         said = (

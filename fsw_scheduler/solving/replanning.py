@@ -137,7 +137,7 @@ def replanned(
             time_limit,
             "replan: the plan in force, repaired, meets the kept-set bound",
         )
-    bound = None if relaxed.bound is None else float(relaxed.bound)
+    bound = None if relaxed.lowest is None else float(relaxed.lowest)
     if worth_a_probe(problem, repaired, relaxed):
         # The repaired plan leaves out more than the bound: the plan in
         # force was poor on the new day (its start heuristic stopped

@@ -9,7 +9,12 @@ from typing import TYPE_CHECKING
 
 import msgspec
 
-from ..analysis.bounds import KeptSetProof, at_lower_bound, kept_set_plan
+from ..analysis.bounds import (
+    KeptSetProof,
+    at_lower_bound,
+    kept_set_plan,
+    proved_by,
+)
 from ..analysis.check import check_plan
 from ..analysis.domains import start_count, start_domains
 from ..analysis.explain import explain as explain_plan
@@ -524,10 +529,7 @@ def _solve_whole(
             if better is not None:
                 start = better
             if proved is not None:
-                proof = (
-                    "every kept task at its earliest start, and no other "
-                    "choice of tasks to keep costs less: no solve"
-                )
+                proof = f"{proved_by(relaxed)}: no solve"
                 start = proved
     if start is not None and proof is not None:
         plan = start.replace(
@@ -593,7 +595,7 @@ def _solve_whole(
             plan,
             began,
             time_limit,
-            None if relaxed is None else relaxed.bound,
+            None if relaxed is None else relaxed.lowest,
             caught,
         )
     if around_forced and plan.stats is not None:

@@ -16,6 +16,7 @@ from fsw_scheduler.analysis.bounds import (
     fixings,
     kept_set_bound,
     kept_set_plan,
+    proved_by,
 )
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
@@ -447,3 +448,137 @@ def test_the_row_knapsacks_prune_no_better_kept_set(
         )
         least = min(least, search.total - value)
     assert search.best_cost == least, (doc, force, with_energy)
+
+
+def _camera_day() -> Problem:
+    """Three mandatory camera tasks released together, and an optional one
+    whose window holds it apart."""
+    costs = {"schedule_cost": 0}
+    return problem_from(
+        {
+            "horizon": 200,
+            "resources": {"binary": ["camera"]},
+            "tasks": [
+                {**costs, "id": "long", "length": 57, "delay_cost": 5,
+                 "uses": {"camera": 1}},
+                {**costs, "id": "short", "length": 6, "delay_cost": 3,
+                 "uses": {"camera": 1}},
+                {**costs, "id": "mid", "length": 49, "delay_cost": 4,
+                 "uses": {"camera": 1}},
+                {"id": "late", "length": 5, "delay_cost": 1,
+                 "schedule_cost": 2, "uses": {"camera": 1},
+                 "feasible_interval": [150, 200]},
+            ],
+        }
+    )  # fmt: skip
+
+
+def test_tasks_sharing_a_machine_are_proved_in_their_best_order() -> None:
+    """Tests that a plan running the camera's tasks in their best order is
+    proved optimal without a solve: the relaxation alone (every kept task
+    at its earliest start) bounds it 282 below, and the camera's
+    sequencing delay is exactly those 282; any worse order is not."""
+    problem = _camera_day()
+    domains = start_domains(problem)
+    best = plan_of(problem, {"short": 0, "long": 6, "mid": 63, "late": 150})
+    assert check_plan(problem, best).ok
+    assert best.objective is not None
+    proof = kept_set_plan(problem, best, domains)
+    assert proof.plan is not None
+    assert proof.plan.objective == best.objective
+    assert proof.bound == best.objective.total - 282
+    assert proof.floor == best.objective.total
+    assert proved_by(proof).endswith("each machine sequenced")
+    worse = plan_of(problem, {"long": 0, "short": 57, "mid": 63, "late": 150})
+    assert check_plan(problem, worse).ok
+    proof = kept_set_plan(problem, worse, domains)
+    assert proof.plan is None
+    assert proof.floor == best.objective.total
+    plan = solve(problem, time_limit=10)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.objective == best.objective
+
+
+@settings(COMMON, max_examples=300)
+@given(doc=problem_docs(max_tasks=5, max_horizon=12))
+def test_the_floor_is_a_bound_and_no_lower_than_the_bound(doc: dict) -> None:
+    """Tests, against exhaustive search, that the relaxation with the
+    machines' delay never rises above the optimum, never below the plain
+    relaxation, and proves only optimal plans."""
+    relaxed = _relaxed(doc)
+    if relaxed is None:
+        return
+    problem, _, _, proof = relaxed
+    if proof.lowest is None:
+        return
+    best = brute_force(problem)
+    assert best is not None
+    objective, _ = best
+    assert proof.lowest <= objective.total, (doc, proof)
+    if proof.floor is not None and proof.bound is not None:
+        assert proof.floor >= proof.bound
+    if proof.plan is not None:
+        assert proof.plan.objective == objective
+
+
+@st.composite
+def _camera_docs(draw: st.DrawFn) -> dict:
+    """Small days where most tasks share one camera (and some a power
+    bus of which two of them take more than half)."""
+    horizon = draw(st.integers(6, 14))
+    tasks = []
+    for k in range(draw(st.integers(2, 5))):
+        uses = {}
+        if draw(st.integers(0, 3)):
+            uses["camera"] = 1
+        if draw(st.booleans()):
+            uses["power"] = draw(st.sampled_from([3, 6, 7]))
+        task = {
+            "id": f"t{k}",
+            "length": draw(st.integers(1, 4)),
+            "delay_cost": draw(st.integers(0, 4)),
+            "schedule_cost": draw(st.integers(0, 3)),
+            "uses": uses,
+        }
+        if draw(st.booleans()):
+            low = draw(st.integers(0, horizon - 1))
+            task["feasible_interval"] = [low, horizon]
+        tasks.append(task)
+    return {
+        "horizon": horizon,
+        "resources": {"binary": ["camera"], "multiple": {"power": 10}},
+        "tasks": tasks,
+    }
+
+
+@settings(COMMON, max_examples=200)
+@given(doc=_camera_docs(), picks=st.lists(st.integers(-1, 14), min_size=5))
+def test_the_floor_of_camera_days_is_a_bound(
+    doc: dict, picks: list[int]
+) -> None:
+    """Tests, on days where tasks queue for a camera, that the floor is
+    never above the optimum found by exhaustive search, and that a plan
+    it proves optimal is: for the start plan and for a valid plan drawn
+    (each task left out or started at a drawn time in its domain)."""
+    problem = decode_doc(doc)
+    domains = start_domains(problem)
+    best = brute_force(problem)
+    if best is None:
+        return
+    objective, _ = best
+    start = best_start(problem, None, domains=domains)
+    plans = [] if start is None else [start]
+    starts: dict[str, int | None] = {}
+    for task, pick in zip(problem.tasks, picks, strict=False):
+        domain = domains[task.id]
+        inside = not domain.empty and domain.earliest <= pick <= domain.latest
+        starts[task.id] = pick if inside else None
+    drawn = plan_of(problem, starts)
+    if check_plan(problem, drawn).ok:
+        plans.append(drawn)
+    for plan in plans:
+        proof = kept_set_plan(problem, plan, domains)
+        if proof.lowest is not None:
+            assert proof.lowest <= objective.total, (doc, plan, proof)
+        if proof.plan is not None:
+            assert proof.plan.objective == objective, (doc, plan, proof)

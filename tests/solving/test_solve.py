@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import re
 import subprocess
 import sys
 from typing import TYPE_CHECKING
@@ -569,9 +570,10 @@ def test_independent_parts_are_solved_apart() -> None:
 
 def _small_part_beside(num_free: int) -> Problem:
     """``num_free`` lone tasks over a day, each proved without a solver,
-    beside a small part that needs CBC: four camera tasks crowding one
-    window. The lone tasks' start times give them nearly all the weight
-    of the parts' share rule."""
+    beside a small part that needs CBC: four camera tasks released a unit
+    apart (their sequencing bound, 41, is below their optimum, 47, so the
+    kept-set proofs leave them to the solver). The lone tasks' start
+    times give them nearly all the weight of the parts' share rule."""
     tasks = [make_task(f"free{idx}", 5) for idx in range(num_free)]
     tasks += [
         make_task(
@@ -579,7 +581,7 @@ def _small_part_beside(num_free: int) -> Problem:
             3 + idx,
             delay_cost=1 + idx,
             uses={"cam": 1},
-            feasible_interval=[0, 40],
+            feasible_interval=[idx, 40],
         )
         for idx in range(4)
     ]
@@ -624,7 +626,9 @@ def test_time_the_other_parts_leave_goes_to_the_unproved_one() -> None:
     assert short.status is SolveStatus.FEASIBLE
     assert short.stats is not None
     said = short.stats.solver_status
-    assert "30 optimal, 1 feasible" in said, said
+    # Under load a lone task's part may be cut too (its share is a
+    # thousandth of a second): the camera's part is the one named.
+    assert re.search(r"\b\d+ optimal, \d+ feasible", said), said
     assert "feasible: the part of 4 tasks from c0 after" in said, said
     # Its share ended on the start plan or before CBC (timing decides).
     assert "time limit spent" in said.split("from c0 after")[1], said
