@@ -259,7 +259,14 @@ def better_start(
     100,000 it took 6 s of a 1 s limit without one)."""
     if proof.kept is None or plan.objective is None:
         return None
-    better = _scheduled(problem, proof.kept, stop)
+    found = [_scheduled(problem, proof.kept, stop)]
+    if found[0] is None and _supplies(problem, proof.kept):
+        found.append(_scheduled(problem, proof.kept, stop, supplies_only=True))
+    better = min(
+        (p for p in found if p is not None and p.objective is not None),
+        key=lambda p: p.objective.total if p.objective else 0,
+        default=None,
+    )
     if (
         better is None
         or better.objective is None
@@ -269,7 +276,9 @@ def better_start(
     return better
 
 
-def kept_only(problem: Problem, kept: Set[str]) -> Problem:
+def kept_only(
+    problem: Problem, kept: Set[str], *, supplies_only: bool = False
+) -> Problem:
     """``problem`` with only the tasks ``kept``, each made mandatory.
 
     Its plans, with the other tasks left out, are plans of ``problem``
@@ -277,11 +286,16 @@ def kept_only(problem: Problem, kept: Set[str]) -> Problem:
     no precedence scope): see :func:`widened`. Every kept task is made
     mandatory: the start heuristic then places generators before the
     consumers that need them (its supply-first rule) rather than leaving
-    out a consumer the charge would carry.
+    out a consumer the charge would carry. With ``supplies_only``, only
+    the kept tasks that put into a consumable (:func:`_supplies`) are
+    made mandatory, and the others may still be left out.
     """
+    forced = _supplies(problem, kept) if supplies_only else kept
     return problem.replace(
         tasks=tuple(
             msgspec.structs.replace(t, schedule_cost=0)
+            if t.id in forced
+            else t
             for t in problem.tasks
             if t.id in kept
         ),
@@ -315,13 +329,41 @@ def widened(problem: Problem, plan: Plan) -> Plan | None:
 
 
 def _scheduled(
-    problem: Problem, kept: Set[str], stop: Callable[[], bool] | None = None
+    problem: Problem,
+    kept: Set[str],
+    stop: Callable[[], bool] | None = None,
+    *,
+    supplies_only: bool = False,
 ) -> Plan | None:
-    """The start plan heuristic on ``kept`` alone, the rest left out."""
-    plan = greedy_plan(kept_only(problem, kept), stop=stop)
+    """The start plan heuristic on ``kept`` alone, the rest left out
+    (:func:`kept_only`)."""
+    plan = greedy_plan(
+        kept_only(problem, kept, supplies_only=supplies_only), stop=stop
+    )
     if plan is None:
         return None
     return widened(problem, plan)
+
+
+def _supplies(problem: Problem, kept: Set[str]) -> set[str]:
+    """The tasks of ``kept`` that put into a consumable (a negative use).
+
+    When the relaxed optimum's set does not list-schedule whole (its
+    relaxation is optimistic), the start heuristic is run on it again
+    with only these made mandatory: left optional, a generator with an
+    early window lost its camera to a long task worth more, and every
+    consumer it feeds went with it. The large suite's b45-h1440 of seed
+    197: the start plan left out 13 tasks (8.83 M), 20 s of search 15
+    units of schedule cost (2.64 M); the kept set with its supplies
+    placed first leaves out 4 (2.24 M) in 0.09 s.
+    """
+    consumables = set(problem.resources.consumable)
+    return {
+        t.id
+        for t in problem.tasks
+        if t.id in kept
+        and any(t.uses.get(name, 0) < 0 for name in consumables)
+    }
 
 
 def _at_earliest(

@@ -130,6 +130,13 @@ def greedy_plan(
         seeds | {t.id for t in problem.tasks if t.id not in forced},
     )
     supplied = supply_sets(problem, domains, forced)
+    stores = problem.resources.initial_levels
+    charges = {
+        t.id
+        for t in problem.tasks
+        if not domains[t.id].empty
+        and any(t.uses.get(name, 0) < 0 for name in stores)
+    }
     candidates: list[Plan] = []
     for rule in RULES.values():
         if stop is not None and stop():
@@ -153,6 +160,20 @@ def greedy_plan(
             )
             if plan is not None:
                 break
+        if rule is _by_supply and charges and charges not in firsts:
+            # Once more with every task that charges a store first: the
+            # consumers that need them may all be optional, and then the
+            # supply sets hold none of them (see _by_supply).
+            more = _rule_plan(
+                problem,
+                rule(problem, domains, forced),
+                domains,
+                seeds,
+                stop=stop,
+                first=charges,
+            )
+            if more is not None:
+                candidates.append(more)
         if plan is None:
             continue
         candidates.append(plan)
@@ -607,7 +628,12 @@ def _by_supply(
     (:func:`~fsw_scheduler.analysis.supply.supply_sets`), each generator
     before the consumers, so that a mandatory task that needs more than
     the initial level finds the charge there; the second pass places the
-    rest.
+    rest. :func:`greedy_plan` runs it once more with every task that
+    charges a store in the first pass: where only optional tasks need
+    the charge, the generators with early windows otherwise lost the
+    camera to long tasks worth more, and every consumer they feed went
+    with them (the large suite's b45-h1440 of seed 197: 13 tasks left
+    out, 8.83 M; this way 5, 3.44 M, in 0.1 s).
     """
     tasks = {t.id: t for t in problem.tasks}
     stores = problem.resources.initial_levels

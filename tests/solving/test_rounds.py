@@ -6,6 +6,7 @@ import functools
 import time
 from typing import TYPE_CHECKING, Any
 
+from fsw_scheduler.analysis import bounds
 from fsw_scheduler.analysis.bounds import kept_set_plan
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_count, start_domains
@@ -129,7 +130,7 @@ def test_a_large_part_under_a_short_limit_gets_rounds_for_most_of_it(
     assert 0.6 * limit < limits[0] <= incumbent.SHORT_ROUNDS_SHARE * limit
 
 
-def test_rounds_whose_bound_stalls_stop() -> None:
+def test_rounds_whose_bound_stalls_stop(monkeypatch) -> None:
     """Tests that the rounds stop after one that found no better plan and
     barely raised the bound (under STALL_SHARE of the gap): the 44-task
     part of the large suite's f45-h1440 of seed 69, from the plan its
@@ -140,7 +141,9 @@ def test_rounds_whose_bound_stalls_stop() -> None:
     narrowed by the cost caps alone: with the kept-set fixings, which
     finish since the search prunes by its rows' knapsacks, the second
     round finds a better plan (8,269,324) and the stall rule is not what
-    stops the rounds."""
+    stops the rounds; so it does when the relaxed set is list-scheduled
+    with its supplies first as well (7,503,975), which this test turns
+    off to keep the round it is about."""
     import json
     from pathlib import Path
 
@@ -159,6 +162,7 @@ def test_rounds_whose_bound_stalls_stop() -> None:
     )
     start = checked_starts(sub, starts)
     assert start is not None
+    monkeypatch.setattr(bounds, "_supplies", lambda problem, kept: set())
     run = functools.partial(solve_ilp, solver="cbc", threads=1)
     began = time.perf_counter()
     answer = rounds(
