@@ -138,6 +138,17 @@ def greedy_plan(
         and any(t.uses.get(name, 0) < 0 for name in stores)
     }
     candidates: list[Plan] = []
+
+    def placed(rule: Rule, first: set[str] | None) -> Plan | None:
+        return _rule_plan(
+            problem,
+            rule(problem, domains, forced),
+            domains,
+            seeds,
+            stop=stop,
+            first=first,
+        )
+
     for rule in RULES.values():
         if stop is not None and stop():
             break
@@ -150,28 +161,14 @@ def greedy_plan(
             firsts = list(supplied)
         plan = None
         for first in firsts:
-            plan = _rule_plan(
-                problem,
-                rule(problem, domains, forced),
-                domains,
-                seeds,
-                stop=stop,
-                first=first,
-            )
+            plan = placed(rule, first)
             if plan is not None:
                 break
         if rule is _by_supply and charges and charges not in firsts:
             # Once more with every task that charges a store first: the
             # consumers that need them may all be optional, and then the
             # supply sets hold none of them (see _by_supply).
-            more = _rule_plan(
-                problem,
-                rule(problem, domains, forced),
-                domains,
-                seeds,
-                stop=stop,
-                first=charges,
-            )
+            more = placed(rule, charges)
             if more is not None:
                 candidates.append(more)
         if plan is None:
