@@ -401,6 +401,7 @@ def delay_caps(
     domains: Mapping[str, Domain],
     cutoff: int,
     bound: int,
+    floor: int | None = None,
 ) -> dict[str, int]:
     """Latest starts that every plan of cost at most ``cutoff`` keeps.
 
@@ -408,6 +409,9 @@ def delay_caps(
     plus ``d (s - e)`` for each kept task started at ``s`` after its
     earliest start ``e``. So no task of delay cost ``d`` starts after
     ``e + (cutoff - bound) // d`` in a plan of cost at most ``cutoff``.
+    With ``floor`` the same holds of it for a task on no machine
+    (:func:`~.sequencing.machines`): the floor prices its kept set with
+    each machine's delay, and that task's own delay is no machine's.
 
     Parameters
     ----------
@@ -416,9 +420,12 @@ def delay_caps(
     domains
         Its start domains.
     cutoff
-        The cost of a known plan (the start plan's objective).
+        The cost of a known plan (the start plan's objective, or a
+        better plan's).
     bound
         :attr:`KeptSetProof.bound` for that plan.
+    floor
+        :attr:`KeptSetProof.floor` for that plan, or None.
 
     Returns
     -------
@@ -426,8 +433,16 @@ def delay_caps(
         Task id to latest start, for placeable tasks with a delay cost.
     """
     slack = max(0, cutoff - bound)
+    free_slack = slack
+    on_machines: set[str] = set()
+    if floor is not None:
+        free_slack = min(slack, max(0, cutoff - floor))
+        on_machines = {
+            n for names in machines(problem, domains) for n in names
+        }
     return {
-        task.id: domains[task.id].earliest + slack // task.delay_cost
+        task.id: domains[task.id].earliest
+        + (slack if task.id in on_machines else free_slack) // task.delay_cost
         for task in problem.tasks
         if task.delay_cost > 0 and not domains[task.id].empty
     }
@@ -491,7 +506,7 @@ def fixings(
     """
     if proof.bound is None:
         return None
-    caps = delay_caps(problem, domains, cutoff, proof.bound)
+    caps = delay_caps(problem, domains, cutoff, proof.bound, proof.floor)
     # The energy rows are the same for every search here: read once (6-19
     # ms each on parts of 50-60 tasks, and a search per left-out task).
     rows = energy(problem, domains)

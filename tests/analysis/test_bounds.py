@@ -207,7 +207,9 @@ def test_delay_caps_keep_every_optimal_plan(doc: dict) -> None:
         assert check_plan(problem, proof.better).ok
         assert proof.better.objective is not None
         assert proof.better.objective.total < start.objective.total
-    caps = delay_caps(problem, domains, start.objective.total, proof.bound)
+    caps = delay_caps(
+        problem, domains, start.objective.total, proof.bound, proof.floor
+    )
     # Every optimal plan keeps within the caps: check the one found.
     for name, at in starts.items():
         if at is not None and name in caps:
@@ -583,6 +585,15 @@ def test_the_floor_of_camera_days_is_a_bound(
             assert proof.lowest <= objective.total, (doc, plan, proof)
         if proof.plan is not None:
             assert proof.plan.objective == objective, (doc, plan, proof)
+        if proof.bound is None or plan.objective is None:
+            continue
+        # The caps keep every plan as good as this one: the optimum too.
+        caps = delay_caps(
+            problem, domains, plan.objective.total, proof.bound, proof.floor
+        )
+        for name, at in best[1].items():
+            if at is not None and name in caps:
+                assert at <= caps[name], (doc, plan, proof, name, caps)
 
 
 def test_a_kept_set_that_does_not_fit_whole_is_placed_supplies_first() -> None:
