@@ -87,9 +87,10 @@ class KeptSetProof(NamedTuple):
         that also prices the delay each machine's kept tasks cannot
         avoid (:mod:`.sequencing`), a lower bound on every plan at least
         as good as the start plan, at least ``bound``; None when it is
-        ``bound`` or its search ran out. ``bound`` stays the one the
-        start caps (:func:`delay_caps`) read: ``floor`` counts a
-        machine's delay once for all its tasks.
+        ``bound`` or its search ran out. The start caps
+        (:func:`delay_caps`) read it for the tasks on no machine only,
+        and ``bound`` for the others: ``floor`` counts a machine's delay
+        once for all its tasks.
     """
 
     plan: Plan | None
