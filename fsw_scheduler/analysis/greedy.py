@@ -40,7 +40,7 @@ from .board import Board
 from .check import check_plan
 from .domains import Domain, start_domains
 from .proofs import conflict_seeds, forced_tasks
-from .supply import supply_sets
+from .supply import charges_a_store, supply_sets
 
 if TYPE_CHECKING:
     from ..model.problem import Problem, Task
@@ -130,12 +130,10 @@ def greedy_plan(
         seeds | {t.id for t in problem.tasks if t.id not in forced},
     )
     supplied = supply_sets(problem, domains, forced)
-    stores = problem.resources.initial_levels
     charges = {
         t.id
         for t in problem.tasks
-        if not domains[t.id].empty
-        and any(t.uses.get(name, 0) < 0 for name in stores)
+        if not domains[t.id].empty and charges_a_store(problem, t)
     }
     candidates: list[Plan] = []
 

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 from ..model.plan import objective_weight
 from .energetic import energy_rows
 from .exclusions import exclusive_pairs
-from .sequencing import Job, machine_delay
+from .sequencing import Job, job, machine_delay
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Mapping, Sequence
@@ -213,10 +213,7 @@ class KeptSetSearch:
             for name in names:
                 if name in index:
                     self.machine_of[index[name]] = m
-        self.jobs: list[Job] = [
-            (domains[t.id].earliest, t.length, t.delay_cost)
-            for t in self.order
-        ]
+        self.jobs: list[Job] = [job(t, domains) for t in self.order]
         #: The kept jobs on each machine, and their delay bound, as the
         #: search goes down.
         self.on_machine: list[list[Job]] = [[] for _ in machines]

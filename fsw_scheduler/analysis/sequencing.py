@@ -42,6 +42,11 @@ _EPS = 1e-6
 Job = tuple[int, int, int]
 
 
+def job(task: Task, domains: Mapping[str, Domain]) -> Job:
+    """``task`` as a job on its machine, released at its earliest start."""
+    return (domains[task.id].earliest, task.length, task.delay_cost)
+
+
 def machine_delay(jobs: Sequence[Job]) -> int:
     """The least sequencing delay of ``jobs`` on one machine (a lower bound).
 

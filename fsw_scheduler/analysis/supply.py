@@ -13,8 +13,15 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from collections.abc import Set
 
-    from ..model.problem import Problem
+    from ..model.problem import Problem, Task
     from .domains import Domain
+
+
+def charges_a_store(problem: Problem, task: Task) -> bool:
+    """True if ``task`` puts into a consumable (a negative use)."""
+    return any(
+        task.uses.get(name, 0) < 0 for name in problem.resources.consumable
+    )
 
 
 def supply_sets(
@@ -31,13 +38,12 @@ def supply_sets(
     to all of them; empty when no forced task consumes beyond the
     initial level.
     """
-    stores = problem.resources.initial_levels
     makers = [
         name
         for _, name in sorted(
             (domains[t.id].earliest + t.length, t.id)
             for t in problem.tasks
-            if any(t.uses.get(name, 0) < 0 for name in stores)
+            if charges_a_store(problem, t)
             and not domains[t.id].empty
             and t.id not in forced
         )
