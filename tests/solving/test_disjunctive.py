@@ -86,6 +86,38 @@ def test_a_plan_has_the_same_objective_in_both_models(doc: dict) -> None:
     built = DisjunctiveModel(problem, start_domains(problem))
     values = built.vars.initial(plan.starts(), built.num_variables)
     assert built.program.value(values) == plan.objective.total
+    assert _broken_rows(built, values) == [], show(doc, plan)
+
+
+def _broken_rows(
+    built: DisjunctiveModel, values: list[float]
+) -> list[tuple[dict[int, float], str, float]]:
+    """The rows of ``built`` that ``values`` break."""
+    broken = []
+    for terms, sense, rhs in built.program.rows:
+        lhs = sum(coef * values[col] for col, coef in terms.items())
+        if (
+            (sense == "L" and lhs > rhs + 1e-9)
+            or (sense == "G" and lhs < rhs - 1e-9)
+            or (sense == "E" and abs(lhs - rhs) > 1e-9)
+        ):
+            broken.append((terms, sense, rhs))
+    return broken
+
+
+def test_a_start_with_users_running_together_keeps_every_row() -> None:
+    """Tests that a warm start in which two users of a multiple resource
+    run together (they fit; all three would not) gives every column a
+    value that keeps every row, the columns saying "runs when the other
+    starts" included: a start that breaks a row is dropped by CBC
+    whole."""
+    problem = problem_from(_three_on_power(100))
+    built = DisjunctiveModel(problem, start_domains(problem))
+    assert built.vars.runs_at, "the load-at-starts columns are built"
+    # Identical tasks start in problem order (the symmetry rows).
+    for starts in ({"a": 0, "b": 0, "c": 2}, {"a": 0, "b": 1, "c": 2}):
+        values = built.vars.initial(starts, built.num_variables)
+        assert _broken_rows(built, values) == [], starts
 
 
 def _three_on_power(capacity: float) -> dict:

@@ -61,6 +61,11 @@ class Variables:
                 program.lower[self.chosen[task.id]] = 1
         #: Order columns by (first, second) task id.
         self.orders: dict[tuple[str, str], int] = {}
+        #: "``first`` runs when ``second`` starts" columns by (first,
+        #: second) task id, with the tie offset of their row (1 when
+        #: ``first`` comes after ``second`` in problem order); see
+        #: :meth:`.constraints.Constraints._load_at_starts`.
+        self.runs_at: dict[tuple[str, str], tuple[int, int]] = {}
 
     @property
     def num_placeable(self) -> int:
@@ -125,7 +130,8 @@ class Variables:
 
         Tasks absent from ``starts`` start as unscheduled at their earliest
         start (mandatory ones scheduled there); starts outside a task's
-        domain are ignored. Order columns follow the starts.
+        domain are ignored. Order columns, and the columns saying a task
+        runs when another starts, follow the starts.
         """
         values = [0.0] * columns
         placed: dict[str, int] = {}
@@ -149,6 +155,17 @@ class Variables:
                 first in placed
                 and second in placed
                 and placed[first] + self.lengths[first] <= placed[second]
+            ):
+                values[column] = 1.0
+        # Without these a start in which two users of a multiple resource
+        # overlap breaks its pair's row, and CBC drops the whole start.
+        for (first, second), (column, tie) in self.runs_at.items():
+            if (
+                first in placed
+                and second in placed
+                and placed[first] + tie
+                <= placed[second]
+                < placed[first] + self.lengths[first]
             ):
                 values[column] = 1.0
         return values
