@@ -18,12 +18,21 @@ from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.solving.ilp.disjunctive import rule
 from fsw_scheduler.solving.ilp.disjunctive.model import DisjunctiveModel
 from fsw_scheduler.solving.ilp.disjunctive.rule import pairwise_exact, pick
-from fsw_scheduler.solving.ilp.model import solve_ilp
+from fsw_scheduler.solving.ilp.model import in_symmetry_order, solve_ilp
 from fsw_scheduler.solving.solve import best_start, solve
 from fsw_scheduler.solving.stats import stopped_on_nodes
 
 from ..factories import make_doc, make_task, problem_from
-from ..problems import COMMON, brute_force, decode_doc, problem_docs, show
+from ..problems import (
+    COMMON,
+    apart_docs,
+    brute_force,
+    candidates,
+    decode_doc,
+    is_feasible,
+    problem_docs,
+    show,
+)
 
 if TYPE_CHECKING:
     from fsw_scheduler.model.problem import Problem
@@ -103,6 +112,47 @@ def _broken_rows(
         ):
             broken.append((terms, sense, rhs))
     return broken
+
+
+def _warm_starts_keep_every_row(doc: dict) -> None:
+    """Assert that the columns :meth:`Variables.initial` gives for each
+    plan the exhaustive search accepts (up to 40) keep every row, its
+    identical tasks' starts in problem order as the solver hands them
+    over (:func:`in_symmetry_order`)."""
+    problem = decode_doc(_without_consumables(doc))
+    built = DisjunctiveModel(problem, start_domains(problem))
+    seen = 0
+    for starts in candidates(problem):
+        if not is_feasible(problem, starts):
+            continue
+        placed = in_symmetry_order(
+            built.constraints.twins,
+            {k: v for k, v in starts.items() if v is not None},
+        )
+        values = built.vars.initial(placed, built.num_variables)
+        assert _broken_rows(built, values) == [], (show(doc), placed)
+        seen += 1
+        if seen >= 40:
+            break
+
+
+@settings(COMMON, max_examples=60)
+@given(doc=problem_docs(max_tasks=5, max_horizon=8))
+def test_every_plan_as_a_warm_start_keeps_every_row(doc: dict) -> None:
+    """Tests that any valid plan, as a warm start, keeps every row of the
+    model: CBC drops a warm start that breaks one, and then searches
+    without it."""
+    _warm_starts_keep_every_row(doc)
+
+
+@settings(COMMON, max_examples=150)
+@given(doc=apart_docs(max_tasks=5))
+def test_every_plan_as_a_warm_start_keeps_the_load_rows(doc: dict) -> None:
+    """Tests the same on tasks crowding a power resource whose users fit
+    two by two but not always three together: the load at each start
+    and its columns ("runs when the other starts", which
+    :func:`problem_docs` never makes the model build)."""
+    _warm_starts_keep_every_row(doc)
 
 
 def test_a_start_with_users_running_together_keeps_every_row() -> None:
