@@ -19,12 +19,13 @@ from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.solving.ilp import cbc, child, progress
 from fsw_scheduler.solving.ilp.cbc import CbcRun
+from fsw_scheduler.solving.ilp.model import solve_ilp
 from fsw_scheduler.solving.ilp.child import sweep_stale_dirs
 from fsw_scheduler.solving.ilp.program import EQ, Program
 from fsw_scheduler.solving.ilp.progress import WatchedCbcRun, line_buffered
 from fsw_scheduler.solving.solve import solve
 
-from ..factories import ROOT, bench_lib
+from ..factories import ROOT, bench_lib, make_doc, make_task, problem_from
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -242,6 +243,48 @@ def test_a_bound_above_a_held_plan_is_not_trusted() -> None:
     close = cbc._read_log(str(LOGS / "cuts_close.log"))
     assert not close.overshot
     assert close.root == -284500
+
+
+def test_a_start_cbc_did_not_take_as_given_is_seen() -> None:
+    """Tests that :func:`cbc.start_refused` tells a MIP start CBC took
+    (a time-indexed run) from one that broke a row (CBC kept its
+    non-zero columns) and one CBC dropped without a word, both from the
+    disjunctive relaxation before its load columns were filled."""
+    text = {
+        name: (LOGS / f"start_{name}.log").read_text()
+        for name in ("taken", "broken", "dropped")
+    }
+    assert not cbc.start_refused(text["taken"])
+    assert cbc.start_refused(text["broken"])
+    assert cbc.start_refused(text["dropped"])
+    # Stopped before its root LP, CBC has not looked at the start yet.
+    head = text["dropped"].split("Continuous objective value")[0]
+    assert not cbc.start_refused(head)
+    assert not cbc.start_refused("Problem MODEL has 3 rows")
+
+
+def test_a_start_with_users_running_together_is_taken(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """Tests that CBC takes a disjunctive warm start in which two users of
+    a multiple resource run together (they fit, three do not) as given:
+    no warning, and the start's plan back when it is the optimum."""
+    tasks = [
+        make_task(name, length=2, schedule_cost=0, uses={"power": 50})
+        for name in ("a", "b", "c")
+    ]
+    problem = problem_from(
+        make_doc(tasks, horizon=6, resources={"multiple": {"power": 100}})
+    )
+    with caplog.at_level("WARNING", logger="fsw_scheduler.solver"):
+        plan = solve_ilp(
+            problem,
+            formulation="disjunctive",
+            warm={"a": 0, "b": 0, "c": 2},
+        )
+    assert "warm start" not in caplog.text
+    assert plan.status is SolveStatus.OPTIMAL
+    assert check_plan(problem, plan).ok
 
 
 def _two_of_three() -> Program:
