@@ -19,8 +19,8 @@ from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.solving.ilp import cbc, child, progress
 from fsw_scheduler.solving.ilp.cbc import CbcRun
-from fsw_scheduler.solving.ilp.model import solve_ilp
 from fsw_scheduler.solving.ilp.child import sweep_stale_dirs
+from fsw_scheduler.solving.ilp.model import solve_ilp
 from fsw_scheduler.solving.ilp.program import EQ, Program
 from fsw_scheduler.solving.ilp.progress import WatchedCbcRun, line_buffered
 from fsw_scheduler.solving.solve import solve
@@ -270,11 +270,15 @@ def test_a_start_with_users_running_together_is_taken(
     a multiple resource run together (they fit, three do not) as given:
     no warning, and the start's plan back when it is the optimum."""
     tasks = [
-        make_task(name, length=2, schedule_cost=0, uses={"power": 50})
+        make_task(
+            name, length=2, schedule_cost=0, uses={"power": 50, "heat": 4}
+        )
         for name in ("a", "b", "c")
     ]
     problem = problem_from(
-        make_doc(tasks, horizon=6, resources={"multiple": {"power": 100}})
+        make_doc(
+            tasks, horizon=6, resources={"multiple": {"power": 100, "heat": 9}}
+        )
     )
     with caplog.at_level("WARNING", logger="fsw_scheduler.solver"):
         plan = solve_ilp(

@@ -161,9 +161,15 @@ def test_a_start_with_users_running_together_keeps_every_row() -> None:
     value that keeps every row, the columns saying "runs when the other
     starts" included: a start that breaks a row is dropped by CBC
     whole."""
-    problem = problem_from(_three_on_power(100))
+    # A second resource the same way: each pair has its columns on both.
+    doc = _three_on_power(100)
+    doc["resources"]["multiple"]["heat"] = 9
+    for task in doc["tasks"]:
+        task["uses"]["heat"] = 4
+    problem = problem_from(doc)
     built = DisjunctiveModel(problem, start_domains(problem))
-    assert built.vars.runs_at, "the load-at-starts columns are built"
+    on = {(first, second) for first, second, _, _ in built.vars.runs_at}
+    assert len(built.vars.runs_at) == 2 * len(on) == 12
     # Identical tasks start in problem order (the symmetry rows).
     for starts in ({"a": 0, "b": 0, "c": 2}, {"a": 0, "b": 1, "c": 2}):
         values = built.vars.initial(starts, built.num_variables)

@@ -273,7 +273,7 @@ class Constraints:
         if dom_a.earliest + tie > dom_b.latest:
             self.program.upper[column] = 0
             return column
-        self.vars.runs_at[(first.id, second.id)] = (column, tie)
+        self.vars.runs_at.append((first.id, second.id, column, tie))
         big = dom_a.latest + tie - dom_b.earliest
         if big > 0:
             self.program.add_row(

@@ -61,11 +61,12 @@ class Variables:
                 program.lower[self.chosen[task.id]] = 1
         #: Order columns by (first, second) task id.
         self.orders: dict[tuple[str, str], int] = {}
-        #: "``first`` runs when ``second`` starts" columns by (first,
-        #: second) task id, with the tie offset of their row (1 when
-        #: ``first`` comes after ``second`` in problem order); see
-        #: :meth:`.constraints.Constraints._load_at_starts`.
-        self.runs_at: dict[tuple[str, str], tuple[int, int]] = {}
+        #: The "``first`` runs when ``second`` starts" columns: (first,
+        #: second, column, tie offset of its row: 1 when ``first`` comes
+        #: after ``second`` in problem order). A pair has one on each
+        #: resource whose load at starts it shares (see
+        #: :meth:`.constraints.Constraints._load_at_starts`).
+        self.runs_at: list[tuple[str, str, int, int]] = []
 
     @property
     def num_placeable(self) -> int:
@@ -159,7 +160,7 @@ class Variables:
                 values[column] = 1.0
         # Without these a start in which two users of a multiple resource
         # overlap breaks its pair's row, and CBC drops the whole start.
-        for (first, second), (column, tie) in self.runs_at.items():
+        for first, second, column, tie in self.runs_at:
             if (
                 first in placed
                 and second in placed
