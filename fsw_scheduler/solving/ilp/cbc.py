@@ -282,10 +282,13 @@ class _Log(NamedTuple):
     overshot: bool
     #: The root LP's value before cuts, a valid lower bound.
     root: float | None
+    #: A MIP start read and not taken as given (:func:`start_refused`).
+    refused: bool = False
 
 
 def _read_log(path: str) -> _Log:
-    """Seconds, lower bound and their trust from a CBC log."""
+    """Seconds, lower bound and their trust from a CBC log, and whether
+    it shows a MIP start not taken as given."""
     try:
         text = Path(path).read_text(errors="replace")
     except OSError:
@@ -298,16 +301,8 @@ def _read_log(path: str) -> _Log:
         float(bound[-1]) if bound else None,
         _overshot(text, cuts),
         float(cuts[-1][0]) if cuts else None,
+        start_refused(text),
     )
-
-
-def _refused(path: str) -> bool:
-    """:func:`start_refused` on the log at ``path`` (False if unread)."""
-    try:
-        text = Path(path).read_text(errors="replace")
-    except OSError:
-        return False
-    return start_refused(text)
 
 
 def _overshot(text: str, cuts: list[tuple[str, str]]) -> bool:
@@ -519,8 +514,8 @@ class CbcRun:
                 code = self._run(
                     head + sec + _flags(options) + tail, files["log"], deadline
                 )
-            seconds, bound, overshot, root = _read_log(files["log"])
-            if warm is not None and _refused(files["log"]):
+            seconds, bound, overshot, root, refused = _read_log(files["log"])
+            if refused:
                 log.warning(
                     "cbc did not take the warm start as given (it breaks "
                     "a row of the %d x %d model): searched without it",
