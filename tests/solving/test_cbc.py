@@ -248,7 +248,7 @@ def test_a_bound_above_a_held_plan_is_not_trusted() -> None:
 def test_a_start_cbc_did_not_take_as_given_is_seen() -> None:
     """Tests that :func:`cbc.start_refused` tells a MIP start CBC took
     (a time-indexed run) from one that broke a row (CBC kept its
-    non-zero columns) and one CBC dropped without a word, both from the
+    non-zero columns) and one CBC could not use at all, both from the
     disjunctive relaxation before its load columns were filled."""
     text = {
         name: (LOGS / f"start_{name}.log").read_text()
@@ -268,7 +268,7 @@ def test_a_start_with_users_running_together_is_taken(
 ) -> None:
     """Tests that CBC takes a disjunctive warm start in which two users of
     a multiple resource run together (they fit, three do not) as given:
-    no warning, and the start's plan back when it is the optimum."""
+    no warning, and an optimal, valid plan."""
     tasks = [
         make_task(
             name, length=2, schedule_cost=0, uses={"power": 50, "heat": 4}

@@ -131,7 +131,7 @@ def start_refused(text: str) -> bool:
     A start that breaks a row of the model is a defect of the column
     values built for it (the plan behind it is valid): CBC then keeps
     only its non-zero columns and runs a small search from them, or
-    drops it, and searches without the incumbent it was given (the
+    cannot use it at all, and searches without the incumbent it was given (the
     large suite's f60-h1440 of seed 201: the disjunctive relaxation's
     load columns were left at 0, and it lost its proof).
     """
