@@ -4,6 +4,7 @@ CP-SAT."""
 from __future__ import annotations
 
 import json
+import logging
 import subprocess
 import sys
 
@@ -13,6 +14,8 @@ from fsw_scheduler.model.change import Removal, decode_change
 from fsw_scheduler.model.plan import Activity, Plan, SolveStatus
 from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.replan.diff import PlanDiff
+from fsw_scheduler.solving.ilp.cbc import CbcRun
+from fsw_scheduler.solving.ilp.program import EQ, Program
 
 from ..factories import ROOT, bench_lib, tool_script
 
@@ -169,3 +172,28 @@ def test_fuzz_replans_judges_each_replan_against_cp_sat() -> None:
     assert len(judged) >= 15
     for kind in ("goal", "activity_failed", "levels", "commit window"):
         assert any(kind in line for line in judged), kind
+
+
+def test_a_warm_start_cbc_did_not_take_is_counted() -> None:
+    """Tests that the fuzz tool counts the solver's warnings that CBC did
+    not take a warm start as given, and no other warning, on real CBC
+    runs: a start that breaks the program's one row (one of three
+    binaries set where two must be) and one that keeps it."""
+    fuzz = tool_script("fuzz", "fuzz_tool")
+    refused = fuzz.RefusedStarts()
+    logger = logging.getLogger("fsw_scheduler.solver")
+    logger.addHandler(refused)
+    try:
+        logger.warning("cbc exited with -11; retrying with preprocessing")
+        assert refused.count == 0
+        program = Program()
+        cols = [program.add_column(0, 1, integer=True) for _ in range(3)]
+        program.add_row(dict.fromkeys(cols, 1), EQ, 2)
+        program.set_objective({c: k + 1 for k, c in enumerate(cols)})
+        result = CbcRun(time_limit=10).solve(program, [0.0, 0.0, 1.0])
+        assert result.status is SolveStatus.OPTIMAL
+        assert refused.count == 1
+        CbcRun(time_limit=10).solve(program, [1.0, 1.0, 0.0])
+        assert refused.count == 1
+    finally:
+        logger.removeHandler(refused)
