@@ -11,7 +11,7 @@ import sys
 import pytest
 
 from fsw_scheduler.model.change import Removal, decode_change
-from fsw_scheduler.model.plan import Activity, Plan, SolveStatus
+from fsw_scheduler.model.plan import Activity, Objective, Plan, SolveStatus
 from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.replan.diff import PlanDiff
 from fsw_scheduler.solving.ilp.cbc import CbcRun
@@ -142,6 +142,40 @@ def test_a_pin_the_plan_does_not_keep_is_a_finding_unless_named() -> None:
     assert fuzz.pin_findings(pins, named) == []
     unnamed = named.replace(why=())
     assert fuzz.pin_findings(pins, unnamed) == ["breaks the pin of b at 9"]
+
+
+def test_no_plan_where_cp_sat_has_one_is_weak() -> None:
+    """Tests that an ``unknown`` answer (no plan) where CP-SAT found a
+    plan, proved or not, is a ``weak`` finding: a day with a plan left
+    without one (``tools/fuzz --large`` seeds 1182 and 1192: 47-53 task
+    parts that list scheduling could not start)."""
+    fuzz = tool_script("fuzz", "fuzz_tool")
+    problem = decode_problem(
+        json.dumps(
+            {
+                "horizon": 10,
+                "resources": {},
+                "tasks": [
+                    {
+                        "id": "a",
+                        "length": 2,
+                        "delay_cost": 1,
+                        "schedule_cost": 1,
+                    }
+                ],
+            }
+        ).encode()
+    )
+    none = Plan(SolveStatus.UNKNOWN, None)
+    found = Plan(
+        SolveStatus.FEASIBLE,
+        Objective(0, 0, 0),
+        (Activity("a", 0, 2),),
+    )
+    assert fuzz.findings(problem, none, 1.0, 20.0, found) == [
+        "weak: no plan at 20 s, CP-SAT has one"
+    ]
+    assert fuzz.findings(problem, none, 1.0, 20.0, none) == []
 
 
 def _diff(removed: tuple[Removal, ...]) -> PlanDiff:
