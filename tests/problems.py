@@ -22,6 +22,7 @@ from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.errors import InputError
 from fsw_scheduler.model.plan import Activity, Objective, Plan, SolveStatus
 from fsw_scheduler.model.problem import decode_problem
+from fsw_scheduler.solving.ilp.model import in_symmetry_order
 
 if TYPE_CHECKING:
     from collections.abc import Collection, Iterable, Iterator, Sequence
@@ -521,6 +522,37 @@ def candidates(problem: Problem) -> Iterator[Assignment]:
     ids = [task.id for task in problem.tasks]
     for combo in itertools.product(*options):
         yield dict(zip(ids, combo, strict=True))
+
+
+def warm_starts(
+    problem: Problem, twins: list[list[str]], limit: int = 40
+) -> Iterator[dict[str, int]]:
+    """Up to ``limit`` plans the exhaustive search accepts, as the solver
+    hands a plan to CBC: the starts of the placed tasks, identical tasks'
+    (``twins``, the model's) in problem order (:func:`in_symmetry_order`).
+    """
+    seen = 0
+    for starts in candidates(problem):
+        if seen >= limit:
+            return
+        if not is_feasible(problem, starts):
+            continue
+        seen += 1
+        yield in_symmetry_order(
+            twins, {k: v for k, v in starts.items() if v is not None}
+        )
+
+
+def row_holds(
+    terms: dict[int, float], sense: str, rhs: float, values: Sequence[float]
+) -> bool:
+    """True if the program row ``terms (sense) rhs`` holds at ``values``."""
+    total = sum(coef * values[col] for col, coef in terms.items())
+    if sense == "L":
+        return total <= rhs + 1e-6
+    if sense == "G":
+        return total >= rhs - 1e-6
+    return abs(total - rhs) <= 1e-6
 
 
 def brute_force(

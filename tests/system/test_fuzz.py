@@ -17,7 +17,14 @@ from fsw_scheduler.replan.diff import PlanDiff
 from fsw_scheduler.solving.ilp.cbc import CbcRun
 from fsw_scheduler.solving.ilp.program import EQ, Program
 
-from ..factories import ROOT, bench_lib, tool_script
+from ..factories import (
+    ROOT,
+    bench_lib,
+    make_doc,
+    make_task,
+    problem_from,
+    tool_script,
+)
 
 odd = bench_lib("odd")
 pytest.importorskip("ortools.sat.python.cp_model")
@@ -150,22 +157,7 @@ def test_no_plan_where_cp_sat_has_one_is_weak() -> None:
     without one (``tools/fuzz --large`` seeds 1182 and 1192: 47-53 task
     parts that list scheduling could not start)."""
     fuzz = tool_script("fuzz", "fuzz_tool")
-    problem = decode_problem(
-        json.dumps(
-            {
-                "horizon": 10,
-                "resources": {},
-                "tasks": [
-                    {
-                        "id": "a",
-                        "length": 2,
-                        "delay_cost": 1,
-                        "schedule_cost": 1,
-                    }
-                ],
-            }
-        ).encode()
-    )
+    problem = problem_from(make_doc([make_task("a")], horizon=10))
     none = Plan(SolveStatus.UNKNOWN, None)
     found = Plan(
         SolveStatus.FEASIBLE,
