@@ -286,7 +286,7 @@ def test_a_start_with_users_running_together_is_taken(
             formulation="disjunctive",
             warm={"a": 0, "b": 0, "c": 2},
         )
-    assert "warm start" not in caplog.text
+    assert cbc.START_REFUSED not in caplog.text
     assert plan.status is SolveStatus.OPTIMAL
     assert check_plan(problem, plan).ok
 

@@ -125,15 +125,20 @@ _START_BROKEN = "Fixing only non-zero variables"
 _LP_SOLVED = "Continuous objective value"
 
 
+#: How the solver's warning of :func:`start_refused` begins (tools that
+#: watch the log match on it).
+START_REFUSED = "cbc did not take the warm start as given"
+
+
 def start_refused(text: str) -> bool:
     """True if a CBC log shows a MIP start read but not taken as given.
 
     A start that breaks a row of the model is a defect of the column
     values built for it (the plan behind it is valid): CBC then keeps
     only its non-zero columns and runs a small search from them, or
-    cannot use it at all, and searches without the incumbent it was given (the
-    large suite's f60-h1440 of seed 201: the disjunctive relaxation's
-    load columns were left at 0, and it lost its proof).
+    cannot use it at all, and searches without the incumbent it was
+    given (the large suite's f60-h1440 of seed 201: the disjunctive
+    relaxation's load columns were left at 0, and it lost its proof).
     """
     if _START_READ not in text or _LP_SOLVED not in text:
         # No start, or stopped before CBC looks at it (after the LP).
@@ -517,8 +522,9 @@ class CbcRun:
             seconds, bound, overshot, root, refused = _read_log(files["log"])
             if refused:
                 log.warning(
-                    "cbc did not take the warm start as given (it breaks "
-                    "a row of the %d x %d model): searched without it",
+                    "%s (it breaks a row of the %d x %d model): searched "
+                    "without it",
+                    START_REFUSED,
                     program.num_rows,
                     program.num_columns,
                 )
