@@ -17,7 +17,9 @@ share of the limit, without the consumables they cannot run out of
 its plan, pinned, has the other tasks list-scheduled around it, and
 that is the start plan the neighbourhood search and the insertion of
 left-out tasks work from (there: 11 tasks, proved in 1.7 s; the forced
-tasks alone are infeasible, their battery needs a supply).
+tasks alone are infeasible, their battery needs a supply). When the
+solver finds no plan of them in its share, list schedules in perturbed
+orders may (:func:`~fsw_scheduler.analysis.greedy.sampled_plan`).
 """
 
 from __future__ import annotations
@@ -28,7 +30,12 @@ from typing import TYPE_CHECKING
 import msgspec
 
 from ..analysis.domains import start_domains
-from ..analysis.greedy import around_core, checked_starts, forced_alone
+from ..analysis.greedy import (
+    around_core,
+    checked_starts,
+    forced_alone,
+    sampled_plan,
+)
 from ..analysis.proofs import forced_tasks, with_needs
 from ..analysis.stores import never_short
 from ..model.plan import Blocker, Plan, SolverStats, SolveStatus
@@ -56,6 +63,13 @@ RELAXED_CORE_SHARE = 0.75
 WHOLE_CORE = (
     "the tasks every plan must hold and the supplies they need are the "
     "whole part: the solver proved their plan"
+)
+#: How a start plan from :func:`forced_start` was built (its
+#: ``stats.solver_status``; the solve's status line repeats it).
+SOLVED_CORE = "built around the solver's plan of them and the supplies"
+SAMPLED_CORE = (
+    "built around a list schedule of them and the supplies in a perturbed "
+    "order (the solver found none in its share)"
 )
 
 
@@ -144,6 +158,17 @@ def forced_start(
     if core.status is SolveStatus.INFEASIBLE and relaxes(problem, alone):
         return _no_plan(problem, alone, forced, core)
     if not core.status.has_plan:
+        # The solver found none in its share: list schedules in perturbed
+        # orders (``tools/fuzz --large`` seed 1192, 53 tasks over H = 700,
+        # 20 s: the relaxation's plans of the 23-task core broke a
+        # battery, the time-indexed model found none in 1.9 s, nor the
+        # whole part's in 9.8 s, and the answer was `unknown`; the first
+        # order tried places the core, in 14 ms).
+        core = sampled_plan(alone, stop=stop) or core
+        origin = SAMPLED_CORE
+    else:
+        origin = SOLVED_CORE
+    if not core.status.has_plan:
         return None
     if (
         len(alone.tasks) == problem.num_tasks
@@ -159,8 +184,16 @@ def forced_start(
     # r60-h1440-0 afresh: 7 forced tasks planned in 0.09 s, then no
     # plan), the core alone: the insertion of left-out tasks and the
     # search fill it in.
-    return around_core(problem, core.starts(), stop) or checked_starts(
+    start = around_core(problem, core.starts(), stop) or checked_starts(
         problem, core.starts()
+    )
+    if start is None:
+        return None
+    return start.replace(
+        stats=SolverStats(
+            solver=core.stats.solver if core.stats else "greedy",
+            solver_status=origin,
+        )
     )
 
 

@@ -31,7 +31,7 @@ from ..model.plan import (
 from ..model.stability import Stability, rescored
 from . import large, replanning
 from .budget import BUDGET, stop_at, stop_within
-from .forced import WHOLE_CORE, forced_start
+from .forced import SOLVED_CORE, WHOLE_CORE, forced_start
 from .incumbent import checked, finished, narrow, probed
 from .joined import after, joined, starved
 from .polishing import Polishing, shift_deadline
@@ -476,7 +476,7 @@ def _solve_whole(
     start = best_start(
         problem, warm, stop=stop, domains=domains, stability=stability
     )
-    around_forced = False
+    around_forced = ""  # how the start plan was built, if around the core
     if start is None and stability is None:
         # No rule placed the forced tasks: the solver plans them alone.
         start = forced_start(
@@ -484,7 +484,10 @@ def _solve_whole(
         )
         if start is not None and start.status is SolveStatus.INFEASIBLE:
             return with_call_stats(start, began, time_limit)  # no plan
-        around_forced = start is not None
+        if start is not None:
+            around_forced = (
+                start.stats.solver_status if start.stats else SOLVED_CORE
+            )
     if loud:
         log.info(
             "start plan: %s after %.1f s",
@@ -603,8 +606,8 @@ def _solve_whole(
             stats=msgspec.structs.replace(
                 plan.stats,
                 solver_status="start plan: list scheduling could not place "
-                "the tasks every plan must hold; built around the solver's "
-                f"plan of them and the supplies; {plan.stats.solver_status}",
+                f"the tasks every plan must hold; {around_forced}; "
+                f"{plan.stats.solver_status}",
             )
         )
     return plan

@@ -11,8 +11,15 @@ from hypothesis import given, settings
 
 from fsw_scheduler.analysis.bounds import at_lower_bound
 from fsw_scheduler.analysis.check import check_plan
-from fsw_scheduler.analysis.greedy import greedy_plan
+from fsw_scheduler.analysis.domains import start_domains
+from fsw_scheduler.analysis.greedy import (
+    SAMPLED_ORDERS,
+    greedy_plan,
+    sampled_plan,
+)
+from fsw_scheduler.analysis.proofs import forced_tasks
 from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.solving.solve import best_start, solve
 
 from ..factories import bench_lib, make_task, problem_from
@@ -434,3 +441,54 @@ def test_stores_are_charged_first_when_only_optional_tasks_need_it() -> None:
     assert check_plan(problem, plan).ok
     assert len(plan.unscheduled) <= 5
     assert plan.objective.total < 4_000_000
+
+
+#: The forced core of ``tools/fuzz --large`` seed 1192: its 17 mandatory
+#: tasks with the supplies of the two batteries they can run out of (23
+#: tasks over H = 700, two cameras, two power resources), as
+#: :func:`~fsw_scheduler.solving.forced.forced_start` cuts it.
+SAMPLED_CORE = Path(__file__).parent / "forced_core_l1192.json"
+
+
+def test_perturbed_orders_place_a_core_no_rule_places() -> None:
+    """Tests that biased random sampling places the forced core that
+    every rule of the list scheduler leaves short: the plan holds every
+    mandatory task and the checker accepts it; the same plan every time
+    (a seeded generator)."""
+    problem = decode_problem(SAMPLED_CORE.read_bytes())
+    domains = start_domains(problem)
+    assert greedy_plan(problem) is None
+    plan = sampled_plan(problem, domains)
+    assert plan is not None and plan.status is SolveStatus.FEASIBLE
+    assert check_plan(problem, plan).ok
+    assert forced_tasks(problem) <= {a.task for a in plan.activities}
+    assert sampled_plan(problem) == plan
+    other = sampled_plan(problem, seed=7)
+    assert other is not None and check_plan(problem, other).ok
+
+
+def test_sampling_stops_when_asked_and_gives_up_in_bounded_tries() -> None:
+    """Tests that sampling returns None at once when time is up, and
+    after at most ``SAMPLED_ORDERS`` orders when no order places the
+    mandatory tasks (two mandatory tasks that each need the whole
+    horizon of one camera)."""
+    problem = decode_problem(SAMPLED_CORE.read_bytes())
+    assert sampled_plan(problem, stop=lambda: True) is None
+    impossible = problem_from(
+        {
+            "horizon": 10,
+            "resources": {"binary": ["camera"]},
+            "tasks": [
+                make_task("A", length=6, schedule_cost=0, uses={"camera": 1}),
+                make_task("B", length=6, schedule_cost=0, uses={"camera": 1}),
+            ],
+        }
+    )
+    asked = []
+
+    def counting() -> bool:
+        asked.append(1)
+        return False
+
+    assert sampled_plan(impossible, stop=counting) is None
+    assert len(asked) == SAMPLED_ORDERS

@@ -52,6 +52,14 @@ SUPPLY_NEEDS = (
     Path(__file__).parent / "data" / "forced-core-supply-needs-r60.json"
 )
 
+#: ``tools/fuzz --large`` seed 1192: 53 tasks over H = 700 in four parts,
+#: the largest of 50 tasks with 17 mandatory ones that need two
+#: batteries' supplies; no rule of the list scheduler places them, the
+#: relaxation's plans of their core break a battery and the time-indexed
+#: models find none in the limit (the answer was ``unknown`` at 5-20 s;
+#: CP-SAT has 8,619,476 at 20 s).
+SAMPLED = Path(__file__).parent / "data" / "forced-core-sampled-l1192.json"
+
 
 @pytest.fixture(scope="module")
 def problem() -> Problem:
@@ -299,3 +307,22 @@ def test_a_replan_the_repair_cannot_start_plans_the_forced_core() -> None:
     assert time.perf_counter() - began <= 10
     assert answer.status.has_plan and check_plan(problem, answer).ok
     assert answer.stats is not None and answer.stats.bound is not None
+
+
+def test_a_core_the_solver_cannot_plan_in_its_share_is_sampled() -> None:
+    """Tests that when the solver finds no plan of the forced core in its
+    share, perturbed list-scheduling orders give one: the solve answers
+    with a plan holding every mandatory task (``unknown`` before), and
+    its status says how the start plan was built."""
+    problem = decode_problem(SAMPLED.read_bytes())
+    began = time.perf_counter()
+    answer = solve(problem, time_limit=5.0)
+    assert time.perf_counter() - began <= 5.0
+    assert answer.status is SolveStatus.FEASIBLE
+    assert check_plan(problem, answer).ok
+    assert forced_tasks(problem) <= {a.task for a in answer.activities}
+    assert answer.objective is not None
+    assert answer.objective.total < 8_619_476  # CP-SAT's at 20 s
+    assert answer.stats is not None
+    said = answer.stats.solver_status
+    assert forced.SAMPLED_CORE in said or forced.SOLVED_CORE in said
