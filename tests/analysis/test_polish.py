@@ -11,7 +11,7 @@ import pytest
 from fsw_scheduler.analysis import polish
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
-from fsw_scheduler.analysis.greedy import greedy_plan
+from fsw_scheduler.analysis.greedy import checked_starts, greedy_plan
 from fsw_scheduler.analysis.polish import polished
 from fsw_scheduler.model.plan import Activity, SolverStats, SolveStatus
 from fsw_scheduler.solving import solve as solving
@@ -188,7 +188,9 @@ def test_a_large_broad_plan_is_polished_within_its_checks() -> None:
     better = polished(problem, start, start_domains(problem), stop=stop)
     assert check_plan(problem, better).ok
     assert _total(better) <= _total(start)
-    assert len(asked) <= polish.MAX_CHECKS
+    assert len(asked) <= (
+        polish.MAX_CHECKS + polish.MAX_REFUSED // polish.ASK_EVERY
+    )
 
 
 def test_an_unproved_answer_is_polished_and_says_so() -> None:
@@ -213,3 +215,74 @@ def test_an_unproved_answer_is_polished_and_says_so() -> None:
     assert solving._polishing(problem, proved, domains, far, RUN) is proved
     # Past the deadline: nothing is tried.
     assert solving._polishing(problem, plan, domains, 0.0, RUN) is plan
+
+
+def _moves(
+    problem: Problem, plan: Plan
+) -> list[tuple[dict[str, int], list[str]]]:
+    """Plans one or two kept tasks away from ``plan``: each kept task at
+    every few starts of its domain, and with the next kept task at its
+    new end."""
+    domains = start_domains(problem)
+    starts = plan.starts()
+    names = sorted(starts)
+    lengths = {t.id: t.length for t in problem.tasks}
+    found = []
+    for k, name in enumerate(names):
+        domain = domains[name]
+        step = max(1, (domain.latest - domain.earliest) // 12)
+        for at in range(domain.earliest, domain.latest + 1, step):
+            moved = dict(starts)
+            moved[name] = at
+            found.append((moved, [name]))
+            other = names[(k + 1) % len(names)]
+            if other != name:
+                pushed = dict(moved)
+                pushed[other] = at + lengths[name]
+                found.append((pushed, [name, other]))
+    return found
+
+
+@pytest.mark.parametrize("suite", ["campaign", "mission", "large"])
+def test_a_move_refused_before_a_check_is_one_the_checker_refuses(
+    suite: str,
+) -> None:
+    """Tests the polish's refusal before a check against the checker on
+    moves of one and two tasks of generated start plans (every resource
+    kind, precedences tight and lax, windows, capacity steps and binary
+    windows in the mission suite): every move it refuses the checker
+    refuses too, and it refuses most of the moves the checker refuses
+    (it is what makes the polish cheap)."""
+    generator = bench_lib("generator")
+    if suite == "campaign":
+        benches = [
+            b
+            for b in generator.suite("campaign", 72, "broad")
+            if b.num_tasks >= 10
+        ]
+    elif suite == "mission":
+        benches = list(
+            itertools.islice(generator.mission_suite(72), 0, None, 4)
+        )
+    else:
+        benches = [
+            b
+            for b in generator.large_suite(72)
+            if b.name in ("b30-h1440", "f30-h1440")
+        ]
+    refused = refusable = 0
+    for bench in benches:
+        problem = bench.problem()
+        domains = start_domains(problem)
+        start = greedy_plan(problem, domains=domains)
+        if start is None or start.objective is None or not start.activities:
+            continue
+        judge = polish._Polish(problem, start, domains, None, 0)
+        for starts, moved in _moves(problem, start):
+            says = judge._refused(starts, moved)
+            valid = checked_starts(problem, starts) is not None
+            assert not (says and valid), (bench.name, moved, starts)
+            refused += says
+            refusable += not valid
+    assert refusable > 0
+    assert refused >= refusable // 2
