@@ -8,9 +8,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fsw_scheduler.analysis.check import check_plan, format_report
-from fsw_scheduler.analysis.domains import start_domains
+from fsw_scheduler.analysis.domains import Domain, start_domains
 from fsw_scheduler.model.plan import SolveStatus
-from fsw_scheduler.solving.ilp.model import BuiltModel, solve_ilp
+from fsw_scheduler.solving.ilp import cbc
+from fsw_scheduler.solving.ilp.model import BuiltModel, solve_ilp, with_starts
 from fsw_scheduler.solving.improve import (
     DENSE_STARTS,
     GRID_STARTS,
@@ -190,3 +191,47 @@ def test_candidate_starts_of_a_neighbourhood() -> None:
     assert starts["a"] + 7 + 2 in points  # after a, by the precedence
     assert all(starts[n] + problem.task(n).length in points for n in "cd")
     assert len(points) <= GRID_STARTS + 2 + len(problem.tasks) + 4
+
+
+def test_a_warm_start_between_candidates_joins_them() -> None:
+    """Tests that a warm start the candidates miss becomes one (with a
+    start outside the domain left out): the time-indexed model would put
+    the task at the candidate before, which breaks a row, and CBC would
+    search without the plan it was given. Seen where a disjunctive run
+    hands its better plan to the time-indexed model over the incumbent's
+    candidates (``tools/fuzz --large`` seed 1218)."""
+    assert with_starts(
+        {"b": [0, 10, 40], "c": [2, 9]},
+        {"a": 3, "b": 7, "c": 30, "d": None},
+        {"b": Domain(0, 40), "c": Domain(2, 9)},
+    ) == {"b": [0, 7, 10, 40], "c": [2, 9]}
+    problem = problem_from(_waits_for_a())
+    domains = start_domains(problem)
+    last = domains["b"].latest
+    built = BuiltModel(problem, domains, candidates={"b": [0, 10, last]})
+    values = built.vars.initial({"a": 0, "b": 7}, built.program.num_columns)
+    # Without the start among the candidates the model cannot hold it:
+    # the values given to CBC are another plan, or none.
+    assert built.decode(SolveStatus.FEASIBLE, values).starts().get("b") != 7
+
+
+def test_a_warm_start_between_candidates_is_taken_as_given(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """Tests a real CBC run from a warm start between the candidates: no
+    warning that CBC refused it, and an answer at least as good."""
+    problem = problem_from(_waits_for_a())
+    domains = start_domains(problem)
+    last = domains["b"].latest
+    with caplog.at_level("WARNING", logger="fsw_scheduler.solver"):
+        plan = solve_ilp(
+            problem,
+            domains=domains,
+            formulation="time-indexed",
+            warm={"a": 0, "b": 7},
+            candidates={"b": [0, 10, 40, last]},
+        )
+    assert cbc.START_REFUSED not in caplog.text
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.starts() == {"a": 0, "b": 7}
+    assert check_plan(problem, plan).ok
