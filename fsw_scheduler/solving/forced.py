@@ -53,7 +53,8 @@ if TYPE_CHECKING:
 #: 0.3 the 11-task core of the example above, proved in 1.7 s, was
 #: stopped without a plan at a 5 s limit).
 FORCED_SHARE = 0.5
-#: Seconds at least for it (CBC's start and the model's reading).
+#: Seconds at least for it (CBC's start and the model's reading); with
+#: less, only list schedules in perturbed orders are tried.
 FORCED_MIN_S = 0.5
 #: Share of that which the disjunctive relaxation gets first when the
 #: core keeps a consumable (:func:`_relaxed_core`).
@@ -69,7 +70,7 @@ WHOLE_CORE = (
 SOLVED_CORE = "built around the solver's plan of them and the supplies"
 SAMPLED_CORE = (
     "built around a list schedule of them and the supplies in a perturbed "
-    "order (the solver found none in its share)"
+    "order (no plan of them from the solver in its share)"
 )
 
 
@@ -100,9 +101,12 @@ def forced_start(
         proved their plan); status ``infeasible`` when the solver proved
         that the forced tasks and supplies have no plan and every plan
         of the part would be one of theirs (:func:`relaxes`); None when
-        there is nothing forced, the solver finds no plan of the forced
-        tasks and supplies in its share (or its plan does not hold on
-        the whole part).
+        there is nothing forced, neither the solver in its share nor
+        list schedules in perturbed orders
+        (:func:`~fsw_scheduler.analysis.greedy.sampled_plan`) find a plan
+        of the forced tasks and supplies (or theirs does not hold on the
+        whole part). The plan's ``stats.solver_status`` says which built
+        it (:data:`SOLVED_CORE`, :data:`SAMPLED_CORE`).
     """
     forced = forced_tasks(problem)
     if not forced:
@@ -124,10 +128,7 @@ def forced_start(
     stop = None
     began = time.perf_counter()
     if deadline is not None:
-        left = deadline - began
-        limit = FORCED_SHARE * left
-        if limit < FORCED_MIN_S:
-            return None
+        limit = FORCED_SHARE * (deadline - began)
         # Placing the others around the core may take what is left.
         stop = stop_at(deadline)
     # The options of a group that may not be left out: every plan holds
@@ -150,26 +151,30 @@ def forced_start(
     alone = without_slack(
         forced_alone(problem, with_needs(problem, forced | supplies | options))
     )
-    core = _relaxed_core(alone, run, limit)
-    if core is None:
-        if limit is not None:
-            limit = max(0.0, limit - (time.perf_counter() - began))
-        core = run(alone, time_limit=limit)
-    if core.status is SolveStatus.INFEASIBLE and relaxes(problem, alone):
-        return _no_plan(problem, alone, forced, core)
-    if not core.status.has_plan:
-        # The solver found none in its share: list schedules in perturbed
-        # orders (``tools/fuzz --large`` seed 1192, 53 tasks over H = 700,
-        # 20 s: the relaxation's plans of the 23-task core broke a
-        # battery, the time-indexed model found none in 1.9 s, nor the
-        # whole part's in 9.8 s, and the answer was `unknown`; the first
-        # order tried places the core, in 14 ms).
-        core = sampled_plan(alone, stop=stop) or core
-        origin = SAMPLED_CORE
+    if limit is not None and limit < FORCED_MIN_S:
+        # Too little time for the solver: the list schedules in perturbed
+        # orders alone (``tools/fuzz`` seed 60053, a 21-task part at
+        # 0.3 s and 1 s: `unknown` before; its 6-task core is placed by
+        # the first order, in under a millisecond).
+        sampled = sampled_plan(alone, stop=stop)
+        if sampled is None:
+            return None
+        core, origin = sampled, SAMPLED_CORE
     else:
-        origin = SOLVED_CORE
-    if not core.status.has_plan:
-        return None
+        core, origin = _solved_core(alone, run, limit, began), SOLVED_CORE
+        if core.status is SolveStatus.INFEASIBLE and relaxes(problem, alone):
+            return _no_plan(problem, alone, forced, core)
+        if not core.status.has_plan:
+            # The solver found none in its share: list schedules in
+            # perturbed orders (``tools/fuzz --large`` seed 1192, 53 tasks
+            # over H = 700, 20 s: the relaxation's plans of the 23-task
+            # core broke a battery, the time-indexed model found none in
+            # 1.9 s, nor the whole part's in 9.8 s, and the answer was
+            # `unknown`; the first order tried places the core, in 14 ms).
+            sampled = sampled_plan(alone, stop=stop)
+            if sampled is None:
+                return None
+            core, origin = sampled, SAMPLED_CORE
     if (
         len(alone.tasks) == problem.num_tasks
         and core.status is SolveStatus.OPTIMAL
@@ -195,6 +200,20 @@ def forced_start(
             solver_status=origin,
         )
     )
+
+
+def _solved_core(
+    core: Problem, run: Callable[..., Plan], limit: float | None, began: float
+) -> Plan:
+    """The solver's plan of ``core``: the disjunctive relaxation's when it
+    holds one (:func:`_relaxed_core`), else the model's in what is left of
+    ``limit`` (counted from ``began``)."""
+    found = _relaxed_core(core, run, limit)
+    if found is not None:
+        return found
+    if limit is not None:
+        limit = max(0.0, limit - (time.perf_counter() - began))
+    return run(core, time_limit=limit)
 
 
 def relaxes(problem: Problem, sub: Problem) -> bool:

@@ -59,6 +59,10 @@ SUPPLY_NEEDS = (
 #: models find none in the limit (the answer was ``unknown`` at 5-20 s;
 #: CP-SAT has 8,619,476 at 20 s).
 SAMPLED = Path(__file__).parent / "data" / "forced-core-sampled-l1192.json"
+#: ``tools/fuzz`` seed 60053: 22 tasks over H = 20 (two cameras, a power
+#: with capacity steps, a battery), a 21-task part whose 6 mandatory
+#: tasks no rule places; CP-SAT proves 34,405 in 0.02 s.
+SHORT = Path(__file__).parent / "data" / "forced-core-short-limit-f60053.json"
 
 
 @pytest.fixture(scope="module")
@@ -105,10 +109,11 @@ def test_a_fresh_solve_has_a_plan_and_says_where_it_started(
     assert plan.stats.wall_s <= 8
 
 
-def test_nothing_forced_or_no_time_gives_none() -> None:
-    """Tests that a problem with nothing forced, or a deadline leaving
-    the solver less than its least share, gives no start plan (the
-    solver is not called)."""
+def test_nothing_forced_or_no_time_gives_no_solve() -> None:
+    """Tests that a problem with nothing forced gives no start plan, and
+    that a deadline leaving the solver less than its least share gives
+    the list schedule in a perturbed order, or none when no order places
+    the forced tasks: the solver is not called either way."""
     free = problem_from({"horizon": 10, "tasks": [make_task("a", 2)]})
 
     def run(*args: object, **kwargs: object) -> Plan:
@@ -119,7 +124,22 @@ def test_nothing_forced_or_no_time_gives_none() -> None:
         {"horizon": 10, "tasks": [make_task("a", 2, schedule_cost=0)]}
     )
     soon = time.perf_counter() + forced.FORCED_MIN_S
-    assert forced_start(held, run, soon) is None
+    plan = forced_start(held, run, soon)
+    assert plan is not None and plan.starts() == {"a": 0}
+    assert plan.stats is not None
+    assert plan.stats.solver_status == forced.SAMPLED_CORE
+    crowded = problem_from(
+        {
+            "horizon": 10,
+            "resources": {"binary": ["camera"]},
+            "tasks": [
+                make_task(n, 6, schedule_cost=0, uses={"camera": 1})
+                for n in ("a", "b")
+            ],
+        }
+    )
+    soon = time.perf_counter() + forced.FORCED_MIN_S
+    assert forced_start(crowded, run, soon) is None
 
 
 def test_a_core_no_rule_fills_in_is_the_start_plan_alone() -> None:
@@ -326,3 +346,21 @@ def test_a_core_the_solver_cannot_plan_in_its_share_is_sampled() -> None:
     assert answer.stats is not None
     said = answer.stats.solver_status
     assert forced.SAMPLED_CORE in said or forced.SOLVED_CORE in said
+
+
+@pytest.mark.parametrize("limit", [0.3, 1.0])
+def test_a_limit_too_short_for_the_solver_still_samples_the_core(
+    limit: float,
+) -> None:
+    """Tests that a limit too short to give the solver the forced core
+    still gives a plan: the core from list schedules in perturbed orders,
+    the others around it (``unknown`` before, at 0.3 s and 1 s)."""
+    problem = decode_problem(SHORT.read_bytes())
+    began = time.perf_counter()
+    answer = solve(problem, time_limit=limit)
+    assert time.perf_counter() - began <= limit
+    assert answer.status is SolveStatus.FEASIBLE
+    assert check_plan(problem, answer).ok
+    assert forced_tasks(problem) <= {a.task for a in answer.activities}
+    assert answer.stats is not None
+    assert forced.SAMPLED_CORE in answer.stats.solver_status
