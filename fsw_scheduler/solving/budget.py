@@ -82,7 +82,9 @@ class SolveBudget:
         starts on a small part's model with it (its stop margin and
         minimum are about 0.1 s on a 15-task model, 0.35 s on a large one:
         :func:`~fsw_scheduler.solving.ilp.cbc.stop_margin`) and proves
-        most such parts in 0.01-0.1 s.
+        most such parts in 0.01-0.1 s. With less left, the part gets
+        what is left when that is at least twice its first share (a
+        tiny part under a 0.3 s limit).
     proof_share
         Share of the limit the cheap infeasibility proofs
         (:func:`~fsw_scheduler.analysis.proofs.infeasibility`) may take

@@ -376,7 +376,8 @@ def _reopen(
     gets that time now, warm-started from its plan. A part that handed
     most of its share back unproved (too short for CBC to start: many
     parts under a short limit) gets at least :attr:`~.budget.SolveBudget.
-    min_start_s` when that much is left. ``plans`` is updated in place:
+    min_start_s` when that much is left, and what is left when that is
+    less but at least twice its first share. ``plans`` is updated in place:
     a part's new plan replaces its plan when it is proved or better.
     """
     still = [
@@ -391,9 +392,14 @@ def _reopen(
         before = plans[idx]
         least = BUDGET.min_part_s
         if starved(before, BUDGET.min_start_s):
-            least = BUDGET.min_start_s
-            limit = max(limit, min(left, least))
-        if limit < least:
+            limit = max(limit, min(left, BUDGET.min_start_s))
+            # Any more than its first share may let CBC start: a 1-task
+            # part with a group had 0.06 s of a 0.3 s limit, CBC did not
+            # start, and 0.16 s were left unused (``tools/fuzz`` seed
+            # 62092: `feasible` where the plan was optimal).
+            had = before.stats.time_limit_s if before.stats else None
+            least = min(BUDGET.min_start_s, 2 * (had or 0.0))
+        if limit < least or limit <= 0:
             continue  # no more than the first pass had: nothing to gain
         sub, _ = subs[idx]
         again = _solve_whole(

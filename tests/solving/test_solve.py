@@ -7,6 +7,8 @@ import dataclasses
 import re
 import subprocess
 import sys
+import time
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import pytest
@@ -15,6 +17,7 @@ from hypothesis import given, settings
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.model.plan import Activity, SolveStatus
+from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.solving import large
 from fsw_scheduler.solving import solve as solve_module
 from fsw_scheduler.solving.budget import BUDGET
@@ -1197,4 +1200,23 @@ def test_a_small_replan_has_the_whole_limit() -> None:
     assert "solved again" not in plan.stats.solver_status
     assert plan.stats.time_limit_s == 20
     assert wall < 15
+    assert check_plan(problem, plan).ok
+
+
+def test_a_starved_part_gets_what_the_others_leave_under_a_short_limit() -> (
+    None
+):
+    """Tests ``tools/fuzz`` seed 62092 at 0.4 s: eight parts, one of them
+    a group whose share was too short for CBC to start; the others left
+    most of the limit unused (at 0.3 s: 0.06 s for the part, 0.16 s left)
+    and the answer was ``feasible`` with the optimal plan. The starved
+    part now gets that time, and the answer is ``optimal`` within the
+    limit (CP-SAT proves 188,903)."""
+    path = Path(__file__).parent / "data" / "starved-part-f62092.json"
+    problem = decode_problem(path.read_bytes())
+    began = time.perf_counter()
+    plan = solve(problem, time_limit=0.4)
+    assert time.perf_counter() - began <= 0.4
+    assert plan.status is SolveStatus.OPTIMAL, plan.stats
+    assert plan.objective is not None and plan.objective.total == 188_903
     assert check_plan(problem, plan).ok
