@@ -24,7 +24,6 @@ optimum, at about 2 ms a pass. :func:`plan_in_order` runs it in any order.
 
 from __future__ import annotations
 
-import random
 from collections import defaultdict
 from collections.abc import Callable, Set
 from typing import TYPE_CHECKING, Any
@@ -267,72 +266,6 @@ def plan_in_order(
     return _rule_plan(
         problem, lambda group: (-min(rank[n] for n in group),), domains, seeds
     )
-
-
-#: Orders :func:`sampled_plan` tries at most.
-SAMPLED_ORDERS = 200
-#: Spread of the first order's noise, in places of the deadline order;
-#: it grows by this much every :data:`SAMPLED_WIDEN` orders. On the
-#: forced core of ``tools/fuzz --large`` seed 1192 (23 tasks, two
-#: batteries, that no rule places), 100 orders at a fixed spread placed
-#: it 87 times at 0.5, 59 at 1, 31 at 4, 15 at 8: the rules' orders are
-#: mostly right, and a swap or two of neighbours is what they miss.
-SAMPLED_SPREAD = 0.5
-SAMPLED_WIDEN = 20
-
-
-def sampled_plan(
-    problem: Problem,
-    domains: dict[str, Domain] | None = None,
-    *,
-    stop: Callable[[], bool] | None = None,
-    seed: int = 0,
-) -> Plan | None:
-    """The first valid list schedule among perturbed deadline orders.
-
-    Biased random sampling, the list scheduler's classic second chance
-    (Kolisch and Drexl's): the tasks in deadline order (latest start,
-    then earliest, then problem order), each moved by Gaussian noise of
-    a few places, at most :data:`SAMPLED_ORDERS` times with a spread
-    that widens as tries fail. For the tasks every plan must hold when
-    no rule of :data:`RULES` places them; deterministic (a seeded
-    generator, no clock: ``stop`` only ends it early).
-
-    Parameters
-    ----------
-    problem
-        A validated problem.
-    domains
-        Its :func:`start_domains`, if already known.
-    stop
-        True when time is up: None is returned.
-    seed
-        Seed of the noise.
-
-    Returns
-    -------
-    Plan or None
-        Status ``feasible``, objective computed, accepted by the checker;
-        None when no order tried gives one.
-    """
-    if domains is None:
-        domains = start_domains(problem)
-    base = sorted(
-        (t.id for t in problem.tasks),
-        key=lambda n: (domains[n].latest, domains[n].earliest),
-    )
-    draw = random.Random(seed)
-    for k in range(SAMPLED_ORDERS):
-        if stop is not None and stop():
-            return None
-        spread = SAMPLED_SPREAD * (1 + k // SAMPLED_WIDEN)
-        noisy = {n: i + draw.gauss(0.0, spread) for i, n in enumerate(base)}
-        plan = plan_in_order(
-            problem, sorted(base, key=noisy.__getitem__), domains
-        )
-        if plan is not None and check_plan(problem, plan).ok:
-            return plan
-    return None
 
 
 def _rule_plan(

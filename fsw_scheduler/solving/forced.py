@@ -19,7 +19,7 @@ that is the start plan the neighbourhood search and the insertion of
 left-out tasks work from (there: 11 tasks, proved in 1.7 s; the forced
 tasks alone are infeasible, their battery needs a supply). When the
 solver finds no plan of them in its share, list schedules in perturbed
-orders may (:func:`~fsw_scheduler.analysis.greedy.sampled_plan`).
+orders may (:func:`~fsw_scheduler.analysis.sampling.sampled_plan`).
 """
 
 from __future__ import annotations
@@ -34,9 +34,9 @@ from ..analysis.greedy import (
     around_core,
     checked_starts,
     forced_alone,
-    sampled_plan,
 )
 from ..analysis.proofs import forced_tasks, with_needs
+from ..analysis.sampling import sampled_plan
 from ..analysis.stores import never_short
 from ..model.plan import Blocker, Plan, SolverStats, SolveStatus
 from .budget import stop_at
@@ -103,7 +103,7 @@ def forced_start(
         of the part would be one of theirs (:func:`relaxes`); None when
         there is nothing forced, neither the solver in its share nor
         list schedules in perturbed orders
-        (:func:`~fsw_scheduler.analysis.greedy.sampled_plan`) find a plan
+        (:func:`~fsw_scheduler.analysis.sampling.sampled_plan`) find a plan
         of the forced tasks and supplies (or theirs does not hold on the
         whole part). The plan's ``stats.solver_status`` says which built
         it (:data:`SOLVED_CORE`, :data:`SAMPLED_CORE`).

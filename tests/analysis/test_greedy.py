@@ -12,12 +12,9 @@ from hypothesis import given, settings
 from fsw_scheduler.analysis.bounds import at_lower_bound
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
-from fsw_scheduler.analysis.greedy import (
-    SAMPLED_ORDERS,
-    greedy_plan,
-    sampled_plan,
-)
+from fsw_scheduler.analysis.greedy import greedy_plan
 from fsw_scheduler.analysis.proofs import forced_tasks
+from fsw_scheduler.analysis.sampling import SAMPLED_ORDERS, sampled_plan
 from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.solving.solve import best_start, solve

@@ -11,7 +11,8 @@ from fsw_scheduler.analysis.check import check_plan, format_report
 from fsw_scheduler.analysis.domains import Domain, start_domains
 from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.solving.ilp import cbc
-from fsw_scheduler.solving.ilp.model import BuiltModel, solve_ilp, with_starts
+from fsw_scheduler.solving.ilp.model import BuiltModel, solve_ilp
+from fsw_scheduler.solving.ilp.variables import with_starts
 from fsw_scheduler.solving.improve import (
     DENSE_STARTS,
     GRID_STARTS,

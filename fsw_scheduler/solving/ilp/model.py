@@ -35,7 +35,7 @@ from .disjunctive.rule import (
 )
 from .objective import objective
 from .progress import WITH_START, WITH_START_DISJUNCTIVE, WatchedCbcRun
-from .variables import Variables
+from .variables import Variables, with_starts
 
 if TYPE_CHECKING:
     from collections.abc import Iterator, Mapping, Sequence
@@ -680,35 +680,6 @@ def solve_ilp(
             **stats, bound=bound, wall_s=time.perf_counter() - began
         )
     )
-
-
-def with_starts(
-    candidates: dict[str, list[int]],
-    warm: Mapping[str, int | None],
-    domains: Mapping[str, Domain],
-) -> dict[str, list[int]]:
-    """``candidates`` with each task's start in ``warm`` (inside its
-    domain) among its own.
-
-    A warm start the model cannot hold is no start: its step columns
-    would put the task at the candidate before, which may break a row,
-    and CBC then searches without it. The neighbourhood search gives the
-    candidates of its incumbent, and a disjunctive run that hands over
-    to the time-indexed model (:func:`_switching`) starts it from its own
-    better plan (``tools/fuzz --large`` seed 1218, 47 tasks over H = 300
-    on a power of 3: two rounds started without their plan).
-    """
-    merged = dict(candidates)
-    for name, starts in candidates.items():
-        at = warm.get(name)
-        domain = domains[name]
-        if (
-            at is not None
-            and domain.earliest <= at <= domain.latest
-            and at not in starts
-        ):
-            merged[name] = sorted({*starts, at})
-    return merged
 
 
 def _switching(
