@@ -30,11 +30,7 @@ from typing import TYPE_CHECKING
 import msgspec
 
 from ..analysis.domains import start_domains
-from ..analysis.greedy import (
-    around_core,
-    checked_starts,
-    forced_alone,
-)
+from ..analysis.greedy import around_core, checked_starts, forced_alone
 from ..analysis.proofs import forced_tasks, with_needs
 from ..analysis.sampling import sampled_plan
 from ..analysis.stores import never_short
