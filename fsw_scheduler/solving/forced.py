@@ -152,7 +152,7 @@ def forced_start(
         # orders alone (``tools/fuzz`` seed 60053, a 21-task part at
         # 0.3 s and 1 s: `unknown` before; its 6-task core is placed by
         # the first order, in under a millisecond).
-        sampled = sampled_plan(alone, stop=stop)
+        sampled = sampled_plan(alone, stop=_half_left(deadline))
         if sampled is None:
             return None
         core, origin = sampled, SAMPLED_CORE
@@ -167,7 +167,7 @@ def forced_start(
             # core broke a battery, the time-indexed model found none in
             # 1.9 s, nor the whole part's in 9.8 s, and the answer was
             # `unknown`; the first order tried places the core, in 14 ms).
-            sampled = sampled_plan(alone, stop=stop)
+            sampled = sampled_plan(alone, stop=_half_left(deadline))
             if sampled is None:
                 return None
             core, origin = sampled, SAMPLED_CORE
@@ -196,6 +196,16 @@ def forced_start(
             solver_status=origin,
         )
     )
+
+
+def _half_left(deadline: float | None) -> Callable[[], bool] | None:
+    """A stop at half of what is left before ``deadline``: the orders a
+    sampling tries in vain must leave the part's own solve its time (a
+    small part's CBC may find the plan no order gives)."""
+    if deadline is None:
+        return None
+    now = time.perf_counter()
+    return stop_at(now + 0.5 * max(0.0, deadline - now))
 
 
 def _solved_core(
