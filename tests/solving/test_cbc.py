@@ -260,6 +260,14 @@ def test_a_start_cbc_did_not_take_as_given_is_seen() -> None:
     # Stopped before its root LP, CBC has not looked at the start yet.
     head = text["dropped"].split("Continuous objective value")[0]
     assert not cbc.start_refused(head)
+    # Its time ran out while it looked at a valid start (the root LP took
+    # most of the run): no refusal of the start's values.
+    late = (LOGS / "start_out_of_time.log").read_text()
+    assert "mipstart values could not be used" in late
+    assert not cbc.start_refused(late)
+    assert cbc.start_refused(
+        late.replace("Cbc0020I Exiting on maximum time", "")
+    )
     assert not cbc.start_refused("Problem MODEL has 3 rows")
 
 
