@@ -212,6 +212,12 @@ def stop_at(end: float) -> Callable[[], bool]:
     return lambda: time.perf_counter() > end
 
 
+def stop_share(deadline: float, share: float) -> Callable[[], bool]:
+    """A ``stop`` at ``share`` of the time left now before ``deadline``."""
+    now = time.perf_counter()
+    return stop_at(now + share * (deadline - now))
+
+
 #: Share of the time left that a kept-set search
 #: (:func:`~fsw_scheduler.analysis.bounds.kept_set_plan`) may take: its
 #: nodes are bounded in count, not in seconds (a second on 150 tasks over
@@ -226,5 +232,4 @@ def stop_within(
     counted from ``began``; None without a limit."""
     if time_limit is None:
         return None
-    now = time.perf_counter()
-    return stop_at(now + share * (began + time_limit - now))
+    return stop_share(began + time_limit, share)

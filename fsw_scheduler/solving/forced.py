@@ -35,7 +35,7 @@ from ..analysis.proofs import forced_tasks, with_needs
 from ..analysis.sampling import sampled_plan
 from ..analysis.stores import never_short
 from ..model.plan import Blocker, Plan, SolverStats, SolveStatus
-from .budget import stop_at
+from .budget import stop_at, stop_share
 from .relaxed import around, relaxable
 
 if TYPE_CHECKING:
@@ -52,6 +52,11 @@ FORCED_SHARE = 0.5
 #: Seconds at least for it (CBC's start and the model's reading); with
 #: less, only list schedules in perturbed orders are tried.
 FORCED_MIN_S = 0.5
+#: Share of the time left that the perturbed orders of
+#: :func:`~fsw_scheduler.analysis.sampling.sampled_plan` may take: a part
+#: whose orders all fail keeps time for its own solve (a small part's CBC
+#: may find the plan no order gives).
+SAMPLED_SHARE = 0.5
 #: Share of that which the disjunctive relaxation gets first when the
 #: core keeps a consumable (:func:`_relaxed_core`).
 RELAXED_CORE_SHARE = 0.75
@@ -147,30 +152,32 @@ def forced_start(
     alone = without_slack(
         forced_alone(problem, with_needs(problem, forced | supplies | options))
     )
-    if limit is not None and limit < FORCED_MIN_S:
-        # Too little time for the solver: the list schedules in perturbed
-        # orders alone (``tools/fuzz`` seed 60053, a 21-task part at
-        # 0.3 s and 1 s: `unknown` before; its 6-task core is placed by
-        # the first order, in under a millisecond).
-        sampled = sampled_plan(alone, stop=_half_left(deadline))
-        if sampled is None:
+    core = None
+    if limit is None or limit >= FORCED_MIN_S:
+        solved = _solved_core(alone, run, limit, began)
+        if solved.status is SolveStatus.INFEASIBLE and relaxes(problem, alone):
+            return _no_plan(problem, alone, forced, solved)
+        if solved.status.has_plan:
+            core, origin = solved, SOLVED_CORE
+    if core is None:
+        # Too little time for the solver, or none found in its share: list
+        # schedules in perturbed orders (:data:`SAMPLED_SHARE`).
+        # ``tools/fuzz --large`` seed 1192, 53 tasks over H = 700, 20 s: the
+        # relaxation's plans of the 23-task core broke a battery, the
+        # time-indexed model found none in 1.9 s, nor the whole part's in
+        # 9.8 s, and the answer was `unknown`; the first order tried places
+        # the core, in 14 ms. ``tools/fuzz`` seed 60053, a 21-task part at
+        # 0.3 s and 1 s: `unknown` before; its 6-task core is placed by the
+        # first order, in under a millisecond.
+        core = sampled_plan(
+            alone,
+            stop=None
+            if deadline is None
+            else stop_share(deadline, SAMPLED_SHARE),
+        )
+        if core is None:
             return None
-        core, origin = sampled, SAMPLED_CORE
-    else:
-        core, origin = _solved_core(alone, run, limit, began), SOLVED_CORE
-        if core.status is SolveStatus.INFEASIBLE and relaxes(problem, alone):
-            return _no_plan(problem, alone, forced, core)
-        if not core.status.has_plan:
-            # The solver found none in its share: list schedules in
-            # perturbed orders (``tools/fuzz --large`` seed 1192, 53 tasks
-            # over H = 700, 20 s: the relaxation's plans of the 23-task
-            # core broke a battery, the time-indexed model found none in
-            # 1.9 s, nor the whole part's in 9.8 s, and the answer was
-            # `unknown`; the first order tried places the core, in 14 ms).
-            sampled = sampled_plan(alone, stop=_half_left(deadline))
-            if sampled is None:
-                return None
-            core, origin = sampled, SAMPLED_CORE
+        origin = SAMPLED_CORE
     if (
         len(alone.tasks) == problem.num_tasks
         and core.status is SolveStatus.OPTIMAL
@@ -196,16 +203,6 @@ def forced_start(
             solver_status=origin,
         )
     )
-
-
-def _half_left(deadline: float | None) -> Callable[[], bool] | None:
-    """A stop at half of what is left before ``deadline``: the orders a
-    sampling tries in vain must leave the part's own solve its time (a
-    small part's CBC may find the plan no order gives)."""
-    if deadline is None:
-        return None
-    now = time.perf_counter()
-    return stop_at(now + 0.5 * max(0.0, deadline - now))
 
 
 def _solved_core(

@@ -29,7 +29,7 @@ from ..analysis.bounds import (
 from ..analysis.domains import start_count
 from ..analysis.insert import inserted
 from ..model.plan import SolverStats, SolveStatus
-from .budget import BOUND_SHARE, BUDGET, stop_at
+from .budget import BOUND_SHARE, BUDGET, stop_at, stop_share
 from .improve import MIN_ROUND_S, improve, meets
 from .incumbent import narrow, whole_model, worth_a_probe
 from .polishing import Polishing, shift_deadline
@@ -417,9 +417,8 @@ NARROW_SHARE = 0.25
 
 def until(deadline: float, share: float = NARROW_SHARE) -> Callable[[], bool]:
     """A stop at ``share`` (:data:`NARROW_SHARE` by default) of the time
-    left before ``deadline``."""
-    now = time.perf_counter()
-    return stop_at(now + share * (deadline - now))
+    left before ``deadline`` (:func:`~.budget.stop_share`)."""
+    return stop_share(deadline, share)
 
 
 def answer(
