@@ -22,10 +22,9 @@ from ...errors import ConfigError, FieldIssue, InputError, SchedulerError
 from ...model.codec import decode_strict
 from ...model.plan import Plan
 from ...model.problem import Problem, decode_problem
+from .stopping import stop_on_signals
 
 if TYPE_CHECKING:
-    import threading
-
     import zenoh
 
 
@@ -342,15 +341,6 @@ def add_spacecraft_flag(parser: argparse.ArgumentParser) -> None:
         default="sat1",
         help="key prefix id (default: %(default)s)",
     )
-
-
-def stop_on_signals(stop: threading.Event) -> None:
-    """Set ``stop`` on SIGINT or SIGTERM (the long-running commands: they
-    finish what they hold, then exit 0)."""
-    import signal
-
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
 
 
 def open_bus(settings: zenoh.Config) -> zenoh.Session:

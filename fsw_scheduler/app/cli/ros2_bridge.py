@@ -19,8 +19,8 @@ from .commands import (
     check_spacecraft,
     number_type,
     open_bus,
-    stop_on_signals,
 )
+from .stopping import stop_on_signals
 
 if TYPE_CHECKING:
     import argparse

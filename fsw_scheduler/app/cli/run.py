@@ -30,11 +30,11 @@ from .commands import (
     read_bytes,
 )
 from .run_flags import run_settings
+from .stopping import stop_on_signals
 
 
 def cmd_run(args: argparse.Namespace) -> int:
     """``fsw-scheduler run``: the scheduler node, until stopped."""
-    import signal
     import threading
     import time
 
@@ -108,13 +108,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             args.record, schemas=schema_lookup(config.spacecraft)
         )
     stop = threading.Event()
-
-    def on_signal(signum: int, _frame: object) -> None:
-        log.info("signal %d: stopping", signum)
-        stop.set()
-
-    signal.signal(signal.SIGINT, on_signal)
-    signal.signal(signal.SIGTERM, on_signal)
+    stop_on_signals(stop, lambda sig: log.info("signal %d: stopping", sig))
     with open_bus(zenoh_settings) as session:
         redundancy: Any = None
 

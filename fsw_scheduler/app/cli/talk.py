@@ -25,8 +25,8 @@ from .commands import (
     open_bus,
     positive_float,
     read_bytes,
-    stop_on_signals,
 )
+from .stopping import stop_on_signals
 
 if TYPE_CHECKING:
     import argparse

@@ -20,8 +20,8 @@ from .commands import (
     check_spacecraft,
     open_bus,
     positive_float,
-    stop_on_signals,
 )
+from .stopping import stop_on_signals
 
 if TYPE_CHECKING:
     from .files_flags import Add
