@@ -269,6 +269,24 @@ def test_a_start_cbc_did_not_take_as_given_is_seen() -> None:
         late.replace("Cbc0020I Exiting on maximum time", "")
     )
     assert not cbc.start_refused("Problem MODEL has 3 rows")
+    # Its time ran out in the LP over the start's fixed integer columns
+    # (CBC's next word is its exit on time): no refusal either.
+    cut = (LOGS / "start_fix_out_of_time.log").read_text()
+    assert "Trying just fixing integer variables" in cut
+    assert not cbc.start_refused(cut)
+    # Stopped by the interrupt at the deadline while CBC looked at the
+    # start (no try of it): no refusal.
+    stopped = (LOGS / "start_interrupted.log").read_text()
+    assert "Exiting on user event" in stopped
+    assert not cbc.start_refused(stopped)
+    assert cbc.start_refused(stopped.replace("Exiting on user event", ""))
+    # The same drop with the search going on is one.
+    assert cbc.start_refused(
+        cut.replace(
+            "Cbc0020I Exiting on maximum time",
+            "Cbc0013I At root node, 3 cuts changed objective from 1 to 2",
+        )
+    )
 
 
 def test_a_start_with_users_running_together_is_taken(

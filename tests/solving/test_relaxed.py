@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import time
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import pytest
@@ -14,6 +15,7 @@ from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.analysis.insert import inserted
 from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.solving import relaxed
 from fsw_scheduler.solving.ilp import solve_ilp
 from fsw_scheduler.solving.incumbent import narrow, probed
@@ -358,6 +360,26 @@ def test_a_small_mixed_part_is_proved_so_under_a_short_limit() -> None:
     assert "relaxation's optimum is a valid plan" in plan.stats.solver_status
     assert plan.objective is not None
     assert plan.objective.total == 307_185
+    assert check_plan(problem, plan).ok
+
+
+#: ``tools/fuzz`` seed 64078: 6 tasks on two cameras, a power line and a
+#: battery, a group of two options; CP-SAT's optimum 130,911.
+SHORT_ALL = Path(__file__).parent / "data" / "short-all-f64078.json"
+
+
+def test_a_small_mixed_part_gets_the_relaxation_under_half_a_second() -> None:
+    """Tests that with under 0.6 s left a small mixed part still goes to
+    the relaxation, whose optimum is a valid plan, instead of the
+    time-indexed model alone (``feasible`` at 0.3 s before: CBC's cuts
+    cut off valid plans, and the rest of its time was gone)."""
+    problem = decode_problem(SHORT_ALL.read_bytes())
+    plan = solve(problem, time_limit=0.45)
+    assert plan.status is SolveStatus.OPTIMAL, plan.stats
+    assert plan.stats is not None
+    assert "relaxation's optimum is a valid plan" in plan.stats.solver_status
+    assert plan.objective is not None
+    assert plan.objective.total == 130_911
     assert check_plan(problem, plan).ok
 
 
