@@ -348,38 +348,37 @@ def test_a_small_part_the_battery_decides_goes_on_to_the_whole_model(
     assert check_plan(problem, plan).ok
 
 
-def test_a_small_mixed_part_is_proved_so_under_a_short_limit() -> None:
-    """Tests that under a 1 s limit the small part's relaxation still gets
-    the time CBC needs to start (its 0.3 share of what is left would be
-    under CBC's minimum): b15-all-4 of broad seed 81 is proved by it
-    (with the share alone: ``feasible``, 4 delay units above)."""
-    problem = _campaign_problem(81, "broad", "b15-all-4")
-    plan = solve(problem, time_limit=1.0)
-    assert plan.status is SolveStatus.OPTIMAL, plan.stats
-    assert plan.stats is not None
-    assert "relaxation's optimum is a valid plan" in plan.stats.solver_status
-    assert plan.objective is not None
-    assert plan.objective.total == 307_185
-    assert check_plan(problem, plan).ok
-
-
 #: ``tools/fuzz`` seed 64078: 6 tasks on two cameras, a power line and a
 #: battery, a group of two options; CP-SAT's optimum 130,911.
 SHORT_ALL = Path(__file__).parent / "data" / "short-all-f64078.json"
 
 
-def test_a_small_mixed_part_gets_the_relaxation_under_half_a_second() -> None:
-    """Tests that with under 0.6 s left a small mixed part still goes to
-    the relaxation, whose optimum is a valid plan, instead of the
-    time-indexed model alone (``feasible`` at 0.3 s before: CBC's cuts
-    cut off valid plans, and the rest of its time was gone)."""
-    problem = decode_problem(SHORT_ALL.read_bytes())
-    plan = solve(problem, time_limit=0.45)
+@pytest.mark.parametrize(
+    ("name", "limit", "optimum"),
+    [("b15-all-4", 1.0, 307_185), ("f64078", 0.45, 130_911)],
+)
+def test_a_small_mixed_part_is_proved_so_under_a_short_limit(
+    name: str, limit: float, optimum: int
+) -> None:
+    """Tests that under a short limit a small part still goes to the
+    relaxation, which proves it: at 1 s its rounds get the time CBC needs
+    to start (their 0.3 share of what is left would be under CBC's
+    minimum: b15-all-4 of broad seed 81, ``feasible`` with the share
+    alone, 4 delay units above); with under 0.6 s left they still run
+    before the time-indexed model (``tools/fuzz`` seed 64078: at 0.3 s
+    ``feasible`` before, CBC's cuts cut off valid plans and the rest of
+    its time was gone)."""
+    problem = (
+        decode_problem(SHORT_ALL.read_bytes())
+        if name == "f64078"
+        else _campaign_problem(81, "broad", name)
+    )
+    plan = solve(problem, time_limit=limit)
     assert plan.status is SolveStatus.OPTIMAL, plan.stats
     assert plan.stats is not None
     assert "relaxation's optimum is a valid plan" in plan.stats.solver_status
     assert plan.objective is not None
-    assert plan.objective.total == 130_911
+    assert plan.objective.total == optimum
     assert check_plan(problem, plan).ok
 
 
