@@ -18,7 +18,6 @@ go of the lock, which it does.
 
 from __future__ import annotations
 
-import logging
 import os
 import signal
 import threading
@@ -26,8 +25,6 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from collections.abc import Callable
-
-log = logging.getLogger("fsw_scheduler")
 
 #: The signals that stop a long-running command.
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
