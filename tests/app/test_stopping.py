@@ -52,3 +52,31 @@ def test_a_sigterm_while_the_main_thread_waits_on_the_stop_stops_it() -> None:
 def test_sigint_stops_too() -> None:
     """Tests that Ctrl-C is a stop like SIGTERM, not a KeyboardInterrupt."""
     assert _spin("SIGINT", 20) == "20 True"
+
+
+def test_a_note_that_fails_still_stops() -> None:
+    """Tests that the stop is set even when the note that says why
+    raises (a logging fault must not keep the command running)."""
+    script = textwrap.dedent(
+        """\
+        import os, signal, threading
+        from fsw_scheduler.app.cli.stopping import stop_on_signals
+
+        def note(signum):
+            raise RuntimeError("no log")
+
+        stop = threading.Event()
+        stop_on_signals(stop, note)
+        threading.Timer(0.001, os.kill, (os.getpid(), signal.SIGTERM)).start()
+        print(stop.wait(30), flush=True)
+        """
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "True"

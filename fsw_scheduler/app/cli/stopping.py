@@ -65,10 +65,13 @@ class _Watcher:
                     continue
                 with self._lock:
                     stop, note = self._stop, self._note
-                if note is not None:
-                    note(signum)
-                if stop is not None:
-                    stop.set()
+                try:
+                    if note is not None:
+                        note(signum)
+                finally:
+                    # A note that fails must not keep the command running.
+                    if stop is not None:
+                        stop.set()
 
 
 _WATCHER = _Watcher()
