@@ -18,7 +18,7 @@ from .domains import start_domains
 from .greedy import plan_in_order
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Iterator
 
     from ..model.plan import Plan
     from ..model.problem import Problem
@@ -34,6 +34,8 @@ SAMPLED_ORDERS = 200
 #: mostly right, and a swap or two of neighbours is what they miss.
 SAMPLED_SPREAD = 0.5
 SAMPLED_WIDEN = 20
+#: Orders :func:`sampled_better` tries at most.
+BETTER_ORDERS = 50
 
 
 def sampled_plan(
@@ -72,19 +74,68 @@ def sampled_plan(
     """
     if domains is None:
         domains = start_domains(problem)
+    for plan in _perturbed(problem, domains, SAMPLED_ORDERS, seed, stop):
+        if plan is not None and check_plan(problem, plan).ok:
+            return plan
+    return None
+
+
+def sampled_better(
+    problem: Problem,
+    start: Plan,
+    domains: dict[str, Domain],
+    *,
+    stop: Callable[[], bool] | None = None,
+    seed: int = 0,
+) -> Plan:
+    """The best of ``start`` and :data:`BETTER_ORDERS` perturbed deadline
+    orders (as :func:`sampled_plan` draws them), each list-scheduled.
+
+    On a day a battery binds, the list scheduler's plan swings with the
+    order of a few tasks: ``tools/fuzz --large`` seed 1312's 40-task part
+    gave 87,779 by the best rule, 68,783 in the deadline order with ties
+    in problem order, 109,510 with them the other way (CP-SAT's optimum
+    66,876), and the neighbourhood search did not leave the rule's
+    arrangement in 60 s. Deterministic as :func:`sampled_plan`.
+
+    Returns
+    -------
+    Plan
+        ``start``, or a better plan the checker accepts.
+    """
+    best = start
+    for plan in _perturbed(problem, domains, BETTER_ORDERS, seed, stop):
+        if (
+            plan is not None
+            and plan.objective is not None
+            and best.objective is not None
+            and plan.objective.total < best.objective.total
+            and check_plan(problem, plan).ok
+        ):
+            best = plan
+    return best
+
+
+def _perturbed(
+    problem: Problem,
+    domains: dict[str, Domain],
+    orders: int,
+    seed: int,
+    stop: Callable[[], bool] | None,
+) -> Iterator[Plan | None]:
+    """List schedules (not checked) of ``orders`` perturbed deadline
+    orders, the spread widening every :data:`SAMPLED_WIDEN`; ends early
+    when ``stop()``."""
     base = sorted(
         (t.id for t in problem.tasks),
         key=lambda n: (domains[n].latest, domains[n].earliest),
     )
     draw = random.Random(seed)
-    for k in range(SAMPLED_ORDERS):
+    for k in range(orders):
         if stop is not None and stop():
-            return None
+            return
         spread = SAMPLED_SPREAD * (1 + k // SAMPLED_WIDEN)
         noisy = {n: i + draw.gauss(0.0, spread) for i, n in enumerate(base)}
-        plan = plan_in_order(
+        yield plan_in_order(
             problem, sorted(base, key=noisy.__getitem__), domains
         )
-        if plan is not None and check_plan(problem, plan).ok:
-            return plan
-    return None
