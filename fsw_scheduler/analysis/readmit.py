@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from .check import check_plan
+from .check import improves
 from .greedy import plan_in_order
 from .proofs import reach
 
@@ -99,13 +99,7 @@ def readmitted(
             head = [*(n for n in order if n in before), name]
             trial = [*head, *(n for n in order if n not in head)]
             found = plan_in_order(problem, trial, domains)
-            if (
-                found is not None
-                and found.objective is not None
-                and best.objective is not None
-                and found.objective.total < best.objective.total
-                and check_plan(problem, found).ok
-            ):
+            if found is not None and improves(problem, found, best):
                 best, order, improved = found, trial, True
         if not improved:
             break

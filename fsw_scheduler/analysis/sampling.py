@@ -13,7 +13,7 @@ from __future__ import annotations
 import random
 from typing import TYPE_CHECKING
 
-from .check import check_plan
+from .check import check_plan, improves
 from .domains import start_domains
 from .greedy import plan_in_order
 
@@ -105,13 +105,7 @@ def sampled_better(
     """
     best = start
     for plan in _perturbed(problem, domains, BETTER_ORDERS, seed, stop):
-        if (
-            plan is not None
-            and plan.objective is not None
-            and best.objective is not None
-            and plan.objective.total < best.objective.total
-            and check_plan(problem, plan).ok
-        ):
+        if plan is not None and improves(problem, plan, best):
             best = plan
     return best
 
