@@ -31,7 +31,7 @@ from ..model.plan import (
 )
 from ..model.stability import Stability, rescored
 from . import large, replanning
-from .budget import BUDGET, stop_at, stop_share, stop_within
+from .budget import BUDGET, stop_at, stop_within
 from .forced import SOLVED_CORE, WHOLE_CORE, forced_start
 from .incumbent import checked, finished, narrow, probed
 from .joined import after, joined, starved
@@ -426,14 +426,14 @@ def _reopen(
 #: Parts at least this large say when their start plan begins and ends
 #: (150 tasks took 15 s there, without a word).
 LOUD_TASKS = 50
+#: Seconds between two progress lines of a long start plan.
+PROGRESS_S = 5.0
 
 #: Share of the time left that a large part's start plan may spend on
 #: perturbed list-scheduling orders after the rules
 #: (:func:`~fsw_scheduler.analysis.sampling.sampled_better`; its 50
 #: orders take 0.1-1 s on 30-60 tasks).
 SAMPLED_START_SHARE = 0.05
-#: Seconds between two progress lines of a long start plan.
-PROGRESS_S = 5.0
 
 
 def _solve_whole(
@@ -497,9 +497,7 @@ def _solve_whole(
             problem,
             start,
             domains,
-            stop=None
-            if time_limit is None
-            else stop_share(began + time_limit, SAMPLED_START_SHARE),
+            stop=stop_within(began, time_limit, SAMPLED_START_SHARE),
         )
     around_forced = ""  # how the start plan was built, if around the core
     if start is None and stability is None:
