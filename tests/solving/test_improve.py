@@ -9,6 +9,7 @@ from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.solving import improve
 from fsw_scheduler.solving.ilp import solve_ilp
+from fsw_scheduler.solving.ilp.objective import weight
 
 from ..factories import make_doc, make_task, problem_from
 from ..problems import plan_of
@@ -166,3 +167,52 @@ def test_a_task_in_the_way_may_move_far_from_the_window() -> None:
     found = run(problem, domains=narrowed, warm=plan.starts(), time_limit=20)
     assert check_plan(problem, found).ok
     assert found.starts() == {"m": 60, "f": 10, "w": 0}
+
+
+def test_a_bound_that_settles_the_left_out_cost_frees_placed_tasks() -> None:
+    """Tests that once the bound proves no plan leaves out less, a
+    neighbourhood spends its free places on the placed tasks whose order
+    costs delay, not on left-out ones: ``z`` (worth 1) cannot fit beside
+    ``a`` and ``b`` (worth 5 each), the plan runs ``a`` (delay cost 1)
+    before ``b`` (delay cost 5). A neighbourhood of 2 over [0, 20) freed
+    ``z`` and ``a`` (no gain there); with the bound ``W`` (one unit left
+    out at least) it frees ``a`` and ``b``, and CBC swaps them."""
+    problem = problem_from(
+        make_doc(
+            [
+                make_task("a", 10, uses={"cam": 1}, delay_cost=1),
+                make_task("b", 10, uses={"cam": 1}, delay_cost=5),
+                make_task(
+                    "z",
+                    30,
+                    uses={"cam": 1},
+                    schedule_cost=1,
+                    feasible_interval=[0, 40],
+                ),
+            ],
+            horizon=40,
+            resources={"binary": ["cam"]},
+        )
+    )
+    plan = plan_of(problem, {"a": 0, "b": 10, "z": None})
+    assert check_plan(problem, plan).ok
+    assert plan.objective is not None
+    domains = start_domains(problem)
+    big = weight(problem)
+    assert not improve.settled(plan, None)
+    assert not improve.settled(plan, big - 1)
+    assert improve.settled(plan, big)
+    unsettled = improve._neighbourhood(problem, plan, domains, 0, 20, 2)
+    assert unsettled is not None
+    assert not unsettled["z"].empty
+    assert unsettled["b"] == type(unsettled["b"])(10, 10)
+    narrowed = improve._neighbourhood(problem, plan, domains, 0, 20, 2, True)
+    assert narrowed is not None
+    assert narrowed["z"].empty
+    assert narrowed["a"] == domains["a"] and narrowed["b"] == domains["b"]
+    run = functools.partial(solve_ilp, solver="cbc", threads=1)
+    found = run(problem, domains=narrowed, warm=plan.starts(), time_limit=20)
+    assert check_plan(problem, found).ok
+    assert found.starts() == {"a": 10, "b": 0}
+    assert found.objective is not None
+    assert found.objective.total < plan.objective.total
