@@ -165,6 +165,27 @@ def test_holding_drops_an_optional_consumer_before_a_mandatory_one() -> None:
     assert held.starts() == {"a": 0, "c": 8, "d": 10}
 
 
+def test_holding_drops_the_leader_of_a_both_precedence_it_drops() -> None:
+    """Tests that holding drops, with a consumer it drops, the task that
+    leads it by a ``both`` precedence (both run or neither): ``e`` leads
+    ``c``. Before, ``e`` stayed and the rest did not hold, so the replan
+    found no plan in force to start from (seed 206's r60-h1440-0 of the
+    replan suite: it was solved afresh)."""
+    doc = _drained(8)
+    doc["tasks"].append(make_task("e", 1))
+    doc["precedences"].append(
+        {"before": "e", "after": "c", "kind": "lax", "scope": "both"}
+    )
+    old = problem_from(_drained(10) | {"tasks": doc["tasks"]})
+    in_force = plan_of(old, {"a": 0, "b": 4, "e": 6, "c": 8, "d": 10})
+    new = problem_from(doc)
+    assert not check_plan(new, in_force).ok
+    held = holding(new, in_force, start_domains(new))
+    assert held is not None and check_plan(new, held).ok
+    assert held.starts() == {"a": 0, "b": 4}
+    assert set(held.unscheduled) == {"c", "d", "e"}
+
+
 @settings(COMMON, max_examples=120)
 @given(
     doc=problem_docs(max_tasks=5, max_horizon=10),
