@@ -245,6 +245,27 @@ def test_a_bound_above_a_held_plan_is_not_trusted() -> None:
     assert close.root == -284500
 
 
+def test_a_restart_that_keeps_the_root_cuts_is_no_proof() -> None:
+    """Tests that a CBC log showing a restart on a reduced model that
+    kept the root's probing cuts (483 rows of a 414-row model: the
+    disjunctive relaxation of ``tools/fuzz`` seed 68044, where CBC then
+    proved a wrong optimum, -667,183 against -667,199) is no proof and
+    yields the first root LP before cuts, not the restart's; a restart
+    from the model's own rows (cuts off) is kept."""
+    said = cbc._read_log(str(LOGS / "restart_with_cuts.log"))
+    assert cbc.restarted_with_cuts(
+        (LOGS / "restart_with_cuts.log").read_text()
+    )
+    assert said.overshot
+    assert said.root == -667483
+    kept = LOGS / "restart_without_cuts.log"
+    assert "restarting search" in kept.read_text()
+    assert not cbc.restarted_with_cuts(kept.read_text())
+    assert not cbc._read_log(str(kept)).overshot
+    # A log without a restart, with cuts, says nothing of it.
+    assert not cbc.restarted_with_cuts((LOGS / "cuts_close.log").read_text())
+
+
 def test_a_start_cbc_did_not_take_as_given_is_seen() -> None:
     """Tests that :func:`cbc.start_refused` tells a MIP start CBC took
     (a time-indexed run) from one that broke a row (CBC kept its

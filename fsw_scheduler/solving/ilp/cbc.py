@@ -113,6 +113,14 @@ _ROOT_CUTS = re.compile(
     + _NUMBER
 )
 _BEST_POSSIBLE = re.compile(r"best possible " + _NUMBER)
+#: The model's size as CBC read it.
+_MODEL_ROWS = re.compile(r"Problem \S+ has (\d+) rows")
+#: CBC's restart on a reduced model (variables fixed by reduced cost):
+#: the rows of the model it starts from.
+_RESTART = re.compile(
+    r"Full problem (\d+) rows \d+ columns, reduced to \d+ rows \d+ "
+    r"columns\s*\n[^\n]*restarting search"
+)
 _INCUMBENT = re.compile(r"Objective value:\s+" + _NUMBER)
 #: CBC read a MIP start (``-mips``) ...
 _START_READ = "MIPStart values read"
@@ -316,7 +324,8 @@ class _Log(NamedTuple):
     seconds: float | None
     bound: float | None
     overshot: bool
-    #: The root LP's value before cuts, a valid lower bound.
+    #: The root LP's value before cuts, a valid lower bound (the first
+    #: root's: a restart, :func:`restarted_with_cuts`, has its own).
     root: float | None
     #: A MIP start read and not taken as given (:func:`start_refused`).
     refused: bool = False
@@ -335,9 +344,32 @@ def _read_log(path: str) -> _Log:
     return _Log(
         float(seconds[-1]) if seconds else None,
         float(bound[-1]) if bound else None,
-        _overshot(text, cuts),
-        float(cuts[-1][0]) if cuts else None,
+        _overshot(text, cuts) or restarted_with_cuts(text),
+        float(cuts[0][0]) if cuts else None,
         start_refused(text),
+    )
+
+
+def restarted_with_cuts(text: str) -> bool:
+    """True if a CBC log shows a restart on a reduced model that kept
+    the root's cuts.
+
+    With a MIP start, CBC 2.10 fixes the columns whose reduced cost
+    exceeds the gap and searches again from a model of the rows *and the
+    cuts* it had at the root, which its own source calls not totally
+    safe. Seen on ``tools/fuzz`` seed 68044 (19 tasks, a battery and two
+    power lines): the disjunctive relaxation with probing restarted from
+    483 rows of a 414-row model and proved 79,990 optimal, where the
+    optimum is 79,974 (the same model without probing, with another
+    seed, or without the restart, finds it); the product answered
+    ``optimal`` with the worse plan. Nothing such a run concludes is a
+    proof.
+    """
+    rows = _MODEL_ROWS.search(text)
+    if rows is None:
+        return False
+    return any(
+        int(full) > int(rows.group(1)) for full in _RESTART.findall(text)
     )
 
 
@@ -560,9 +592,9 @@ class CbcRun:
                     program.num_columns,
                 )
             if overshot:
-                # Numerical trouble cut off valid plans: only the root LP
-                # before cuts bounds the optimum (less one unit: the log
-                # rounds it).
+                # Numerical trouble or a restart with the root's cuts cut
+                # off valid plans: only the root LP before cuts bounds the
+                # optimum (less one unit: the log rounds it).
                 bound = None if root is None else root - 1
             if bound is not None:
                 bound += program.constant
