@@ -256,12 +256,12 @@ def test_a_restart_that_keeps_the_root_cuts_is_no_proof() -> None:
     assert cbc.restarted_with_cuts(
         (LOGS / "restart_with_cuts.log").read_text()
     )
-    assert said.overshot
+    assert said.restarted and not said.overshot
     assert said.root == -667483
     kept = LOGS / "restart_without_cuts.log"
     assert "restarting search" in kept.read_text()
     assert not cbc.restarted_with_cuts(kept.read_text())
-    assert not cbc._read_log(str(kept)).overshot
+    assert not cbc._read_log(str(kept)).restarted
     # A log without a restart, with cuts, says nothing of it.
     assert not cbc.restarted_with_cuts((LOGS / "cuts_close.log").read_text())
 
@@ -368,6 +368,34 @@ def test_a_run_whose_cuts_overshoot_reports_the_root_bound(
     assert result.bound == -3697587 - 1 + program.constant
     assert result.status is not cbc.SolveStatus.OPTIMAL
     assert "cuts cut off valid plans" in result.solver_status
+
+
+def test_a_run_that_restarted_with_its_cuts_claims_no_optimum(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Tests that CbcRun reports no proof and the first root LP bound when
+    its log shows a restart that kept the root's cuts (the real log of
+    the relaxation run that proved a wrong optimum), with cuts off as
+    in that run (so not run again)."""
+    program = _two_of_three()
+    real = cbc.CbcRun._run
+
+    def run_then_replay(
+        self: CbcRun, args: list[str], log: str, deadline: float | None
+    ) -> int:
+        code = real(self, args, log, deadline)
+        Path(log).write_text((LOGS / "restart_with_cuts.log").read_text())
+        return code
+
+    monkeypatch.setattr(cbc.CbcRun, "_run", run_then_replay)
+    run = CbcRun()
+    run.options.append(cbc.CUTS_OFF)
+    result = run.solve(program)
+    assert result.restarted
+    assert result.status is cbc.SolveStatus.FEASIBLE
+    assert result.values is not None
+    assert result.bound == -667483 - 1 + program.constant
+    assert "restarted with its root cuts: no proof" in result.solver_status
 
 
 def test_a_run_whose_cuts_cut_off_plans_is_run_again_without_cuts() -> None:

@@ -271,6 +271,10 @@ class CbcResult:
         True when CBC's log showed its bound above a plan it held (cuts
         that cut off valid plans, :func:`_overshot`): nothing it
         concluded is a proof.
+    restarted
+        True when CBC restarted on a reduced model that kept its root
+        cuts (:func:`restarted_with_cuts`): nothing it concluded is a
+        proof either; its plan is one.
     """
 
     status: SolveStatus
@@ -281,6 +285,7 @@ class CbcResult:
     retried: bool = False
     solver_status: str = ""
     overshot: bool = False
+    restarted: bool = False
 
 
 def read_status(first_line: str) -> tuple[SolveStatus, bool]:
@@ -329,6 +334,9 @@ class _Log(NamedTuple):
     root: float | None
     #: A MIP start read and not taken as given (:func:`start_refused`).
     refused: bool = False
+    #: A restart on a reduced model that kept the root's cuts
+    #: (:func:`restarted_with_cuts`).
+    restarted: bool = False
 
 
 def _read_log(path: str) -> _Log:
@@ -344,9 +352,10 @@ def _read_log(path: str) -> _Log:
     return _Log(
         float(seconds[-1]) if seconds else None,
         float(bound[-1]) if bound else None,
-        _overshot(text, cuts) or restarted_with_cuts(text),
+        _overshot(text, cuts),
         float(cuts[0][0]) if cuts else None,
         start_refused(text),
+        restarted_with_cuts(text),
     )
 
 
@@ -458,8 +467,9 @@ class CbcRun:
     ) -> CbcResult:
         """Solve ``program``, starting from ``warm`` column values if given.
 
-        A run whose cuts cut off valid plans (:attr:`CbcResult.overshot`)
-        and that ended before its limit is run once more with cuts off
+        A run whose cuts cut off valid plans (:attr:`CbcResult.overshot`,
+        or that restarted with them, :attr:`CbcResult.restarted`) and
+        that ended before its limit is run once more with cuts off
         (:data:`CUTS_OFF`), from the best plan the first run held, for
         the time left: a 15-task paper problem (seed 7's c15-multiple-4)
         came back ``feasible`` after 0.2 s of a 20 s limit, its bound
@@ -473,7 +483,8 @@ class CbcRun:
         """
         began = time.monotonic()
         first = self._solve_once(program, warm)
-        if not first.overshot or self.interrupted or CUTS_OFF in self.options:
+        unsafe = first.overshot or first.restarted
+        if not unsafe or self.interrupted or CUTS_OFF in self.options:
             return first
         left = None
         if self.time_limit is not None:
@@ -489,7 +500,11 @@ class CbcRun:
             )
         finally:
             self.options, self.time_limit, self.deadline_s = saved
-        if again.overshot or again.status is SolveStatus.UNKNOWN:
+        if (
+            again.overshot
+            or again.restarted
+            or again.status is SolveStatus.UNKNOWN
+        ):
             return first
         return dataclasses.replace(
             again,
@@ -582,7 +597,9 @@ class CbcRun:
                 code = self._run(
                     head + sec + _flags(options) + tail, files["log"], deadline
                 )
-            seconds, bound, overshot, root, refused = _read_log(files["log"])
+            seconds, bound, overshot, root, refused, restarted = _read_log(
+                files["log"]
+            )
             if refused:
                 log.warning(
                     "%s (it breaks a row of the %d x %d model): searched "
@@ -591,7 +608,7 @@ class CbcRun:
                     program.num_rows,
                     program.num_columns,
                 )
-            if overshot:
+            if overshot or restarted:
                 # Numerical trouble or a restart with the root's cuts cut
                 # off valid plans: only the root LP before cuts bounds the
                 # optimum (less one unit: the log rounds it).
@@ -621,8 +638,12 @@ class CbcRun:
             # known). An interrupted run proves nothing.
             status = SolveStatus.UNKNOWN
             line += "; interrupted: no proof"
-        if overshot:
-            line += "; cuts cut off valid plans: no proof, root LP bound"
+        if overshot or restarted:
+            line += (
+                "; cuts cut off valid plans: no proof, root LP bound"
+                if overshot
+                else "; restarted with its root cuts: no proof, root LP bound"
+            )
             if status in (SolveStatus.OPTIMAL, SolveStatus.INFEASIBLE):
                 # Its plan may be flown; its claim is not kept.
                 status = (
@@ -644,6 +665,7 @@ class CbcRun:
             retried=retried,
             solver_status=line,
             overshot=overshot,
+            restarted=restarted,
         )
 
     def _failed(self, code: int, solution: str) -> bool:

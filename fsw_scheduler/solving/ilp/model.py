@@ -303,12 +303,17 @@ def in_symmetry_order(
 
 
 @dataclass
-class _Outcome:
+class Outcome:
+    """What one solver run gave: status, column values, seconds, bound and
+    status line."""
+
     status: SolveStatus
     values: Sequence[float] | None
     seconds: float | None
     bound: float | None
     solver_status: str
+    #: CBC restarted with its root cuts (:attr:`.cbc.CbcResult.restarted`).
+    restarted: bool = False
 
 
 def cbc_options(
@@ -387,7 +392,7 @@ def run_cbc(
     warm: dict[str, int] | None,
     max_nodes: int | None = None,
     heuristics: bool = False,
-) -> _Outcome:
+) -> Outcome:
     """Run CBC on ``built`` from the MIP start ``warm``, with the
     options its formulation and size call for (:func:`cbc_options`),
     and read its answer."""
@@ -419,12 +424,13 @@ def run_cbc(
         notes.append("retried with preprocessing")
     if result.interrupted:
         notes.append("interrupted at the deadline")
-    return _Outcome(
+    return Outcome(
         result.status,
         result.values,
         result.seconds,
         result.bound,
         "; ".join(notes),
+        result.restarted,
     )
 
 
@@ -443,7 +449,7 @@ def _run_highs(
     time_limit: float | None,
     threads: int,
     seed: int,
-) -> _Outcome:
+) -> Outcome:
     import pulp
 
     if not pulp.HiGHS().available():
@@ -475,7 +481,7 @@ def _run_highs(
             program.lower[col] if column.varValue is None else column.varValue
             for col, column in enumerate(columns)
         ]
-    return _Outcome(
+    return Outcome(
         status,
         values,
         time.perf_counter() - began,
@@ -644,7 +650,7 @@ def solve_ilp(
         left = time_limit - (built_at - began)
         solver_limit = max(left - min(0.25, 0.1 * left), 0.0)
     if solver_limit is not None and solver_limit < MIN_CBC_S:
-        outcome = _Outcome(
+        outcome = Outcome(
             SolveStatus.UNKNOWN,
             None,
             0.0,
