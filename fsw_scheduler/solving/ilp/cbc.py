@@ -359,6 +359,13 @@ def _read_log(path: str) -> _Log:
     )
 
 
+def claimed_optimal(solver_status: str) -> bool:
+    """True if a run's status line (CBC's first word first) says CBC
+    called its answer optimal, whether or not that was kept as a proof
+    (:func:`restarted_with_cuts`, :func:`_overshot`)."""
+    return solver_status.startswith("Optimal")
+
+
 def restarted_with_cuts(text: str) -> bool:
     """True if a CBC log shows a restart on a reduced model that kept
     the root's cuts.
