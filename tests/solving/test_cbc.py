@@ -347,6 +347,21 @@ def _two_of_three() -> Program:
     return program
 
 
+def _replaying(monkeypatch: pytest.MonkeyPatch, name: str) -> None:
+    """Each CBC run goes as it does, then its log is replaced by the
+    recorded log ``name`` (a real run's, written where CBC's own goes)."""
+    real = cbc.CbcRun._run
+
+    def run_then_replay(
+        self: CbcRun, args: list[str], log: str, deadline: float | None
+    ) -> int:
+        code = real(self, args, log, deadline)
+        Path(log).write_text((LOGS / name).read_text())
+        return code
+
+    monkeypatch.setattr(cbc.CbcRun, "_run", run_then_replay)
+
+
 def test_a_run_whose_cuts_overshoot_reports_the_root_bound(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -354,16 +369,7 @@ def test_a_run_whose_cuts_overshoot_reports_the_root_bound(
     log shows cuts above the plan it holds (the real log of that run,
     written where CBC's own goes)."""
     program = _two_of_three()
-    real = cbc.CbcRun._run
-
-    def run_then_replay(
-        self: CbcRun, args: list[str], log: str, deadline: float | None
-    ) -> int:
-        code = real(self, args, log, deadline)
-        Path(log).write_text((LOGS / "cuts_overshoot.log").read_text())
-        return code
-
-    monkeypatch.setattr(cbc.CbcRun, "_run", run_then_replay)
+    _replaying(monkeypatch, "cuts_overshoot.log")
     result = CbcRun().solve(program)
     assert result.bound == -3697587 - 1 + program.constant
     assert result.status is not cbc.SolveStatus.OPTIMAL
@@ -378,16 +384,7 @@ def test_a_run_that_restarted_with_its_cuts_claims_no_optimum(
     the relaxation run that proved a wrong optimum), with cuts off as
     in that run (so not run again)."""
     program = _two_of_three()
-    real = cbc.CbcRun._run
-
-    def run_then_replay(
-        self: CbcRun, args: list[str], log: str, deadline: float | None
-    ) -> int:
-        code = real(self, args, log, deadline)
-        Path(log).write_text((LOGS / "restart_with_cuts.log").read_text())
-        return code
-
-    monkeypatch.setattr(cbc.CbcRun, "_run", run_then_replay)
+    _replaying(monkeypatch, "restart_with_cuts.log")
     run = CbcRun()
     run.options.append(cbc.CUTS_OFF)
     result = run.solve(program)
