@@ -34,7 +34,6 @@ level there.
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import time
 from typing import TYPE_CHECKING, NamedTuple
@@ -46,7 +45,8 @@ from ..analysis.check import check_plan
 from ..analysis.keptset import level_rows
 from ..model.levels import resource_profiles
 from ..model.plan import Plan, SolverStats, SolveStatus
-from .ilp.cbc import claimed_optimal
+from .confirm import confirm_limit, confirmed
+from .ilp.cbclog import claimed_optimal
 from .ilp.decode import Formulation
 from .ilp.disjunctive.blocks import modelled
 from .ilp.disjunctive.constraints import Constraints
@@ -54,7 +54,7 @@ from .ilp.disjunctive.model import DisjunctiveModel
 from .ilp.disjunctive.objective import objective
 from .ilp.disjunctive.rule import used_kinds
 from .ilp.disjunctive.variables import Variables
-from .ilp.model import Outcome, run_cbc
+from .ilp.model import run_cbc
 from .ilp.program import GE, LE
 from .stats import higher
 
@@ -144,27 +144,6 @@ def without_consumables(problem: Problem) -> Problem:
 #: over wide domains did not end in 10 s (seed 73's b45-h1440, loaded
 #: machine), where without probing they gave a better plan in 5 s.
 PROBING = ("probing on",)
-
-#: CBC options of the run that confirms a probing run's answer: CBC's
-#: restart on a reduced model off (its default strategy 1 turns it on).
-#: With probing, CBC 2.10 restarts from a model that keeps the probing
-#: cuts (:func:`~fsw_scheduler.solving.ilp.cbc.restarted_with_cuts`, 16
-#: of 24 such runs on the large and orbit suites), which is what makes
-#: those runs fast (the 29-task part of the large suite's f30-h1440 of
-#: seed 197: 740 nodes and 3.7 s to its optimum, against 16,486 nodes
-#: and 8 s without the restart) and is no proof: on ``tools/fuzz`` seed
-#: 68044 it proved 79,990 where the optimum is 79,974. Such a run's best
-#: solution, when CBC called it optimal, starts a run without probing
-#: and without the restart, which proves or betters it (f30-h1440: 2,036
-#: nodes, 1.2 s, from the optimum in hand). A restarted run stopped on
-#: its nodes is not run again: its plan is one, and the next round
-#: searches on from it (confirming those too lost two proofs of five on
-#: the large suite of seed 197).
-CONFIRM = ("strategy 0",)
-
-#: The confirming run has this many times the nodes of the run it
-#: confirms (a node limit, so the same answer on every machine).
-CONFIRM_GROWTH = 4
 
 
 class _Levelled(Variables):
@@ -504,8 +483,9 @@ def relaxed_bound(
         default).
     confirm_until
         :func:`time.perf_counter` value by which a run confirming an
-        optimum CBC claimed after its restart (:func:`_confirmed`) must
-        end, when later than ``time_limit`` allows (a caller's overtime).
+        optimum CBC claimed after its restart
+        (:func:`~.confirm.confirmed`) must end, when later than
+        ``time_limit`` allows (a caller's overtime).
 
     Returns
     -------
@@ -536,10 +516,10 @@ def relaxed_bound(
             and outcome.values is not None
             and claimed_optimal(outcome.solver_status)
         ):
-            outcome = _confirmed(
+            outcome = confirmed(
                 built,
                 outcome,
-                _confirm_limit(began, time_limit, confirm_until),
+                confirm_limit(began, time_limit, confirm_until),
                 threads,
                 seed,
                 max_nodes,
@@ -638,61 +618,6 @@ def relaxed_bound(
         better,
         outcome.solver_status + written,
         tuple(checkpoints),
-    )
-
-
-def _confirm_limit(
-    began: float, time_limit: float | None, until: float | None
-) -> float | None:
-    """Seconds a confirming run may take: what is left of ``time_limit``
-    from ``began``, or to ``until`` when that is later; None without a
-    limit."""
-    if time_limit is None:
-        return None
-    now = time.perf_counter()
-    left = time_limit - (now - began)
-    return left if until is None else max(left, until - now)
-
-
-def _confirmed(
-    built: RelaxedModel,
-    outcome: Outcome,
-    limit: float | None,
-    threads: int,
-    seed: int,
-    max_nodes: int | None,
-) -> Outcome:
-    """The answer of a run that restarted with its probing cuts (no
-    proof, :data:`CONFIRM`), confirmed: CBC again on the same model, from
-    that run's best solution, without probing and without the restart,
-    with :data:`CONFIRM_GROWTH` times its nodes, for ``limit`` seconds.
-    Its answer is sound: optimal, or a plan at least as good with its
-    bound. The first run's answer (its plan, the root bound) when no time
-    is left for it."""
-    if limit is not None and limit <= 0:
-        return outcome
-    assert outcome.values is not None
-    found = built.decode(outcome.status, outcome.values)
-    options = built.cbc_options
-    built.cbc_options = CONFIRM
-    try:
-        again = run_cbc(
-            built,
-            limit,
-            threads,
-            seed,
-            found.starts(),
-            None if max_nodes is None else CONFIRM_GROWTH * max_nodes,
-        )
-    finally:
-        built.cbc_options = options
-    if again.values is None:
-        return outcome
-    return dataclasses.replace(
-        again,
-        bound=higher(outcome.bound, again.bound),
-        solver_status=f"{outcome.solver_status}; again without the restart: "
-        f"{again.solver_status}",
     )
 
 

@@ -17,7 +17,7 @@ import pytest
 
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.model.plan import SolveStatus
-from fsw_scheduler.solving.ilp import cbc, child, progress
+from fsw_scheduler.solving.ilp import cbc, cbclog, child, progress
 from fsw_scheduler.solving.ilp.cbc import CbcRun
 from fsw_scheduler.solving.ilp.child import sweep_stale_dirs
 from fsw_scheduler.solving.ilp.model import solve_ilp
@@ -235,12 +235,12 @@ def test_a_bound_above_a_held_plan_is_not_trusted() -> None:
     CBC held (numerical trouble, from a real 24-task replan) yields the
     root LP before cuts, less one, not CBC's clipped "Lower bound", which
     equalled the plan although a better one exists."""
-    said = cbc._read_log(str(LOGS / "cuts_overshoot.log"))
+    said = cbclog.read_log(str(LOGS / "cuts_overshoot.log"))
     assert said.overshot
     assert said.bound == -3697423  # what CBC claims: the plan itself
     assert said.root == -3697587
     # A log whose cuts close the gap to the plan, and no further, is kept.
-    close = cbc._read_log(str(LOGS / "cuts_close.log"))
+    close = cbclog.read_log(str(LOGS / "cuts_close.log"))
     assert not close.overshot
     assert close.root == -284500
 
@@ -252,22 +252,23 @@ def test_a_restart_that_keeps_the_root_cuts_is_no_proof() -> None:
     proved a wrong optimum, -667,183 against -667,199) is no proof and
     yields the first root LP before cuts, not the restart's; a restart
     from the model's own rows (cuts off) is kept."""
-    said = cbc._read_log(str(LOGS / "restart_with_cuts.log"))
-    assert cbc.restarted_with_cuts(
+    said = cbclog.read_log(str(LOGS / "restart_with_cuts.log"))
+    assert cbclog.restarted_with_cuts(
         (LOGS / "restart_with_cuts.log").read_text()
     )
     assert said.restarted and not said.overshot
     assert said.root == -667483
     kept = LOGS / "restart_without_cuts.log"
     assert "restarting search" in kept.read_text()
-    assert not cbc.restarted_with_cuts(kept.read_text())
-    assert not cbc._read_log(str(kept)).restarted
+    assert not cbclog.restarted_with_cuts(kept.read_text())
+    assert not cbclog.read_log(str(kept)).restarted
     # A log without a restart, with cuts, says nothing of it.
-    assert not cbc.restarted_with_cuts((LOGS / "cuts_close.log").read_text())
+    close = (LOGS / "cuts_close.log").read_text()
+    assert not cbclog.restarted_with_cuts(close)
 
 
 def test_a_start_cbc_did_not_take_as_given_is_seen() -> None:
-    """Tests that :func:`cbc.start_refused` tells a MIP start CBC took
+    """Tests that :func:`cbclog.start_refused` tells a MIP start CBC took
     (a time-indexed run) from one that broke a row (CBC kept its
     non-zero columns) and one CBC could not use at all, both from the
     disjunctive relaxation before its load columns were filled."""
@@ -275,34 +276,34 @@ def test_a_start_cbc_did_not_take_as_given_is_seen() -> None:
         name: (LOGS / f"start_{name}.log").read_text()
         for name in ("taken", "broken", "dropped")
     }
-    assert not cbc.start_refused(text["taken"])
-    assert cbc.start_refused(text["broken"])
-    assert cbc.start_refused(text["dropped"])
+    assert not cbclog.start_refused(text["taken"])
+    assert cbclog.start_refused(text["broken"])
+    assert cbclog.start_refused(text["dropped"])
     # Stopped before its root LP, CBC has not looked at the start yet.
     head = text["dropped"].split("Continuous objective value")[0]
-    assert not cbc.start_refused(head)
+    assert not cbclog.start_refused(head)
     # Its time ran out while it looked at a valid start (the root LP took
     # most of the run): no refusal of the start's values.
     late = (LOGS / "start_out_of_time.log").read_text()
     assert "mipstart values could not be used" in late
-    assert not cbc.start_refused(late)
-    assert cbc.start_refused(
+    assert not cbclog.start_refused(late)
+    assert cbclog.start_refused(
         late.replace("Cbc0020I Exiting on maximum time", "")
     )
-    assert not cbc.start_refused("Problem MODEL has 3 rows")
+    assert not cbclog.start_refused("Problem MODEL has 3 rows")
     # Its time ran out in the LP over the start's fixed integer columns
     # (CBC's next word is its exit on time): no refusal either.
     cut = (LOGS / "start_fix_out_of_time.log").read_text()
     assert "Trying just fixing integer variables" in cut
-    assert not cbc.start_refused(cut)
+    assert not cbclog.start_refused(cut)
     # Stopped by the interrupt at the deadline while CBC looked at the
     # start (no try of it): no refusal.
     stopped = (LOGS / "start_interrupted.log").read_text()
     assert "Exiting on user event" in stopped
-    assert not cbc.start_refused(stopped)
-    assert cbc.start_refused(stopped.replace("Exiting on user event", ""))
+    assert not cbclog.start_refused(stopped)
+    assert cbclog.start_refused(stopped.replace("Exiting on user event", ""))
     # The same drop with the search going on is one.
-    assert cbc.start_refused(
+    assert cbclog.start_refused(
         cut.replace(
             "Cbc0020I Exiting on maximum time",
             "Cbc0013I At root node, 3 cuts changed objective from 1 to 2",

@@ -238,7 +238,7 @@ def test_probing_proves_a_broad_part_within_one_round() -> None:
     product 71 delay units above it) proves the optimum within one
     round's node limit from the start plan, with CBC's probing on
     (without it, 4,291 nodes): CBC restarts with its probing cuts, which
-    is no proof (:func:`~fsw_scheduler.solving.ilp.cbc.
+    is no proof (:func:`~fsw_scheduler.solving.ilp.cbclog.
     restarted_with_cuts`), and the run that confirms its answer without
     the restart proves it."""
     generator = bench_lib("generator")
