@@ -222,14 +222,18 @@ def settled(plan: Plan, bound: float | None) -> bool:
     A plan's total is ``W u`` plus its delay (and move) part, which is
     under ``W``; a plan leaving out ``u' < u`` costs less than ``W u``.
     So a bound at least ``W u`` (the plan's gap at most its delay and
-    move part) rules every such plan out.
+    move part) rules every such plan out. Under the lexicographic move
+    term the objective does not carry the weight of a move, and nothing
+    is settled here.
     """
     if bound is None or plan.objective is None:
         return False
     objective = plan.objective
-    rest = objective.delay_cost + (
-        objective.move_cost if isinstance(objective.move_cost, int) else 0
-    )
+    rest = objective.delay_cost
+    if isinstance(objective.moves, int):
+        if not isinstance(objective.move_cost, int):
+            return False
+        rest += objective.move_cost * objective.moves
     return bound >= objective.total - rest - 0.5
 
 

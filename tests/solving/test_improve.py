@@ -7,6 +7,7 @@ import time
 
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
+from fsw_scheduler.model.plan import Objective
 from fsw_scheduler.solving import improve
 from fsw_scheduler.solving.ilp import solve_ilp
 from fsw_scheduler.solving.ilp.objective import weight
@@ -202,6 +203,17 @@ def test_a_bound_that_settles_the_left_out_cost_frees_placed_tasks() -> None:
     assert not improve.settled(plan, None)
     assert not improve.settled(plan, big - 1)
     assert improve.settled(plan, big)
+    # A move term: the moves' price is part of what a bound may miss.
+    priced = plan.replace(
+        objective=Objective(1, 10, big + 2 * 5 + 10, moves=2, move_cost=5)
+    )
+    assert improve.settled(priced, big)
+    assert not improve.settled(priced, big - 1)
+    # Lexicographic moves: their weight is not on the objective.
+    lexicographic = plan.replace(
+        objective=Objective(1, 10, big + 7 * big + 10, moves=1)
+    )
+    assert not improve.settled(lexicographic, big + 7 * big)
     unsettled = improve._neighbourhood(problem, plan, domains, 0, 20, 2)
     assert unsettled is not None
     assert not unsettled["z"].empty
