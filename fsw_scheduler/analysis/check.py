@@ -236,12 +236,11 @@ def check_plan(
     return CheckReport(tuple(violations), objective)
 
 
-def improves(problem: Problem, plan: Plan | None, best: Plan) -> bool:
+def improves(problem: Problem, plan: Plan, best: Plan) -> bool:
     """True if ``plan`` costs less than ``best`` and the checker accepts
     it (the cost first: the checker runs only on a plan worth taking)."""
     return (
-        plan is not None
-        and plan.objective is not None
+        plan.objective is not None
         and best.objective is not None
         and plan.objective.total < best.objective.total
         and check_plan(problem, plan).ok

@@ -510,12 +510,12 @@ def relaxed_bound(
         outcome = run_cbc(
             built, limit, threads, seed, incumbent.starts(), max_nodes
         )
-        best = higher(best, outcome.bound)
         if (
             outcome.restarted
             and outcome.values is not None
             and claimed_optimal(outcome.solver_status)
         ):
+            # Its bound stays in the confirmed answer's (the higher).
             outcome = confirmed(
                 built,
                 outcome,
@@ -524,7 +524,7 @@ def relaxed_bound(
                 seed,
                 max_nodes,
             )
-            best = higher(best, outcome.bound)
+        best = higher(best, outcome.bound)
         if outcome.values is None or not outcome.status.has_plan:
             return RelaxedAnswer(
                 best, None, None, outcome.solver_status, tuple(checkpoints)

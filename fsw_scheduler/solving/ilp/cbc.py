@@ -202,6 +202,12 @@ class CbcResult:
     overshot: bool = False
     restarted: bool = False
 
+    @property
+    def cut_off(self) -> bool:
+        """True when its cuts may have cut off valid plans (``overshot``
+        or ``restarted``): nothing it concluded is a proof."""
+        return self.overshot or self.restarted
+
 
 def read_status(first_line: str) -> tuple[SolveStatus, bool]:
     """(status, has values) from the first line of a CBC solution file.
@@ -319,8 +325,7 @@ class CbcRun:
         """
         began = time.monotonic()
         first = self._solve_once(program, warm)
-        unsafe = first.overshot or first.restarted
-        if not unsafe or self.interrupted or CUTS_OFF in self.options:
+        if not first.cut_off or self.interrupted or CUTS_OFF in self.options:
             return first
         left = None
         if self.time_limit is not None:
@@ -336,11 +341,7 @@ class CbcRun:
             )
         finally:
             self.options, self.time_limit, self.deadline_s = saved
-        if (
-            again.overshot
-            or again.restarted
-            or again.status is SolveStatus.UNKNOWN
-        ):
+        if again.cut_off or again.status is SolveStatus.UNKNOWN:
             return first
         return dataclasses.replace(
             again,
