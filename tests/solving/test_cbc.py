@@ -18,6 +18,7 @@ import pytest
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.solving.ilp import cbc, cbclog, child, progress
+from fsw_scheduler.solving.ilp import model as model_module
 from fsw_scheduler.solving.ilp.cbc import CbcRun
 from fsw_scheduler.solving.ilp.child import sweep_stale_dirs
 from fsw_scheduler.solving.ilp.model import solve_ilp
@@ -394,6 +395,47 @@ def test_a_run_that_restarted_with_its_cuts_claims_no_optimum(
     assert result.values is not None
     assert result.bound == -667483 - 1 + program.constant
     assert "restarted with its root cuts: no proof" in result.solver_status
+
+
+def test_a_search_cbc_completed_is_read_from_its_log() -> None:
+    """Tests that the best objective of a search CBC completed is read
+    from a real log whose last LP then stopped on time (a 30-task part
+    over H = 300, ``tools/fuzz --large`` seed 1414: its solution file
+    held that LP's fractional values under "Optimal"), and that a
+    stopped search ("Partial search") gives none."""
+    said = cbclog.read_log(str(LOGS / "completed_then_stopped.log"))
+    assert said.completed == -1574603
+    assert not said.restarted and not said.overshot
+    for name in ("start_interrupted.log", "start_out_of_time.log"):
+        assert "Partial search" in (LOGS / name).read_text()
+        assert cbclog.read_log(str(LOGS / name)).completed is None
+
+
+def test_a_completed_search_proves_the_start_its_file_lost() -> None:
+    """Tests that a run whose search completed at the MIP start's
+    objective, its solution file refused, answers the start as optimal
+    with the optimum as its bound; that an optimum below the start only
+    bounds (the plan CBC found is lost); and that values written below
+    the optimum (an LP's) are never taken."""
+    program = _two_of_three()  # the optimum 3: the first two columns
+    start = [1.0, 1.0, 0.0]
+    lost = cbc.CbcResult(SolveStatus.UNKNOWN, None, completed=3.0)
+    notes: list[str] = []
+    model_module._completed(program, lost, start, notes)
+    assert lost.status is SolveStatus.OPTIMAL
+    assert lost.values == start and lost.bound == 3.0
+    assert notes == ["its search completed: the start is optimal"]
+    worse = cbc.CbcResult(SolveStatus.UNKNOWN, None, completed=3.0)
+    model_module._completed(program, worse, [1.0, 0.0, 1.0], [])
+    assert worse.status is SolveStatus.UNKNOWN and worse.values is None
+    assert worse.bound == 3.0
+    below = cbc.CbcResult(SolveStatus.FEASIBLE, [1.0, 0.0, 0.0], completed=3.0)
+    model_module._completed(program, below, None, [])
+    assert below.status is SolveStatus.FEASIBLE
+    # CBC's objective of no solution is no optimum.
+    none = cbc.CbcResult(SolveStatus.UNKNOWN, None, completed=1e50)
+    model_module._completed(program, none, start, [])
+    assert none.status is SolveStatus.UNKNOWN and none.bound is None
 
 
 def test_a_run_whose_cuts_cut_off_plans_is_run_again_without_cuts() -> None:

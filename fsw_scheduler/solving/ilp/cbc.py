@@ -190,6 +190,11 @@ class CbcResult:
         True when CBC restarted on a reduced model that kept its root
         cuts (:func:`.cbclog.restarted_with_cuts`): nothing it concluded is a
         proof either; its plan is one.
+    completed
+        The optimum, constant included, when CBC's log shows its search
+        completed (:func:`.cbclog.completed`) and its cuts cut off no
+        valid plan; else None. Its solution file may still hold other
+        values (its last LP, stopped on time).
     """
 
     status: SolveStatus
@@ -201,6 +206,7 @@ class CbcResult:
     solver_status: str = ""
     overshot: bool = False
     restarted: bool = False
+    completed: float | None = None
 
     @property
     def cut_off(self) -> bool:
@@ -434,8 +440,8 @@ class CbcRun:
                 code = self._run(
                     head + sec + _flags(options) + tail, files["log"], deadline
                 )
-            seconds, bound, overshot, root, refused, restarted = read_log(
-                files["log"]
+            seconds, bound, overshot, root, refused, restarted, done = (
+                read_log(files["log"])
             )
             if refused:
                 log.warning(
@@ -452,6 +458,9 @@ class CbcRun:
                 bound = None if root is None else root - 1
             if bound is not None:
                 bound += program.constant
+            constant = program.constant
+            if done is not None:
+                done = None if overshot or restarted else done + constant
             if self._failed(code, files["sol"]):
                 if not self.interrupted:
                     raise SolverError(f"cbc exited with code {code}")
@@ -463,6 +472,7 @@ class CbcRun:
                     interrupted=True,
                     retried=retried,
                     solver_status="killed at the deadline",
+                    completed=done,
                 )
             first, values = _read_solution(files["sol"], program.num_columns)
         status, has_values = read_status(first)
@@ -503,6 +513,7 @@ class CbcRun:
             solver_status=line,
             overshot=overshot,
             restarted=restarted,
+            completed=done,
         )
 
     def _failed(self, code: int, solution: str) -> bool:

@@ -402,12 +402,10 @@ def run_cbc(
         warm = in_symmetry_order(built.constraints.twins, warm)
         start = built.vars.initial(warm, built.program.num_columns)
     program = built.program
+    incumbent = None if start is None else program.value(start)
     run = WatchedCbcRun(
         constant=program.constant,
-        incumbent=None
-        if start is None
-        else program.constant
-        + sum(c * v for c, v in zip(program.cost, start, strict=True)),
+        incumbent=incumbent,
         time_limit=time_limit,
         threads=threads,
         seed=seed,
@@ -420,6 +418,8 @@ def run_cbc(
         # relaxation and called it optimal. Not a solution; never decoded.
         notes.append("fractional values refused")
         result.status, result.values = SolveStatus.UNKNOWN, None
+    if result.completed is not None:
+        _completed(program, result, start, notes)
     if result.retried:
         notes.append("retried with preprocessing")
     if result.interrupted:
@@ -432,6 +432,43 @@ def run_cbc(
         "; ".join(notes),
         result.restarted,
     )
+
+
+#: CBC's objective when it holds no solution (1e50): no optimum.
+NO_SOLUTION = 1e49
+
+
+def _completed(
+    program: Program,
+    result: CbcResult,
+    start: list[float] | None,
+    notes: list[str],
+) -> None:
+    """Read a search CBC completed (:attr:`CbcResult.completed`) as the
+    proof it is, whatever its solution file held: its best objective is
+    the optimum, so the bound; the MIP start, or else the plan written,
+    is optimal when its objective is that one (checked, as every plan)."""
+    optimum = result.completed
+    if (
+        optimum is None
+        or abs(optimum) >= NO_SOLUTION
+        or result.status is SolveStatus.OPTIMAL
+    ):
+        return
+    result.bound = optimum
+    # The start first: a valid plan, where the values written may be the
+    # last LP's, stopped with rows broken.
+    for values, said in (
+        (start, "the start is optimal"),
+        (result.values, "the plan written is optimal"),
+    ):
+        if (
+            values is not None
+            and abs(program.value(values) - optimum) <= ABS_GAP
+        ):
+            result.status, result.values = SolveStatus.OPTIMAL, list(values)
+            notes.append(f"its search completed: {said}")
+            return
 
 
 def _integral(program: Program, result: CbcResult) -> bool:
