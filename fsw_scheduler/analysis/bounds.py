@@ -148,11 +148,11 @@ def kept_set_plan(
     KeptSetProof
         The optimal plan (status ``optimal``) if proved, and the bound.
     """
-    if plan.objective is None or problem.alternatives:
-        # The relaxation prices tasks one by one: a group's choice is the
-        # solver's to decide. Changing capacities are read at their peak
-        # (the energy rows) and external rates as they add up (the level
-        # rows), both relaxations still.
+    if plan.objective is None:
+        # Changing capacities are read at their peak (the energy rows) and
+        # external rates as they add up (the level rows), and a group's
+        # cost is shared among each option's tasks (:func:`~.keptset.
+        # keep_values`): relaxations still.
         return KeptSetProof(None, None)
     rows = energy(problem, domains)
     search = finished(

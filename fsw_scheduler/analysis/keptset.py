@@ -14,6 +14,7 @@ within a node budget.
 
 from __future__ import annotations
 
+import itertools
 from typing import TYPE_CHECKING
 
 from ..model.plan import objective_weight
@@ -22,7 +23,7 @@ from .exclusions import exclusive_pairs
 from .sequencing import Job, job, machine_delay
 
 if TYPE_CHECKING:
-    from collections.abc import Callable, Mapping, Sequence
+    from collections.abc import Callable, Iterator, Mapping, Sequence
 
     from ..model.problem import Problem, Task
     from .domains import Domain
@@ -147,6 +148,57 @@ def finished(
     return search if search.run(max_nodes, stop) else None
 
 
+def keep_values(problem: Problem, weight: int) -> tuple[int, dict[str, int]]:
+    """The unscheduled cost of keeping no task, and what keeping each
+    task saves of it, ``weight`` (W) included.
+
+    A task that is no group member saves its own schedule cost. A group
+    costs its schedule cost once when none of its tasks is kept, and its
+    members' own costs are never counted (:func:`~fsw_scheduler.model.
+    groups.unscheduled_cost`): the tasks of each option share the
+    group's cost (in whole units, the remainder to the first), so a
+    plan, which keeps one whole option or none, saves exactly the
+    group's cost with it and its kept set costs here what it costs in
+    the plan. Sets that keep parts of options or several options are not
+    plans and may cost less: the relaxation only gets lower, so it is
+    still a bound.
+    """
+    member = problem.groups.member
+    names = {t.id for t in problem.tasks}
+    saved = {
+        t.id: 0 if t.id in member else weight * t.schedule_cost
+        for t in problem.tasks
+    }
+    total = sum(saved.values())
+    for group in problem.alternatives:
+        options = [[n for n in o if n in names] for o in group.options]
+        if not any(options):
+            continue  # a group of another part
+        cost = weight * group.schedule_cost
+        total += cost
+        for option in options:
+            share = cost // max(1, len(option))
+            for name in option:
+                saved[name] = share
+            if option:
+                # The remainder to the first: a whole option saves the
+                # group's cost exactly, so a plan's relaxed cost is its
+                # real one and a proof by equality still holds.
+                saved[option[0]] += cost - share * len(option)
+    return total, saved
+
+
+def _rivals(problem: Problem) -> Iterator[tuple[str, str]]:
+    """Each pair of tasks in two options of one group: no plan keeps
+    both, and without them a set keeping every option would save the
+    group's cost once per option (:func:`keep_values`)."""
+    for group in problem.alternatives:
+        for one, other in itertools.combinations(group.options, 2):
+            for first in one:
+                for second in other:
+                    yield first, second
+
+
 class KeptSetSearch:
     """Branch and bound over kept sets for the relaxed optimum.
 
@@ -186,12 +238,13 @@ class KeptSetSearch:
         placeable = [t for t in problem.tasks if not domains[t.id].empty]
         self.too_large = len(placeable) > MAX_TASKS
         # Cost of a kept set: weight * (cost of all) - its value.
-        self.total = weight * sum(t.schedule_cost for t in problem.tasks)
+        self.total, saved = keep_values(problem, weight)
         value = {
-            t.id: weight * t.schedule_cost
+            t.id: saved[t.id]
             - t.delay_cost * (domains[t.id].earliest - problem.start)
             for t in placeable
         }
+        required = {t.id for t in placeable if problem.required(t)}
         self.need = self.total - cutoff + 1  # value of a better kept set
         uses, self.limits = level_rows(problem, domains, placeable)
         if energy is not None:
@@ -201,8 +254,9 @@ class KeptSetSearch:
         # Mandatory tasks are decided first (kept), then by value: leaving
         # out a valuable task drops the bound at once.
         self.order = sorted(
-            placeable, key=lambda t: (not t.mandatory, -value[t.id], t.id)
+            placeable, key=lambda t: (t.id not in required, -value[t.id], t.id)
         )
+        self.required = [t.id in required for t in self.order]
         self.values = [value[t.id] for t in self.order]
         self.uses = [uses[t.id] for t in self.order]
         index = {t.id: k for k, t in enumerate(self.order)}
@@ -251,7 +305,10 @@ class KeptSetSearch:
         num = len(self.order)
         forced = {} if force is None else {force[0]: force[1]}
         # The imposed decision holds even against a mandatory task.
-        self.held = [forced.get(t.id, t.mandatory) for t in self.order]
+        self.held = [
+            forced.get(t.id, needed)
+            for t, needed in zip(self.order, self.required, strict=True)
+        ]
         barred = [forced.get(t.id) is False for t in self.order]
         free = [
             not h and not b and v > 0
@@ -378,9 +435,10 @@ class KeptSetSearch:
         self, problem: Problem, index: dict[str, int]
     ) -> list[list[int]]:
         """The earlier decided partners of each task in the pairs no plan
-        holds together (:func:`~.exclusions.exclusive_pairs`)."""
+        holds together (:func:`~.exclusions.exclusive_pairs`, and the
+        tasks of two options of a group: :func:`_rivals`)."""
         apart: list[list[int]] = [[] for _ in self.order]
-        for first, second in exclusive_pairs(problem):
+        for first, second in [*exclusive_pairs(problem), *_rivals(problem)]:
             a, b = index.get(first), index.get(second)
             if a is not None and b is not None:
                 apart[max(a, b)].append(min(a, b))
@@ -461,7 +519,7 @@ class KeptSetSearch:
         task = self.order[k]
         if self.force is not None and self.force[0] == task.id:
             choices: tuple[bool, ...] = (self.force[1],)
-        elif task.mandatory:
+        elif self.required[k]:
             choices = (True,)
         else:
             choices = (True, False)

@@ -22,11 +22,11 @@ from fsw_scheduler.analysis.bounds import (
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.analysis.greedy import greedy_plan
-from fsw_scheduler.analysis.keptset import KeptSetSearch, energy
+from fsw_scheduler.analysis.keptset import KeptSetSearch, energy, keep_values
 from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.solving.solve import best_start, solve
 
-from ..factories import bench_lib, problem_from
+from ..factories import bench_lib, make_doc, make_task, problem_from
 from ..problems import (
     COMMON,
     at_earliest_but,
@@ -359,6 +359,77 @@ def _without_groups(doc: dict) -> dict:
     for task in doc["tasks"]:
         task.setdefault("schedule_cost", 1)
     return doc
+
+
+@settings(COMMON, max_examples=400)
+@given(
+    doc=mission_docs(max_tasks=5, max_horizon=8),
+    drop=st.sets(st.integers(0, 4)),
+)
+def test_groups_keep_the_bound_a_bound(doc: dict, drop: set[int]) -> None:
+    """Tests the kept-set relaxation on days with a group of
+    alternatives (its cost shared among its options' tasks, rounded up:
+    :func:`~fsw_scheduler.analysis.keptset.keep_values`), from plans
+    that leave any tasks out: its bound never exceeds the optimum found
+    by exhaustive search, what it proves is the optimum, and a better
+    start it gives is valid."""
+    problem = decode_doc(doc)
+    plan = at_earliest_but(problem, drop)
+    if plan is None:
+        return
+    proof = kept_set_plan(problem, plan, start_domains(problem))
+    if proof.bound is None:
+        return
+    best = brute_force(problem)
+    assert best is not None
+    objective, _ = best
+    assert proof.bound <= objective.total, (doc, proof.bound, objective)
+    if proof.plan is not None:
+        assert proof.plan.objective == objective
+    if proof.better is not None:
+        assert check_plan(problem, proof.better).ok
+
+
+def test_a_group_shares_its_cost_among_each_option() -> None:
+    """Tests that a group's cost is what keeping none of its tasks costs,
+    that the tasks of each option share it (the remainder to the first,
+    so a whole option saves it exactly), and that members' own costs are
+    not counted; and that a day with a group, its plan at the earliest
+    starts with the better option, is proved without a solver (before,
+    a group left the kept-set relaxation out)."""
+    doc = make_doc(
+        tasks=[
+            make_task("solo", 2, delay_cost=1, schedule_cost=4),
+            make_task("a", 2, delay_cost=1),
+            make_task("b", 1, delay_cost=1),
+            make_task("c", 1, delay_cost=1),
+        ],
+        horizon=10,
+    )
+    for member in doc["tasks"][1:]:
+        del member["schedule_cost"]  # the group's is the one used
+    doc["tasks"][0]["feasible_interval"] = [3, 10]
+    doc["tasks"][1]["feasible_interval"] = [4, 10]
+    doc["alternatives"] = [
+        {"id": "g", "schedule_cost": 3, "options": [["a"], ["b", "c"]]}
+    ]
+    problem = decode_doc(doc)
+    weight = 1 + 4 * 10  # W: one unscheduled cost beats any delay
+    total, saved = keep_values(problem, weight)
+    assert total == weight * (4 + 3)
+    assert saved == {
+        "solo": 4 * weight,
+        "a": 3 * weight,
+        "b": 3 * weight // 2 + 1,  # the remainder: W is odd
+        "c": 3 * weight // 2,
+    }
+    plan = _at_earliest(problem, {"solo", "b", "c"})
+    assert check_plan(problem, plan).ok
+    proof = kept_set_plan(problem, plan, start_domains(problem))
+    assert proof.plan is not None and proof.plan.status is SolveStatus.OPTIMAL
+    assert proof.bound == 3
+    best = brute_force(problem)
+    assert best is not None and proof.plan.objective == best[0]
 
 
 @settings(COMMON, max_examples=300)
