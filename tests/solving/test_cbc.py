@@ -283,6 +283,11 @@ def test_a_start_cbc_did_not_take_as_given_is_seen() -> None:
     # Stopped before its root LP, CBC has not looked at the start yet.
     head = text["dropped"].split("Continuous objective value")[0]
     assert not cbclog.start_refused(head)
+    # Killed after its root LP, before a word on the start (a run stopped
+    # hard at its deadline): no refusal either.
+    killed = text["dropped"].split("Cbc0045I Trying just fixing")[0]
+    assert "Continuous objective value" in killed
+    assert not cbclog.start_refused(killed + "Cbc0031I 154 added rows\n")
     # Its time ran out while it looked at a valid start (the root LP took
     # most of the run): no refusal of the start's values.
     late = (LOGS / "start_out_of_time.log").read_text()

@@ -82,6 +82,11 @@ def start_refused(text: str) -> bool:
         return True
     if _START_TAKEN in text:
         return False
+    if _START_DROPPED not in text:
+        # No word on the start yet: CBC was killed after its root LP,
+        # before it took or dropped the start (a run stopped hard at its
+        # deadline), so nothing says the start was refused.
+        return False
     # Dropped. CBC's time ran out while it looked at the start, not the
     # start, when it never tried the start's integer columns fixed and
     # its time is up or its interrupt came (``tools/fuzz --large`` seed
