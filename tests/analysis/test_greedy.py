@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from fsw_scheduler.analysis.bounds import at_lower_bound
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
-from fsw_scheduler.analysis.greedy import greedy_plan
+from fsw_scheduler.analysis.greedy import bundles, greedy_plan
 from fsw_scheduler.analysis.proofs import forced_tasks
 from fsw_scheduler.analysis.sampling import (
     BETTER_ORDERS,
@@ -528,3 +528,24 @@ def test_perturbed_orders_better_a_start_the_battery_binds() -> None:
 
     sampled_better(problem, start, domains, stop=counting)
     assert len(asked) == BETTER_ORDERS
+
+
+def test_a_bundle_every_rule_leaves_out_is_placed_first() -> None:
+    """Tests that a bundle of tasks tied by ``both`` and tight precedences
+    (kept together or not at all) that every rule leaves out, because
+    the tasks every plan must hold took its only camera slots first, is
+    placed before every other task: the large suite's b60-h1440 of seed
+    210 (60 tasks), 31 tasks left out by every rule (11 of them a
+    13-task bundle worth 41 units, which CP-SAT keeps), now at most 22,
+    the bundle kept, the plan valid."""
+    generator = bench_lib("generator")
+    bench = next(
+        p for p in generator.large_suite(210) if p.name == "b60-h1440"
+    )
+    problem = bench.problem()
+    found = [b for b in bundles(problem) if "T051" in b]
+    assert len(found) == 1 and len(found[0]) == 13
+    plan = greedy_plan(problem)
+    assert plan is not None and check_plan(problem, plan).ok
+    assert len(plan.unscheduled) <= 22
+    assert not found[0] & set(plan.unscheduled)
