@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import msgspec
 
+from ..model import groups
 from ..model.plan import Activity, Plan, SolveStatus
 from .check import check_plan
 from .domains import start_domains
@@ -311,14 +312,16 @@ def widened(problem: Problem, plan: Plan) -> Plan | None:
     Every task the plan does not schedule is left out; None when the
     checker refuses the result on ``problem``.
     """
+    starts = plan.starts()
     plan = plan.replace(
         objective=None,
         status=SolveStatus.FEASIBLE,
         why=(),
         stats=None,
-        unscheduled=tuple(
-            t.id for t in problem.tasks if t.id not in plan.starts()
-        ),
+        unscheduled=tuple(t.id for t in problem.tasks if t.id not in starts),
+        # The options the plan holds, of ``problem``'s groups (a plan of
+        # kept_only's problem names those of its own, or none).
+        chosen=groups.chosen(problem, starts),
     )
     report = check_plan(problem, plan)
     if not report.ok:

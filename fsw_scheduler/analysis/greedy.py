@@ -17,15 +17,15 @@ One priority order suits no problem class: by value (mandatory, then
 schedule cost, then delay cost) wastes a scarce consumable on big
 consumers, fills a busy resource with long tasks first, and lets tasks
 with wide windows take the slots narrow ones need. So the pass is run with
-each rule of :data:`RULES` and the best plan is kept (the first rule wins
-ties): a better plan for 14 of the paper campaign's 84 problems, often the
-optimum, at about 2 ms a pass. :func:`plan_in_order` runs it in any order.
+each rule of :data:`~.rules.RULES` (:mod:`.rules`) and the best plan is
+kept (the first rule wins ties): a better plan for 14 of the paper
+campaign's 84 problems, often the optimum, at about 2 ms a pass.
+:func:`plan_in_order` runs it in any order.
 """
 
 from __future__ import annotations
 
 from collections import defaultdict
-from collections.abc import Callable, Set
 from typing import TYPE_CHECKING, Any
 
 from ..model import groups
@@ -40,9 +40,18 @@ from .board import Board
 from .check import check_plan
 from .domains import Domain, start_domains
 from .proofs import conflict_seeds, forced_tasks
+from .rules import (
+    RULES,
+    Rule,
+    by_deadline,
+    by_deadline_forced_first,
+    by_supply,
+)
 from .supply import charges_a_store, supply_sets
 
 if TYPE_CHECKING:
+    from collections.abc import Callable, Set
+
     from ..model.problem import Problem, Task
 
 
@@ -92,7 +101,7 @@ def greedy_plan(
     First the *trivial* plan: the tasks every plan must hold
     (:func:`~fsw_scheduler.analysis.proofs.forced_tasks`) alone, by the
     deadline
-    rule. Then each rule of :data:`RULES` gives one plan (see
+    rule. Then each rule of :data:`~.rules.RULES` gives one plan (see
     :func:`_rule_plan`); the one with the lowest objective is returned,
     the earliest rule on a tie and the trivial plan last. A plan with
     every task at its earliest start cannot be beaten, so the remaining
@@ -125,7 +134,7 @@ def greedy_plan(
     # The plan with only the forced tasks: no plan found may be worse.
     trivial = _rule_plan(
         problem,
-        _by_deadline(problem, domains, forced),
+        by_deadline(problem, domains, forced),
         domains,
         seeds | {t.id for t in problem.tasks if t.id not in forced},
     )
@@ -153,19 +162,19 @@ def greedy_plan(
         # The supply rule tries ever more generators until one places
         # every mandatory task; the others run once.
         firsts: list[set[str] | None] = [None]
-        if rule is _by_deadline_forced_first:
+        if rule is by_deadline_forced_first:
             firsts = [forced]
-        elif rule is _by_supply:
+        elif rule is by_supply:
             firsts = list(supplied)
         plan = None
         for first in firsts:
             plan = placed(rule, first)
             if plan is not None:
                 break
-        if rule is _by_supply and charges and charges not in firsts:
+        if rule is by_supply and charges and charges not in firsts:
             # Once more with every task that charges a store first: the
             # consumers that need them may all be optional, and then the
-            # supply sets hold none of them (see _by_supply).
+            # supply sets hold none of them (see by_supply).
             more = placed(rule, charges)
             if more is not None:
                 candidates.append(more)
@@ -569,183 +578,6 @@ def _without(
                 changed |= prec.before not in gone
                 gone.add(prec.before)
     return {n: s for n, s in members.items() if n not in gone}
-
-
-def _mandatory_first(
-    problem: Problem,
-    forced: Set[str],
-    rest: Callable[[list[Task]], tuple],
-) -> Callable[[dict[str, int]], tuple]:
-    """A group's key: mandatory groups first, then ``rest`` of members.
-
-    Only mandatory tasks, not every forced one
-    (:func:`~fsw_scheduler.analysis.proofs.forced_tasks`): putting the optional
-    tasks they need first too made plans worse where an optional task
-    fits before them; the ``forced-first`` rule covers the other case.
-    """
-    del forced
-    tasks = {t.id: t for t in problem.tasks}
-
-    def key(group: dict[str, int]) -> tuple:
-        members = [tasks[n] for n in group]
-        return (any(t.mandatory for t in members), *rest(members))
-
-    return key
-
-
-def _value(members: list[Task]) -> float:
-    """Schedule cost, with delay cost as a tie-break."""
-    return sum(t.schedule_cost + 0.01 * t.delay_cost for t in members)
-
-
-def _by_value(
-    problem: Problem, domains: dict[str, Domain], forced: Set[str]
-) -> Callable[[dict[str, int]], tuple]:
-    """Mandatory first, then schedule cost, then delay cost."""
-    return _mandatory_first(
-        problem,
-        forced,
-        lambda members: (
-            sum(t.schedule_cost for t in members),
-            sum(t.delay_cost for t in members),
-        ),
-    )
-
-
-def _by_density(
-    problem: Problem, domains: dict[str, Domain], forced: Set[str]
-) -> Callable[[dict[str, int]], tuple]:
-    """Mandatory, then net generators, then value per consumable share.
-
-    A task's share is what it takes of each consumable's initial level
-    (amount x length / initial); a knapsack's greedy order.
-    """
-    initial = problem.resources.initial_levels
-
-    def share(task: Task) -> float:
-        return sum(
-            amount * task.length / max(initial[name], 1.0)
-            for name, amount in task.uses.items()
-            if name in initial
-        )
-
-    def rest(members: list[Task]) -> tuple:
-        net = sum(share(t) for t in members)
-        return (net < 0, _value(members) / (1.0 + max(net, 0.0)))
-
-    return _mandatory_first(problem, forced, rest)
-
-
-def _by_delay_rate(
-    problem: Problem, domains: dict[str, Domain], forced: Set[str]
-) -> Callable[[dict[str, int]], tuple]:
-    """Schedule cost, then delay cost per unit of length (Smith's rule)."""
-    return _mandatory_first(
-        problem,
-        forced,
-        lambda members: (
-            sum(t.schedule_cost for t in members),
-            sum(t.delay_cost for t in members)
-            / sum(t.length for t in members),
-        ),
-    )
-
-
-def _by_value_rate(
-    problem: Problem, domains: dict[str, Domain], forced: Set[str]
-) -> Callable[[dict[str, int]], tuple]:
-    """Value per unit of length: many short tasks before one long one."""
-    return _mandatory_first(
-        problem,
-        forced,
-        lambda members: (_value(members) / sum(t.length for t in members),),
-    )
-
-
-def _by_deadline(
-    problem: Problem, domains: dict[str, Domain], forced: Set[str]
-) -> Callable[[dict[str, int]], tuple]:
-    """Latest start soonest first (earliest deadline), then schedule cost.
-
-    Placing every task at its earliest start lets tasks with wide windows
-    take the early slots that tasks with narrow ones need; on the scaling
-    set this rule gave the best plan for 11 of the 24 problems (at 30
-    tasks, H = 336, as little left out as CP-SAT's optimum).
-    """
-    return _mandatory_first(
-        problem,
-        forced,
-        lambda members: (
-            -min(domains[t.id].latest for t in members),
-            sum(t.schedule_cost for t in members),
-        ),
-    )
-
-
-def _by_deadline_forced_first(
-    problem: Problem, domains: dict[str, Domain], forced: Set[str]
-) -> Callable[[dict[str, int]], tuple]:
-    """The deadline rule, in two passes: forced tasks, then the others.
-
-    A forced task that waits for an optional predecessor's group can find
-    its slots taken by the time it is ready; placing every forced task
-    first keeps the plan at least as good as the trivial one in almost
-    every case (:func:`_list_schedule` runs the two passes).
-    """
-    return _by_deadline(problem, domains, forced)
-
-
-def _by_supply(
-    problem: Problem, domains: dict[str, Domain], forced: Set[str]
-) -> Callable[[dict[str, int]], tuple]:
-    """Generators first, then the deadline rule, in two passes.
-
-    The first pass places the forced tasks and the generators they need
-    (:func:`~fsw_scheduler.analysis.supply.supply_sets`), each generator
-    before the consumers, so that a mandatory task that needs more than
-    the initial level finds the charge there; the second pass places the
-    rest. :func:`greedy_plan` runs it once more with every task that
-    charges a store in the first pass: where only optional tasks need
-    the charge, the generators with early windows otherwise lost the
-    camera to long tasks worth more, and every consumer they feed went
-    with them (the large suite's b45-h1440 of seed 197: 13 tasks left
-    out, 8.83 M; this way 5, 3.44 M, in 0.1 s).
-    """
-    tasks = {t.id: t for t in problem.tasks}
-    stores = problem.resources.initial_levels
-
-    def key(group: dict[str, int]) -> tuple:
-        members = [tasks[n] for n in group]
-        # Net over the group: a consumer tied to a small generator waits.
-        charges = any(
-            sum(t.uses.get(name, 0) * t.length for t in members) < 0
-            for name in stores
-        )
-        return (
-            charges,
-            any(t.mandatory for t in members),
-            -min(domains[t.id].latest for t in members),
-            sum(t.schedule_cost for t in members),
-        )
-
-    return key
-
-
-Rule = Callable[
-    ["Problem", dict[str, Domain], Set[str]],
-    Callable[[dict[str, int]], tuple],
-]
-
-#: Priority rules, tried in this order.
-RULES: dict[str, Rule] = {
-    "value": _by_value,
-    "density": _by_density,
-    "delay-rate": _by_delay_rate,
-    "value-rate": _by_value_rate,
-    "deadline": _by_deadline,
-    "forced-first": _by_deadline_forced_first,
-    "supply-first": _by_supply,
-}
 
 
 def _earliest(

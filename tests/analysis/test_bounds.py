@@ -401,6 +401,12 @@ def test_a_group_shares_its_cost_among_each_option() -> None:
     assert proof.bound == 3
     best = brute_force(problem)
     assert best is not None and proof.plan.objective == best[0]
+    # The relaxed optimum's set at its earliest starts names the option
+    # it holds, as every plan of a day with groups does.
+    at = bounds._at_earliest(
+        problem, start_domains(problem), {"solo", "b", "c"}, 3
+    )
+    assert at is not None and at.chosen == {"g": 1}
 
 
 @settings(COMMON, max_examples=600)

@@ -18,7 +18,6 @@ import pytest
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.solving.ilp import cbc, cbclog, child, progress
-from fsw_scheduler.solving.ilp import model as model_module
 from fsw_scheduler.solving.ilp.cbc import CbcRun
 from fsw_scheduler.solving.ilp.child import sweep_stale_dirs
 from fsw_scheduler.solving.ilp.model import solve_ilp
@@ -426,20 +425,20 @@ def test_a_completed_search_proves_the_start_its_file_lost() -> None:
     start = [1.0, 1.0, 0.0]
     lost = cbc.CbcResult(SolveStatus.UNKNOWN, None, completed=3.0)
     notes: list[str] = []
-    model_module._completed(program, lost, start, notes)
+    cbc.read_completed(program, lost, start, notes)
     assert lost.status is SolveStatus.OPTIMAL
     assert lost.values == start and lost.bound == 3.0
     assert notes == ["its search completed: the start is optimal"]
     worse = cbc.CbcResult(SolveStatus.UNKNOWN, None, completed=3.0)
-    model_module._completed(program, worse, [1.0, 0.0, 1.0], [])
+    cbc.read_completed(program, worse, [1.0, 0.0, 1.0], [])
     assert worse.status is SolveStatus.UNKNOWN and worse.values is None
     assert worse.bound == 3.0
     below = cbc.CbcResult(SolveStatus.FEASIBLE, [1.0, 0.0, 0.0], completed=3.0)
-    model_module._completed(program, below, None, [])
+    cbc.read_completed(program, below, None, [])
     assert below.status is SolveStatus.FEASIBLE
     # CBC's objective of no solution is no optimum.
     none = cbc.CbcResult(SolveStatus.UNKNOWN, None, completed=1e50)
-    model_module._completed(program, none, start, [])
+    cbc.read_completed(program, none, start, [])
     assert none.status is SolveStatus.UNKNOWN and none.bound is None
 
 

@@ -215,6 +215,43 @@ class CbcResult:
         return self.overshot or self.restarted
 
 
+#: CBC's objective when it holds no solution (1e50): no optimum.
+NO_SOLUTION = 1e49
+
+
+def read_completed(
+    program: Program,
+    result: CbcResult,
+    start: list[float] | None,
+    notes: list[str],
+) -> None:
+    """Read a search CBC completed (:attr:`CbcResult.completed`) as the
+    proof it is, whatever its solution file held: its best objective is
+    the optimum, so the bound; the MIP start, or else the plan written,
+    is optimal when its objective is that one (checked, as every plan)."""
+    optimum = result.completed
+    if (
+        optimum is None
+        or abs(optimum) >= NO_SOLUTION
+        or result.status is SolveStatus.OPTIMAL
+    ):
+        return
+    result.bound = optimum
+    # The start first: a valid plan, where the values written may be the
+    # last LP's, stopped with rows broken.
+    for values, said in (
+        (start, "the start is optimal"),
+        (result.values, "the plan written is optimal"),
+    ):
+        if (
+            values is not None
+            and abs(program.value(values) - optimum) <= ABS_GAP
+        ):
+            result.status, result.values = SolveStatus.OPTIMAL, list(values)
+            notes.append(f"its search completed: {said}")
+            return
+
+
 def read_status(first_line: str) -> tuple[SolveStatus, bool]:
     """(status, has values) from the first line of a CBC solution file.
 

@@ -23,7 +23,7 @@ from ...errors import SolverError
 from ...model.plan import Plan, SolverStats, SolveStatus
 from ..stats import higher, stopped_on_nodes
 from .alternatives import impossible_groups
-from .cbc import ABS_GAP, MIN_CBC_S, CbcResult, cbc_path
+from .cbc import ABS_GAP, MIN_CBC_S, CbcResult, cbc_path, read_completed
 from .constraints import Constraints
 from .decode import Formulation
 from .disjunctive.model import DisjunctiveModel
@@ -419,7 +419,7 @@ def run_cbc(
         notes.append("fractional values refused")
         result.status, result.values = SolveStatus.UNKNOWN, None
     if result.completed is not None:
-        _completed(program, result, start, notes)
+        read_completed(program, result, start, notes)
     if result.retried:
         notes.append("retried with preprocessing")
     if result.interrupted:
@@ -432,43 +432,6 @@ def run_cbc(
         "; ".join(notes),
         result.restarted,
     )
-
-
-#: CBC's objective when it holds no solution (1e50): no optimum.
-NO_SOLUTION = 1e49
-
-
-def _completed(
-    program: Program,
-    result: CbcResult,
-    start: list[float] | None,
-    notes: list[str],
-) -> None:
-    """Read a search CBC completed (:attr:`CbcResult.completed`) as the
-    proof it is, whatever its solution file held: its best objective is
-    the optimum, so the bound; the MIP start, or else the plan written,
-    is optimal when its objective is that one (checked, as every plan)."""
-    optimum = result.completed
-    if (
-        optimum is None
-        or abs(optimum) >= NO_SOLUTION
-        or result.status is SolveStatus.OPTIMAL
-    ):
-        return
-    result.bound = optimum
-    # The start first: a valid plan, where the values written may be the
-    # last LP's, stopped with rows broken.
-    for values, said in (
-        (start, "the start is optimal"),
-        (result.values, "the plan written is optimal"),
-    ):
-        if (
-            values is not None
-            and abs(program.value(values) - optimum) <= ABS_GAP
-        ):
-            result.status, result.values = SolveStatus.OPTIMAL, list(values)
-            notes.append(f"its search completed: {said}")
-            return
 
 
 def _integral(program: Program, result: CbcResult) -> bool:
