@@ -16,6 +16,7 @@ from hypothesis import given, settings
 
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.analysis.domains import start_domains
+from fsw_scheduler.model import groups
 from fsw_scheduler.model.plan import Activity, SolveStatus
 from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.solving import large
@@ -28,6 +29,7 @@ from ..problems import (
     COMMON,
     brute_force,
     decode_doc,
+    mission_docs,
     plan_of,
     problem_docs,
 )
@@ -886,6 +888,27 @@ def test_the_whole_model_gets_what_the_search_leaves() -> None:
 
 
 # -- the mission model: alternatives and resources that change over time ---
+
+
+@settings(COMMON, max_examples=150)
+@given(doc=mission_docs(max_tasks=5, max_horizon=8))
+def test_every_plan_of_a_mission_day_names_its_options(doc: dict) -> None:
+    """Tests, on drawn days with windows, capacity steps, external rates
+    and a group of alternatives, that every plan a solve returns passes
+    the checker, names the options it holds (``chosen``, whichever way
+    it was found or proved), and is the optimum found by exhaustive
+    search when it says ``optimal``."""
+    problem = decode_doc(doc)
+    plan = solve(problem, time_limit=10)
+    if not plan.status.has_plan:
+        return
+    assert check_plan(problem, plan).ok, plan
+    if problem.alternatives:
+        assert plan.chosen == groups.chosen(problem, plan.starts()), plan
+    if plan.status is SolveStatus.OPTIMAL:
+        best = brute_force(problem)
+        assert best is not None and plan.objective is not None
+        assert plan.objective.total == best[0].total, (doc, plan, best)
 
 
 @pytest.mark.parametrize("solver", SOLVERS)
