@@ -52,7 +52,7 @@ def sampled_plan(
     then earliest, then problem order), each moved by Gaussian noise of
     a few places, at most :data:`SAMPLED_ORDERS` times with a spread
     that widens as tries fail. For the tasks every plan must hold when
-    no rule of :data:`~.greedy.RULES` places them; deterministic (a seeded
+    no rule of :data:`~.rules.RULES` places them; deterministic (a seeded
     generator, no clock: ``stop`` only ends it early).
 
     Parameters
