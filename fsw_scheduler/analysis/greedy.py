@@ -39,6 +39,7 @@ from ..model.plan import (
 from .board import Board
 from .check import check_plan
 from .domains import Domain, start_domains
+from .linked import linked
 from .proofs import conflict_seeds, forced_tasks
 from .rules import (
     RULES,
@@ -212,21 +213,16 @@ def bundles(problem: Problem) -> list[set[str]]:
     """Sets of two tasks or more tied by ``both`` or tight precedences:
     kept all together or (for ``both``) not at all, so a list schedule
     that cannot place one of them loses them all."""
-    parent = {t.id: t.id for t in problem.tasks}
-
-    def find(name: str) -> str:
-        while parent[name] != name:
-            parent[name] = parent[parent[name]]
-            name = parent[name]
-        return name
-
-    for prec in problem.precedences:
-        if prec.scope == "both" or prec.kind == "tight":
-            parent[find(prec.before)] = find(prec.after)
-    found: dict[str, set[str]] = defaultdict(set)
-    for task in problem.tasks:
-        found[find(task.id)].add(task.id)
-    return [names for names in found.values() if len(names) > 1]
+    tied = [
+        (prec.before, prec.after)
+        for prec in problem.precedences
+        if prec.scope == "both" or prec.kind == "tight"
+    ]
+    return [
+        set(names)
+        for names in linked((t.id for t in problem.tasks), tied)
+        if len(names) > 1
+    ]
 
 
 def _bundles_first(

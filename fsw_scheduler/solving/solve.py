@@ -19,6 +19,7 @@ from ..analysis.check import check_plan
 from ..analysis.domains import start_count, start_domains
 from ..analysis.explain import explain as explain_plan
 from ..analysis.greedy import greedy_plan
+from ..analysis.linked import linked
 from ..analysis.options import impossible_group
 from ..analysis.proofs import infeasibility
 from ..analysis.sampling import sampled_better
@@ -229,36 +230,18 @@ def components(problem: Problem) -> list[list[str]]:
     plans of the parts (least left out in each, then least delay in each).
     Parts are listed by their first task, tasks in problem order.
     """
-    parent = {task.id: task.id for task in problem.tasks}
-
-    def find(name: str) -> str:
-        while parent[name] != name:
-            parent[name] = parent[parent[name]]
-            name = parent[name]
-        return name
-
-    def join(a: str, b: str) -> None:
-        root_a, root_b = find(a), find(b)
-        if root_a != root_b:
-            parent[max(root_a, root_b)] = min(root_a, root_b)
-
-    for prec in problem.precedences:
-        join(prec.before, prec.after)
-    present = set(parent)
+    pairs = [(prec.before, prec.after) for prec in problem.precedences]
+    present = {task.id for task in problem.tasks}
     for group in problem.alternatives:
         # The options of a group exclude each other: one part.
         names = [n for o in group.options for n in o if n in present]
-        for name in names[1:]:
-            join(names[0], name)
+        pairs += [(names[0], name) for name in names[1:]]
     first_user: dict[str, str] = {}
     for task in problem.tasks:
         for name, amount in task.uses.items():
             if amount:
-                join(task.id, first_user.setdefault(name, task.id))
-    parts: dict[str, list[str]] = {}
-    for task in problem.tasks:
-        parts.setdefault(find(task.id), []).append(task.id)
-    return list(parts.values())
+                pairs.append((task.id, first_user.setdefault(name, task.id)))
+    return linked((task.id for task in problem.tasks), pairs)
 
 
 def _solve_parts(
