@@ -508,43 +508,36 @@ def _split(problem: Problem, members: dict[str, int]) -> list[dict[str, int]]:
     in an order no precedence between parts goes against (the original
     order of the shifts where none decides; one part when they form a
     cycle)."""
-    root = {name: name for name in members}
-
-    def find(name: str) -> str:
-        while root[name] != name:
-            root[name] = root[root[name]]
-            name = root[name]
-        return name
-
     inside = [
         p
         for p in problem.precedences
         if p.before in members and p.after in members
     ]
-    for prec in inside:
-        if prec.kind == "tight":
-            root[find(prec.after)] = find(prec.before)
-    by_root: dict[str, dict[str, int]] = defaultdict(dict)
-    for name, shift in sorted(members.items(), key=lambda m: (m[1], m[0])):
-        by_root[find(name)][name] = shift
-    if len(by_root) == 1:
+    sets = linked(
+        (n for n, _ in sorted(members.items(), key=lambda m: (m[1], m[0]))),
+        [(p.before, p.after) for p in inside if p.kind == "tight"],
+    )
+    if len(sets) == 1:
         return [members]
-    waiting = {
-        key: {find(p.before) for p in inside if find(p.after) == key} - {key}
-        for key in by_root
-    }
-    order: list[str] = []
-    while len(order) < len(by_root):
+    part_of = {name: k for k, names in enumerate(sets) for name in names}
+    waiting = [
+        {part_of[p.before] for p in inside if part_of[p.after] == k} - {k}
+        for k in range(len(sets))
+    ]
+    order: list[int] = []
+    while len(order) < len(sets):
         ready = [
-            k for k in by_root if k not in order and waiting[k] <= set(order)
+            k
+            for k in range(len(sets))
+            if k not in order and waiting[k] <= set(order)
         ]
         if not ready:
             return [members]
         order.append(ready[0])
     parts = []
-    for key in order:
-        low = min(by_root[key].values())
-        parts.append({n: s - low for n, s in by_root[key].items()})
+    for k in order:
+        low = min(members[n] for n in sets[k])
+        parts.append({n: members[n] - low for n in sets[k]})
     return parts
 
 

@@ -549,3 +549,30 @@ def test_a_bundle_every_rule_leaves_out_is_placed_first() -> None:
     assert plan is not None and check_plan(problem, plan).ok
     assert len(plan.unscheduled) <= 22
     assert not found[0] & set(plan.unscheduled)
+
+
+def test_a_cut_group_is_split_into_its_tight_chains_in_precedence_order() -> (
+    None
+):
+    """Tests that the members of a group that shedding cut in two are
+    split into their tight-connected chains, each with its shifts from
+    its own first start, the chain another must follow first (a lax
+    precedence between them), members in the order of their shifts."""
+    from fsw_scheduler.analysis.greedy import _split
+
+    problem = problem_from(
+        {
+            "horizon": 20,
+            "tasks": [make_task(n, 2) for n in ("a", "b", "c", "d")],
+            "precedences": [
+                {"before": "a", "after": "b", "kind": "tight", "offset": 0},
+                {"before": "c", "after": "a", "kind": "lax"},
+            ],
+        }
+    )
+    assert _split(problem, {"a": 0, "b": 2, "c": 5}) == [
+        {"c": 0},
+        {"a": 0, "b": 2},
+    ]
+    assert _split(problem, {"a": 3, "b": 5}) == [{"a": 3, "b": 5}]
+    assert _split(problem, {"d": 4, "b": 1}) == [{"b": 0}, {"d": 0}]
