@@ -188,14 +188,17 @@ def greedy_plan(
             break
     if trivial is not None:
         candidates.append(trivial)
-    candidates.sort(key=lambda p: p.objective.total if p.objective else 0)
+
+    def cost(plan: Plan) -> int:
+        return plan.objective.total if plan.objective else 0
+
     if candidates:
-        candidates[:0] = _bundles_first(
-            problem, domains, forced, seeds, candidates[0], stop
+        candidates += _bundles_first(
+            problem, domains, forced, seeds, min(candidates, key=cost), stop
         )
     # The checker runs on the best candidate only, then the next ones if
     # it refuses (it never has: it is the heuristic's safety net).
-    candidates.sort(key=lambda p: p.objective.total if p.objective else 0)
+    candidates.sort(key=cost)
     found = next((p for p in candidates if check_plan(problem, p).ok), None)
     if found is not None or not apart or (stop is not None and stop()):
         return found

@@ -14,7 +14,6 @@ within a node budget.
 
 from __future__ import annotations
 
-import itertools
 from typing import TYPE_CHECKING
 
 from ..model.plan import objective_weight
@@ -189,14 +188,15 @@ def keep_values(problem: Problem, weight: int) -> tuple[int, dict[str, int]]:
 
 
 def _rivals(problem: Problem) -> Iterator[tuple[str, str]]:
-    """Each pair of tasks in two options of one group: no plan keeps
-    both, and without them a set keeping every option would save the
-    group's cost once per option (:func:`keep_values`)."""
-    for group in problem.alternatives:
-        for one, other in itertools.combinations(group.options, 2):
-            for first in one:
-                for second in other:
-                    yield first, second
+    """Each pair of tasks in two options of one group (:meth:`~fsw_scheduler.
+    model.groups.Groups.rivals`), once: no plan keeps both, and without
+    them a set keeping every option would save the group's cost once per
+    option (:func:`keep_values`)."""
+    indexed = problem.groups
+    for task in problem.tasks:
+        for other in indexed.rivals(task.id):
+            if task.id < other:
+                yield task.id, other
 
 
 class KeptSetSearch:

@@ -493,11 +493,11 @@ class CbcRun:
                 # off valid plans: only the root LP before cuts bounds the
                 # optimum (less one unit: the log rounds it).
                 bound = None if root is None else root - 1
+                done = None  # nor is a search it completed a proof
             if bound is not None:
                 bound += program.constant
-            constant = program.constant
             if done is not None:
-                done = None if overshot or restarted else done + constant
+                done += program.constant
             if self._failed(code, files["sol"]):
                 if not self.interrupted:
                     raise SolverError(f"cbc exited with code {code}")
