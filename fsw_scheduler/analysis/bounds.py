@@ -38,7 +38,7 @@ from ..model import groups
 from ..model.plan import Activity, Plan, SolveStatus
 from .check import check_plan
 from .domains import start_domains
-from .greedy import greedy_plan
+from .greedy import greedy_plan, unplaced
 from .keptset import KeptSetSearch, energy, finished
 from .sequencing import job, machine_delay, machines
 from .supply import charges_a_store
@@ -256,13 +256,10 @@ def better_start(
     caller that asked :func:`kept_set_bound` first (no second search).
     ``stop`` is passed on to the list scheduler (on 6 tasks over H =
     100,000 it took 6 s of a 1 s limit without one)."""
-    if proof.kept is None or plan.objective is None:
+    if plan.objective is None:
         return None
-    found = [_scheduled(problem, proof.kept, stop)]
-    if found[0] is None and _supplies(problem, proof.kept):
-        found.append(_scheduled(problem, proof.kept, stop, supplies_only=True))
     better = min(
-        (p for p in found if p is not None and p.objective is not None),
+        kept_set_starts(problem, proof, stop),
         key=lambda p: p.objective.total if p.objective else 0,
         default=None,
     )
@@ -275,8 +272,49 @@ def better_start(
     return better
 
 
+def kept_set_starts(
+    problem: Problem,
+    proof: KeptSetProof,
+    stop: Callable[[], bool] | None = None,
+    *,
+    thorough: bool = False,
+) -> list[Plan]:
+    """The valid plans list scheduling finds on the relaxed optimum's
+    kept set of ``proof`` (none without one), in the order tried.
+
+    The kept tasks are made mandatory (the start heuristic then places
+    the supplies the consumers need first); when no rule places them
+    all, only their supplies. ``thorough`` (a large part, whose start
+    plan took as long) tries two more: when neither places the set, the
+    tasks a rule could not place let go (:func:`_released`); and every
+    kept task optional. Those two doubled the time of a small part's
+    call (4 to 8 ms on 15 tasks) for no better plan on seed 210's
+    15-task campaigns, hence only there.
+    """
+    if proof.kept is None:
+        return []
+    found = [_scheduled(problem, proof.kept, stop)]
+    if found[0] is None and _supplies(problem, proof.kept):
+        found.append(_scheduled(problem, proof.kept, stop, supplies_only=True))
+    if thorough and not any(found):
+        found.append(_released(problem, proof.kept, stop))
+    if thorough:
+        # Every kept task optional: the heuristic on the relaxed
+        # optimum's tasks alone. The large suite's f60-h2880 of seed 210:
+        # 26.60 M where the kept tasks made mandatory gave 29.25 M (the
+        # start 30.29 M).
+        found.append(
+            _scheduled(problem, proof.kept, stop, released=proof.kept)
+        )
+    return [p for p in found if p is not None and p.objective is not None]
+
+
 def kept_only(
-    problem: Problem, kept: Set[str], *, supplies_only: bool = False
+    problem: Problem,
+    kept: Set[str],
+    *,
+    supplies_only: bool = False,
+    released: Set[str] = frozenset(),
 ) -> Problem:
     """``problem`` with only the tasks ``kept``, each made mandatory.
 
@@ -287,9 +325,11 @@ def kept_only(
     consumers that need them (its supply-first rule) rather than leaving
     out a consumer the charge would carry. With ``supplies_only``, only
     the kept tasks that put into a consumable (:func:`_supplies`) are
-    made mandatory, and the others may still be left out.
+    made mandatory, and the others may still be left out; the tasks
+    ``released`` keep their own schedule cost (optional, as in
+    ``problem``) either way.
     """
-    forced = _supplies(problem, kept) if supplies_only else kept
+    forced = (_supplies(problem, kept) if supplies_only else kept) - released
     return problem.replace(
         tasks=tuple(
             msgspec.structs.replace(t, schedule_cost=0)
@@ -335,15 +375,53 @@ def _scheduled(
     stop: Callable[[], bool] | None = None,
     *,
     supplies_only: bool = False,
+    released: Set[str] = frozenset(),
 ) -> Plan | None:
     """The start plan heuristic on ``kept`` alone, the rest left out
     (:func:`kept_only`)."""
     plan = greedy_plan(
-        kept_only(problem, kept, supplies_only=supplies_only), stop=stop
+        kept_only(
+            problem, kept, supplies_only=supplies_only, released=released
+        ),
+        stop=stop,
+        # With every kept task mandatory, "the forced tasks alone" is the
+        # same problem again (0.3 s lost on a 45-task day).
+        apart=supplies_only or bool(released),
     )
     if plan is None:
         return None
     return widened(problem, plan)
+
+
+#: Sets of tasks :func:`_released` tries to let go, at most.
+RELEASED_TRIED = 3
+
+
+def _released(
+    problem: Problem, kept: Set[str], stop: Callable[[], bool] | None
+) -> Plan | None:
+    """A plan of ``kept`` when no rule places it whole: the tasks one
+    rule's pass could not place (:func:`~.greedy.unplaced`) made optional
+    again, the smallest such set first, up to :data:`RELEASED_TRIED`
+    sets; the first that gives a plan.
+
+    The large suite's b60-h1440 of seed 210 (60 tasks): the relaxed
+    optimum kept the 52 tasks CP-SAT's plan keeps (5.51 M), no rule
+    placed them all (a charger with a narrow window, a long camera
+    task), and the start stayed the heuristic's 16.45 M (22 left out);
+    the deadline rule placed all but two, and with those two optional
+    the start is 7.99 M. A set that fails costs a whole heuristic run
+    (0.3-1.2 s on 45 tasks over H = 2,880), hence the first found ends
+    it, and no plan of the forced tasks apart is tried.
+    """
+    whole = kept_only(problem, kept)
+    for names in unplaced(whole, stop=stop)[:RELEASED_TRIED]:
+        plan = greedy_plan(
+            kept_only(problem, kept, released=names), stop=stop, apart=False
+        )
+        if plan is not None:
+            return widened(problem, plan)
+    return None
 
 
 def _supplies(problem: Problem, kept: Set[str]) -> set[str]:

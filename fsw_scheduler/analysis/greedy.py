@@ -205,6 +205,38 @@ def greedy_plan(
     return _forced_apart(problem, forced, stop)
 
 
+def unplaced(
+    problem: Problem, *, stop: Callable[[], bool] | None = None
+) -> list[frozenset[str]]:
+    """What one pass of each rule could not place of the tasks every plan
+    must hold: the distinct sets, the smallest first (then by name).
+
+    Empty when a rule places them all (or ``stop()`` turns true before
+    any pass ends). For a caller that may let those tasks go: the tasks a
+    relaxation keeps, each made mandatory, that no rule places whole
+    (:func:`~fsw_scheduler.analysis.bounds.better_start`).
+    """
+    domains = start_domains(problem)
+    forced = forced_tasks(problem)
+    seeds = conflict_seeds(problem, forced)
+    found: set[frozenset[str]] = set()
+    for rule in RULES.values():
+        starts = _list_schedule(
+            problem, seeds, rule(problem, domains, forced), domains, stop=stop
+        )
+        if starts is None:
+            break  # stopped
+        missing = frozenset(
+            t.id
+            for t in problem.tasks
+            if problem.required(t) and t.id not in starts
+        )
+        if not missing:
+            return []
+        found.add(missing)
+    return sorted(found, key=lambda names: (len(names), sorted(names)))
+
+
 #: Bundles left out by the best plan that :func:`_bundles_first` tries
 #: to place first, the most valuable first, and the rules it tries them
 #: with (the two that placed the 13-task bundle below).

@@ -540,8 +540,21 @@ def _goal_path(
 
 
 def _warm_plan(problem: Problem, old: Plan) -> Plan:
-    """The old plan's starts that still fit, as a MIP start."""
+    """The old plan's starts that still fit, as a MIP start.
+
+    A task the old plan runs across the replan's start, whose remaining
+    part is now the task (``from_interrupt``: as long as the old plan had
+    left of it), starts there: the old plan carries it on. Left out, a
+    ``both`` partner after it made the plan in force invalid on the new
+    day (replan suite, seed 210's r60-h1440-0), and the repair could not
+    start from it.
+    """
     starts = old.starts()
+    left = {
+        a.task: a.end - problem.start
+        for a in old.activities
+        if a.start < problem.start < a.end
+    }
     activities = []
     unscheduled = []
     for task in problem.tasks:
@@ -549,6 +562,12 @@ def _warm_plan(problem: Problem, old: Plan) -> Plan:
         start = task.fixed_start
         if start is None:
             start = starts.get(task.id)
+        if (
+            start is not None
+            and start < problem.start
+            and left.get(task.id) == task.length
+        ):
+            start = problem.start
         if start is not None and earliest <= start <= latest:
             activities.append(Activity(task.id, start, start + task.length))
         else:

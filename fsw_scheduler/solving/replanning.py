@@ -18,7 +18,7 @@ from __future__ import annotations
 import time
 from typing import TYPE_CHECKING
 
-from ..analysis.bounds import KeptSetProof, better_start, kept_set_bound
+from ..analysis.bounds import KeptSetProof, kept_set_bound, kept_set_starts
 from ..analysis.domains import start_count
 from ..analysis.greedy import greedy_plan
 from . import large
@@ -138,25 +138,25 @@ def replanned(
             "replan: the plan in force, repaired, meets the kept-set bound",
         )
     bound = None if relaxed.lowest is None else float(relaxed.lowest)
-    if worth_a_probe(problem, repaired, relaxed):
-        # The repaired plan leaves out more than the bound: the plan in
-        # force was poor on the new day (its start heuristic stopped
-        # early). The relaxed optimum's tasks list-scheduled alone, as a
-        # fresh solve does (replan suite, seed 15's r60-h1440-0: 82 left
-        # out instead of 88, as the fresh solve; seed 13's r45-h1440-1:
-        # 44 instead of 45).
-        repaired = (
-            better_start(
-                problem, repaired, relaxed, stop=large.until(end, BOUND_SHARE)
-            )
-            or repaired
-        )
+    # When the repaired plan leaves out more than the bound (the plan in
+    # force was poor on the new day: its start heuristic stopped early),
+    # the relaxed optimum's tasks list-scheduled alone, as a fresh solve
+    # does (replan suite, seed 15's r60-h1440-0: 82 left out instead of
+    # 88, as the fresh solve; seed 13's r45-h1440-1: 44 instead of 45).
     # The repair puts the new tasks into gaps only: a task that needs a
     # placed one moved is left out (replan suite, seed 20's r60-h1440-0:
-    # a task the fresh solve keeps, 725,323 above it).
-    inserting = len(repaired.unscheduled)
-    repaired = large.inserting(problem, repaired, domains, end)
-    inserting -= len(repaired.unscheduled)
+    # a task the fresh solve keeps, 725,323 above it), so left-out tasks
+    # are inserted into each; the repaired plan wins a tie.
+    starts = (
+        kept_set_starts(
+            problem, relaxed, large.until(end, BOUND_SHARE), thorough=True
+        )
+        if worth_a_probe(problem, repaired, relaxed)
+        else []
+    )
+    repaired, inserting = large.best_inserted(
+        problem, [repaired, *starts], domains, end
+    )
     said = f"; {inserting} left-out tasks inserted" if inserting else ""
     left = end - time.perf_counter()
     relaxed_from = None  # the plan the relaxation ran around

@@ -17,6 +17,7 @@ from fsw_scheduler.analysis.bounds import (
     fixings,
     kept_set_bound,
     kept_set_plan,
+    kept_set_starts,
     proved_by,
 )
 from fsw_scheduler.analysis.check import check_plan
@@ -673,3 +674,62 @@ def test_a_kept_set_that_does_not_fit_whole_is_placed_supplies_first() -> None:
     assert len(better.unscheduled) <= 4 < len(start.unscheduled)
     assert better.objective.total < 0.7 * start.objective.total
     assert better.objective.total >= proof.bound
+
+
+def test_a_kept_set_no_rule_places_whole_is_placed_without_what_failed() -> (
+    None
+):
+    """Tests that a large part's relaxed kept set that no rule places
+    whole, its tasks mandatory or only its supplies, still gives a start:
+    the large suite's b60-h1440 of seed 210 (60 tasks). The relaxation
+    keeps 52 tasks (5.51 M, the set CP-SAT's plan keeps); the start
+    heuristic left out 22 (16.45 M) and nothing better came from the set.
+    Now (``thorough``) the tasks one rule could not place are let go and
+    the rest is placed: a valid plan under 8 M, of tasks the set keeps.
+    Without ``thorough`` (the small parts' call) nothing is found."""
+    generator = bench_lib("generator")
+    bench = next(
+        p for p in generator.large_suite(210) if p.name == "b60-h1440"
+    )
+    problem = bench.problem()
+    domains = start_domains(problem)
+    start = greedy_plan(problem, domains=domains)
+    assert start is not None and start.objective is not None
+    proof = kept_set_bound(problem, start, domains)
+    assert proof.kept is not None and proof.bound is not None
+    assert len(proof.kept) == 52
+    assert better_start(problem, start, proof) is None
+    assert kept_set_starts(problem, proof) == []
+    found = kept_set_starts(problem, proof, thorough=True)
+    assert found
+    for plan in found:
+        assert plan.objective is not None and check_plan(problem, plan).ok
+        assert proof.bound <= plan.objective.total
+        assert set(plan.starts()) <= proof.kept
+    best = min(p.objective.total for p in found if p.objective)
+    assert best < 8_000_000
+
+
+def test_a_kept_set_is_also_placed_with_every_task_optional() -> None:
+    """Tests that a large part's relaxed kept set is also list-scheduled
+    with every task optional, the better plan kept: the large suite's
+    f60-h2880 of seed 210, where the set made mandatory gives 29.25 M
+    (the start 30.29 M) and the set alone, optional, 26.60 M."""
+    generator = bench_lib("generator")
+    bench = next(
+        p for p in generator.large_suite(210) if p.name == "f60-h2880"
+    )
+    problem = bench.problem()
+    domains = start_domains(problem)
+    start = greedy_plan(problem, domains=domains)
+    assert start is not None and start.objective is not None
+    proof = kept_set_bound(problem, start, domains)
+    mandatory = better_start(problem, start, proof)
+    assert mandatory is not None and mandatory.objective is not None
+    assert kept_set_starts(problem, proof) == [mandatory]
+    found = kept_set_starts(problem, proof, thorough=True)
+    assert found[0] == mandatory and len(found) == 2
+    optional = found[1]
+    assert optional.objective is not None and check_plan(problem, optional).ok
+    assert optional.objective.total < 0.95 * mandatory.objective.total
+    assert proof.kept is not None and set(optional.starts()) <= proof.kept

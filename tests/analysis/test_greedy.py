@@ -576,3 +576,44 @@ def test_a_cut_group_is_split_into_its_tight_chains_in_precedence_order() -> (
     ]
     assert _split(problem, {"a": 3, "b": 5}) == [{"a": 3, "b": 5}]
     assert _split(problem, {"d": 4, "b": 1}) == [{"b": 0}, {"d": 0}]
+
+
+def test_what_no_rule_places_of_the_mandatory_tasks_is_named() -> None:
+    """Tests that ``unplaced`` names, for the rules that cannot place
+    every mandatory task, the ones each leaves out: two mandatory tasks
+    that need the camera over the same ten units cannot both be placed,
+    so one of them is named by every rule (each set of one task);
+    without the clash every rule places them and nothing is named."""
+    from fsw_scheduler.analysis.greedy import unplaced
+
+    def doc(window_b: list[int]) -> dict:
+        return {
+            "horizon": 30,
+            "resources": {"binary": ["camera"]},
+            "tasks": [
+                make_task(
+                    "a",
+                    10,
+                    schedule_cost=0,
+                    feasible_interval=[0, 10],
+                    uses={"camera": 1},
+                ),
+                make_task(
+                    "b",
+                    10,
+                    schedule_cost=0,
+                    feasible_interval=window_b,
+                    uses={"camera": 1},
+                ),
+                make_task("c", 5, uses={"camera": 1}),
+            ],
+        }
+
+    clash = problem_from(doc([0, 10]))
+    found = unplaced(clash)
+    assert found and all(len(names) == 1 for names in found)
+    assert set().union(*found) <= {"a", "b"}
+    assert found == sorted(found, key=lambda n: (len(n), sorted(n)))
+    assert unplaced(problem_from(doc([0, 30]))) == []
+    # Stopped before any pass ends: nothing named.
+    assert unplaced(clash, stop=lambda: True) == []

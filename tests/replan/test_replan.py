@@ -315,6 +315,30 @@ def test_rule_running_preemption(
         assert new.feasible_interval is None  # honoured when it started
 
 
+@pytest.mark.parametrize(
+    ("policy", "warm"),
+    [("from_interrupt", {"a": 3, "b": 5}), ("from_start", {"b": 5})],
+)
+def test_the_warm_plan_carries_on_a_remaining_part(
+    policy: str, warm: dict[str, int]
+) -> None:
+    """Tests that the warm plan starts a task's remaining part where the
+    old plan ran it on (the replan's start), so a ``both`` partner after
+    it keeps the plan in force valid; a task restarted in full is not
+    where the old plan ran it, and is left to the solver."""
+    problem = small(
+        [task("a", 4, policy), task("b", 2)],
+        [lax("a", "b")],
+    )
+    schedule = Schedule.begin(problem, plan_of(problem, {"a": 1, "b": 5}))
+    replan = apply_levels(schedule, {}, 3)
+    assert replan.warm is not None
+    assert replan.warm.starts() == warm
+    if policy == "from_interrupt":
+        held = replan.warm.replace(unscheduled=())
+        assert check_plan(replan.problem, held).ok
+
+
 def test_rule_preemption_delete_cascades() -> None:
     """Tests that a deleted running task takes its tight follower along."""
     problem = small(
