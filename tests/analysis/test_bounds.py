@@ -733,3 +733,41 @@ def test_a_kept_set_is_also_placed_with_every_task_optional() -> None:
     assert optional.objective is not None and check_plan(problem, optional).ok
     assert optional.objective.total < 0.95 * mandatory.objective.total
     assert proof.kept is not None and set(optional.starts()) <= proof.kept
+
+
+def test_a_task_no_rule_places_is_let_go_with_its_partner() -> None:
+    """Tests that a kept set no rule places whole, its tasks made
+    mandatory, gives a plan once what a rule could not place is let go:
+    ``u`` clashes with the mandatory ``a`` on the camera everywhere it
+    may run, and ``v`` is tied to it by a ``both`` precedence, so the
+    pass leaves out both; let go, the plan keeps ``a`` and ``w``."""
+    from fsw_scheduler.analysis.bounds import _released
+
+    camera = {"camera": 1}
+    problem = problem_from(
+        make_doc(
+            [
+                make_task(
+                    "a",
+                    10,
+                    schedule_cost=0,
+                    feasible_interval=[0, 10],
+                    uses=camera,
+                ),
+                make_task("u", 10, feasible_interval=[0, 10], uses=camera),
+                make_task("v", 2),
+                make_task("w", 5, schedule_cost=3, uses=camera),
+            ],
+            horizon=20,
+            resources={"binary": ["camera"]},
+            precedences=[
+                {"before": "v", "after": "u", "kind": "lax", "scope": "both"}
+            ],
+        )
+    )
+    kept = frozenset({"a", "u", "v", "w"})
+    assert greedy_plan(bounds.kept_only(problem, kept)) is None
+    plan = _released(problem, kept, None)
+    assert plan is not None and check_plan(problem, plan).ok
+    assert set(plan.starts()) == {"a", "w"}
+    assert set(plan.unscheduled) == {"u", "v"}
