@@ -155,6 +155,13 @@ def bench_lib(name: str) -> ModuleType:
     return importlib.import_module(f"bench_lib.{name}")
 
 
+def large_suite_problem(seed: int, name: str) -> Problem:
+    """The problem ``name`` of the benchmark's large suite of ``seed``
+    (``tools/bench_lib/generator.py``), e.g. ``b60-h1440``."""
+    suite = bench_lib("generator").large_suite(seed)
+    return next(p for p in suite if p.name == name).problem()
+
+
 def tool_script(name: str, module: str | None = None) -> ModuleType:
     """The script ``tools/<name>`` loaded as the module ``module``."""
     if str(TOOLS) not in sys.path:

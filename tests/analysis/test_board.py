@@ -10,7 +10,12 @@ from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.analysis.greedy import greedy_plan
 from fsw_scheduler.model.plan import Activity, Plan, SolveStatus
 
-from ..factories import bench_lib, make_doc, make_task, problem_from
+from ..factories import (
+    large_suite_problem,
+    make_doc,
+    make_task,
+    problem_from,
+)
 
 if TYPE_CHECKING:
     from fsw_scheduler.model.problem import Problem
@@ -21,9 +26,7 @@ def test_first_fit_is_the_first_start_that_fits() -> None:
     start as trying each in turn, for every task of a large broad problem
     (binary and multiple resources, a battery) on the board of half its
     start plan."""
-    generator = bench_lib("generator")
-    bench = next(p for p in generator.large_suite(47) if p.name == "b45-h1440")
-    problem = bench.problem()
+    problem = large_suite_problem(47, "b45-h1440")
     domains = start_domains(problem)
     plan = greedy_plan(problem, domains=domains)
     assert plan is not None
@@ -59,9 +62,7 @@ def test_first_fit_of_a_group_is_the_first_shift_that_fits() -> None:
     included) on the board of half a large broad problem's start plan."""
     import random
 
-    generator = bench_lib("generator")
-    bench = next(p for p in generator.large_suite(47) if p.name == "b45-h1440")
-    problem = bench.problem()
+    problem = large_suite_problem(47, "b45-h1440")
     plan = greedy_plan(problem)
     assert plan is not None
     board = Board(problem)

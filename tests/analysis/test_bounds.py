@@ -27,7 +27,13 @@ from fsw_scheduler.analysis.keptset import KeptSetSearch, energy, keep_values
 from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.solving.solve import best_start, solve
 
-from ..factories import bench_lib, make_doc, make_task, problem_from
+from ..factories import (
+    bench_lib,
+    large_suite_problem,
+    make_doc,
+    make_task,
+    problem_from,
+)
 from ..problems import (
     COMMON,
     at_earliest_but,
@@ -657,11 +663,7 @@ def test_a_kept_set_that_does_not_fit_whole_is_placed_supplies_first() -> None:
     list-schedule whole, and with its generators placed first it leaves
     out 4 tasks (2.24 M) where the start plan leaves out 5 (3.44 M; 13
     before the supply rule charged the stores first as well)."""
-    generator = bench_lib("generator")
-    bench = next(
-        p for p in generator.large_suite(197) if p.name == "b45-h1440"
-    )
-    problem = bench.problem()
+    problem = large_suite_problem(197, "b45-h1440")
     domains = start_domains(problem)
     start = best_start(problem, None, domains=domains)
     assert start is not None and start.objective is not None
@@ -687,11 +689,7 @@ def test_a_kept_set_no_rule_places_whole_is_placed_without_what_failed() -> (
     Now (``thorough``) the tasks one rule could not place are let go and
     the rest is placed: a valid plan under 8 M, of tasks the set keeps.
     Without ``thorough`` (the small parts' call) nothing is found."""
-    generator = bench_lib("generator")
-    bench = next(
-        p for p in generator.large_suite(210) if p.name == "b60-h1440"
-    )
-    problem = bench.problem()
+    problem = large_suite_problem(210, "b60-h1440")
     domains = start_domains(problem)
     start = greedy_plan(problem, domains=domains)
     assert start is not None and start.objective is not None
@@ -715,11 +713,7 @@ def test_a_kept_set_is_also_placed_with_every_task_optional() -> None:
     with every task optional, the better plan kept: the large suite's
     f60-h2880 of seed 210, where the set made mandatory gives 29.25 M
     (the start 30.29 M) and the set alone, optional, 26.60 M."""
-    generator = bench_lib("generator")
-    bench = next(
-        p for p in generator.large_suite(210) if p.name == "f60-h2880"
-    )
-    problem = bench.problem()
+    problem = large_suite_problem(210, "f60-h2880")
     domains = start_domains(problem)
     start = greedy_plan(problem, domains=domains)
     assert start is not None and start.objective is not None

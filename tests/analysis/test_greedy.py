@@ -24,7 +24,7 @@ from fsw_scheduler.model.plan import SolveStatus
 from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.solving.solve import best_start, solve
 
-from ..factories import bench_lib, make_task, problem_from
+from ..factories import bench_lib, large_suite_problem, make_task, problem_from
 from ..problems import COMMON, brute_force, decode_doc, problem_docs
 from .fresh import fresh_doc
 
@@ -433,11 +433,7 @@ def test_stores_are_charged_first_when_only_optional_tasks_need_it() -> None:
     b45-h1440 of seed 197, where generators with early windows lost the
     camera to long tasks worth more and every consumer they feed went
     with them (13 tasks left out, 8.83 M; this way 5, 3.44 M)."""
-    generator = bench_lib("generator")
-    bench = next(
-        p for p in generator.large_suite(197) if p.name == "b45-h1440"
-    )
-    problem = bench.problem()
+    problem = large_suite_problem(197, "b45-h1440")
     plan = greedy_plan(problem)
     assert plan is not None and plan.objective is not None
     assert check_plan(problem, plan).ok
@@ -538,11 +534,7 @@ def test_a_bundle_every_rule_leaves_out_is_placed_first() -> None:
     210 (60 tasks), 31 tasks left out by every rule (11 of them a
     13-task bundle worth 41 units, which CP-SAT keeps), now at most 22,
     the bundle kept, the plan valid."""
-    generator = bench_lib("generator")
-    bench = next(
-        p for p in generator.large_suite(210) if p.name == "b60-h1440"
-    )
-    problem = bench.problem()
+    problem = large_suite_problem(210, "b60-h1440")
     found = [b for b in bundles(problem) if "T051" in b]
     assert len(found) == 1 and len(found[0]) == 13
     plan = greedy_plan(problem)

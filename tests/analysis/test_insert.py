@@ -15,7 +15,12 @@ from fsw_scheduler.analysis.greedy import greedy_plan
 from fsw_scheduler.analysis.insert import inserted
 from fsw_scheduler.model.plan import Activity, SolveStatus
 
-from ..factories import bench_lib, crowded_camera, make_task, problem_from
+from ..factories import (
+    crowded_camera,
+    large_suite_problem,
+    make_task,
+    problem_from,
+)
 from ..problems import (
     COMMON,
     at_earliest_but,
@@ -184,9 +189,7 @@ def test_a_broad_start_plan_leaves_out_less() -> None:
     resources, a battery) the start plan gets left-out tasks back: seed
     47's b60-h1440 of the large suite, 26 left out before (27 before
     bundles were tried first: greedy._bundles_first), CP-SAT 17."""
-    generator = bench_lib("generator")
-    bench = next(p for p in generator.large_suite(47) if p.name == "b60-h1440")
-    problem = bench.problem()
+    problem = large_suite_problem(47, "b60-h1440")
     domains = start_domains(problem)
     start = greedy_plan(problem, domains=domains)
     assert start is not None and start.objective is not None

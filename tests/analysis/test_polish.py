@@ -17,7 +17,7 @@ from fsw_scheduler.model.plan import Activity, SolverStats, SolveStatus
 from fsw_scheduler.solving import solve as solving
 from fsw_scheduler.solving.ilp import solve_ilp
 
-from ..factories import bench_lib, make_task, problem_from
+from ..factories import bench_lib, large_suite_problem, make_task, problem_from
 from ..problems import plan_of
 
 RUN = functools.partial(solve_ilp, solver="cbc", threads=1, seed=0)
@@ -174,9 +174,7 @@ def test_mission_model_plans_keep_their_options() -> None:
 def test_a_large_broad_plan_is_polished_within_its_checks() -> None:
     """Tests a 60-task broad problem over H = 1440 (binary and multiple
     resources, a battery): valid, no worse, within MAX_CHECKS."""
-    generator = bench_lib("generator")
-    bench = next(p for p in generator.large_suite(59) if p.name == "b60-h1440")
-    problem = bench.problem()
+    problem = large_suite_problem(59, "b60-h1440")
     start = greedy_plan(problem, domains=start_domains(problem))
     assert start is not None
     asked = []

@@ -26,7 +26,7 @@ from fsw_scheduler.solving.forced import forced_start
 from fsw_scheduler.solving.ilp import solve_ilp
 from fsw_scheduler.solving.solve import solve
 
-from ..factories import bench_lib, make_task, problem_from
+from ..factories import bench_lib, large_suite_problem, make_task, problem_from
 
 #: The replan suite's seed 38 r60-h1440-0, the new day after its goal:
 #: 58 tasks over H = 1440, two pinned where they ran, 10 forced, a
@@ -246,9 +246,7 @@ def test_a_packed_core_is_planned_without_the_battery_it_cannot_empty() -> (
     them alone, without the battery nor the battery's nine supplies (the
     time-indexed model of them all gave no plan in 9.6 s, and the solve
     answered ``unknown``), and the start plan holds them all."""
-    generator = bench_lib("generator")
-    bench = next(p for p in generator.large_suite(66) if p.name == "b60-h1440")
-    problem = bench.problem()
+    problem = large_suite_problem(66, "b60-h1440")
     assert greedy_plan(problem) is None
     asked: list[Problem] = []
 

@@ -23,7 +23,13 @@ from fsw_scheduler.solving.incumbent import finished
 from fsw_scheduler.solving.rounds import LONG_COLUMNS
 from fsw_scheduler.solving.solve import solve
 
-from ..factories import bench_lib, make_doc, make_task, problem_from
+from ..factories import (
+    bench_lib,
+    large_suite_problem,
+    make_doc,
+    make_task,
+    problem_from,
+)
 from ..problems import plan_of
 
 if TYPE_CHECKING:
@@ -233,11 +239,7 @@ def test_the_best_start_is_chosen_after_insertion() -> None:
     the large suite's b45-h2880 of seed 214, whose relaxed kept set
     list-scheduled (12.54 M) is below the start heuristic's plan (13.97
     M), which insertion takes lower (9.69 M against 10.76 M)."""
-    generator = bench_lib("generator")
-    bench = next(
-        p for p in generator.large_suite(214) if p.name == "b45-h2880"
-    )
-    problem = bench.problem()
+    problem = large_suite_problem(214, "b45-h2880")
     domains = start_domains(problem)
     start = greedy_plan(problem, domains=domains)
     assert start is not None and start.objective is not None
