@@ -765,3 +765,29 @@ def test_a_task_no_rule_places_is_let_go_with_its_partner() -> None:
     assert plan is not None and check_plan(problem, plan).ok
     assert set(plan.starts()) == {"a", "w"}
     assert set(plan.unscheduled) == {"u", "v"}
+
+
+@settings(COMMON, max_examples=150)
+@given(
+    doc=problem_docs(max_tasks=5, max_horizon=10, capacities=True),
+    picks=st.lists(st.booleans(), min_size=5, max_size=5),
+)
+def test_every_start_of_a_kept_set_is_a_valid_plan_of_it(
+    doc: dict, picks: list[bool]
+) -> None:
+    """Tests that every plan list scheduling finds on a kept set, every
+    way it tries (its tasks mandatory, its supplies only, what no rule
+    placed let go, every task optional), passes the checker on the
+    whole problem, schedules only tasks of the set, and costs no less
+    than brute force's optimum."""
+    problem = decode_doc(doc)
+    kept = frozenset(
+        t.id for t, pick in zip(problem.tasks, picks, strict=False) if pick
+    )
+    proof = KeptSetProof(None, None, kept=kept)
+    optimum = brute_force(problem)
+    for plan in kept_set_starts(problem, proof, thorough=True):
+        assert check_plan(problem, plan).ok
+        assert set(plan.starts()) <= kept
+        assert plan.objective is not None and optimum is not None
+        assert plan.objective.total >= optimum[0].total
