@@ -214,7 +214,7 @@ def unplaced(
     Empty when a rule places them all (or ``stop()`` turns true before
     any pass ends). For a caller that may let those tasks go: the tasks a
     relaxation keeps, each made mandatory, that no rule places whole
-    (:func:`~fsw_scheduler.analysis.bounds.better_start`).
+    (:func:`~fsw_scheduler.analysis.bounds.kept_set_starts`).
     """
     domains = start_domains(problem)
     forced = forced_tasks(problem)
