@@ -21,8 +21,11 @@ placed consumers worth least per unit they draw (at most
 :data:`MAX_DRAINED`, worth less together than what is inserted), which
 are put back only where they still fit. A task that finds no room again
 is left out if that keeps the precedences; a required one undoes the
-move. A move is kept when the objective falls (leaving out less counts
-first); the consumable levels are checked after it, and the plan found
+move. A left-out task tied by a tight precedence to a placed one has a
+single start; when nothing fits there, the placed partners are lifted
+and placed again with it, first. A move is kept when the objective
+falls (leaving out less counts first); the consumable levels are
+checked after it, and the plan found
 is returned only if the checker accepts it. The work is bounded in moves tried
 (:data:`MAX_TRIES`), not in seconds, so the answer is the same on every
 machine.
@@ -170,13 +173,37 @@ class _Inserting:
         """Try ``name``, with the left-out tasks its precedences need
         (:meth:`_needed`), at up to :data:`MAX_STARTS` starts each (at
         most ``budget`` moves); keep the first move that lowers the
-        objective. Returns the moves tried and whether one was kept."""
+        objective. When none does and placed tasks are tied to the chain
+        by tight precedences (its window then a single start, where
+        something may be in the way), once more with those tasks lifted
+        and placed again first (:meth:`_tied`). Returns the moves tried
+        and whether one was kept."""
         chain = self._needed(name)
         if chain is None:
             return 0, False
+        tried, kept = self._try(chain, [], budget)
+        if kept or tried >= budget:
+            return tried, kept
+        lifted = self._tied(chain)
+        if not lifted or len(chain) + len(lifted) > MAX_CHAIN:
+            return tried, kept
+        ordered = self._ordered([*lifted, *chain])
+        if ordered is None:
+            return tried, kept
+        more, kept = self._try(ordered, lifted, budget - tried)
+        return tried + more, kept
+
+    def _try(
+        self, chain: list[str], lifted: list[str], budget: int
+    ) -> tuple[int, bool]:
+        """Place ``chain`` (placed tasks ``lifted`` among them, taken off
+        the board first) depth first; keep the first placement that
+        lowers the objective, else put everything back."""
         # What the chain is worth: consumers left out to make room for
         # one of its tasks may cost up to that.
-        self.worth = sum(self.tasks[n].schedule_cost for n in chain)
+        self.worth = sum(
+            self.tasks[n].schedule_cost for n in chain if n not in lifted
+        )
         tried = [0]
         done: list[tuple[Task, int, float]] = []
 
@@ -216,9 +243,31 @@ class _Inserting:
                 undo(mark)
             return False
 
-        kept = place(0, dict(self.starts))
+        base = dict(self.starts)
+        for name in lifted:
+            book(self.tasks[name], base.pop(name), -1.0)
+        kept = place(0, base)
+        if not kept:
+            undo(0)
         self.pending = set()
         return tried[0], kept
+
+    def _tied(self, chain: list[str]) -> list[str]:
+        """The placed tasks tied to ``chain`` by tight precedences,
+        directly or through one another (large suite, seed 210's
+        b60-h1440: a charger 8 units after a placed task, its only start
+        taken)."""
+        tied: list[str] = []
+        frontier = list(chain)
+        while frontier:
+            for prec in self.precedences[frontier.pop()]:
+                if prec.kind != "tight":
+                    continue
+                for other in (prec.before, prec.after):
+                    if other in self.starts and other not in tied:
+                        tied.append(other)
+                        frontier.append(other)
+        return sorted(tied)
 
     def _needed(self, name: str) -> list[str] | None:
         """``name`` and the left-out tasks it cannot be placed without
@@ -234,9 +283,13 @@ class _Inserting:
             self.domains[n].empty for n in needed
         ):
             return None
+        return self._ordered(needed)
+
+    def _ordered(self, needed: list[str]) -> list[str] | None:
+        """``needed`` in a precedence order among themselves, earlier
+        in ``needed`` first among those ready; None on a cycle (which
+        the problem's validation refuses)."""
         rank = {n: k for k, n in enumerate(needed)}
-        # First tasks first: a precedence order among the needed ones
-        # (a cycle, which the problem's validation refuses, would stop).
         ordered: list[str] = []
         while len(ordered) < len(needed):
             ready = [

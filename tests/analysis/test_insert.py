@@ -408,3 +408,45 @@ def test_a_task_is_inserted_where_a_pass_leaves_room() -> None:
     assert check_plan(problem, better).ok
     assert better.objective is not None and start.objective is not None
     assert better.objective.total < start.objective.total
+
+
+def test_a_placed_tight_partner_is_lifted_to_make_room() -> None:
+    """Tests that a left-out task whose only start (tight after a placed
+    task) is taken by a task that cannot move gets in by moving that
+    partner: ``q`` must start when ``p`` ends, at 2, where the required
+    ``b`` holds the camera until 4; ``p`` goes to 4 and ``q`` to 6.
+    Without lifting ``p`` no move places ``q`` (``b`` has no other
+    start)."""
+    camera = {"camera": 1}
+    problem = problem_from(
+        {
+            "horizon": 20,
+            "resources": {"binary": ["camera"]},
+            "tasks": [
+                make_task("p", 2, uses=camera),
+                make_task(
+                    "b",
+                    2,
+                    schedule_cost=0,
+                    feasible_interval=[2, 4],
+                    uses=camera,
+                ),
+                make_task("q", 2, schedule_cost=3, uses=camera),
+            ],
+            "precedences": [
+                {
+                    "before": "p",
+                    "after": "q",
+                    "kind": "tight",
+                    "scope": "at_least_first",
+                }
+            ],
+        }
+    )
+    start = plan_of(problem, {"p": 0, "b": 2, "q": None})
+    assert check_plan(problem, start).ok and start.unscheduled == ("q",)
+    found = inserted(problem, start, start_domains(problem))
+    assert found.starts() == {"b": 2, "p": 4, "q": 6}
+    assert check_plan(problem, found).ok
+    assert found.objective is not None and start.objective is not None
+    assert found.objective.total < start.objective.total
