@@ -38,7 +38,7 @@ from ..model import groups
 from ..model.plan import Activity, Plan, SolveStatus, objective_weight
 from .board import Board
 from .check import check_plan
-from .proofs import precedence_needs
+from .proofs import precedence_needs, reach
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -137,9 +137,14 @@ class _Inserting:
         self.precedences: dict[str, list[Precedence]] = {
             t.id: [] for t in problem.tasks
         }
+        # Each task's partners by tight precedences, either way.
+        self.tight: dict[str, list[str]] = {t.id: [] for t in problem.tasks}
         for prec in problem.precedences:
             self.precedences[prec.before].append(prec)
             self.precedences[prec.after].append(prec)
+            if prec.kind == "tight":
+                self.tight[prec.before].append(prec.after)
+                self.tight[prec.after].append(prec.before)
         self.cost = self._total(self.starts)
         # Tasks of the chain being inserted not yet placed: a ``both``
         # precedence waiting for one of them still holds.
@@ -255,17 +260,8 @@ class _Inserting:
         """The placed tasks tied to ``chain`` by tight precedences,
         directly or through one another (large suite, seed 213's
         b45-h2880: its start plan 12.94 M, 11.11 M with them lifted)."""
-        tied: list[str] = []
-        frontier = list(chain)
-        while frontier:
-            for prec in self.precedences[frontier.pop()]:
-                if prec.kind != "tight":
-                    continue
-                for other in (prec.before, prec.after):
-                    if other in self.starts and other not in tied:
-                        tied.append(other)
-                        frontier.append(other)
-        return sorted(tied)
+        tied = reach(set(chain), self.tight, within=self.starts.keys())
+        return sorted(tied - set(chain))
 
     def _needed(self, name: str) -> list[str] | None:
         """``name`` and the left-out tasks it cannot be placed without
