@@ -44,11 +44,11 @@ from .sequencing import job, machine_delay, machines
 from .supply import charges_a_store
 
 if TYPE_CHECKING:
-    from collections.abc import Callable, Mapping, Set
+    from collections.abc import Callable, Mapping, Sequence, Set
 
     from ..model.problem import Problem
     from .domains import Domain
-    from .keptset import Rows
+    from .keptset import Nogood, Rows
 
 #: Search nodes after which :func:`kept_set_plan` gives up (no proof).
 #: At 15 tasks the proofs it finds take well under 1 000 nodes; a cap keeps
@@ -115,6 +115,7 @@ def kept_set_plan(
     *,
     list_scheduled: bool = True,
     stop: Callable[[], bool] | None = None,
+    nogoods: Sequence[Nogood] = (),
 ) -> KeptSetProof:
     """An optimal plan proved by the kept-set relaxation, if there is one.
 
@@ -143,6 +144,9 @@ def kept_set_plan(
         search as if its nodes were spent (no bound). The caller's
         deadline: the nodes alone took a second on 150 tasks, past a 1 s
         limit.
+    nogoods
+        Choices no plan makes (see :class:`~.keptset.KeptSetSearch`):
+        the relaxed optimum makes none of them.
 
     Returns
     -------
@@ -157,7 +161,13 @@ def kept_set_plan(
         return KeptSetProof(None, None)
     rows = energy(problem, domains)
     search = finished(
-        problem, domains, plan.objective.total, max_nodes, stop, rows
+        problem,
+        domains,
+        plan.objective.total,
+        max_nodes,
+        stop,
+        rows,
+        nogoods=nogoods,
     )
     if search is None:
         return KeptSetProof(None, None)
@@ -169,7 +179,14 @@ def kept_set_plan(
     if proved is not None:
         return KeptSetProof(proved, search.best_cost)
     floor = _sequenced(
-        problem, domains, plan.objective.total, search, max_nodes, stop, rows
+        problem,
+        domains,
+        plan.objective.total,
+        search,
+        max_nodes,
+        stop,
+        rows,
+        nogoods,
     )
     if floor is not None and floor.best is None:
         # No kept set, its machines sequenced, costs less: the start
@@ -216,6 +233,7 @@ def _sequenced(
     max_nodes: int,
     stop: Callable[[], bool] | None,
     rows: Rows,
+    nogoods: Sequence[Nogood] = (),
 ) -> KeptSetSearch | None:
     """The kept-set search with the machines' delay (:mod:`.sequencing`),
     run to its end, or None where it cannot raise the bound.
@@ -239,7 +257,7 @@ def _sequenced(
     ):
         return None
     search = KeptSetSearch(
-        problem, domains, cutoff, energy=rows, machines=found
+        problem, domains, cutoff, energy=rows, machines=found, nogoods=nogoods
     )
     return search if search.run(max_nodes, stop) else None
 
@@ -624,6 +642,7 @@ def kept_set_bound(
     domains: Mapping[str, Domain],
     max_nodes: int = MAX_NODES,
     stop: Callable[[], bool] | None = None,
+    nogoods: Sequence[Nogood] = (),
 ) -> KeptSetProof:
     """:func:`kept_set_plan` without its list-scheduled plan.
 
@@ -636,7 +655,13 @@ def kept_set_bound(
     from this proof, without a second search).
     """
     return kept_set_plan(
-        problem, plan, domains, max_nodes, list_scheduled=False, stop=stop
+        problem,
+        plan,
+        domains,
+        max_nodes,
+        list_scheduled=False,
+        stop=stop,
+        nogoods=nogoods,
     )
 
 

@@ -113,6 +113,10 @@ def level_rows(
 #: Energy rows: each task's entries and the rows' limits.
 Rows = tuple[dict[str, list[float]], list[float]]
 
+#: A choice no plan makes: every task of the first set kept and every
+#: task of the second left out (:class:`KeptSetSearch`'s ``nogoods``).
+Nogood = tuple[frozenset[str], frozenset[str]]
+
 
 def energy(problem: Problem, domains: Mapping[str, Domain]) -> Rows:
     """The energy rows over the placeable tasks (:func:`~.energetic.
@@ -129,6 +133,7 @@ def finished(
     stop: Callable[[], bool] | None,
     energy: Rows,
     force: tuple[str, bool] | None = None,
+    nogoods: Sequence[Nogood] = (),
 ) -> KeptSetSearch | None:
     """A kept-set search run to its end, or None when it ran out.
 
@@ -138,12 +143,14 @@ def finished(
     63's b45-h1440 of the large suite: 7,505,611 without the rows, out
     of nodes with them.
     """
-    search = KeptSetSearch(problem, domains, cutoff, force, energy=energy)
+    search = KeptSetSearch(
+        problem, domains, cutoff, force, energy=energy, nogoods=nogoods
+    )
     if search.run(max_nodes, stop):
         return search
     if not energy[1]:
         return None
-    search = KeptSetSearch(problem, domains, cutoff, force)
+    search = KeptSetSearch(problem, domains, cutoff, force, nogoods=nogoods)
     return search if search.run(max_nodes, stop) else None
 
 
@@ -220,6 +227,12 @@ class KeptSetSearch:
         (:func:`~.sequencing.machine_delay`), so the relaxed optimum is
         a higher bound. Its kept sets' costs are then no longer the sums
         of per-task values that :func:`~.bounds.delay_caps` reads.
+    nogoods
+        Choices no plan makes: each a set of tasks no plan keeps all of
+        while it leaves out every task of a second set (the tasks that
+        could supply what the first needs; each such pair a set the
+        solver proved has no plan, :mod:`fsw_scheduler.solving.refuted`).
+        No kept set searched makes one of them.
     """
 
     def __init__(
@@ -231,6 +244,7 @@ class KeptSetSearch:
         *,
         energy: Rows | None = None,
         machines: Sequence[tuple[str, ...]] = (),
+        nogoods: Sequence[Nogood] = (),
     ) -> None:
         weight = objective_weight(
             [t.delay_cost for t in problem.tasks], problem.horizon
@@ -273,6 +287,7 @@ class KeptSetSearch:
         self.on_machine: list[list[Job]] = [[] for _ in machines]
         self.machine_cost = [0] * len(machines)
         self.apart = self._apart(problem, index)
+        self.nogoods = self._nogoods(nogoods, index)
         num = len(self.order)
         self.rest = [0] * (num + 1)  # best value still to come
         # Generators still undecided can lower each row by this much.
@@ -444,10 +459,45 @@ class KeptSetSearch:
                 apart[max(a, b)].append(min(a, b))
         return apart
 
+    def _nogoods(
+        self, nogoods: Sequence[Nogood], index: dict[str, int]
+    ) -> list[list[tuple[bool, list[int], list[int]]]]:
+        """Each no-good at its last decided task: that task's decision
+        that completes it, and the others' (kept, left out). A no-good
+        with a task of its kept side that is never kept (not placeable)
+        holds of itself; a task of its other side that is never kept is
+        always left out, and drops from it."""
+        at: list[list[tuple[bool, list[int], list[int]]]] = [
+            [] for _ in self.order
+        ]
+        for kept, out in nogoods:
+            if not kept or any(n not in index for n in kept):
+                continue
+            sides = [(index[n], True) for n in kept] + [
+                (index[n], False) for n in out if n in index
+            ]
+            sides.sort()
+            last, keeps = sides.pop()
+            at[last].append(
+                (
+                    keeps,
+                    [k for k, side in sides if side],
+                    [k for k, side in sides if not side],
+                )
+            )
+        return at
+
     def _allowed(self, k: int, kept: bool) -> bool:
         keep = self.keep
         if kept and any(keep[other] for other in self.apart[k]):
             return False
+        for keeps, kept_side, out_side in self.nogoods[k]:
+            if (
+                kept is keeps
+                and all(keep[other] for other in kept_side)
+                and not any(keep[other] for other in out_side)
+            ):
+                return False
         for other, both, is_after in self.links[k]:
             if other < 0:
                 if kept:

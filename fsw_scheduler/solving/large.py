@@ -33,6 +33,7 @@ from .budget import BOUND_SHARE, BUDGET, stop_at, stop_share
 from .improve import MIN_ROUND_S, improve, meets
 from .incumbent import narrow, whole_model, worth_a_probe
 from .polishing import Polishing, shift_deadline
+from .refuted import refuted
 from .relaxed import NODES, RelaxedAnswer, fresh_min_left, relaxable
 from .relaxed import around as relaxed_around
 from .rounds import OVERTIME, SHARE, rounds
@@ -149,12 +150,28 @@ def improved(
     start, inserted_count = best_inserted(
         problem, [start, *starts], domains, deadline
     )
-    bound = None if relaxed.lowest is None else float(relaxed.lowest)
     said = (
         f"{inserted_count} left-out tasks inserted into the start plan; "
         if inserted_count
         else ""
     )
+    # Still short of the bound's kept set: the solver refutes sets or
+    # places one (a dense day the search could not fill, fuzz seed 1462).
+    asked = refuted(problem, start, domains, relaxed, run, deadline)
+    relaxed, nogoods = asked.proof, asked.nogoods
+    if asked.said:
+        said += f"{asked.said}; "
+    if relaxed.plan is not None:
+        return proved_start(
+            start,
+            began,
+            time_limit,
+            f"{said}{proved_by(relaxed)}",
+            solver=method_label(run, "refuted"),
+        )
+    if asked.plan is not None and _total(asked.plan) < _total(start):
+        start = inserting(problem, asked.plan, domains, deadline)
+    bound = None if relaxed.lowest is None else float(relaxed.lowest)
     if relaxable(
         run, problem, domains, deadline - time.perf_counter(), relax_min_s
     ):
@@ -222,7 +239,11 @@ def improved(
         # seed 31: the search held the optimum and swept on until the
         # limit; 12,126 columns around it, proved by CBC in 5 s).
         again = kept_set_bound(
-            problem, plan, domains, stop=until(deadline, BOUND_SHARE)
+            problem,
+            plan,
+            domains,
+            stop=until(deadline, BOUND_SHARE),
+            nogoods=nogoods,
         )
         narrowed = narrowed_around(
             problem, plan, domains, again, until(deadline)
@@ -263,7 +284,11 @@ def improved(
             # more than it did of the start plan.
             again = (
                 kept_set_bound(
-                    problem, best, domains, stop=until(deadline, BOUND_SHARE)
+                    problem,
+                    best,
+                    domains,
+                    stop=until(deadline, BOUND_SHARE),
+                    nogoods=nogoods,
                 )
                 if improved
                 else relaxed
@@ -481,13 +506,18 @@ def answer(
 
 
 def proved_start(
-    plan: Plan, began: float, time_limit: float | None, proof: str
+    plan: Plan,
+    began: float,
+    time_limit: float | None,
+    proof: str,
+    solver: str = "greedy",
 ) -> Plan:
-    """``plan`` proved optimal without a solver, with its statistics."""
+    """``plan`` proved optimal without a solver run of its own (``solver``
+    names what proved it), with its statistics."""
     return plan.replace(
         status=SolveStatus.OPTIMAL,
         stats=SolverStats(
-            solver="greedy",
+            solver=solver,
             wall_s=time.perf_counter() - began,
             bound=plan.objective.total if plan.objective else None,
             solver_status=proof,
