@@ -163,7 +163,7 @@ def improved(
         said += f"{asked.said}; "
     if relaxed.plan is not None:
         return proved_start(
-            start,
+            relaxed.plan,
             began,
             time_limit,
             f"{said}{proved_by(relaxed)}",

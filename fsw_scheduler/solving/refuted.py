@@ -35,12 +35,12 @@ import time
 from typing import TYPE_CHECKING, NamedTuple
 
 from ..analysis.bounds import KeptSetProof, kept_only, kept_set_bound, widened
-from ..analysis.domains import start_domains
+from ..analysis.domains import start_count, start_domains
 from ..analysis.proofs import infeasibility
 from ..analysis.supply import charges_a_store
 from ..model.plan import SolveStatus
 from .budget import stop_at
-from .incumbent import worth_a_probe
+from .incumbent import ROOT_PROBE_COLUMNS, worth_a_probe
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Set
@@ -57,6 +57,15 @@ MAX_ROUNDS = 20
 #: Share of the time left that the rounds may take, all together; each
 #: solver run gets what is left of it.
 SHARE = 0.35
+
+#: Start times at most of a set alone for the solver to be asked (the
+#: root probe's threshold, :data:`~fsw_scheduler.solving.incumbent.
+#: ROOT_PROBE_COLUMNS`). Over long horizons a set's model is too large
+#: to be decided in seconds: the large suite's b30-h2880 of seed 215
+#: (a 24-task set over H = 2,880, about 48,000 start times) ran 6.2 s
+#: undecided, and the part, proved in 5 s before, took 11.6 s; seed
+#: 1462's sets over H = 120 have under 2,800.
+SOLVER_COLUMNS = ROOT_PROBE_COLUMNS
 
 #: Seconds at least for a solver run (CBC's start and the model's
 #: reading); with less the rounds end.
@@ -128,11 +137,7 @@ def refuted(
         return nothing
     now = time.perf_counter()
     end = now + SHARE * max(0.0, deadline - now)
-    supplies = frozenset(
-        t.id for t in problem.tasks if charges_a_store(problem, t)
-    )
     nogoods: list[Nogood] = []
-    refutations = 0
     for _ in range(MAX_ROUNDS):
         kept = proof.kept
         if (
@@ -141,32 +146,23 @@ def refuted(
             or not worth_a_probe(problem, start, proof)
         ):
             break
-        cheap = _cheap_core(problem, kept, supplies)
-        if cheap is not None:
-            nogoods.append((cheap, supplies - cheap))
-        else:
-            left = end - time.perf_counter()
-            if left < MIN_RUN_S:
-                break
-            answer = run(kept_only(problem, kept), time_limit=left)
-            if answer.status.has_plan:
-                found = widened(problem, answer)
-                if found is not None:
-                    return Refuted(
-                        found,
-                        proof,
-                        tuple(nogoods),
-                        _said(refutations, len(kept), "a plan of it found"),
-                    )
-            if answer.status is not SolveStatus.INFEASIBLE:
-                return Refuted(
-                    None,
-                    proof,
-                    tuple(nogoods),
-                    _said(refutations, len(kept), "the solver could not say"),
-                )
-            nogoods.append((kept, supplies - kept))
-        refutations += 1
+        left = end - time.perf_counter()
+        answer = asked(problem, kept, run, left if left >= MIN_RUN_S else None)
+        if answer.nogood is None:
+            then = (
+                "a plan of it found"
+                if answer.plan is not None
+                else "the solver could not say"
+                if answer.solved
+                else ""
+            )
+            return Refuted(
+                answer.plan,
+                proof,
+                tuple(nogoods),
+                _said(len(nogoods), len(kept), then),
+            )
+        nogoods.append(answer.nogood)
         again = kept_set_bound(
             problem, start, domains, stop=stop_at(end), nogoods=nogoods
         )
@@ -174,7 +170,67 @@ def refuted(
             # The search ran out: the last bound stands.
             break
         proof = again
-    return Refuted(None, proof, tuple(nogoods), _said(refutations, 0, ""))
+    return Refuted(None, proof, tuple(nogoods), _said(len(nogoods), 0, ""))
+
+
+class Answer(NamedTuple):
+    """What :func:`asked` learnt of a kept set.
+
+    Attributes
+    ----------
+    nogood
+        The choice no plan makes, when the set has no plan: a subset of
+        it kept (the whole set, or the tasks a cheap proof needs and the
+        set's supplies) while every other supply is left out.
+    plan
+        A valid plan of the problem that keeps the set, when the solver
+        found one.
+    solved
+        Whether the solver ran (the cheap proofs said nothing).
+    """
+
+    nogood: Nogood | None
+    plan: Plan | None
+    solved: bool
+
+
+def asked(
+    problem: Problem,
+    kept: frozenset[str],
+    run: Callable[..., Plan],
+    time_limit: float | None,
+) -> Answer:
+    """Whether some plan of ``problem`` keeps every task of ``kept``.
+
+    The set alone, each task of it mandatory and the others left out
+    (:func:`~fsw_scheduler.analysis.bounds.kept_only`), goes to the cheap
+    proofs (:func:`_cheap_core`), then, with ``time_limit`` (None: not
+    asked) and a model of at most :data:`SOLVER_COLUMNS` start times, to
+    the solver. Leaving tasks out frees binary and multiple
+    resources and raises every level a task only draws from, and a
+    precedence to a task left out is dropped with it: so a plan keeping
+    the set and no other supply, cut to the set, is a plan of the set
+    alone, and a set alone without a plan is a no-good with every other
+    supply as its second side.
+    """
+    supplies = frozenset(
+        t.id for t in problem.tasks if charges_a_store(problem, t)
+    )
+    cheap = _cheap_core(problem, kept, supplies)
+    if cheap is not None:
+        return Answer((cheap, supplies - cheap), None, solved=False)
+    alone = kept_only(problem, kept)
+    if (
+        time_limit is None
+        or start_count(start_domains(alone)) > SOLVER_COLUMNS
+    ):
+        return Answer(None, None, solved=False)
+    answer = run(alone, time_limit=time_limit)
+    if answer.status.has_plan:
+        return Answer(None, widened(problem, answer), solved=True)
+    if answer.status is SolveStatus.INFEASIBLE:
+        return Answer((kept, supplies - kept), None, solved=True)
+    return Answer(None, None, solved=True)
 
 
 def _cheap_core(
@@ -201,8 +257,11 @@ def _cheap_core(
 
 
 def _said(refutations: int, size: int, then: str) -> str:
-    """The status line's account of the rounds."""
-    text = f"{refutations} kept sets refuted"
+    """The status line's account of the rounds (empty when nothing was
+    refuted or found)."""
+    if not refutations and not then:
+        return ""
+    text = f"{refutations} kept set{'' if refutations == 1 else 's'} refuted"
     if then:
         text += f"; the next, of {size} tasks: {then}"
     return text
