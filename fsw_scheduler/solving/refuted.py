@@ -82,8 +82,9 @@ class Refuted(NamedTuple):
         solver found one; else None.
     proof
         The relaxation of the last round, with every no-good: its bound
-        holds for every plan (:attr:`KeptSetProof.plan` is a proof of
-        optimality of the start plan when no set is cheaper).
+        holds for every plan (its :attr:`~fsw_scheduler.analysis.bounds.
+        KeptSetProof.plan`, when set, is an optimal plan: the start plan
+        when no set the no-goods allow costs less).
     nogoods
         The no-goods found, for later kept-set searches.
     said
