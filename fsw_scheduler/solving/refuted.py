@@ -104,6 +104,8 @@ def refuted(
     proof: KeptSetProof,
     run: Callable[..., Plan],
     deadline: float,
+    *,
+    solver: bool = True,
 ) -> Refuted:
     """Ask the solver about the relaxation's kept sets while they keep
     more than ``start``.
@@ -126,6 +128,9 @@ def refuted(
         caller's options); called with ``time_limit``.
     deadline
         When the caller's limit ends (:func:`time.perf_counter`).
+    solver
+        Whether the solver may be asked (False: the cheap proofs alone,
+        the rounds ending at the first set they cannot refute).
 
     Returns
     -------
@@ -148,7 +153,9 @@ def refuted(
         ):
             break
         left = end - time.perf_counter()
-        answer = asked(problem, kept, run, left if left >= MIN_RUN_S else None)
+        answer = asked(
+            problem, kept, run, left if solver and left >= MIN_RUN_S else None
+        )
         if answer.nogood is None:
             then = (
                 "a plan of it found"

@@ -245,6 +245,22 @@ def test_a_bound_above_a_held_plan_is_not_trusted() -> None:
     assert close.root == -284500
 
 
+def test_cuts_that_end_in_infeasible_with_a_plan_in_hand_are_no_proof() -> (
+    None
+):
+    """Tests that a run whose root cuts raised the LP to 6.95e+11 with
+    its start at -1,493,791 in hand, and which then said "Problem proven
+    infeasible" (objective value 1e+50) after "Search completed - best
+    objective -1493791" (a 40-task part over H = 200, the whole model
+    narrowed around the start: the part was answered ``optimal`` 94
+    above a plan its search finds), shows cuts that cut off valid plans:
+    the plan held is the start, not CBC's 1e+50."""
+    said = cbclog.read_log(str(LOGS / "cuts_overshoot_infeasible.log"))
+    assert said.overshot
+    assert said.completed == -1493791  # what must not be read as proved
+    assert said.root == -1495542.2
+
+
 def test_a_restart_that_keeps_the_root_cuts_is_no_proof() -> None:
     """Tests that a CBC log showing a restart on a reduced model that
     kept the root's probing cuts (483 rows of a 414-row model: the
