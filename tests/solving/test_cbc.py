@@ -431,6 +431,27 @@ def test_a_search_cbc_completed_is_read_from_its_log() -> None:
         assert cbclog.read_log(str(LOGS / name)).completed is None
 
 
+def test_a_small_search_completed_is_no_proof_of_the_run() -> None:
+    """Tests that a "Search completed" of one of CBC's small searches
+    (c15-all-5 of the paper campaign, seed 215: one at 8 nodes before the
+    main search's at 58) is not read as the run's: the whole log reads
+    the main search's; cut after the small search's line (a run killed
+    in its main search), or followed by a "Partial search", it reads
+    none."""
+    text = (LOGS / "completed_after_a_small_search.log").read_text()
+    assert text.count("Search completed") == 2
+    assert cbclog.completed(text) == -593428
+    small, _, _ = text.partition("Cbc0012I Integer solution of -593428")
+    assert "Search completed" in small
+    assert cbclog.completed(small) is None
+    partial = small + (
+        "Cbc0005I Partial search - best objective -593428 (best possible "
+        "-593532), took 300 iterations and 60 nodes (0.03 seconds)\n"
+        "\nResult - Stopped on time limit\n"
+    )
+    assert cbclog.completed(partial) is None
+
+
 def test_a_completed_search_proves_the_start_its_file_lost() -> None:
     """Tests that a run whose search completed at the MIP start's
     objective, its solution file refused, answers the start as optimal

@@ -46,9 +46,14 @@ _HELD = re.compile(r"(?:Integer solution of|best objective) " + _NUMBER)
 #: CBC's objective value when it holds no plan (1e+50); anything from
 #: this on is not a plan.
 _NO_PLAN = 1e49
-#: CBC's tree is exhausted: the best objective it states is the optimum
-#: (a stopped search says "Partial search" instead).
-_COMPLETED = re.compile(r"Search completed - best objective " + _NUMBER)
+#: Each search's last word: "Search completed" when its tree is exhausted
+#: (the best objective it states is then the optimum), "Partial search"
+#: when it stopped; and its best objective.
+_SEARCH_SAID = re.compile(
+    r"(Search completed|Partial search) - best objective " + _NUMBER
+)
+#: CBC ended the run itself (its summary).
+_RESULT = "\nResult - "
 #: CBC read a MIP start (``-mips``) ...
 _START_READ = "MIPStart values read"
 #: ... and took it as given, or, after :data:`_START_BROKEN`, what its
@@ -171,8 +176,14 @@ def completed(text: str) -> float | None:
     (:func:`_overshot`, :func:`restarted_with_cuts`), that best objective
     is what the caller may read as proved.
     """
-    found = _COMPLETED.findall(text)
-    return float(found[-1]) if found else None
+    # CBC's own small searches (around a MIP start, its mini
+    # branch-and-bound) print "Search completed" too: only the last word
+    # of a search counts, and only in a log CBC ended itself (a run killed
+    # in its search leaves a small search's line last).
+    said = _SEARCH_SAID.findall(text)
+    if not said or said[-1][0] != "Search completed" or _RESULT not in text:
+        return None
+    return float(said[-1][1])
 
 
 def claimed_optimal(solver_status: str) -> bool:
