@@ -20,7 +20,7 @@ from fsw_scheduler.analysis.proofs import forced_tasks, with_needs
 from fsw_scheduler.model.plan import Plan, SolveStatus
 from fsw_scheduler.model.problem import Problem, decode_problem
 from fsw_scheduler.solving.ilp import solve_ilp
-from fsw_scheduler.solving.refuted import asked, refuted
+from fsw_scheduler.solving.refuted import Refuted, asked, refuted
 
 from ..problems import (
     COMMON,
@@ -52,6 +52,16 @@ def _nothing_kept(problem: Problem) -> Plan | None:
     if not report.ok:
         return None
     return plan.replace(objective=report.objective)
+
+
+def _rounds(problem: Problem, start: Plan, seconds: float = 15.0) -> Refuted:
+    """The rounds of :func:`refuted` from ``start`` and its relaxation,
+    with ``seconds`` to the caller's deadline."""
+    domains = start_domains(problem)
+    proof = kept_set_bound(problem, start, domains)
+    return refuted(
+        problem, start, domains, proof, RUN, time.perf_counter() + seconds
+    )
 
 
 def test_a_dense_day_gets_the_plan_its_next_kept_set_allows() -> None:
@@ -87,10 +97,7 @@ def test_nothing_is_asked_when_the_start_keeps_what_the_bound_keeps() -> None:
     domains = start_domains(problem)
     start = greedy_plan(problem)
     assert start is not None
-    proof = kept_set_bound(problem, start, domains)
-    asked = refuted(
-        problem, start, domains, proof, RUN, time.perf_counter() + 15
-    )
+    asked = _rounds(problem, start)
     assert asked.plan is not None
     again = refuted(
         problem,
@@ -318,13 +325,9 @@ def test_the_rounds_on_the_camera_trap_reach_the_optimal_choice() -> None:
     trio and end on a set the solver places, leaving out what the
     optimum leaves out, with a bound that is one."""
     problem = _camera_trap()
-    domains = start_domains(problem)
     start = _nothing_kept(problem)
     assert start is not None
-    proof = kept_set_bound(problem, start, domains)
-    asked_ = refuted(
-        problem, start, domains, proof, RUN, time.perf_counter() + 20
-    )
+    asked_ = _rounds(problem, start)
     best = brute_force(problem)
     assert best is not None
     assert asked_.nogoods
