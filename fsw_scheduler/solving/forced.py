@@ -18,8 +18,11 @@ its plan, pinned, has the other tasks list-scheduled around it, and
 that is the start plan the neighbourhood search and the insertion of
 left-out tasks work from (there: 11 tasks, proved in 1.7 s; the forced
 tasks alone are infeasible, their battery needs a supply). When the
-solver finds no plan of them in its share, list schedules in perturbed
-orders may (:func:`~fsw_scheduler.analysis.sampling.sampled_plan`).
+solver finds no plan of them in its share, a list schedule with a supply
+made to run beside each consumer that draws more than its capped store
+holds may (:func:`~fsw_scheduler.analysis.paired.paired_plan`), or list
+schedules in perturbed orders
+(:func:`~fsw_scheduler.analysis.sampling.sampled_plan`).
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ import msgspec
 
 from ..analysis.domains import start_domains
 from ..analysis.greedy import around_core, checked_starts, forced_alone
+from ..analysis.paired import paired_plan
 from ..analysis.proofs import forced_tasks, with_needs
 from ..analysis.sampling import sampled_plan
 from ..analysis.stores import never_short
@@ -73,6 +77,11 @@ SAMPLED_CORE = (
     "built around a list schedule of them and the supplies in a perturbed "
     "order (no plan of them from the solver in its share)"
 )
+PAIRED_CORE = (
+    "built around a list schedule of them and the supplies with a supply "
+    "beside each consumer its capped store cannot feed (no plan of them "
+    "from the solver in its share)"
+)
 
 
 def forced_start(
@@ -103,11 +112,13 @@ def forced_start(
         that the forced tasks and supplies have no plan and every plan
         of the part would be one of theirs (:func:`relaxes`); None when
         there is nothing forced, neither the solver in its share nor
-        list schedules in perturbed orders
-        (:func:`~fsw_scheduler.analysis.sampling.sampled_plan`) find a plan
-        of the forced tasks and supplies (or theirs does not hold on the
-        whole part). The plan's ``stats.solver_status`` says which built
-        it (:data:`SOLVED_CORE`, :data:`SAMPLED_CORE`).
+        list schedules with a supply beside each consumer a capped
+        store cannot feed (:func:`~fsw_scheduler.analysis.paired.
+        paired_plan`) nor in perturbed orders (:func:`~fsw_scheduler.
+        analysis.sampling.sampled_plan`) find a plan of the forced tasks
+        and supplies (or theirs does not hold on the whole part). The
+        plan's ``stats.solver_status`` says which built it
+        (:data:`SOLVED_CORE`, :data:`PAIRED_CORE`, :data:`SAMPLED_CORE`).
     """
     forced = forced_tasks(problem)
     if not forced:
@@ -169,15 +180,23 @@ def forced_start(
         # the core, in 14 ms. ``tools/fuzz`` seed 60053, a 21-task part at
         # 0.3 s and 1 s: `unknown` before; its 6-task core is placed by the
         # first order, in under a millisecond.
-        core = sampled_plan(
-            alone,
-            stop=None
-            if deadline is None
-            else stop_share(deadline, SAMPLED_SHARE),
+        # A consumer that draws more than its capped store holds runs
+        # only beside a supply, which no order places there (seed 1519
+        # of ``tools/fuzz --large``: ``unknown`` at 5 s before).
+        core = paired_plan(
+            alone, stop=None if deadline is None else stop_at(deadline)
         )
+        origin = PAIRED_CORE
+        if core is None:
+            core = sampled_plan(
+                alone,
+                stop=None
+                if deadline is None
+                else stop_share(deadline, SAMPLED_SHARE),
+            )
+            origin = SAMPLED_CORE
         if core is None:
             return None
-        origin = SAMPLED_CORE
     if (
         len(alone.tasks) == problem.num_tasks
         and core.status is SolveStatus.OPTIMAL

@@ -329,7 +329,8 @@ def test_a_replan_the_repair_cannot_start_plans_the_forced_core() -> None:
 
 def test_a_core_the_solver_cannot_plan_in_its_share_is_sampled() -> None:
     """Tests that when the solver finds no plan of the forced core in its
-    share, perturbed list-scheduling orders give one: the solve answers
+    share, list schedules give one (with a supply beside each consumer
+    its capped store cannot feed, or in perturbed orders): the solve answers
     with a plan holding every mandatory task (``unknown`` before), and
     its status says how the start plan was built."""
     problem = decode_problem(SAMPLED.read_bytes())
@@ -343,7 +344,16 @@ def test_a_core_the_solver_cannot_plan_in_its_share_is_sampled() -> None:
     assert answer.objective.total < 8_619_476  # CP-SAT's at 20 s
     assert answer.stats is not None
     said = answer.stats.solver_status
-    assert forced.SAMPLED_CORE in said or forced.SOLVED_CORE in said
+    # Its two batteries have ceilings: a supply beside a needy consumer
+    # places the core too (the same answer, 4,153,612 at 5 s).
+    assert any(
+        how in said
+        for how in (
+            forced.SAMPLED_CORE,
+            forced.PAIRED_CORE,
+            forced.SOLVED_CORE,
+        )
+    )
 
 
 @pytest.mark.parametrize("limit", [0.3, 1.0])
