@@ -73,9 +73,8 @@ def paired_plan(
     of its store at least as long as it whose starts can overlap it, the
     longest not given to another consumer; its starts narrowed to each
     part of that overlap in :data:`SPANS` in turn (the whole of it also
-    in perturbed orders). None when there is no needy consumer, one has
-    no such supply, or no list schedule gives a plan the checker
-    accepts."""
+    in perturbed orders). None when no needy consumer has such a supply,
+    or no list schedule gives a plan the checker accepts."""
     consumers = needy(problem)
     if not consumers:
         return None
@@ -104,7 +103,8 @@ def _narrowed(
 ) -> Problem | None:
     """``problem`` with a supply for each needy consumer made mandatory
     and started where it overlaps the consumer, in the ``span`` of those
-    starts; None when a consumer has no such supply."""
+    starts (a consumer with no such supply is left to what else feeds
+    its store); None when no consumer has one."""
     given: dict[str, tuple[int, int]] = {}
     for consumer, name in consumers:
         own = domains[consumer.id]
@@ -132,12 +132,15 @@ def _narrowed(
                 chosen = supply.id, (low, high)
                 break
         if chosen is None:
-            return None
+            # No supply can run beside it: an external rate may feed it.
+            continue
         low, high = chosen[1]
         given[chosen[0]] = (
             low + math.floor(span[0] * (high - low)),
             low + math.ceil(span[1] * (high - low)),
         )
+    if not given:
+        return None
     return problem.replace(
         tasks=tuple(
             msgspec.structs.replace(
