@@ -184,7 +184,10 @@ def forced_start(
         # only beside a supply, which no order places there (seed 1519
         # of ``tools/fuzz --large``: ``unknown`` at 5 s before).
         core = paired_plan(
-            alone, stop=None if deadline is None else stop_at(deadline)
+            alone,
+            stop=None
+            if deadline is None
+            else stop_share(deadline, SAMPLED_SHARE),
         )
         origin = PAIRED_CORE
         if core is None:
