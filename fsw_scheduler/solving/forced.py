@@ -172,32 +172,29 @@ def forced_start(
             core, origin = solved, SOLVED_CORE
     if core is None:
         # Too little time for the solver, or none found in its share: list
-        # schedules in perturbed orders (:data:`SAMPLED_SHARE`).
-        # ``tools/fuzz --large`` seed 1192, 53 tasks over H = 700, 20 s: the
-        # relaxation's plans of the 23-task core broke a battery, the
-        # time-indexed model found none in 1.9 s, nor the whole part's in
-        # 9.8 s, and the answer was `unknown`; the first order tried places
-        # the core, in 14 ms. ``tools/fuzz`` seed 60053, a 21-task part at
-        # 0.3 s and 1 s: `unknown` before; its 6-task core is placed by the
-        # first order, in under a millisecond.
-        # A consumer that draws more than its capped store holds runs
-        # only beside a supply, which no order places there (seed 1519
-        # of ``tools/fuzz --large``: ``unknown`` at 5 s before).
-        core = paired_plan(
-            alone,
-            stop=None
-            if deadline is None
-            else stop_share(deadline, SAMPLED_SHARE),
-        )
-        origin = PAIRED_CORE
-        if core is None:
-            core = sampled_plan(
+        # schedules, each way with :data:`SAMPLED_SHARE` of what is left.
+        # First with a supply beside each consumer that draws more than
+        # its capped store holds, which no order places there (seed 1519
+        # of ``tools/fuzz --large``: ``unknown`` at 5 s before). Then in
+        # perturbed orders: ``tools/fuzz --large`` seed 1192, 53 tasks
+        # over H = 700, 20 s: the relaxation's plans of the 23-task core
+        # broke a battery, the time-indexed model found none in 1.9 s, nor
+        # the whole part's in 9.8 s, and the answer was `unknown`; the
+        # first order tried places the core, in 14 ms. ``tools/fuzz`` seed
+        # 60053, a 21-task part at 0.3 s and 1 s: `unknown` before; its
+        # 6-task core is placed by the first order, in under a millisecond.
+        for build, origin in (
+            (paired_plan, PAIRED_CORE),
+            (sampled_plan, SAMPLED_CORE),
+        ):
+            core = build(
                 alone,
                 stop=None
                 if deadline is None
                 else stop_share(deadline, SAMPLED_SHARE),
             )
-            origin = SAMPLED_CORE
+            if core is not None:
+                break
         if core is None:
             return None
     if (
