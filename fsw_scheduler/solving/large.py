@@ -135,20 +135,8 @@ def improved(
             time_limit,
             f"{proved_by(relaxed)}: no solve",
         )
-    # The start plan leaves out more than the bound: the relaxed
-    # optimum's tasks, list-scheduled alone, often leave out much less
-    # (b45-h1440 of the large suite, seed 31: 5.4 M instead of 7.1 M,
-    # which the search had not found in 20 s). It takes as long as the
-    # start plan did, so only here.
-    starts = (
-        kept_set_starts(
-            problem, relaxed, until(deadline, BOUND_SHARE), thorough=True
-        )
-        if worth_a_probe(problem, start, relaxed)
-        else []
-    )
-    start, inserted_count = best_inserted(
-        problem, [start, *starts], domains, deadline
+    start, inserted_count = kept_set_started(
+        problem, start, relaxed, domains, deadline
     )
     said = (
         f"{inserted_count} left-out tasks inserted into the start plan; "
@@ -374,6 +362,34 @@ def inserting(
     now = time.perf_counter()
     stop = stop_at(now + INSERT_SHARE * max(0.0, deadline - now))
     return inserted(problem, plan, domains, stop=stop)
+
+
+def kept_set_started(
+    problem: Problem,
+    start: Plan,
+    relaxed: KeptSetProof,
+    domains: dict[str, Domain],
+    deadline: float,
+) -> tuple[Plan, int]:
+    """``start``, or where it leaves out more than the kept-set bound the
+    relaxed optimum's tasks list-scheduled alone (:func:`~fsw_scheduler.
+    analysis.bounds.kept_set_starts`, ``thorough``), whichever is best
+    once left-out tasks are inserted (:func:`best_inserted`; ``start``
+    wins a tie), and how many were inserted into it.
+
+    Those tasks alone often leave out much less (b45-h1440 of the large
+    suite, seed 31: 5.4 M instead of 7.1 M, which the search had not
+    found in 20 s); placing them takes as long as the start plan did,
+    so only then.
+    """
+    starts = (
+        kept_set_starts(
+            problem, relaxed, until(deadline, BOUND_SHARE), thorough=True
+        )
+        if worth_a_probe(problem, start, relaxed)
+        else []
+    )
+    return best_inserted(problem, [start, *starts], domains, deadline)
 
 
 def best_inserted(

@@ -138,9 +138,8 @@ def refuted(
         Nothing asked (``said`` empty) when the start plan already keeps
         as much as the relaxation, or the part has groups.
     """
-    nothing = Refuted(None, proof, (), "")
-    if problem.alternatives or not worth_a_probe(problem, start, proof):
-        return nothing
+    if problem.alternatives:
+        return Refuted(None, proof, (), "")
     now = time.perf_counter()
     end = now + SHARE * max(0.0, deadline - now)
     nogoods: list[Nogood] = []
@@ -224,14 +223,12 @@ def asked(
     supplies = frozenset(
         t.id for t in problem.tasks if charges_a_store(problem, t)
     )
-    cheap = _cheap_core(problem, kept, supplies)
+    alone = kept_only(problem, kept)
+    domains = start_domains(alone)
+    cheap = _cheap_core(problem, kept, alone, domains, supplies)
     if cheap is not None:
         return Answer((cheap, supplies - cheap), None, solved=False)
-    alone = kept_only(problem, kept)
-    if (
-        time_limit is None
-        or start_count(start_domains(alone)) > SOLVER_COLUMNS
-    ):
+    if time_limit is None or start_count(domains) > SOLVER_COLUMNS:
         return Answer(None, None, solved=False)
     answer = run(alone, time_limit=time_limit)
     if answer.status.has_plan:
@@ -242,18 +239,22 @@ def asked(
 
 
 def _cheap_core(
-    problem: Problem, kept: frozenset[str], supplies: Set[str]
+    problem: Problem,
+    kept: frozenset[str],
+    whole: Problem,
+    domains: dict[str, Domain],
+    supplies: Set[str],
 ) -> frozenset[str] | None:
     """A subset of ``kept`` no plan keeps all of while it keeps no other
-    supply, proved by the cheap arguments; None when they prove nothing
-    of ``kept``.
+    supply, proved by the cheap arguments on ``whole`` (``kept`` alone,
+    :func:`~fsw_scheduler.analysis.bounds.kept_only`, with its start
+    ``domains``); None when they prove nothing of ``kept``.
 
     The tasks a proof names, with ``kept``'s supplies (the proof may
     lean on a consumable: a supply it dropped would lift it), are proved
     again alone; when that fails the whole set is the core.
     """
-    whole = kept_only(problem, kept)
-    named = infeasibility(whole, start_domains(whole))
+    named = infeasibility(whole, domains)
     if not named:
         return None
     core = frozenset(b.task for b in named) | (kept & supplies)

@@ -18,7 +18,7 @@ from __future__ import annotations
 import time
 from typing import TYPE_CHECKING
 
-from ..analysis.bounds import KeptSetProof, kept_set_bound, kept_set_starts
+from ..analysis.bounds import KeptSetProof, kept_set_bound
 from ..analysis.domains import start_count
 from ..analysis.greedy import greedy_plan
 from . import large
@@ -26,7 +26,7 @@ from .budget import BOUND_SHARE, BUDGET, stop_at
 from .forced import forced_start
 from .ilp.disjunctive.rule import pick
 from .improve import MIN_ROUND_S, improve, meets
-from .incumbent import a_task_above, whole_model, worth_a_probe
+from .incumbent import a_task_above, whole_model
 from .polishing import POLISH_MAX_S, POLISH_SHARE, Polishing, shift_deadline
 from .relaxed import NODES, relaxable
 from .repair import changed_tasks, holding, repair
@@ -147,15 +147,8 @@ def replanned(
     # placed one moved is left out (replan suite, seed 20's r60-h1440-0:
     # a task the fresh solve keeps, 725,323 above it), so left-out tasks
     # are inserted into each; the repaired plan wins a tie.
-    starts = (
-        kept_set_starts(
-            problem, relaxed, large.until(end, BOUND_SHARE), thorough=True
-        )
-        if worth_a_probe(problem, repaired, relaxed)
-        else []
-    )
-    repaired, inserting = large.best_inserted(
-        problem, [repaired, *starts], domains, end
+    repaired, inserting = large.kept_set_started(
+        problem, repaired, relaxed, domains, end
     )
     said = f"; {inserting} left-out tasks inserted" if inserting else ""
     left = end - time.perf_counter()
