@@ -72,7 +72,10 @@ class SolveBudget:
         replan whose parts are all small
         (under :attr:`lns_min_tasks` tasks) has the whole limit: a part
         its share left unproved was solved again from its plan, and that
-        took longer than one solve.
+        took longer than one solve; but a small part whose narrowed model
+        is too long for CBC's root (:data:`~.rounds.LONG_COLUMNS` start
+        times) has this share of its own limit (see
+        :func:`~.solve._solve_whole`).
     replan_min_s
         The least limit of a replan (when the caller's allows it).
     min_start_s

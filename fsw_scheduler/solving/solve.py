@@ -38,6 +38,7 @@ from .incumbent import checked, finished, narrow, probed
 from .joined import after, joined, starved
 from .polishing import Polishing, shift_deadline
 from .repair import holding
+from .rounds import LONG_COLUMNS
 from .single import one_task
 from .stats import with_call_stats, with_gap
 
@@ -169,7 +170,16 @@ def solve(
             ),
         )
     plan = _solved(
-        problem, parts, run, began, limit, warm, domains, stability, time_limit
+        problem,
+        parts,
+        run,
+        began,
+        limit,
+        warm,
+        domains,
+        stability,
+        time_limit,
+        replan=warm is not None and time_limit is not None,
     )
     plan = with_gap(plan)
     if explain and (
@@ -202,9 +212,12 @@ def _solved(
     domains: dict[str, Domain],
     stability: Stability | None,
     full_limit: float | None,
+    *,
+    replan: bool = False,
 ) -> Plan:
     """``problem`` solved part by part (:func:`_solve_parts`) when it has
-    independent ``parts``, else whole (:func:`_solve_whole`)."""
+    independent ``parts``, else whole (:func:`_solve_whole`); ``replan``
+    when ``warm`` is the plan in force under a time limit."""
     if len(parts) > 1:
         return _solve_parts(
             problem,
@@ -216,9 +229,18 @@ def _solved(
             domains,
             stability,
             full_limit,
+            replan=replan,
         )
     return _solve_whole(
-        problem, run, began, time_limit, warm, domains, stability, full_limit
+        problem,
+        run,
+        began,
+        time_limit,
+        warm,
+        domains,
+        stability,
+        full_limit,
+        replan=replan,
     )
 
 
@@ -254,6 +276,8 @@ def _solve_parts(
     domains: dict[str, Domain],
     stability: Stability | None = None,
     full_limit: float | None = None,
+    *,
+    replan: bool = False,
 ) -> Plan:
     """Solve each independent part alone and join the plans.
 
@@ -298,6 +322,7 @@ def _solve_parts(
                 {t.id: domains[t.id] for t in sub.tasks},
                 stability,
                 part_full,
+                replan=replan,
             )
         )
         if plans[-1].status is SolveStatus.INFEASIBLE:
@@ -308,7 +333,15 @@ def _solve_parts(
     skipped = len(subs) - len(plans)
     if time_limit is not None and not skipped:
         _reopen(
-            plans, subs, weights, run, began, time_limit, domains, stability
+            plans,
+            subs,
+            weights,
+            run,
+            began,
+            time_limit,
+            domains,
+            stability,
+            replan=replan,
         )
     return joined(
         problem,
@@ -352,6 +385,8 @@ def _reopen(
     time_limit: float,
     domains: dict[str, Domain],
     stability: Stability | None = None,
+    *,
+    replan: bool = False,
 ) -> None:
     """Solve the unproved parts again with what the others left unused.
 
@@ -394,6 +429,7 @@ def _reopen(
             before if before.status.has_plan else None,
             {t.id: domains[t.id] for t in sub.tasks},
             stability,
+            replan=replan,
         )
         gained = again.status is SolveStatus.OPTIMAL or (
             again.objective is not None
@@ -428,11 +464,20 @@ def _solve_whole(
     domains: dict[str, Domain],
     stability: Stability | None = None,
     full_limit: float | None = None,
+    *,
+    replan: bool = False,
 ) -> Plan:
     """Start plan, then the solver or the neighbourhood search; no ``why``.
 
     ``full_limit`` is the caller's limit where ``time_limit`` is a
-    replan's share of it (see :func:`~.replanning.replanned`).
+    replan's share of it (see :func:`~.replanning.replanned`). In a
+    ``replan`` a part under :attr:`~.budget.SolveBudget.lns_min_tasks`
+    tasks whose model, narrowed around its start plan, is long (at least
+    :data:`~.rounds.LONG_COLUMNS` start times) has the replan's share of
+    its limit (:meth:`~.budget.SolveBudget.replan_limit`): CBC does not
+    get through such a model's root in the limit, and the relaxation's
+    rounds and the neighbourhood search that take its place would spend
+    all of it.
 
     With a move part (``stability``) the shortcuts are off, each for the
     same reason: the replan's repair, the at-lower-bound and kept-set
@@ -573,6 +618,16 @@ def _solve_whole(
         plan = large.improved(problem, start, domains, run, began, time_limit)
     else:
         narrowed = narrow(problem, start, domains, relaxed)
+        if (
+            replan
+            and time_limit is not None
+            and start_count(narrowed) >= LONG_COLUMNS
+        ):
+            # A replan pays for what changed: the replan suite's
+            # r30-h1440-1 of seed 217 (27 tasks, 12,423 columns) took
+            # 9.5 s of 10 in rounds and a search that found nothing, the
+            # same plan its share gives in 1.7 s.
+            time_limit = min(time_limit, BUDGET.replan_limit(time_limit))
         answer, start, narrowed, caught = probed(
             problem, run, start, domains, narrowed, relaxed, began, time_limit
         )
