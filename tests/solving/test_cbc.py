@@ -17,6 +17,7 @@ import pytest
 
 from fsw_scheduler.analysis.check import check_plan
 from fsw_scheduler.model.plan import SolveStatus
+from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.solving.ilp import cbc, cbclog, child, progress
 from fsw_scheduler.solving.ilp.cbc import CbcRun
 from fsw_scheduler.solving.ilp.child import sweep_stale_dirs
@@ -415,6 +416,39 @@ def test_a_run_that_restarted_with_its_cuts_claims_no_optimum(
     assert result.values is not None
     assert result.bound == -667483 - 1 + program.constant
     assert "restarted with its root cuts: no proof" in result.solver_status
+
+
+def test_a_run_that_restarted_is_run_again_without_the_restart(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Tests that a real CBC run that restarted with its root cuts (the
+    broad campaign's b15-multiple-6 of seed 217, CBC's seed that
+    campaign's) is run again from its plan with CBC's restart off and its
+    cuts on, first among the options, and that its answer is the
+    optimum (1,415, CP-SAT's) proved by that run."""
+    problem = decode_problem(
+        (
+            Path(__file__).parent / "data" / "restart-b15-multiple-6.json"
+        ).read_bytes()
+    )
+    runs: list[list[str]] = []
+    solve_once = CbcRun._solve_once
+
+    def recorded(self: CbcRun, *args: object, **kwargs: object) -> object:
+        runs.append(list(self.options))
+        return solve_once(self, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(CbcRun, "_solve_once", recorded)
+    plan = solve(problem, time_limit=60.0, seed=236446864)
+    assert plan.stats is not None and plan.objective is not None
+    said = plan.stats.solver_status
+    assert "restarted with its root cuts" in said, said
+    assert said.endswith("again without the restart: Optimal"), said
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.objective.total == 1415
+    assert check_plan(problem, plan).ok
+    assert runs[-1][0] == cbc.NO_RESTART
+    assert runs[-1][1:] == runs[-2] and cbc.CUTS_OFF not in runs[-1]
 
 
 def test_a_search_cbc_completed_is_read_from_its_log() -> None:
