@@ -51,7 +51,7 @@ from .rules import (
 from .supply import charges_a_store, supply_sets
 
 if TYPE_CHECKING:
-    from collections.abc import Callable, Set
+    from collections.abc import Callable, Sequence, Set
 
     from ..model.problem import Problem, Task
 
@@ -386,6 +386,23 @@ def plan_in_order(
     return _rule_plan(
         problem, lambda group: (-min(rank[n] for n in group),), domains, seeds
     )
+
+
+def placed_whole(
+    problem: Problem, names: Sequence[str], domains: dict[str, Domain]
+) -> Plan | None:
+    """The first plan by the rules ``names`` (of :data:`~.rules.RULES`)
+    that holds every task every plan of ``problem`` must hold, not yet
+    checked; None when none does."""
+    forced = forced_tasks(problem)
+    seeds = conflict_seeds(problem, forced)
+    for name in names:
+        plan = _rule_plan(
+            problem, RULES[name](problem, domains, forced), domains, seeds
+        )
+        if plan is not None:
+            return plan
+    return None
 
 
 def _rule_plan(
