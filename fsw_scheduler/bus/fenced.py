@@ -62,7 +62,8 @@ class FenceWatch:
     def check(self, term: int) -> str | None:
         """The alarm to say about the fences (asked when due) for a node
         commanding in ``term``; None when no fence is above it or it is
-        not time to ask (:attr:`standing` keeps the last answer's)."""
+        not time to ask (:attr:`standing` keeps the last answer's, and
+        so does a question no fence answers)."""
         now = time.monotonic()
         if now < self._due:
             return None
@@ -71,13 +72,14 @@ class FenceWatch:
         return self.standing
 
     def _ask(self, term: int) -> str | None:
-        above = [
-            (where, seen)
-            for where, seen in fence_terms(
-                self.session, self.keys, FENCE_ASK_S
-            )
-            if seen > term
-        ]
+        answers = fence_terms(self.session, self.keys, FENCE_ASK_S)
+        if not answers:
+            # No fence answered in time (a loaded machine, receivers
+            # restarting): no sign that a fence above fell, so the last
+            # answer stands. Read as "none above", a status asked next
+            # said ``ok`` while the receiver still dropped every command.
+            return self.standing
+        above = [(where, seen) for where, seen in answers if seen > term]
         if not above:
             return None
         where, seen = max(above, key=lambda answer: answer[1])
