@@ -36,9 +36,9 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from .bounds import kept_only
+from .bounds import kept_only, widened
 from .domains import start_domains
-from .greedy import checked_starts, placed_whole
+from .greedy import placed_whole
 from .proofs import precedence_needs, reach
 
 if TYPE_CHECKING:
@@ -102,6 +102,16 @@ def grown(
     required = {t.id for t in problem.tasks if problem.required(t)}
     shared = set(problem.resources.binary) | set(problem.resources.multiple)
     domains = start_domains(problem)
+    # Each task with the tasks its precedences need: what comes in with it.
+    closure = {name: reach({name}, needs) for name in tasks}
+    # The tasks that may come in, the most valuable first: none of what
+    # comes with them is unplaceable.
+    candidates = [
+        t
+        for t in sorted(problem.tasks, key=lambda t: (-t.schedule_cost, t.id))
+        if t.schedule_cost > 0
+        and not any(domains[n].empty for n in closure[t.id])
+    ]
     kept = set(plan.starts())
     best: Plan | None = None
     tries = 0
@@ -114,33 +124,21 @@ def grown(
         tries += 1
         alone = kept_only(problem, names)
         found = placed_whole(alone, GROW_RULES, start_domains(alone))
-        return (
-            None if found is None else checked_starts(problem, found.starts())
-        )
+        return None if found is None else widened(problem, found)
 
     def spent() -> bool:
         return tries >= MAX_TRIES or (stop is not None and stop())
 
     for _ in range(MAX_PASSES):
         grew = False
-        left_out = [
-            t
-            for t in sorted(
-                problem.tasks, key=lambda t: (-t.schedule_cost, t.id)
-            )
-            if t.id not in kept
-            and t.schedule_cost > 0
-            and not domains[t.id].empty
-        ]
+        left_out = [t for t in candidates if t.id not in kept]
         # Each task added as it is first: cheap, and where most is won.
         for task in left_out:
             if task.id in kept:
                 continue  # came in with another's precedences
             if spent():
                 return best
-            added = reach({task.id}, needs)
-            if any(domains[n].empty for n in added):
-                continue
+            added = closure[task.id]
             found = placed(kept | added)
             if found is not None:
                 kept |= added
@@ -149,9 +147,7 @@ def grown(
         for task in left_out:
             if task.id in kept:
                 continue
-            added = reach({task.id}, needs)
-            if any(domains[n].empty for n in added):
-                continue
+            added = closure[task.id]
             worth = value(added)
             rivals = _rivals(task, kept - required, tasks, worth, shared)
             for rival in rivals[:MAX_RIVALS]:
