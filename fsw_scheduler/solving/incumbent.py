@@ -29,7 +29,13 @@ from ..model.plan import Plan, SolverStats, SolveStatus, objective_weight
 from .budget import BUDGET, stop_at, stop_within
 from .improve import MIN_ROUND_S, improve
 from .relaxed import MIN_LEFT_S, SMALL_LEVEL_ROUNDS, around, relaxable
-from .rounds import LONG_COLUMNS, LONG_SHARE, SHARE, rounds
+from .rounds import (
+    LONG_COLUMNS,
+    LONG_SHARE,
+    PROBING_TASKS,
+    SHARE,
+    rounds,
+)
 from .stats import higher, method_label, stopped_on_nodes
 
 if TYPE_CHECKING:
@@ -248,6 +254,10 @@ def probed(
         # A small part's time-indexed model is proved in about a second:
         # few runs again with levels (relaxed.SMALL_LEVEL_ROUNDS).
         level_rounds = SMALL_LEVEL_ROUNDS if small else None
+        # A part of 12-15 tasks has CBC's probing from its first round
+        # (rounds.PROBING_TASKS): its searches are long enough to pay.
+        fewest, most = PROBING_TASKS
+        probing = fewest <= problem.num_tasks <= most
         if left is None:
             # Without a limit the time-indexed model proves the part.
             caught = around(
@@ -256,6 +266,7 @@ def probed(
                 narrowed,
                 run,
                 None,
+                probing=probing,
                 level_rounds=level_rounds,
             )
         else:
@@ -281,6 +292,7 @@ def probed(
                 if small
                 else lambda narrowed: start_count(narrowed) < RELAXED_COLUMNS,
                 level_rounds=level_rounds,
+                probing=probing,
             )
         if caught.plan is not None:
             return caught.plan, start, narrowed, bound

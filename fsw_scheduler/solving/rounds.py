@@ -78,6 +78,25 @@ OVERTIME = 0.75
 #: takes about as long to read and start the model of 45-60 tasks.
 MIN_ROUND_S = 0.5
 
+#: A part of this many tasks (from the first to the second) has CBC's
+#: probing from its first round (:func:`rounds`' ``probing``), not only
+#: from the second: the fixings probing finds take most of the nodes off
+#: (the 42 first rounds of the 15-task `all` problems of seeds 217-219:
+#: 2,404 nodes to 442, CBC's time 2.47 -> 2.09 s; the one round stopped
+#: on its 500 nodes proved in 89). The product's solve on the 15-task
+#: `all` class, one run each, paper and broad, on seeds 225-228 (not
+#: looked at before; their parts have 14 or 15 tasks): summed time lower
+#: on 7 of 8 (paper 228: 5.37 -> 4.39 s, broad 226: 4.17 -> 3.26 s;
+#: broad 228: 0.47 -> 0.48 s), the median lower on 5 (paper 227:
+#: 0.077 -> 0.043 s) and 0.002-0.005 s higher on 3, every problem
+#: proved. On 10-task parts (the 10-task `all` problems of seed 225,
+#: three runs each) it was slower, by up to 0.07 s a problem: their
+#: searches are short, and probing costs at every node. Larger parts
+#: keep a first round without it: 500 nodes from a poor start over wide
+#: domains did not end in 10 s with probing (see
+#: :data:`~fsw_scheduler.solving.relaxed.PROBING`).
+PROBING_TASKS = (12, 15)
+
 #: The rounds stop after one (not the first) that found no better plan
 #: and raised the bound by less than this share of the gap it started
 #: from: on 66 large-suite problems of 30-45 tasks (seeds 60-70), no
@@ -100,6 +119,7 @@ def rounds(
     overtime: float = 0.0,
     level_rounds: int | None = None,
     nodes: int = NODES,
+    probing: bool = False,
 ) -> RelaxedAnswer:
     """The relaxation around ``start`` over ``narrowed``, again and again
     with more nodes while it stops on its node limit, for ``limit``
@@ -138,6 +158,9 @@ def rounds(
         times the one before): a caller whose own run of the relaxation
         already stopped on those nodes over the same domains starts at
         the next round's.
+    probing
+        CBC's probing from the first round (:data:`PROBING_TASKS`);
+        the rounds after the first have it anyway.
 
     Returns
     -------
@@ -165,7 +188,7 @@ def rounds(
             # The first round as one round ran before: cheap nodes, a
             # better plan to narrow around; the next ones with CBC's
             # probing, which closes the search in far fewer nodes.
-            probing=nodes > NODES,
+            probing=probing or nodes > NODES,
             # The levels a round wrote hold over narrower domains too.
             levels=levels,
             level_rounds=level_rounds,

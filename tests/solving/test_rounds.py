@@ -114,9 +114,11 @@ def test_a_large_part_under_a_short_limit_gets_rounds_for_most_of_it(
     bench = next(b for b in generator.large_suite(71) if b.name == "f30-h1440")
     problem = bench.problem()
     limits: list[float] = []
+    probing: list[bool] = []
 
     def spy(*args: Any, **kwargs: Any) -> Any:
         limits.append(args[4])
+        probing.append(kwargs.get("probing", False))
         return rounds(*args, **kwargs)
 
     monkeypatch.setattr(incumbent, "rounds", spy)
@@ -128,6 +130,41 @@ def test_a_large_part_under_a_short_limit_gets_rounds_for_most_of_it(
     assert len(limits) == 1
     # More than one round of the old share could have, at most the share.
     assert 0.6 * limit < limits[0] <= incumbent.SHORT_ROUNDS_SHARE * limit
+    # A part of 29 tasks: its first round without CBC's probing.
+    assert probing == [False]
+
+
+def test_a_small_part_has_probing_from_its_first_round(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Tests that a part of PROBING_TASKS tasks runs the
+    relaxation's first round with CBC's probing (paper campaign seed
+    217's c15-all-3: its first run proves the relaxation's optimum in 9
+    nodes with it, 99 without), and that the answer is the optimum."""
+    generator = bench_lib("generator")
+    bench = next(
+        b for b in generator.campaign(217, "paper") if b.name == "c15-all-3"
+    )
+    problem = bench.problem()
+    fewest, most = rounds_module.PROBING_TASKS
+    assert fewest <= problem.num_tasks <= most
+    first: list[tuple[int | None, bool]] = []
+
+    def spy(*args: Any, **kwargs: Any) -> Any:
+        first.append(
+            (
+                args[5] if len(args) > 5 else kwargs.get("nodes"),
+                kwargs.get("probing", False),
+            )
+        )
+        return around(*args, **kwargs)
+
+    monkeypatch.setattr(rounds_module, "around", spy)
+    plan = solve(problem, time_limit=30.0, threads=1, seed=0)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert check_plan(problem, plan).ok
+    assert plan.objective is not None and plan.objective.total == 3699
+    assert first and first[0] == (rounds_module.NODES, True)
 
 
 def test_rounds_whose_bound_stalls_stop(monkeypatch) -> None:
