@@ -94,7 +94,11 @@ MIN_ROUND_S = 0.5
 #: searches are short, and probing costs at every node. Larger parts
 #: keep a first round without it: 500 nodes from a poor start over wide
 #: domains did not end in 10 s with probing (see
-#: :data:`~fsw_scheduler.solving.relaxed.PROBING`).
+#: :data:`~fsw_scheduler.solving.relaxed.PROBING`); with parts up to 29
+#: tasks, the fresh campaign (15-25 tasks) of seeds 230-233 gained one
+#: proof (230's f20-h336-1: `feasible` at 19.5 s -> `optimal` in 4.4 s)
+#: but most 25-task problems took 0.2-1.7 s more (seed 231: 4.0 -> 6.5 s
+#: in all, seed 232: 4.0 -> 5.9 s).
 PROBING_TASKS = (12, 15)
 
 #: The rounds stop after one (not the first) that found no better plan
