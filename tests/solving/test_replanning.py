@@ -83,9 +83,15 @@ def test_a_replan_of_a_long_small_part_takes_the_replan_share() -> None:
     tasks but whose model is long (the replan suite's r30-h1440-1 of seed
     217 after a goal: 27 tasks over H = 1440, the plan in force from a
     10 s solve) answers within the replan's share of its limit, not the
-    whole limit, with a checked plan as good as the one the whole limit
-    gave (3,235,956: the rounds and the neighbourhood search spent 9.5 s
-    of 10 and found nothing better)."""
+    whole limit, with a checked plan at least as good as the relaxation's
+    first round gives (3,236,098 from the start plan's 3,237,543: 500
+    nodes, the same on every machine). On an idle machine the second
+    round, cut by the share's deadline, reaches 3,235,956, the plan the
+    whole limit gave (its rounds and neighbourhood search spent 9.5 s of
+    10 and found nothing better); on a loaded one (two cores, three busy
+    loops, as a CI machine running two test workers may be) the share
+    ends after the first round, so the test holds the first round's
+    figure."""
     problem = decode_problem(
         (DATA / "long-replan-r30-h1440.json").read_bytes()
     )
@@ -100,5 +106,5 @@ def test_a_replan_of_a_long_small_part_takes_the_replan_share() -> None:
     assert plan.stats is not None and plan.objective is not None
     assert check_plan(problem, plan).ok
     assert plan.stats.time_limit_s == BUDGET.replan_limit(10.0)
-    assert plan.objective.total <= 3_235_956
+    assert plan.objective.total <= 3_236_098
     assert plan.stats.wall_s < 10.0 * BUDGET.replan_share + 1.0
