@@ -5,7 +5,10 @@ places the tasks every plan must hold, the same list scheduler in orders
 close to the deadline rule's often does: :func:`sampled_plan` tries them
 (biased random sampling), for the forced core of
 :func:`~fsw_scheduler.solving.forced.forced_start` when the solver has no
-plan of it or no time for one.
+plan of it or no time for one. :func:`sampled_better` tries such orders
+for a better start plan of a large part, and :func:`sampled_around`
+draws them around an incumbent's own order, a local search over orders
+for a large part still a whole task short of its bound.
 """
 
 from __future__ import annotations
@@ -133,3 +136,68 @@ def _perturbed(
         yield plan_in_order(
             problem, sorted(base, key=noisy.__getitem__), domains
         )
+
+
+#: Orders :func:`sampled_around` tries at most.
+AROUND_ORDERS = 300
+#: Spread of its noise, in places of the incumbent's order. On the large
+#: suite's b45-h1440 of seed 241 (45 tasks, three cameras' worth of
+#: binary resources, power, data rate and a battery), 300 orders from the
+#: incumbent's left out 9 units at a spread of 1, 7 at 2 and 9 at 4.
+AROUND_SPREAD = 2.0
+
+
+def sampled_around(
+    problem: Problem,
+    start: Plan,
+    domains: dict[str, Domain],
+    *,
+    orders: int = AROUND_ORDERS,
+    stop: Callable[[], bool] | None = None,
+    seed: int = 0,
+) -> Plan:
+    """The best list schedule of orders drawn around the incumbent's.
+
+    Biased random sampling as :func:`sampled_plan`'s, centred on the
+    order of ``start``'s starts (left-out tasks last, in problem order)
+    and re-centred on each better plan: a local search over orders,
+    whose every step is a whole list schedule. On a day a battery
+    binds, the kept set is a matter of order (which task takes the
+    charge first), and the neighbourhood search, which moves a few tasks
+    of the same kept set at a time, does not leave an arrangement: the
+    large suite's b45-h1440 of seed 241 kept its 9 units left out for 60
+    s of search, where CP-SAT leaves out 6; from the incumbent after the
+    kept set's growth, 300 orders (3.7 s, 12 ms a schedule) leave out 7.
+    Deterministic (a seeded generator, no clock: ``stop`` only ends it
+    early).
+
+    Returns
+    -------
+    Plan
+        ``start``, or a better plan the checker accepts.
+    """
+    best = start
+    order = _order_of(problem, start)
+    draw = random.Random(seed)
+    for _ in range(orders):
+        if stop is not None and stop():
+            break
+        noisy = {
+            n: i + draw.gauss(0.0, AROUND_SPREAD) for i, n in enumerate(order)
+        }
+        plan = plan_in_order(
+            problem, sorted(order, key=noisy.__getitem__), domains
+        )
+        if plan is not None and improves(problem, plan, best):
+            best = plan
+            order = _order_of(problem, plan)
+    return best
+
+
+def _order_of(problem: Problem, plan: Plan) -> list[str]:
+    """``plan``'s tasks by start (ties in problem order), then the tasks
+    it leaves out, in problem order."""
+    starts = plan.starts()
+    rank = {task.id: k for k, task in enumerate(problem.tasks)}
+    kept = sorted(starts, key=lambda n: (starts[n], rank[n]))
+    return kept + [t.id for t in problem.tasks if t.id not in starts]
