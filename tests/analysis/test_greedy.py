@@ -31,6 +31,9 @@ from ..problems import COMMON, brute_force, decode_doc, problem_docs
 from .fresh import fresh_doc
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from fsw_scheduler.model.plan import Plan
     from fsw_scheduler.model.problem import Problem
 
 
@@ -518,14 +521,22 @@ def test_perturbed_orders_better_a_start_the_battery_binds() -> None:
     assert sampled_better(problem, start, domains) == plan
     assert sampled_better(problem, plan, domains, seed=0) is plan
     assert sampled_better(problem, start, domains, stop=lambda: True) is start
+    assert _stops_asked(sampled_better, problem, start, domains) == (
+        BETTER_ORDERS
+    )
+
+
+def _stops_asked(sample: Callable[..., Plan], *args: object) -> int:
+    """How many times ``sample(*args, stop=...)`` asks its ``stop`` (once
+    before each order) when it is never told to stop."""
     asked = []
 
     def counting() -> bool:
         asked.append(1)
         return False
 
-    sampled_better(problem, start, domains, stop=counting)
-    assert len(asked) == BETTER_ORDERS
+    sample(*args, stop=counting)
+    return len(asked)
 
 
 def test_orders_around_the_incumbent_keep_more_of_a_battery_day() -> None:
@@ -550,14 +561,9 @@ def test_orders_around_the_incumbent_keep_more_of_a_battery_day() -> None:
     assert check_plan(problem, plan).ok
     assert sampled_around(problem, start, domains) == plan
     assert sampled_around(problem, start, domains, stop=lambda: True) is start
-    asked = []
-
-    def counting() -> bool:
-        asked.append(1)
-        return False
-
-    sampled_around(problem, start, domains, stop=counting)
-    assert len(asked) == AROUND_ORDERS
+    assert _stops_asked(sampled_around, problem, start, domains) == (
+        AROUND_ORDERS
+    )
 
 
 @pytest.mark.parametrize("seed", [0, 3, 6, 8])
