@@ -226,30 +226,9 @@ def improved(
     if worth_a_probe(problem, start, relaxed):
         # Still short after the relaxation (which proves many such
         # parts first: the large suite's b30-h1440 of seed 251 in 2.8 s,
-        # 6.8 s with the orders before it): on a day a battery binds,
-        # which tasks stay is a matter of order; list schedules of orders
-        # around the incumbent's (the large suite's b45-h1440 of seed
-        # 241: 9 units left out -> 7, where 60 s of search kept 9;
-        # CP-SAT 6).
-        sampled = sampled_around(
-            problem, start, domains, stop=until(deadline, ORDER_SHARE)
-        )
-        if (
-            sampled is not start
-            and sampled.objective is not None
-            and start.objective is not None
-        ):
-            gained = (
-                start.objective.unscheduled_cost
-                - sampled.objective.unscheduled_cost
-            )
-            saved = start.objective.delay_cost - sampled.objective.delay_cost
-            said += "orders around it sampled (" + (
-                f"{gained} schedule cost units fewer left out); "
-                if gained > 0
-                else f"the same left out, {saved} delay units saved); "
-            )
-            start = inserting(problem, sampled, domains, deadline)
+        # 6.8 s with the orders before it).
+        start, sampled = _sampled(problem, start, domains, deadline)
+        said += sampled
     polish = Polishing(problem, domains, deadline, bound)
     start = polish.shifted(polish(start), run, shift_deadline(deadline))
     # Tasks moved earlier may leave room for a left-out one.
@@ -411,6 +390,39 @@ GROW_SHARE = 0.3
 #: battery). At 0.25 the large suite's b45-h1440 of seed 241 (20 s) kept
 #: 9 units left out; at 0.5 the search from the sampled plan found 7.
 ORDER_SHARE = 0.5
+
+
+def _sampled(
+    problem: Problem, plan: Plan, domains: dict[str, Domain], deadline: float
+) -> tuple[Plan, str]:
+    """``plan``, or a better list schedule of an order drawn around its
+    own (:func:`~fsw_scheduler.analysis.sampling.sampled_around`, for
+    :data:`ORDER_SHARE` of the time left) with left-out tasks inserted,
+    and what that gained for the status ("" when nothing).
+
+    On a day a battery binds, which tasks stay is a matter of order
+    (which task takes the charge first), and the neighbourhood search,
+    which moves a few tasks of one kept set at a time, does not leave an
+    arrangement: the large suite's b45-h1440 of seed 241 kept 9 units
+    left out through 60 s of search, CP-SAT 6, its plan the list
+    schedule of its own start order; from the plan after the
+    relaxation, 7.
+    """
+    sampled = sampled_around(
+        problem, plan, domains, stop=until(deadline, ORDER_SHARE)
+    )
+    if sampled is plan or sampled.objective is None or plan.objective is None:
+        return plan, ""
+    left_out = plan.objective.unscheduled_cost
+    gained = left_out - sampled.objective.unscheduled_cost
+    saved = plan.objective.delay_cost - sampled.objective.delay_cost
+    said = "orders around it sampled (" + (
+        f"{gained} schedule cost units fewer left out); "
+        if gained > 0
+        else f"the same left out, {saved} delay units saved); "
+    )
+    return inserting(problem, sampled, domains, deadline), said
+
 
 #: Share of the time left that inserting left-out tasks may take (its
 #: own bound is in moves tried; this only guards the deadline).
