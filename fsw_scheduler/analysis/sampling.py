@@ -132,10 +132,14 @@ def _perturbed(
         if stop is not None and stop():
             return
         spread = SAMPLED_SPREAD * (1 + k // SAMPLED_WIDEN)
-        noisy = {n: i + draw.gauss(0.0, spread) for i, n in enumerate(base)}
-        yield plan_in_order(
-            problem, sorted(base, key=noisy.__getitem__), domains
-        )
+        yield plan_in_order(problem, _noisy(base, draw, spread), domains)
+
+
+def _noisy(order: list[str], draw: random.Random, spread: float) -> list[str]:
+    """``order`` with each task moved by Gaussian noise of ``spread``
+    places (one draw per task, in order)."""
+    noisy = {n: i + draw.gauss(0.0, spread) for i, n in enumerate(order)}
+    return sorted(order, key=noisy.__getitem__)
 
 
 #: Orders :func:`sampled_around` tries at most.
@@ -183,11 +187,8 @@ def sampled_around(
     for _ in range(orders):
         if stop is not None and stop():
             break
-        noisy = {
-            n: i + draw.gauss(0.0, AROUND_SPREAD) for i, n in enumerate(order)
-        }
         plan = plan_in_order(
-            problem, sorted(order, key=noisy.__getitem__), domains
+            problem, _noisy(order, draw, AROUND_SPREAD), domains
         )
         if plan is not None and improves(problem, plan, best):
             best = plan
