@@ -158,6 +158,7 @@ def sampled_around(
     domains: dict[str, Domain],
     *,
     orders: int = AROUND_ORDERS,
+    stale: int | None = None,
     stop: Callable[[], bool] | None = None,
     seed: int = 0,
 ) -> Plan:
@@ -174,7 +175,8 @@ def sampled_around(
     s of search, where CP-SAT leaves out 6; from the incumbent after the
     kept set's growth, 300 orders (3.7 s, 12 ms a schedule) leave out 7.
     Deterministic (a seeded generator, no clock: ``stop`` only ends it
-    early).
+    early). With ``stale``, it ends after that many orders in a row
+    that found nothing better.
 
     Returns
     -------
@@ -184,14 +186,17 @@ def sampled_around(
     best = start
     order = _order_of(problem, start)
     draw = random.Random(seed)
-    for _ in range(orders):
-        if stop is not None and stop():
+    last = 0  # the order that found the incumbent
+    for k in range(orders):
+        if (stale is not None and k - last >= stale) or (
+            stop is not None and stop()
+        ):
             break
         plan = plan_in_order(
             problem, _noisy(order, draw, AROUND_SPREAD), domains
         )
         if plan is not None and improves(problem, plan, best):
-            best = plan
+            best, last = plan, k + 1
             order = _order_of(problem, plan)
     return best
 

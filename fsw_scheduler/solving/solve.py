@@ -12,7 +12,6 @@ import msgspec
 from ..analysis.bounds import (
     KeptSetProof,
     at_lower_bound,
-    kept_set_plan,
     proved_by,
 )
 from ..analysis.check import check_plan
@@ -34,7 +33,7 @@ from ..model.stability import Stability, rescored
 from . import large, replanning
 from .budget import BUDGET, stop_at, stop_within
 from .forced import SOLVED_CORE, WHOLE_CORE, forced_start
-from .incumbent import checked, finished, narrow, probed
+from .incumbent import checked, finished, kept_set_start, narrow, probed
 from .joined import after, joined, starved
 from .polishing import Polishing, shift_deadline
 from .repair import holding
@@ -577,14 +576,11 @@ def _solve_whole(
         elif at_lower_bound(problem, start, domains):
             proof = "every task at its earliest start: no solve"
         elif not large.searched(problem):
-            stop = stop_within(began, time_limit)
-            relaxed = kept_set_plan(problem, start, domains, stop=stop)
-            proved, better = relaxed.plan, relaxed.better
-            if better is not None:
-                start = better
-            if proved is not None:
+            start, relaxed = kept_set_start(
+                problem, start, domains, began, time_limit
+            )
+            if relaxed.plan is not None:
                 proof = f"{proved_by(relaxed)}: no solve"
-                start = proved
     if start is not None and proof is not None:
         plan = start.replace(
             status=SolveStatus.OPTIMAL,

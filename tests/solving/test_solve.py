@@ -22,6 +22,7 @@ from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.solving import large
 from fsw_scheduler.solving import solve as solve_module
 from fsw_scheduler.solving.budget import BUDGET
+from fsw_scheduler.solving.incumbent import kept_set_start
 from fsw_scheduler.solving.solve import solve
 
 from ..factories import bench_lib, make_doc, make_task, problem_from
@@ -1243,3 +1244,45 @@ def test_a_starved_part_gets_what_the_others_leave_under_a_short_limit() -> (
     assert plan.status is SolveStatus.OPTIMAL, plan.stats
     assert plan.objective is not None and plan.objective.total == 188_903
     assert check_plan(problem, plan).ok
+
+
+def _campaign(generator: str, cls: str, seed: int) -> Problem:
+    """A 15-task problem of the campaign's ``generator`` (H = 336)."""
+    return problem_from(
+        bench_lib(generator).generate_problem(15, cls, 336, seed)
+    )
+
+
+def test_a_multiple_resource_start_plan_is_sampled_before_cbc() -> None:
+    """Tests that a small part with a multiple resource and no consumable,
+    its start plan not proved by the kept set, gets the best list
+    schedule of orders drawn around it as the plan CBC starts from (the
+    broad campaign's b15-multiple-3 of seed 241: the rules' 92,847, the
+    orders' 92,712, CP-SAT's optimum), with or without a limit; that a
+    part with a consumable gets the kept-set result alone; and that the
+    solve proves that optimum."""
+    problem = _campaign("broad", "multiple", 3645019511)
+    domains = start_domains(problem)
+    start = solve_module.best_start(problem, None, domains=domains)
+    assert start is not None and start.objective is not None
+    for limit in (None, 20.0):
+        sampled, relaxed = kept_set_start(
+            problem, start, domains, time.perf_counter(), limit
+        )
+        assert relaxed.plan is None  # CBC must prove it
+        assert sampled.objective is not None
+        assert sampled.objective.total == 92712
+        assert check_plan(problem, sampled).ok
+    plan = solve(problem, time_limit=20.0)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.objective is not None and plan.objective.total == 92712
+
+    battery = _campaign("broad", "all", 3234592641)  # b15-all-0, seed 241
+    domains = start_domains(battery)
+    start = solve_module.best_start(battery, None, domains=domains)
+    assert start is not None
+    kept, relaxed = kept_set_start(
+        battery, start, domains, time.perf_counter(), 20.0
+    )
+    assert relaxed.plan is None
+    assert kept == (relaxed.better or start)
