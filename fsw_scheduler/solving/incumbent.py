@@ -395,6 +395,16 @@ def _readmitting(
 SMALL_STALE = 30
 #: Share of the time left that those orders may take at most.
 SMALL_ORDER_SHARE = 0.05
+#: Parts of at least this many tasks draw those orders whatever their
+#: resources, and wait longer for a better one (:data:`LONG_STALE`
+#: orders): CBC's search there takes seconds, and a long horizon's
+#: time-indexed model may not find in 20 s what the orders find in a
+#: second (the large suite's f30-h1440 of seed 253, a 28-task part with
+#: a battery over H = 1,440: 1,001 above CP-SAT's optimum at 20 s; 30
+#: orders took the start plan from 1,905 above it to 563 in 0.14 s, 120
+#: to 300 in 0.46 s).
+SAMPLED_MIN_TASKS = 25
+LONG_STALE = 120
 
 
 def kept_set_start(
@@ -403,15 +413,19 @@ def kept_set_start(
     domains: dict[str, Domain],
     began: float,
     time_limit: float | None,
+    *,
+    replan: bool = False,
 ) -> tuple[Plan, KeptSetProof]:
     """A small part's start plan and its kept-set result
     (:func:`~fsw_scheduler.analysis.bounds.kept_set_plan`), the plan
     proved optimal when ``result.plan`` is not None.
 
     When the kept set does not prove the start plan and the part uses a
-    multiple resource and no consumable, list schedules of orders drawn
-    around its own are tried first (until :data:`SMALL_STALE` in a row
-    find nothing better): CBC spends most of such a model's search
+    multiple resource and no consumable, or has at least
+    :data:`SAMPLED_MIN_TASKS` tasks, list schedules of orders drawn
+    around its own are tried first (until :data:`SMALL_STALE` in a row,
+    :data:`LONG_STALE` on such a long part, find nothing better): CBC
+    spends most of a 15-task multiple-resource model's search
     finding the optimum that one of those orders gives (broad seed 241's
     b15-multiple-3: 0.89 s from the rules' plan, 135 delay units above;
     0.35 s from the optimum, which the 4th order gives). On the 28
@@ -420,7 +434,11 @@ def kept_set_start(
     slowest 1.5 s -> 0.4 s, the fastest a few milliseconds more. On
     the other classes the orders cost more than they save (a battery
     makes a list schedule 0.5-2 ms; 140 problems: binary 1.8 -> 1.9 s,
-    consumable 0.7 -> 0.9 s, all 6.8 -> 7.4 s), so they are not drawn.
+    consumable 0.7 -> 0.9 s, all 6.8 -> 7.4 s), so they are not drawn
+    there below :data:`SAMPLED_MIN_TASKS` tasks. A ``replan`` draws them
+    by its resources only, whatever its size: it starts from the plan in
+    force and answers in its share (the replan suite's r30-h1440-1 of
+    seed 241, 27 tasks: 0.07 s, 0.52 s with 120 orders, the same optimum).
     """
     relaxed = kept_set_plan(
         problem, start, domains, stop=stop_within(began, time_limit)
@@ -428,17 +446,16 @@ def kept_set_start(
     if relaxed.better is not None:
         start = relaxed.better
     kinds = used_kinds(problem, domains)
-    if (
-        relaxed.plan is not None
-        or "multiple" not in kinds
-        or "consumable" in kinds
+    long = problem.num_tasks >= SAMPLED_MIN_TASKS and not replan
+    if relaxed.plan is not None or (
+        not long and ("multiple" not in kinds or "consumable" in kinds)
     ):
         return relaxed.plan or start, relaxed
     sampled = sampled_around(
         problem,
         start,
         domains,
-        stale=SMALL_STALE,
+        stale=LONG_STALE if long else SMALL_STALE,
         stop=stop_within(began, time_limit, SMALL_ORDER_SHARE),
     )
     if sampled is start:

@@ -577,7 +577,7 @@ def _solve_whole(
             proof = "every task at its earliest start: no solve"
         elif not large.searched(problem):
             start, relaxed = kept_set_start(
-                problem, start, domains, began, time_limit
+                problem, start, domains, began, time_limit, replan=replan
             )
             if relaxed.plan is not None:
                 proof = f"{proved_by(relaxed)}: no solve"

@@ -19,7 +19,7 @@ from fsw_scheduler.analysis.domains import start_domains
 from fsw_scheduler.model import groups
 from fsw_scheduler.model.plan import Activity, SolveStatus
 from fsw_scheduler.model.problem import decode_problem
-from fsw_scheduler.solving import large
+from fsw_scheduler.solving import incumbent, large
 from fsw_scheduler.solving import solve as solve_module
 from fsw_scheduler.solving.budget import BUDGET
 from fsw_scheduler.solving.incumbent import kept_set_start
@@ -1286,3 +1286,36 @@ def test_a_multiple_resource_start_plan_is_sampled_before_cbc() -> None:
     )
     assert relaxed.plan is None
     assert kept == (relaxed.better or start)
+
+
+def test_a_part_of_25_tasks_or_more_is_sampled_whatever_its_resources(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Tests that a part of at least ``SAMPLED_MIN_TASKS`` tasks with a
+    battery beside binary and multiple resources, its start plan proved
+    by no bound, gets orders drawn around its start plan (a fresh 27-task
+    day over H = 1,440: 1,419,326 from the rules and the kept set,
+    1,418,078 after the orders), a plan the checker accepts, and the
+    kept-set result alone in a replan and below that size."""
+    problem = problem_from(bench_lib("fresh").generate_problem(27, 1440, 4))
+    domains = start_domains(problem)
+    start = solve_module.best_start(problem, None, domains=domains)
+    assert start is not None
+    sampled, relaxed = kept_set_start(
+        problem, start, domains, time.perf_counter(), None
+    )
+    assert relaxed.plan is None
+    assert sampled.objective is not None
+    assert sampled.objective.total == 1418078
+    assert check_plan(problem, sampled).ok
+    kept, relaxed = kept_set_start(
+        problem, start, domains, time.perf_counter(), None, replan=True
+    )
+    assert kept.objective is not None
+    assert kept.objective.total == 1419326
+    monkeypatch.setattr(incumbent, "SAMPLED_MIN_TASKS", 28)
+    kept, relaxed = kept_set_start(
+        problem, start, domains, time.perf_counter(), None
+    )
+    assert kept.objective is not None
+    assert kept.objective.total == 1419326
