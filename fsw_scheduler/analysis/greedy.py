@@ -388,6 +388,17 @@ def plan_in_order(
     )
 
 
+def order_of(problem: Problem, plan: Plan) -> list[str]:
+    """``plan``'s tasks by start (ties in problem order), then the tasks
+    it leaves out, in problem order: the order whose list schedule
+    (:func:`plan_in_order`) is ``plan`` or starts no task later."""
+    starts = plan.starts()
+    return sorted(
+        (task.id for task in problem.tasks),
+        key=lambda name: (name not in starts, starts.get(name, 0)),
+    )
+
+
 def placed_whole(
     problem: Problem, names: Sequence[str], domains: dict[str, Domain]
 ) -> Plan | None:

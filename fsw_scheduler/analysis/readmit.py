@@ -24,7 +24,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from .check import improves
-from .greedy import plan_in_order
+from .greedy import order_of, plan_in_order
 from .proofs import reach
 
 if TYPE_CHECKING:
@@ -71,13 +71,9 @@ def readmitted(
     """
     if plan.objective is None or not plan.unscheduled:
         return plan
-    starts = {a.task: a.start for a in plan.activities}
     # The plan's own order first: the list schedule of it is the plan
     # or one that starts no task later.
-    order = sorted(
-        (task.id for task in problem.tasks),
-        key=lambda name: (name not in starts, starts.get(name, 0)),
-    )
+    order = order_of(problem, plan)
     earlier: dict[str, list[str]] = {}
     for prec in problem.precedences:
         earlier.setdefault(prec.after, []).append(prec.before)

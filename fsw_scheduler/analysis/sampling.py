@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 
 from .check import check_plan, improves
 from .domains import start_domains
-from .greedy import plan_in_order
+from .greedy import order_of, plan_in_order
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterator
@@ -184,7 +184,7 @@ def sampled_around(
         ``start``, or a better plan the checker accepts.
     """
     best = start
-    order = _order_of(problem, start)
+    order = order_of(problem, start)
     draw = random.Random(seed)
     last = 0  # the order that found the incumbent
     for k in range(orders):
@@ -197,14 +197,5 @@ def sampled_around(
         )
         if plan is not None and improves(problem, plan, best):
             best, last = plan, k + 1
-            order = _order_of(problem, plan)
+            order = order_of(problem, plan)
     return best
-
-
-def _order_of(problem: Problem, plan: Plan) -> list[str]:
-    """``plan``'s tasks by start (ties in problem order), then the tasks
-    it leaves out, in problem order."""
-    starts = plan.starts()
-    rank = {task.id: k for k, task in enumerate(problem.tasks)}
-    kept = sorted(starts, key=lambda n: (starts[n], rank[n]))
-    return kept + [t.id for t in problem.tasks if t.id not in starts]

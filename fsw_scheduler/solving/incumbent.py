@@ -445,12 +445,13 @@ def kept_set_start(
     )
     if relaxed.better is not None:
         start = relaxed.better
-    kinds = used_kinds(problem, domains)
+    if relaxed.plan is not None:
+        return relaxed.plan, relaxed
     long = problem.num_tasks >= SAMPLED_MIN_TASKS and not replan
-    if relaxed.plan is not None or (
-        not long and ("multiple" not in kinds or "consumable" in kinds)
-    ):
-        return relaxed.plan or start, relaxed
+    if not long:
+        kinds = used_kinds(problem, domains)
+        if "multiple" not in kinds or "consumable" in kinds:
+            return start, relaxed
     sampled = sampled_around(
         problem,
         start,
