@@ -405,6 +405,14 @@ SMALL_ORDER_SHARE = 0.05
 #: to 300 in 0.46 s).
 SAMPLED_MIN_TASKS = 25
 LONG_STALE = 120
+#: A smaller part draws them only when its model, narrowed around the
+#: start plan, has at least this many start times: CBC proves a smaller
+#: one in 10-40 ms, of which the orders took 3-6 ms for nothing (the 56
+#: multiple-resource problems of 15 tasks of seeds 243-246, both
+#: generators: every part under 600 start times but one was as fast or
+#: faster without them, every gain of more than 5 ms came from a part
+#: of 620 or more).
+SAMPLED_MIN_STARTS = 600
 
 
 def kept_set_start(
@@ -424,7 +432,9 @@ def kept_set_start(
     multiple resource and no consumable, or has at least
     :data:`SAMPLED_MIN_TASKS` tasks, list schedules of orders drawn
     around its own are tried first (until :data:`SMALL_STALE` in a row,
-    :data:`LONG_STALE` on such a long part, find nothing better): CBC
+    :data:`LONG_STALE` on such a long part, find nothing better), a
+    smaller part only when its narrowed model has at least
+    :data:`SAMPLED_MIN_STARTS` start times: CBC
     spends most of a 15-task multiple-resource model's search
     finding the optimum that one of those orders gives (broad seed 241's
     b15-multiple-3: 0.89 s from the rules' plan, 135 delay units above;
@@ -452,6 +462,10 @@ def kept_set_start(
         kinds = used_kinds(problem, domains)
         if "multiple" not in kinds or "consumable" in kinds:
             return start, relaxed
+        if start_count(narrow(problem, start, domains, relaxed)) < (
+            SAMPLED_MIN_STARTS
+        ):
+            return start, relaxed  # CBC proves it sooner than orders pay
     sampled = sampled_around(
         problem,
         start,

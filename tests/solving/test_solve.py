@@ -1288,6 +1288,37 @@ def test_a_multiple_resource_start_plan_is_sampled_before_cbc() -> None:
     assert kept == (relaxed.better or start)
 
 
+def test_a_small_multiple_resource_model_goes_to_cbc_without_orders(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Tests that a multiple-resource part whose model, narrowed around
+    its start plan, has fewer than ``SAMPLED_MIN_STARTS`` start times
+    goes to CBC from the start plan itself (the paper campaign's
+    c15-multiple-0 of seed 246: 377 start times, the rules' 3,012), that
+    the orders would have found a better plan there (3,009), and that
+    the solve proves that optimum either way."""
+    problem = _campaign("generator", "multiple", 549313998)
+    domains = start_domains(problem)
+    start = solve_module.best_start(problem, None, domains=domains)
+    assert start is not None and start.objective is not None
+    assert start.objective.total == 3012
+    kept, relaxed = kept_set_start(
+        problem, start, domains, time.perf_counter(), 20.0
+    )
+    assert relaxed.plan is None
+    assert kept.objective is not None and kept.objective.total == 3012
+    plan = solve(problem, time_limit=20.0)
+    assert plan.status is SolveStatus.OPTIMAL
+    assert plan.objective is not None and plan.objective.total == 3009
+
+    monkeypatch.setattr(incumbent, "SAMPLED_MIN_STARTS", 0)
+    sampled, _ = kept_set_start(
+        problem, start, domains, time.perf_counter(), 20.0
+    )
+    assert sampled.objective is not None and sampled.objective.total == 3009
+    assert check_plan(problem, sampled).ok
+
+
 def test_a_part_of_25_tasks_or_more_is_sampled_whatever_its_resources(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
