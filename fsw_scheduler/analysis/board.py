@@ -125,7 +125,7 @@ class Board:
         # 1,000-unit task summed again at every shift tried was most of
         # an insertion's time over H = 2,880.
         drops = {
-            name: sum_in_order(units)
+            name: _sum_in_order(units)
             for name, (_, units) in demand.items()
             if name in self.lowest and name not in self.used
         }
@@ -597,7 +597,7 @@ def _keep_empty(res: Resources, start: int, span: int, board: Board) -> None:
             _empty.pop(next(iter(_empty)))
 
 
-def sum_in_order(values: list[float]) -> float:
+def _sum_in_order(values: list[float]) -> float:
     """``values`` summed first to last from 0.0, one float addition at a
     time: the sum every level test of a shape reads (``sum`` may differ
     in its last bit from Python 3.12 on, which adds more exactly)."""
