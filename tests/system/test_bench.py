@@ -465,6 +465,55 @@ def test_reports_set_each_solver_against_cpsat() -> None:
     assert "16.7 %" in text  # (120 - 100) / 120
 
 
+def test_the_large_shapes_are_set_against_cpsat_with_their_targets() -> None:
+    """Tests the large suites' table: each problem's answers side by side
+    with the verdict against CP-SAT, and per solver the three targets
+    of the large shapes, met or not, with the problems that miss them
+    named (proofs counted, ``unknown`` on a problem proved infeasible,
+    ``feasible`` where CP-SAT proved the optimum)."""
+    import dataclasses
+
+    def run(name: str, solver: str, status: str, total: int | None) -> Run:
+        return dataclasses.replace(
+            _run(solver, status, total),
+            problem=name,
+            suite="large",
+            unscheduled_cost=None if total is None else total // 100,
+        )
+
+    runs = [
+        run("b30-h1440", "cbc", "optimal", 700),
+        run("b30-h1440", "cpsat", "optimal", 700),
+        run("f30-h1440", "cbc", "feasible", 910),
+        run("f30-h1440", "cpsat", "optimal", 900),
+        run("f45-h1440", "cbc", "feasible", 1200),
+        run("f45-h1440", "cpsat", "feasible", 1250),
+        run("b45-h2880", "cbc", "unknown", None),
+        run("b45-h2880", "cpsat", "infeasible", None),
+        # A later repeat is not read.
+        dataclasses.replace(run("f45-h1440", "cbc", "optimal", 1), repeat=1),
+    ]
+    text = report.format_shapes_versus(runs)
+    rows = {line.split()[0]: line for line in text.splitlines()[2:6]}
+    assert "both proved" in rows["b30-h1440"]
+    assert "cpsat alone proved" in rows["f30-h1440"]
+    assert "better by 50" in rows["f45-h1440"]
+    assert "feasible 0.00 s 1,200 [12]" in rows["f45-h1440"]
+    summary = text.splitlines()[-1]
+    assert summary.startswith("cbc: proved 1 of 4, cpsat 3 (NOT met")
+    assert "unknown on an infeasible problem: 1 (b45-h2880) (NOT met)" in (
+        summary
+    )
+    assert "proved the optimum: 1 (f30-h1440)" in summary
+    assert (
+        report.format_shapes_versus(runs[:2])
+        .splitlines()[-1]
+        .startswith("cbc: proved 1 of 1, cpsat 1 (met")
+    )
+    # Campaign runs alone: no such table in the report.
+    assert report.format_shapes_versus([_run("cbc", "optimal", 5)]) == ""
+
+
 def test_fresh_generator_has_its_shape() -> None:
     """Tests that the fresh campaign is valid, deterministic and shaped as
     documented in bench_lib/fresh.py."""

@@ -273,6 +273,9 @@ def format_report(outcome: Outcome, *, time_limit: float | None) -> str:
     scaled = format_scaling_versus(runs)
     if scaled:
         parts.append(scaled)
+    shapes = format_shapes_versus(runs)
+    if shapes:
+        parts.append(shapes)
     slowest = sorted(runs, key=lambda r: r.wall_s, reverse=True)
     lines = ["== slowest solves"]
     lines += [
@@ -505,6 +508,125 @@ def format_scaling_versus(
                 )
             )
     return "\n".join([f"== scaling against {reference}", *aligned(cells, 2)])
+
+
+#: Suites of whole days (30-60 tasks) that :func:`format_shapes_versus`
+#: sets against the reference problem by problem.
+SHAPE_SUITES = ("large", "orbit", "infeasible")
+
+
+def format_shapes_versus(runs: Sequence[Run], reference: str = "cpsat") -> str:
+    """The large, orbit and infeasible suites against ``reference``.
+
+    One line per problem: each solver's status, time and objective
+    (schedule cost units left out in brackets) and how its answer stands
+    against the reference's: proved by both, by one alone, a better or
+    worse plan where neither proved. Then, per solver, the three
+    targets of the large shapes: proved at least as many as the
+    reference (optimal or infeasible, at the same limit), no
+    ``unknown`` on a problem some solver proved infeasible, and the
+    problems it left ``feasible`` that the reference proved optimal
+    (the nearest a run can tell of "a problem the product can prove").
+    With ``--repeat``, the first run of each is read.
+    """
+    days = [r for r in runs if r.suite in SHAPE_SUITES and r.repeat == 0]
+    ref = {r.problem: r for r in days if r.solver == reference}
+    others = [s for s in _solvers(days) if s != reference]
+    if not ref or not others:
+        return ""
+    lines = [f"== large shapes against {reference}, problem by problem"]
+    cells = [("problem", *others, reference, "against it")]
+    problems = sorted({r.problem for r in days}, key=_shape_key)
+    for name in problems:
+        answers = {r.solver: r for r in days if r.problem == name}
+        other = answers.get(reference)
+        verdicts = [
+            _against(answers[s], other) if s in answers else "-"
+            for s in others
+        ]
+        cells.append(
+            (
+                name,
+                *(_answer(answers.get(s)) for s in others),
+                _answer(other),
+                "; ".join(verdicts),
+            )
+        )
+    lines += aligned(cells, 1)
+    infeasible = {
+        r.problem for r in days if r.status == "infeasible" and _proved(r)
+    }
+    for solver in others:
+        mine = [r for r in days if r.solver == solver]
+        proved = sum(_proved(r) for r in mine)
+        theirs = sum(_proved(ref[r.problem]) for r in mine if r.problem in ref)
+        unknown = sorted(
+            r.problem
+            for r in mine
+            if r.problem in infeasible and r.status == "unknown"
+        )
+        short = sorted(
+            r.problem
+            for r in mine
+            if r.status == "feasible"
+            and r.problem in ref
+            and ref[r.problem].status == "optimal"
+            and _proved(ref[r.problem])
+        )
+        lines.append(
+            f"{solver}: proved {proved} of {len(mine)}, {reference} "
+            f"{theirs} ({'met' if proved >= theirs else 'NOT met'}: at "
+            f"least as many); unknown on an infeasible problem: "
+            f"{len(unknown)}{_listed(unknown)} "
+            f"({'met' if not unknown else 'NOT met'}); feasible where "
+            f"{reference} proved the optimum: {len(short)}{_listed(short)}"
+        )
+    return "\n".join(lines)
+
+
+def _shape_key(name: str) -> tuple[str, int, str]:
+    """Problems of a day suite by horizon, then size, then generator."""
+    parts = name.split("-")
+    digits = "".join(c for c in parts[0] if c.isdigit())
+    return ("-".join(parts[1:]), int(digits or 0), parts[0])
+
+
+def _answer(run: Run | None) -> str:
+    """``status time objective [left out]``, or ``-`` without a run."""
+    if run is None:
+        return "-"
+    text = f"{run.status} {run.wall_s:.2f} s"
+    if run.check_failed:
+        return text + " CHECK FAILED"
+    if run.total is not None:
+        text += f" {run.total:,}"
+        if run.unscheduled_cost is not None:
+            text += f" [{run.unscheduled_cost}]"
+    return text
+
+
+def _against(run: Run, other: Run | None) -> str:
+    """How ``run`` stands against the reference's run of its problem."""
+    if other is None:
+        return "no reference run"
+    mine, theirs = _proved(run), _proved(other)
+    if mine and theirs:
+        return "both proved"
+    if mine:
+        return "proved alone"
+    if theirs:
+        return f"{other.solver} alone proved"
+    if run.total is None or other.total is None:
+        return "no plan" if run.total is None else "a plan where it has none"
+    if run.total < other.total:
+        return f"better by {other.total - run.total:,}"
+    if run.total > other.total:
+        return f"worse by {run.total - other.total:,}"
+    return "the same plan value"
+
+
+def _listed(names: list[str]) -> str:
+    return f" ({', '.join(names)})" if names else ""
 
 
 def write_csv(
