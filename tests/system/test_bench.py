@@ -465,6 +465,43 @@ def test_reports_set_each_solver_against_cpsat() -> None:
     assert "16.7 %" in text  # (120 - 100) / 120
 
 
+def test_the_campaign_says_which_classes_meet_the_15_task_target() -> None:
+    """Tests the line under the campaign's table: per class at 15 tasks,
+    whether the ratio of medians is at most 3x and the worst problem at
+    most 20x CP-SAT's, with the figures of each class that misses."""
+    import dataclasses
+
+    def run(name: str, cls: str, solver: str, wall: float) -> Run:
+        return dataclasses.replace(
+            _run(solver, "optimal", 10),
+            problem=name,
+            num_tasks=15,
+            resource_class=cls,
+            wall_s=wall,
+        )
+
+    runs = [
+        run("b1", "binary", "cbc", 0.02),
+        run("b1", "binary", "cpsat", 0.01),
+        run("b2", "binary", "cbc", 0.03),
+        run("b2", "binary", "cpsat", 0.01),
+        run("m1", "multiple", "cbc", 0.04),
+        run("m1", "multiple", "cpsat", 0.01),
+        run("a1", "all", "cbc", 0.25),  # 2.5x the median, 25x the worst
+        run("a1", "all", "cpsat", 0.01),
+        run("a2", "all", "cbc", 0.02),
+        run("a2", "all", "cpsat", 0.01),
+    ]
+    line = report.format_versus(runs).splitlines()[-1]
+    assert line.startswith("cbc at 15 tasks, target median <= 3x")
+    assert "met for binary;" in line
+    assert "NOT met for multiple (4.0x, worst 4x), all (13.5x, worst 25x)" in (
+        line
+    )
+    smaller = [dataclasses.replace(r, num_tasks=10) for r in runs]
+    assert "at 15 tasks" not in report.format_versus(smaller)
+
+
 def test_the_large_shapes_are_set_against_cpsat_with_their_targets() -> None:
     """Tests the large suites' table: each problem's answers side by side
     with the verdict against CP-SAT, and per solver the three targets

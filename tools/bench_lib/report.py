@@ -415,13 +415,61 @@ def format_versus(runs: Sequence[Run], reference: str = "cpsat") -> str:
         f"({ref[r.problem].status}, total {ref[r.problem].total})"
         for r in lost
     ]
+    targets = [
+        _fifteen_target(solver, [r for r in camp if r.solver == solver], ref)
+        for solver in others
+    ]
     return "\n".join(
         [
             f"== campaign against {reference}, problem by problem",
             *aligned(cells, 2),
             f"{len(lost)} solves unknown where {reference} found a plan",
             *flags,
+            *(line for line in targets if line),
         ]
+    )
+
+
+#: The 15-task target per resource class: the ratio of the medians to the
+#: reference's and the worst problem's ratio at most these.
+MEDIAN_TARGET = 3.0
+WORST_TARGET = 20.0
+
+
+def _fifteen_target(solver: str, mine: list[Run], ref: dict[str, Run]) -> str:
+    """``solver``'s 15-task problems per class against the target (ratio
+    of medians at most :data:`MEDIAN_TARGET`, worst problem at most
+    :data:`WORST_TARGET`): the classes that meet it and those that do not,
+    with their figures; empty without 15-task problems."""
+    met: list[str] = []
+    missed: list[str] = []
+    order = (*CLASSES, *sorted({r.resource_class for r in mine}))
+    for cls in dict.fromkeys(order):
+        runs = [
+            r
+            for r in mine
+            if r.num_tasks == 15
+            and r.resource_class == cls
+            and r.problem in ref
+        ]
+        if not runs:
+            continue
+        median = statistics.median(r.wall_s for r in runs)
+        ratio = median / max(
+            statistics.median(ref[r.problem].wall_s for r in runs), 1e-4
+        )
+        worst = max(r.wall_s / max(ref[r.problem].wall_s, 1e-4) for r in runs)
+        if ratio <= MEDIAN_TARGET and worst <= WORST_TARGET:
+            met.append(cls)
+        else:
+            missed.append(f"{cls} ({ratio:.1f}x, worst {worst:.0f}x)")
+    if not met and not missed:
+        return ""
+    return (
+        f"{solver} at 15 tasks, target median <= {MEDIAN_TARGET:g}x and "
+        f"worst <= {WORST_TARGET:g}x per class: met for "
+        f"{', '.join(met) or 'none'}; NOT met for "
+        f"{', '.join(missed) or 'none'}"
     )
 
 
