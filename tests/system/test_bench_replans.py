@@ -49,3 +49,25 @@ def test_bench_replan_suite_help() -> None:
         check=True,
     ).stdout
     assert "replan" in out
+
+
+def test_the_table_says_whether_the_replan_target_is_met() -> None:
+    """Tests the last line of the replan table: the target (median under
+    2 s, every plan no worse than the fresh solve's) met or not, with the
+    median and the cases whose plan is worse named."""
+
+    def case(name: str, seconds: float, total: int, fresh: int) -> object:
+        return replans.ReplanCase(
+            name, 30, seconds, 9.5, "feasible", "feasible", total, fresh,
+            None, "cbc", True,
+        )  # fmt: skip
+
+    fast = [case("a", 0.5, 10, 10), case("b", 1.0, 10, 12)]
+    line = replans.format_cases(fast).splitlines()[-1]
+    assert line == (
+        "target, median under 2 s and every plan no worse than the fresh "
+        "solve's: met (median 0.75 s; worse: none)"
+    )
+    slow = [*fast, case("c", 9.0, 11, 10), case("d", 9.0, 10, 10)]
+    line = replans.format_cases(slow).splitlines()[-1]
+    assert "NOT met (median 5.00 s; worse: c)" in line

@@ -204,4 +204,26 @@ def format_cases(cases: Sequence[ReplanCase]) -> str:
                 "",
             ]
         )
-    return "\n".join(aligned([list(HEADER), *rows], left=1))
+    lines = aligned([list(HEADER), *rows], left=1)
+    if cases:
+        lines.append(target(cases))
+    return "\n".join(lines)
+
+
+#: The replan target: the median replan answers within this many seconds.
+MEDIAN_TARGET_S = 2.0
+
+
+def target(cases: Sequence[ReplanCase]) -> str:
+    """The replan target, met or not: median under
+    :data:`MEDIAN_TARGET_S` and every replan's plan no worse than the
+    fresh solve's with the whole limit (the cases that are not named)."""
+    median = statistics.median(c.replan_s for c in cases)
+    worse = [c.name for c in cases if not c.no_worse]
+    fast = median < MEDIAN_TARGET_S
+    verdict = "met" if fast and not worse else "NOT met"
+    return (
+        f"target, median under {MEDIAN_TARGET_S:g} s and every plan no "
+        f"worse than the fresh solve's: {verdict} (median {median:.2f} s; "
+        f"worse: {', '.join(worse) or 'none'})"
+    )
