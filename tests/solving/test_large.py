@@ -15,7 +15,7 @@ from fsw_scheduler.analysis.domains import start_count, start_domains
 from fsw_scheduler.analysis.greedy import greedy_plan
 from fsw_scheduler.api import replan_typed
 from fsw_scheduler.model.change import decode_change
-from fsw_scheduler.model.plan import SolverStats, SolveStatus
+from fsw_scheduler.model.plan import SolverStats, SolveStatus, objective_weight
 from fsw_scheduler.model.problem import decode_problem
 from fsw_scheduler.solving import large, replanning
 from fsw_scheduler.solving.budget import BUDGET
@@ -350,6 +350,8 @@ def test_a_replan_that_may_leave_out_a_task_too_many_gets_a_second_look() -> (
     )
     assert "its plan kept" in looked.stats.solver_status
     assert looked.unscheduled == ()
+    # The start heuristic's plan holds ``b``: the search starts from it.
+    assert "from the start heuristic's plan" in looked.stats.solver_status
     assert looked.objective is not None and answer.objective is not None
     assert looked.objective.total < answer.objective.total
     assert check_plan(problem, looked).ok
@@ -363,6 +365,19 @@ def test_a_replan_that_may_leave_out_a_task_too_many_gets_a_second_look() -> (
     assert replanning._second_look(
         problem, answer, domains, run, began, None
     ) is (answer)
+    # A replan's plan better than the heuristic's is where the search
+    # starts (here the optimum, its bound set a task too low): nothing
+    # better is found, and the replan's plan stays the answer.
+    low = best.objective.total - 2 * objective_weight(
+        [t.delay_cost for t in problem.tasks], problem.horizon
+    )
+    optimal = _answered(best, low)
+    again = replanning._second_look(
+        problem, optimal, domains, run, time.perf_counter(), 8.0
+    )
+    assert again.stats is not None
+    assert "from the replan's plan: no better" in again.stats.solver_status
+    assert again.starts() == best.starts()
 
 
 def test_a_search_left_with_too_little_for_the_whole_model_goes_on(
