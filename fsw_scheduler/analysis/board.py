@@ -280,10 +280,7 @@ class Board:
         if end < len(running):
             # What lasts after the drawing, first (one look-up each): the
             # usual reason a start is refused.
-            drop = 0.0
-            for a in units:
-                drop += a
-            later = sums.most[end] + drop
+            later = sums.most[end] + _sum_in_order(units)
             if later > initial + 1e-9 or later - low_sum > top + 1e-9:
                 return False
         added = 0.0
