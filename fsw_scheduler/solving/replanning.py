@@ -367,9 +367,8 @@ def _second_look(
         else answer
     )
     bound = higher(stats.bound, other.stats.bound if other.stats else None)
-    said = (
-        f"solved afresh in the rest of the limit from {origin}: "
-        + ("its plan kept" if better is other else "no better")
+    said = f"solved afresh in the rest of the limit from {origin}: " + (
+        "its plan kept" if better is other else "no better"
     )
     label = better.stats.solver if better.stats else stats.solver
     return large.answer(
